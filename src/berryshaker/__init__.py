@@ -1,0 +1,16 @@
+"""berryshaker: design and tune comb-oscillation blueberry harvesters with transmission clearance.
+
+The package follows the physics chain of the reference study (see ``docs/`` and STUDY.md):
+``kinematics`` (cam, double rocker) -> ``contact`` (force laws, clearance joints) -> ``dynamics``
+(MLSD clearance model) -> ... Everything inside is SI (m, s, rad, N); units are converted only at the
+edges (config files, CLI).
+"""
+
+from importlib.metadata import PackageNotFoundError, version
+
+try:
+    __version__ = version("berryshaker")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0.0.0+unknown"
+
+__all__ = ["__version__"]

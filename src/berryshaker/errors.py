@@ -1,0 +1,17 @@
+"""Exceptions that carry a message meant for the user (the CLI prints them without a traceback)."""
+
+
+class BerryshakerError(Exception):
+    """Base class of every error whose message is written for an engineer, not a developer."""
+
+
+class ConfigError(BerryshakerError):
+    """A machine description is missing a value, has a wrong unit or an impossible number."""
+
+
+class GeometryError(BerryshakerError):
+    """The mechanism cannot be built as described (linkage does not assemble, cam undercuts...)."""
+
+
+class SimulationError(BerryshakerError):
+    """A simulation could not be completed (solver gave up, non-finite state...)."""

@@ -1,0 +1,26 @@
+"""Kinematics of the harvester drive: groove cam (study eq. 1-2) and double rocker (eq. 3)."""
+
+from .cam import (
+    FOLLOWER_LAWS,
+    follower_law,
+    follower_svaj,
+    groove_profile,
+    pitch_curve,
+    pitch_curve_curvature,
+    pressure_angle,
+)
+from .linkage import left_comb_angle, four_bar_position, four_bar_rates, transmission_angle
+
+__all__ = [
+    "FOLLOWER_LAWS",
+    "follower_law",
+    "follower_svaj",
+    "groove_profile",
+    "pitch_curve",
+    "pitch_curve_curvature",
+    "pressure_angle",
+    "left_comb_angle",
+    "four_bar_position",
+    "four_bar_rates",
+    "transmission_angle",
+]

@@ -1,0 +1,270 @@
+"""The ideal (clearance-free) harvester drive over a cam cycle: cam + push rod + double rocker.
+
+:func:`geometry_vector` packs a :class:`~berryshaker.config.Machine` into a flat float array that the
+compiled kernels read; :func:`ideal_state` evaluates the whole mechanism at one cam angle inside
+compiled code; :func:`cycle_kinematics` evaluates it on a grid (numpy arrays); :func:`check_machine`
+refuses a machine whose linkage cannot assemble or whose cam undercuts, naming the cam angle.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..config import Machine
+from ..errors import GeometryError
+from .cam import (
+    FOLLOWER_LAWS,
+    _follower_svaj_scalar,
+    groove_profile,
+    pitch_curve,
+    pitch_curve_curvature,
+    pressure_angle,
+)
+from .linkage import _four_bar_scalar, _left_comb_scalar, transmission_angle
+
+# indices into the geometry vector
+G_LAW, G_H, G_RISE, G_FAR, G_RET, G_S0, G_E, G_LAB, G_XD, G_YD, G_XE, G_YE = range(12)
+G_LCD, G_GAMMA, G_LCF, G_LFE, G_BRANCH, G_OMEGA = range(12, 18)
+N_GEOMETRY = 18
+
+
+def geometry_vector(machine: Machine) -> np.ndarray:
+    """Flat SI parameter vector of the ideal mechanism for the compiled kernels."""
+    c = machine.cam
+    d, e = machine.shaft_D, machine.shaft_E
+    g = np.zeros(N_GEOMETRY)
+    g[G_LAW] = FOLLOWER_LAWS[c.law]
+    g[G_H], g[G_RISE], g[G_FAR], g[G_RET] = c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle
+    g[G_S0], g[G_E], g[G_LAB] = c.s0, c.offset, machine.push_rod.length
+    g[G_XD], g[G_YD], g[G_XE], g[G_YE] = d[0], d[1], e[0], e[1]
+    g[G_LCD], g[G_GAMMA] = machine.rocker.arm_CD, machine.rocker.arm_angle
+    g[G_LCF], g[G_LFE], g[G_BRANCH] = machine.four_bar.coupler_CF, machine.four_bar.arm_FE, machine.four_bar.branch
+    g[G_OMEGA] = c.speed
+    return g
+
+
+@njit(cache=True)
+def ideal_state(phi, g):
+    """Ideal mechanism at cam angle phi (constant cam speed g[G_OMEGA]).
+
+    Returns a tuple (ok, s, v, a, th_D, w_D, a_D, th_4, w_4, a_4, th_E, w_E, a_E): push-rod
+    displacement (m), velocity (m/s), acceleration (m/s^2); left comb, coupler and right comb angles
+    (rad), rates (rad/s) and accelerations (rad/s^2).  ok is False where the four-bar cannot assemble.
+    """
+    w = g[G_OMEGA]
+    s, s1, s2, s3 = _follower_svaj_scalar(phi, int(g[G_LAW]), g[G_H], g[G_RISE], g[G_FAR], g[G_RET])
+    v = s1 * w
+    a = s2 * w * w
+    xb = g[G_S0] + s + g[G_LAB]
+    yb = g[G_E]
+    th_d, w_d, a_d = _left_comb_scalar(xb, yb, g[G_XD], g[G_YD], v, a)
+    ok, th4, w4, a4, th_e, we, ae, xf, yf = _four_bar_scalar(
+        th_d + g[G_GAMMA], w_d, a_d, g[G_XD], g[G_YD], g[G_XE], g[G_YE], g[G_LCD], g[G_LCF], g[G_LFE],
+        g[G_BRANCH])
+    return ok, s, v, a, th_d, w_d, a_d, th4, w4, a4, th_e, we, ae
+
+
+@njit(cache=True)
+def _cycle_kernel(phi, g, out):
+    for i in range(phi.shape[0]):
+        ok, s, v, a, th_d, w_d, a_d, th4, w4, a4, th_e, we, ae = ideal_state(phi[i], g)
+        out[0, i] = 1.0 if ok else 0.0
+        out[1, i] = s
+        out[2, i] = v
+        out[3, i] = a
+        out[4, i] = th_d
+        out[5, i] = w_d
+        out[6, i] = a_d
+        out[7, i] = th4
+        out[8, i] = w4
+        out[9, i] = a4
+        out[10, i] = th_e
+        out[11, i] = we
+        out[12, i] = ae
+
+
+@dataclass(frozen=True)
+class CycleKinematics:
+    """Ideal kinematics of the drive sampled over cam angle (all SI)."""
+
+    phi: np.ndarray  # cam angle (rad)
+    t: np.ndarray  # time (s) at constant cam speed
+    s: np.ndarray  # push-rod displacement (m)
+    ds: np.ndarray  # ds/dphi (m/rad)
+    d2s: np.ndarray  # d2s/dphi2 (m/rad^2)
+    d3s: np.ndarray  # d3s/dphi3 (m/rad^3)
+    v: np.ndarray  # push-rod velocity (m/s)
+    a: np.ndarray  # acceleration (m/s^2)
+    j: np.ndarray  # jerk (m/s^3)
+    theta_d: np.ndarray
+    omega_d: np.ndarray
+    alpha_d: np.ndarray
+    theta_4: np.ndarray
+    omega_4: np.ndarray
+    alpha_4: np.ndarray
+    theta_e: np.ndarray
+    omega_e: np.ndarray
+    alpha_e: np.ndarray
+    assembled: np.ndarray  # bool
+    pressure_angle: np.ndarray  # rad
+    curvature: np.ndarray  # pitch-curve curvature (1/m)
+    transmission_angle: np.ndarray  # rad
+
+
+def cycle_kinematics(machine: Machine, n: int = 3601) -> CycleKinematics:
+    """Ideal kinematics of the machine over one cam revolution on ``n`` equally spaced angles.
+
+    Parameters
+    ----------
+    machine : Machine
+    n : int
+        Number of samples over [0, 2 pi] (both ends included).
+    """
+    from .cam import follower_svaj
+
+    g = geometry_vector(machine)
+    c = machine.cam
+    phi = np.linspace(0.0, 2 * math.pi, n)
+    svaj = follower_svaj(phi, c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law)
+    out = np.empty((13, n))
+    _cycle_kernel(phi, g, out)
+    w = c.speed
+    return CycleKinematics(
+        phi=phi, t=phi / w, s=svaj[0], ds=svaj[1], d2s=svaj[2], d3s=svaj[3],
+        v=svaj[1] * w, a=svaj[2] * w**2, j=svaj[3] * w**3,
+        theta_d=out[4], omega_d=out[5], alpha_d=out[6],
+        theta_4=out[7], omega_4=out[8], alpha_4=out[9],
+        theta_e=out[10], omega_e=out[11], alpha_e=out[12],
+        assembled=out[0] > 0.5,
+        pressure_angle=pressure_angle(svaj[0], svaj[1], c.s0, c.offset),
+        curvature=pitch_curve_curvature(svaj[0], svaj[1], svaj[2], c.s0, c.offset),
+        transmission_angle=transmission_angle(out[7], out[10]),
+    )
+
+
+def cam_groove(machine: Machine, n: int = 721):
+    """Pitch curve and groove walls of the machine's cam in the cam frame (m), closed (last = first)."""
+    from .cam import follower_svaj
+
+    c = machine.cam
+    phi = np.linspace(0.0, 2 * math.pi, n)
+    svaj = follower_svaj(phi, c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law)
+    x, y, _, _ = pitch_curve(phi, svaj[0], svaj[1], c.s0, c.offset)
+    inner, outer = groove_profile(phi, svaj[0], svaj[1], c.s0, c.offset, c.roller_radius)
+    return phi, np.vstack([x, y]), inner, outer
+
+
+def mid_stroke_angles(machine: Machine) -> tuple[float, float]:
+    """Left and right comb angles (rad) with the push rod at mid-stroke: the swing reference."""
+    g = geometry_vector(machine)
+    xb = g[G_S0] + machine.cam.stroke / 2 + g[G_LAB]
+    th_d = math.atan2(g[G_E] - g[G_YD], xb - g[G_XD])
+    ok, th4, *_rest = _four_bar_scalar(th_d + g[G_GAMMA], 0.0, 0.0, g[G_XD], g[G_YD], g[G_XE], g[G_YE],
+                                      g[G_LCD], g[G_LCF], g[G_LFE], g[G_BRANCH])
+    th_e = _rest[2]
+    if not ok:
+        raise GeometryError("the four-bar D-C-F-E cannot assemble with the push rod at mid-stroke")
+    return th_d, th_e
+
+
+def check_machine(machine: Machine, allow_undercut: bool = False) -> CycleKinematics:
+    """Check that the machine can be built and run; return its cycle kinematics.
+
+    Raises
+    ------
+    GeometryError
+        The four-bar cannot assemble at some cam angle; the slot would have to pass through D; or the
+        groove undercuts (|rho_pitch| <= r_r) and ``allow_undercut`` is False.  The message names the
+        first cam angle where it fails.
+    """
+    kin = cycle_kinematics(machine)
+    if not np.all(kin.assembled):
+        i = int(np.argmin(kin.assembled))
+        raise GeometryError(
+            f"the four-bar D-C-F-E cannot assemble at cam angle {math.degrees(kin.phi[i]):.1f} deg "
+            f"(check four_bar.ground_DE, coupler_CF, arm_FE and rocker.arm_CD)")
+    sin_tm = np.abs(np.sin(kin.theta_4 - kin.theta_e))
+    if np.min(sin_tm) < 1e-3:
+        i = int(np.argmin(sin_tm))
+        raise GeometryError(
+            f"the four-bar reaches a toggle (coupler and right arm aligned) at cam angle "
+            f"{math.degrees(kin.phi[i]):.1f} deg; the right comb cannot be driven through it")
+    rho_min = 1.0 / np.max(np.abs(kin.curvature))
+    if not allow_undercut and rho_min <= machine.cam.roller_radius:
+        i = int(np.argmax(np.abs(kin.curvature)))
+        raise GeometryError(
+            f"the cam groove undercuts at cam angle {math.degrees(kin.phi[i]):.1f} deg: pitch-curve "
+            f"radius of curvature {rho_min * 1e3:.2f} mm <= roller radius "
+            f"{machine.cam.roller_radius * 1e3:.2f} mm (use a smaller roller, a larger base circle or "
+            f"longer rise/return angles)")
+    return kin
+
+
+def kinematics_summary(machine: Machine, kin: CycleKinematics) -> dict:
+    """Engineering summary of the ideal drive (the JSON of ``berryshaker kinematics``)."""
+    c = machine.cam
+    th_d0, th_e0 = mid_stroke_angles(machine)
+    L = machine.combs.length
+    rho_min = 1.0 / float(np.max(np.abs(kin.curvature)))
+    summary = {
+        "cam": {
+            "law": c.law,
+            "stroke_mm": float(np.max(kin.s) - np.min(kin.s)) * 1e3,
+            "max_velocity_m_s": float(np.max(np.abs(kin.v))),
+            "max_acceleration_m_s2": float(np.max(np.abs(kin.a))),
+            "max_jerk_m_s3": float(np.max(np.abs(kin.j))),
+            "pressure_angle_deg": {"min": float(np.degrees(kin.pressure_angle.min())),
+                                   "max": float(np.degrees(kin.pressure_angle.max()))},
+            "min_radius_of_curvature_mm": rho_min * 1e3,
+            "roller_radius_mm": c.roller_radius * 1e3,
+            "undercut": bool(rho_min <= c.roller_radius),
+        },
+        "combs": {},
+        "linkage": {
+            "transmission_angle_deg": {"min": float(np.degrees(kin.transmission_angle.min())),
+                                       "max": float(np.degrees(kin.transmission_angle.max()))},
+            "shaft_D_mm": [v * 1e3 for v in machine.shaft_D],
+            "shaft_E_mm": [v * 1e3 for v in machine.shaft_E],
+        },
+        "drive": {
+            "cam_speed_rpm": c.speed * 60 / (2 * math.pi),
+            "comb_frequency_hz": c.speed / (2 * math.pi),
+        },
+    }
+    closed = closed_form_peaks(machine)
+    if closed:
+        summary["cam"]["closed_form"] = closed
+    for side, th, w, a, th0 in (("left", kin.theta_d, kin.omega_d, kin.alpha_d, th_d0),
+                                ("right", kin.theta_e, kin.omega_e, kin.alpha_e, th_e0)):
+        summary["combs"][side] = {
+            "swing_deg": {"min": float(np.degrees(np.min(th - th0))), "max": float(np.degrees(np.max(th - th0)))},
+            "max_tip_speed_m_s": float(np.max(np.abs(w)) * L),
+            "max_tip_acceleration_m_s2": float(np.max(np.hypot(a, w**2)) * L),
+            "mid_stroke_angle_deg": math.degrees(th0),
+        }
+    return summary
+
+
+#: peak values of P', |P''|, |P'''| for each normalised law (Norton 2009, ch. 3)
+_LAW_PEAKS = {
+    "3-4-5": (15.0 / 8.0, 10.0 / math.sqrt(3.0), 60.0),
+    "cycloidal": (2.0, 2.0 * math.pi, 4.0 * math.pi**2),
+    "4-5-6-7": (35.0 / 16.0, 84.0 * math.sqrt(5.0) / 25.0, 52.5),
+}
+
+
+def closed_form_peaks(machine: Machine) -> dict:
+    """Closed-form peak push-rod velocity, acceleration, jerk of the follower law (rise and return)."""
+    c = machine.cam
+    pv, pa, pj = _LAW_PEAKS[c.law]
+    w = c.speed
+    d = min(c.rise_angle, c.return_angle)  # the shorter move has the higher peaks
+    return {
+        "max_velocity_m_s": pv * c.stroke * w / d,
+        "max_acceleration_m_s2": pa * c.stroke * w**2 / d**2,
+        "max_jerk_m_s3": pj * c.stroke * w**3 / d**3,
+    }

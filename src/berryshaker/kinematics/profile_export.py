@@ -1,0 +1,60 @@
+"""Export of the groove walls for manufacturing: CSV (mm) and DXF (ezdxf, closed polylines in mm)."""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from ..config import Machine
+from ..report.files import write_text_atomic
+from .mechanism import cam_groove
+
+
+def groove_csv_text(machine: Machine, n: int = 721) -> str:
+    """CSV with cam angle and the pitch, inner and outer wall coordinates (mm), one row per angle."""
+    phi, pitch, inner, outer = cam_groove(machine, n)
+    buf = io.StringIO()
+    buf.write("cam_angle_deg,pitch_x_mm,pitch_y_mm,inner_x_mm,inner_y_mm,outer_x_mm,outer_y_mm\n")
+    data = np.column_stack([np.degrees(phi), pitch.T * 1e3, inner.T * 1e3, outer.T * 1e3])
+    for row in data:
+        buf.write(",".join(f"{v:.6f}" for v in row) + "\n")
+    return buf.getvalue()
+
+
+def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
+    """DXF (R2010, units mm) with layers PITCH, INNER_WALL, OUTER_WALL as closed polylines.
+
+    The duplicated end point (phi = 2 pi) is dropped and each polyline is flagged closed, so CAM
+    software sees two closed contours ready for a pocketing toolpath.
+    """
+    import ezdxf
+    from ezdxf import units
+
+    phi, pitch, inner, outer = cam_groove(machine, n)
+    doc = ezdxf.new("R2010")
+    doc.units = units.MM
+    msp = doc.modelspace()
+    for layer, pts, color in (("PITCH", pitch, 8), ("INNER_WALL", inner, 1), ("OUTER_WALL", outer, 5)):
+        doc.layers.add(layer, color=color)
+        xy = (pts.T * 1e3)[:-1]
+        msp.add_lwpolyline([tuple(p) for p in xy], close=True, dxfattribs={"layer": layer})
+    msp.add_circle((0.0, 0.0), 1.0, dxfattribs={"layer": "PITCH"})  # cam centre mark
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    os.close(fd)
+    try:
+        doc.saveas(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_groove_csv(machine: Machine, path: str | Path, n: int = 721) -> None:
+    write_text_atomic(path, groove_csv_text(machine, n))

@@ -1,0 +1,1 @@
+"""Output writers: atomic files, figures, JSON metadata."""
