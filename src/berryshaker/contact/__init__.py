@@ -1,0 +1,24 @@
+"""Contact physics: normal force laws, friction, Hertz stiffness helpers, clearance-joint geometry.
+
+The ``*_kernel`` functions are numba ufuncs, callable from compiled code with scalars.
+"""
+
+from .force_laws import (
+    adams_step,
+    flores,
+    hertz,
+    hunt_crossley,
+    impact,
+    lankarani_nikravesh,
+    mlsd,
+)
+from .friction import coulomb_friction, viscous_friction
+from .joints import ContactKinematics, closest_point_on_curve, point_line_clearance, revolute_clearance
+from .stiffness import effective_modulus, pin_in_bore_stiffness, roller_on_flat_stiffness
+
+__all__ = [
+    "adams_step", "flores", "hertz", "hunt_crossley", "impact", "lankarani_nikravesh", "mlsd",
+    "coulomb_friction", "viscous_friction",
+    "ContactKinematics", "closest_point_on_curve", "point_line_clearance", "revolute_clearance",
+    "effective_modulus", "pin_in_bore_stiffness", "roller_on_flat_stiffness",
+]

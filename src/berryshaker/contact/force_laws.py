@@ -1,0 +1,274 @@
+"""Normal contact force laws for clearance joints.
+
+Each law is a numba ufunc kernel (``*_kernel``: broadcasts over numpy arrays *and* can be called with
+scalars from numba-compiled code) plus a Python wrapper with keyword defaults and the documentation.
+Sign convention: ``delta`` is the penetration (m, > 0 in contact), ``delta_dot`` its rate (m/s, > 0 while
+the bodies approach).  Every law returns the magnitude of the repulsive normal force (N): zero for
+``delta <= 0``, and never negative (a dissipative law that would pull during restitution gives 0).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import float64, vectorize
+
+
+# --------------------------------------------------------------------------------------------
+@vectorize([float64(float64, float64, float64, float64)], cache=True)
+def mlsd_kernel(r, r_dot, stiffness, damping):
+    """Kernel of :func:`mlsd`."""
+    if r <= 0.0:
+        return 0.0
+    f = stiffness * r + damping * r_dot
+    return f if f > 0.0 else 0.0
+
+
+def mlsd(r, r_dot, stiffness, damping):
+    """Massless-link spring-damper clearance force (study eq. 8, consistent reading).
+
+    Parameters
+    ----------
+    r : array_like
+        Deformation of the massless link beyond the clearance, r_i - c_i (m).  <= 0: the joint is open.
+    r_dot : array_like
+        Its rate (m/s).
+    stiffness : float
+        K_i (N/m).
+    damping : float
+        C_i (N s/m).
+
+    Returns
+    -------
+    ndarray
+        |F_i| = max(0, K_i r + C_i r_dot) where r > 0, else 0 (N).
+
+    Notes
+    -----
+    The study prints |F_i| = K_i r_i(t) + C_i r_dot_i(t) with r_i the length of the massless rod that
+    replaces the clearance.  Read literally (r_i = the whole link, about the clearance size c_i) it gives
+    a force K_i c_i with no load at all.  Here the spring acts on the deformation r_i - c_i, compression
+    only (see docs/mlsd.md).  This is the linear "spring-dashpot" law of the continuous-contact family
+    (Dubowsky & Freudenstein 1971; Flores et al. 2008, sec. 3).
+
+    References
+    ----------
+    S. Dubowsky, F. Freudenstein, "Dynamic analysis of mechanical systems with clearances, Part 1",
+    J. Eng. Ind. 93 (1971) 305-309.
+    """
+    return mlsd_kernel(np.asarray(r, float), np.asarray(r_dot, float), float(stiffness), float(damping))
+
+
+# --------------------------------------------------------------------------------------------
+@vectorize([float64(float64, float64, float64)], cache=True)
+def hertz_kernel(delta, stiffness, exponent):
+    """Kernel of :func:`hertz`."""
+    if delta <= 0.0:
+        return 0.0
+    return stiffness * delta**exponent
+
+
+def hertz(delta, stiffness, exponent=1.5):
+    """Hertz elastic contact force F = K delta^n.
+
+    Parameters
+    ----------
+    delta : array_like
+        Penetration (m).
+    stiffness : float
+        K (N/m^n), e.g. from :func:`berryshaker.contact.stiffness.pin_in_bore_stiffness`.
+    exponent : float
+        n; 1.5 for point (Hertz) contact and the usual choice for journal bearings.
+
+    Returns
+    -------
+    ndarray
+        Force (N).  Purely elastic: a simulated impact returns all its energy (tested).
+
+    References
+    ----------
+    K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, ch. 4.
+    """
+    return hertz_kernel(np.asarray(delta, float), float(stiffness), float(exponent))
+
+
+# --------------------------------------------------------------------------------------------
+@vectorize([float64(float64, float64, float64, float64, float64, float64)], cache=True)
+def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, exponent):
+    """F = K delta^n (1 + factor * delta_dot / impact_velocity), clamped >= 0 (shared by HC, LN, Flores)."""
+    if delta <= 0.0:
+        return 0.0
+    v0 = abs(impact_velocity)
+    if v0 < 1e-12:
+        v0 = 1e-12
+    f = stiffness * delta**exponent * (1.0 + factor * delta_dot / v0)
+    return f if f > 0.0 else 0.0
+
+
+def _check_e(restitution):
+    e = np.asarray(restitution, float)
+    if np.any((e <= 0) | (e > 1)):
+        raise ValueError(f"coefficient of restitution must be in (0, 1], got {restitution}")
+    return e
+
+
+def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, impact_velocity=None):
+    """Hunt-Crossley dissipative contact force.
+
+    Parameters
+    ----------
+    delta, delta_dot : array_like
+        Penetration (m) and its rate (m/s, > 0 approaching).
+    stiffness : float
+        K (N/m^n).
+    restitution : float
+        Coefficient of restitution e (0 < e <= 1).
+    exponent : float
+        n.
+    impact_velocity : float
+        Normal approach velocity at the onset of this impact, delta_dot(-) (m/s).  Required: the
+        hysteresis factor that reproduces a given e depends on it (as for Lankarani-Nikravesh and
+        Flores); a simulation records it when contact starts.
+
+    Returns
+    -------
+    ndarray
+        F = K delta^n [1 + 3(1 - e)/2 * delta_dot / delta_dot(-)], >= 0 (N).
+
+    Notes
+    -----
+    Hysteresis factor chi = 3 K (1 - e) / (2 delta_dot(-)) (Hunt & Crossley 1975, in the form tabulated
+    by Flores et al. 2011, Table 1).  Derived for e close to 1; for lower e it dissipates less than
+    asked (the effective e it produces is reported by the tests).
+
+    References
+    ----------
+    K. H. Hunt, F. R. E. Crossley, "Coefficient of restitution interpreted as damping in vibroimpact",
+    J. Appl. Mech. 42 (1975) 440-445.
+    P. Flores, M. Machado, M. T. Silva, J. M. Martins, "On the continuous contact force models for soft
+    materials in multibody dynamics", Multibody Syst. Dyn. 25 (2011) 357-375.
+    """
+    if impact_velocity is None:
+        raise ValueError("hunt_crossley needs impact_velocity (the normal approach velocity when contact began)")
+    e = _check_e(restitution)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+                             float(stiffness), 1.5 * (1.0 - e), float(exponent))
+
+
+def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5):
+    """Lankarani-Nikravesh dissipative contact force.
+
+    Parameters
+    ----------
+    delta, delta_dot : array_like
+        Penetration (m), its rate (m/s, > 0 approaching).
+    impact_velocity : array_like
+        delta_dot(-), normal approach velocity at contact onset (m/s).
+    stiffness : float
+        K (N/m^n).
+    restitution : float
+        e, valid for e close to 1.
+    exponent : float
+        n.
+
+    Returns
+    -------
+    ndarray
+        F = K delta^n [1 + 3(1 - e^2)/4 * delta_dot / delta_dot(-)], >= 0 (N).
+
+    References
+    ----------
+    H. M. Lankarani, P. E. Nikravesh, "A contact force model with hysteresis damping for impact
+    analysis of multibody systems", J. Mech. Des. 112 (1990) 369-376.
+    """
+    e = _check_e(restitution)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+                             float(stiffness), 0.75 * (1.0 - e * e), float(exponent))
+
+
+def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5):
+    """Flores et al. (2011) dissipative contact force, valid over the whole range of restitution.
+
+    Returns
+    -------
+    ndarray
+        F = K delta^n [1 + 8(1 - e)/(5 e) * delta_dot / delta_dot(-)], >= 0 (N).
+
+    References
+    ----------
+    P. Flores, M. Machado, M. T. Silva, J. M. Martins, Multibody Syst. Dyn. 25 (2011) 357-375, eq. 33.
+    """
+    e = _check_e(restitution)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+                             float(stiffness), 1.6 * (1.0 - e) / e, float(exponent))
+
+
+# --------------------------------------------------------------------------------------------
+@vectorize([float64(float64, float64, float64, float64, float64)], cache=True)
+def adams_step_kernel(x, x0, h0, x1, h1):
+    """Kernel of :func:`adams_step`."""
+    if x <= x0:
+        return h0
+    if x >= x1:
+        return h1
+    d = (x - x0) / (x1 - x0)
+    return h0 + (h1 - h0) * d * d * (3.0 - 2.0 * d)
+
+
+def adams_step(x, x0, h0, x1, h1):
+    """The cubic STEP function of MSC ADAMS: h0 for x <= x0, h1 for x >= x1, and
+    h0 + (h1 - h0) D^2 (3 - 2 D) with D = (x - x0)/(x1 - x0) in between.
+
+    References
+    ----------
+    MSC Software, *Adams Solver: Function reference*, "STEP".
+    """
+    return adams_step_kernel(np.asarray(x, float), float(x0), float(h0), float(x1), float(h1))
+
+
+@vectorize([float64(float64, float64, float64, float64, float64, float64, float64)], cache=True)
+def impact_kernel(x, x_dot, x1, k, e, cmax, d):
+    """Kernel of :func:`impact`."""
+    if x >= x1:
+        return 0.0
+    f = k * (x1 - x) ** e - adams_step_kernel(x, x1 - d, cmax, x1, 0.0) * x_dot
+    return f if f > 0.0 else 0.0
+
+
+def impact(x, x_dot, x1, k, e, cmax, d):
+    """The IMPACT function of MSC ADAMS (used by the study's multibody run).
+
+    Parameters
+    ----------
+    x : array_like
+        Distance variable (m); contact when x < x1.
+    x_dot : array_like
+        Its time derivative (m/s); negative while approaching.
+    x1 : float
+        Free length: distance at which contact begins (m).
+    k : float
+        Stiffness (N/m^e).
+    e : float
+        Force exponent (> 0; 1.5 for Hertz-like contact).
+    cmax : float
+        Maximum damping coefficient (N s/m).
+    d : float
+        Penetration at which the full damping cmax is reached (m).
+
+    Returns
+    -------
+    ndarray
+        0 for x >= x1; otherwise max(0, k (x1 - x)^e - STEP(x, x1 - d, cmax, x1, 0) * x_dot) (N).
+
+    Notes
+    -----
+    The damping coefficient ramps from 0 at first touch to cmax at penetration d with the cubic STEP,
+    so the force is continuous at contact onset.  ADAMS documents the force as never negative.
+
+    References
+    ----------
+    MSC Software, *Adams Solver: Function reference*, "IMPACT".
+    """
+    return impact_kernel(np.asarray(x, float), np.asarray(x_dot, float), float(x1), float(k), float(e),
+                         float(cmax), float(d))

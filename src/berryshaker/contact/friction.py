@@ -1,0 +1,56 @@
+"""Tangential (friction) force laws."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import float64, vectorize
+
+
+@vectorize([float64(float64, float64, float64, float64, float64)], cache=True)
+def coulomb_friction_kernel(v_t, normal_force, mu, v0, v1):
+    """Kernel of :func:`coulomb_friction`."""
+    av = abs(v_t)
+    if av <= v0:
+        return 0.0
+    if av >= v1:
+        cd = 1.0
+    else:
+        cd = (av - v0) / (v1 - v0)
+    f = mu * cd * abs(normal_force)
+    return -f if v_t > 0.0 else f
+
+
+def coulomb_friction(v_t, normal_force, mu, v0=1e-4, v1=1e-3):
+    """Coulomb friction with Ambrosio's velocity-regularised transition.
+
+    Parameters
+    ----------
+    v_t : array_like
+        Relative tangential (sliding) velocity (m/s).
+    normal_force : array_like
+        Normal force magnitude (N).
+    mu : float
+        Coefficient of friction.
+    v0, v1 : float
+        Below |v_t| = v0 no friction (avoids the sticking discontinuity); full Coulomb friction above v1
+        (m/s); linear in between.
+
+    Returns
+    -------
+    ndarray
+        F_t = -mu c_d |F_N| sign(v_t) (N), c_d the dynamic correction factor.
+
+    References
+    ----------
+    J. Ambrosio, "Impact of rigid and flexible multibody systems: deformation description and contact
+    models", in *Virtual Nonlinear Multibody Systems*, NATO Sci. Ser. 103 (2003) 57-81.
+    """
+    if not (0 <= v0 < v1):
+        raise ValueError(f"need 0 <= v0 < v1, got v0={v0}, v1={v1}")
+    return coulomb_friction_kernel(np.asarray(v_t, float), np.asarray(normal_force, float), float(mu),
+                                   float(v0), float(v1))
+
+
+def viscous_friction(v_t, coefficient):
+    """Viscous friction F_t = -c v_t (N), c in N s/m."""
+    return -float(coefficient) * np.asarray(v_t, float)
