@@ -171,35 +171,55 @@ def cam_profile(
 # ----------------------------------------------------------------------------------------------
 @app.command()
 def simulate(
-    model: str = typer.Option("mlsd", "--model", "-m", help="mlsd: the study's massless-link clearance model (eq. 4-12)."),
+    model: str = typer.Option("mlsd", "--model", "-m",
+                              help="mlsd: the study's massless-link clearance model (eq. 4-12); multibody: the "
+                                   "planar contact simulation (the study's ADAMS role)."),
     clearance: Optional[str] = typer.Option(
         None, "--clearance",
         help="Clearance sizes, e.g. A=0.25mm,B=0.2mm,C=0.1mm,F=0.2mm (missing pairs keep the config's "
              "value); or row1..row16 of the reconstructed Table 5; level1..level3; none."),
     revolutions: int = typer.Option(3, "--revolutions", "-n", min=2, help="Cam revolutions; statistics use 2..N."),
+    mechanism: Optional[Path] = typer.Option(None, "--mechanism",
+                                             help="Simulate any mechanism description (TOML) instead of the harvester, "
+                                                  "e.g. examples/slider_crank_clearance.toml."),
+    duration: Optional[float] = typer.Option(None, "--duration", help="With --mechanism: simulated time (s)."),
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Write time series (CSV, units in the header), "
-                                           "summary.json with the resolved config and version, and plots."),
+                                           "summary.json with the resolved input and version, and plots."),
 ):
-    """Collision forces of the four clearance pairs, bearing reactions, cam drive moment, comb load moments.
+    """Collision forces of the clearance joints, comb load moments and drive moment over time.
 
-    Statistics (peak, mean, rms of the force magnitudes) are over whole cam revolutions after the first.
+    Statistics (peak, mean, rms of force magnitudes) are over whole cam revolutions after the first;
+    peaks are taken over every integrator step.
     """
     try:
         from .experiment.clearance_rows import parse_clearance_spec
 
-        if model != "mlsd":
-            raise BerryshakerError(f"--model {model!r} is not available; choose mlsd")
+        if mechanism is not None:
+            _simulate_mechanism_file(mechanism, duration, as_json, out_dir)
+            return
+        if model not in ("mlsd", "multibody"):
+            raise BerryshakerError(f"--model {model!r} is not available; choose mlsd or multibody")
         machine = _load(config)
         sizes = parse_clearance_spec(clearance)
-        from .dynamics.mlsd import simulate_mlsd
+        if model == "mlsd":
+            from .dynamics.mlsd import simulate_mlsd
 
-        result = simulate_mlsd(machine, sizes, revolutions=revolutions)
-        summary = result.summary()
+            result = simulate_mlsd(machine, sizes, revolutions=revolutions)
+            summary = result.summary()
+        else:
+            from .dynamics.harvester import simulate_harvester_multibody
+
+            result, summary = simulate_harvester_multibody(machine, sizes, revolutions=revolutions)
+            summary["clearance_mm"] = {k: v * 1e3 for k, v in
+                                       machine.with_clearances(sizes).clearance.sizes().items()}
         summary["version"] = __version__
         if out_dir is not None:
-            _write_simulation(out_dir, result, summary)
+            if model == "mlsd":
+                _write_simulation(out_dir, result, summary)
+            else:
+                _write_multibody(out_dir, result, summary, machine.with_clearances(sizes))
             summary["out"] = str(out_dir)
     except BerryshakerError as exc:
         _fail(exc)
@@ -207,7 +227,7 @@ def simulate(
     if as_json:
         _print_json(summary)
         return
-    t = Table(title=f"MLSD clearance model - {result.machine.machine.name}", header_style="bold")
+    t = Table(title=f"{model} model - {machine.machine.name}", header_style="bold")
     for col in ("quantity", "clearance", "peak", "mean", "rms"):
         t.add_column(col, justify="right" if col != "quantity" else "left")
     for pair, st in summary["collision_force_N"].items():
@@ -217,11 +237,152 @@ def simulate(
         t.add_row(f"{side} comb load moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
     st = summary["drive_moment_Nm"]
     t.add_row("cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
-    for b, st in summary["bearing_reaction_N"].items():
+    for b, st in summary.get("bearing_reaction_N", {}).items():
         t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
     out.print(t)
     out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms"
               + (f"; wrote {out_dir}" if out_dir is not None else ""))
+
+
+def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> None:
+    from .dynamics.engine import simulate_mechanism
+    from .dynamics.mechanism_spec import load_mechanism
+
+    spec = load_mechanism(path)
+    result = simulate_mechanism(spec, duration=duration)
+    summary = result.summary()
+    summary["version"] = __version__
+    if out_dir is not None:
+        import numpy as np
+
+        from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+
+        cm = result.compiled
+        with staged_directory(out_dir) as stage:
+            cols = ["time_s"]
+            data = [result.t]
+            for i, b in enumerate(spec.bodies):
+                for k, lab in enumerate(("x_m", "y_m", "angle_rad")):
+                    cols.append(f"{b.name}.{lab}")
+                    data.append(result.y[:, 3 * i + k])
+            for k, name in enumerate(cm.frc_names):
+                cols.append(f"{name}.force_N")
+                data.append(result.elements[:, k, 0])
+                if cm.frc_kinds[k].endswith("_clearance"):
+                    cols.append(f"{name}.penetration_m")
+                    data.append(result.elements[:, k, 1])
+            arr = np.column_stack(data)
+            write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
+                              "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+            write_json_atomic(stage / "summary.json", {**summary, "provenance": {
+                **provenance(), "mechanism_si": spec.model_dump(mode="json")}})
+        summary["out"] = str(out_dir)
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title=f"multibody - {spec.mechanism.name}", header_style="bold")
+    for col in ("joint", "type", "peak", "mean", "rms", "p95"):
+        t.add_column(col, justify="left" if col in ("joint", "type") else "right")
+    for name, j in summary["joints"].items():
+        f = j["force_N"]
+        t.add_row(name, j["type"], f"{f['peak']:.1f} N", f"{f['mean']:.1f} N", f"{f['rms']:.1f} N", f"{f['p95']:.1f} N")
+    out.print(t)
+    for name, j in summary["joints"].items():
+        if "first_impact" in j:
+            fi = j["first_impact"]
+            out.print(f"{name}: first impact at {fi['time_s'] * 1e3:.4f} ms, {fi['impact_velocity_m_s']:.3f} m/s, "
+                      f"peak {fi['peak_force_N']:.1f} N")
+    out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms")
+
+
+def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
+    import numpy as np
+
+    from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from .report.plots import plot_time_series
+
+    cm = result.compiled
+    with staged_directory(out_dir) as stage:
+        cols, data = ["time_s"], [result.t]
+        for p in "ABCF":
+            cols.append(f"F_{p}_N")
+            data.append(result.element_force(p) if p in cm.frc_names else result.reaction(p))
+        cols += ["T_l_Nm", "T_r_Nm", "drive_moment_Nm"]
+        data += [result.element_force("bush_left"), result.element_force("bush_right"),
+                 -result.reaction("cam_drive")]
+        arr = np.column_stack(data)
+        write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
+                          "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+        write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(machine)})
+        sel = result.t >= result.stats_from
+        plot_time_series(result.t[sel], {f"|F_{p}|": np.abs(arr[sel, 1 + i]) for i, p in enumerate("ABCF")},
+                         "collision force (N)", stage / "collision_forces.png",
+                         "Clearance collision forces (multibody)")
+
+
+@app.command()
+def compare(
+    clearance: Optional[str] = typer.Option("level2", "--clearance",
+                                            help="Clearance set (default level2, the study's model check, Table 3)."),
+    revolutions: int = typer.Option(3, "--revolutions", "-n", min=2),
+    points: int = typer.Option(10, "--points", min=4, help="Samples per curve for the F test (study: about 10)."),
+    alpha: float = typer.Option(0.05, "--alpha", help="Significance level of the F test."),
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write overlay plots (PNG) of both models per pair."),
+):
+    """Run the MLSD and multibody models on the same machine and clearances; compare per pair (eq. 18).
+
+    Reports the study's F statistic with the critical F value of scipy.stats at the stated significance
+    and (points-1, points-1) degrees of freedom, and plainer measures: NRMSE, correlation, peak ratio.
+    """
+    try:
+        import numpy as np
+
+        from .dynamics.harvester import simulate_harvester_multibody
+        from .dynamics.mlsd import simulate_mlsd
+        from .experiment.agreement import curve_agreement
+        from .experiment.clearance_rows import parse_clearance_spec
+
+        machine = _load(config)
+        sizes = parse_clearance_spec(clearance)
+        ml = simulate_mlsd(machine, sizes, revolutions=revolutions)
+        mbr, mbs = simulate_harvester_multibody(machine, sizes, revolutions=revolutions)
+        sel = ml.t >= ml.stats_from
+        t = ml.t[sel]
+        res = {"clearance_mm": {k: v * 1e3 for k, v in ml.clearance.items()}, "revolutions": revolutions,
+               "pairs": {}, "version": __version__}
+        series = {}
+        for p in "ABCF":
+            b = np.abs(ml.series(f"F_{p}_N"))[sel]
+            a_full = mbr.element_force(p) if p in mbr.compiled.frc_names else mbr.reaction(p)
+            a = np.interp(t, mbr.t, np.abs(a_full))
+            res["pairs"][p] = curve_agreement(t, a, b, points=points, alpha=alpha)
+            res["pairs"][p]["peak_N"] = {"multibody": float(mbs["collision_force_N"][p]["peak"]),
+                                         "mlsd": float(ml.summary()["collision_force_N"][p]["peak"])}
+            series[p] = (a, b)
+        if plot is not None:
+            from .report.files import staged_directory
+            from .report.plots import plot_time_series
+
+            with staged_directory(plot) as stage:
+                for p, (a, b) in series.items():
+                    plot_time_series(t, {"multibody": a, "MLSD": b}, "collision force (N)",
+                                     stage / f"compare_{p}.png", f"Pair {p}: MLSD vs multibody (study Figs. 14-17)")
+            res["plots"] = [str(plot / f"compare_{p}.png") for p in "ABCF"]
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(res)
+        return
+    tb = Table(title="MLSD vs multibody (study eq. 18)", header_style="bold")
+    for col in ("pair", "F", "F crit", "agree", "NRMSE", "corr", "peak ratio"):
+        tb.add_column(col, justify="right")
+    for p, r in res["pairs"].items():
+        tb.add_row(p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["agree"] else "no",
+                   f"{r['nrmse']:.3f}", f"{r['correlation']:.3f}", f"{r['peak_ratio']:.3f}")
+    out.print(tb)
 
 
 def _write_simulation(out_dir: Path, result, summary: dict) -> None:

@@ -1,0 +1,239 @@
+"""Planar mechanisms described as data (TOML): bodies, joints (ideal and with clearance), drivers and
+force elements.  Values accept units like the machine description ("0.5 mm", "5000 rpm").
+
+A body's ``position`` is its centre of mass in the frame and ``angle`` its orientation; joint points
+are given in the body frames (origin at the centre of mass).  ``ground`` is the fixed frame.
+
+Joint types
+-----------
+revolute            ideal pin joint (2 equations)
+prismatic           ideal slider: body_j slides along ``axis`` (in body_i's frame) without turning
+point_on_line       ideal pin of body_i in a straight slot of body_j (1 equation)
+cam_roller          ideal roller of body_i on the pitch curve of cam ``cam`` fixed to body_j (1 equation)
+revolute_clearance  pin of body_i (``point_i``) in a bore of body_j (``point_j``), radial clearance
+slot_clearance      pin of body_i in a straight slot of body_j, ``clearance`` = total free travel
+groove_clearance    roller of body_i in the groove of cam ``cam`` on body_j, ``clearance`` = total free travel
+
+Drivers: ``angle`` (prescribed constant speed, a constraint) or ``torque`` (constant motor torque).
+Forces: ``rotational_spring_damper`` between a body and ground or another body; gravity on the whole.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+
+from ..config import Angle, AngularSpeed, Coefficient, _format_validation_error, _q
+from ..errors import ConfigError
+from ..units import parse_quantity
+
+Mass = Annotated[float, _q("mass"), Field(gt=0)]
+Inertia = Annotated[float, _q("inertia"), Field(gt=0)]
+LengthNN = Annotated[float, _q("length"), Field(ge=0)]
+LengthPos = Annotated[float, _q("length"), Field(gt=0)]
+Real = Annotated[float, BeforeValidator(lambda v: _num(v))]
+
+
+def _num(v):
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ValueError(f"expected a plain number (SI), got {v!r}")
+    return float(v)
+
+
+def _vec(dimension: str):
+    def convert(v: Any) -> tuple[float, float]:
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            raise ValueError(f"expected a pair [x, y], got {v!r}")
+        try:
+            return tuple(parse_quantity(c, dimension) for c in v)  # type: ignore[return-value]
+        except ConfigError as exc:
+            raise ValueError(str(exc).removeprefix("value: ")) from None
+
+    return BeforeValidator(convert)
+
+
+Point = Annotated[tuple[float, float], _vec("length")]
+Direction = Annotated[tuple[float, float], _vec("dimensionless")]
+Accel = Annotated[tuple[float, float], BeforeValidator(lambda v: _accel(v))]
+
+
+def _accel(v):
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise ValueError(f"expected a pair [gx, gy], got {v!r}")
+    out = []
+    for c in v:
+        if isinstance(c, str):
+            from ..units import _registry
+
+            try:
+                out.append(float(_registry().Quantity(c).to("m/s**2").magnitude))
+            except Exception as exc:  # noqa: BLE001
+                raise ValueError(f"cannot read {c!r} as an acceleration ({exc})") from None
+        else:
+            out.append(_num(c))
+    return tuple(out)
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class BodySpec(_Strict):
+    name: str
+    mass: Mass
+    inertia: Inertia  # about the centre of mass
+    position: Point = (0.0, 0.0)
+    angle: Angle = 0.0
+
+
+LAWS = ("mlsd", "hertz", "hunt_crossley", "lankarani_nikravesh", "flores", "impact")
+
+
+class ContactSpec(_Strict):
+    """Normal contact law of a clearance joint (see berryshaker.contact)."""
+
+    law: Literal["mlsd", "hertz", "hunt_crossley", "lankarani_nikravesh", "flores", "impact"] = "lankarani_nikravesh"
+    stiffness: Real | Literal["hertz"] = "hertz"  # N/m^n; "hertz": from materials and radii
+    exponent: float = Field(1.5, gt=0)
+    restitution: float = Field(0.9, gt=0, le=1)
+    damping: Real = 0.0  # N s/m: mlsd damping, or cmax of impact
+    damping_depth: LengthPos = 1e-4  # d of impact: penetration of full damping
+    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0)] = 207e9
+    poisson_ratio: float = Field(0.3, gt=-1, lt=0.5)
+
+
+class JointSpec(_Strict):
+    name: str
+    type: Literal["revolute", "prismatic", "point_on_line", "cam_roller",
+                  "revolute_clearance", "slot_clearance", "groove_clearance"]
+    body_i: str
+    body_j: str
+    point_i: Point = (0.0, 0.0)
+    point_j: Point = (0.0, 0.0)
+    axis: Direction = (1.0, 0.0)  # slot / slide direction in body_j's frame (prismatic: body_i's)
+    cam: str | None = None
+    clearance: LengthNN = 0.0
+    pin_radius: LengthNN = 0.0
+    contact: ContactSpec = ContactSpec()
+    friction_coefficient: Coefficient = 0.0
+    supports: tuple[Real, Real] | None = None  # prismatic: axial positions of two guide supports (m)
+
+    @model_validator(mode="after")
+    def _check(self) -> "JointSpec":
+        if self.type in ("cam_roller", "groove_clearance") and not self.cam:
+            raise ValueError(f"joint {self.name!r}: type {self.type} needs cam = <name of a [[cams]] entry>")
+        if self.type.endswith("_clearance") and self.type == "revolute_clearance" and self.clearance <= 0:
+            raise ValueError(f"joint {self.name!r}: a revolute_clearance needs clearance > 0 (use revolute for none)")
+        if self.type in ("slot_clearance", "groove_clearance") and self.clearance < 0:
+            raise ValueError(f"joint {self.name!r}: clearance must be >= 0")
+        if math.hypot(*self.axis) == 0:
+            raise ValueError(f"joint {self.name!r}: axis must not be zero")
+        return self
+
+
+class CamSpec(_Strict):
+    """A groove cam's pitch curve (study eq. 1-2) in its body frame (origin = rotation centre)."""
+
+    name: str
+    law: Literal["3-4-5", "cycloidal", "4-5-6-7"] = "3-4-5"
+    base_radius: LengthPos
+    offset: LengthNN
+    stroke: LengthPos
+    rise_angle: Annotated[float, _q("angle"), Field(gt=0)]
+    far_dwell_angle: Annotated[float, _q("angle"), Field(ge=0)]
+    return_angle: Annotated[float, _q("angle"), Field(gt=0)]
+
+
+class DriverSpec(_Strict):
+    name: str
+    type: Literal["angle", "torque"] = "angle"
+    body: str
+    speed: Annotated[float, _q("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; torque: initial)
+    angle0: Angle | None = None  # default: the body's initial angle
+    torque: Annotated[float, _q("torsional_stiffness")] = 0.0  # N m (torque driver)
+
+
+class ForceSpec(_Strict):
+    name: str
+    type: Literal["rotational_spring_damper"] = "rotational_spring_damper"
+    body_i: str
+    body_j: str = "ground"
+    stiffness: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
+    damping: Annotated[float, _q("torsional_damping"), Field(ge=0)] = 0.0
+    angle0: Angle = 0.0  # free angle phi_i - phi_j
+
+
+class SimulationSpec(_Strict):
+    duration: Annotated[float, _q("time"), Field(gt=0)] = 0.05
+    rtol: float = Field(1e-7, gt=0, lt=1)
+    output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
+    max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
+
+
+class MechanismInfo(_Strict):
+    name: str = "mechanism"
+    description: str = ""
+    gravity: Accel = (0.0, 0.0)
+
+
+class MechanismSpec(_Strict):
+    mechanism: MechanismInfo = MechanismInfo()
+    bodies: list[BodySpec]
+    joints: list[JointSpec] = []
+    drivers: list[DriverSpec] = []
+    forces: list[ForceSpec] = []
+    cams: list[CamSpec] = []
+    simulation: SimulationSpec = SimulationSpec()
+
+    @model_validator(mode="after")
+    def _names(self) -> "MechanismSpec":
+        bodies = [b.name for b in self.bodies]
+        if "ground" in bodies:
+            raise ValueError("'ground' is the fixed frame and cannot be a body name")
+        dup = {n for n in bodies if bodies.count(n) > 1}
+        if dup:
+            raise ValueError(f"duplicate body names: {sorted(dup)}")
+        known = set(bodies) | {"ground"}
+        cams = {c.name for c in self.cams}
+        for j in self.joints:
+            for b in (j.body_i, j.body_j):
+                if b not in known:
+                    raise ValueError(f"joint {j.name!r}: unknown body {b!r} (bodies: {', '.join(bodies)}, ground)")
+            if j.body_i == j.body_j:
+                raise ValueError(f"joint {j.name!r}: body_i and body_j are the same body")
+            if j.cam and j.cam not in cams:
+                raise ValueError(f"joint {j.name!r}: unknown cam {j.cam!r}")
+        for d in self.drivers:
+            if d.body not in bodies:
+                raise ValueError(f"driver {d.name!r}: unknown body {d.body!r}")
+        for f in self.forces:
+            for b in (f.body_i, f.body_j):
+                if b not in known:
+                    raise ValueError(f"force {f.name!r}: unknown body {b!r}")
+        names = [j.name for j in self.joints]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"duplicate joint names: {sorted(dup)}")
+        return self
+
+
+def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:
+    try:
+        return MechanismSpec.model_validate(data)
+    except ValidationError as err:
+        raise ConfigError(_format_validation_error(err, source).replace("machine description", "mechanism description")) from None
+
+
+def load_mechanism(path: str | Path) -> MechanismSpec:
+    p = Path(path)
+    if not p.is_file():
+        raise ConfigError(f"mechanism file not found: {p}")
+    try:
+        data = tomllib.loads(p.read_text("utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
+    return mechanism_from_dict(data, str(p))

@@ -1,0 +1,77 @@
+"""Agreement between two simulated curves: the study's F statistic (eq. 18) and plainer measures."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+
+def f_statistic(a, b):
+    """Study eq. 18: F_xy = [sum (a_i - a_mean)^2 / sum (b_j - b_mean)^2] * (b_max^2 / a_max^2).
+
+    Parameters
+    ----------
+    a, b : array_like
+        Samples of the two curves (the study: a = multibody/ADAMS, b = MLSD/MATLAB).
+
+    Returns
+    -------
+    float
+        The ratio of the two curves' variations, each normalised by its own peak (dimensionless).
+
+    Notes
+    -----
+    The sums are not divided by the sample counts; with equally many points (as here) this is the ratio
+    of peak-normalised sample variances, compared with an F(m-1, n-1) critical value.  With hundreds of
+    points any small difference becomes "significant"; the study used about ten points per curve (its
+    critical values 3.09-3.20 are F_0.95 with about 9-10 degrees of freedom each).
+    """
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    sa = np.sum((a - a.mean()) ** 2)
+    sb = np.sum((b - b.mean()) ** 2)
+    amax, bmax = np.max(np.abs(a)), np.max(np.abs(b))
+    if sb == 0 or amax == 0:
+        return float("inf")
+    return float(sa / sb * (bmax**2 / amax**2))
+
+
+def f_critical(m: int, n: int, alpha: float = 0.05) -> float:
+    """Upper critical value of the F distribution with (m-1, n-1) degrees of freedom (scipy.stats)."""
+    return float(stats.f.ppf(1.0 - alpha, m - 1, n - 1))
+
+
+def curve_agreement(t, a, b, points: int = 10, alpha: float = 0.05) -> dict:
+    """Eq. 18 on ``points`` equally spaced samples of both curves, plus NRMSE, correlation, peak ratio.
+
+    Parameters
+    ----------
+    t : array_like
+        Common time base of the two series (s).
+    a, b : array_like
+        Multibody (a) and MLSD (b) series on ``t``.
+    points : int
+        Samples used for the F test (the study used about ten).
+    alpha : float
+        Significance level.
+    """
+    t = np.asarray(t, float)
+    a = np.asarray(a, float)
+    b = np.asarray(b, float)
+    ts = np.linspace(t[0], t[-1], points)
+    sa, sb = np.interp(ts, t, a), np.interp(ts, t, b)
+    f = f_statistic(sa, sb)
+    fc = f_critical(points, points, alpha)
+    span = float(np.max(b) - np.min(b)) or 1.0
+    corr = float(np.corrcoef(a, b)[0, 1]) if np.std(a) > 0 and np.std(b) > 0 else float("nan")
+    return {
+        "f_statistic": f,
+        "f_critical": fc,
+        "alpha": alpha,
+        "points": points,
+        "agree": bool(f < fc),
+        "nrmse": float(np.sqrt(np.mean((a - b) ** 2)) / span),
+        "correlation": corr,
+        "peak_ratio": float(np.max(np.abs(a)) / max(np.max(np.abs(b)), 1e-300)),
+        "mean_ratio": float(np.mean(np.abs(a)) / max(np.mean(np.abs(b)), 1e-300)),
+    }
