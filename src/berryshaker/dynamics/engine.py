@@ -100,6 +100,9 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         elif typ == "cam_roller":
             add_con(j.name, mb.CON_CAM_ROLLER, bi, bj, cam=cidx[j.cam], **common)
         else:
+            if typ == "revolute_clearance" and j.pin_radius > 0 and j.clearance >= j.pin_radius:
+                raise ConfigError(f"joint {j.name!r}: clearance {j.clearance * 1e3:g} mm does not fit a pin of "
+                                  f"radius {j.pin_radius * 1e3:g} mm (the bore would be over twice the pin)")
             c = j.contact
             k = c.stiffness
             if k == "hertz":

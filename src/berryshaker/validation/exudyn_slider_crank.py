@@ -56,8 +56,7 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
         q = y0[3 * i:3 * i + 3]
         v = y0[9 + 3 * i:9 + 3 * i + 3]
         nodes[name] = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=list(q), initialVelocities=list(v)))
-        objs[name] = mbs.AddObject(ObjectRigidBody2D(physicsMass=b.mass, physicsInertia=b.inertia,
-                                                     nodeNumber=nodes[name]))
+        objs[name] = mbs.AddObject(ObjectRigidBody2D(mass=b.mass, inertia=b.inertia, nodeNumber=nodes[name]))
     # local points in the body frames (the TOML points)
     jmap = {j.name: j for j in spec.joints}
 
@@ -129,9 +128,9 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
     ss.timeIntegration.generalizedAlpha.spectralRadius = spectral_radius
     ss.timeIntegration.newton.useModifiedNewton = False
     ss.timeIntegration.verboseMode = 0
-    ss.solutionSettings.writeSolutionToFile = False
-    ss.displayComputationTime = False
-    ss.displayStatistics = False
+    ss.solution.file.write = False
+    ss.show.computationTime = False
+    ss.show.statistics = False
     t0 = time.perf_counter()
     exu.SolveDynamic(mbs, ss)
     wall = time.perf_counter() - t0

@@ -1,0 +1,61 @@
+"""The harvester in the multibody engine against the MLSD model and against Newton-Euler (ideal joints)."""
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from berryshaker.cli import app
+from berryshaker.dynamics.harvester import simulate_harvester_multibody
+from berryshaker.experiment.agreement import curve_agreement, f_critical, f_statistic
+
+from test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
+
+
+def test_ideal_multibody_harvester_equals_newton_euler(machine):
+    """With zero clearance the engine uses ideal cam-roller, point-on-line and revolute joints; its
+    Lagrange multipliers are the joint forces, which must equal the independent hand inverse dynamics."""
+    m = _modified(machine, four_bar__coupler_mass=1e-3)
+    r, _ = simulate_harvester_multibody(m, ZERO, revolutions=2, rtol=1e-9, output_step=2e-4)
+    sel = r.t > 0.5
+    ne = newton_euler_inverse_dynamics(m, r.t[sel])
+    for pair in "ABC":
+        f = r.reaction(pair)[sel]
+        # the coupler is nearly massless here but still has rotational inertia m l^2/12 -> 1e-3 scale
+        np.testing.assert_allclose(f, ne[pair], atol=2e-3 * ne[pair].max())
+    np.testing.assert_allclose(-r.reaction("cam_drive")[sel], ne["M"], atol=2e-3 * np.abs(ne["M"]).max())
+
+
+def test_eq18_hand_value():
+    a = np.array([1.0, 2.0, 3.0, 4.0])
+    b = np.array([2.0, 4.0, 6.0, 9.0])
+    # sum (a - mean)^2 = 5; b: mean 5.25 -> 10.5625 + 1.5625 + 0.5625 + 14.0625 = 26.75
+    assert f_statistic(a, b) == pytest.approx(5 / 26.75 * 81 / 16)
+    # scipy.stats F(9, 9) upper 5 % point: 3.1789 (standard F tables)
+    assert f_critical(10, 10) == pytest.approx(3.1789, abs=1e-4)
+    assert curve_agreement(np.arange(50.0), np.sin(np.arange(50.0)), np.sin(np.arange(50.0)))["nrmse"] == 0
+
+
+def test_compare_cli_reports_agreement_per_pair(tmp_path):
+    r = CliRunner().invoke(app, ["compare", "--clearance", "level2", "--json", "--plot", str(tmp_path / "cmp")])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    for p in "ABCF":
+        pair = s["pairs"][p]
+        assert set(pair) >= {"f_statistic", "f_critical", "agree", "nrmse", "correlation"}
+        # the two formulations describe the same machine: same peaks within 20 %, same mean level
+        assert 0.8 < pair["peak_ratio"] < 1.25
+        assert 0.95 < pair["mean_ratio"] < 1.05
+        assert pair["agree"]  # the study's criterion (eq. 18) at 10 points
+        assert (tmp_path / "cmp" / f"compare_{p}.png").exists()
+
+
+def test_multibody_cli_same_keys_as_mlsd():
+    runner = CliRunner()
+    a = json.loads(runner.invoke(app, ["simulate", "--model", "mlsd", "--json", "-n", "2"]).stdout)
+    b = json.loads(runner.invoke(app, ["simulate", "--model", "multibody", "--json", "-n", "2"]).stdout)
+    for key in ("collision_force_N", "load_moment_Nm", "clearance_mm"):
+        assert set(a[key]) == set(b[key])
+    assert set(b["drive_moment_Nm"]) >= {"peak", "rms", "mean"}
+    assert b["model"] == "multibody" and b["wall_time_s"] > 0
