@@ -127,6 +127,7 @@ ENGINEERING_FACTORS: dict[str, float] = {
     "GPa": 1e9,
     "MPa": 1e6,
     "kg/m^3": 1.0,
+    "g/cm^3": 1000.0,
     "N": 1.0,
     "s": 1.0,
     "1": 1.0,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import dataclass, field
@@ -28,6 +29,21 @@ class CompiledMechanism:
     n: int
     q0: np.ndarray
     period: float | None
+    modes: object = None  # berryshaker.plant.modes.Modes when a flexible branch is coupled
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_modes(key: tuple, n_modes: int):
+    from ..plant.branch import Branch
+    from ..plant.modes import analytic_modes
+
+    return analytic_modes(Branch(*key), n_modes)
+
+
+def branch_modes(b, n_modes: int):
+    """Analytic modes (study eq. 15) of a BranchSpec, cached: sweeps reuse them."""
+    key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
+    return _cached_modes(key, n_modes)
 
 
 def _cam_array(spec: MechanismSpec) -> tuple[np.ndarray, dict[str, int]]:
@@ -132,6 +148,27 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         add_frc(f.name, f.type, mb.FRC_ROT_SD, bidx_g[f.body_i], bidx_g[f.body_j], k=f.stiffness, c=f.damping,
                 phi0=f.angle0)
 
+    modal_w = np.zeros(0)
+    modal_z = np.zeros(0)
+    phi_tab = np.zeros((1, 1))
+    plant_p = np.zeros(5)
+    modes = None
+    if spec.plant is not None:
+        pl = spec.plant
+        modes = branch_modes(pl.branch, pl.n_modes)
+        modal_w = modes.omega.copy()
+        modal_z = np.full(len(modal_w), pl.branch.damping_ratio)
+        phi_tab = np.array([modes.shape_at(c.station * pl.branch.length) for c in pl.contacts])
+        plant_p = np.array([pl.walking_speed, pl.start_distance, pl.half_span, pl.ramp, pl.ramp_depth])
+        ax, ay = np.array(pl.lateral_axis, float) / math.hypot(*pl.lateral_axis)
+        for station_row, c in enumerate(pl.contacts):
+            cc = pl.contact
+            add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=mb.LAW_CODES[cc.law],
+                    six=c.finger_point[0], siy=c.finger_point[1], ux=ax, uy=ay, gap=c.engagement,
+                    k=float(cc.stiffness), n=cc.exponent, e=cc.restitution, c=cc.damping, d=cc.damping_depth,
+                    rpin=float(c.side), phi0=c.mid_lateral)
+            # fint[., 1] holds the phi_tab row of a branch contact
+
     def arr(x, shape, dtype):
         return np.array(x, dtype=dtype).reshape(shape) if len(x) else np.zeros(shape, dtype)
 
@@ -139,11 +176,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
              arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), 3), np.int64),
              arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64),
              arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 4), np.int64),
-             arr(fflt, (len(fflt), mb.N_FF), float), cams)
-    q0 = np.zeros(3 * nb)
+             arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p)
+    q0 = np.zeros(3 * nb + len(modal_w))
     for i, b in enumerate(spec.bodies):
         q0[3 * i:3 * i + 3] = [b.position[0], b.position[1], b.angle]
-    return CompiledMechanism(spec, bidx, model, con_names, con_rows, frc_names, frc_kinds, row, 3 * nb, q0, period)
+    return CompiledMechanism(spec, bidx, model, con_names, con_rows, frc_names, frc_kinds, row,
+                             3 * nb + len(modal_w), q0, period, modes)
 
 
 def _state_and_work(cm: CompiledMechanism):
@@ -152,10 +190,11 @@ def _state_and_work(cm: CompiledMechanism):
     state = (np.zeros(max(nf, 1), np.bool_)[:nf], np.zeros(nf), np.full(nc, np.nan), np.full(nf, np.nan),
              np.zeros(cm.m))
     mass, inertia = cm.model[0], cm.model[1]
-    minv = np.empty(cm.n)
-    minv[0::3] = 1.0 / mass
-    minv[1::3] = 1.0 / mass
-    minv[2::3] = 1.0 / inertia
+    minv = np.ones(cm.n)  # modal coordinates are mass-normalised
+    nb3 = 3 * len(mass)
+    minv[0:nb3:3] = 1.0 / mass
+    minv[1:nb3:3] = 1.0 / mass
+    minv[2:nb3:3] = 1.0 / inertia
     work = (np.zeros(cm.m), np.zeros((cm.m, cm.n)), np.zeros(cm.m), np.zeros(cm.m), np.zeros(cm.n),
             np.zeros((nf, mb.N_EO)), np.zeros(cm.m), minv, np.zeros((cm.m, cm.m)), np.zeros(cm.m))
     return state, work

@@ -174,6 +174,33 @@ class SimulationSpec(_Strict):
     max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
 
 
+class BranchContactSpec(_Strict):
+    """A comb finger point striking the branch at one station (lateral contact, IMPACT-type law)."""
+
+    name: str
+    body: str
+    finger_point: Point  # in the body's frame
+    station: float = Field(gt=0, le=1)  # fraction of the branch length
+    side: Literal[-1, 1] = 1  # +1: the finger pushes the branch towards +lateral_axis
+    mid_lateral: Annotated[float, _q("length")]  # lateral coordinate of the finger where it just touches
+    engagement: Annotated[float, _q("length"), Field(ge=0)] = 0.0  # overlap already at mid_lateral (m)
+
+
+class PlantCouplingSpec(_Strict):
+    """A flexible branch (modal coordinates in the integrated state) struck by bodies of the mechanism."""
+
+    branch: "BranchSpecRef"
+    n_modes: int = Field(8, ge=1, le=30)
+    lateral_axis: Direction = (1.0, 0.0)
+    walking_speed: Annotated[float, _q("speed"), Field(gt=0)] = 0.5
+    start_distance: Annotated[float, _q("length")] = -0.5  # plant position along the row at t = 0 (m)
+    half_span: Annotated[float, _q("length"), Field(gt=0)] = 0.4
+    ramp: Annotated[float, _q("length"), Field(gt=0)] = 0.1
+    ramp_depth: Annotated[float, _q("length"), Field(gt=0)] = 0.2
+    contact: ContactSpec = ContactSpec(law="impact", stiffness=8e7, exponent=1.5, damping=20.0)
+    contacts: list[BranchContactSpec]
+
+
 class MechanismInfo(_Strict):
     name: str = "mechanism"
     description: str = ""
@@ -187,6 +214,7 @@ class MechanismSpec(_Strict):
     drivers: list[DriverSpec] = []
     forces: list[ForceSpec] = []
     cams: list[CamSpec] = []
+    plant: PlantCouplingSpec | None = None
     simulation: SimulationSpec = SimulationSpec()
 
     @model_validator(mode="after")
@@ -214,11 +242,21 @@ class MechanismSpec(_Strict):
             for b in (f.body_i, f.body_j):
                 if b not in known:
                     raise ValueError(f"force {f.name!r}: unknown body {b!r}")
+        if self.plant is not None:
+            for c in self.plant.contacts:
+                if c.body not in bodies:
+                    raise ValueError(f"plant contact {c.name!r}: unknown body {c.body!r}")
         names = [j.name for j in self.joints]
         dup = {n for n in names if names.count(n) > 1}
         if dup:
             raise ValueError(f"duplicate joint names: {sorted(dup)}")
         return self
+
+
+from ..config import BranchSpec as BranchSpecRef  # noqa: E402
+
+PlantCouplingSpec.model_rebuild()
+MechanismSpec.model_rebuild()
 
 
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:

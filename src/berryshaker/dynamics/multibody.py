@@ -26,7 +26,7 @@ from ..kinematics.cam import _follower_svaj_scalar
 
 CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 3, 4, 5
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
-FRC_REV_CL, FRC_SLOT_CL, FRC_GROOVE_CL, FRC_ROT_SD, FRC_TORQUE = 11, 12, 13, 20, 21
+FRC_REV_CL, FRC_SLOT_CL, FRC_GROOVE_CL, FRC_ROT_SD, FRC_TORQUE, FRC_BRANCH = 11, 12, 13, 20, 21, 30
 LAW_CODES = {"mlsd": 0, "hertz": 1, "hunt_crossley": 2, "lankarani_nikravesh": 3, "flores": 4, "impact": 5}
 
 # float parameters of a constraint row block
@@ -239,14 +239,19 @@ def _apply(Q, b, fx, fy, armx, army):
 
 @njit(cache=True)
 def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_mem_f,
-           ctype, cint, cflt, crow, lam_prev, Q, eout):
+           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout):
     """Generalised applied forces Q: gravity, clearance contacts (normal + friction), spring-dampers,
-    motor torques, guide friction of prismatic joints (from the previous step's multipliers)."""
+    motor torques, guide friction of prismatic joints (from the previous step's multipliers), and the
+    modal forces of a flexible branch (its own stiffness and damping plus the comb contacts)."""
     nb = mass.shape[0]
     for b in range(nb):
         Q[3 * b] = mass[b] * gravity[0]
         Q[3 * b + 1] = mass[b] * gravity[1]
         Q[3 * b + 2] = 0.0
+    n0 = 3 * nb
+    nm = modal_w.shape[0]
+    for k in range(nm):
+        Q[n0 + k] = -modal_w[k] * modal_w[k] * q[n0 + k] - 2.0 * modal_z[k] * modal_w[k] * qd[n0 + k]
     for k in range(ftype.shape[0]):
         typ = ftype[k]
         bi, bj = fint[k, 0], fint[k, 1]
@@ -327,6 +332,43 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
         elif typ == FRC_TORQUE:
             Q[3 * bi + 2] += fflt[k, FF_TORQUE]
             eout[k, EO_FN] = fflt[k, FF_TORQUE]
+        elif typ == FRC_BRANCH:
+            # comb finger point on body bi striking the branch at the station of phi_tab row fint[k, 1]
+            pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_SIX], fflt[k, FF_SIY])
+            oix, oiy, _a, _b, _c, _d = _body_origin(q, qd, bi)
+            ax, ay = fflt[k, FF_UX], fflt[k, FF_UY]
+            side = fflt[k, FF_RPIN]
+            row = fint[k, 1]
+            u = 0.0
+            ud = 0.0
+            for m in range(nm):
+                u += phi_tab[row, m] * q[n0 + m]
+                ud += phi_tab[row, m] * qd[n0 + m]
+            xlat = ax * pix + ay * piy
+            vlat = ax * vix + ay * viy
+            pen = side * (xlat - fflt[k, FF_PHI0]) + fflt[k, FF_GAP] - side * u
+            pen_dot = side * vlat - side * ud
+            # the plant enters and leaves the comb as the machine drives past: reach ramps in and out
+            xrel = plant_p[1] + plant_p[0] * t
+            half, ramp = plant_p[2], plant_p[3]
+            dist = half - abs(xrel)
+            if dist <= 0.0:
+                reach = 0.0
+            elif dist >= ramp:
+                reach = 1.0
+            else:
+                s_ = dist / ramp
+                reach = s_ * s_ * (3.0 - 2.0 * s_)
+            pen -= (1.0 - reach) * plant_p[4]
+            eout[k, EO_PEN] = pen
+            eout[k, EO_PENDOT] = pen_dot
+            if pen > 0.0:
+                fn = _law(fint[k, 3], pen, pen_dot, v_imp[k] if in_contact[k] else pen_dot, fflt[k, FF_K],
+                          fflt[k, FF_N], fflt[k, FF_E], fflt[k, FF_C], fflt[k, FF_D])
+                for m in range(nm):
+                    Q[n0 + m] += side * fn * phi_tab[row, m]
+                _apply(Q, bi, -side * fn * ax, -side * fn * ay, pix - oix, piy - oiy)
+                eout[k, EO_FN] = fn
     # guide friction of prismatic joints, normal forces from the last accepted step's multipliers
     for k in range(ctype.shape[0]):
         if ctype[k] != CON_PRISMATIC or cflt[k, CF_MU] <= 0.0:
@@ -385,16 +427,16 @@ def _spd_solve(W, b, m):
 @njit(cache=True)
 def accelerations(t, y, model, state, work, dy):
     """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays."""
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams) = model
+    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
-    nb = mass.shape[0]
-    n = 3 * nb
+    n = y.shape[0] // 2
     q = y[:n]
     qd = y[n:]
     constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_c, phi, jac, nu, gam)
     forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_f,
-           ctype, cint, cflt, crow, lam_prev, Q, eout)
+           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout)
     m = phi.shape[0]
     if m > 0:
         for a in range(m):
@@ -422,13 +464,14 @@ def accelerations(t, y, model, state, work, dy):
 @njit(cache=True)
 def project(t, y, model, state, work, iters):
     """Mass-weighted projection of positions (Newton) and velocities onto Phi = 0, Phi_q q' = nu."""
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams) = model
+    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     m = phi.shape[0]
     if m == 0:
         return 0.0
-    n = 3 * mass.shape[0]
+    n = y.shape[0] // 2
     q = y[:n]
     qd = y[n:]
     res = 0.0
@@ -672,4 +715,4 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
 def fint_is_contact(model, j):
     ftype = model[7]
     t = ftype[j]
-    return t == FRC_REV_CL or t == FRC_SLOT_CL or t == FRC_GROOVE_CL
+    return t == FRC_REV_CL or t == FRC_SLOT_CL or t == FRC_GROOVE_CL or t == FRC_BRANCH

@@ -97,3 +97,49 @@ def plot_time_series(t, series: dict[str, np.ndarray], ylabel: str, path: Path, 
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_mode_shapes(modes, modes_fe, path: Path) -> None:
+    """Analytic (lines) and finite-element (dots) mass-normalised mode shapes of the branch."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    for i in range(len(modes.omega)):
+        line, = ax.plot(modes.z, modes.shapes[i], lw=1.5,
+                        label=f"mode {i + 1}: {modes.frequency_hz[i]:.3f} Hz (FE {modes_fe.frequency_hz[i]:.3f} Hz)")
+        ax.plot(modes_fe.z[::80], modes_fe.shapes[i][::80], "o", ms=3, color=line.get_color())
+    ax.axhline(0, color="k", lw=0.5)
+    ax.set_xlabel("position along the branch z (m)")
+    ax.set_ylabel(r"mode shape (kg$^{-1/2}$)")
+    ax.set_title("Tapered branch modes: Bessel solution (lines, eq. 15) and finite elements (dots)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def plot_fruit_force(distance, forces: dict, ranges: dict, path: Path, title: str = "") -> None:
+    """Fruit harvesting force against machine-to-plant distance (study Figs. 24-26), one panel per fruit,
+    with the study's range and the eq. 17 bond forces."""
+    plt = _plt()
+    names = list(forces)
+    fig, axes = plt.subplots(len(names), 1, figsize=(9, 2.6 * len(names)), sharex=True)
+    axes = np.atleast_1d(axes)
+    for ax, name in zip(axes, names):
+        ax.plot(distance, forces[name], lw=0.8, color="C0", label=f"{name} fruit")
+        if name in ranges:
+            lo, hi = ranges[name]
+            ax.axhspan(lo, hi, color="C2", alpha=0.15, label=f"study {lo}-{hi} N")
+            ax.axhspan(-hi, -lo, color="C2", alpha=0.15)
+        ax.axhline(0.26, color="C1", ls="--", lw=0.8, label="ripe bond 0.26-0.30 N (eq. 17)")
+        ax.axhline(-0.26, color="C1", ls="--", lw=0.8)
+        ax.axhline(1.0, color="C3", ls=":", lw=0.8, label="unripe bond from 1.0 N")
+        ax.axhline(-1.0, color="C3", ls=":", lw=0.8)
+        ax.set_ylabel("force (N)")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.grid(alpha=0.3)
+    axes[-1].set_xlabel("machine-to-plant distance along the row (m)")
+    axes[0].set_title(title or "Fruit harvesting force (study eq. 16, Figs. 24-26)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
