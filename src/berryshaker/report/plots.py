@@ -143,3 +143,59 @@ def plot_fruit_force(distance, forces: dict, ranges: dict, path: Path, title: st
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
+
+
+def plot_main_effects(analysis: dict, path: Path, title: str = "") -> None:
+    """Level means of every factor for every response (main-effect plots)."""
+    plt = _plt()
+    responses = list(analysis["responses"])
+    factors = list(next(iter(analysis["responses"].values()))["factors"])
+    fig, axes = plt.subplots(len(responses), len(factors), figsize=(3.0 * len(factors), 2.4 * len(responses)),
+                             squeeze=False, sharey="row")
+    for i, r in enumerate(responses):
+        ra = analysis["responses"][r]
+        for j, f in enumerate(factors):
+            k = ra["factors"][f]["level_means"]
+            ax = axes[i, j]
+            ax.plot(range(1, len(k) + 1), k, "o-")
+            best = ra["factors"][f]["best_level"]
+            ax.plot([best], [k[best - 1]], "o", ms=10, mfc="none", mec="C3")
+            ax.set_xticks(range(1, len(k) + 1))
+            ax.grid(alpha=0.3)
+            if i == len(responses) - 1:
+                ax.set_xlabel(f"level of {f}")
+            if j == 0:
+                ax.set_ylabel(r)
+            ax.set_title(f"R = {ra['factors'][f]['range']:.3g}", fontsize=8)
+    fig.suptitle(title or "Main effects (range analysis); red ring = best level")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+
+
+def plot_response_surfaces(values, y, names, reg, response: str, path: Path) -> None:
+    """Response surfaces of the identifiable main-effects quadratic model for factor pairs (Figs. 27-29)."""
+    from ..experiment.analysis import predict_main_quadratic
+
+    plt = _plt()
+    pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)][: max(1, len(names) * (len(names) - 1) // 2)]
+    values = np.asarray(values, float)
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5))
+    mid = np.median(values, axis=0)
+    for ax, (a, b) in zip(axes.ravel(), pairs):
+        ga = np.linspace(values[:, a].min(), values[:, a].max(), 40)
+        gb = np.linspace(values[:, b].min(), values[:, b].max(), 40)
+        A, B = np.meshgrid(ga, gb)
+        X = np.tile(mid, (A.size, 1))
+        X[:, a], X[:, b] = A.ravel(), B.ravel()
+        Z = predict_main_quadratic(reg, X, names).reshape(A.shape)
+        cs = ax.contourf(A, B, Z, levels=14, cmap="viridis")
+        fig.colorbar(cs, ax=ax)
+        ax.scatter(values[:, a], values[:, b], c="w", edgecolors="k", s=25)
+        ax.set_xlabel(f"{names[a]} (mm)")
+        ax.set_ylabel(f"{names[b]} (mm)")
+    fig.suptitle(f"{response}: main-effects quadratic model (other factors at their middle level); "
+                 "dots = test runs")
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -1,0 +1,1 @@
+"""Picking outcome: plant population, virtual harvest (efficiency, unripe shedding, damage)."""
