@@ -699,6 +699,59 @@ def doe_virtual(
 
 
 # ----------------------------------------------------------------------------------------------
+CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).")
+
+
+@app.command()
+def study(
+    config: Optional[Path] = ConfigOpt,
+    out_dir: Path = typer.Option(Path("berryshaker-study"), "--out", help="Output folder (replaced atomically)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    cache: Optional[Path] = CacheOpt,
+    no_cache: bool = typer.Option(False, "--no-cache", help="Recompute every run."),
+    as_json: bool = JsonOpt,
+):
+    """The whole study on the reference machine (or --config): report.html, summary.json, tables, figures.
+
+    Kinematics; MLSD vs multibody agreement (eq. 18); clearance rows 1-16; comb moments; fruit force;
+    the virtual L9 field test with range analysis and regression; a claims table with verdicts.
+    Interrupted? Run it again: finished runs come from the cache.
+    """
+    try:
+        from .kinematics.mechanism import check_machine
+        from .study import run_study
+        from .sweep import SweepRunner
+
+        machine = _load(config)  # a config that fails validation stops here, before any simulation
+        check_machine(machine)
+        if machine.plant is None:
+            raise BerryshakerError("the study needs a [plant] block in the machine description")
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, use_cache=not no_cache,
+                             progress=not as_json, console=err)
+        summary = run_study(machine, out_dir, runner, console=None if as_json else err)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title="Claims of the study", header_style="bold")
+    t.add_column("#")
+    t.add_column("verdict")
+    t.add_column("claim")
+    for c in summary["claims"]:
+        color = {"reproduced": "green", "not reproduced": "red"}.get(c["verdict"], "yellow")
+        t.add_row(str(c["id"]), f"[{color}]{c['verdict']}[/]", c["claim"])
+    out.print(t)
+    o = summary["optimum"]
+    out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
+              + f" -> {o['efficiency_kg_min']:.2f} kg/min, {o['unripe_rate_pct']:.2f} % unripe, "
+                f"{o['damage_rate_pct']:.2f} % damage (study A1B1C1F3: 3.93 kg/min, 3.1 %, 2.8 %)")
+    out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
+
+
+# ----------------------------------------------------------------------------------------------
 @config_app.command("show")
 def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     """Print the resolved machine description (engineering units; --json gives SI)."""

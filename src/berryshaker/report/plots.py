@@ -199,3 +199,24 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path) -> 
     fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
+
+
+def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = "") -> None:
+    """Grouped bars: one group per label, one bar per series."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(8, 4))
+    n = len(series)
+    width = 0.8 / max(n, 1)
+    x = np.arange(len(labels))
+    for i, (name, vals) in enumerate(series.items()):
+        ax.bar(x + (i - (n - 1) / 2) * width, vals, width, label=name)
+    ax.set_xticks(x)
+    ax.set_xticklabels(labels)
+    ax.set_ylabel(ylabel)
+    ax.grid(alpha=0.3, axis="y")
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
