@@ -1,0 +1,220 @@
+"""The whole study, the sweep runner (cache, resume, failures, Dask with a worker killed), the report in
+headless Chromium, atomic outputs."""
+
+import json
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from berryshaker.cli import app
+from berryshaker.config import reference_toml_text
+from berryshaker.sweep import SweepRunner, model_run, parse_param, sample_params
+
+runner_cli = CliRunner()
+
+
+@pytest.fixture(scope="module")
+def fast_config(tmp_path_factory):
+    text = reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
+        "bushes = 40 ", "bushes = 15 ")
+    p = tmp_path_factory.mktemp("cfg") / "fast.toml"
+    p.write_text(text)
+    return p
+
+
+def test_runner_caches_isolates_failures_and_resumes(tmp_path, machine):
+    data = machine.model_dump(mode="json")
+    jobs = [dict(machine_data=data, overrides={"clearance.A.size": a}, revolutions=2) for a in (1e-4, 2e-4, -1e-4)]
+    r = SweepRunner(workers=2, cache_dir=tmp_path / "c", progress=False)
+    first = r.map(model_run, jobs)
+    assert [x.error is None for x in first] == [True, True, False]
+    assert "must be >= 0" in first[2].error  # recorded with its error; the others finished
+    again = SweepRunner(workers=2, cache_dir=tmp_path / "c", progress=False)
+    second = again.map(model_run, jobs)
+    assert [x.cached for x in second] == [True, True, False]  # finished runs are not recomputed
+    assert second[0].value == first[0].value
+
+
+def test_sweep_sampling():
+    a = parse_param("clearance.A.size=0.1..0.5mm")
+    b = parse_param("cam.speed=100,120rpm")
+    c = parse_param("clearance.C.size=0.1+-0.02mm")
+    assert a.factor == pytest.approx(1e-3) and b.factor == pytest.approx(2 * 3.141592653589793 / 60)
+    assert len(sample_params([a, b], "grid", 3, 0)) == 6
+    lhs = sample_params([a, c], "lhs", 20, 1)
+    assert len(lhs) == 20 and all(0.1 <= p[0] <= 0.5 for p in lhs)
+    assert sample_params([a, c], "lhs", 20, 1) == lhs  # seeded
+
+
+def test_sweep_cli_table(tmp_path):
+    r = runner_cli.invoke(app, ["sweep", "--param", "clearance.A.size=0.1..0.3mm", "--param", "clearance.F.size=0.1,0.6,-1mm",
+                                "--points", "2", "--json", "--cache", str(tmp_path / "c"), "--out", str(tmp_path / "s.csv")])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["runs"] == 6 and s["failed"] == 2  # F = -1 mm is refused per run, the rest finish
+    assert "collision_force_A_peak_N" in s["columns"]
+    assert (tmp_path / "s.csv").read_text().startswith("run,clearance.A.size[mm],clearance.F.size[mm],status")
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.mark.slow
+def test_dask_cluster_survives_a_killed_worker(tmp_path, machine):
+    pytest.importorskip("distributed")
+    dask = Path(sys.executable).parent / "dask"
+    if not dask.exists():
+        pytest.skip("the dask command-line tool is not installed next to this Python")
+    port = _free_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    procs = [subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port", str(port), "--no-dashboard"],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, start_new_session=True)]
+    try:
+        time.sleep(2.0)
+        for k in range(2):
+            procs.append(subprocess.Popen([str(dask), "worker", f"tcp://127.0.0.1:{port}", "--nthreads", "1",
+                                           "--no-nanny", "--no-dashboard", "--name", f"w{k}"],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+                                          start_new_session=True))
+        from distributed import Client
+
+        with Client(f"tcp://127.0.0.1:{port}", timeout="30s") as c:
+            c.wait_for_workers(2, timeout=60)
+        data = machine.model_dump(mode="json")
+        jobs = [dict(machine_data=data, overrides={"clearance.A.size": 1e-4 * (1 + i)}, revolutions=30)
+                for i in range(12)]
+        cache = tmp_path / "cache"
+        killed = {}
+
+        def killer():
+            t0 = time.time()
+            while time.time() - t0 < 120:
+                if cache.exists() and any(cache.rglob("*.json")):
+                    os.killpg(procs[1].pid, signal.SIGKILL)
+                    killed["at"] = time.time()
+                    return
+                time.sleep(0.05)
+
+        th = threading.Thread(target=killer)
+        th.start()
+        r = SweepRunner(scheduler=f"tcp://127.0.0.1:{port}", cache_dir=cache, progress=False)
+        out = r.map(model_run, jobs)
+        th.join()
+        assert "at" in killed, "the worker was not killed mid-sweep"
+        assert procs[1].wait(timeout=10) is not None
+        assert [o.index for o in out] == list(range(12))  # every run exactly once, in order
+        assert all(o.error is None for o in out), [o.error for o in out if o.error]
+        # the cluster's numbers are the same as a local run's
+        local = model_run(**jobs[5])
+        assert out[5].value["collision_force_N"]["A"]["peak"] == pytest.approx(local["collision_force_N"]["A"]["peak"])
+    finally:
+        for p in procs:
+            try:
+                os.killpg(p.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+
+
+@pytest.fixture(scope="module")
+def study_out(fast_config, tmp_path_factory):
+    base = tmp_path_factory.mktemp("study")
+    out = base / "out"
+    cache = base / "cache"
+    r = runner_cli.invoke(app, ["study", "--config", str(fast_config), "--out", str(out), "--cache", str(cache),
+                                "--workers", "2", "--json"])
+    assert r.exit_code == 0, r.output
+    return out, cache, json.loads(r.stdout)
+
+
+def test_study_outputs(study_out):
+    out, cache, s = study_out
+    assert (out / "report.html").stat().st_size > 100_000
+    saved = json.loads((out / "summary.json").read_text())
+    assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
+    for c in saved["claims"]:
+        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "not comparable") and c["detail"]
+    assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")
+    for k in ("efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"):
+        assert saved["optimum"][k] > 0
+    assert saved["timings_s"]["total"] > 0 and saved["version"]
+    assert saved["machine_si"]["cam"]["base_radius"] == 0.08
+    for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "fruit_force.csv",
+              "l9_runs.csv", "claims.csv"):
+        assert (out / "tables" / t).stat().st_size > 50
+    assert len(list((out / "figures").glob("*.png"))) >= 19
+    html = (out / "report.html").read_text()
+    assert "berryshaker" in html and html.count("data:image/png;base64,") >= 19 and "<script" not in html
+
+
+def test_repeated_study_comes_from_the_cache(study_out, fast_config, tmp_path):
+    out, cache, first = study_out
+    r = runner_cli.invoke(app, ["study", "--config", str(fast_config), "--out", str(tmp_path / "again"),
+                                "--cache", str(cache), "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["runs"]["cached"] == s["runs"]["runs"] and s["runs"]["failed"] == 0
+    assert s["optimum"] == first["optimum"]  # same config, same numbers
+    assert s["timings_s"]["total"] < first["timings_s"]["total"]
+
+
+def test_failed_study_leaves_an_existing_folder_untouched(fast_config, tmp_path, monkeypatch):
+    import berryshaker.study as st
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.html").write_text("previous report")
+
+    def boom(*a, **k):
+        raise RuntimeError("simulated failure in the L9 step")
+
+    monkeypatch.setattr(st, "virtual_l9", boom)
+    r = runner_cli.invoke(app, ["study", "--config", str(fast_config), "--out", str(out), "--cache",
+                                str(tmp_path / "c"), "--workers", "1"])
+    assert r.exit_code != 0
+    assert (out / "report.html").read_text() == "previous report"
+    assert not [p for p in tmp_path.iterdir() if "staging" in p.name]
+
+
+def test_invalid_config_stops_before_any_simulation(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(reference_toml_text().replace('stroke = "40 mm"', 'stroke = "-40 mm"'))
+    r = runner_cli.invoke(app, ["study", "--config", str(bad), "--out", str(tmp_path / "o")])
+    assert r.exit_code == 2 and "cam.stroke" in r.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_report_renders_in_headless_chromium(study_out):
+    out, _, _ = study_out
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Debian's chromium is not installed (.ci/run installs it)")
+    pw = pytest.importorskip("playwright.sync_api", reason="playwright (test extra) is not installed")
+    errors = []
+    with pw.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=[
+            "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+            "--disable-component-update", "--disable-sync"])
+        page = browser.new_page()
+        page.on("console", lambda m: errors.append(m.text) if m.type == "error" else None)
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto((out / "report.html").resolve().as_uri())
+        page.wait_for_load_state("load")
+        imgs = page.evaluate("Array.from(document.images).map(i => [i.complete, i.naturalWidth])")
+        title = page.title()
+        browser.close()
+    assert len(imgs) >= 19
+    assert all(done and width > 100 for done, width in imgs)
+    assert errors == []
+    assert "berryshaker study" in title
