@@ -84,7 +84,7 @@ def kinematics(
     Checks that the four-bar assembles over the whole cycle and the groove does not undercut.
     """
     try:
-        from .kinematics.mechanism import check_machine, kinematics_summary, mid_stroke_angles, cam_groove
+        from .kinematics.mechanism import check_machine, kinematics_summary
 
         machine = _load(config)
         kin = check_machine(machine, allow_undercut=allow_undercut)
@@ -93,14 +93,10 @@ def kinematics(
         summary["version"] = __version__
         if plot is not None:
             from .report.files import staged_directory
-            from .report.plots import plot_comb_angles, plot_groove, plot_svaj
+            from .report.plots import write_kinematics_figures
 
             with staged_directory(plot) as stage:
-                plot_svaj(kin, stage / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
-                _, pitch, inner, outer = cam_groove(machine)
-                plot_groove(pitch, inner, outer, machine.cam.base_radius, stage / "groove_profile.png")
-                d0, e0 = mid_stroke_angles(machine)
-                plot_comb_angles(kin, d0, e0, machine.combs.length, stage / "comb_angles.png")
+                write_kinematics_figures(machine, kin, stage)
             summary["plots"] = [str(plot / n) for n in ("svaj.png", "groove_profile.png", "comb_angles.png")]
     except BerryshakerError as exc:
         _fail(exc)

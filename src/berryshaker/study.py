@@ -193,7 +193,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
     from .dynamics.harvester import simulate_harvester_multibody
     from .dynamics.mlsd import simulate_mlsd
     from .experiment.agreement import curve_agreement
-    from .kinematics.mechanism import cam_groove, check_machine, kinematics_summary, mid_stroke_angles
+    from .kinematics.mechanism import check_machine, kinematics_summary
     from .report import plots as P
 
     def say(msg):
@@ -221,11 +221,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
         say("kinematics")
         kin = check_machine(machine)
         res["kinematics"] = kinematics_summary(machine, kin)
-        P.plot_svaj(kin, figs / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
-        _, pitch, inner, outer = cam_groove(machine)
-        P.plot_groove(pitch, inner, outer, machine.cam.base_radius, figs / "groove_profile.png")
-        d0, e0 = mid_stroke_angles(machine)
-        P.plot_comb_angles(kin, d0, e0, machine.combs.length, figs / "comb_angles.png")
+        P.write_kinematics_figures(machine, kin, figs)
         timings["kinematics"] = time.perf_counter() - t0
         # 2 model agreement at level 2 (the study's Table 3)
         t0 = time.perf_counter()

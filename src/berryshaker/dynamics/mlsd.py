@@ -32,6 +32,7 @@ from numba import njit
 from ..config import PAIR_NAMES, Machine
 from ..contact.force_laws import mlsd_kernel
 from ..contact.friction import coulomb_friction_kernel
+from .integrators import DOPRI_A, DOPRI_C, DOPRI_E
 from ..errors import ConfigError, SimulationError
 from ..kinematics.mechanism import (
     G_E,
@@ -212,18 +213,7 @@ def _rhs(t, y, g, p, res, dy):
     dy[7] = res[R_TEDD]
 
 
-# Dormand-Prince 5(4) tableau (Hairer, Norsett & Wanner, Solving ODEs I, 2nd ed., Table 5.2)
-_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_A = np.array([
-    [0, 0, 0, 0, 0, 0],
-    [1 / 5, 0, 0, 0, 0, 0],
-    [3 / 40, 9 / 40, 0, 0, 0, 0],
-    [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
-    [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
-])
-_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
+_C, _A, _E = DOPRI_C, DOPRI_A, DOPRI_E
 
 
 @njit(cache=True)

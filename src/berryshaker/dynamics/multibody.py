@@ -23,6 +23,7 @@ from numba import njit
 from ..contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
 from ..contact.friction import coulomb_friction_kernel
 from ..kinematics.cam import _follower_svaj_scalar
+from .integrators import DOPRI_A, DOPRI_C, DOPRI_E
 
 CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 3, 4, 5
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
@@ -543,17 +544,7 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
     return best
 
 
-_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
-_A = np.array([
-    [0, 0, 0, 0, 0, 0],
-    [1 / 5, 0, 0, 0, 0, 0],
-    [3 / 40, 9 / 40, 0, 0, 0, 0],
-    [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
-    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
-    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
-    [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
-])
-_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
+_C, _A, _E = DOPRI_C, DOPRI_A, DOPRI_E
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 

@@ -220,3 +220,15 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
+    """SVAJ, groove profile and comb-angle figures of a machine's drive into ``folder``; returns names."""
+    from ..kinematics.mechanism import cam_groove, mid_stroke_angles
+
+    plot_svaj(kin, folder / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
+    _, pitch, inner, outer = cam_groove(machine)
+    plot_groove(pitch, inner, outer, machine.cam.base_radius, folder / "groove_profile.png")
+    d0, e0 = mid_stroke_angles(machine)
+    plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
+    return ["svaj.png", "groove_profile.png", "comb_angles.png"]
