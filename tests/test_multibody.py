@@ -202,3 +202,21 @@ def test_parallel_runs_equal_serial(machine):
     assert [o.index for o in par] == [0, 1, 2, 3]
     assert par[0].value["collision_force_N"] == ser[0].value["collision_force_N"]
     assert par[3].error and "must be >= 0" in par[3].error and par[2].value is not None
+
+
+def test_applied_force_and_gravity_on_a_pendulum():
+    """A bar pinned at one end under gravity and a constant horizontal force at its tip settles (with a
+    damper) at the static angle tan(theta) = F / (m g / 2 + ...): here m g L/2 sin = F L cos."""
+    m, L, g, F = 2.0, 0.5, 9.81, 3.0
+    spec = mechanism_from_dict(dict(
+        mechanism=dict(name="pendulum", gravity=[0.0, -g]),
+        bodies=[dict(name="bar", mass=m, inertia=m * L * L / 12, position=[0.0, -L / 2], angle=-math.pi / 2)],
+        joints=[dict(name="pin", type="revolute", body_i="ground", body_j="bar", point_j=[-L / 2, 0.0])],
+        forces=[dict(name="push", type="force", body_i="bar", point=[L / 2, 0.0], force=["3 N", "0 N"]),
+                dict(name="damper", body_i="bar", damping=0.5)],
+        simulation=dict(duration=20.0, output_step=0.01, max_step=0.01)))
+    r = simulate_mechanism(spec)
+    theta = r.y[-1, 2] + math.pi / 2  # deflection from hanging straight down
+    # moments about the pin: F L cos(theta) = m g (L/2) sin(theta)
+    assert math.tan(theta) == pytest.approx(F / (m * g / 2), rel=1e-4)
+    assert r.reaction("pin")[-1] == pytest.approx(math.hypot(F, m * g), rel=1e-4)

@@ -145,8 +145,14 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         else:
             add_frc(d.name, "torque", mb.FRC_TORQUE, b, -1, torque=d.torque)
     for f in spec.forces:
-        add_frc(f.name, f.type, mb.FRC_ROT_SD, bidx_g[f.body_i], bidx_g[f.body_j], k=f.stiffness, c=f.damping,
-                phi0=f.angle0)
+        if f.type == "force":
+            if bidx_g[f.body_i] < 0:
+                raise ConfigError(f"force {f.name!r}: an applied force needs a moving body, not ground")
+            add_frc(f.name, "force", mb.FRC_FORCE, bidx_g[f.body_i], -1, six=f.point[0], siy=f.point[1],
+                    ux=f.force[0], uy=f.force[1])
+        else:
+            add_frc(f.name, f.type, mb.FRC_ROT_SD, bidx_g[f.body_i], bidx_g[f.body_j], k=f.stiffness, c=f.damping,
+                    phi0=f.angle0)
 
     modal_w = np.zeros(0)
     modal_z = np.zeros(0)

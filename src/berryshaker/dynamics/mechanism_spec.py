@@ -78,6 +78,15 @@ def _accel(v):
     return tuple(out)
 
 
+def _force(v):
+    if not isinstance(v, (list, tuple)) or len(v) != 2:
+        raise ValueError(f"expected a pair [Fx, Fy], got {v!r}")
+    try:
+        return tuple(parse_quantity(c, "force") for c in v)
+    except ConfigError as exc:
+        raise ValueError(str(exc).removeprefix("value: ")) from None
+
+
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -158,13 +167,18 @@ class DriverSpec(_Strict):
 
 
 class ForceSpec(_Strict):
+    """A rotational spring-damper between body_i and body_j (or ground), or a constant applied force
+    (``force`` = [Fx, Fy] in the frame, N) at ``point`` of body_i."""
+
     name: str
-    type: Literal["rotational_spring_damper"] = "rotational_spring_damper"
+    type: Literal["rotational_spring_damper", "force"] = "rotational_spring_damper"
     body_i: str
     body_j: str = "ground"
     stiffness: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
     damping: Annotated[float, _q("torsional_damping"), Field(ge=0)] = 0.0
     angle0: Angle = 0.0  # free angle phi_i - phi_j
+    point: Point = (0.0, 0.0)
+    force: Annotated[tuple[float, float], BeforeValidator(lambda v: _force(v))] = (0.0, 0.0)
 
 
 class SimulationSpec(_Strict):

@@ -28,6 +28,7 @@ from .integrators import DOPRI_A, DOPRI_C, DOPRI_E
 CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 3, 4, 5
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
 FRC_REV_CL, FRC_SLOT_CL, FRC_GROOVE_CL, FRC_ROT_SD, FRC_TORQUE, FRC_BRANCH = 11, 12, 13, 20, 21, 30
+FRC_FORCE = 22  # constant force (FF_UX, FF_UY components, N) at body point FF_SIX, FF_SIY
 LAW_CODES = {"mlsd": 0, "hertz": 1, "hunt_crossley": 2, "lankarani_nikravesh": 3, "flores": 4, "impact": 5}
 
 # float parameters of a constraint row block
@@ -333,6 +334,10 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
         elif typ == FRC_TORQUE:
             Q[3 * bi + 2] += fflt[k, FF_TORQUE]
             eout[k, EO_FN] = fflt[k, FF_TORQUE]
+        elif typ == FRC_FORCE:
+            pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_SIX], fflt[k, FF_SIY])
+            _apply(Q, bi, fflt[k, FF_UX], fflt[k, FF_UY], aix, aiy)
+            eout[k, EO_FN] = math.hypot(fflt[k, FF_UX], fflt[k, FF_UY])
         elif typ == FRC_BRANCH:
             # comb finger point on body bi striking the branch at the station of phi_tab row fint[k, 1]
             pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_SIX], fflt[k, FF_SIY])
