@@ -220,7 +220,8 @@ def test_doe_virtual_json(fast_machine, tmp_path):
     assert tomllib.loads(text)["harvest"]["branch_classes"] == [1.0]
     cfg = tmp_path / "fast.toml"
     cfg.write_text(text)
-    r = runner.invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2"])
+    r = runner.invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2",
+                            "--cache", str(tmp_path / "cache")])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
     assert len(s["runs"]) == 9

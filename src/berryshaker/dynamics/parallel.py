@@ -3,39 +3,19 @@ cache once).  Failed runs are returned with their error instead of stopping the 
 
 from __future__ import annotations
 
-import os
-from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
 from typing import Any, Callable, Iterable
 
 
-@dataclass
-class RunOutcome:
-    index: int
-    value: Any = None
-    error: str | None = None
+def run_many(fn: Callable[..., Any], kwargs_list: Iterable[dict], workers: int | None = None):
+    """Call ``fn(**kwargs)`` for every entry in ``workers`` processes (default: all cores), uncached.
 
-
-def _call(job):
-    index, fn, kwargs = job
-    try:
-        return RunOutcome(index, fn(**kwargs))
-    except Exception as exc:  # noqa: BLE001 - recorded, not swallowed: the caller reports it
-        return RunOutcome(index, error=f"{type(exc).__name__}: {exc}")
-
-
-def run_many(fn: Callable[..., Any], kwargs_list: Iterable[dict], workers: int | None = None) -> list[RunOutcome]:
-    """Call ``fn(**kwargs)`` for every entry, in ``workers`` processes (default: all cores).
-
-    ``fn`` must be importable (a module-level function) and return picklable values.  Results come back
-    in input order.
+    A thin front of :class:`berryshaker.sweep.SweepRunner` (the one runner every multi-run step uses);
+    returns its :class:`~berryshaker.sweep.RunResult` list in input order (``.value`` or ``.error``).
+    ``fn`` must be a module-level function returning JSON-compatible values.
     """
-    jobs = [(i, fn, kw) for i, kw in enumerate(kwargs_list)]
-    workers = workers or os.cpu_count() or 1
-    if workers <= 1 or len(jobs) <= 1:
-        return [_call(j) for j in jobs]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(_call, jobs))
+    from ..sweep import SweepRunner
+
+    return SweepRunner(workers=workers, use_cache=False, progress=False).map(fn, list(kwargs_list))
 
 
 def mlsd_summary(machine_data: dict, clearance: dict[str, float], revolutions: int = 3) -> dict:
