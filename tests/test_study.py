@@ -218,3 +218,29 @@ def test_report_renders_in_headless_chromium(study_out):
     assert all(done and width > 100 for done, width in imgs)
     assert errors == []
     assert "berryshaker study" in title
+
+
+def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tmp_path, monkeypatch):
+    """A run that fails inside a sweep is recorded with its error; the study finishes and lists it."""
+    import berryshaker.study as st
+
+    real = st.multibody_row
+
+    def flaky(machine_data, clearance, revolutions=3):
+        if clearance.get("B", 0.0) == pytest.approx(0.6e-3) and clearance.get("A", 0.0) == 0.0:
+            raise RuntimeError("solver exploded on purpose")
+        return real(machine_data, clearance, revolutions)
+
+    flaky.__module__, flaky.__qualname__ = real.__module__, "flaky_multibody_row_for_test"
+    monkeypatch.setattr(st, "multibody_row", flaky)
+    _, cache, _ = study_out  # everything but the patched rows comes from the cache
+    r = runner_cli.invoke(app, ["study", "--config", str(fast_config), "--out", str(tmp_path / "o"), "--cache",
+                                str(cache), "--workers", "1", "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert len(s["failures"]) == 1 and "exploded" in s["failures"][0]["error"] and "row 7" in s["failures"][0]["inputs"]
+    verdicts = {c["id"]: c["verdict"] for c in s["claims"]}
+    assert verdicts[3] == "not comparable"  # needs row 7
+    assert verdicts[1] != "not comparable" and s["optimum"] is not None
+    html = (tmp_path / "o" / "report.html").read_text()
+    assert "Failed runs" in html and "exploded on purpose" in html

@@ -748,9 +748,12 @@ def study(
         t.add_row(str(c["id"]), f"[{color}]{c['verdict']}[/]", c["claim"])
     out.print(t)
     o = summary["optimum"]
-    out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
-              + f" -> {o['efficiency_kg_min']:.2f} kg/min, {o['unripe_rate_pct']:.2f} % unripe, "
-                f"{o['damage_rate_pct']:.2f} % damage (study A1B1C1F3: 3.93 kg/min, 3.1 %, 2.8 %)")
+    if o is not None:
+        out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
+                  + f" -> {o['efficiency_kg_min']:.2f} kg/min, {o['unripe_rate_pct']:.2f} % unripe, "
+                    f"{o['damage_rate_pct']:.2f} % damage (study A1B1C1F3: 3.93 kg/min, 3.1 %, 2.8 %)")
+    for f in summary.get("failures", []):
+        out.print(f"[red]failed[/] {f['step']} run {f['run']} ({f['inputs']}): {f['error']}")
     out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
 
 

@@ -100,48 +100,76 @@ def virtual_l9(machine: Machine, runner) -> dict:
 
 
 def _claims(res: dict) -> list[dict]:
+    """The eight claims of STUDY.md sec. 3 with verdicts; a claim whose runs failed is 'not comparable'."""
     claims = []
+    texts = {
+        1: "The MLSD model and the multibody contact simulation agree (eq. 18).",
+        2: "Collision force falls along the chain: A > B > C > F.",
+        3: "Any clearance raises the collision force above the clearance-free mechanism; more clearance, more force.",
+        4: "Comb output load moment: left > right; largest without clearance; falls as clearance grows.",
+        5: "Fruit force rises from root to end (0.25-0.4, 0.65-0.9, 0.8-1.2 N) and falls as clearance grows.",
+        6: "Hence some ripe fruit stays at the root, the middle picks cleanly, the end also sheds some unripe fruit.",
+        7: "More clearance: lower efficiency, lower unripe shedding, lower damage; efficiency peaks at B = 0.4 mm.",
+        8: "Cam clearance A has the largest effect; best: efficiency A1B1C1F3, unripe A1B1C2F1, damage A1B1C2F3; "
+           "chosen A1B1C1F3 giving 3.93 kg/min, 3.1 %, 2.8 %.",
+    }
+    for cid, fn in enumerate((_claim1, _claim2, _claim3, _claim4, _claim5, _claim6, _claim7, _claim8), start=1):
+        try:
+            verdict, detail = fn(res)
+        except (KeyError, TypeError, IndexError) as exc:
+            verdict, detail = "not comparable", f"the runs this claim needs failed or are missing ({exc!r}); see Failed runs"
+        claims.append({"id": cid, "claim": texts[cid], "verdict": verdict, "detail": detail})
+    return claims
 
-    def add(cid, text, verdict, detail):
-        claims.append({"id": cid, "claim": text, "verdict": verdict, "detail": detail})
 
+def _claim1(res):
     ag = res["agreement"]["pairs"]
     ok = all(ag[p]["agree"] for p in PAIR_NAMES)
-    add(1, "The MLSD model and the multibody contact simulation agree (eq. 18).",
-        "reproduced" if ok else "not reproduced",
-        "; ".join(f"{p}: F = {ag[p]['f_statistic']:.3f} vs F_crit {ag[p]['f_critical']:.3f} (study {STUDY_F[p][0]} vs "
-                  f"{STUDY_F[p][1]}), NRMSE {ag[p]['nrmse']:.3f}, peak ratio {ag[p]['peak_ratio']:.2f}"
-                  for p in PAIR_NAMES))
+    return ("reproduced" if ok else "not reproduced",
+            "; ".join(f"{p}: F = {ag[p]['f_statistic']:.3f} vs F_crit {ag[p]['f_critical']:.3f} (study {STUDY_F[p][0]} "
+                      f"vs {STUDY_F[p][1]}), NRMSE {ag[p]['nrmse']:.3f}, peak ratio {ag[p]['peak_ratio']:.2f}"
+                      for p in PAIR_NAMES))
+
+
+def _claim2(res):
     mb = res["rows"]["multibody"]
-    order_ok = []
-    det = []
+    order_ok, det = [], []
     for row in (14, 15, 16):
         pk = [mb[str(row)]["collision_force_N"][p]["peak"] for p in PAIR_NAMES]
         mn = [mb[str(row)]["collision_force_N"][p]["mean"] for p in PAIR_NAMES]
         order_ok.append(all(a > b for a, b in zip(pk, pk[1:])))
         det.append(f"row {row}: peaks " + " / ".join(f"{p} {v:.0f}" for p, v in zip(PAIR_NAMES, pk))
                    + " N, means " + " / ".join(f"{v:.0f}" for v in mn) + " N")
-    add(2, "Collision force falls along the chain: A > B > C > F.",
-        "reproduced" if all(order_ok) else "not reproduced",
-        "; ".join(det) + (" (C and F nearly equal: they carry the same coupler force)" if not all(order_ok) else ""))
+    return ("reproduced" if all(order_ok) else "not reproduced",
+            "; ".join(det) + ("" if all(order_ok) else " (C and F nearly equal: they carry the same coupler force)"))
+
+
+def _claim3(res):
+    mb = res["rows"]["multibody"]
     ok3, det3 = True, []
     for k, p in enumerate(PAIR_NAMES):
         rows = [1] + [2 + 3 * k + j for j in range(3)]
         pk = [mb[str(r)]["collision_force_N"][p]["peak"] for r in rows]
         ok3 &= all(a < b for a, b in zip(pk, pk[1:]))
         det3.append(f"{p}: " + " -> ".join(f"{v:.0f}" for v in pk) + " N")
-    add(3, "Any clearance raises the collision force above the clearance-free mechanism; more clearance, more force.",
-        "reproduced" if ok3 else "not reproduced", "peak force, no clearance then levels 1-3 (rows 1-13): " + "; ".join(det3))
+    return ("reproduced" if ok3 else "not reproduced",
+            "peak force, no clearance then levels 1-3 (rows 1-13): " + "; ".join(det3))
+
+
+def _claim4(res):
+    mb = res["rows"]["multibody"]
     lm = {r: mb[str(r)]["load_moment_Nm"] for r in (1, 14, 15, 16)}
     left_gt = all(lm[r]["left"]["rms"] > lm[r]["right"]["rms"] for r in lm)
     largest0 = all(lm[1][s]["rms"] >= lm[r][s]["rms"] for r in (14, 15, 16) for s in ("left", "right"))
     falls = all(lm[a][s]["rms"] >= lm[b][s]["rms"] for a, b in ((14, 15), (15, 16)) for s in ("left", "right"))
     parts = [left_gt, largest0, falls]
-    add(4, "Comb output load moment: left > right; largest without clearance; falls as clearance grows.",
-        "reproduced" if all(parts) else ("not reproduced" if not any(parts) else "partly reproduced"),
-        f"rms left/right (N m): " + "; ".join(f"row {r}: {lm[r]['left']['rms']:.2f} / {lm[r]['right']['rms']:.2f}"
-                                              for r in lm)
-        + f"; left > right: {left_gt}, largest without clearance: {largest0}, falls with clearance: {falls}")
+    return ("reproduced" if all(parts) else ("not reproduced" if not any(parts) else "partly reproduced"),
+            "rms left/right (N m): " + "; ".join(f"row {r}: {lm[r]['left']['rms']:.2f} / {lm[r]['right']['rms']:.2f}"
+                                                 for r in lm)
+            + f"; left > right: {left_gt}, largest without clearance: {largest0}, falls with clearance: {falls}")
+
+
+def _claim5(res):
     ff = res["fruit_force"]
     pos = ff["chosen"]["summary"]["positions"]
     peaks = {n: pos[n]["peak_force_N"] for n in pos}
@@ -149,17 +177,24 @@ def _claims(res: dict) -> list[dict]:
     rises = ff["chosen"]["summary"]["rises_root_to_end"]
     row_peaks = {r: ff["rows"][str(r)]["peaks_exact"]["end"] for r in (14, 15, 16)}
     falls5 = row_peaks[14] >= row_peaks[15] >= row_peaks[16]
-    add(5, "Fruit force rises from root to end (0.25-0.4, 0.65-0.9, 0.8-1.2 N) and falls as clearance grows.",
-        "reproduced" if rises and all(within.values()) and falls5 else ("partly reproduced" if rises else "not reproduced"),
-        "peaks " + ", ".join(f"{n} {v:.2f} N ({'in' if within[n] else 'outside'} the study's range)" for n, v in peaks.items())
-        + f"; end fruit at level sets 1/2/3: " + " / ".join(f"{v:.2f}" for v in row_peaks.values())
-        + f" N (falls with clearance: {falls5}); the end value is the calibration target (docs/plant.md)")
+    verdict = ("reproduced" if rises and all(within.values()) and falls5
+               else ("partly reproduced" if rises else "not reproduced"))
+    return (verdict, "peaks " + ", ".join(f"{n} {v:.2f} N ({'in' if within[n] else 'outside'} the study's range)"
+                                          for n, v in peaks.items())
+            + "; end fruit at level sets 1/2/3: " + " / ".join(f"{v:.2f}" for v in row_peaks.values())
+            + f" N (falls with clearance: {falls5}); the end value is the calibration target (docs/plant.md)")
+
+
+def _claim6(res):
+    pos = res["fruit_force"]["chosen"]["summary"]["positions"]
     v = {n: pos[n]["eq17"] for n in pos}
     ok6 = (v["root"]["ripe"] != "picked" and v["middle"]["ripe"] == "picked" and v["middle"]["unripe"] == "kept"
            and v["end"]["unripe"] != "kept")
-    add(6, "Hence some ripe fruit stays at the root, the middle picks cleanly, the end also sheds some unripe fruit.",
-        "reproduced" if ok6 else "not reproduced",
-        "; ".join(f"{n}: ripe {v[n]['ripe']}, unripe {v[n]['unripe']}" for n in v))
+    return ("reproduced" if ok6 else "not reproduced",
+            "; ".join(f"{n}: ripe {v[n]['ripe']}, unripe {v[n]['unripe']}" for n in v))
+
+
+def _claim7(res):
     l9 = res["l9"]
     trend = {}
     for name in ("efficiency", "unripe", "damage"):
@@ -167,25 +202,26 @@ def _claims(res: dict) -> list[dict]:
         trend[name] = {p: km[p]["level_means"][2] - km[p]["level_means"][0] for p in PAIR_NAMES}
     lower_all = {n: sum(1 for p in PAIR_NAMES if trend[n][p] < 0) for n in trend}
     eff_b = l9["responses"]["efficiency"]["factors"]["B"]["best_level"]
-    verdict7 = "reproduced" if all(v_ >= 3 for v_ in lower_all.values()) and eff_b == 2 else (
+    verdict = "reproduced" if all(v_ >= 3 for v_ in lower_all.values()) and eff_b == 2 else (
         "partly reproduced" if any(v_ >= 3 for v_ in lower_all.values()) else "not reproduced")
-    add(7, "More clearance: lower efficiency, lower unripe shedding, lower damage; efficiency peaks at B = 0.4 mm.",
-        verdict7, "; ".join(f"{n}: level-3 minus level-1 mean " + ", ".join(f"{p} {trend[n][p]:+.3g}" for p in PAIR_NAMES)
-                            for n in trend) + f"; best B level for efficiency: B{eff_b}")
+    return (verdict, "; ".join(f"{n}: level-3 minus level-1 mean " + ", ".join(f"{p} {trend[n][p]:+.3g}"
+                                                                              for p in PAIR_NAMES) for n in trend)
+            + f"; best B level for efficiency: B{eff_b}")
+
+
+def _claim8(res):
+    l9 = res["l9"]
     ours = {n: _code(l9["responses"][n]["best_levels"]) for n in ("efficiency", "unripe", "damage")}
     rank_eff = l9["responses"]["efficiency"]["ranking"]
     vh = l9["recommended"]["virtual_harvest"]
     same = l9["recommended"]["same_as_study"]
-    add(8, "Cam clearance A has the largest effect; best: efficiency A1B1C1F3, unripe A1B1C2F1, damage A1B1C2F3; "
-           "chosen A1B1C1F3 giving 3.93 kg/min, 3.1 %, 2.8 %.",
-        "reproduced" if same and rank_eff[0] == "A" else ("partly reproduced" if same or rank_eff[0] == "A"
-                                                          else "not reproduced"),
-        f"ours: ranking for efficiency {' > '.join(rank_eff)}; best " + ", ".join(f"{n} {c} (study {STUDY_BEST[n]})"
-                                                                               for n, c in ours.items())
-        + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min, "
-          f"{vh['unripe_rate_pct']:.2f} %, {vh['damage_rate_pct']:.2f} % (the harvest model is calibrated to the "
-          "study's values at A1B1C1F3, docs/harvest.md)")
-    return claims
+    verdict = ("reproduced" if same and rank_eff[0] == "A"
+               else ("partly reproduced" if same or rank_eff[0] == "A" else "not reproduced"))
+    return (verdict, f"ours: ranking for efficiency {' > '.join(rank_eff)}; best "
+            + ", ".join(f"{n} {c} (study {STUDY_BEST[n]})" for n, c in ours.items())
+            + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min, "
+              f"{vh['unripe_rate_pct']:.2f} %, {vh['damage_rate_pct']:.2f} % (the harvest model is calibrated to "
+              "the study's values at A1B1C1F3, docs/harvest.md)")
 
 
 def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
@@ -213,6 +249,17 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
     figs.mkdir()
     tables = stage / "tables"
     tables.mkdir()
+    failures: list[dict] = []
+
+    def collect(fn, jobs, label, describe):
+        """Run through the sweep runner; failed runs are recorded and come back as None."""
+        outs = runner.map(fn, jobs, label)
+        for o in outs:
+            if o.error:
+                failures.append({"step": label, "run": o.index + 1, "inputs": describe(jobs[o.index]),
+                                 "error": o.error})
+        return [o.value for o in outs]
+
     try:
         res: dict = {}
         data = machine.model_dump(mode="json")
@@ -246,10 +293,15 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
         say("clearance rows 1-16 (single-factor sweeps and level sets)")
         rows = list(range(1, 17))
         jobs = [dict(machine_data=data, clearance=clearance_row(r), revolutions=3) for r in rows]
-        mb_rows = runner.values(multibody_row, jobs, "rows 1-16, multibody")
-        ml_rows = runner.values(mlsd_row, jobs, "rows 1-16, MLSD")
-        res["rows"] = {"multibody": {str(r): v for r, v in zip(rows, mb_rows)},
-                       "mlsd": {str(r): v for r, v in zip(rows, ml_rows)}}
+        row_of = {id(j): r for j, r in zip(jobs, rows)}
+
+        def describe_row(j):
+            return f"row {row_of[id(j)]}: " + ", ".join(f"{p} {v * 1e3:g} mm" for p, v in j["clearance"].items())
+
+        mb_rows = collect(multibody_row, jobs, "rows 1-16, multibody", describe_row)
+        ml_rows = collect(mlsd_row, jobs, "rows 1-16, MLSD", describe_row)
+        res["rows"] = {"multibody": {str(r): v for r, v in zip(rows, mb_rows) if v is not None},
+                       "mlsd": {str(r): v for r, v in zip(rows, ml_rows) if v is not None}}
         _plot_rows(res["rows"], figs)
         timings["clearance_rows"] = time.perf_counter() - t0
         # 5 fruit force
@@ -257,42 +309,60 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
         say("fruit force (rigid-flexible coupling)")
         ffjobs = [dict(machine_data=data, clearance={})] + [dict(machine_data=data, clearance=clearance_row(r))
                                                             for r in (14, 15, 16)]
-        ff = runner.values(fruit_force_run, ffjobs, "fruit force runs")
-        res["fruit_force"] = {"chosen": ff[0], "rows": {str(r): v for r, v in zip((14, 15, 16), ff[1:])}}
+        ff = collect(fruit_force_run, ffjobs, "fruit force runs",
+                     lambda j: "clearances " + (", ".join(f"{p} {v * 1e3:g} mm" for p, v in j["clearance"].items())
+                                                or "as configured"))
+        res["fruit_force"] = {"chosen": ff[0], "rows": {str(r): v for r, v in zip((14, 15, 16), ff[1:])
+                                                        if v is not None}}
         from .plant.coupled import STUDY_FRUIT_FORCE_N
 
-        P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
-                           STUDY_FRUIT_FORCE_N, figs / "fig24_26_fruit_force.png",
-                           "Fruit harvesting force at the chosen clearances (study Figs. 24-26)")
-        P.plot_bars({f"row {r}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
-                     for i, r in enumerate((14, 15, 16))}, ["root", "middle", "end"], "peak fruit force (N)",
-                    figs / "fruit_force_by_level.png", "Peak fruit force at level sets 1-3 (rows 14-16)")
+        if ff[0] is not None:
+            P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
+                               STUDY_FRUIT_FORCE_N, figs / "fig24_26_fruit_force.png",
+                               "Fruit harvesting force at the chosen clearances (study Figs. 24-26)")
+        if all(v is not None for v in ff[1:]):
+            P.plot_bars({f"row {r}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
+                         for i, r in enumerate((14, 15, 16))}, ["root", "middle", "end"], "peak fruit force (N)",
+                        figs / "fruit_force_by_level.png", "Peak fruit force at level sets 1-3 (rows 14-16)")
         timings["fruit_force"] = time.perf_counter() - t0
         # 6 virtual L9
         t0 = time.perf_counter()
         say("virtual L9 field test")
-        l9 = virtual_l9(machine, runner)
-        res["l9"] = l9
-        values = np.array([[r["clearance_mm"][p] for p in PAIR_NAMES] for r in l9["runs"]])
-        P.plot_main_effects(l9, figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)")
-        from .experiment.analysis import quadratic_regression
+        from .errors import SimulationError
 
-        for k, name in enumerate(("efficiency", "unripe", "damage")):
-            y = np.array([r[name] for r in l9["runs"]])
-            P.plot_response_surfaces(values, y, list(PAIR_NAMES), quadratic_regression(values, y, list(PAIR_NAMES)),
-                                     name, figs / f"fig{27 + k}_surface_{name}.png")
+        try:
+            l9 = virtual_l9(machine, runner)
+        except SimulationError as exc:
+            failures.append({"step": "virtual L9", "run": "", "inputs": "L9 clearance sets", "error": str(exc)})
+            l9 = None
+        res["l9"] = l9
+        if l9 is not None:
+            values = np.array([[r["clearance_mm"][p] for p in PAIR_NAMES] for r in l9["runs"]])
+            P.plot_main_effects(l9, figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)")
+            from .experiment.analysis import quadratic_regression
+
+            for k, name in enumerate(("efficiency", "unripe", "damage")):
+                y = np.array([r[name] for r in l9["runs"]])
+                P.plot_response_surfaces(values, y, list(PAIR_NAMES),
+                                         quadratic_regression(values, y, list(PAIR_NAMES)), name,
+                                         figs / f"fig{27 + k}_surface_{name}.png")
         timings["virtual_l9"] = time.perf_counter() - t0
         # 7 claims and outputs
         res["claims"] = _claims(res)
-        rec = l9["recommended"]
-        vh = rec["virtual_harvest"]
+        res["failures"] = failures
         timings["total"] = time.perf_counter() - t_all
+        optimum = None
+        if l9 is not None:
+            rec = l9["recommended"]
+            vh = rec["virtual_harvest"]
+            optimum = {"code": rec["code"], "clearance_mm": rec["clearance_mm"],
+                       "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
+                       "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": "A1B1C1F3", **STUDY_FIELD}}
         summary = {
             "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
             "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim")} for c in res["claims"]],
-            "optimum": {"code": rec["code"], "clearance_mm": rec["clearance_mm"],
-                        "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
-                        "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": "A1B1C1F3", **STUDY_FIELD}},
+            "optimum": optimum,
+            "failures": failures,
             "timings_s": timings,
             "runs": dict(runner.stats),
         }
@@ -314,7 +384,8 @@ def _strip(res: dict) -> dict:
     out = dict(res)
     ff = dict(out.get("fruit_force", {}))
     if ff:
-        ff["chosen"] = {k: v for k, v in ff["chosen"].items() if k not in ("distance", "forces")}
+        if ff.get("chosen"):
+            ff["chosen"] = {k: v for k, v in ff["chosen"].items() if k not in ("distance", "forces")}
         ff["rows"] = {r: {k: v for k, v in d.items() if k not in ("distance", "forces")} for r, d in ff["rows"].items()}
         out["fruit_force"] = ff
     return out
@@ -337,6 +408,8 @@ def _plot_rows(rows: dict, figs: Path) -> None:
     from .report import plots as P
 
     mb, ml = rows["multibody"], rows["mlsd"]
+    if not all(str(r) in mb and str(r) in ml for r in range(1, 17)):
+        return  # a failed row: the tables and the Failed runs section tell which
     for k, p in enumerate(PAIR_NAMES):
         rr = [1] + [2 + 3 * k + j for j in range(3)]
         labels = ["none"] + [f"{CLEARANCE_LEVELS_MM[p][j]:g} mm" for j in range(3)]
@@ -382,13 +455,17 @@ def _write_tables(res: dict, tables: Path) -> None:
     write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "agree", "nrmse", "correlation", "peak_ratio"],
           [[p, d["f_statistic"], d["f_critical"], d["agree"], d["nrmse"], d["correlation"], d["peak_ratio"]]
            for p, d in res["agreement"]["pairs"].items()])
-    pos = res["fruit_force"]["chosen"]["summary"]["positions"]
-    write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
-          [[n, d["z_m"], d["peak_force_N"], *d.get("study_range_N", ["", ""]), d["eq17"]["ripe"], d["eq17"]["unripe"]]
-           for n, d in pos.items()])
-    write("l9_runs.csv", ["run", *[f"{p}_mm" for p in PAIR_NAMES], "efficiency_kg_min", "unripe_rate_pct",
-                          "damage_rate_pct"],
-          [[r["run"], *[r["clearance_mm"][p] for p in PAIR_NAMES], r["efficiency"], r["unripe"], r["damage"]]
-           for r in res["l9"]["runs"]])
+    if res["fruit_force"].get("chosen"):
+        pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+        write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
+              [[n, d["z_m"], d["peak_force_N"], *d.get("study_range_N", ["", ""]), d["eq17"]["ripe"],
+                d["eq17"]["unripe"]] for n, d in pos.items()])
+    if res.get("l9"):
+        write("l9_runs.csv",
+              ["run", *[f"{p}_mm" for p in PAIR_NAMES], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],
+              [[r["run"], *[r["clearance_mm"][p] for p in PAIR_NAMES], r["efficiency"], r["unripe"], r["damage"]]
+               for r in res["l9"]["runs"]])
+    write("failed_runs.csv", ["step", "run", "inputs", "error"],
+          [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.get("failures", [])])
     write("claims.csv", ["id", "verdict", "claim", "detail"],
           [[c["id"], c["verdict"], c["claim"], c["detail"]] for c in res["claims"]])

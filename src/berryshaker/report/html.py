@@ -26,6 +26,11 @@ def _img(path: Path, caption: str) -> str:
             f"<figcaption>{html.escape(caption)}</figcaption></figure>")
 
 
+def _maybe_img(parts: list, path: Path, caption: str) -> None:
+    if Path(path).exists():
+        parts.append(_img(path, caption))
+
+
 def _table(header, rows, left=(0,)) -> str:
     h = "".join(f'<th class="{"l" if i in left else ""}">{html.escape(str(c))}</th>' for i, c in enumerate(header))
     body = []
@@ -66,12 +71,24 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     rows = [[c["id"], c["claim"], _Raw(f'<span class="{_vclass(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
              c["detail"]] for c in res["claims"]]
     parts.append(_table(["#", "claim (STUDY.md sec. 3)", "verdict", "our numbers"], rows, left=(1, 2, 3)))
+    fails = summary.get("failures") or []
+    parts.append("<h2>Failed runs</h2>")
+    if fails:
+        parts.append("<p>These runs failed; the steps that needed them are marked 'not comparable' or left out.</p>")
+        parts.append(_table(["step", "run", "inputs", "error"], [[f["step"], f["run"], f["inputs"], f["error"]]
+                                                                  for f in fails], left=(0, 2, 3)))
+    else:
+        parts.append("<p>None: every run of the study completed.</p>")
     opt = summary["optimum"]
     parts.append("<h2>Recommended clearances</h2>")
-    parts.append(_table(["", *[f"{p} (mm)" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)", "damage (%)"], [
-        [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES], opt["efficiency_kg_min"],
-         opt["unripe_rate_pct"], opt["damage_rate_pct"]],
-        ["study (A1B1C1F3)", 0.25, 0.2, 0.1, 0.2, 3.93, 3.1, 2.8]]))
+    if opt is None:
+        parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
+    else:
+        parts.append(_table(["", *[f"{p} (mm)" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)",
+                             "damage (%)"], [
+            [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES], opt["efficiency_kg_min"],
+             opt["unripe_rate_pct"], opt["damage_rate_pct"]],
+            ["study (A1B1C1F3)", 0.25, 0.2, 0.1, 0.2, 3.93, 3.1, 2.8]]))
     # kinematics
     c = k["cam"]
     parts.append("<h2>1. Kinematics of the drive (eq. 1-3)</h2>")
@@ -103,35 +120,41 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     mb = res["rows"]["multibody"]
     rows = []
     for r in range(1, 17):
+        if str(r) not in mb:
+            continue
         s = mb[str(r)]
         rows.append([r, *[s["clearance_mm"][p] for p in PAIR_NAMES], *[s["collision_force_N"][p]["peak"] for p in PAIR_NAMES],
                      *[s["collision_force_N"][p]["mean"] for p in PAIR_NAMES]])
     parts.append(_table(["row", *[f"{p} mm" for p in PAIR_NAMES], *[f"peak {p} (N)" for p in PAIR_NAMES],
                          *[f"mean {p} (N)" for p in PAIR_NAMES]], rows))
     for i, p in enumerate(PAIR_NAMES):
-        parts.append(_img(figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force"))
+        _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
     parts.append("<h2>4. Comb load moments (rows 1, 14-16; Figs. 22-23)</h2>")
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
                         [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
                           mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
-                         for r in (1, 14, 15, 16)]))
+                         for r in (1, 14, 15, 16) if str(r) in mb]))
     for i, side in enumerate(("left", "right")):
-        parts.append(_img(figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment"))
+        _maybe_img(parts, figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
     # fruit force
-    pos = res["fruit_force"]["chosen"]["summary"]["positions"]
     parts.append("<h2>5. Fruit harvesting force (eq. 16-17; Figs. 24-26)</h2>")
-    parts.append(_table(["fruit", "z (m)", "peak (N)", "study range (N)", "ripe fruit", "unripe fruit"],
-                        [[n, d["z_m"], d["peak_force_N"], "-".join(str(x) for x in d.get("study_range_N", [])),
-                          d["eq17"]["ripe"], d["eq17"]["unripe"]] for n, d in pos.items()]))
-    parts.append(_img(figs / "fig24_26_fruit_force.png", "Fruit force against machine-to-plant distance"))
-    parts.append(_img(figs / "fruit_force_by_level.png", "Peak fruit force at the three level sets"))
+    if res["fruit_force"].get("chosen"):
+        pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+        parts.append(_table(["fruit", "z (m)", "peak (N)", "study range (N)", "ripe fruit", "unripe fruit"],
+                            [[n, d["z_m"], d["peak_force_N"], "-".join(str(x) for x in d.get("study_range_N", [])),
+                              d["eq17"]["ripe"], d["eq17"]["unripe"]] for n, d in pos.items()]))
+    _maybe_img(parts, figs / "fig24_26_fruit_force.png", "Fruit force against machine-to-plant distance")
+    _maybe_img(parts, figs / "fruit_force_by_level.png", "Peak fruit force at the three level sets")
     # L9
     l9 = res["l9"]
     parts.append("<h2>6. Virtual L9 field test (Tables 7-8; Figs. 27-29)</h2>")
+    if l9 is None:
+        l9 = {"runs": [], "responses": {}}
+        parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
     parts.append(_table(["run", *[f"{p} mm" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)", "damage (%)"],
                         [[r["run"], *[r["clearance_mm"][p] for p in PAIR_NAMES], r["efficiency"], r["unripe"], r["damage"]]
                          for r in l9["runs"]]))
-    for name in ("efficiency", "unripe", "damage"):
+    for name in [n for n in ("efficiency", "unripe", "damage") if n in l9["responses"]]:
         ra = l9["responses"][name]
         an = ra["anova"]["factors"]
         parts.append(f"<h3>{name}: range analysis ({'maximise' if ra['maximize'] else 'minimise'})</h3>")
@@ -144,9 +167,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
                      f"{', '.join(reg['aliased_terms'])}.  Fitted instead: the main-effects quadratic model "
                      f"(R² = {reg['main_effects_quadratic']['r2']:.3f}, {reg['main_effects_quadratic']['residual_df']} "
                      "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
-    parts.append(_img(figs / "l9_main_effects.png", "Main effects of the virtual L9"))
+    _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
-        parts.append(_img(figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}"))
+        _maybe_img(parts, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
     # config
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
