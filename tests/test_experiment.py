@@ -229,3 +229,29 @@ def test_doe_virtual_json(fast_machine, tmp_path):
     assert set(s["recommended"]["levels"]) == set("ABCF")
     for name in ("efficiency", "unripe", "damage"):
         assert set(s["responses"][name]["factors"]) == set("ABCF")
+
+
+def test_published_l9_example_yang_el_haik():
+    """K. Yang, B. El-Haik, *Design for Six Sigma: A Roadmap for Product Development*, McGraw-Hill 2003,
+    ch. 13 (Taguchi's orthogonal array experiment, pp. 487 and 491): L9 with A in column 1, B in column 2,
+    column 3 empty (the error) and C in column 4; y = 8, 12, 9, 11, 12, 15, 21, 18, 20 (larger is
+    better).  Published: SS_A = 158.000, SS_B = 2.667, SS_C = 18.667, SS_error = 0.667 (2 df),
+    SS_T = 180; contributions A 87.78 %, C 10.37 %, B 1.48 %; optimum A3, C2 with
+    y_hat = y_A3 + y_C2 - T_bar = 19.67 + 16 - 14 = 21.67."""
+    y = np.array([8, 12, 9, 11, 12, 15, 21, 18, 20], float)
+    names = ["A", "B", "e", "C"]
+    an = anova_pooled(L9, y, names)
+    assert an["pooled"] == ["e"]
+    assert an["factors"]["A"]["ss"] == pytest.approx(158.000, abs=5e-4)
+    assert an["factors"]["B"]["ss"] == pytest.approx(2.667, abs=5e-4)
+    assert an["factors"]["C"]["ss"] == pytest.approx(18.667, abs=5e-4)
+    assert an["error"]["ss"] == pytest.approx(0.667, abs=5e-4) and an["error"]["df"] == 2
+    assert an["total_ss"] == pytest.approx(180.0)
+    contrib = {f: 100 * an["factors"][f]["ss"] / an["total_ss"] for f in "ABC"}
+    assert contrib == pytest.approx({"A": 87.78, "B": 1.48, "C": 10.37}, abs=0.01)
+    ra = range_analysis(L9, y, names, maximize=True)
+    assert ra["factors"]["A"]["best_level"] == 3 and ra["factors"]["C"]["best_level"] == 2
+    assert ra["ranking"][:2] == ["A", "C"]
+    k = ra["factors"]
+    y_hat = k["A"]["level_means"][2] + k["C"]["level_means"][1] - y.mean()
+    assert y_hat == pytest.approx(21.67, abs=0.005)
