@@ -41,8 +41,9 @@ def test_return_starts_at_full_stroke_and_ends_at_zero():
 
 
 @pytest.mark.parametrize("law,peaks", [
-    # Norton, Cam Design and Manufacturing Handbook (2009), Table 3-x: peak coefficients of the
-    # normalised laws: velocity, acceleration, jerk
+    # closed-form maxima of P', |P''|, |P'''| of each normalised law (calculus on the polynomials /
+    # sinusoid): 3-4-5: 15/8, 10/sqrt(3), 60; cycloidal: 2, 2 pi, 4 pi^2; 4-5-6-7: 35/16,
+    # 84 sqrt(5)/25, 105/2 (cf. Norton, Cam Design and Manufacturing Handbook, 2009)
     ("3-4-5", (1.875, 5.7735, 60.0)),
     ("cycloidal", (2.0, 6.2832, 39.478)),
     ("4-5-6-7", (2.1875, 7.5132, 52.5)),

@@ -102,6 +102,8 @@ def test_kinematics_json_matches_closed_form(tmp_path):
     assert s["drive"]["comb_frequency_hz"] == pytest.approx(2.0)
     for name in ("svaj.png", "groove_profile.png", "comb_angles.png"):
         assert (tmp_path / "plots" / name).stat().st_size > 10_000
+    prov = json.loads((tmp_path / "plots" / "provenance.json").read_text())
+    assert prov["version"] and prov["machine_si"]["cam"]["stroke"] == pytest.approx(0.04)
 
 
 def test_cam_profile_exports(tmp_path):

@@ -214,7 +214,7 @@ def test_vector_loops_close_at_every_output_time(machine):
     from berryshaker.kinematics.cam import follower_svaj
 
     s = follower_svaj(phi, c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law)[0]
-    x, thd, u, the = r.state[:, 0], r.state[:, 1], r.state[:, 2], r.state[:, 3]
+    x, thd, the = r.state[:, 0], r.state[:, 1], r.state[:, 3]
     xd, yd = r.machine.shaft_D
     xe, ye = r.machine.shaft_E
     # loop 1 in the frame: pitch point A' = (s0 + s, e); + r_A -> roller A; + l_AB -> B; - r_B -> foot B'

@@ -8,7 +8,6 @@ scripts; errors go to stderr as one clear message with exit code 2 and nothing w
 from __future__ import annotations
 
 import json
-import math
 import sys
 from pathlib import Path
 from typing import Optional
@@ -19,6 +18,7 @@ from rich.table import Table
 
 from . import __version__
 from .errors import BerryshakerError
+from .report.files import write_provenance
 
 app = typer.Typer(
     name="berryshaker",
@@ -97,6 +97,7 @@ def kinematics(
 
             with staged_directory(plot) as stage:
                 write_kinematics_figures(machine, kin, stage)
+                write_provenance(stage, machine)
             summary["plots"] = [str(plot / n) for n in ("svaj.png", "groove_profile.png", "comb_angles.png")]
     except BerryshakerError as exc:
         _fail(exc)
@@ -365,6 +366,7 @@ def compare(
             from .report.plots import plot_time_series
 
             with staged_directory(plot) as stage:
+                write_provenance(stage, machine, clearance_mm=res["clearance_mm"])
                 for p, (a, b) in series.items():
                     plot_time_series(t, {"multibody": a, "MLSD": b}, "collision force (N)",
                                      stage / f"compare_{p}.png", f"Pair {p}: MLSD vs multibody (study Figs. 14-17)")
@@ -447,6 +449,7 @@ def plant(
 
             with staged_directory(plot) as stage:
                 plot_mode_shapes(ma, mf, stage / "mode_shapes.png")
+                write_provenance(stage, machine)
             res["plots"] = [str(plot / "mode_shapes.png")]
     except BerryshakerError as exc:
         _fail(exc)
@@ -495,6 +498,7 @@ def fruit_force_cmd(
             if plot is not None:
                 with staged_directory(plot) as stage:
                     plot_fruit_force(res.distance, res.fruit_force, STUDY_FRUIT_FORCE_N, stage / "fruit_force.png")
+                    write_provenance(stage, res.machine)
                 summary["plots"] = [str(plot / "fruit_force.png")]
             if out_dir is not None:
                 with staged_directory(out_dir) as stage:
@@ -605,6 +609,7 @@ def doe_analyze(
 
             with staged_directory(plot) as stage:
                 plot_main_effects(res, stage / "main_effects.png")
+                write_provenance(stage, results_file=str(results))
                 from .experiment.analysis import quadratic_regression
 
                 for r, y in fr.responses.items():
@@ -643,7 +648,7 @@ def _print_doe(res: dict) -> None:
                   f"main-effects quadratic R² = {reg['main_effects_quadratic']['r2']:.3f} with "
                   f"{reg['main_effects_quadratic']['residual_df']} residual df")
     o = res["optimum"]
-    out.print(f"[bold]weighted optimum[/]: " + " ".join(f"{f}{lv}" for f, lv in o["levels"].items()) + "  predicted "
+    out.print("[bold]weighted optimum[/]: " + " ".join(f"{f}{lv}" for f, lv in o["levels"].items()) + "  predicted "
               + ", ".join(f"{k} {v:.3g}" for k, v in o["values"].items()))
 
 
@@ -678,6 +683,7 @@ def doe_virtual(
             values = np.array([[r["clearance_mm"][p] for p in "ABCF"] for r in res["runs"]])
             with staged_directory(plot) as stage:
                 plot_main_effects(res, stage / "main_effects.png", "Virtual L9 test: main effects")
+                write_provenance(stage, machine)
                 for r in ("efficiency", "unripe", "damage"):
                     y = np.array([run[r] for run in res["runs"]])
                     plot_response_surfaces(values, y, list("ABCF"), quadratic_regression(values, y, list("ABCF")),

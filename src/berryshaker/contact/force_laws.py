@@ -9,7 +9,6 @@ the bodies approach).  Every law returns the magnitude of the repulsive normal f
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 from numba import float64, vectorize
@@ -197,7 +196,7 @@ def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1
 
     References
     ----------
-    P. Flores, M. Machado, M. T. Silva, J. M. Martins, Multibody Syst. Dyn. 25 (2011) 357-375, eq. 33.
+    P. Flores, M. Machado, M. T. Silva, J. M. Martins, Multibody Syst. Dyn. 25 (2011) 357-375.
     """
     e = _check_e(restitution)
     return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),

@@ -13,7 +13,7 @@ def effective_modulus(e1, nu1, e2, nu2):
 
     References
     ----------
-    K. L. Johnson, *Contact Mechanics*, 1985, eq. 4.22.
+    K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, ch. 4.
     """
     for name, val in (("E1", e1), ("E2", e2)):
         if not val > 0:
@@ -79,7 +79,7 @@ def roller_on_flat_stiffness(length):
     References
     ----------
     A. Palmgren, *Ball and Roller Bearing Engineering*, 3rd ed., Burbank, 1959.
-    T. A. Harris, M. N. Kotzalas, *Essential Concepts of Bearing Technology*, 5th ed., 2007, eq. 6.43.
+    T. A. Harris, M. N. Kotzalas, *Essential Concepts of Bearing Technology*, 5th ed., 2007.
     """
     if not length > 0:
         raise ValueError(f"roller length must be > 0, got {length}")

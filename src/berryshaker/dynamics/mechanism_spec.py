@@ -27,7 +27,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import Angle, AngularSpeed, Coefficient, _format_validation_error, _q
+from ..config import Angle, Coefficient, _format_validation_error, _q
 from ..errors import ConfigError
 from ..units import parse_quantity
 

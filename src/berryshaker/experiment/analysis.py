@@ -4,7 +4,6 @@ and the study's eq. 19 quadratic regression handled honestly."""
 from __future__ import annotations
 
 import itertools
-import math
 
 import numpy as np
 import pandas as pd

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .. import __version__
 from ..errors import ConfigError
-from ..units import ENGINEERING_FACTORS
 from .designs import ARRAYS, assign_factors, orthogonal_array
 
 RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
@@ -100,7 +100,8 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
             "th{background:#eee}@media print{body{margin:0}}</style></head><body>"
             f"<h2>{html.escape(title)}</h2><p>Run the tests in the <b>order</b> column.  Fill in either the raw "
             "masses and duration or the ready indexes.</p>"
-            f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table></body></html>")
+            f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+            f"<p style='font-size:small'>berryshaker {html.escape(__version__)}</p></body></html>")
 
 
 @dataclass
@@ -186,5 +187,4 @@ def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, n
         }
 
 
-__all__ = ["ARRAYS", "Factor", "parse_factor", "plan_table", "plan_html", "read_results", "compute_indexes",
-           "ENGINEERING_FACTORS"]
+__all__ = ["ARRAYS", "Factor", "parse_factor", "plan_table", "plan_html", "read_results", "compute_indexes"]

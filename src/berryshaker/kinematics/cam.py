@@ -31,10 +31,11 @@ TWO_PI = 2.0 * math.pi
 def _svaj_unit(x, law):
     """Normalised rise P(x) and its first three derivatives for x in [0, 1].
 
-    3-4-5:   P = 10x^3 - 15x^4 + 6x^5 (study eq. 1; Norton, *Cam Design and Manufacturing
-             Handbook*, 2nd ed., sec. 3.8)
-    cycloidal: P = x - sin(2 pi x)/(2 pi) (Norton sec. 3.5)
-    4-5-6-7: P = 35x^4 - 84x^5 + 70x^6 - 20x^7 (Norton sec. 3.8)
+    3-4-5:   P = 10x^3 - 15x^4 + 6x^5 (study eq. 1)
+    cycloidal: P = x - sin(2 pi x)/(2 pi)
+    4-5-6-7: P = 35x^4 - 84x^5 + 70x^6 - 20x^7
+    (all three: Norton, *Cam Design and Manufacturing Handbook*, 2nd ed., 2009; their boundary
+    conditions and peak coefficients are checked in tests/test_cam.py)
     """
     if x <= 0.0:
         x = 0.0
@@ -250,8 +251,8 @@ def pressure_angle(s, ds, s0, e):
     Notes
     -----
     Derived from the pitch-curve tangent: in the follower frame it is (ds/dphi - e, s0 + s), so the
-    normal makes the angle above with the x axis (Norton 2009, eq. 7.8 for this sign of offset and
-    rotation).  In a groove cam either wall may drive, so both signs matter.
+    normal makes the angle above with the x axis (derived here; Norton 2009 gives the same
+    result for this sign of offset and rotation).  In a groove cam either wall may drive, so both signs matter.
     """
     return np.arctan2(np.asarray(ds, float) - e, s0 + np.asarray(s, float))
 
@@ -265,7 +266,7 @@ def pitch_curve_curvature(s, ds, d2s, s0, e):
     (s'' - (s0+s), 2 s' - e), so kappa = [(s' - e)(2 s' - e) - (s0+s)(s'' - (s0+s))] / |v|^3.
     Check: s = const gives kappa = 1/sqrt((s0+s)^2 + e^2), the circle through the roller centre.
     A groove wall has radius of curvature rho - r_r (inner) and rho + r_r (outer) where rho = 1/kappa > 0;
-    a wall undercuts (cusp, the cutter cannot follow) wherever |rho| <= r_r (Norton 2009, sec. 7.6).
+    a wall undercuts (cusp, the cutter cannot follow) wherever |rho| <= r_r (Norton 2009).
     """
     s = np.asarray(s, float)
     r = s0 + s

@@ -192,7 +192,7 @@ def transmission_angle(theta_4, theta_e):
     Notes
     -----
     mu = acos(cos(theta_4 - theta_E)) with the sign dropped, i.e. the angle between the lines CF and
-    EF (Norton, *Design of Machinery*, 5th ed., sec. 4.10: mu = |th_4 - th_E| folded into 0..pi).
+    EF: mu = |th_4 - th_E| folded into 0..pi (the usual definition, e.g. Norton, *Design of Machinery*).
     A design is usually acceptable for 40 deg <= mu <= 140 deg.
     """
     return np.arccos(np.cos(np.asarray(theta_4, float) - np.asarray(theta_e, float)))

@@ -74,3 +74,8 @@ def provenance(machine=None, **extra) -> dict:
         out["machine_si"] = machine.model_dump(mode="json")
     out.update(extra)
     return out
+
+
+def write_provenance(folder: str | Path, machine=None, **extra) -> None:
+    """``provenance.json`` (package version, resolved config in SI, extra inputs) beside outputs."""
+    write_json_atomic(Path(folder) / "provenance.json", provenance(machine, **extra))

@@ -61,7 +61,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     k = res["kinematics"]
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
-             f"<h1>Blueberry harvester with transmission clearance: the reference study, reproduced</h1>",
+             "<h1>Blueberry harvester with transmission clearance: the reference study, reproduced</h1>",
              f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary['version'])}. "
              f"Total time {summary['timings_s']['total']:.1f} s; {summary['runs']['runs']} runs "
              f"({summary['runs']['cached']} from the cache).  Values marked [assumed] in the configuration are "
