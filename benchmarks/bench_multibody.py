@@ -20,10 +20,10 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "src"))
 
 from berryshaker.config import reference_machine  # noqa: E402
-from berryshaker.dynamics.engine import initial_state, simulate_mechanism  # noqa: E402
-from berryshaker.dynamics.harvester import simulate_harvester_multibody  # noqa: E402
-from berryshaker.dynamics.mechanism_spec import load_mechanism  # noqa: E402
-from berryshaker.dynamics.mlsd import simulate_mlsd  # noqa: E402
+from berryshaker.multibody.engine import initial_state, simulate_mechanism  # noqa: E402
+from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody  # noqa: E402
+from berryshaker.multibody.spec import load_mechanism  # noqa: E402
+from berryshaker.drives.groove_cam.mlsd import simulate_mlsd  # noqa: E402
 
 TARGET = 2e-4  # relative error of the first-impact peak
 DURATION = 0.05
@@ -84,7 +84,7 @@ def main() -> None:
     print(f"\nharvester, 2 cam revolutions ({2 * period:.2f} s), four clearances, one core:")
     print(f"  multibody: {w_mb * 1e3:.0f} ms per run = {1 / w_mb:.1f} simulations/s (target < 500 ms)")
     print(f"  MLSD:      {w_ml * 1e3:.0f} ms per run = {1 / w_ml:.1f} simulations/s")
-    print(f"  (with {os.cpu_count()} cores, berryshaker.dynamics.parallel.run_many multiplies the rate)")
+    print(f"  (with {os.cpu_count()} cores, berryshaker.runs.parallel.run_many multiplies the rate)")
 
 
 if __name__ == "__main__":

@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
-from berryshaker.dynamics.harvester import simulate_harvester_multibody
+from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
 from berryshaker.experiment.agreement import curve_agreement, f_critical, f_statistic
 
 from test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics

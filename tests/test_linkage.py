@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from berryshaker.kinematics.mechanism import check_machine, cycle_kinematics, mid_stroke_angles
+from berryshaker.drives.groove_cam.kinematics import check_machine, cycle_kinematics, mid_stroke_angles
 
 
 def test_vector_loops_close_to_machine_precision(machine):

@@ -10,10 +10,10 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.config import machine_from_dict
 from berryshaker.contact.friction import coulomb_friction
-from berryshaker.dynamics.mlsd import simulate_mlsd
+from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.clearance_rows import clearance_row, parse_clearance_spec
-from berryshaker.kinematics.mechanism import cycle_kinematics, mid_stroke_angles
+from berryshaker.drives.groove_cam.kinematics import cycle_kinematics, mid_stroke_angles
 
 ZERO = dict(A=0.0, B=0.0, C=0.0, F=0.0)
 
@@ -176,7 +176,7 @@ def test_single_impact_of_the_backlash_link():
     """Undamped linear spring: a mass m arriving at v reaches F = v sqrt(K m) (energy: m v^2/2 = F^2/2K)."""
     from scipy.integrate import solve_ivp
 
-    from berryshaker.dynamics.mlsd import _backlash
+    from berryshaker.drives.groove_cam.mlsd import _backlash
 
     k, m, v, c = 1e8, 2.0, 0.05, 0.1e-3
     sol = solve_ivp(lambda t, y: [y[1], _backlash(y[0], y[1], c, k, 0.0) / m], [0, 6e-3], [0.0, v],

@@ -9,8 +9,8 @@ import pytest
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
-from berryshaker.dynamics.engine import initial_state, simulate_mechanism
-from berryshaker.dynamics.mechanism_spec import load_mechanism, mechanism_from_dict
+from berryshaker.multibody.engine import initial_state, simulate_mechanism
+from berryshaker.multibody.spec import load_mechanism, mechanism_from_dict
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
 
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml"
@@ -193,7 +193,7 @@ def test_simulate_mechanism_cli_json(tmp_path):
 
 
 def test_parallel_runs_equal_serial(machine):
-    from berryshaker.dynamics.parallel import mlsd_summary, run_many
+    from berryshaker.runs.parallel import mlsd_summary, run_many
 
     jobs = [dict(machine_data=machine.model_dump(), clearance={"A": a}, revolutions=2) for a in (0.0, 0.25e-3, 0.5e-3)]
     jobs.append(dict(machine_data=machine.model_dump(), clearance={"A": -1.0}, revolutions=2))

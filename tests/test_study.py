@@ -17,7 +17,7 @@ from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
-from berryshaker.sweep import SweepRunner, model_run, parse_param, sample_params
+from berryshaker.runs.runner import SweepRunner, model_run, parse_param, sample_params
 
 runner_cli = CliRunner()
 
@@ -170,7 +170,7 @@ def test_repeated_study_comes_from_the_cache(study_out, fast_config, tmp_path):
 
 
 def test_failed_study_leaves_an_existing_folder_untouched(fast_config, tmp_path, monkeypatch):
-    import berryshaker.study as st
+    import berryshaker.study.pipeline as st
 
     out = tmp_path / "out"
     out.mkdir()
@@ -222,7 +222,7 @@ def test_report_renders_in_headless_chromium(study_out):
 
 def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tmp_path, monkeypatch):
     """A run that fails inside a sweep is recorded with its error; the study finishes and lists it."""
-    import berryshaker.study as st
+    import berryshaker.study.pipeline as st
 
     real = st.multibody_row
 

@@ -6,7 +6,7 @@ model stores SI floats.  The reference machine of STUDY.md section 4 ships as
 annotated there as taken from the study or assumed by us.
 
 Geometric feasibility (the linkage assembles over the whole cycle, the cam does not undercut) needs the
-kinematics and is checked by :func:`berryshaker.kinematics.mechanism.check_machine`, which
+kinematics and is checked by :func:`berryshaker.drives.groove_cam.kinematics.check_machine`, which
 ``berryshaker config validate`` and every simulation call before doing any work.
 """
 
@@ -20,8 +20,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from .errors import ConfigError
-from .units import parse_quantity
+from berryshaker.errors import ConfigError
+from berryshaker.units import parse_quantity
 
 PAIR_NAMES = ("A", "B", "C", "F")
 
@@ -350,7 +350,7 @@ def machine_from_dict(data: dict[str, Any], source: str = "<dict>") -> Machine:
 
 def reference_toml_text() -> str:
     """Text of the built-in reference machine TOML (with its source annotations)."""
-    return resources.files("berryshaker.data").joinpath("reference_machine.toml").read_text("utf-8")
+    return resources.files("berryshaker.drives.groove_cam").joinpath("reference.toml").read_text("utf-8")
 
 
 def load_machine(path: str | Path | None = None) -> Machine:
@@ -376,7 +376,7 @@ def reference_machine() -> Machine:
 
 def machine_table(machine: Machine) -> list[tuple[str, str]]:
     """(dotted key, value in engineering units) for every field of the machine, in file order."""
-    from .units import ENGINEERING_FACTORS
+    from berryshaker.units import ENGINEERING_FACTORS
 
     rows: list[tuple[str, str]] = []
 

@@ -13,7 +13,7 @@ import functools
 import math
 import re
 
-from .errors import ConfigError
+from berryshaker.errors import ConfigError
 
 #: dimension name -> (pint dimensionality string, SI unit name used in messages and printing)
 DIMENSIONS: dict[str, tuple[str, str]] = {

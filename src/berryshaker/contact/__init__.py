@@ -3,7 +3,7 @@
 The ``*_kernel`` functions are numba ufuncs, callable from compiled code with scalars.
 """
 
-from .force_laws import (
+from berryshaker.contact.force_laws import (
     adams_step,
     flores,
     hertz,
@@ -12,9 +12,9 @@ from .force_laws import (
     lankarani_nikravesh,
     mlsd,
 )
-from .friction import coulomb_friction, viscous_friction
-from .joints import ContactKinematics, closest_point_on_curve, point_line_clearance, revolute_clearance
-from .stiffness import effective_modulus, pin_in_bore_stiffness, roller_on_flat_stiffness
+from berryshaker.contact.friction import coulomb_friction, viscous_friction
+from berryshaker.contact.joints import ContactKinematics, closest_point_on_curve, point_line_clearance, revolute_clearance
+from berryshaker.contact.stiffness import effective_modulus, pin_in_bore_stiffness, roller_on_flat_stiffness
 
 __all__ = [
     "adams_step", "flores", "hertz", "hunt_crossley", "impact", "lankarani_nikravesh", "mlsd",

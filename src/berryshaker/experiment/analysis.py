@@ -8,7 +8,7 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from ..errors import ConfigError
+from berryshaker.errors import ConfigError
 
 
 def range_analysis(levels: np.ndarray, y: np.ndarray, factor_names: list[str], maximize: bool) -> dict:

@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import re
 
-from ..config import PAIR_NAMES
-from ..errors import ConfigError
-from ..units import parse_quantity
+from berryshaker.config import PAIR_NAMES
+from berryshaker.errors import ConfigError
+from berryshaker.units import parse_quantity
 
 CLEARANCE_LEVELS_MM: dict[str, tuple[float, float, float]] = {
     "A": (0.25, 0.50, 0.75),

@@ -15,7 +15,7 @@ import itertools
 
 import numpy as np
 
-from ..errors import ConfigError
+from berryshaker.errors import ConfigError
 
 ARRAYS = {
     "L4": "L4(2^3)",

@@ -10,9 +10,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .. import __version__
-from ..errors import ConfigError
-from .designs import ARRAYS, assign_factors, orthogonal_array
+from berryshaker import __version__
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.designs import ARRAYS, assign_factors, orthogonal_array
 
 RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
 INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
@@ -51,7 +51,7 @@ def parse_factor(spec: str) -> Factor:
     if len(levels) < 2:
         raise ConfigError(f"--factor {spec!r}: a factor needs at least two levels")
     if unit and unit != "%":
-        from ..units import _registry
+        from berryshaker.units import _registry
 
         try:
             _registry().Unit(unit)
@@ -154,7 +154,7 @@ def read_results(path_or_text, responses: list[str]) -> FieldResults:
     if np.isnan(levels).any():
         i, j = np.argwhere(np.isnan(levels))[0]
         raise ConfigError(f"results CSV run {i + 1}, column {level_cols[j]!r}: empty level")
-    from .designs import is_orthogonal
+    from berryshaker.experiment.designs import is_orthogonal
 
     if not is_orthogonal(levels.astype(int)):
         raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design; "

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from ..config import PAIR_NAMES, Machine
-from .clearance_rows import CLEARANCE_LEVELS_MM
-from .designs import orthogonal_array
+from berryshaker.config import PAIR_NAMES, Machine
+from berryshaker.experiment.clearance_rows import CLEARANCE_LEVELS_MM
+from berryshaker.experiment.designs import orthogonal_array
 
 STUDY_RECOMMENDED = {"A": 1, "B": 1, "C": 1, "F": 3}  # A1B1C1F3 [study]
 SENSES = {"efficiency": True, "unripe": False, "damage": False}
@@ -20,9 +20,9 @@ def l9_runs() -> list[dict[str, float]]:
 def virtual_orthogonal_test(machine: Machine, runner=None) -> dict:
     """Run the study's L9 through the virtual harvest and analyse it like field data.
 
-    ``runner`` is a :class:`berryshaker.sweep.SweepRunner` (default: local processes, cached).
+    ``runner`` is a :class:`berryshaker.runs.runner.SweepRunner` (default: local processes, cached).
     """
-    from ..study import virtual_l9
-    from ..sweep import SweepRunner
+    from berryshaker.study.pipeline import virtual_l9
+    from berryshaker.runs.runner import SweepRunner
 
     return virtual_l9(machine, runner or SweepRunner(progress=False))

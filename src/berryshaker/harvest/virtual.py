@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from ..config import Machine, machine_from_dict
-from ..plant.response import RIPE_BOND_N, UNRIPE_BOND_N
+from berryshaker.config import Machine, machine_from_dict
+from berryshaker.plant.response import RIPE_BOND_N, UNRIPE_BOND_N
 
 STUDY_TARGETS = {"efficiency_kg_min": 3.93, "unripe_rate_pct": 3.1, "damage_rate_pct": 2.8}
 Z_GRID = np.linspace(0.0, 1.0, 41)
@@ -37,7 +37,7 @@ FRUIT_SAMPLES_PER_BUSH = 200  # sampled fruit per bush; each stands for yield/(2
 
 def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
     """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class."""
-    from ..plant.coupled import simulate_fruit_force
+    from berryshaker.plant.coupled import simulate_fruit_force
 
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale

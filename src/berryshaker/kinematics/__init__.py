@@ -1,6 +1,6 @@
 """Kinematics of the harvester drive: groove cam (study eq. 1-2) and double rocker (eq. 3)."""
 
-from .cam import (
+from berryshaker.kinematics.cam import (
     FOLLOWER_LAWS,
     follower_law,
     follower_svaj,
@@ -9,7 +9,7 @@ from .cam import (
     pitch_curve_curvature,
     pressure_angle,
 )
-from .linkage import left_comb_angle, four_bar_position, four_bar_rates, transmission_angle
+from berryshaker.kinematics.linkage import left_comb_angle, four_bar_position, four_bar_rates, transmission_angle
 
 __all__ = [
     "FOLLOWER_LAWS",

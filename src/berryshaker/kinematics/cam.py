@@ -19,7 +19,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..errors import GeometryError
+from berryshaker.errors import GeometryError
 
 #: follower law name -> numeric code used by the compiled kernels
 FOLLOWER_LAWS = {"3-4-5": 0, "cycloidal": 1, "4-5-6-7": 2}

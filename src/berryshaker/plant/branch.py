@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ConfigError
+from berryshaker.errors import ConfigError
 
 
 def taper_coefficient(root_diameter, tip_diameter):

@@ -17,8 +17,8 @@ import math
 
 from scipy import optimize
 
-from ..config import Machine, machine_from_dict
-from .coupled import simulate_fruit_force
+from berryshaker.config import Machine, machine_from_dict
+from berryshaker.plant.coupled import simulate_fruit_force
 
 
 def calibrate_contact_damping(machine: Machine, target_end_force: float = 1.0, bracket=(2.0, 40.0),

@@ -10,14 +10,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..config import Machine
-from ..dynamics import multibody as mb
-from ..dynamics.engine import MultibodyResult, simulate_mechanism
-from ..dynamics.harvester import harvester_mechanism
-from ..dynamics.mechanism_spec import mechanism_from_dict
-from ..errors import ConfigError
-from ..kinematics.mechanism import mid_stroke_angles
-from .response import harvest_verdict
+from berryshaker.config import Machine
+from berryshaker.multibody import kernel as mb
+from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
+from berryshaker.drives.groove_cam.mechanism import harvester_mechanism
+from berryshaker.multibody.spec import mechanism_from_dict
+from berryshaker.errors import ConfigError
+from berryshaker.drives.groove_cam.kinematics import mid_stroke_angles
+from berryshaker.plant.response import harvest_verdict
 
 #: the study's fruit-force ranges (N) at the root, middle and end of the branch [study, claim 5]
 STUDY_FRUIT_FORCE_N = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 1.2)}
@@ -28,7 +28,7 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
     if clearance:
-        from ..dynamics.mlsd import validate_clearances
+        from berryshaker.drives.groove_cam.mlsd import validate_clearances
 
         machine = machine.with_clearances(validate_clearances(machine, clearance))
     pl = machine.plant

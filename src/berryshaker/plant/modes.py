@@ -30,8 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import linalg, optimize, special
 
-from ..errors import ConfigError
-from .branch import Branch
+from berryshaker.errors import ConfigError
+from berryshaker.plant.branch import Branch
 
 
 @dataclass(frozen=True)

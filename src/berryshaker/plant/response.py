@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import signal
 
-from ..errors import ConfigError
-from .modes import Modes
+from berryshaker.errors import ConfigError
+from berryshaker.plant.modes import Modes
 
 #: bond force ranges of eq. 17 [study]: ripe fruit F_a = 0.26-0.30 N, unripe fruit F_b = 1.0-3.6 N
 RIPE_BOND_N = (0.26, 0.30)

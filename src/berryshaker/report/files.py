@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 from typing import Iterator
 
-from .. import __version__
+from berryshaker import __version__
 
 
 def _umask() -> int:

@@ -7,7 +7,7 @@ import base64
 import html
 from pathlib import Path
 
-from ..config import PAIR_NAMES, machine_table
+from berryshaker.config import PAIR_NAMES, machine_table
 
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;

@@ -175,7 +175,7 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "") -> None:
 
 def plot_response_surfaces(values, y, names, reg, response: str, path: Path) -> None:
     """Response surfaces of the identifiable main-effects quadratic model for factor pairs (Figs. 27-29)."""
-    from ..experiment.analysis import predict_main_quadratic
+    from berryshaker.experiment.analysis import predict_main_quadratic
 
     plt = _plt()
     pairs = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)][: max(1, len(names) * (len(names) - 1) // 2)]
@@ -224,7 +224,7 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
 
 def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     """SVAJ, groove profile and comb-angle figures of a machine's drive into ``folder``; returns names."""
-    from ..kinematics.mechanism import cam_groove, mid_stroke_angles
+    from berryshaker.drives.groove_cam.kinematics import cam_groove, mid_stroke_angles
 
     plot_svaj(kin, folder / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
     _, pitch, inner, outer = cam_groove(machine)

@@ -24,7 +24,7 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
     spec : MechanismSpec
         The slider-crank description (bodies crank, rod, slider; joint rod_slider).
     y0 : ndarray
-        Initial (q, q') from :func:`berryshaker.dynamics.engine.initial_state`.
+        Initial (q, q') from :func:`berryshaker.multibody.engine.initial_state`.
     duration, step : float
         End time and fixed time step (s).
     """
@@ -33,7 +33,7 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
                                       ObjectConnectorCartesianSpringDamper, ObjectGround, ObjectJointRevolute2D,
                                       ObjectRigidBody2D)
 
-    from ..contact.stiffness import pin_in_bore_stiffness
+    from berryshaker.contact.stiffness import pin_in_bore_stiffness
 
     bodies = {b.name: b for b in spec.bodies}
     joint = next(j for j in spec.joints if j.name == "rod_slider")

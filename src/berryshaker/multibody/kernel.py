@@ -20,10 +20,10 @@ import math
 import numpy as np
 from numba import njit
 
-from ..contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
-from ..contact.friction import coulomb_friction_kernel
-from ..kinematics.cam import _follower_svaj_scalar
-from .integrators import DOPRI_A, DOPRI_C, DOPRI_E
+from berryshaker.contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
+from berryshaker.contact.friction import coulomb_friction_kernel
+from berryshaker.kinematics.cam import _follower_svaj_scalar
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
 
 CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 3, 4, 5
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}

@@ -27,9 +27,9 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from ..config import Angle, Coefficient, _format_validation_error, _q
-from ..errors import ConfigError
-from ..units import parse_quantity
+from berryshaker.config import Angle, Coefficient, _format_validation_error, _q
+from berryshaker.errors import ConfigError
+from berryshaker.units import parse_quantity
 
 Mass = Annotated[float, _q("mass"), Field(gt=0)]
 Inertia = Annotated[float, _q("inertia"), Field(gt=0)]
@@ -67,7 +67,7 @@ def _accel(v):
     out = []
     for c in v:
         if isinstance(c, str):
-            from ..units import _registry
+            from berryshaker.units import _registry
 
             try:
                 out.append(float(_registry().Quantity(c).to("m/s**2").magnitude))
@@ -267,7 +267,7 @@ class MechanismSpec(_Strict):
         return self
 
 
-from ..config import BranchSpec as BranchSpecRef  # noqa: E402
+from berryshaker.config import BranchSpec as BranchSpecRef  # noqa: E402
 
 PlantCouplingSpec.model_rebuild()
 MechanismSpec.model_rebuild()

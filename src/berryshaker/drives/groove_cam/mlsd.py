@@ -29,12 +29,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..config import PAIR_NAMES, Machine
-from ..contact.force_laws import mlsd_kernel
-from ..contact.friction import coulomb_friction_kernel
-from .integrators import DOPRI_A, DOPRI_C, DOPRI_E
-from ..errors import ConfigError, SimulationError
-from ..kinematics.mechanism import (
+from berryshaker.config import PAIR_NAMES, Machine
+from berryshaker.contact.force_laws import mlsd_kernel
+from berryshaker.contact.friction import coulomb_friction_kernel
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
+from berryshaker.errors import ConfigError, SimulationError
+from berryshaker.drives.groove_cam.kinematics import (
     G_E,
     G_GAMMA,
     G_LAB,

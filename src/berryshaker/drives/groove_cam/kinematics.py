@@ -14,9 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..config import Machine
-from ..errors import GeometryError
-from .cam import (
+from berryshaker.config import Machine
+from berryshaker.errors import GeometryError
+from berryshaker.kinematics.cam import (
     FOLLOWER_LAWS,
     _follower_svaj_scalar,
     groove_profile,
@@ -24,7 +24,7 @@ from .cam import (
     pitch_curve_curvature,
     pressure_angle,
 )
-from .linkage import _four_bar_scalar, _left_comb_scalar, transmission_angle
+from berryshaker.kinematics.linkage import _four_bar_scalar, _left_comb_scalar, transmission_angle
 
 # indices into the geometry vector
 G_LAW, G_H, G_RISE, G_FAR, G_RET, G_S0, G_E, G_LAB, G_XD, G_YD, G_XE, G_YE = range(12)
@@ -124,7 +124,7 @@ def cycle_kinematics(machine: Machine, n: int = 3601) -> CycleKinematics:
     n : int
         Number of samples over [0, 2 pi] (both ends included).
     """
-    from .cam import follower_svaj
+    from berryshaker.kinematics.cam import follower_svaj
 
     g = geometry_vector(machine)
     c = machine.cam
@@ -148,7 +148,7 @@ def cycle_kinematics(machine: Machine, n: int = 3601) -> CycleKinematics:
 
 def cam_groove(machine: Machine, n: int = 721):
     """Pitch curve and groove walls of the machine's cam in the cam frame (m), closed (last = first)."""
-    from .cam import follower_svaj
+    from berryshaker.kinematics.cam import follower_svaj
 
     c = machine.cam
     phi = np.linspace(0.0, 2 * math.pi, n)

@@ -1,7 +1,7 @@
 """The whole reference study in one call: kinematics, MLSD vs multibody agreement, clearance sweeps, comb
 moments, fruit force, the virtual L9 field test and a claims table, written as a self-contained report.
 
-Every multi-run step goes through :class:`berryshaker.sweep.SweepRunner` (cached, resumable, local
+Every multi-run step goes through :class:`berryshaker.runs.runner.SweepRunner` (cached, resumable, local
 processes or a Dask cluster).  Run functions here are module-level and return JSON-compatible values.
 """
 
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .config import PAIR_NAMES, Machine, machine_from_dict
-from .experiment.clearance_rows import CLEARANCE_LEVELS_MM, clearance_row
+from berryshaker import __version__
+from berryshaker.config import PAIR_NAMES, Machine, machine_from_dict
+from berryshaker.experiment.clearance_rows import CLEARANCE_LEVELS_MM, clearance_row
 
 STUDY_FIELD = {"efficiency_kg_min": 3.93, "unripe_rate_pct": 3.1, "damage_rate_pct": 2.8}
 STUDY_F = {"A": (2.3153, 3.20), "B": (2.5109, 3.15), "C": (2.1335, 3.089), "F": (4.6904, 3.092)}
@@ -28,19 +28,19 @@ STUDY_BEST = {"efficiency": "A1B1C1F3", "unripe": "A1B1C2F1", "damage": "A1B1C2F
 
 # ---- run functions (executed by the sweep runner, possibly on other machines) ----------------------
 def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
-    from .dynamics.harvester import simulate_harvester_multibody
+    from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
 
     return simulate_harvester_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions)[1]
 
 
 def mlsd_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
-    from .dynamics.mlsd import simulate_mlsd
+    from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 
     return simulate_mlsd(machine_from_dict(machine_data), clearance, revolutions=revolutions).summary()
 
 
 def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
-    from .plant.coupled import simulate_fruit_force
+    from berryshaker.plant.coupled import simulate_fruit_force
 
     r = simulate_fruit_force(machine_from_dict(machine_data), clearance)
     step = max(1, len(r.t) // 4000)
@@ -50,7 +50,7 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
 
 
 def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
-    from .harvest.virtual import acceleration_envelope
+    from berryshaker.harvest.virtual import acceleration_envelope
 
     return acceleration_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
 
@@ -62,10 +62,10 @@ def _code(levels: dict) -> str:
 
 def virtual_l9(machine: Machine, runner) -> dict:
     """The study's L9 through the virtual harvest (envelopes via the sweep runner) and its analysis."""
-    from .experiment.analysis import analyze
-    from .experiment.designs import orthogonal_array
-    from .experiment.virtual_test import DEFAULT_WEIGHTS, SENSES, STUDY_RECOMMENDED, l9_runs
-    from .harvest.virtual import harvest_indexes, sample_population
+    from berryshaker.experiment.analysis import analyze
+    from berryshaker.experiment.designs import orthogonal_array
+    from berryshaker.experiment.virtual_test import DEFAULT_WEIGHTS, SENSES, STUDY_RECOMMENDED, l9_runs
+    from berryshaker.harvest.virtual import harvest_indexes, sample_population
 
     runs = l9_runs()
     classes = machine.harvest.branch_classes
@@ -225,11 +225,11 @@ def _claim8(res):
 
 def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
     """Run every step, write the report and tables into ``out_dir`` (replaced atomically), return summary."""
-    from .dynamics.harvester import simulate_harvester_multibody
-    from .dynamics.mlsd import simulate_mlsd
-    from .experiment.agreement import curve_agreement
-    from .kinematics.mechanism import check_machine, kinematics_summary
-    from .report import plots as P
+    from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
+    from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
+    from berryshaker.experiment.agreement import curve_agreement
+    from berryshaker.drives.groove_cam.kinematics import check_machine, kinematics_summary
+    from berryshaker.report import plots as P
 
     def say(msg):
         if console is not None:
@@ -241,7 +241,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
     parent = out_dir.resolve().parent
     parent.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.staging.", dir=parent))
-    from .report.files import _umask
+    from berryshaker.report.files import _umask
 
     os.chmod(stage, 0o777 & ~_umask())
     figs = stage / "figures"
@@ -313,7 +313,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
                                                 or "as configured"))
         res["fruit_force"] = {"chosen": ff[0], "rows": {str(r): v for r, v in zip((14, 15, 16), ff[1:])
                                                         if v is not None}}
-        from .plant.coupled import STUDY_FRUIT_FORCE_N
+        from berryshaker.plant.coupled import STUDY_FRUIT_FORCE_N
 
         if ff[0] is not None:
             P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
@@ -327,7 +327,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
         # 6 virtual L9
         t0 = time.perf_counter()
         say("virtual L9 field test")
-        from .errors import SimulationError
+        from berryshaker.errors import SimulationError
 
         try:
             l9 = virtual_l9(machine, runner)
@@ -338,7 +338,7 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
         if l9 is not None:
             values = np.array([[r["clearance_mm"][p] for p in PAIR_NAMES] for r in l9["runs"]])
             P.plot_main_effects(l9, figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)")
-            from .experiment.analysis import quadratic_regression
+            from berryshaker.experiment.analysis import quadratic_regression
 
             for k, name in enumerate(("efficiency", "unripe", "damage")):
                 y = np.array([r[name] for r in l9["runs"]])
@@ -366,8 +366,8 @@ def run_study(machine: Machine, out_dir: Path, runner, console=None) -> dict:
             "runs": dict(runner.stats),
         }
         _write_tables(res, tables)
-        from .report.files import write_json_atomic, write_text_atomic
-        from .report.html import study_report
+        from berryshaker.report.files import write_json_atomic, write_text_atomic
+        from berryshaker.report.html import study_report
 
         write_json_atomic(stage / "summary.json", {**summary, "results": _strip(res),
                                                    "machine_si": machine.model_dump(mode="json")})
@@ -404,7 +404,7 @@ def replace_directory(stage: Path, final: Path) -> None:
 
 
 def _plot_rows(rows: dict, figs: Path) -> None:
-    from .report import plots as P
+    from berryshaker.report import plots as P
 
     mb, ml = rows["multibody"], rows["mlsd"]
     if not all(str(r) in mb and str(r) in ml for r in range(1, 17)):
@@ -428,7 +428,7 @@ def _plot_rows(rows: dict, figs: Path) -> None:
 
 
 def _write_tables(res: dict, tables: Path) -> None:
-    from .report.files import write_text_atomic
+    from berryshaker.report.files import write_text_atomic
 
     def write(name, header, rows):
         buf = io.StringIO()

@@ -14,10 +14,10 @@ import math
 
 import numpy as np
 
-from ..config import PAIR_NAMES, Machine
-from ..kinematics.mechanism import check_machine, geometry_vector, ideal_state, mid_stroke_angles
-from .engine import MultibodyResult, simulate_mechanism
-from .mechanism_spec import MechanismSpec, mechanism_from_dict
+from berryshaker.config import PAIR_NAMES, Machine
+from berryshaker.drives.groove_cam.kinematics import check_machine, geometry_vector, ideal_state, mid_stroke_angles
+from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
+from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 CAM_MASS = 8.0  # kg [assumed]; the cam is driven at constant speed, so its mass only loads its bearing
 
@@ -130,7 +130,7 @@ def harvester_summary(machine: Machine, result: MultibodyResult) -> dict:
 def simulate_harvester_multibody(machine: Machine, clearance: dict[str, float] | None = None,
                                  revolutions: int = 2, rtol: float = 1e-6, output_step: float = 1e-4,
                                  law: str = "impact") -> tuple[MultibodyResult, dict]:
-    from .mlsd import validate_clearances
+    from berryshaker.drives.groove_cam.mlsd import validate_clearances
 
     sizes = validate_clearances(machine, clearance or {})
     machine = machine.with_clearances(sizes)

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from . import __version__
-from .report.files import write_text_atomic
+from berryshaker import __version__
+from berryshaker.report.files import write_text_atomic
 
 
 def default_cache_dir() -> Path:
@@ -128,7 +128,7 @@ class SweepRunner:
 
     def values(self, fn: Callable, kwargs_list: list[dict], label: str = "runs") -> list:
         """Like map, but raise on the first failed run (for steps that cannot do without every run)."""
-        from .errors import SimulationError
+        from berryshaker.errors import SimulationError
 
         out = self.map(fn, kwargs_list, label)
         bad = [r for r in out if r.error]
@@ -209,13 +209,13 @@ class SweepParam:
 def _unit_factor(unit: str) -> float:
     if not unit:
         return 1.0
-    from .units import _registry
+    from berryshaker.units import _registry
 
     ureg = _registry()
     try:
         return float(ureg.Quantity(1.0, unit.replace("r/min", "rpm")).to_base_units().magnitude)
     except Exception:  # noqa: BLE001
-        from .errors import ConfigError
+        from berryshaker.errors import ConfigError
 
         raise ConfigError(f"--param: unknown unit {unit!r}") from None
 
@@ -225,7 +225,7 @@ def parse_param(spec: str) -> SweepParam:
     ``clearance.C.size=0.1+-0.02mm`` (normal: mean +- standard deviation, for Monte Carlo tolerances)."""
     import re
 
-    from .errors import ConfigError
+    from berryshaker.errors import ConfigError
 
     if "=" not in spec:
         raise ConfigError(f"--param {spec!r}: expected KEY=LO..HI[unit], KEY=v1,v2[unit] or KEY=MEAN+-SD[unit]")
@@ -262,7 +262,7 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
     import numpy as np
     from scipy.stats import qmc
 
-    from .errors import ConfigError
+    from berryshaker.errors import ConfigError
 
     if method == "grid":
         axes = []
@@ -296,8 +296,8 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
 
 def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3) -> dict:
     """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise."""
-    from .config import machine_from_dict
-    from .errors import ConfigError
+    from berryshaker.config import machine_from_dict
+    from berryshaker.errors import ConfigError
 
     data = json.loads(json.dumps(machine_data))
     for key, value in overrides.items():
@@ -312,10 +312,10 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
         node[parts[-1]] = value
     machine = machine_from_dict(data, "(sweep point)")
     if model == "mlsd":
-        from .dynamics.mlsd import simulate_mlsd
+        from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 
         return simulate_mlsd(machine, {}, revolutions=revolutions).summary()
-    from .dynamics.harvester import simulate_harvester_multibody
+    from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
 
     return simulate_harvester_multibody(machine, {}, revolutions=revolutions)[1]
 

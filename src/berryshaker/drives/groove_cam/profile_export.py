@@ -9,9 +9,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..config import Machine
-from ..report.files import write_text_atomic
-from .mechanism import cam_groove
+from berryshaker.config import Machine
+from berryshaker.report.files import write_text_atomic
+from berryshaker.drives.groove_cam.kinematics import cam_groove
 
 
 def groove_csv_text(machine: Machine, n: int = 721) -> str:

@@ -1,4 +1,4 @@
-"""Running a mechanism description through the compiled multibody core (berryshaker.dynamics.multibody)."""
+"""Running a mechanism description through the compiled multibody core (berryshaker.multibody.kernel)."""
 
 from __future__ import annotations
 
@@ -9,11 +9,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contact.stiffness import pin_in_bore_stiffness
-from ..errors import ConfigError, GeometryError, SimulationError
-from ..kinematics.cam import FOLLOWER_LAWS
-from . import multibody as mb
-from .mechanism_spec import MechanismSpec
+from berryshaker.contact.stiffness import pin_in_bore_stiffness
+from berryshaker.errors import ConfigError, GeometryError, SimulationError
+from berryshaker.kinematics.cam import FOLLOWER_LAWS
+from berryshaker.multibody import kernel as mb
+from berryshaker.multibody.spec import MechanismSpec
 
 
 @dataclass
@@ -34,8 +34,8 @@ class CompiledMechanism:
 
 @functools.lru_cache(maxsize=32)
 def _cached_modes(key: tuple, n_modes: int):
-    from ..plant.branch import Branch
-    from ..plant.modes import analytic_modes
+    from berryshaker.plant.branch import Branch
+    from berryshaker.plant.modes import analytic_modes
 
     return analytic_modes(Branch(*key), n_modes)
 
@@ -219,7 +219,7 @@ def initial_state(spec: MechanismSpec) -> np.ndarray:
         for d in data["drivers"]:
             if d["type"] == "torque":
                 d["type"] = "angle"
-        from .mechanism_spec import mechanism_from_dict
+        from berryshaker.multibody.spec import mechanism_from_dict
 
         ideal = compile_mechanism(mechanism_from_dict(data), ideal_clearances=True)
     state, work = _state_and_work(ideal)

@@ -16,9 +16,9 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
-from . import __version__
-from .errors import BerryshakerError
-from .report.files import write_provenance
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+from berryshaker.report.files import write_provenance
 
 app = typer.Typer(
     name="berryshaker",
@@ -49,7 +49,7 @@ def _fail(exc: Exception) -> None:
 
 
 def _load(config: Optional[Path]):
-    from .config import load_machine
+    from berryshaker.config import load_machine
 
     return load_machine(config)
 
@@ -84,7 +84,7 @@ def kinematics(
     Checks that the four-bar assembles over the whole cycle and the groove does not undercut.
     """
     try:
-        from .kinematics.mechanism import check_machine, kinematics_summary
+        from berryshaker.drives.groove_cam.kinematics import check_machine, kinematics_summary
 
         machine = _load(config)
         kin = check_machine(machine, allow_undercut=allow_undercut)
@@ -92,8 +92,8 @@ def kinematics(
         summary["machine"] = machine.machine.name
         summary["version"] = __version__
         if plot is not None:
-            from .report.files import staged_directory
-            from .report.plots import write_kinematics_figures
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import write_kinematics_figures
 
             with staged_directory(plot) as stage:
                 write_kinematics_figures(machine, kin, stage)
@@ -151,8 +151,8 @@ def cam_profile(
 ):
     """Export the groove walls of the cam (study eq. 2, corrected) for CAM."""
     try:
-        from .kinematics.mechanism import check_machine
-        from .kinematics.profile_export import write_groove_csv, write_groove_dxf
+        from berryshaker.drives.groove_cam.kinematics import check_machine
+        from berryshaker.drives.groove_cam.profile_export import write_groove_csv, write_groove_dxf
 
         if fmt not in ("csv", "dxf"):
             raise BerryshakerError(f"--format must be csv or dxf, got {fmt!r}")
@@ -194,7 +194,7 @@ def simulate(
     peaks are taken over every integrator step.
     """
     try:
-        from .experiment.clearance_rows import parse_clearance_spec
+        from berryshaker.experiment.clearance_rows import parse_clearance_spec
 
         if mechanism is not None:
             _simulate_mechanism_file(mechanism, duration, as_json, out_dir)
@@ -204,12 +204,12 @@ def simulate(
         machine = _load(config)
         sizes = parse_clearance_spec(clearance)
         if model == "mlsd":
-            from .dynamics.mlsd import simulate_mlsd
+            from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 
             result = simulate_mlsd(machine, sizes, revolutions=revolutions)
             summary = result.summary()
         else:
-            from .dynamics.harvester import simulate_harvester_multibody
+            from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
 
             result, summary = simulate_harvester_multibody(machine, sizes, revolutions=revolutions)
             summary["clearance_mm"] = {k: v * 1e3 for k, v in
@@ -245,8 +245,8 @@ def simulate(
 
 
 def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> None:
-    from .dynamics.engine import simulate_mechanism
-    from .dynamics.mechanism_spec import load_mechanism
+    from berryshaker.multibody.engine import simulate_mechanism
+    from berryshaker.multibody.spec import load_mechanism
 
     spec = load_mechanism(path)
     result = simulate_mechanism(spec, duration=duration)
@@ -255,7 +255,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
     if out_dir is not None:
         import numpy as np
 
-        from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+        from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
 
         cm = result.compiled
         with staged_directory(out_dir) as stage:
@@ -298,8 +298,8 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
 def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     import numpy as np
 
-    from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from .report.plots import plot_time_series
+    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.plots import plot_time_series
 
     cm = result.compiled
     with staged_directory(out_dir) as stage:
@@ -339,10 +339,10 @@ def compare(
     try:
         import numpy as np
 
-        from .dynamics.harvester import simulate_harvester_multibody
-        from .dynamics.mlsd import simulate_mlsd
-        from .experiment.agreement import curve_agreement
-        from .experiment.clearance_rows import parse_clearance_spec
+        from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
+        from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
+        from berryshaker.experiment.agreement import curve_agreement
+        from berryshaker.experiment.clearance_rows import parse_clearance_spec
 
         machine = _load(config)
         sizes = parse_clearance_spec(clearance)
@@ -362,8 +362,8 @@ def compare(
                                          "mlsd": float(ml.summary()["collision_force_N"][p]["peak"])}
             series[p] = (a, b)
         if plot is not None:
-            from .report.files import staged_directory
-            from .report.plots import plot_time_series
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_time_series
 
             with staged_directory(plot) as stage:
                 write_provenance(stage, machine, clearance_mm=res["clearance_mm"])
@@ -389,9 +389,9 @@ def compare(
 def _write_simulation(out_dir: Path, result, summary: dict) -> None:
     import numpy as np
 
-    from .dynamics.mlsd import RESULT_COLUMNS
-    from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from .report.plots import plot_time_series
+    from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
+    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.plots import plot_time_series
 
     with staged_directory(out_dir) as stage:
         cols = ["time_s", "cam_angle_deg", "x_m", "theta_D_rad", "u_m", "theta_E_rad"] + list(RESULT_COLUMNS)
@@ -412,7 +412,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
 
 # ----------------------------------------------------------------------------------------------
 def _branch_of(machine):
-    from .plant.branch import Branch
+    from berryshaker.plant.branch import Branch
 
     if machine.plant is None:
         raise BerryshakerError("the machine description has no [plant] block (see `berryshaker config init`)")
@@ -429,7 +429,7 @@ def plant(
 ):
     """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements."""
     try:
-        from .plant.modes import analytic_modes, fe_modes
+        from berryshaker.plant.modes import analytic_modes, fe_modes
 
         machine = _load(config)
         br = _branch_of(machine)
@@ -444,8 +444,8 @@ def plant(
             "version": __version__,
         }
         if plot is not None:
-            from .report.files import staged_directory
-            from .report.plots import plot_mode_shapes
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_mode_shapes
 
             with staged_directory(plot) as stage:
                 plot_mode_shapes(ma, mf, stage / "mode_shapes.png")
@@ -481,8 +481,8 @@ def fruit_force_cmd(
     machine-to-plant distance, with the eq. 17 verdict and the study's ranges beside ours.
     """
     try:
-        from .experiment.clearance_rows import parse_clearance_spec
-        from .plant.coupled import STUDY_FRUIT_FORCE_N, simulate_fruit_force
+        from berryshaker.experiment.clearance_rows import parse_clearance_spec
+        from berryshaker.plant.coupled import STUDY_FRUIT_FORCE_N, simulate_fruit_force
 
         machine = _load(config)
         sizes = parse_clearance_spec(clearance)
@@ -492,8 +492,8 @@ def fruit_force_cmd(
         if plot is not None or out_dir is not None:
             import numpy as np
 
-            from .report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
-            from .report.plots import plot_fruit_force
+            from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+            from berryshaker.report.plots import plot_fruit_force
 
             if plot is not None:
                 with staged_directory(plot) as stage:
@@ -555,8 +555,8 @@ def doe_plan(
 ):
     """Write a field sheet: run, run order, factor levels (units in the header), empty response columns."""
     try:
-        from .experiment.field_sheet import parse_factor, plan_html, plan_table
-        from .report.files import write_text_atomic
+        from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
+        from berryshaker.report.files import write_text_atomic
 
         factors = [parse_factor(f) for f in factor]
         names = [f.name for f in factors]
@@ -588,8 +588,8 @@ def doe_analyze(
     try:
         import numpy as np
 
-        from .experiment.analysis import analyze
-        from .experiment.field_sheet import read_results
+        from berryshaker.experiment.analysis import analyze
+        from berryshaker.experiment.field_sheet import read_results
 
         senses = {r.strip(): True for r in maximize.split(",") if r.strip()}
         senses.update({r.strip(): False for r in minimize.split(",") if r.strip()})
@@ -604,13 +604,13 @@ def doe_analyze(
         res = analyze(levels, values, fr.factor_names, fr.responses, senses, _parse_weights(weights))
         res["version"] = __version__
         if plot is not None:
-            from .report.files import staged_directory
-            from .report.plots import plot_main_effects, plot_response_surfaces
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
 
             with staged_directory(plot) as stage:
                 plot_main_effects(res, stage / "main_effects.png")
                 write_provenance(stage, results_file=str(results))
-                from .experiment.analysis import quadratic_regression
+                from berryshaker.experiment.analysis import quadratic_regression
 
                 for r, y in fr.responses.items():
                     if len(fr.factor_names) >= 2:
@@ -666,8 +666,8 @@ def doe_virtual(
     The 27 coupled machine-plant runs go through the cached sweep runner (a repeat is instant).
     """
     try:
-        from .experiment.virtual_test import virtual_orthogonal_test
-        from .sweep import SweepRunner
+        from berryshaker.experiment.virtual_test import virtual_orthogonal_test
+        from berryshaker.runs.runner import SweepRunner
 
         machine = _load(config)
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
@@ -676,9 +676,9 @@ def doe_virtual(
         if plot is not None:
             import numpy as np
 
-            from .experiment.analysis import quadratic_regression
-            from .report.files import staged_directory
-            from .report.plots import plot_main_effects, plot_response_surfaces
+            from berryshaker.experiment.analysis import quadratic_regression
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
 
             values = np.array([[r["clearance_mm"][p] for p in "ABCF"] for r in res["runs"]])
             with staged_directory(plot) as stage:
@@ -728,9 +728,9 @@ def study(
     Interrupted? Run it again: finished runs come from the cache.
     """
     try:
-        from .kinematics.mechanism import check_machine
-        from .study import run_study
-        from .sweep import SweepRunner
+        from berryshaker.drives.groove_cam.kinematics import check_machine
+        from berryshaker.study.pipeline import run_study
+        from berryshaker.runs.runner import SweepRunner
 
         machine = _load(config)  # a config that fails validation stops here, before any simulation
         check_machine(machine)
@@ -789,7 +789,7 @@ def sweep(
         import csv
         import io
 
-        from .sweep import SweepRunner, model_run, parse_param, sample_params, tidy_rows
+        from berryshaker.runs.runner import SweepRunner, model_run, parse_param, sample_params, tidy_rows
 
         if model not in ("mlsd", "multibody"):
             raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")
@@ -803,7 +803,7 @@ def sweep(
         results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
         header, rows = tidy_rows(params, pts, results)
         if out_file is not None:
-            from .report.files import write_text_atomic
+            from berryshaker.report.files import write_text_atomic
 
             buf = io.StringIO()
             w = csv.writer(buf)
@@ -838,7 +838,7 @@ def sweep(
 def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     """Print the resolved machine description (engineering units; --json gives SI)."""
     try:
-        from .config import machine_table
+        from berryshaker.config import machine_table
 
         machine = _load(config)
     except BerryshakerError as exc:
@@ -863,8 +863,8 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
 def config_init(path: Path = typer.Argument(..., help="Where to write the editable copy."),
                 force: bool = typer.Option(False, "--force", help="Overwrite an existing file.")):
     """Write an editable copy of the reference machine (annotated: [study] or [assumed])."""
-    from .config import reference_toml_text
-    from .report.files import write_text_atomic
+    from berryshaker.config import reference_toml_text
+    from berryshaker.report.files import write_text_atomic
 
     if path.exists() and not force:
         _fail(BerryshakerError(f"{path} exists; use --force to overwrite"))
@@ -877,7 +877,7 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
                     as_json: bool = JsonOpt):
     """Check a machine description: values, units, assembly over the cycle, cam undercut."""
     try:
-        from .kinematics.mechanism import check_machine
+        from berryshaker.drives.groove_cam.kinematics import check_machine
 
         machine = _load(path)
         check_machine(machine)
