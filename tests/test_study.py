@@ -17,7 +17,8 @@ from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
-from berryshaker.runs.runner import SweepRunner, model_run, parse_param, sample_params
+from berryshaker.runs.runner import SweepRunner
+from berryshaker.runs.sweep import model_run, parse_param, sample_params
 
 runner_cli = CliRunner()
 

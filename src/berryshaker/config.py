@@ -18,46 +18,18 @@ from importlib import resources
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, Field, ValidationError, model_validator
 
 from berryshaker.errors import ConfigError
 from berryshaker.units import parse_quantity
+from berryshaker.quantity_fields import (  # noqa: F401  (re-exported for description modules)
+    Angle, AngularSpeed, Coefficient, Damping, Inertia, Length, LengthNonNeg, Mass, NonNegAngle, PositiveAngle,
+    Stiffness, StrictModel as _Strict, TorsionalDamping, TorsionalStiffness, _d, _q, format_validation_error,
+)
+from berryshaker.plant.spec import BranchSpec, CombContactSpec, FruitSpec, PlantSpec  # noqa: F401
+from berryshaker.harvest.spec import HarvestSpec  # noqa: F401
 
 PAIR_NAMES = ("A", "B", "C", "F")
-
-
-def _q(dimension: str):
-    def convert(v: Any) -> float:
-        try:
-            return parse_quantity(v, dimension)
-        except ConfigError as exc:
-            # pydantic turns ValueError into a located validation error; drop our generic prefix
-            raise ValueError(str(exc).removeprefix("value: ")) from None
-
-    return BeforeValidator(convert)
-
-
-def _d(unit: str) -> dict:
-    return {"display": unit}
-
-
-Length = Annotated[float, _q("length"), Field(gt=0, json_schema_extra=_d("mm"))]
-LengthNonNeg = Annotated[float, _q("length"), Field(ge=0, json_schema_extra=_d("mm"))]
-Angle = Annotated[float, _q("angle"), Field(json_schema_extra=_d("deg"))]
-PositiveAngle = Annotated[float, _q("angle"), Field(gt=0, json_schema_extra=_d("deg"))]
-NonNegAngle = Annotated[float, _q("angle"), Field(ge=0, json_schema_extra=_d("deg"))]
-AngularSpeed = Annotated[float, _q("angular_speed"), Field(gt=0, json_schema_extra=_d("rpm"))]
-Mass = Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))]
-Inertia = Annotated[float, _q("inertia"), Field(gt=0, json_schema_extra=_d("kg*m^2"))]
-Stiffness = Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))]
-Damping = Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))]
-TorsionalStiffness = Annotated[float, _q("torsional_stiffness"), Field(ge=0, json_schema_extra=_d("N*m/rad"))]
-TorsionalDamping = Annotated[float, _q("torsional_damping"), Field(ge=0, json_schema_extra=_d("N*m*s/rad"))]
-Coefficient = Annotated[float, _q("dimensionless"), Field(ge=0, json_schema_extra=_d("1"))]
-
-
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
 
 
 class Cam(_Strict):
@@ -203,79 +175,10 @@ class Clearances(_Strict):
         return {p: getattr(self, p).size for p in PAIR_NAMES}
 
 
-class BranchSpec(_Strict):
-    """Tapered round branch (study eq. 13-15)."""
-
-    root_diameter: Length  # d0
-    tip_diameter: Length  # dm
-    length: Length  # l
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))]
-    density: Annotated[float, _q("density"), Field(gt=0, json_schema_extra=_d("kg/m^3"))]
-    damping_ratio: Annotated[float, _q("dimensionless"), Field(ge=0, lt=1, json_schema_extra=_d("1"))] = 0.07
-
-    @model_validator(mode="after")
-    def _check(self) -> "BranchSpec":
-        if self.tip_diameter > self.root_diameter:
-            raise ValueError(f"tip_diameter {self.tip_diameter * 1e3:g} mm is larger than root_diameter "
-                             f"{self.root_diameter * 1e3:g} mm")
-        return self
-
-
-class FruitSpec(_Strict):
-    mass: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
-    positions: tuple[float, ...] = (0.2, 0.5, 0.85)  # fractions of the branch length
-    names: tuple[str, ...] = ("root", "middle", "end")
-
-    @model_validator(mode="after")
-    def _check(self) -> "FruitSpec":
-        for f in self.positions:
-            if not 0.0 <= f <= 1.0:
-                raise ValueError(f"fruit position {f} is outside the branch (fractions of its length, 0 .. 1)")
-        if len(self.names) != len(self.positions):
-            raise ValueError("fruit.names and fruit.positions must have the same length")
-        return self
-
-
-class CombContactSpec(_Strict):
-    """Comb fingers striking the branch (ADAMS IMPACT function, nylon on wood)."""
-
-    stiffness: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 3.0e4  # N/m^1.5
-    exponent: float = Field(1.5, gt=0)
-    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 7.8  # cmax
-    penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [STUDY.md]
-    station_left: float = Field(0.7, gt=0, le=1)  # z_l / l, where the left comb meets the branch
-    station_right: float = Field(0.7, gt=0, le=1)  # z_r / l
-    finger_radius: Length = 0.45  # distance from the comb shaft to the striking finger section (m)
-    engagement: LengthNonNeg = 0.0  # finger overlap with the branch surface at mid-stroke (m)
-    span: Length = 0.8  # length of the comb along the row (m): the plant is struck while inside it
-    n_modes: int = Field(8, ge=1, le=30)
-
-
-class PlantSpec(_Strict):
-    branch: BranchSpec
-    fruit: FruitSpec
-    contact: CombContactSpec = CombContactSpec()
-
-
 class OperationSpec(_Strict):
     walking_speed: Annotated[float, _q("speed"), Field(gt=0, json_schema_extra=_d("m/min"))] = 0.5  # 30 m/min
     plant_spacing: Length = 1.5
     test_duration: Annotated[float, _q("time"), Field(gt=0, json_schema_extra=_d("s"))] = 10.0
-
-
-class HarvestSpec(_Strict):
-    """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md)."""
-
-    branches_per_bush: int = Field(12, ge=1)
-    branch_classes: tuple[float, ...] = (0.85, 1.0, 1.15)  # diameter scale factors of the reference branch
-    fruit_zone: tuple[float, float] = (0.1, 0.95)  # fruit along the branch, fractions of its length
-    fruit_mass_cv: float = Field(0.2, ge=0, lt=1)  # coefficient of variation of fruit mass
-    yield_per_bush: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))] = 0.5  # [calibrated]
-    unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [calibrated]
-    damage_acceleration: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 300.0  # m/s^2 [cal.]
-    damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
-    bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run
-    seed: int = 2024
 
 
 class MachineInfo(_Strict):
@@ -324,28 +227,12 @@ class Machine(_Strict):
         return Machine.model_validate(data)
 
 
-def _format_validation_error(err: ValidationError, source: str) -> str:
-    lines = []
-    for e in err.errors():
-        loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "missing":
-            msg = "missing value"
-        elif e["type"] == "extra_forbidden":
-            msg = "unknown key (check the spelling against `berryshaker config show`)"
-        elif e["type"] in ("greater_than", "greater_than_equal"):
-            limit = e.get("ctx", {}).get("gt", e.get("ctx", {}).get("ge"))
-            msg = f"must be {'>' if e['type'] == 'greater_than' else '>='} {limit} (SI), got {e.get('input')!r}"
-        lines.append(f"{loc}: {msg}")
-    return f"invalid machine description {source}:\n  " + "\n  ".join(lines)
-
-
 def machine_from_dict(data: dict[str, Any], source: str = "<dict>") -> Machine:
     """Validate a nested dict (as read from TOML) into a :class:`Machine`."""
     try:
         return Machine.model_validate(data)
     except ValidationError as err:
-        raise ConfigError(_format_validation_error(err, source)) from None
+        raise ConfigError(format_validation_error(err, source)) from None
 
 
 def reference_toml_text() -> str:

@@ -789,7 +789,8 @@ def sweep(
         import csv
         import io
 
-        from berryshaker.runs.runner import SweepRunner, model_run, parse_param, sample_params, tidy_rows
+        from berryshaker.runs.runner import SweepRunner
+        from berryshaker.runs.sweep import model_run, parse_param, sample_params, tidy_rows
 
         if model not in ("mlsd", "multibody"):
             raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")

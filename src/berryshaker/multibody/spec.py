@@ -27,7 +27,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
 
-from berryshaker.config import Angle, Coefficient, _format_validation_error, _q
+from berryshaker.quantity_fields import Angle, Coefficient, _q
+from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
 from berryshaker.units import parse_quantity
 
@@ -267,7 +268,7 @@ class MechanismSpec(_Strict):
         return self
 
 
-from berryshaker.config import BranchSpec as BranchSpecRef  # noqa: E402
+from berryshaker.plant.spec import BranchSpec as BranchSpecRef  # noqa: E402
 
 PlantCouplingSpec.model_rebuild()
 MechanismSpec.model_rebuild()

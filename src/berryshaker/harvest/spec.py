@@ -1,0 +1,26 @@
+"""The virtual-harvest section of a machine description: plant population and picking-outcome model
+(docs/harvest.md)."""
+
+from __future__ import annotations
+
+from typing import Annotated
+
+from pydantic import BeforeValidator, Field
+
+from berryshaker.quantity_fields import _d, _q
+from berryshaker.quantity_fields import StrictModel as _Strict
+
+
+class HarvestSpec(_Strict):
+    """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md)."""
+
+    branches_per_bush: int = Field(12, ge=1)
+    branch_classes: tuple[float, ...] = (0.85, 1.0, 1.15)  # diameter scale factors of the reference branch
+    fruit_zone: tuple[float, float] = (0.1, 0.95)  # fruit along the branch, fractions of its length
+    fruit_mass_cv: float = Field(0.2, ge=0, lt=1)  # coefficient of variation of fruit mass
+    yield_per_bush: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))] = 0.5  # [calibrated]
+    unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [calibrated]
+    damage_acceleration: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 300.0  # m/s^2 [cal.]
+    damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
+    bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run
+    seed: int = 2024
