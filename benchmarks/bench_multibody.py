@@ -84,7 +84,7 @@ def main() -> None:
     print(f"\nharvester, 2 cam revolutions ({2 * period:.2f} s), four clearances, one core:")
     print(f"  multibody: {w_mb * 1e3:.0f} ms per run = {1 / w_mb:.1f} simulations/s (target < 500 ms)")
     print(f"  MLSD:      {w_ml * 1e3:.0f} ms per run = {1 / w_ml:.1f} simulations/s")
-    print(f"  (with {os.cpu_count()} cores, berryshaker.runs.parallel.run_many multiplies the rate)")
+    print(f"  (with {os.cpu_count()} cores, the sweep runner multiplies the rate)")
 
 
 if __name__ == "__main__":

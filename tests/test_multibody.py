@@ -193,12 +193,14 @@ def test_simulate_mechanism_cli_json(tmp_path):
 
 
 def test_parallel_runs_equal_serial(machine):
-    from berryshaker.runs.parallel import mlsd_summary, run_many
+    from berryshaker.runs.runner import SweepRunner
+    from berryshaker.study.runs import reduced_row
 
-    jobs = [dict(machine_data=machine.model_dump(), clearance={"A": a}, revolutions=2) for a in (0.0, 0.25e-3, 0.5e-3)]
-    jobs.append(dict(machine_data=machine.model_dump(), clearance={"A": -1.0}, revolutions=2))
-    par = run_many(mlsd_summary, jobs, workers=2)
-    ser = run_many(mlsd_summary, jobs[:1], workers=1)
+    data = machine.model_dump(mode="json")
+    jobs = [dict(machine_data=data, clearance={"A": a}, revolutions=2) for a in (0.0, 0.25e-3, 0.5e-3)]
+    jobs.append(dict(machine_data=data, clearance={"A": -1.0}, revolutions=2))
+    par = SweepRunner(workers=2, use_cache=False, progress=False).map(reduced_row, jobs)
+    ser = SweepRunner(workers=1, use_cache=False, progress=False).map(reduced_row, jobs[:1])
     assert [o.index for o in par] == [0, 1, 2, 3]
     assert par[0].value["collision_force_N"] == ser[0].value["collision_force_N"]
     assert par[3].error and "must be >= 0" in par[3].error and par[2].value is not None

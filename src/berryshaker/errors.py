@@ -15,3 +15,7 @@ class GeometryError(BerryshakerError):
 
 class SimulationError(BerryshakerError):
     """A simulation could not be completed (solver gave up, non-finite state...)."""
+
+
+class OutputError(BerryshakerError):
+    """An output destination is refused (would overwrite the user's files, wrong suffix, not writable...)."""

@@ -1,0 +1,27 @@
+"""Comb drives as plug-ins: one sub-package per drive (its description, kinematics, mechanism, clearance pairs,
+optional reduced model and reference machine), found by name in :data:`DRIVES`.  See
+:mod:`berryshaker.drives.base` for the interface and docs/architecture.md for adding a drive."""
+
+from __future__ import annotations
+
+import importlib
+
+from berryshaker.errors import ConfigError
+
+#: registry name -> sub-package; a new drive is one sub-package and one line here
+DRIVE_PACKAGES = {
+    "groove_cam": "berryshaker.drives.groove_cam",
+    "crank_rocker": "berryshaker.drives.crank_rocker",
+}
+
+
+def get_drive(name: str):
+    """The :class:`~berryshaker.drives.base.Drive` registered as ``name``."""
+    if name not in DRIVE_PACKAGES:
+        raise ConfigError(f"unknown comb drive {name!r} in [machine] drive; drives: {', '.join(DRIVE_PACKAGES)}")
+    return importlib.import_module(DRIVE_PACKAGES[name]).DRIVE
+
+
+def drive_of(machine):
+    """The drive of a machine description."""
+    return get_drive(machine.DRIVE)

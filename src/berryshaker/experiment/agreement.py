@@ -75,3 +75,47 @@ def curve_agreement(t, a, b, points: int = 10, alpha: float = 0.05) -> dict:
         "peak_ratio": float(np.max(np.abs(a)) / max(np.max(np.abs(b)), 1e-300)),
         "mean_ratio": float(np.mean(np.abs(a)) / max(np.mean(np.abs(b)), 1e-300)),
     }
+
+
+def model_agreement(machine, clearance: dict[str, float] | None = None, revolutions: int = 3, points: int = 10,
+                    alpha: float = 0.05) -> dict:
+    """Run a drive's reduced model and the multibody model on the same machine and clearances; compare the
+    collision force of every pair (eq. 18 and plainer measures, :func:`curve_agreement`).
+
+    The one comparison used by ``berryshaker compare`` and by the study.
+
+    Returns
+    -------
+    dict
+        ``clearance_mm``, ``revolutions``, ``pairs`` (per pair: :func:`curve_agreement` plus ``peak_N`` of
+        both models), ``t`` (s) and ``series`` (per pair: (multibody, reduced) force arrays on ``t``, N) — the
+        last two are arrays for plotting, not JSON.
+
+    Raises
+    ------
+    ConfigError
+        The machine's drive has no reduced model.
+    """
+    from berryshaker.drives import drive_of
+    from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.errors import ConfigError
+
+    drive = drive_of(machine)
+    if drive.reduced_model is None:
+        raise ConfigError(f"the {drive.name} drive has no reduced model to compare with the multibody model")
+    ml = drive.reduced_model(machine, clearance, revolutions=revolutions)
+    mbr, mbs = simulate_multibody(machine, clearance, revolutions=revolutions)
+    sel = ml.t >= ml.stats_from
+    t = ml.t[sel]
+    reduced_summary = ml.summary()
+    res = {"clearance_mm": {k: v * 1e3 for k, v in ml.clearance.items()}, "revolutions": revolutions,
+           "reduced_model": drive.reduced_model_name, "pairs": {}, "series": {}, "t": t}
+    for p in machine.pair_names:
+        b = np.abs(ml.series(f"F_{p}_N"))[sel]
+        a_full = mbr.element_force(p) if p in mbr.compiled.frc_names else mbr.reaction(p)
+        a = np.interp(t, mbr.t, np.abs(a_full))
+        res["pairs"][p] = curve_agreement(t, a, b, points=points, alpha=alpha)
+        res["pairs"][p]["peak_N"] = {"multibody": float(mbs["collision_force_N"][p]["peak"]),
+                                     "reduced": float(reduced_summary["collision_force_N"][p]["peak"])}
+        res["series"][p] = (a, b)
+    return res

@@ -106,6 +106,28 @@ def anova_pooled(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> 
             "pooled": pooled, "ss_all": ss, "total_ss": float(np.sum((y - ybar) ** 2))}
 
 
+def factor_levels_report(factor_names: list[str], levels: np.ndarray,
+                         level_values: dict[str, tuple[float, ...] | None] | None = None,
+                         units: dict[str, str] | None = None) -> dict:
+    """Per factor: level numbers, level values (or None when not known) and unit, for reports.
+
+    Level numbers are never passed off as values: without known values ``values`` is None and
+    ``label`` reads "level 1", "level 2", ...
+    """
+    out = {}
+    for j, f in enumerate(factor_names):
+        nums = sorted(int(v) for v in np.unique(np.asarray(levels)[:, j]))
+        vals = (level_values or {}).get(f)
+        unit = (units or {}).get(f, "")
+        if vals is not None:
+            labels = [f"{v:g} {unit}".strip() for v in vals]
+        else:
+            labels = [f"level {k}" for k in nums]
+        out[f] = {"level_numbers": nums, "values": list(vals) if vals is not None else None, "unit": unit,
+                  "labels": labels}
+    return out
+
+
 def quadratic_terms(names: list[str]) -> list[str]:
     """Terms of the study's eq. 19: intercept, linear, squares, two-factor interactions (15 for four factors)."""
     terms = ["1"] + list(names) + [f"{n}^2" for n in names] + [f"{a}*{b}" for a, b in itertools.combinations(names, 2)]
@@ -171,10 +193,15 @@ def quadratic_regression(x: np.ndarray, y: np.ndarray, names: list[str]) -> dict
     Z = (Xc - mu) / sd
     yc = y - y.mean()
     best = None
+    # hat matrix H = Z (Z'Z + lam I)^-1 Z' = U diag(s^2 / (s^2 + lam)) U' from the thin SVD of Z: its
+    # diagonal and H y cost O(n p), never the n x n matrix (a 100,000-row sheet would need 80 GB)
+    U, sv, _ = np.linalg.svd(Z, full_matrices=False)
+    U2 = U**2
+    Uty = U.T @ yc
     for lam in np.logspace(-4, 3, 36):
-        A = Z.T @ Z + lam * np.eye(Z.shape[1])
-        H = Z @ np.linalg.solve(A, Z.T)
-        loo = (yc - H @ yc) / (1 - np.diag(H) + 1.0 / n)
+        shrink = sv**2 / (sv**2 + lam)
+        h = U2 @ shrink
+        loo = (yc - U @ (shrink * Uty)) / (1 - h + 1.0 / n)
         score = float(np.mean(loo**2))
         if best is None or score < best[0]:
             best = (score, lam)
@@ -219,15 +246,73 @@ def predict_main_quadratic(reg: dict, x: np.ndarray, names: list[str]) -> np.nda
     return X @ np.array([mq["coefficients"][t] for t in mq["terms"]])
 
 
-def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], responses: dict[str, np.ndarray],
-            senses: dict[str, bool], weights: dict[str, float] | None = None) -> dict:
-    """Full analysis of a field (or virtual) orthogonal test; the JSON of ``doe analyze``."""
+def check_weights(weights: dict[str, float] | None, responses) -> dict[str, float]:
+    """Weights of the composite, checked: every name an analysed response, every weight finite and > 0.
+
+    None gives every response the weight 1.  Returns the weights normalised to sum to 1; responses
+    without a weight do not enter the composite.
+    """
+    names = list(responses)
     if weights is None:
-        weights = {r: 1.0 for r in responses}
-    unknown = set(weights) - set(responses)
+        weights = {r: 1.0 for r in names}
+    if not weights:
+        raise ConfigError(f"--weights is empty; give NAME=VALUE for some of {', '.join(names)}")
+    unknown = [k for k in weights if k not in names]
     if unknown:
-        raise ConfigError(f"--weights names {sorted(unknown)}, which are not analysed responses {sorted(responses)}")
-    out = {"responses": {}, "weights": {k: v / sum(weights.values()) for k, v in weights.items()}}
+        raise ConfigError(f"--weights names {sorted(unknown)}, which are not analysed responses; valid: "
+                          f"{', '.join(names)}")
+    clean = {}
+    for k, v in weights.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise ConfigError(f"--weights: {k}={v!r} is not a number") from None
+        if not np.isfinite(x) or x <= 0:
+            raise ConfigError(f"--weights: {k}={v!r}: a weight must be a finite number > 0 (leave a response out "
+                              "of --weights to give it no weight)")
+        clean[k] = x
+    total = float(sum(clean.values()))
+    return {k: x / total for k, x in clean.items()}
+
+
+def check_inputs(levels: np.ndarray, factor_names: list[str], responses: dict, senses: dict[str, bool]) -> None:
+    """Shapes, finiteness and senses of an analysis' inputs (ConfigError naming the problem)."""
+    levels = np.asarray(levels)
+    if not responses:
+        raise ConfigError("no response to analyse; name one with --maximize or --minimize")
+    if levels.ndim != 2 or levels.shape[1] != len(factor_names):
+        raise ConfigError(f"levels must be runs x {len(factor_names)} factors, got shape {levels.shape}")
+    missing = [r for r in responses if r not in senses]
+    if missing:
+        raise ConfigError(f"responses {missing} have no sense; add them to --maximize or --minimize")
+    unknown = [r for r in senses if r not in responses]
+    if unknown:
+        raise ConfigError(f"unknown response(s) {unknown} in --maximize/--minimize; valid: {', '.join(responses)}")
+    for name, y in responses.items():
+        y = np.asarray(y, float)
+        if y.shape[0] != levels.shape[0]:
+            raise ConfigError(f"response {name!r} has {y.shape[0]} runs, the design {levels.shape[0]}")
+        if not np.isfinite(y).all():
+            i = int(np.argwhere(~np.isfinite(y))[0][0])
+            raise ConfigError(f"response {name!r}, run {i + 1}: value is not finite ({y.reshape(len(y), -1)[i]})")
+
+
+def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], responses: dict[str, np.ndarray],
+            senses: dict[str, bool], weights: dict[str, float] | None = None,
+            level_values: dict[str, tuple[float, ...] | None] | None = None,
+            units: dict[str, str] | None = None) -> dict:
+    """Full analysis of a field (or virtual) orthogonal test; the JSON of ``doe analyze``.
+
+    ``level_values`` / ``units`` (optional, e.g. from :class:`FieldResults`) are reported under
+    ``factors`` (value and unit per level number) and ``optimum.settings``; a factor whose values are
+    unknown is reported with ``values: null`` and "level N" labels, never as if the numbers were values.
+    Weights are checked (:func:`check_weights`), as are the responses' shapes and senses.
+    """
+    check_inputs(levels, factor_names, responses, senses)
+    weights_n = check_weights(weights, responses)
+    weights = weights_n
+    out = {"responses": {}, "weights": weights_n,
+           "factors": factor_levels_report(factor_names, levels, level_values, units)}
     for name, y in responses.items():
         ra = range_analysis(levels, y, factor_names, senses[name])
         ra["maximize"] = senses[name]
@@ -248,6 +333,7 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
         pred = ybar + sum(out["responses"][name]["factors"][f]["level_means"][opt_levels[f] - 1] - ybar
                           for f in factor_names)
         values_at[name] = pred
-    out["optimum"] = {"levels": opt_levels, "values": values_at,
+    labels = {f: d["labels"][d["level_numbers"].index(opt_levels[f])] for f, d in out["factors"].items()}
+    out["optimum"] = {"levels": opt_levels, "settings": labels, "values": values_at,
                       "prediction": "additive main-effects model: mean + sum of level-mean deviations"}
     return out

@@ -46,7 +46,9 @@ def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, 
     res = simulate_fruit_force(m, clearance)
     # fruit forces are m0 * acceleration; recover accelerations on the grid from the modal solution
     cm = res.result.compiled
-    modes = cm.modes
+    from berryshaker.plant.modes import branch_modes
+
+    modes = branch_modes(m.plant.branch, m.plant.contact.n_modes)
     nb3 = 3 * len(cm.spec.bodies)
     nm = len(modes.omega)
     n = cm.n
@@ -134,7 +136,7 @@ def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None,
     pop = sample_population(machine, seed)
     out = harvest_indexes(machine, env, pop)
     out["clearance_mm"] = {k: v * 1e3 for k, v in
-                           machine.with_clearances(clearance or {}).clearance.sizes().items()}
+                           machine.with_clearances(clearance or {}).clearance_sizes().items()}
     return out
 
 

@@ -1,0 +1,9 @@
+"""Clearance over the machine's life: ISO 286 fits (the clearance a new machine leaves the shop with) and
+the wear loop that grows it towards the study's levels (:mod:`berryshaker.life.fits`,
+:mod:`berryshaker.life.wear`; Archard's law is in :mod:`berryshaker.contact.wear`).  See docs/life.md."""
+
+from berryshaker.life.fits import Fit, ToleranceZone, fit_summary, iso_fit, parse_fit, tolerance_zone
+from berryshaker.life.wear import JointWear, WearLife, clearance_size_from_fit, wear_life
+
+__all__ = ["Fit", "ToleranceZone", "fit_summary", "iso_fit", "parse_fit", "tolerance_zone",
+           "JointWear", "WearLife", "clearance_size_from_fit", "wear_life"]

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import functools
 import math
 import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from berryshaker.contact.laws import get_law, law_table
 from berryshaker.contact.stiffness import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
@@ -29,21 +29,6 @@ class CompiledMechanism:
     n: int
     q0: np.ndarray
     period: float | None
-    modes: object = None  # berryshaker.plant.modes.Modes when a flexible branch is coupled
-
-
-@functools.lru_cache(maxsize=32)
-def _cached_modes(key: tuple, n_modes: int):
-    from berryshaker.plant.branch import Branch
-    from berryshaker.plant.modes import analytic_modes
-
-    return analytic_modes(Branch(*key), n_modes)
-
-
-def branch_modes(b, n_modes: int):
-    """Analytic modes (study eq. 15) of a BranchSpec, cached: sweeps reuse them."""
-    key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
-    return _cached_modes(key, n_modes)
 
 
 def _cam_array(spec: MechanismSpec) -> tuple[np.ndarray, dict[str, int]]:
@@ -132,7 +117,7 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
             code = {"revolute_clearance": mb.FRC_REV_CL, "slot_clearance": mb.FRC_SLOT_CL,
                     "groove_clearance": mb.FRC_GROOVE_CL}[typ]
             add_frc(j.name, typ, code, bi, bj, cam=cidx.get(j.cam, 0) if j.cam else 0,
-                    law=mb.LAW_CODES[c.law], gap=j.clearance, k=k, n=c.exponent, e=c.restitution,
+                    law=get_law(c.law).code, gap=j.clearance, k=k, n=c.exponent, e=c.restitution,
                     c=c.damping, d=c.damping_depth, mu=j.friction_coefficient, rpin=j.pin_radius, **common)
     period = None
     for d in spec.drivers:
@@ -158,18 +143,16 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     modal_z = np.zeros(0)
     phi_tab = np.zeros((1, 1))
     plant_p = np.zeros(5)
-    modes = None
     if spec.plant is not None:
         pl = spec.plant
-        modes = branch_modes(pl.branch, pl.n_modes)
-        modal_w = modes.omega.copy()
-        modal_z = np.full(len(modal_w), pl.branch.damping_ratio)
-        phi_tab = np.array([modes.shape_at(c.station * pl.branch.length) for c in pl.contacts])
+        modal_w = np.array(pl.omega, float)
+        modal_z = np.full(len(modal_w), pl.damping_ratio)
+        phi_tab = np.array(pl.shapes, float)
         plant_p = np.array([pl.walking_speed, pl.start_distance, pl.half_span, pl.ramp, pl.ramp_depth])
         ax, ay = np.array(pl.lateral_axis, float) / math.hypot(*pl.lateral_axis)
         for station_row, c in enumerate(pl.contacts):
             cc = pl.contact
-            add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=mb.LAW_CODES[cc.law],
+            add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=get_law(cc.law).code,
                     six=c.finger_point[0], siy=c.finger_point[1], ux=ax, uy=ay, gap=c.engagement,
                     k=float(cc.stiffness), n=cc.exponent, e=cc.restitution, c=cc.damping, d=cc.damping_depth,
                     rpin=float(c.side), phi0=c.mid_lateral)
@@ -182,12 +165,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
              arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), 3), np.int64),
              arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64),
              arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 4), np.int64),
-             arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p)
+             arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table())
     q0 = np.zeros(3 * nb + len(modal_w))
     for i, b in enumerate(spec.bodies):
         q0[3 * i:3 * i + 3] = [b.position[0], b.position[1], b.angle]
     return CompiledMechanism(spec, bidx, model, con_names, con_rows, frc_names, frc_kinds, row,
-                             3 * nb + len(modal_w), q0, period, modes)
+                             3 * nb + len(modal_w), q0, period)
 
 
 def _state_and_work(cm: CompiledMechanism):

@@ -20,7 +20,6 @@ import math
 import numpy as np
 from numba import njit
 
-from berryshaker.contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
 from berryshaker.contact.friction import coulomb_friction_kernel
 from berryshaker.kinematics.cam import _follower_svaj_scalar
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
@@ -29,7 +28,6 @@ CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
 FRC_REV_CL, FRC_SLOT_CL, FRC_GROOVE_CL, FRC_ROT_SD, FRC_TORQUE, FRC_BRANCH = 11, 12, 13, 20, 21, 30
 FRC_FORCE = 22  # constant force (FF_UX, FF_UY components, N) at body point FF_SIX, FF_SIY
-LAW_CODES = {"mlsd": 0, "hertz": 1, "hunt_crossley": 2, "lankarani_nikravesh": 3, "flores": 4, "impact": 5}
 
 # float parameters of a constraint row block
 CF_SIX, CF_SIY, CF_SJX, CF_SJY, CF_UX, CF_UY, CF_PHI0, CF_SPEED, CF_MU, CF_XIG, CF_XIH = range(11)
@@ -215,20 +213,11 @@ def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, 
 
 
 @njit(cache=True)
-def _law(law, pen, pen_dot, v_imp, k, n, e, c, d):
+def _law(laws, law, pen, pen_dot, v_imp, k, n, e, c, d):
+    """Normal force of registered law number ``law`` (berryshaker.contact.laws), 0 when open."""
     if pen <= 0.0:
         return 0.0
-    if law == 0:
-        return mlsd_kernel(pen, pen_dot, k, c)
-    if law == 1:
-        return k * pen**n
-    if law == 2:
-        return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.5 * (1.0 - e), n)
-    if law == 3:
-        return hysteresis_kernel(pen, pen_dot, v_imp, k, 0.75 * (1.0 - e * e), n)
-    if law == 4:
-        return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.6 * (1.0 - e) / e, n)
-    return impact_kernel(-pen, -pen_dot, 0.0, k, n, c, d)
+    return laws[law](pen, pen_dot, v_imp, k, n, e, c, d)
 
 
 @njit(cache=True)
@@ -241,7 +230,7 @@ def _apply(Q, b, fx, fy, armx, army):
 
 @njit(cache=True)
 def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_mem_f,
-           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout):
+           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout, laws):
     """Generalised applied forces Q: gravity, clearance contacts (normal + friction), spring-dampers,
     motor torques, guide friction of prismatic joints (from the previous step's multipliers), and the
     modal forces of a flexible branch (its own stiffness and damping plus the comb contacts)."""
@@ -308,7 +297,7 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
             eout[k, EO_PENDOT] = pen_dot
             if pen > 0.0:
                 vi = v_imp[k] if in_contact[k] else pen_dot
-                fn = _law(fint[k, 3], pen, pen_dot, vi, fflt[k, FF_K], fflt[k, FF_N], fflt[k, FF_E],
+                fn = _law(laws, fint[k, 3], pen, pen_dot, vi, fflt[k, FF_K], fflt[k, FF_N], fflt[k, FF_E],
                           fflt[k, FF_C], fflt[k, FF_D])
                 tx, ty = -ny, nx
                 vt = tx * relx + ty * rely
@@ -369,7 +358,7 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
             eout[k, EO_PEN] = pen
             eout[k, EO_PENDOT] = pen_dot
             if pen > 0.0:
-                fn = _law(fint[k, 3], pen, pen_dot, v_imp[k] if in_contact[k] else pen_dot, fflt[k, FF_K],
+                fn = _law(laws, fint[k, 3], pen, pen_dot, v_imp[k] if in_contact[k] else pen_dot, fflt[k, FF_K],
                           fflt[k, FF_N], fflt[k, FF_E], fflt[k, FF_C], fflt[k, FF_D])
                 for m in range(nm):
                     Q[n0 + m] += side * fn * phi_tab[row, m]
@@ -434,7 +423,7 @@ def _spd_solve(W, b, m):
 def accelerations(t, y, model, state, work, dy):
     """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p) = model
+     plant_p, laws) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     n = y.shape[0] // 2
@@ -442,7 +431,7 @@ def accelerations(t, y, model, state, work, dy):
     qd = y[n:]
     constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_c, phi, jac, nu, gam)
     forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_f,
-           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout)
+           ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout, laws)
     m = phi.shape[0]
     if m > 0:
         for a in range(m):
@@ -471,7 +460,7 @@ def accelerations(t, y, model, state, work, dy):
 def project(t, y, model, state, work, iters):
     """Mass-weighted projection of positions (Newton) and velocities onto Phi = 0, Phi_q q' = nu."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p) = model
+     plant_p, laws) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     m = phi.shape[0]
@@ -542,7 +531,7 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
         dh11 = 3 * u**2 - 2 * u
         pd = dh00 * p0 + dh10 * d0 + dh01 * p1 + dh11 * d1
         if pen > 0.0:
-            f = _law(fint[j, 3], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
+            f = _law(model[15], fint[j, 3], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
                      fflt[j, FF_D])
             if f > best:
                 best = f

@@ -100,13 +100,22 @@ class BodySpec(_Strict):
     angle: Angle = 0.0
 
 
-LAWS = ("mlsd", "hertz", "hunt_crossley", "lankarani_nikravesh", "flores", "impact")
+def _registered_law(v):
+    """A contact-law name checked against the registry (berryshaker.contact.laws)."""
+    from berryshaker.contact.laws import law_names
+
+    if not isinstance(v, str) or v not in law_names():
+        raise ValueError(f"unknown contact law {v!r}; registered laws: {', '.join(law_names())}")
+    return v
+
+
+LawName = Annotated[str, BeforeValidator(_registered_law)]
 
 
 class ContactSpec(_Strict):
     """Normal contact law of a clearance joint (see berryshaker.contact)."""
 
-    law: Literal["mlsd", "hertz", "hunt_crossley", "lankarani_nikravesh", "flores", "impact"] = "lankarani_nikravesh"
+    law: LawName = "lankarani_nikravesh"
     stiffness: Real | Literal["hertz"] = "hertz"  # N/m^n; "hertz": from materials and radii
     exponent: float = Field(1.5, gt=0)
     restitution: float = Field(0.9, gt=0, le=1)
@@ -190,7 +199,7 @@ class SimulationSpec(_Strict):
 
 
 class BranchContactSpec(_Strict):
-    """A comb finger point striking the branch at one station (lateral contact, IMPACT-type law)."""
+    """A point of a body striking the modal body at one station (lateral contact)."""
 
     name: str
     body: str
@@ -201,11 +210,19 @@ class BranchContactSpec(_Strict):
     engagement: Annotated[float, _q("length"), Field(ge=0)] = 0.0  # overlap already at mid_lateral (m)
 
 
-class PlantCouplingSpec(_Strict):
-    """A flexible branch (modal coordinates in the integrated state) struck by bodies of the mechanism."""
+class ModalBodySpec(_Strict):
+    """A linear flexible body in mass-normalised modal coordinates, carried past the mechanism along the row
+    and struck by points of its bodies (the engine knows nothing else about it).
 
-    branch: "BranchSpecRef"
-    n_modes: int = Field(8, ge=1, le=30)
+    Each mode k obeys eta_k'' + 2 zeta omega_k eta_k' + omega_k^2 eta_k = sum_c phi_k(c) F_c, with F_c the
+    normal force of contact c; ``shapes[c][k]`` is phi_k at contact c's station (1/sqrt(kg)), lateral
+    deflection at the station = sum_k phi_k eta_k.  A plant branch is one such body
+    (:mod:`berryshaker.harvest.coupled` builds it from the branch's modes).
+    """
+
+    omega: list[Annotated[float, Field(gt=0)]]  # rad/s
+    damping_ratio: float = Field(ge=0, lt=1)
+    shapes: list[list[float]]  # per contact, per mode
     lateral_axis: Direction = (1.0, 0.0)
     walking_speed: Annotated[float, _q("speed"), Field(gt=0)] = 0.5
     start_distance: Annotated[float, _q("length")] = -0.5  # plant position along the row at t = 0 (m)
@@ -229,7 +246,7 @@ class MechanismSpec(_Strict):
     drivers: list[DriverSpec] = []
     forces: list[ForceSpec] = []
     cams: list[CamSpec] = []
-    plant: PlantCouplingSpec | None = None
+    plant: ModalBodySpec | None = None  # a flexible body struck by the mechanism (e.g. a branch)
     simulation: SimulationSpec = SimulationSpec()
 
     @model_validator(mode="after")
@@ -258,6 +275,9 @@ class MechanismSpec(_Strict):
                 if b not in known:
                     raise ValueError(f"force {f.name!r}: unknown body {b!r}")
         if self.plant is not None:
+            if len(self.plant.shapes) != len(self.plant.contacts) or any(
+                    len(row) != len(self.plant.omega) for row in self.plant.shapes):
+                raise ValueError("plant.shapes needs one row per contact with one value per mode")
             for c in self.plant.contacts:
                 if c.body not in bodies:
                     raise ValueError(f"plant contact {c.name!r}: unknown body {c.body!r}")
@@ -268,10 +288,6 @@ class MechanismSpec(_Strict):
         return self
 
 
-from berryshaker.plant.spec import BranchSpec as BranchSpecRef  # noqa: E402
-
-PlantCouplingSpec.model_rebuild()
-MechanismSpec.model_rebuild()
 
 
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:

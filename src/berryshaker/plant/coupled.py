@@ -13,10 +13,10 @@ import numpy as np
 from berryshaker.config import Machine
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
-from berryshaker.drives.groove_cam.mechanism import harvester_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError
-from berryshaker.drives.groove_cam.kinematics import mid_stroke_angles
+from berryshaker.drives import drive_of
+from berryshaker.plant.modes import branch_modes
 from berryshaker.plant.response import harvest_verdict
 
 #: the study's fruit-force ranges (N) at the root, middle and end of the branch [study, claim 5]
@@ -27,27 +27,33 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     """Harvester mechanism description with the machine's branch coupled to both combs."""
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
-    if clearance:
-        from berryshaker.drives.groove_cam.mlsd import validate_clearances
-
-        machine = machine.with_clearances(validate_clearances(machine, clearance))
+    machine = machine.with_clearances(clearance)
+    drive = drive_of(machine)
     pl = machine.plant
     ct = pl.contact
     half = ct.span / 2
     v = machine.operation.walking_speed
     duration = (2 * (half + margin)) / v
-    period = 2 * math.pi / machine.cam.speed
+    period = 2 * math.pi / machine.drive_speed
     revolutions = max(2, int(math.ceil(duration / period)))
-    spec = harvester_mechanism(machine, revolutions=revolutions).model_dump()
+    spec = drive.mechanism(machine, revolutions=revolutions).model_dump()
     lc = machine.combs.length
     rf = ct.finger_radius
-    td0, te0 = mid_stroke_angles(machine)
+    td0, te0 = drive.mid_stroke_angles(machine)
     xd, _ = machine.shaft_D
     xe, _ = machine.shaft_E
+    station = 0.5 * (ct.station_left + ct.station_right) * pl.branch.length
+    k_contact, n_contact = ct.impact_stiffness(
+        pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter) * station
+                                   / pl.branch.length))
+    modes = branch_modes(pl.branch, ct.n_modes)
     spec["plant"] = dict(
-        branch=pl.branch.model_dump(), n_modes=ct.n_modes, lateral_axis=[1.0, 0.0], walking_speed=v,
+        omega=modes.omega.tolist(), damping_ratio=pl.branch.damping_ratio,
+        shapes=[np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist()
+                for st in (ct.station_left, ct.station_right)],
+        lateral_axis=[1.0, 0.0], walking_speed=v,
         start_distance=-(half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
-        contact=dict(law="impact", stiffness=ct.stiffness, exponent=ct.exponent, damping=ct.damping,
+        contact=dict(law="impact", stiffness=k_contact, exponent=n_contact, damping=ct.damping,
                      damping_depth=ct.penetration_depth),
         contacts=[
             # left comb: the finger section rf from D along the comb (the body's +x axis); pushes +x
@@ -67,23 +73,47 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
 
 @dataclass
 class FruitForceResult:
+    """Drive-past run: fruit forces per fruit position against time and machine-to-plant distance.
+
+    ``fruit_force`` is the force the model compares with the bond (eq. 17): with the pedicel model
+    (default) the magnitude of the in-plane stem force (lateral and axial, the fruit's weight included
+    when ``plant.fruit.pedicel.include_weight``), with ``pedicel.rigid = true`` the study's eq. 16,
+    m0 x branch acceleration (signed).  ``rigid_force`` is always eq. 16.
+    """
+
     distance: np.ndarray  # machine-to-plant distance along the row (m), negative before the comb centre
     t: np.ndarray
-    fruit_force: dict[str, np.ndarray]  # N, per fruit name
+    fruit_force: dict[str, np.ndarray]  # N, per fruit name (stem force magnitude, or eq. 16 when rigid)
     z: dict[str, float]  # fruit positions (m)
     contact_force: dict[str, np.ndarray]  # comb-branch normal forces (N)
     deflection: dict[str, np.ndarray]  # branch deflection at each fruit (m)
     result: MultibodyResult = field(repr=False)
     machine: Machine = field(repr=False)
+    rigid_force: dict[str, np.ndarray] = field(default_factory=dict)  # eq. 16, m0 x branch acceleration (N)
+    stem_lateral: dict[str, np.ndarray] = field(default_factory=dict)  # lateral stem force on the fruit (N)
+    stem_axial: dict[str, np.ndarray] = field(default_factory=dict)  # axial stem force incl. weight (N)
 
     def summary(self) -> dict:
+        """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics."""
         out = {"positions": {}, "study_ranges_N": STUDY_FRUIT_FORCE_N, "contact": {}}
+        ped = self.machine.plant.fruit.pedicel
+        out["fruit_model"] = "rigid (eq. 16)" if ped.rigid else "pedicel"
+        if not ped.rigid:
+            from berryshaker.plant.pedicel import damping_ratio, natural_frequency
+
+            m0 = self.machine.plant.fruit.mass
+            out["pedicel"] = {"stiffness_N_m": ped.stiffness, "damping_N_s_m": ped.damping,
+                              "natural_frequency_hz": float(natural_frequency(m0, ped.stiffness)),
+                              "damping_ratio": float(damping_ratio(m0, ped.stiffness, ped.damping)),
+                              "include_weight": ped.include_weight}
         for name, f in self.fruit_force.items():
             peak = float(np.max(np.abs(f)))
             entry = {"z_m": self.z[name], "peak_force_N": peak,
                      "rms_force_N": float(np.sqrt(np.mean(f**2))),
                      "peak_at_distance_m": float(self.distance[int(np.argmax(np.abs(f)))]),
                      "eq17": harvest_verdict(peak).as_dict()}
+            if name in self.rigid_force:
+                entry["rigid_peak_force_N"] = float(np.max(np.abs(self.rigid_force[name])))
             if name in STUDY_FRUIT_FORCE_N:
                 lo, hi = STUDY_FRUIT_FORCE_N[name]
                 entry["study_range_N"] = [lo, hi]
@@ -96,24 +126,60 @@ class FruitForceResult:
         out["rises_root_to_end"] = bool(all(a < b for a, b in zip(peaks[:-1], peaks[1:])))
         out["steps"] = int(self.result.info[0])
         out["wall_time_s"] = self.result.wall_time_s
-        out["clearance_mm"] = {k: v * 1e3 for k, v in self.machine.clearance.sizes().items()}
+        out["clearance_mm"] = {k: v * 1e3 for k, v in self.machine.clearance_sizes().items()}
         return out
 
 
-def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = 1e-6,
-                         output_step: float = 2e-5) -> FruitForceResult:
-    """Drive the harvester past one branch and record the fruit harvesting force (eq. 16)."""
-    spec, machine = coupled_mechanism(machine, clearance)
-    res = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
+@dataclass
+class BranchMotion:
+    """Modal solution of a coupled run, ready for evaluation anywhere on the branch."""
+
+    t: np.ndarray
+    modes: object  # berryshaker.plant.modes.Modes
+    eta: np.ndarray  # (n_t, n_modes) modal displacements
+    etad: np.ndarray  # modal velocities
+    etadd: np.ndarray  # modal accelerations (branch stiffness, damping and the comb contacts)
+    contact_force: dict[str, np.ndarray]
+
+    def lateral(self, z):
+        """Lateral displacement (m), velocity (m/s), acceleration (m/s^2) at positions z, each (n_z, n_t)."""
+        phi = self.modes.shape_at(np.atleast_1d(z))  # (n_modes, n_z)
+        return (self.eta @ phi).T, (self.etad @ phi).T, (self.etadd @ phi).T
+
+    def axial(self, z):
+        """Axial (along-branch) displacement and velocity at z from the bending's foreshortening (m, m/s).
+
+        u(z, t) = -1/2 int_0^z (dw/ds)^2 ds = -1/2 eta^T G(z) eta,  G_ij(z) = int_0^z phi_i' phi_j' ds
+        (second order in the deflection; the Euler-Bernoulli branch has no first-order axial motion).
+        """
+        zs = np.atleast_1d(np.asarray(z, float))
+        m = self.modes
+        slope = np.array([np.gradient(s, m.z) for s in m.shapes])  # (n_modes, n_s)
+        prod = slope[:, None, :] * slope[None, :, :]
+        from scipy import integrate as _int
+
+        cum = _int.cumulative_trapezoid(prod, m.z, axis=-1, initial=0.0)
+        u, v = np.zeros((len(zs), len(self.t))), np.zeros((len(zs), len(self.t)))
+        for i, zi in enumerate(zs):
+            g = np.array([[np.interp(zi, m.z, cum[a, b]) for b in range(cum.shape[1])] for a in range(cum.shape[0])])
+            eg = self.eta @ g
+            u[i] = -0.5 * np.sum(eg * self.eta, axis=1)
+            v[i] = -np.sum(eg * self.etad, axis=1)
+        return u, v
+
+
+def branch_motion(res: MultibodyResult, modes) -> BranchMotion:
+    """Modal displacements, velocities and accelerations of the branch from a coupled multibody result
+    (``modes``: the :class:`~berryshaker.plant.modes.Modes` the run was built with)."""
     cm = res.compiled
-    modes = cm.modes
+    spec = cm.spec
     nb3 = 3 * len(spec.bodies)
     nm = len(modes.omega)
     n = cm.n
     eta = res.y[:, nb3:nb3 + nm]
     etad = res.y[:, n + nb3:n + nb3 + nm]
     w = modes.omega
-    zeta = spec.plant.branch.damping_ratio
+    zeta = spec.plant.damping_ratio
     etadd = -(w**2) * eta - 2 * zeta * w * etad
     phi_tab = cm.model[13]
     contact_force = {}
@@ -121,14 +187,56 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
         k = cm.frc_names.index(c.name)
         f = res.elements[:, k, mb.EO_FN]
         contact_force[c.name] = f
-        etadd += np.outer(c.side * f, phi_tab[row])
+        etadd = etadd + np.outer(c.side * f, phi_tab[row])
+    return BranchMotion(res.t, modes, eta, etad, etadd, contact_force)
+
+
+def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Stem force on fruit of mass ``mass`` at positions z (berryshaker.plant.pedicel).
+
+    Returns (lateral, axial, magnitude), each (n_z, n_t), N.  The axial force includes the weight m0 g
+    when ``pedicel.include_weight`` (upright branch: its axis is vertical).  Lateral: driven by the
+    branch's lateral displacement and velocity (absolute-coordinate form, smooth inputs); axial: by the
+    foreshortening displacement and velocity (BranchMotion.axial).
+    """
+    from berryshaker.plant.pedicel import GRAVITY, stem_response
+
+    y, v, _ = motion.lateral(z)
+    _, f_lat = stem_response(motion.t, y, v, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
+    ya, va = motion.axial(z)
+    _, f_ax = stem_response(motion.t, ya, va, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
+    if pedicel.include_weight:
+        f_ax = f_ax + mass * GRAVITY
+    return f_lat, f_ax, np.hypot(f_lat, f_ax)
+
+
+def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = 1e-6,
+                         output_step: float = 2e-5) -> FruitForceResult:
+    """Drive the harvester past one branch and record the fruit harvesting force.
+
+    With the pedicel model (default) the force is the stem force of a fruit on a compliant stem
+    (berryshaker.plant.pedicel, one-way coupled); with ``plant.fruit.pedicel.rigid`` it is the study's
+    eq. 16, m0 x branch acceleration at the fruit.  Both are returned (``rigid_force`` is always eq. 16).
+    """
+    spec, machine = coupled_mechanism(machine, clearance)
+    res = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
     pl = machine.plant
-    fruit, zs, defl = {}, {}, {}
-    for name, frac in zip(pl.fruit.names, pl.fruit.positions):
-        z = frac * pl.branch.length
-        phi = modes.shape_at(z)
-        fruit[name] = pl.fruit.mass * (etadd @ phi)
-        defl[name] = eta @ phi
-        zs[name] = z
+    motion = branch_motion(res, branch_modes(pl.branch, pl.contact.n_modes))
+    ped = pl.fruit.pedicel
+    m0 = pl.fruit.mass
+    fruit, rigid, zs, defl, lat, ax = {}, {}, {}, {}, {}, {}
+    names = list(pl.fruit.names)
+    zarr = np.array([frac * pl.branch.length for frac in pl.fruit.positions])
+    y, _, a = motion.lateral(zarr)
+    if not ped.rigid:
+        f_lat, f_ax, f_mag = stem_forces(motion, zarr, m0, ped)
+    for i, name in enumerate(names):
+        zs[name] = float(zarr[i])
+        defl[name] = y[i]
+        rigid[name] = m0 * a[i]
+        if ped.rigid:
+            fruit[name] = rigid[name]
+        else:
+            fruit[name], lat[name], ax[name] = f_mag[i], f_lat[i], f_ax[i]
     distance = spec.plant.start_distance + spec.plant.walking_speed * res.t
-    return FruitForceResult(distance, res.t, fruit, zs, contact_force, defl, res, machine)
+    return FruitForceResult(distance, res.t, fruit, zs, motion.contact_force, defl, res, machine, rigid, lat, ax)

@@ -24,6 +24,7 @@ finer than their spacing and refined with brentq.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -231,3 +232,16 @@ def _hermite_sample(nodes, dofs, z):
     w0, t0, w1, t1 = dofs[2 * e], dofs[2 * e + 1], dofs[2 * e + 2], dofs[2 * e + 3]
     return ((1 - 3 * s**2 + 2 * s**3) * w0 + h * (s - 2 * s**2 + s**3) * t0 + (3 * s**2 - 2 * s**3) * w1
             + h * (-s**2 + s**3) * t1)
+
+
+@functools.lru_cache(maxsize=32)
+def _cached_modes(key: tuple, n_modes: int) -> Modes:
+    return analytic_modes(Branch(*key), n_modes)
+
+
+def branch_modes(branch_spec, n_modes: int) -> Modes:
+    """Analytic modes (study eq. 15) of a branch description (:class:`~berryshaker.plant.spec.BranchSpec`),
+    cached per process so sweeps reuse them."""
+    b = branch_spec
+    key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
+    return _cached_modes(key, n_modes)

@@ -28,8 +28,24 @@ class BranchSpec(_Strict):
         return self
 
 
+class PedicelSpec(_Strict):
+    """The fruit's stem as a spring-damper between branch and berry (berryshaker.plant.pedicel).
+
+    Defaults [assumed, by analogy with the coffee fruit-stem system of the same fruit size: 7.1-8.6 N/m,
+    0.025-0.029 N s/m, 11.6-13.3 Hz; Villibor et al. 2016, Acta Scientiarum Technology 38(1)]:
+    k = 10 N/m, c = 0.027 N s/m, i.e. 11.9 Hz and damping ratio 0.10 for a 1.8 g berry.
+    ``rigid = true`` restores the study's eq. 16 (fruit force = m0 x branch acceleration).
+    """
+
+    stiffness: Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))] = 10.0
+    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 0.027
+    include_weight: bool = True  # the stem also carries m0 g along the branch axis (upright branch)
+    rigid: bool = False
+
+
 class FruitSpec(_Strict):
     mass: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
+    pedicel: PedicelSpec = PedicelSpec()
     positions: tuple[float, ...] = (0.2, 0.5, 0.85)  # fractions of the branch length
     names: tuple[str, ...] = ("root", "middle", "end")
 
@@ -43,11 +59,30 @@ class FruitSpec(_Strict):
         return self
 
 
-class CombContactSpec(_Strict):
-    """Comb fingers striking the branch (ADAMS IMPACT function, nylon on wood)."""
+class FingerSpec(_Strict):
+    """A nylon comb finger: a round cantilever rod struck at ``free_length`` from its clamp
+    (berryshaker.plant.finger).  Geometry [assumed]; PA6 modulus 2.5 GPa [assumed: dry-as-moulded PA6/PA66
+    2-3 GPa in manufacturers' data sheets, lower when moisture-conditioned]."""
 
-    stiffness: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 3.0e4  # N/m^1.5
-    exponent: float = Field(1.5, gt=0)
+    diameter: Length = 0.012
+    free_length: Length = 0.2  # clamp to the striking section (m)
+    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
+    poisson_ratio: float = Field(0.39, ge=0, lt=0.5)
+    wood_transverse_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
+    wood_poisson_ratio: float = Field(0.3, ge=0, lt=0.5)
+    reference_force: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 5.0  # N, Hertz linearised
+
+
+class CombContactSpec(_Strict):
+    """Comb fingers striking the branch (ADAMS IMPACT function, nylon on wood).
+
+    ``stiffness`` (N/m^exponent) given explicitly wins (backwards compatible, exponent default 1.5);
+    left out, the contact is linear (exponent 1) with K = the finger cantilever in series with the
+    linearised Hertz contact (berryshaker.plant.finger.finger_contact)."""
+
+    stiffness: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] | None = None  # N/m^exponent
+    exponent: Annotated[float, Field(gt=0)] | None = None
+    finger: FingerSpec = FingerSpec()
     damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 7.8  # cmax
     penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [STUDY.md]
     station_left: float = Field(0.7, gt=0, le=1)  # z_l / l, where the left comb meets the branch
@@ -55,7 +90,23 @@ class CombContactSpec(_Strict):
     finger_radius: Length = 0.45  # distance from the comb shaft to the striking finger section (m)
     engagement: LengthNonNeg = 0.0  # finger overlap with the branch surface at mid-stroke (m)
     span: Length = 0.8  # length of the comb along the row (m): the plant is struck while inside it
-    n_modes: int = Field(8, ge=1, le=30)
+    @model_validator(mode="after")
+    def _check_law(self) -> "CombContactSpec":
+        if self.stiffness is None and self.exponent not in (None, 1.0):
+            raise ValueError(f"exponent {self.exponent} given without stiffness: the finger-derived contact is "
+                             "linear (exponent 1); give both stiffness and exponent, or neither")
+        return self
+
+    n_modes: int = Field(8, ge=1, le=30)  # the engine (multibody.spec.PlantCouplingSpec) caps it at 30
+
+    def impact_stiffness(self, branch_diameter: float | None = None) -> tuple[float, float]:
+        """(K, exponent) of the IMPACT law: the explicit ``stiffness`` if given, else the finger's."""
+        if self.stiffness is not None:
+            return float(self.stiffness), float(1.5 if self.exponent is None else self.exponent)
+        from berryshaker.plant.finger import finger_contact
+
+        k = finger_contact(self.finger, branch_diameter or 0.008)["series_stiffness_N_m"]
+        return k, 1.0
 
 
 class PlantSpec(_Strict):

@@ -7,7 +7,8 @@ import base64
 import html
 from pathlib import Path
 
-from berryshaker.config import PAIR_NAMES, machine_table
+from berryshaker.config import machine_table
+from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, EQ18_F, FIELD_RESULT
 
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
@@ -57,7 +58,17 @@ def _vclass(verdict: str) -> str:
     return {"reproduced": "v-reproduced", "not reproduced": "v-not", "partly reproduced": "v-partly"}.get(verdict, "v-nc")
 
 
-def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
+def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | None = None) -> str:
+    """The self-contained HTML report of a study: claims with verdicts, failures, recommendation, one section
+    per step (a step that did not run says why), configuration with provenance tags."""
+    PAIR_NAMES = machine.pair_names
+    steps = steps or {}
+
+    def note(name):
+        st = steps.get(name)
+        if st is not None and st.note:
+            parts.append(f"<p class='small'><b>Note:</b> {html.escape(st.note)}</p>")
+
     k = res["kinematics"]
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
@@ -70,7 +81,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     parts.append("<h2>Claims of the study and what our models give</h2>")
     rows = [[c["id"], c["claim"], _Raw(f'<span class="{_vclass(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
              c["detail"]] for c in res["claims"]]
-    parts.append(_table(["#", "claim (STUDY.md sec. 3)", "verdict", "our numbers"], rows, left=(1, 2, 3)))
+    parts.append(_table(["#", "claim (docs/study.md)", "verdict", "our numbers"], rows, left=(1, 2, 3)))
     fails = summary.get("failures") or []
     parts.append("<h2>Failed runs</h2>")
     if fails:
@@ -88,15 +99,23 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
                              "damage (%)"], [
             [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES], opt["efficiency_kg_min"],
              opt["unripe_rate_pct"], opt["damage_rate_pct"]],
-            ["study (A1B1C1F3)", 0.25, 0.2, 0.1, 0.2, 3.93, 3.1, 2.8]]))
+            *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
+                FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
+              if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
     # kinematics
-    c = k["cam"]
     parts.append("<h2>1. Kinematics of the drive (eq. 1-3)</h2>")
-    parts.append(_table(["quantity", "value"], [
-        ["stroke", f"{c['stroke_mm']:.2f} mm"], ["max push-rod velocity", f"{c['max_velocity_m_s']:.4f} m/s"],
-        ["max acceleration", f"{c['max_acceleration_m_s2']:.3f} m/s²"], ["max jerk", f"{c['max_jerk_m_s3']:.1f} m/s³"],
-        ["pressure angle", f"{c['pressure_angle_deg']['min']:.2f} .. {c['pressure_angle_deg']['max']:.2f} deg"],
-        ["min pitch radius of curvature", f"{c['min_radius_of_curvature_mm']:.2f} mm (roller {c['roller_radius_mm']:.1f} mm)"],
+    krows = []
+    if "cam" in k:
+        c = k["cam"]
+        krows += [
+            ["stroke", f"{c['stroke_mm']:.2f} mm"], ["max push-rod velocity", f"{c['max_velocity_m_s']:.4f} m/s"],
+            ["max acceleration", f"{c['max_acceleration_m_s2']:.3f} m/s²"], ["max jerk", f"{c['max_jerk_m_s3']:.1f} m/s³"],
+            ["pressure angle", f"{c['pressure_angle_deg']['min']:.2f} .. {c['pressure_angle_deg']['max']:.2f} deg"],
+            ["min pitch radius of curvature",
+             f"{c['min_radius_of_curvature_mm']:.2f} mm (roller {c['roller_radius_mm']:.1f} mm)"]]
+    for key, val in (k.get("drive_specific") or {}).items():
+        krows.append([key.replace("_", " "), str(val)])
+    parts.append(_table(["quantity", "value"], krows + [
         ["left comb swing", f"{k['combs']['left']['swing_deg']['min']:.2f} .. {k['combs']['left']['swing_deg']['max']:.2f} deg"],
         ["right comb swing", f"{k['combs']['right']['swing_deg']['min']:.2f} .. {k['combs']['right']['swing_deg']['max']:.2f} deg"],
         ["transmission angle", f"{k['linkage']['transmission_angle_deg']['min']:.2f} .. "
@@ -105,21 +124,27 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     for name, cap in (("svaj.png", "Push-rod displacement, velocity, acceleration, jerk (3-4-5 law, corrected return)"),
                       ("groove_profile.png", "Groove cam: pitch curve and walls offset along its normal (corrected eq. 2)"),
                       ("comb_angles.png", "Comb swings, tip speeds and transmission angle (eq. 3)")):
-        parts.append(_img(figs / name, cap))
+        _maybe_img(parts, figs / name, cap)
     # agreement
     parts.append("<h2>2. MLSD model vs multibody contact simulation (eq. 18; Figs. 14-17)</h2>")
-    ag = res["agreement"]["pairs"]
-    parts.append(_table(["pair", "F (eq. 18)", "F critical (5 %)", "agree", "NRMSE", "correlation", "peak ratio"],
-                        [[p, ag[p]["f_statistic"], ag[p]["f_critical"], ag[p]["agree"], ag[p]["nrmse"],
-                          ag[p]["correlation"], ag[p]["peak_ratio"]] for p in PAIR_NAMES]))
-    parts.append("<p class='small'>Study: F = 2.3153, 2.5109, 2.1335, 4.6904 against 3.20, 3.15, 3.089, 3.092.</p>")
-    for i, p in enumerate(PAIR_NAMES):
-        parts.append(_img(figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2"))
+    note("agreement")
+    if res.get("agreement"):
+        ag = res["agreement"]["pairs"]
+        parts.append(_table(["pair", "F (eq. 18)", "F critical (5 %)", "agree", "NRMSE", "correlation", "peak ratio"],
+                            [[p, ag[p]["f_statistic"], ag[p]["f_critical"], ag[p]["agree"], ag[p]["nrmse"],
+                              ag[p]["correlation"], ag[p]["peak_ratio"]] for p in PAIR_NAMES]))
+        parts.append("<p class='small'>Study: F = " + ", ".join(f"{EQ18_F[p][0]}" for p in EQ18_F) + " against "
+                     + ", ".join(f"{EQ18_F[p][1]}" for p in EQ18_F) + ".</p>")
+        for i, p in enumerate(PAIR_NAMES):
+            _maybe_img(parts, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
     # rows
-    parts.append("<h2>3. Collision force against clearance (rows 1-13; Figs. 18-21)</h2>")
+    last = 4 + 3 * len(PAIR_NAMES)
+    lv = (last - 2, last - 1, last)
+    parts.append(f"<h2>3. Collision force against clearance (rows 1-{last - 3}; Figs. 18-21)</h2>")
+    note("rows")
     mb = res["rows"]["multibody"]
     rows = []
-    for r in range(1, 17):
+    for r in range(1, last + 1):
         if str(r) not in mb:
             continue
         s = mb[str(r)]
@@ -129,16 +154,16 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
                          *[f"mean {p} (N)" for p in PAIR_NAMES]], rows))
     for i, p in enumerate(PAIR_NAMES):
         _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
-    parts.append("<h2>4. Comb load moments (rows 1, 14-16; Figs. 22-23)</h2>")
+    parts.append(f"<h2>4. Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)</h2>")
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
                         [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
                           mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
-                         for r in (1, 14, 15, 16) if str(r) in mb]))
+                         for r in (1, *lv) if str(r) in mb]))
     for i, side in enumerate(("left", "right")):
         _maybe_img(parts, figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
     # fruit force
     parts.append("<h2>5. Fruit harvesting force (eq. 16-17; Figs. 24-26)</h2>")
-    if res["fruit_force"].get("chosen"):
+    if (res.get("fruit_force") or {}).get("chosen"):
         pos = res["fruit_force"]["chosen"]["summary"]["positions"]
         parts.append(_table(["fruit", "z (m)", "peak (N)", "study range (N)", "ripe fruit", "unripe fruit"],
                             [[n, d["z_m"], d["peak_force_N"], "-".join(str(x) for x in d.get("study_range_N", [])),
@@ -148,6 +173,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     # L9
     l9 = res["l9"]
     parts.append("<h2>6. Virtual L9 field test (Tables 7-8; Figs. 27-29)</h2>")
+    note("l9")
     if l9 is None:
         l9 = {"runs": [], "responses": {}}
         parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
@@ -174,6 +200,10 @@ def study_report(res: dict, summary: dict, machine, figs: Path) -> str:
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary["timings_s"].items()) + "</p>")
-    parts.append(_table(["key", "value"], machine_table(machine), left=(0, 1)))
+    parts.append("<p class='small'>Provenance: [study] from the reference study's text, [assumed] our default where its "
+                 "tables were lost, [calibrated] fitted to one published number (docs/plant.md, docs/harvest.md), "
+                 "[default] not set in the file (the description's default).</p>")
+    parts.append(_table(["key", "value", "source"], [[k_, v_, f"[{t_}]"] for k_, v_, t_ in machine_table(machine)],
+                        left=(0, 1, 2)))
     parts.append("</body></html>")
     return "\n".join(parts)

@@ -1,27 +1,58 @@
 """One sweep runner for every multi-run step: local processes by default, a Dask distributed cluster when
-a scheduler address is given; every finished run is cached on disk under the hash of its resolved
-inputs (function, arguments, package version), so an interrupted study resumes where it stopped and a
-repeated one is instant.  Failed runs are recorded with their error (and not cached, so they are retried).
+a scheduler address is given.
 
-Cache entries are JSON files written atomically (no pickle); run functions must return JSON-compatible
-values (dicts, lists, numbers, strings).
+Every finished run is cached on disk under the hash of what computed it -- the function's dotted name, its
+resolved arguments and a fingerprint of the berryshaker source code (:func:`code_fingerprint`) -- so an
+interrupted study resumes where it stopped, a repeated one is instant, and a changed model is never served a
+stale result.  Failed runs are recorded with their error (and not cached, so they are retried).
+
+Cache entries are JSON files written atomically (no pickle) as each run finishes; each holds its key, the
+code fingerprint, the function name, a hash of the arguments, the value, the run's wall time and a checksum
+of the value.  An entry that fails validation (truncated, hand-edited, ``{}``) is recomputed and
+overwritten, with a one-line warning naming it.  Run functions must be module-level (so they pickle) and
+return JSON-compatible values (dicts, lists, numbers, strings).
+
+Local runs go to a ``spawn`` process pool in chunks (a few chunks per worker, so inter-process overhead does
+not dominate short runs), with progress reported per run.  Workers ignore Ctrl-C (the parent cancels and
+terminates them) and exit by themselves when the parent process dies (``kill -9``).
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
+import math
+import multiprocessing
 import os
+import queue as queue_mod
+import sys
+import threading
+import time
+import weakref
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
+from urllib.parse import urlsplit
 
 from berryshaker import __version__
-from berryshaker.report.files import write_text_atomic
+
+#: Version of the cache-entry layout; part of every key.
+CACHE_SCHEMA = 2
+#: Seconds to wait for a Dask scheduler before giving up with a ConfigError.
+SCHEDULER_TIMEOUT_S = 5.0
+#: Process start method of the local pool (override with ``BERRYSHAKER_START_METHOD``).  ``spawn`` costs
+#: about 0.6 s of imports per worker but never inherits the parent's threads or locks (``fork`` with a
+#: running progress-bar or Dask thread can deadlock, and Python 3.12+ warns about it); numba's on-disk
+#: cache serves compiled kernels to spawned workers as well as to forked ones.
+DEFAULT_START_METHOD = "spawn"
+_DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
+# ---- keys ------------------------------------------------------------------------------------------
 def default_cache_dir() -> Path:
+    """``$BERRYSHAKER_CACHE/runs``, else ``$XDG_CACHE_HOME/berryshaker/runs`` (``~/.cache/berryshaker/runs``)."""
     base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "berryshaker")
     return Path(base) / "runs"
@@ -35,95 +66,434 @@ def _jsonable(obj):
     if isinstance(obj, (list, tuple)):
         return [_jsonable(v) for v in obj]
     if isinstance(obj, np.ndarray):
-        return obj.tolist()
+        return _jsonable(obj.tolist())
     if isinstance(obj, (np.floating, np.integer, np.bool_)):
         return obj.item()
     return obj
 
 
+def _not_json(obj):
+    raise TypeError(f"{type(obj).__name__} is not JSON-compatible (use numbers, strings, lists, dicts)")
+
+
+def _canonical(obj) -> str:
+    """Canonical JSON text of ``obj`` (sorted keys, no spaces): the input of every hash here."""
+    return json.dumps(_jsonable(obj), sort_keys=True, separators=(",", ":"), default=_not_json)
+
+
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+@functools.lru_cache(maxsize=None)
+def code_fingerprint() -> str:
+    """sha256 over every ``.py`` file of the installed berryshaker package (relative path and content,
+    sorted by path); computed once per process.  Any edit to the code gives new cache keys."""
+    import berryshaker
+
+    root = Path(berryshaker.__file__).resolve().parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
+        if "__pycache__" in p.parts:
+            continue
+        h.update(p.relative_to(root).as_posix().encode() + b"\0")
+        h.update(p.read_bytes() + b"\0")
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=None)
+def _file_sha256(path: str) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return ""
+
+
+def function_name(fn: Callable) -> str:
+    """Dotted name ``module.qualname`` of a run function."""
+    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
+
+
+def _outside_source(fn: Callable) -> str:
+    """Content hash of the module file of a run function that lives outside the berryshaker package (its
+    code is not covered by :func:`code_fingerprint`); empty for berryshaker's own functions."""
+    import berryshaker
+
+    mod = sys.modules.get(getattr(fn, "__module__", "") or "")
+    path = getattr(mod, "__file__", None)
+    if not path:
+        return ""
+    root = Path(berryshaker.__file__).resolve().parent
+    p = Path(path).resolve()
+    if root in p.parents:
+        return ""
+    return _file_sha256(str(p))
+
+
 def run_key(fn: Callable, kwargs: dict) -> str:
-    """sha256 of the function's dotted name, its resolved arguments and the package version."""
-    payload = json.dumps({"fn": f"{fn.__module__}.{fn.__qualname__}", "kwargs": _jsonable(kwargs),
-                          "version": __version__}, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(payload.encode()).hexdigest()
+    """sha256 of the function's dotted name, its resolved arguments and the code that computes the run
+    (:func:`code_fingerprint`, plus the module file of a function outside the package)."""
+    payload = {"fn": function_name(fn), "kwargs": _jsonable(kwargs), "code": code_fingerprint(),
+               "module": _outside_source(fn), "schema": CACHE_SCHEMA}
+    return _sha256(_canonical(payload))
 
 
+def cache_entry_path(cache_dir: str | Path, key: str) -> Path:
+    """Where the cache entry of ``key`` lives: ``cache_dir/ab/abcdef....json``."""
+    return Path(cache_dir) / key[:2] / f"{key}.json"
+
+
+_ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwargs_sha256": str,
+                "value_sha256": str, "wall_s": (int, float)}
+
+
+def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None) -> tuple[dict | None, str | None]:
+    """Read and validate one cache entry.
+
+    Returns ``(entry, None)`` for a valid entry, ``(None, None)`` when there is none, and
+    ``(None, reason)`` when the file exists but must not be used (not JSON, wrong schema, wrong key or
+    code fingerprint, value checksum mismatch).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None, None
+    except (OSError, UnicodeDecodeError) as exc:
+        return None, f"unreadable ({type(exc).__name__})"
+    try:
+        entry = json.loads(text)
+    except ValueError:
+        return None, "not valid JSON (truncated or edited)"
+    if not isinstance(entry, dict):
+        return None, "not a JSON object"
+    for name, typ in _ENTRY_TYPES.items():
+        if not isinstance(entry.get(name), typ) or isinstance(entry.get(name), bool):
+            return None, f"field {name!r} missing or of the wrong type"
+    if "value" not in entry:
+        return None, "field 'value' missing"
+    if entry["schema"] != CACHE_SCHEMA:
+        return None, f"schema {entry['schema']} (expected {CACHE_SCHEMA})"
+    if entry["key"] != key:
+        return None, "key does not match its file name"
+    if fingerprint is not None and entry["fingerprint"] != fingerprint:
+        return None, "written by other code"
+    if not math.isfinite(entry["wall_s"]) or entry["wall_s"] < 0:
+        return None, "impossible wall time"
+    try:
+        ok = _sha256(_canonical(entry["value"])) == entry["value_sha256"]
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        return None, "value checksum mismatch (edited or damaged)"
+    return entry, None
+
+
+def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dict, value, wall_s: float,
+                      fingerprint: str) -> Path:
+    """Write one cache entry atomically (temporary file and rename); return its path."""
+    from berryshaker.report.files import write_text_atomic
+
+    entry = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,
+             "kwargs_sha256": _sha256(_canonical(kwargs)), "version": __version__,
+             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": float(wall_s),
+             "value_sha256": _sha256(_canonical(value)), "value": value}
+    path = cache_entry_path(cache_dir, key)
+    write_text_atomic(path, json.dumps(entry, separators=(",", ":")))
+    return path
+
+
+# ---- executing (in this process, in pool workers, on Dask workers) -----------------------------------
 @dataclass
 class RunResult:
+    """One run of a sweep: its position, cache key, value or error, whether it came from the cache, and the
+    seconds of compute it took (for a cached run: when it was computed)."""
+
     index: int
     key: str
     value: Any = None
     error: str | None = None
     cached: bool = False
+    wall_s: float = 0.0
 
 
 def execute_job(fn: Callable, kwargs: dict) -> dict:
-    """Run one job and wrap the outcome; module-level so processes and Dask workers can import it."""
+    """Run one job and wrap the outcome ``{"value", "error", "wall_s"}``; module-level so processes and
+    Dask workers can import it.  A value that is not JSON-compatible is an error of the run."""
+    t0 = time.perf_counter()
     try:
-        return {"value": _jsonable(fn(**kwargs)), "error": None}
+        raw = fn(**kwargs)
+        wall = time.perf_counter() - t0
+        value = _jsonable(raw)
+        _canonical(value)
+        return {"value": value, "error": None, "wall_s": wall}
     except Exception as exc:  # noqa: BLE001 - recorded per run, reported by the caller
-        return {"value": None, "error": f"{type(exc).__name__}: {exc}"}
+        return {"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}
+
+
+_PROGRESS = None  # a multiprocessing queue in pool workers: the key of every finished run
+
+
+def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, fingerprint: str,
+             store: bool) -> list[dict]:
+    """Run a chunk of jobs ``(key, kwargs)``; module-level so pool and Dask workers can import it.
+
+    Right before each job the cache is read again (another sweep sharing the cache may have finished it);
+    a computed run is stored at once when ``store`` (local workers share the parent's disk).  Returns one
+    outcome per job: key, value, error, wall_s, cached, stored, problem (why an existing entry was unusable).
+    """
+    outs = []
+    for key, kw in jobs:
+        out = None
+        problem = None
+        if cache_dir:
+            entry, problem = read_cache_entry(cache_entry_path(cache_dir, key), key, fingerprint)
+            if entry is not None:
+                out = {"key": key, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
+                       "cached": True, "stored": True, "problem": None}
+        if out is None:
+            res = execute_job(fn, kw)
+            out = {"key": key, **res, "cached": False, "stored": False, "problem": problem}
+            if store and cache_dir and res["error"] is None:
+                try:
+                    write_cache_entry(cache_dir, key, function_name(fn), kw, res["value"], res["wall_s"],
+                                      fingerprint)
+                    out["stored"] = True
+                except OSError as exc:
+                    out["store_error"] = f"{type(exc).__name__}: {exc}"
+        outs.append(out)
+        if _PROGRESS is not None:
+            try:
+                _PROGRESS.put((key, out["error"] is None))
+            except (OSError, ValueError):
+                pass
+    return outs
+
+
+def _watch_parent(ppid: int, interval: float = 0.5) -> None:
+    while True:
+        if os.getppid() != ppid:  # re-parented: the process that started this worker is gone
+            os._exit(1)
+        time.sleep(interval)
+
+
+def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) -> None:
+    """Pool-worker initializer: report progress through ``progress``, leave Ctrl-C to the parent (it cancels
+    and terminates the pool), and exit when the parent is gone (Linux: a kernel death signal; everywhere: a
+    thread polling the parent pid).  With ``forkserver`` the parent is the fork server, which exits when the
+    main process dies."""
+    global _PROGRESS
+    import signal
+
+    _PROGRESS = progress
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if pdeathsig and sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL, 0, 0, 0)  # PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            pass
+    ppid = os.getppid()
+    if start_method != "forkserver" and ppid != parent_pid:  # the parent died before the watch was armed
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(ppid,), name="berryshaker-parent-watch", daemon=True).start()
+
+
+# ---- the runner ----------------------------------------------------------------------------------------
+def check_scheduler_address(address: str) -> str:
+    """Validate a Dask scheduler address without connecting (``tcp://host:port``, ``host:port``, ``tls://``,
+    ``inproc://...``); return it normalised or raise :class:`~berryshaker.errors.ConfigError`."""
+    from berryshaker.errors import ConfigError
+
+    addr = (address or "").strip()
+    hint = "give the scheduler as tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786), or omit --scheduler to run locally"
+    if not addr:
+        raise ConfigError(f"--scheduler is empty; {hint}")
+    full = addr if "://" in addr else f"tcp://{addr}"
+    try:
+        parts = urlsplit(full)
+        port = parts.port
+    except ValueError:
+        raise ConfigError(f"--scheduler {address!r} is not a valid address; {hint}") from None
+    if parts.scheme not in _DASK_SCHEMES:
+        raise ConfigError(f"--scheduler {address!r}: unknown protocol {parts.scheme!r} "
+                          f"(use one of {', '.join(_DASK_SCHEMES)}); {hint}")
+    if parts.scheme != "inproc" and (not parts.hostname or port is None or parts.path not in ("", "/")
+                                     or parts.query or parts.fragment):
+        raise ConfigError(f"--scheduler {address!r} needs a host and a port; {hint}")
+    return full
 
 
 class SweepRunner:
-    """Runs ``fn(**kwargs)`` for many argument sets with caching, parallelism and a progress bar."""
+    """Runs ``fn(**kwargs)`` for many argument sets with caching, parallelism and a progress bar.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local worker processes (default: all cores); must be >= 1.
+    scheduler : str, optional
+        Dask scheduler address; runs go to that cluster instead of local processes.
+    cache_dir : path, optional
+        Cache folder (default :func:`default_cache_dir`).
+    use_cache : bool
+        Read and write the cache.
+    progress : bool
+        Show a progress bar (rich) on ``console`` or stderr.
+    start_method : str, optional
+        ``spawn`` (default, :data:`DEFAULT_START_METHOD`), ``forkserver`` or ``fork``.
+
+    ``stats`` counts runs, cached, computed, failed, ``compute_s`` (compute seconds spent now),
+    ``cached_compute_s`` (the stored compute seconds of runs served by the cache) and ``cold_compute_s``
+    (their sum: what the runs cost from a cold cache), ``elapsed_s`` (wall time inside :meth:`map`).
+    ``warnings`` lists the one-line warnings printed (invalid cache entries...).
+    """
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, cache_dir: Path | str | None = None,
-                 use_cache: bool = True, progress: bool = True, console=None):
-        self.workers = workers or os.cpu_count() or 1
-        self.scheduler = scheduler
+                 use_cache: bool = True, progress: bool = True, console=None, start_method: str | None = None):
+        from berryshaker.errors import ConfigError
+
+        if workers is None:
+            self.workers = os.cpu_count() or 1
+        else:
+            try:
+                ok = not isinstance(workers, bool) and int(workers) == workers
+            except (TypeError, ValueError):
+                ok = False
+            if not ok or workers < 1:
+                raise ConfigError(f"--workers must be >= 1 (got {workers!r}); omit it to use all cores")
+            self.workers = int(workers)
+        self.scheduler = check_scheduler_address(scheduler) if scheduler is not None else None
+        self.scheduler_timeout_s = SCHEDULER_TIMEOUT_S
         self.cache_dir = Path(cache_dir) if cache_dir else default_cache_dir()
         self.use_cache = use_cache
         self.progress = progress
         self.console = console
-        self.stats = {"runs": 0, "cached": 0, "failed": 0}
+        self.start_method = start_method or os.environ.get("BERRYSHAKER_START_METHOD") or DEFAULT_START_METHOD
+        if self.start_method not in multiprocessing.get_all_start_methods():
+            raise ConfigError(f"start method {self.start_method!r} is not available here; use one of "
+                              f"{', '.join(multiprocessing.get_all_start_methods())}")
+        self.stats = {"runs": 0, "cached": 0, "computed": 0, "failed": 0, "compute_s": 0.0,
+                      "cached_compute_s": 0.0, "cold_compute_s": 0.0, "elapsed_s": 0.0}
+        self.warnings: list[str] = []
+        self._warned: set[str] = set()
+        self._executor = self._progress_queue = self._finalizer = None
 
-    # ---- cache ---------------------------------------------------------------------------------
-    def _path(self, key: str) -> Path:
-        return self.cache_dir / key[:2] / f"{key}.json"
+    # ---- messages ----------------------------------------------------------------------------------
+    def _say(self, msg: str) -> None:
+        if self.console is not None:
+            self.console.print(msg, markup=False, highlight=False, soft_wrap=True)
+        else:
+            print(msg, file=sys.stderr, flush=True)
 
-    def _load(self, key: str):
-        p = self._path(key)
-        if self.use_cache and p.is_file():
-            try:
-                return json.loads(p.read_text())
-            except (OSError, json.JSONDecodeError):
-                return None
-        return None
+    def _warn(self, msg: str) -> None:
+        self.warnings.append(msg)
+        self._say(f"warning: {msg}")
 
-    def _store(self, key: str, fn: Callable, kwargs: dict, value) -> None:
-        if self.use_cache:
-            write_text_atomic(self._path(key), json.dumps(
-                {"fn": f"{fn.__module__}.{fn.__qualname__}", "version": __version__, "value": value}))
+    def _entry_problem(self, key: str, problem: str | None) -> None:
+        if problem and key not in self._warned:
+            self._warned.add(key)
+            self._warn(f"cache entry {cache_entry_path(self.cache_dir, key)} is invalid ({problem}); recomputing it")
 
-    # ---- running -------------------------------------------------------------------------------
+    def summary_line(self) -> str:
+        """One line for a report: runs, cached, failed, compute now and cold cost."""
+        s = self.stats
+        return (f"{s['runs']} runs ({s['cached']} from the cache, {s['failed']} failed): "
+                f"{s['elapsed_s']:.1f} s now; cold cost {s['cold_compute_s']:.1f} s of compute")
+
+    # ---- dask ----------------------------------------------------------------------------------------
+    def connect(self):
+        """A :class:`distributed.Client` for the scheduler; a :class:`~berryshaker.errors.ConfigError` within
+        ``scheduler_timeout_s`` when it cannot be reached."""
+        from berryshaker.errors import ConfigError
+
+        if self.scheduler is None:
+            raise ConfigError("no --scheduler given")
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ConfigError("--scheduler needs dask.distributed (pip install 'dask[distributed]')") from None
+        import logging
+
+        quiet = [logging.getLogger(n) for n in ("distributed.client", "distributed.comm.core", "distributed.core")]
+        levels = [lg.level for lg in quiet]
+        for lg in quiet:
+            lg.setLevel(logging.CRITICAL)
+        try:
+            return Client(self.scheduler, timeout=f"{self.scheduler_timeout_s}s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ConfigError(f"--scheduler {self.scheduler}: no Dask scheduler answered within "
+                              f"{self.scheduler_timeout_s:g} s ({type(exc).__name__}); check that `dask scheduler` "
+                              "runs there and the host and port, or omit --scheduler to run locally") from None
+        finally:
+            for lg, lv in zip(quiet, levels):
+                lg.setLevel(lv)
+
+    def check_scheduler(self) -> None:
+        """Connect once to the scheduler (if any) and disconnect: call before any work to fail early."""
+        if self.scheduler is not None:
+            self.connect().close()
+
+    # ---- running -------------------------------------------------------------------------------------
     def map(self, fn: Callable, kwargs_list: list[dict], label: str = "runs") -> list[RunResult]:
+        """Run ``fn(**kw)`` for every ``kw`` (cached, in parallel); results in input order, failures recorded.
+
+        Ctrl-C stops within about a second: pending runs are cancelled, the workers terminated, runs that
+        finished stay in the cache, a one-line message says so, and ``KeyboardInterrupt`` is raised again.
+        """
+        t_start = time.perf_counter()
         kwargs_list = list(kwargs_list)
-        results: list[RunResult | None] = [None] * len(kwargs_list)
-        todo = []
+        n = len(kwargs_list)
+        results: list[RunResult | None] = [None] * n
+        fp = code_fingerprint()
+        cache = str(self.cache_dir) if self.use_cache else None
+        todo: dict[str, list[int]] = {}
+        jobs: dict[str, dict] = {}
         for i, kw in enumerate(kwargs_list):
             key = run_key(fn, kw)
-            hit = self._load(key)
-            if hit is not None:
-                results[i] = RunResult(i, key, hit["value"], None, True)
-            else:
-                todo.append((i, key, kw))
-        self.stats["runs"] += len(kwargs_list)
-        self.stats["cached"] += len(kwargs_list) - len(todo)
-        bar = self._bar(label, len(kwargs_list), len(kwargs_list) - len(todo))
+            if key in todo:
+                todo[key].append(i)
+                continue
+            if cache:
+                entry, problem = read_cache_entry(cache_entry_path(cache, key), key, fp)
+                self._entry_problem(key, problem)
+                if entry is not None:
+                    results[i] = RunResult(i, key, entry["value"], None, True, float(entry["wall_s"]))
+                    continue
+            todo[key] = [i]
+            jobs[key] = kw
+        self.stats["runs"] += n
+        pre_cached = sum(1 for r in results if r is not None)
+        self.stats["cached"] += pre_cached
+        self.stats["cached_compute_s"] += sum(r.wall_s for r in results if r is not None)
+        bar = self._bar(label, n, pre_cached)
+        ctx = {"fn": fn, "results": results, "todo": todo, "jobs": jobs, "bar": bar, "fp": fp, "cache": cache,
+               "done": set(), "ok_elsewhere": set()}
         try:
             if todo:
                 if self.scheduler:
-                    self._run_dask(fn, todo, results, bar)
+                    self._run_dask(ctx)
                 elif self.workers <= 1 or len(todo) == 1:
-                    for i, key, kw in todo:
-                        self._finish(results, i, key, fn, kw, execute_job(fn, kw), bar)
+                    for key, kw in jobs.items():
+                        self._finish(ctx, run_jobs(fn, [(key, kw)], cache, fp, True)[0])
                 else:
-                    self._run_local(fn, todo, results, bar)
+                    self._run_local(ctx)
+        except KeyboardInterrupt:
+            if bar is not None:
+                bar[0].stop()
+                bar = None
+            finished = sum(1 for r in results if r is not None and r.error is None) + sum(
+                len(ctx["todo"][k]) for k in ctx["ok_elsewhere"] - ctx["done"])
+            where = f"; they are cached in {self.cache_dir}, run the same command again to resume" if cache else ""
+            self._say(f"interrupted: {finished} of {n} runs had finished{where}")
+            raise
         finally:
             if bar is not None:
                 bar[0].stop()
-        self.stats["failed"] += sum(1 for r in results if r.error)
+            self.stats["failed"] += sum(1 for r in results if r is not None and r.error)
+            self.stats["cold_compute_s"] = self.stats["compute_s"] + self.stats["cached_compute_s"]
+            self.stats["elapsed_s"] += time.perf_counter() - t_start
         return results  # type: ignore[return-value]
 
     def values(self, fn: Callable, kwargs_list: list[dict], label: str = "runs") -> list:
@@ -136,41 +506,144 @@ class SweepRunner:
             raise SimulationError(f"{label}: run {bad[0].index + 1} of {len(out)} failed: {bad[0].error}")
         return [r.value for r in out]
 
-    def _finish(self, results, i, key, fn, kw, outcome, bar):
-        results[i] = RunResult(i, key, outcome["value"], outcome["error"], False)
-        if outcome["error"] is None:
-            self._store(key, fn, kw, outcome["value"])
-        if bar is not None:
-            bar[0].advance(bar[1])
+    def _finish(self, ctx, out: dict, advance: bool = True) -> None:
+        """Record one outcome (for every input index with its key), store it if the worker did not."""
+        key = out["key"]
+        if key in ctx["done"]:
+            return
+        ctx["done"].add(key)
+        self._entry_problem(key, out.get("problem"))
+        if out.get("store_error"):
+            self._warn(f"could not write the cache entry of a run ({out['store_error']})")
+        elif ctx["cache"] and out["error"] is None and not out.get("stored"):
+            try:
+                write_cache_entry(ctx["cache"], key, function_name(ctx["fn"]), ctx["jobs"][key], out["value"],
+                                  out["wall_s"], ctx["fp"])
+            except OSError as exc:
+                self._warn(f"could not write the cache entry of a run ({type(exc).__name__}: {exc})")
+        idx = ctx["todo"][key]
+        for i in idx:
+            ctx["results"][i] = RunResult(i, key, out["value"], out["error"], bool(out["cached"]), float(out["wall_s"]))
+        if out["cached"]:
+            self.stats["cached"] += len(idx)
+            self.stats["cached_compute_s"] += float(out["wall_s"]) * len(idx)
+        else:
+            self.stats["computed"] += 1
+            self.stats["compute_s"] += float(out["wall_s"])
+            self.stats["cached"] += len(idx) - 1  # duplicates in this sweep
+        if advance and ctx["bar"] is not None:
+            ctx["bar"][0].advance(ctx["bar"][1], len(idx))
 
-    def _run_local(self, fn, todo, results, bar):
-        with ProcessPoolExecutor(max_workers=min(self.workers, len(todo))) as pool:
-            pending = {pool.submit(execute_job, fn, kw): (i, key, kw) for i, key, kw in todo}
-            while pending:
-                done, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for fut in done:
-                    i, key, kw = pending.pop(fut)
-                    try:
-                        outcome = fut.result()
-                    except Exception as exc:  # noqa: BLE001 - a crashed worker process
-                        outcome = {"value": None, "error": f"{type(exc).__name__}: {exc}"}
-                    self._finish(results, i, key, fn, kw, outcome, bar)
+    def _failed(self, key: str, error: str) -> dict:
+        return {"key": key, "value": None, "error": error, "wall_s": 0.0, "cached": False, "stored": False}
 
-    def _run_dask(self, fn, todo, results, bar):
-        from distributed import Client, as_completed
+    def _pool(self):
+        """The local process pool, started on first use and kept for later :meth:`map` calls (workers keep
+        their imports and compiled kernels); ended by :meth:`close`, on garbage collection or at exit."""
+        if self._executor is not None and not getattr(self._executor, "_broken", False):
+            return self._executor, self._progress_queue
+        self.close()
+        mp = multiprocessing.get_context(self.start_method)
+        progress = mp.Queue()
+        pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp, initializer=_worker_init,
+                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG))
+        self._executor, self._progress_queue = pool, progress
+        self._finalizer = weakref.finalize(self, _close_pool, pool, progress)
+        return pool, progress
 
-        with Client(self.scheduler, timeout="20s") as client:
-            futs = {}
-            for i, key, kw in todo:
-                f = client.submit(execute_job, fn, kw, key=f"berryshaker-{key}", pure=False, retries=3)
-                futs[f] = (i, key, kw)
-            for f in as_completed(list(futs)):
-                i, key, kw = futs[f]
+    def close(self) -> None:
+        """End the local worker processes (a later :meth:`map` starts new ones)."""
+        if self._finalizer is not None:
+            self._finalizer()
+        self._executor = self._progress_queue = self._finalizer = None
+
+    def __enter__(self) -> SweepRunner:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def _run_local(self, ctx) -> None:
+        keys = list(ctx["jobs"])
+        nw = min(self.workers, len(keys))
+        size = max(1, math.ceil(len(keys) / (4 * nw)))  # about four chunks per worker
+        chunks = [keys[k:k + size] for k in range(0, len(keys), size)]
+        pool, progress = self._pool()
+        advanced: set[str] = set()
+
+        def drain():
+            while True:
                 try:
-                    outcome = f.result()
+                    key, ok = progress.get_nowait()
+                except (queue_mod.Empty, OSError, ValueError, EOFError, TypeError):
+                    return
+                if ok:
+                    ctx["ok_elsewhere"].add(key)
+                if key in ctx["todo"] and key not in advanced and key not in ctx["done"]:
+                    advanced.add(key)
+                    if ctx["bar"] is not None:
+                        ctx["bar"][0].advance(ctx["bar"][1], len(ctx["todo"][key]))
+
+        clean = False
+        try:
+            futs = {pool.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
+                                True): chunk for chunk in chunks}
+            pending = set(futs)
+            while pending:
+                done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+                drain()
+                for fut in done:
+                    chunk = futs[fut]
+                    try:
+                        outs = fut.result()
+                    except Exception as exc:  # noqa: BLE001 - a crashed worker process
+                        err = f"{type(exc).__name__}: {exc}"
+                        outs = []
+                        for k in chunk:  # runs of the chunk that finished before the crash are in the cache
+                            entry, _ = read_cache_entry(cache_entry_path(ctx["cache"], k), k, ctx["fp"]) \
+                                if ctx["cache"] else (None, None)
+                            outs.append({"key": k, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
+                                         "cached": False, "stored": True} if entry else self._failed(k, err))
+                    for out in outs:
+                        self._finish(ctx, out, advance=out["key"] not in advanced)
+            clean = True
+        finally:
+            if not clean:  # Ctrl-C or an error in this process: cancel, end the workers now
+                self._executor = self._progress_queue = None
+                if self._finalizer is not None:
+                    self._finalizer.detach()
+                    self._finalizer = None
+                _abort_pool(pool)
+                drain()  # runs that finished before the interruption (for the message)
+                _close_queue(progress)
+            elif getattr(pool, "_broken", False):
+                self.close()
+
+    def _run_dask(self, ctx) -> None:
+        from distributed import as_completed
+
+        client = self.connect()
+        futs = {}
+        try:
+            for key, kw in ctx["jobs"].items():
+                f = client.submit(run_jobs, ctx["fn"], [(key, kw)], ctx["cache"], ctx["fp"], False,
+                                  key=f"berryshaker-{key}", pure=False, retries=3)
+                futs[f] = key
+            for f in as_completed(list(futs)):
+                key = futs[f]
+                try:
+                    out = f.result()[0]
                 except Exception as exc:  # noqa: BLE001 - lost beyond its retries
-                    outcome = {"value": None, "error": f"{type(exc).__name__}: {exc}"}
-                self._finish(results, i, key, fn, kw, outcome, bar)
+                    out = self._failed(key, f"{type(exc).__name__}: {exc}")
+                self._finish(ctx, out)
+        except BaseException:
+            try:
+                client.cancel(list(futs), force=True)
+            except Exception:  # noqa: BLE001 - best effort while stopping
+                pass
+            raise
+        finally:
+            client.close(timeout=2)
 
     def _bar(self, label, total, done):
         if not self.progress:
@@ -196,4 +669,34 @@ class SweepRunner:
         return p, tid
 
 
-# ---- parameter sweeps over the machine description ------------------------------------------------
+#: Arm the Linux parent-death signal in pool workers (the polling thread works without it, more slowly).
+_USE_PDEATHSIG = True
+
+
+def _close_queue(progress) -> None:
+    try:
+        progress.close()
+        progress.cancel_join_thread()
+    except (OSError, ValueError):
+        pass
+
+
+def _close_pool(pool: ProcessPoolExecutor, progress) -> None:
+    """End an idle pool (its workers finish nothing more) and its progress queue."""
+    pool.shutdown(wait=True, cancel_futures=True)
+    _close_queue(progress)
+
+
+def _abort_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel pending work and end the worker processes now (Ctrl-C or an error in the parent)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    deadline = time.monotonic() + 1.0
+    for p in procs:
+        p.join(max(0.0, deadline - time.monotonic()))
+        if p.is_alive():
+            p.kill()
+            p.join(0.5)

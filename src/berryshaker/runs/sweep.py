@@ -125,13 +125,17 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
             raise ConfigError(f"unknown parameter {key!r}")
         node[parts[-1]] = value
     machine = machine_from_dict(data, "(sweep point)")
+    from berryshaker.drives import drive_of
+
+    drive = drive_of(machine)
+    drive.check(machine)
     if model == "mlsd":
-        from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
+        if drive.reduced_model is None:
+            raise ConfigError(f"the {drive.name} drive has no reduced model; use --model multibody")
+        return drive.reduced_model(machine, {}, revolutions=revolutions).summary()
+    from berryshaker.drives.simulation import simulate_multibody
 
-        return simulate_mlsd(machine, {}, revolutions=revolutions).summary()
-    from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
-
-    return simulate_harvester_multibody(machine, {}, revolutions=revolutions)[1]
+    return simulate_multibody(machine, {}, revolutions=revolutions)[1]
 
 
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from berryshaker.config import Machine
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.errors import GeometryError
 from berryshaker.kinematics.cam import (
     FOLLOWER_LAWS,

@@ -12,19 +12,19 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
-from berryshaker.config import PAIR_NAMES, Machine
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.drives.groove_cam.kinematics import check_machine, geometry_vector, ideal_state, mid_stroke_angles
-from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 CAM_MASS = 8.0  # kg [assumed]; the cam is driven at constant speed, so its mass only loads its bearing
 
 
-def harvester_mechanism(machine: Machine, law: str = "impact", exponent: float = 1.0,
-                        damping_depth: float = 1e-5, revolutions: int = 2) -> MechanismSpec:
-    """Mechanism description of the machine's drive with its clearances (SI numbers)."""
+def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec:
+    """Mechanism description of the groove-cam drive with its clearances (SI numbers).
+
+    Each clearance pair's contact law and parameters come from the machine description
+    (``[clearance.<pair>]``: law, stiffness, exponent, damping, damping_depth, restitution).
+    """
     check_machine(machine)
     g = geometry_vector(machine)
     c = machine.cam
@@ -61,11 +61,11 @@ def harvester_mechanism(machine: Machine, law: str = "impact", exponent: float =
     ]
 
     def contact(pair):
-        p = getattr(machine.clearance, pair)
-        return dict(law=law, stiffness=p.stiffness, exponent=exponent, damping=p.damping,
-                    damping_depth=damping_depth, restitution=0.9)
+        p = machine.clearance[pair]
+        return dict(law=p.law, stiffness=p.stiffness, exponent=p.exponent, damping=p.damping,
+                    damping_depth=p.damping_depth, restitution=p.restitution)
 
-    sizes = machine.clearance.sizes()
+    sizes = machine.clearance_sizes()
     pin_a = [-lab / 2, 0.0]
     joints.append(dict(name="A", type="groove_clearance" if sizes["A"] > 0 else "cam_roller", body_i="push_rod",
                        body_j="cam", point_i=pin_a, cam="groove", clearance=sizes["A"], contact=contact("A")))
@@ -88,52 +88,9 @@ def harvester_mechanism(machine: Machine, law: str = "impact", exponent: float =
     spec = dict(
         mechanism=dict(name=f"{machine.machine.name} (multibody)", gravity=[0.0, 0.0]),
         bodies=bodies, joints=joints, forces=forces,
-        drivers=[dict(name="cam_drive", type="angle", body="cam", speed=-c.speed, angle0=0.0)],
+        drivers=[dict(name="drive", type="angle", body="cam", speed=-c.speed, angle0=0.0)],
         cams=[dict(name="groove", law=c.law, base_radius=c.base_radius, offset=c.offset, stroke=c.stroke,
                    rise_angle=c.rise_angle, far_dwell_angle=c.far_dwell_angle, return_angle=c.return_angle)],
         simulation=dict(duration=revolutions * period, rtol=1e-6, output_step=1e-4, max_step=2e-4),
     )
     return mechanism_from_dict(spec, "(harvester built from the machine)")
-
-
-def harvester_summary(machine: Machine, result: MultibodyResult) -> dict:
-    """The JSON of ``simulate --model multibody``: same keys as the MLSD model's."""
-    cm = result.compiled
-    sel = result.t >= result.stats_from - 1e-12
-
-    def stats(series, peak=0.0):
-        y = np.abs(series[sel])
-        return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2)))}
-
-    out = {"model": "multibody", "clearance_mm": {p: v * 1e3 for p, v in machine.clearance.sizes().items()},
-           "collision_force_N": {}, "load_moment_Nm": {}, "drive_moment_Nm": {}}
-    for p in PAIR_NAMES:
-        if p in cm.frc_names:
-            k = cm.frc_names.index(p)
-            out["collision_force_N"][p] = stats(result.elements[:, k, 0], result.peaks[k])
-        else:
-            out["collision_force_N"][p] = stats(result.reaction(p))
-    for side, name in (("left", "bush_left"), ("right", "bush_right")):
-        k = cm.frc_names.index(name)
-        s = stats(result.elements[:, k, 0])
-        out["load_moment_Nm"][side] = s
-    torque = -result.reaction("cam_drive")  # moment in the direction of rotation (clockwise)
-    out["drive_moment_Nm"] = stats(torque)
-    out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
-    out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),
-               contact_onsets_located=int(result.info[2]), wall_time_s=result.wall_time_s,
-               revolutions=int(round(result.t[-1] * machine.cam.speed / (2 * math.pi))),
-               statistics_over="revolutions 2..N")
-    return out
-
-
-def simulate_harvester_multibody(machine: Machine, clearance: dict[str, float] | None = None,
-                                 revolutions: int = 2, rtol: float = 1e-6, output_step: float = 1e-4,
-                                 law: str = "impact") -> tuple[MultibodyResult, dict]:
-    from berryshaker.drives.groove_cam.mlsd import validate_clearances
-
-    sizes = validate_clearances(machine, clearance or {})
-    machine = machine.with_clearances(sizes)
-    spec = harvester_mechanism(machine, law=law, revolutions=revolutions)
-    result = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
-    return result, harvester_summary(machine, result)

@@ -29,7 +29,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from berryshaker.config import PAIR_NAMES, Machine
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
+
+PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result layout
 from berryshaker.contact.force_laws import mlsd_kernel
 from berryshaker.contact.friction import coulomb_friction_kernel
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
@@ -87,7 +89,7 @@ def parameter_vector(machine: Machine) -> np.ndarray:
     p[P_KP], p[P_CP] = machine.combs.load_stiffness, machine.combs.load_damping
     p[P_TD0], p[P_TE0] = mid_stroke_angles(machine)
     for k, name in enumerate(PAIR_NAMES):
-        pair = getattr(machine.clearance, name)
+        pair = machine.clearance[name]
         half = 0.5 if pair.kind == "point-line" else 1.0
         p[P_PAIR0 + 3 * k] = pair.size * half
         p[P_PAIR0 + 3 * k + 1] = pair.stiffness
@@ -360,30 +362,6 @@ class MLSDResult:
         return out
 
 
-def validate_clearances(machine: Machine, clearance: dict[str, float]) -> dict[str, float]:
-    """Check clearance sizes (m) against the geometry; return the full A, B, C, F mapping."""
-    sizes = machine.clearance.sizes()
-    for name, val in clearance.items():
-        if name not in PAIR_NAMES:
-            raise ConfigError(f"unknown clearance pair {name!r}; the pairs are A, B, C, F")
-        if not (math.isfinite(val) and val >= 0):
-            raise ConfigError(f"clearance {name} = {val * 1e3:g} mm: must be >= 0")
-        sizes[name] = val
-    # geometric limits: the free play must be small against the parts it sits between
-    limits = {
-        "A": (0.2 * machine.cam.roller_radius, "20 % of the cam roller radius"),
-        "B": (0.2 * machine.cam.roller_radius, "20 % of the roller radius"),
-        "C": (0.1 * machine.rocker.arm_CD, "10 % of arm CD"),
-        "F": (0.1 * machine.four_bar.arm_FE, "10 % of arm FE"),
-    }
-    for name, (lim, what) in limits.items():
-        if sizes[name] > lim:
-            raise ConfigError(
-                f"clearance {name} = {sizes[name] * 1e3:g} mm is larger than the geometry allows "
-                f"({what} = {lim * 1e3:g} mm)")
-    return sizes
-
-
 def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, revolutions: int = 3,
                   output_step: float = 1e-4, rtol: float = 1e-7, h_max: float = 2e-4) -> MLSDResult:
     """Simulate the MLSD clearance model of the harvester drive.
@@ -392,7 +370,8 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     ----------
     machine : Machine
     clearance : dict, optional
-        Clearance sizes (m) per pair name A, B, C, F; missing pairs keep the machine's value.
+        Clearance sizes (m) per pair name A, B, C, F; missing pairs keep the machine's value (validated by
+        :meth:`~berryshaker.drives.base.MachineBase.with_clearances`).
     revolutions : int
         Cam revolutions to simulate (>= 2); statistics use revolutions 2..N (the first is start-up).
     output_step : float
@@ -408,8 +387,8 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     """
     if revolutions < 2:
         raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
-    sizes = validate_clearances(machine, clearance or {})
-    machine = machine.with_clearances(sizes)
+    machine = machine.with_clearances(clearance)
+    sizes = machine.clearance_sizes()
     check_machine(machine)
     g = geometry_vector(machine)
     p = parameter_vector(machine)

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from berryshaker.config import Machine
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.report.files import write_text_atomic
 from berryshaker.drives.groove_cam.kinematics import cam_groove
 

@@ -1,0 +1,94 @@
+"""The command-line application object, shared options, output consoles and the one error wrapper.
+
+``berryshaker --help``.
+
+Every command works on the built-in reference machine unless ``--config FILE`` names another machine
+description (TOML, units allowed: "0.25 mm", "120 rpm").  ``--json`` prints one JSON object on stdout for
+scripts; errors go to stderr as one clear message with exit code 2 and nothing written.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+
+app = typer.Typer(
+    name="berryshaker",
+    help="Design and tune comb-oscillation blueberry harvesters with transmission clearance.\n\n"
+    "Start with `berryshaker kinematics` (the reference machine) or `berryshaker config init my.toml` "
+    "to get an editable machine description.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+config_app = typer.Typer(help="Show, create and check machine descriptions (TOML).", no_args_is_help=True)
+app.add_typer(config_app, name="config")
+doe_app = typer.Typer(help="Plan, analyse and simulate orthogonal field tests (study sec. 2.6, 3.5).",
+                      no_args_is_help=True)
+app.add_typer(doe_app, name="doe")
+
+out = Console()
+err = Console(stderr=True, soft_wrap=True)
+
+ConfigOpt = typer.Option(None, "--config", "-c", help="Machine description (TOML). Default: built-in reference machine.",
+                         exists=False, dir_okay=False)
+JsonOpt = typer.Option(False, "--json", help="Print one JSON object on stdout instead of tables.")
+
+
+def _fail(exc: Exception) -> None:
+    err.print(f"[bold red]error:[/] {exc}", highlight=False, markup=True)
+    raise typer.Exit(code=2)
+
+
+def _load(config: Optional[Path]):
+    from berryshaker.config import load_machine
+
+    return load_machine(config)
+
+
+def _version_cb(value: bool):
+    if value:
+        print(f"berryshaker {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(version: bool = typer.Option(False, "--version", callback=_version_cb, is_eager=True,
+                                      help="Print the version and exit.")):
+    """berryshaker: harvester drive kinematics, clearance dynamics, plant response and field tests."""
+
+
+def _print_json(obj) -> None:
+    sys.stdout.write(json.dumps(obj, indent=2) + "\n")
+
+
+
+
+def command(parent: typer.Typer, name: str | None = None, **kwargs):
+    """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
+    message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the
+    cache)."""
+    import functools
+
+    def deco(fn):
+        @functools.wraps(fn)
+        def wrapped(*args, **kw):
+            try:
+                return fn(*args, **kw)
+            except BerryshakerError as exc:
+                _fail(exc)
+            except KeyboardInterrupt:
+                err.print("[bold red]interrupted[/]: stopped; finished runs are kept in the cache", highlight=False)
+                raise typer.Exit(code=130) from None
+
+        return parent.command(name, **kwargs)(wrapped)
+
+    return deco

@@ -1,0 +1,205 @@
+"""Machine descriptions and kinematics: ``kinematics``, ``cam-profile``, ``config show|init|validate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+from berryshaker.report.files import write_provenance
+from berryshaker.cli.app import (
+    ConfigOpt,
+    JsonOpt,
+    app,
+    command,
+    config_app,
+    err,
+    out,
+    _fail,
+    _load,
+    _print_json,
+)
+
+
+@command(app)
+def kinematics(
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write SVAJ, groove and comb-angle PNGs to DIR."),
+    allow_undercut: bool = typer.Option(False, "--allow-undercut",
+                                        help="Report an undercutting cam instead of refusing it."),
+):
+    """Kinematics of the ideal drive (study eq. 1-3): cam SVAJ, groove, pressure angle, comb swing.
+
+    Checks that the four-bar assembles over the whole cycle and the groove does not undercut.
+    """
+    try:
+        from berryshaker.drives import drive_of
+
+        machine = _load(config)
+        drive = drive_of(machine)
+        kin = drive.check(machine, allow_undercut=allow_undercut)
+        summary = drive.kinematics_summary(machine, kin)
+        summary["machine"] = machine.machine.name
+        summary["version"] = __version__
+        if plot is not None:
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import write_kinematics_figures
+
+            with staged_directory(plot) as stage:
+                write_kinematics_figures(machine, kin, stage)
+                write_provenance(stage, machine)
+            summary["plots"] = [str(plot / n) for n in ("svaj.png", "groove_profile.png", "comb_angles.png")]
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(summary)
+        return
+    _print_kinematics(summary)
+
+
+def _print_kinematics(s: dict) -> None:
+    t = Table(title=f"Kinematics - {s['machine']}", show_header=True, header_style="bold")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    t.add_column("closed form", justify="right")
+    for key, val in (s.get("drive_specific") or {}).items():
+        t.add_row(key.replace("_", " "), str(val), "")
+    if "cam" in s:
+        _print_cam_rows(t, s["cam"])
+    _print_comb_rows(t, s)
+    out.print(t)
+    for p in s.get("plots", []):
+        out.print(f"wrote {p}")
+
+
+def _print_cam_rows(t, c: dict) -> None:
+    cf = c.get("closed_form", {})
+    t.add_row("follower law", c["law"], "")
+    t.add_row("stroke", f"{c['stroke_mm']:.3f} mm", "")
+    t.add_row("max push-rod velocity", f"{c['max_velocity_m_s']:.4f} m/s",
+              f"{cf.get('max_velocity_m_s', float('nan')):.4f} m/s")
+    t.add_row("max push-rod acceleration", f"{c['max_acceleration_m_s2']:.3f} m/s²",
+              f"{cf.get('max_acceleration_m_s2', float('nan')):.3f} m/s²")
+    t.add_row("max push-rod jerk", f"{c['max_jerk_m_s3']:.1f} m/s³", f"{cf.get('max_jerk_m_s3', float('nan')):.1f} m/s³")
+    t.add_row("pressure angle", f"{c['pressure_angle_deg']['min']:.2f} .. {c['pressure_angle_deg']['max']:.2f} deg", "")
+    t.add_row("min pitch radius of curvature", f"{c['min_radius_of_curvature_mm']:.2f} mm",
+              f"roller {c['roller_radius_mm']:.2f} mm")
+    t.add_row("undercut", "YES" if c["undercut"] else "no", "")
+
+
+def _print_comb_rows(t, s: dict) -> None:
+    for side in ("left", "right"):
+        cm = s["combs"][side]
+        t.add_row(f"{side} comb swing", f"{cm['swing_deg']['min']:.2f} .. {cm['swing_deg']['max']:.2f} deg", "")
+        t.add_row(f"{side} comb max tip speed", f"{cm['max_tip_speed_m_s']:.3f} m/s", "")
+        t.add_row(f"{side} comb max tip acceleration", f"{cm['max_tip_acceleration_m_s2']:.2f} m/s²", "")
+    ta = s["linkage"]["transmission_angle_deg"]
+    t.add_row("transmission angle", f"{ta['min']:.2f} .. {ta['max']:.2f} deg", "")
+    d = s["drive"]
+    t.add_row("drive shaft speed", f"{d.get('cam_speed_rpm', d.get('shaft_speed_rpm', float('nan'))):.1f} r/min", "")
+    t.add_row("comb frequency", f"{d['comb_frequency_hz']:.3f} Hz", "")
+
+
+@command(app, "cam-profile")
+def cam_profile(
+    out_file: Path = typer.Option(..., "--out", "-o", help="Output file."),
+    fmt: str = typer.Option("csv", "--format", "-f", help="csv (angle + pitch/inner/outer in mm) or dxf "
+                            "(closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL)."),
+    config: Optional[Path] = ConfigOpt,
+    points: int = typer.Option(1441, "--points", min=90, help="Points per revolution."),
+):
+    """Export the groove walls of the cam (study eq. 2, corrected) for CAM."""
+    try:
+        from berryshaker.drives.groove_cam.kinematics import check_machine
+        from berryshaker.drives.groove_cam.profile_export import write_groove_csv, write_groove_dxf
+
+        if fmt not in ("csv", "dxf"):
+            raise BerryshakerError(f"--format must be csv or dxf, got {fmt!r}")
+        machine = _load(config)
+        if machine.DRIVE != "groove_cam":
+            raise BerryshakerError(f"cam-profile exports a groove cam; the {machine.DRIVE} drive has none")
+        check_machine(machine)
+        if fmt == "csv":
+            write_groove_csv(machine, out_file, points)
+        else:
+            write_groove_dxf(machine, out_file, points)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    err.print(f"wrote {out_file} ({fmt}, {points} points per wall)")
+
+
+@command(config_app, "show")
+def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
+    """Print the resolved machine description (engineering units; --json gives SI)."""
+    try:
+        from berryshaker.config import machine_table
+
+        machine = _load(config)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json({"machine_si": machine.model_dump(mode="json"), "version": __version__})
+        return
+    t = Table(title=f"{machine.machine.name} ({machine.DRIVE} drive)", header_style="bold")
+    t.add_column("key")
+    t.add_column("value", justify="right")
+    t.add_column("source")
+    for k, v, tag in machine_table(machine):
+        t.add_row(k, v, f"\\[{tag}]")
+    xd, yd = machine.shaft_D
+    t.add_row("(derived) shaft D", f"({xd * 1e3:.3f}, {yd * 1e3:.3f}) mm")
+    t.add_row("(derived) shaft E", f"({machine.shaft_E[0] * 1e3:.3f}, {machine.shaft_E[1] * 1e3:.3f}) mm")
+    if hasattr(machine, "cam"):
+        t.add_row("(derived) s0", f"{machine.cam.s0 * 1e3:.4f} mm")
+    for p in machine.pair_names:
+        c = machine.clearance[p]
+        ramp = f", full damping at {c.damping_depth * 1e3:g} mm" if c.law == "impact" else ""
+        t.add_row(f"(resolved) contact {p}", f"{c.law}: K = {c.stiffness:.4g} N/m^{c.exponent:g}, "
+                  f"c = {c.damping:g} N s/m{ramp}")
+    out.print(t)
+
+
+@command(config_app, "init")
+def config_init(path: Path = typer.Argument(..., help="Where to write the editable copy."),
+                force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
+                drive: str = typer.Option("groove_cam", "--drive", help="Comb drive: groove_cam or crank_rocker.")):
+    """Write an editable copy of a drive's reference machine (each value annotated \\[study], \\[assumed] or
+    \\[calibrated])."""
+    from berryshaker.config import reference_toml_text
+    from berryshaker.report.files import write_text_atomic
+
+    if path.is_dir():
+        _fail(BerryshakerError(f"{path} is a folder; give a file name, e.g. {path / 'machine.toml'}"))
+    if path.exists() and not force:
+        _fail(BerryshakerError(f"{path} exists; use --force to overwrite"))
+    write_text_atomic(path, reference_toml_text(drive))
+    err.print(f"wrote {path}")
+
+
+@command(config_app, "validate")
+def config_validate(path: Path = typer.Argument(..., help="Machine description to check."),
+                    as_json: bool = JsonOpt):
+    """Check a machine description: values, units, assembly over the cycle, cam undercut."""
+    try:
+        from berryshaker.drives import drive_of
+
+        machine = _load(path)
+        drive_of(machine).check(machine)
+    except BerryshakerError as exc:
+        if as_json:
+            _print_json({"valid": False, "error": str(exc)})
+            raise typer.Exit(code=2)
+        _fail(exc)
+        return
+    if as_json:
+        _print_json({"valid": True, "machine": machine.machine.name})
+    else:
+        out.print(f"[green]valid[/]: {path} ({machine.machine.name})")

@@ -1,0 +1,140 @@
+"""The plant: ``plant`` (branch modes) and ``fruit-force`` (drive past a branch)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+from berryshaker.report.files import write_provenance
+from berryshaker.cli.app import (
+    ConfigOpt,
+    JsonOpt,
+    app,
+    command,
+    out,
+    _fail,
+    _load,
+    _print_json,
+)
+
+
+def _branch_of(machine):
+    from berryshaker.plant.branch import Branch
+
+    if machine.plant is None:
+        raise BerryshakerError("the machine description has no [plant] block (see `berryshaker config init`)")
+    b = machine.plant.branch
+    return Branch(b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
+
+
+@command(app)
+def plant(
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    n_modes: int = typer.Option(4, "--modes", min=1, max=20, help="Number of bending modes."),
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write the mode-shape figure (PNG) to DIR."),
+):
+    """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements."""
+    try:
+        from berryshaker.plant.modes import analytic_modes, fe_modes
+
+        machine = _load(config)
+        br = _branch_of(machine)
+        ma = analytic_modes(br, n_modes)
+        mf = fe_modes(br, n_modes)
+        res = {
+            "alpha": br.alpha,
+            "branch_mass_kg": br.mass,
+            "modes": [{"frequency_hz": float(f), "omega_rad_s": float(w)} for f, w in zip(ma.frequency_hz, ma.omega)],
+            "modes_fe": [{"frequency_hz": float(f)} for f in mf.frequency_hz],
+            "max_relative_difference": float(max(abs(mf.frequency_hz - ma.frequency_hz) / ma.frequency_hz)),
+            "version": __version__,
+        }
+        if plot is not None:
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_mode_shapes
+
+            with staged_directory(plot) as stage:
+                plot_mode_shapes(ma, mf, stage / "mode_shapes.png")
+                write_provenance(stage, machine)
+            res["plots"] = [str(plot / "mode_shapes.png")]
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(res)
+        return
+    t = Table(title=f"Branch modes (alpha = {res['alpha']:.3f}, mass {res['branch_mass_kg'] * 1e3:.1f} g)",
+              header_style="bold")
+    for col in ("mode", "Bessel (eq. 15)", "finite elements", "difference"):
+        t.add_column(col, justify="right")
+    for i, (a, f) in enumerate(zip(res["modes"], res["modes_fe"])):
+        t.add_row(str(i + 1), f"{a['frequency_hz']:.4f} Hz", f"{f['frequency_hz']:.4f} Hz",
+                  f"{abs(f['frequency_hz'] - a['frequency_hz']) / a['frequency_hz']:.1e}")
+    out.print(t)
+
+
+@command(app, "fruit-force")
+def fruit_force_cmd(
+    clearance: Optional[str] = typer.Option(None, "--clearance", help="Clearance set, as for simulate."),
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write fruit force vs distance (Figs. 24-26) to DIR."),
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Write the time series (CSV) and summary."),
+):
+    """Drive the multibody harvester past a branch (rigid-flexible coupling) and report the fruit force.
+
+    Fruit harvesting force F = m0 x acceleration (eq. 16) at the root, middle and end fruit against the
+    machine-to-plant distance, with the eq. 17 verdict and the study's ranges beside ours.
+    """
+    try:
+        from berryshaker.experiment.clearance_sets import parse_clearance_spec
+        from berryshaker.plant.coupled import simulate_fruit_force
+        from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
+
+        machine = _load(config)
+        sizes = parse_clearance_spec(clearance, machine)
+        res = simulate_fruit_force(machine, sizes)
+        summary = res.summary()
+        summary["version"] = __version__
+        if plot is not None or out_dir is not None:
+            import numpy as np
+
+            from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+            from berryshaker.report.plots import plot_fruit_force
+
+            if plot is not None:
+                with staged_directory(plot) as stage:
+                    plot_fruit_force(res.distance, res.fruit_force, STUDY_FRUIT_FORCE_N, stage / "fruit_force.png")
+                    write_provenance(stage, res.machine)
+                summary["plots"] = [str(plot / "fruit_force.png")]
+            if out_dir is not None:
+                with staged_directory(out_dir) as stage:
+                    cols = ["time_s", "distance_m"] + [f"fruit_{n}_N" for n in res.fruit_force] + \
+                        [f"{n}_contact_N" for n in res.contact_force]
+                    arr = np.column_stack([res.t, res.distance, *res.fruit_force.values(), *res.contact_force.values()])
+                    write_text_atomic(stage / "fruit_force.csv", ",".join(cols) + "\n" +
+                                      "\n".join(",".join(f"{v:.7g}" for v in row) for row in arr[::5]) + "\n")
+                    write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(res.machine)})
+                summary["out"] = str(out_dir)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title="Fruit harvesting force (eq. 16-17)", header_style="bold")
+    for col in ("fruit", "z", "peak", "study range", "ripe fruit", "unripe fruit"):
+        t.add_column(col, justify="right")
+    for name, p in summary["positions"].items():
+        rng = p.get("study_range_N")
+        t.add_row(name, f"{p['z_m']:.2f} m", f"{p['peak_force_N']:.3f} N",
+                  f"{rng[0]}-{rng[1]} N" if rng else "", p["eq17"]["ripe"], p["eq17"]["unripe"])
+    out.print(t)
+    out.print(f"force rises from root to end: {'yes' if summary['rises_root_to_end'] else 'no'}; "
+              f"{summary['steps']} steps in {summary['wall_time_s']:.2f} s")

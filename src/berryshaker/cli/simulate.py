@@ -1,0 +1,253 @@
+"""Drive dynamics: ``simulate`` (reduced or multibody model, or any mechanism file) and ``compare``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+from berryshaker.report.files import write_provenance
+from berryshaker.cli.app import (
+    ConfigOpt,
+    JsonOpt,
+    app,
+    command,
+    out,
+    _fail,
+    _load,
+    _print_json,
+)
+
+
+@command(app)
+def simulate(
+    model: str = typer.Option("mlsd", "--model", "-m",
+                              help="mlsd: the study's massless-link clearance model (eq. 4-12); multibody: the "
+                                   "planar contact simulation (the study's ADAMS role)."),
+    clearance: Optional[str] = typer.Option(
+        None, "--clearance",
+        help="Clearance sizes, e.g. A=0.25mm,B=0.2mm,C=0.1mm,F=0.2mm (missing pairs keep the config's "
+             "value); or row1..row16 of the reconstructed Table 5; level1..level3; none."),
+    revolutions: int = typer.Option(3, "--revolutions", "-n", min=2, help="Cam revolutions; statistics use 2..N."),
+    mechanism: Optional[Path] = typer.Option(None, "--mechanism",
+                                             help="Simulate any mechanism description (TOML) instead of the harvester, "
+                                                  "e.g. examples/slider_crank_clearance.toml."),
+    duration: Optional[float] = typer.Option(None, "--duration", help="With --mechanism: simulated time (s)."),
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    out_dir: Optional[Path] = typer.Option(None, "--out", help="Write time series (CSV, units in the header), "
+                                           "summary.json with the resolved input and version, and plots."),
+):
+    """Collision forces of the clearance joints, comb load moments and drive moment over time.
+
+    Statistics (peak, mean, rms of force magnitudes) are over whole cam revolutions after the first;
+    peaks are taken over every integrator step.
+    """
+    try:
+        from berryshaker.experiment.clearance_sets import parse_clearance_spec
+
+        if mechanism is not None:
+            _simulate_mechanism_file(mechanism, duration, as_json, out_dir)
+            return
+        from berryshaker.drives import drive_of
+
+        machine = _load(config)
+        drive = drive_of(machine)
+        if model not in ("mlsd", "multibody", "reduced"):
+            raise BerryshakerError(f"--model {model!r} is not available; choose mlsd (reduced) or multibody")
+        if model in ("mlsd", "reduced") and drive.reduced_model is None:
+            raise BerryshakerError(f"the {drive.name} drive has no reduced model; use --model multibody")
+        sizes = parse_clearance_spec(clearance, machine)
+        if model in ("mlsd", "reduced"):
+            model = "mlsd"
+            result = drive.reduced_model(machine, sizes, revolutions=revolutions)
+            summary = result.summary()
+        else:
+            from berryshaker.drives.simulation import simulate_multibody
+
+            result, summary = simulate_multibody(machine, sizes, revolutions=revolutions)
+        summary["version"] = __version__
+        if out_dir is not None:
+            if model == "mlsd":
+                _write_simulation(out_dir, result, summary)
+            else:
+                _write_multibody(out_dir, result, summary, machine.with_clearances(sizes))
+            summary["out"] = str(out_dir)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title=f"{model} model - {machine.machine.name}", header_style="bold")
+    for col in ("quantity", "clearance", "peak", "mean", "rms"):
+        t.add_column(col, justify="right" if col != "quantity" else "left")
+    for pair, st in summary["collision_force_N"].items():
+        t.add_row(f"collision force {pair}", f"{summary['clearance_mm'][pair]:.3g} mm", f"{st['peak']:.1f} N",
+                  f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
+    for side, st in summary["load_moment_Nm"].items():
+        t.add_row(f"{side} comb load moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
+    st = summary["drive_moment_Nm"]
+    t.add_row("cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
+    for b, st in summary.get("bearing_reaction_N", {}).items():
+        t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
+    out.print(t)
+    out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms"
+              + (f"; wrote {out_dir}" if out_dir is not None else ""))
+
+
+def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> None:
+    from berryshaker.multibody.engine import simulate_mechanism
+    from berryshaker.multibody.spec import load_mechanism
+
+    spec = load_mechanism(path)
+    result = simulate_mechanism(spec, duration=duration)
+    summary = result.summary()
+    summary["version"] = __version__
+    if out_dir is not None:
+        import numpy as np
+
+        from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+
+        cm = result.compiled
+        with staged_directory(out_dir) as stage:
+            cols = ["time_s"]
+            data = [result.t]
+            for i, b in enumerate(spec.bodies):
+                for k, lab in enumerate(("x_m", "y_m", "angle_rad")):
+                    cols.append(f"{b.name}.{lab}")
+                    data.append(result.y[:, 3 * i + k])
+            for k, name in enumerate(cm.frc_names):
+                cols.append(f"{name}.force_N")
+                data.append(result.elements[:, k, 0])
+                if cm.frc_kinds[k].endswith("_clearance"):
+                    cols.append(f"{name}.penetration_m")
+                    data.append(result.elements[:, k, 1])
+            arr = np.column_stack(data)
+            write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
+                              "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+            write_json_atomic(stage / "summary.json", {**summary, "provenance": {
+                **provenance(), "mechanism_si": spec.model_dump(mode="json")}})
+        summary["out"] = str(out_dir)
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title=f"multibody - {spec.mechanism.name}", header_style="bold")
+    for col in ("joint", "type", "peak", "mean", "rms", "p95"):
+        t.add_column(col, justify="left" if col in ("joint", "type") else "right")
+    for name, j in summary["joints"].items():
+        f = j["force_N"]
+        t.add_row(name, j["type"], f"{f['peak']:.1f} N", f"{f['mean']:.1f} N", f"{f['rms']:.1f} N", f"{f['p95']:.1f} N")
+    out.print(t)
+    for name, j in summary["joints"].items():
+        if "first_impact" in j:
+            fi = j["first_impact"]
+            out.print(f"{name}: first impact at {fi['time_s'] * 1e3:.4f} ms, {fi['impact_velocity_m_s']:.3f} m/s, "
+                      f"peak {fi['peak_force_N']:.1f} N")
+    out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms")
+
+
+def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
+    import numpy as np
+
+    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.plots import plot_time_series
+
+    cm = result.compiled
+    with staged_directory(out_dir) as stage:
+        cols, data = ["time_s"], [result.t]
+        pairs = machine.pair_names
+        for p in pairs:
+            cols.append(f"F_{p}_N")
+            data.append(result.element_force(p) if p in cm.frc_names else result.reaction(p))
+        cols += ["T_l_Nm", "T_r_Nm", "drive_moment_Nm"]
+        data += [result.element_force("bush_left"), result.element_force("bush_right"),
+                 -result.reaction("drive")]
+        arr = np.column_stack(data)
+        write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
+                          "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+        write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(machine)})
+        sel = result.t >= result.stats_from
+        sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in machine.clearance_sizes().items())
+        plot_time_series(result.t[sel], {f"|F_{p}|": np.abs(arr[sel, 1 + i]) for i, p in enumerate(pairs)},
+                         "collision force (N)", stage / "collision_forces.png",
+                         f"Clearance collision forces (multibody): {sizes_txt}")
+
+
+@command(app)
+def compare(
+    clearance: Optional[str] = typer.Option("level2", "--clearance",
+                                            help="Clearance set (default level2, the study's model check, Table 3)."),
+    revolutions: int = typer.Option(3, "--revolutions", "-n", min=2),
+    points: int = typer.Option(10, "--points", min=4, help="Samples per curve for the F test (study: about 10)."),
+    alpha: float = typer.Option(0.05, "--alpha", help="Significance level of the F test."),
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = typer.Option(None, "--plot", help="Write overlay plots (PNG) of both models per pair."),
+):
+    """Run the MLSD and multibody models on the same machine and clearances; compare per pair (eq. 18).
+
+    Reports the study's F statistic with the critical F value of scipy.stats at the stated significance
+    and (points-1, points-1) degrees of freedom, and plainer measures: NRMSE, correlation, peak ratio.
+    """
+    try:
+        from berryshaker.experiment.agreement import model_agreement
+        from berryshaker.experiment.clearance_sets import parse_clearance_spec
+
+        machine = _load(config)
+        sizes = parse_clearance_spec(clearance, machine)
+        res = model_agreement(machine, sizes, revolutions=revolutions, points=points, alpha=alpha)
+        series, t = res.pop("series"), res.pop("t")
+        res["version"] = __version__
+        if plot is not None:
+            from berryshaker.report.files import staged_directory
+            from berryshaker.report.plots import plot_time_series
+
+            with staged_directory(plot) as stage:
+                write_provenance(stage, machine, clearance_mm=res["clearance_mm"])
+                for p, (a, b) in series.items():
+                    plot_time_series(t, {"multibody": a, "MLSD": b}, "collision force (N)",
+                                     stage / f"compare_{p}.png", f"Pair {p}: MLSD vs multibody (study Figs. 14-17)")
+            res["plots"] = [str(plot / f"compare_{p}.png") for p in series]
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(res)
+        return
+    tb = Table(title="MLSD vs multibody (study eq. 18)", header_style="bold")
+    for col in ("pair", "F", "F crit", "agree", "NRMSE", "corr", "peak ratio"):
+        tb.add_column(col, justify="right")
+    for p, r in res["pairs"].items():
+        tb.add_row(p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["agree"] else "no",
+                   f"{r['nrmse']:.3f}", f"{r['correlation']:.3f}", f"{r['peak_ratio']:.3f}")
+    out.print(tb)
+
+
+def _write_simulation(out_dir: Path, result, summary: dict) -> None:
+    import numpy as np
+
+    from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
+    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.plots import plot_time_series
+
+    with staged_directory(out_dir) as stage:
+        cols = ["time_s", "cam_angle_deg", "x_m", "theta_D_rad", "u_m", "theta_E_rad"] + list(RESULT_COLUMNS)
+        data = [result.t, np.degrees(result.t * result.machine.cam.speed)] + [result.state[:, i] for i in range(4)]
+        data += [result.results[:, idx] for idx, _ in RESULT_COLUMNS.values()]
+        arr = np.column_stack(data)
+        lines = [",".join(cols)] + [",".join(f"{v:.9g}" for v in row) for row in arr]
+        write_text_atomic(stage / "timeseries.csv", "\n".join(lines) + "\n")
+        write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(result.machine)})
+        sel = result.t >= result.stats_from
+        sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in result.clearance.items())
+        plot_time_series(result.t[sel], {f"|F_{p}|": np.abs(result.series(f"F_{p}_N"))[sel] for p in "ABCF"},
+                         "collision force (N)", stage / "collision_forces.png",
+                         f"Clearance collision forces (MLSD, study eq. 8): {sizes_txt}")
+        plot_time_series(result.t[sel], {"T_l": result.series("T_l_Nm")[sel], "T_r": result.series("T_r_Nm")[sel],
+                                         "M (cam)": result.series("drive_moment_Nm")[sel]},
+                         "moment (N m)", stage / "moments.png", "Comb load moments and cam drive moment")

@@ -1,0 +1,155 @@
+"""The whole study (``study``) and parameter sweeps (``sweep``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from berryshaker import __version__
+from berryshaker.errors import BerryshakerError
+from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
+from berryshaker.cli.app import (
+    ConfigOpt,
+    JsonOpt,
+    app,
+    command,
+    err,
+    out,
+    _fail,
+    _load,
+    _print_json,
+)
+
+
+CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).")
+
+
+@command(app)
+def study(
+    config: Optional[Path] = ConfigOpt,
+    out_dir: Path = typer.Option(Path("berryshaker-study"), "--out", help="Output folder: new, empty, or an earlier study's output (then replaced atomically); any other folder is refused."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    cache: Optional[Path] = CacheOpt,
+    no_cache: bool = typer.Option(False, "--no-cache", help="Recompute every run."),
+    as_json: bool = JsonOpt,
+):
+    """The whole study on the reference machine (or --config): report.html, summary.json, tables, figures.
+
+    --out must be a new or empty folder or the output of an earlier study (it then gets replaced); a folder
+    holding anything else is refused before any work, and nothing you made is ever removed.
+
+    Kinematics; MLSD vs multibody agreement (eq. 18); clearance rows 1-16; comb moments; fruit force;
+    the virtual L9 field test with range analysis and regression; a claims table with verdicts.
+    Interrupted? Run it again: finished runs come from the cache.
+    """
+    try:
+        from berryshaker.drives import drive_of
+        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.runs.runner import SweepRunner
+        from berryshaker.study.pipeline import run_study
+
+        machine = _load(config)  # a config that fails validation stops here, before any simulation
+        drive_of(machine).check(machine)
+        prepare_output_dir(out_dir, kind="study")  # refuse a folder with the user's files before any work
+        if machine.plant is None:
+            raise BerryshakerError("the study needs a [plant] block in the machine description")
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, use_cache=not no_cache,
+                             progress=not as_json, console=err)
+        summary = run_study(machine, out_dir, runner, console=None if as_json else err)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(summary)
+        return
+    t = Table(title="Claims of the study", header_style="bold")
+    t.add_column("#")
+    t.add_column("verdict")
+    t.add_column("claim")
+    for c in summary["claims"]:
+        color = {"reproduced": "green", "not reproduced": "red"}.get(c["verdict"], "yellow")
+        t.add_row(str(c["id"]), f"[{color}]{c['verdict']}[/]", c["claim"])
+    out.print(t)
+    o = summary["optimum"]
+    if o is not None:
+        out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
+                  + f" -> {o['efficiency_kg_min']:.2f} kg/min, {o['unripe_rate_pct']:.2f} % unripe, "
+                    f"{o['damage_rate_pct']:.2f} % damage (study {CHOSEN_CODE}: {FIELD_RESULT['efficiency_kg_min']} "
+                    f"kg/min, {FIELD_RESULT['unripe_rate_pct']} %, {FIELD_RESULT['damage_rate_pct']} %)")
+    for f in summary.get("failures", []):
+        out.print(f"[red]failed[/] {f['step']} run {f['run']} ({f['inputs']}): {f['error']}")
+    out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
+
+
+@command(app)
+def sweep(
+    param: list[str] = typer.Option(..., "--param", help="KEY=LO..HI[unit], KEY=v1,v2,...[unit] or KEY=MEAN+-SD[unit]; "
+                                    "KEY is a dotted path of the machine description, e.g. clearance.A.size. Repeat."),
+    method: str = typer.Option("grid", "--method", help="grid (ranges get --points levels), lhs or montecarlo."),
+    points: int = typer.Option(3, "--points", "-n", min=1, help="Grid levels per range, or samples for lhs/montecarlo."),
+    seed: int = typer.Option(0, "--seed", help="Seed of lhs / montecarlo sampling."),
+    model: str = typer.Option("mlsd", "--model", help="mlsd or multibody."),
+    revolutions: int = typer.Option(3, "--revolutions", min=2),
+    config: Optional[Path] = ConfigOpt,
+    out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
+    workers: Optional[int] = typer.Option(None, "--workers"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
+    cache: Optional[Path] = CacheOpt,
+    as_json: bool = JsonOpt,
+):
+    """Factor grid, Latin hypercube or Monte Carlo (tolerances, wear) over any machine parameter.
+
+    Every point is validated and simulated through the cached sweep runner; a failed point is recorded
+    with its error and the others finish.
+    """
+    try:
+
+        from berryshaker.runs.runner import SweepRunner
+        from berryshaker.runs.sweep import model_run, parse_param, sample_params, tidy_rows
+
+        if model not in ("mlsd", "multibody"):
+            raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")
+        if workers is not None and workers < 1:
+            raise BerryshakerError("--workers must be >= 1 (omit it to use all cores)")
+        if out_file is not None:
+            from berryshaker.report.files import check_output_file
+
+            check_output_file(out_file, allowed_suffixes=(".csv",))
+        machine = _load(config)
+        params = [parse_param(p) for p in param]
+        pts = sample_params(params, method, points, seed)
+        data = machine.model_dump(mode="json")
+        jobs = [dict(machine_data=data, overrides={p.key: v * p.factor for p, v in zip(params, pt)},
+                     model=model, revolutions=revolutions) for pt in pts]
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
+        results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
+        header, rows = tidy_rows(params, pts, results)
+        if out_file is not None:
+            from berryshaker.report.tables import write_csv
+
+            write_csv(out_file, header, rows)
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    failed = sum(1 for r in results if r.error)
+    if as_json:
+        _print_json({"columns": header, "rows": rows, "failed": failed, "runs": len(rows), "version": __version__})
+        return
+    t = Table(title=f"sweep: {len(rows)} runs, {failed} failed", header_style="bold")
+    show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
+    for c in show:
+        t.add_column(c, justify="right")
+    for row in rows[:40]:
+        d = dict(zip(header, row))
+        t.add_row(*[f"{d[c]:.4g}" if isinstance(d[c], float) else str(d[c]) for c in show])
+    out.print(t)
+    if failed:
+        for r in results:
+            if r.error:
+                out.print(f"[red]run {r.index + 1} failed[/]: {r.error}")
+    if out_file is not None:
+        out.print(f"wrote {out_file}")

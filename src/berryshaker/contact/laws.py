@@ -1,0 +1,179 @@
+"""One registry of normal contact-force laws, read by the description validation, the compiled engine and
+the configuration.
+
+Adding a law is one compiled function and one :func:`register_law` call::
+
+    from numba import njit
+    from berryshaker.contact.laws import LAW_SIGNATURE, register_law
+
+    @njit(LAW_SIGNATURE, cache=True)
+    def cubic_law(pen, pen_dot, v_imp, k, n, e, c, d):
+        return k * pen**3
+
+    register_law("cubic", cubic_law, uses=("stiffness",), description="F = k delta^3")
+
+Every law has the same compiled signature ``f(pen, pen_dot, v_imp, k, n, e, c, d) -> force`` with
+
+========  =====================================================================  ==========
+pen       penetration delta beyond the clearance (> 0 in contact)                m
+pen_dot   its rate (> 0 while the bodies approach)                               m/s
+v_imp     approach speed at the onset of this contact (for restitution laws)     m/s
+k         stiffness                                                              N/m^n
+n         exponent                                                               1
+e         coefficient of restitution                                             1
+c         damping coefficient (viscous laws; cmax of IMPACT)                     N s/m
+d         penetration at which full damping is reached (IMPACT)                  m
+========  =====================================================================  ==========
+
+and returns the magnitude of the repulsive normal force (N), never negative.  The engine calls it only for
+``pen > 0``.  The engine passes the registered functions to its compiled core as a tuple of first-class
+functions (numba), so a law registered at run time is dispatched like the built-in ones (the core is
+compiled once per number of registered laws; the built-in set is cached on disk).
+
+The physics and references of each built-in law are in :mod:`berryshaker.contact.force_laws`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+from numba import float64, njit
+from numba.core.errors import NumbaExperimentalFeatureWarning
+
+from berryshaker.contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
+from berryshaker.errors import ConfigError
+
+warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)
+
+#: the compiled signature every law has: (pen, pen_dot, v_imp, k, n, e, c, d) -> force
+LAW_SIGNATURE = float64(float64, float64, float64, float64, float64, float64, float64, float64)
+
+#: the law parameters a contact description can set, with their units
+LAW_PARAMETERS = {
+    "stiffness": "N/m^n", "exponent": "1", "restitution": "1", "damping": "N*s/m", "damping_depth": "m",
+}
+
+
+@dataclass(frozen=True)
+class ContactLaw:
+    """A registered normal force law."""
+
+    name: str
+    kernel: object  # numba dispatcher with LAW_SIGNATURE
+    uses: tuple[str, ...]  # which of LAW_PARAMETERS it reads
+    description: str
+    code: int
+
+
+_LAWS: dict[str, ContactLaw] = {}
+
+
+def register_law(name: str, kernel, uses: tuple[str, ...], description: str) -> ContactLaw:
+    """Register a compiled force law under ``name`` (see the module docstring for the signature).
+
+    Parameters
+    ----------
+    name : str
+        The name descriptions use (``contact.law = "name"``).
+    kernel : numba dispatcher
+        Compiled with :data:`LAW_SIGNATURE`.
+    uses : tuple of str
+        The parameters of :data:`LAW_PARAMETERS` the law reads (validation requires them to be set).
+    description : str
+        One line shown by ``berryshaker config show`` and the docs.
+
+    Returns
+    -------
+    ContactLaw
+    """
+    if not name.isidentifier():
+        raise ConfigError(f"contact law name {name!r} must be an identifier (letters, digits, underscores)")
+    unknown = [u for u in uses if u not in LAW_PARAMETERS]
+    if unknown:
+        raise ConfigError(f"contact law {name!r}: unknown parameters {unknown}; choose from {list(LAW_PARAMETERS)}")
+    sigs = getattr(kernel, "signatures", None)
+    if not sigs or tuple(sigs[0]) != tuple(LAW_SIGNATURE.args):
+        raise ConfigError(f"contact law {name!r}: compile the kernel with @njit(LAW_SIGNATURE) "
+                          "(berryshaker.contact.laws.LAW_SIGNATURE)")
+    code = _LAWS[name].code if name in _LAWS else len(_LAWS)
+    law = ContactLaw(name, kernel, tuple(uses), description, code)
+    _LAWS[name] = law
+    return law
+
+
+def unregister_law(name: str) -> None:
+    """Remove a law registered at run time (built-in laws cannot be removed)."""
+    if name in BUILT_IN:
+        raise ConfigError(f"{name!r} is a built-in contact law")
+    _LAWS.pop(name, None)
+    for i, law in enumerate(sorted(_LAWS.values(), key=lambda x: x.code)):
+        _LAWS[law.name] = ContactLaw(law.name, law.kernel, law.uses, law.description, i)
+
+
+def get_law(name: str) -> ContactLaw:
+    """The registered law called ``name``; a clear error listing the names otherwise."""
+    try:
+        return _LAWS[name]
+    except KeyError:
+        raise ConfigError(f"unknown contact law {name!r}; registered laws: {', '.join(law_names())}") from None
+
+
+def law_names() -> tuple[str, ...]:
+    """Names of the registered laws, in registration order."""
+    return tuple(sorted(_LAWS, key=lambda n: _LAWS[n].code))
+
+
+def law_table() -> tuple:
+    """The compiled kernels in code order, as the engine's core receives them."""
+    return tuple(_LAWS[n].kernel for n in law_names())
+
+
+# ---- built-in laws ---------------------------------------------------------------------------------
+@njit(LAW_SIGNATURE, cache=True)
+def mlsd_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """Linear spring-damper (study eq. 8, consistent reading): max(0, k pen + c pen_dot)."""
+    return mlsd_kernel(pen, pen_dot, k, c)
+
+
+@njit(LAW_SIGNATURE, cache=True)
+def hertz_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """Hertz, elastic: k pen^n."""
+    return k * pen**n
+
+
+@njit(LAW_SIGNATURE, cache=True)
+def hunt_crossley_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """Hunt & Crossley (1975) with the factor 3(1-e)/2."""
+    return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.5 * (1.0 - e), n)
+
+
+@njit(LAW_SIGNATURE, cache=True)
+def lankarani_nikravesh_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """Lankarani & Nikravesh (1990) with the factor 3(1-e^2)/4."""
+    return hysteresis_kernel(pen, pen_dot, v_imp, k, 0.75 * (1.0 - e * e), n)
+
+
+@njit(LAW_SIGNATURE, cache=True)
+def flores_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """Flores et al. (2011) with the factor 8(1-e)/(5e)."""
+    return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.6 * (1.0 - e) / e, n)
+
+
+@njit(LAW_SIGNATURE, cache=True)
+def impact_law(pen, pen_dot, v_imp, k, n, e, c, d):
+    """ADAMS IMPACT: k pen^n + STEP(pen, 0, 0, d, cmax) pen_dot."""
+    return impact_kernel(-pen, -pen_dot, 0.0, k, n, c, d)
+
+
+register_law("mlsd", mlsd_law, ("stiffness", "damping"), "linear spring-damper, study eq. 8 (consistent reading)")
+register_law("hertz", hertz_law, ("stiffness", "exponent"), "Hertz power law k delta^n, elastic")
+register_law("hunt_crossley", hunt_crossley_law, ("stiffness", "exponent", "restitution"),
+             "Hunt-Crossley hysteresis damping, 3(1-e)/2")
+register_law("lankarani_nikravesh", lankarani_nikravesh_law, ("stiffness", "exponent", "restitution"),
+             "Lankarani-Nikravesh hysteresis damping, 3(1-e^2)/4")
+register_law("flores", flores_law, ("stiffness", "exponent", "restitution"), "Flores hysteresis damping, 8(1-e)/(5e)")
+register_law("impact", impact_law, ("stiffness", "exponent", "damping", "damping_depth"),
+             "ADAMS IMPACT function: k delta^n with damping ramped to cmax over d")
+
+BUILT_IN = frozenset(law_names())

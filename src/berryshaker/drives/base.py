@@ -1,0 +1,297 @@
+"""What every comb drive shares: the machine-description sections common to all drives, the clearance pair
+and the :class:`Drive` interface a drive sub-package implements.
+
+A comb drive turns the drive shaft into the swing of two combs.  Every drive here ends in the same double
+rocker to the right comb (left comb about shaft D, arm DC, connecting rod CF, right comb about shaft E,
+docs/study.md eq. 3), so the combs, the four-bar and the plant/operation/harvest sections are common; what
+differs is how the left comb is swung (groove cam + push rod, crank + connecting rod, ...) and so the drive's
+own sections, clearance pairs, kinematics and mechanism.
+
+A drive sub-package (``berryshaker.drives.<name>``) provides a :class:`Drive` instance called ``DRIVE``:
+
+- ``machine_class``: its typed description (a subclass of :class:`MachineBase`, SI inside, units at the edges);
+- ``pairs``: its clearance pairs (:class:`PairInfo`: name, kind, what it is, the geometric limit of its size);
+- ``check(machine)``: kinematics over one drive-shaft revolution, raising ``GeometryError`` where it cannot run;
+- ``kinematics_summary(machine, kin)``: the JSON of ``berryshaker kinematics``;
+- ``mechanism(machine, revolutions)``: the :class:`~berryshaker.multibody.spec.MechanismSpec` handed to the
+  generic multibody engine (bodies ``left_comb`` and ``right_comb`` and the driver ``drive`` are required names);
+- ``mid_stroke_angles(machine)``: the combs' reference angles (rad);
+- optionally ``reduced_model(machine, clearance, revolutions)``: a faster model of the same drive returning an
+  object with ``summary()`` (the groove cam's MLSD model); ``None`` where the drive has none.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, Any, Callable, ClassVar, Literal
+
+from pydantic import Field, model_validator
+
+from berryshaker.errors import ConfigError
+from berryshaker.harvest.spec import HarvestSpec
+from berryshaker.plant.spec import PlantSpec
+from berryshaker.quantity_fields import (
+    Coefficient,
+    Damping,
+    Length,
+    LengthNonNeg,
+    Mass,
+    Stiffness,
+    StrictModel,
+    TorsionalDamping,
+    TorsionalStiffness,
+    _d,
+    _q,
+)
+
+#: the kinds of clearance joint a drive can have
+PAIR_KINDS = ("pin-in-bore", "roller-in-groove", "roller-in-slot")
+
+
+def _law_name(v: Any) -> str:
+    from berryshaker.contact.laws import law_names
+
+    if not isinstance(v, str) or v not in law_names():
+        raise ValueError(f"unknown contact law {v!r}; registered laws: {', '.join(law_names())}")
+    return v
+
+
+class ClearancePair(StrictModel):
+    """One clearance joint of a drive: its size and the contact law of its collisions.
+
+    ``size`` is the radial clearance (bore radius minus pin radius) of a pin-in-bore pair and the total free
+    travel across the groove or slot (width minus roller diameter) of a roller pair.  ``law`` names a law of
+    :mod:`berryshaker.contact.laws`; ``stiffness`` is K in N/m^n, ``damping`` the viscous coefficient
+    (MLSD) or cmax (IMPACT), ``damping_depth`` the penetration at which IMPACT reaches full damping.
+    """
+
+    kind: Literal["pin-in-bore", "roller-in-groove", "roller-in-slot"]
+    size: LengthNonNeg
+    law: str = "impact"
+    stiffness: Stiffness  # K_i: N/m for exponent 1; a plain SI number (N/m^n) otherwise
+    damping: Damping
+    exponent: float = Field(1.0, gt=0, le=3)
+    damping_depth: Length = 1e-5
+    restitution: float = Field(0.9, gt=0, le=1)
+    levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _law(cls, data: Any) -> Any:
+        if isinstance(data, dict) and "law" in data:
+            try:
+                _law_name(data["law"])
+            except ValueError as exc:
+                raise ValueError(str(exc)) from None
+        return data
+
+
+class Combs(StrictModel):
+    """The two combs (nylon finger banks) swinging about shafts D and E."""
+
+    length: Length  # l3 = l5
+    left_mass: Mass  # m3
+    right_mass: Mass  # m5
+    plant_friction_coefficient: Coefficient = 0.3  # mu3
+    load_stiffness: TorsionalStiffness = 200.0  # aggregate bush reaction on a comb about its shaft
+    load_damping: TorsionalDamping = 20.0
+
+    @property
+    def left_inertia(self) -> float:
+        """m3 l3^2 / 3 (slender bar about its end), kg m^2."""
+        return self.left_mass * self.length**2 / 3.0
+
+    @property
+    def right_inertia(self) -> float:
+        """m5 l5^2 / 3 (slender bar about its end), kg m^2."""
+        return self.right_mass * self.length**2 / 3.0
+
+
+class FourBar(StrictModel):
+    """Double rocker D-C-F-E: ground DE (horizontal), left arm DC, coupler CF, right arm FE (eq. 3)."""
+
+    ground_DE: Length  # l_DE, E = D + (l_DE, 0)
+    coupler_CF: Length  # l_CF (= l_4)
+    arm_FE: Length  # l_FE
+    branch: Literal[-1, 1] = 1  # sign of the rotation from E->C to E->F
+    coupler_mass: Mass  # m4
+
+
+class OperationSpec(StrictModel):
+    """How the machine is run in the field (study field settings)."""
+
+    walking_speed: Annotated[float, _q("speed"), Field(gt=0, json_schema_extra=_d("m/min"))] = 0.5  # 30 m/min
+    plant_spacing: Length = 1.5
+    test_duration: Annotated[float, _q("time"), Field(gt=0, json_schema_extra=_d("s"))] = 10.0
+
+
+class MachineInfo(StrictModel):
+    """Name, description and the comb drive of a machine description."""
+
+    name: str = "unnamed machine"
+    description: str = ""
+    drive: str = "groove_cam"
+
+
+@dataclass(frozen=True)
+class PairInfo:
+    """A clearance pair of a drive: its name, kind, what it joins, and the geometric limit of its size."""
+
+    name: str
+    kind: str
+    joins: str
+    limit: Callable[[Any], tuple[float, str]]  # machine -> (largest size in m, what the limit is)
+
+
+class MachineBase(StrictModel):
+    """Sections every drive's machine description has.  Subclasses add the drive's own sections and set
+    ``DRIVE`` (the drive's registry name) and ``PAIRS`` (its clearance pairs)."""
+
+    DRIVE: ClassVar[str] = ""
+    PAIRS: ClassVar[tuple[PairInfo, ...]] = ()
+    LEGACY_KINDS: ClassVar[dict[str, str]] = {}  # pair name -> kind, for 0.1.0 files ("point-line")
+    DEFAULT_LEVELS_MM: ClassVar[dict[str, tuple[float, float, float]]] = {}  # where a pair gives no levels
+
+    machine: MachineInfo = MachineInfo()
+    four_bar: FourBar
+    combs: Combs
+    clearance: dict[str, ClearancePair]
+    plant: PlantSpec | None = None
+    operation: OperationSpec = OperationSpec()
+    harvest: HarvestSpec = HarvestSpec()
+
+    @model_validator(mode="before")
+    @classmethod
+    def _legacy_and_pairs(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        data = dict(data)
+        cl = data.get("clearance")
+        if isinstance(cl, dict):
+            cl = {k: dict(v) if isinstance(v, dict) else v for k, v in cl.items()}
+            for name, pair in cl.items():
+                if isinstance(pair, dict):
+                    kind = pair.get("kind")
+                    if kind == "revolute":  # berryshaker 0.1.0
+                        pair["kind"] = "pin-in-bore"
+                    elif kind == "point-line":  # berryshaker 0.1.0
+                        if name not in cls.LEGACY_KINDS:
+                            raise ValueError(f"clearance.{name}.kind = 'point-line' (0.1.0): rename to one of "
+                                             f"{', '.join(PAIR_KINDS)}")
+                        pair["kind"] = cls.LEGACY_KINDS[name]
+            names = [p.name for p in cls.PAIRS]
+            unknown = [k for k in cl if k not in names]
+            missing = [k for k in names if k not in cl]
+            if unknown:
+                raise ValueError(f"unknown clearance pair(s) {', '.join(unknown)} for the {cls.DRIVE} drive; "
+                                 f"its pairs are {', '.join(names)}")
+            if missing:
+                raise ValueError(f"clearance pair(s) {', '.join(missing)} missing: the {cls.DRIVE} drive has "
+                                 f"pairs {', '.join(names)} (each needs a [clearance.<name>] table)")
+            data["clearance"] = {k: cl[k] for k in names}
+        return data
+
+    @model_validator(mode="after")
+    def _pair_sizes(self) -> "MachineBase":
+        for p in self.PAIRS:
+            pair = self.clearance[p.name]
+            if pair.kind != p.kind:
+                raise ValueError(f"clearance.{p.name}.kind must be {p.kind!r} ({p.joins}), got {pair.kind!r}")
+            lim, what = p.limit(self)
+            if pair.size > lim:
+                raise ValueError(f"clearance.{p.name}.size = {pair.size * 1e3:g} mm is larger than the geometry "
+                                 f"allows ({what} = {lim * 1e3:g} mm)")
+        return self
+
+    # ---- clearances: the one owner of their validation ------------------------------------------
+    @property
+    def pair_names(self) -> tuple[str, ...]:
+        """Names of the drive's clearance pairs, in transmission order."""
+        return tuple(p.name for p in self.PAIRS)
+
+    def clearance_sizes(self) -> dict[str, float]:
+        """Clearance size (m) per pair."""
+        return {p: self.clearance[p].size for p in self.pair_names}
+
+    def clearance_levels(self) -> dict[str, tuple[float, float, float]]:
+        """Test levels 1/2/3 (m) per pair: ``[clearance.<pair>] levels`` or the drive's defaults."""
+        out = {}
+        for p in self.pair_names:
+            lv = self.clearance[p].levels
+            if lv is None:
+                if p not in self.DEFAULT_LEVELS_MM:
+                    raise ConfigError(f"clearance.{p}.levels is not set and the {self.DRIVE} drive has no default "
+                                      "levels; give three sizes, e.g. levels = [\"0.1 mm\", \"0.2 mm\", \"0.3 mm\"]")
+                lv = tuple(v * 1e-3 for v in self.DEFAULT_LEVELS_MM[p])
+            out[p] = tuple(float(v) for v in lv)
+        return out
+
+    def with_clearances(self, sizes: dict[str, float] | None) -> "MachineBase":
+        """A validated copy with the clearance sizes (m) replaced for the named pairs.
+
+        Every clearance a run uses passes through here (or through loading the description): unknown pairs,
+        negative or non-finite sizes and sizes the geometry cannot hold are refused with the pair named.
+        """
+        if not sizes:
+            return self
+        data = self.model_dump()
+        for pair, size in sizes.items():
+            if pair not in self.pair_names:
+                raise ConfigError(f"unknown clearance pair {pair!r}; the {self.DRIVE} drive's pairs are "
+                                  f"{', '.join(self.pair_names)}")
+            if isinstance(size, bool) or not isinstance(size, (int, float)) or not math.isfinite(size) or size < 0:
+                raise ConfigError(f"clearance {pair}: size must be a finite length >= 0, got {size!r}")
+            data["clearance"][pair]["size"] = float(size)
+        from berryshaker.config import machine_from_dict
+
+        return machine_from_dict(data, "(clearance override)", getattr(self, "__provenance__", None))
+
+    # ---- geometry every drive provides ------------------------------------------------------------
+    @property
+    def shaft_D(self) -> tuple[float, float]:  # pragma: no cover - abstract
+        """Frame coordinates of the left comb shaft D (m)."""
+        raise NotImplementedError
+
+    @property
+    def shaft_E(self) -> tuple[float, float]:
+        """Frame coordinates of the right comb shaft E (m): D and E on a horizontal line (theta_DE = 0)."""
+        xd, yd = self.shaft_D
+        return (xd + self.four_bar.ground_DE, yd)
+
+    @property
+    def drive_speed(self) -> float:  # pragma: no cover - abstract
+        """Drive-shaft speed (rad/s)."""
+        raise NotImplementedError
+
+    @property
+    def drive_inertia(self) -> float:  # pragma: no cover - abstract
+        """Moment of inertia of the driven shaft (kg m^2)."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class Drive:
+    """A comb drive plug-in (see the module docstring for what each member does)."""
+
+    name: str
+    title: str
+    machine_class: type
+    reference_package: str  # package holding reference.toml
+    check: Callable[..., Any]
+    kinematics_summary: Callable[..., dict]
+    mechanism: Callable[..., Any]
+    mid_stroke_angles: Callable[..., tuple[float, float]]
+    reduced_model: Callable[..., Any] | None = None
+    reduced_model_name: str = ""
+
+    @property
+    def pairs(self) -> tuple[PairInfo, ...]:
+        """The drive's clearance pairs."""
+        return self.machine_class.PAIRS
+
+    def reference_toml_text(self) -> str:
+        """Text of the drive's annotated reference machine."""
+        from importlib import resources
+
+        return resources.files(self.reference_package).joinpath("reference.toml").read_text("utf-8")

@@ -1,0 +1,160 @@
+"""The groove-cam double rocker's machine description (docs/study.md sec. 1 and eq. 1-3).
+
+Engine -> belt -> CVT -> worm reducer -> groove cam (O) -> cam roller in the groove (pair A) -> push rod in a
+linear bearing -> push-rod roller in the slot of the left comb's rocker (pair B) -> left comb about D ->
+connecting rod CF (pins C and F) -> right comb about E.  Frame: origin O at the cam centre, x along the push
+rod, y up.  Values SI; strings with units accepted.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar, Literal
+
+from pydantic import Field, model_validator
+
+from berryshaker.drives.base import MachineBase, PairInfo
+from berryshaker.errors import ConfigError
+from berryshaker.reference_study import CLEARANCE_LEVELS_MM
+from berryshaker.quantity_fields import (
+    Angle,
+    AngularSpeed,
+    Coefficient,
+    Inertia,
+    Length,
+    LengthNonNeg,
+    Mass,
+    NonNegAngle,
+    PositiveAngle,
+    _d,
+)
+from berryshaker.quantity_fields import StrictModel as _Strict
+from berryshaker.units import parse_quantity
+
+
+class Cam(_Strict):
+    """Groove cam and its follower law (study eq. 1-2, Fig. 5)."""
+
+    law: Literal["3-4-5", "cycloidal", "4-5-6-7"] = "3-4-5"
+    base_radius: Length  # r0
+    offset: LengthNonNeg  # e
+    stroke: Length  # h
+    roller_radius: Length  # r_r
+    rise_angle: PositiveAngle  # delta_0
+    far_dwell_angle: NonNegAngle  # delta_01
+    return_angle: PositiveAngle  # delta_0'
+    near_dwell_angle: NonNegAngle  # delta_02
+    speed: AngularSpeed  # omega
+    inertia: Inertia  # J_O
+
+    @model_validator(mode="after")
+    def _check(self) -> "Cam":
+        total = self.rise_angle + self.far_dwell_angle + self.return_angle + self.near_dwell_angle
+        if abs(total - 2 * math.pi) > 1e-6:
+            raise ValueError(
+                "rise_angle + far_dwell_angle + return_angle + near_dwell_angle must be 360 deg, "
+                f"got {math.degrees(total):.4g} deg"
+            )
+        if self.offset >= self.base_radius:
+            raise ValueError(
+                f"offset e = {self.offset * 1e3:.4g} mm must be smaller than base_radius "
+                f"r0 = {self.base_radius * 1e3:.4g} mm (s0 = sqrt(r0^2 - e^2))"
+            )
+        return self
+
+    @property
+    def s0(self) -> float:
+        """Distance along the push-rod axis from O's foot to the roller centre at s = 0 (m)."""
+        return math.sqrt(self.base_radius**2 - self.offset**2)
+
+
+class PushRod(_Strict):
+    """Push rod sliding in a linear bearing along y = e (study eq. 10)."""
+
+    length: Length  # l_AB, roller A centre to roller B centre
+    mass: Mass  # m2
+    friction_coefficient: Coefficient = 0.05  # mu2, push rod in its linear bearing
+    bearing_G_x: float = Field(default=0.18, json_schema_extra=_d("mm"))  # frame x of bearing G (m)
+    bearing_H_x: float = Field(default=0.32, json_schema_extra=_d("mm"))  # frame x of bearing H (m)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units(cls, data: Any) -> Any:
+        if isinstance(data, dict):
+            data = dict(data)
+            for key in ("bearing_G_x", "bearing_H_x"):
+                if key in data:
+                    try:
+                        data[key] = parse_quantity(data[key], "length", key)
+                    except ConfigError as exc:
+                        raise ValueError(str(exc)) from None
+        return data
+
+    @model_validator(mode="after")
+    def _check(self) -> "PushRod":
+        if abs(self.bearing_G_x - self.bearing_H_x) < 1e-6:
+            raise ValueError("bearing_G_x and bearing_H_x must be distinct points of the guide")
+        return self
+
+
+class Rocker(_Strict):
+    """Left comb rocker: slot through shaft D in which push-rod roller B slides; arm DC (eq. 3)."""
+
+    shaft_D_x: float | None = Field(default=None, json_schema_extra=_d("mm"))  # None: below B at mid-stroke
+    shaft_D_drop: Length  # y_D = e - drop
+    arm_CD: Length  # l_CD
+    arm_angle: Angle = math.pi  # angle of D->C measured from the slot direction D->B
+
+    @model_validator(mode="before")
+    @classmethod
+    def _units(cls, data: Any) -> Any:
+        if isinstance(data, dict) and data.get("shaft_D_x") is not None:
+            data = dict(data)
+            if data["shaft_D_x"] == "mid-stroke":
+                data["shaft_D_x"] = None
+            else:
+                try:
+                    data["shaft_D_x"] = parse_quantity(data["shaft_D_x"], "length", "shaft_D_x")
+                except ConfigError as exc:
+                    raise ValueError(str(exc)) from None
+        return data
+
+
+class GrooveCamMachine(MachineBase):
+    """A harvester whose left comb is swung by a groove cam and push rod (the reference study's machine)."""
+
+    DRIVE: ClassVar[str] = "groove_cam"
+    PAIRS: ClassVar[tuple[PairInfo, ...]] = (
+        PairInfo("A", "roller-in-groove", "cam roller in the cam groove",
+                 lambda m: (0.2 * m.cam.roller_radius, "20 % of the cam roller radius")),
+        PairInfo("B", "roller-in-slot", "push-rod roller in the rocker slot",
+                 lambda m: (0.2 * m.cam.roller_radius, "20 % of the roller radius")),
+        PairInfo("C", "pin-in-bore", "connecting-rod pin on the left comb",
+                 lambda m: (0.1 * m.rocker.arm_CD, "10 % of arm CD")),
+        PairInfo("F", "pin-in-bore", "connecting-rod pin on the right comb",
+                 lambda m: (0.1 * m.four_bar.arm_FE, "10 % of arm FE")),
+    )
+    LEGACY_KINDS: ClassVar[dict[str, str]] = {"A": "roller-in-groove", "B": "roller-in-slot"}
+    DEFAULT_LEVELS_MM: ClassVar[dict[str, tuple[float, float, float]]] = CLEARANCE_LEVELS_MM
+
+    cam: Cam
+    push_rod: PushRod
+    rocker: Rocker
+
+    @property
+    def shaft_D(self) -> tuple[float, float]:
+        """Frame coordinates of the left comb shaft D (m); O is the cam centre."""
+        x = self.rocker.shaft_D_x
+        if x is None:
+            x = self.cam.s0 + self.cam.stroke / 2 + self.push_rod.length
+        return (x, self.cam.offset - self.rocker.shaft_D_drop)
+
+    @property
+    def drive_speed(self) -> float:
+        """Cam shaft speed (rad/s)."""
+        return self.cam.speed
+
+    @property
+    def drive_inertia(self) -> float:
+        """Cam inertia J_O (kg m^2)."""
+        return self.cam.inertia

@@ -1,0 +1,361 @@
+"""Analysis of a replicated orthogonal test: effects judged against their own noise.
+
+Each run of the design is repeated ``r`` times (field repeats, or simulations with different plant
+populations / perturbed initial states).  The spread of the repeats of one run is *pure error*: it
+measures the noise without assuming any model.  With ``n`` runs it has ``n (r - 1)`` degrees of freedom
+(9 (r - 1) for an L9), so every main effect can be F-tested even when the main effects use up all the
+between-run degrees of freedom (a saturated L9 with four 3-level factors, where the unreplicated analysis
+has to pool a factor into the error).
+
+Methods (Montgomery, *Design and Analysis of Experiments*, 8th ed., 2013: sec. 3.3 ANOVA F test, 3.5.7
+Tukey's test, and the lack-of-fit test against pure error of its regression chapter; Taguchi's effective number of replications
+for the prediction interval of an additive model, e.g. Roy, *A Primer on the Taguchi Method*, 1990):
+
+* sums of squares of the main effects from statsmodels OLS (``y ~ C(A) + C(B) + ...`` on all
+  observations, ``anova_lm``; the array is orthogonal, so sequential = partial sums of squares);
+* F = MS_factor / MS_pure_error with (k - 1, n (r - 1)) degrees of freedom, p from scipy's F
+  distribution; an effect is *significant* only if p < alpha;
+* level means with standard error sqrt(MS_PE / N_level) (N_level observations at the level) and
+  t-intervals; the range R (best minus worst level mean) with a Tukey-Kramer simultaneous interval
+  (studentized range; it stays valid although the extreme pair is picked after seeing the data);
+* lack of fit (between-run variation the main effects do not explain) tested against pure error when
+  the design leaves degrees of freedom for it.
+
+The weighted optimum never ranks noise: a response enters the choice of a factor's level only if that
+factor's effect on it is significant; the scaling of a response (to combine it with others) is its
+range of run means over the whole design, fixed per response, so a noise-sized level difference is not
+stretched to 0..1 as a min-max scaling of each factor's level means would.  Levels whose composite
+score is within the Tukey-Kramer margin of the best are reported as not distinguishable from it.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pandas as pd
+
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.analysis import check_inputs, check_weights, factor_levels_report, quadratic_regression
+
+
+def pure_error(y: np.ndarray) -> tuple[float, int]:
+    """Pure-error sum of squares and degrees of freedom of a (runs, replicates) array.
+
+    SS_PE = sum_i sum_j (y_ij - ybar_i)^2 with sum_i (r_i - 1) degrees of freedom (here r_i = r).
+    """
+    y = np.asarray(y, float)
+    return float(np.sum((y - y.mean(axis=1, keepdims=True)) ** 2)), int(y.shape[0] * (y.shape[1] - 1))
+
+
+@functools.lru_cache(maxsize=256)
+def _studentized_range_quantile(confidence: float, k: int, dof: int) -> float:
+    from scipy.stats import studentized_range
+
+    return float(studentized_range.ppf(confidence, k, dof))  # slow (numerical integration): cached
+
+
+def _tukey_half_width(ms: float, dof: int, k: int, n_a: int, n_b: int, confidence: float) -> float:
+    """Tukey-Kramer simultaneous half-width for the difference of two of k means (n_a, n_b observations):
+    q(confidence; k, dof) / sqrt(2) * sqrt(MS_PE (1/n_a + 1/n_b)) (Montgomery 2013, sec. 3.5.7)."""
+    if k < 2 or dof < 1:
+        return float("nan")
+    q = _studentized_range_quantile(float(confidence), int(k), int(dof))
+    return q / np.sqrt(2.0) * float(np.sqrt(ms * (1.0 / n_a + 1.0 / n_b)))
+
+
+def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> tuple[dict, float, int]:
+    """Main-effect sums of squares from statsmodels OLS on all observations; residual SS and dof."""
+    import statsmodels.formula.api as smf
+    from statsmodels.stats.anova import anova_lm
+
+    n, r = y.shape
+    internal = [f"x{i}" for i in range(len(factor_names))]
+    long = pd.DataFrame(np.repeat(levels.astype(int), r, axis=0), columns=internal)
+    long["y"] = y.reshape(-1)
+    fit = smf.ols("y ~ " + " + ".join(f"C({c})" for c in internal), data=long).fit()
+    table = anova_lm(fit, typ=1)
+    ss = {f: (float(table.loc[f"C({c})", "sum_sq"]), int(table.loc[f"C({c})", "df"]))
+          for f, c in zip(factor_names, internal)}
+    return ss, float(table.loc["Residual", "sum_sq"]), int(round(table.loc["Residual", "df"]))
+
+
+def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str], alpha: float = 0.05,
+                     confidence: float = 0.95) -> dict:
+    """Main-effect ANOVA and level statistics of one replicated response.
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers of an orthogonal array.
+    y : ndarray (runs, replicates)
+        Observations; at least 2 replicates.
+    alpha : float
+        Significance level: an effect is significant only if p < alpha.
+    confidence : float
+        Level of the intervals (0.95: 95 %).
+
+    Returns
+    -------
+    dict
+        ``pure_error`` {ss, df, ms}; ``lack_of_fit`` {ss, df, ms, f, p} (df 0 when saturated);
+        ``factors``: per factor ss, df, ms, f, p, significant, level_means, level_se, level_ci, range,
+        range_ci (Tukey-Kramer, for the difference of the extreme levels), hsd (Tukey-Kramer half-width
+        of a level difference), best_level and best_levels_within_noise.
+    """
+    from scipy import stats
+
+    levels = np.asarray(levels)
+    y = np.asarray(y, float)
+    n, r = y.shape
+    ss_pe, df_pe = pure_error(y)
+    ms_pe = ss_pe / df_pe
+    ss, ss_res, df_res = _main_effect_ss(levels, y, factor_names)
+    ss_lof, df_lof = max(ss_res - ss_pe, 0.0), df_res - df_pe
+    t = float(stats.t.ppf(0.5 + confidence / 2, df_pe))
+    total = float(np.sum((y - y.mean()) ** 2))
+    factors = {}
+    for j, f in enumerate(factor_names):
+        ssf, dff = ss[f]
+        msf = ssf / dff
+        if ms_pe > 0:
+            F = msf / ms_pe
+            p = float(stats.f.sf(F, dff, df_pe))
+        else:  # identical replicates: no noise estimate; an effect larger than round-off counts as real
+            real = ssf > 1e-12 * max(total, 1e-300)
+            F, p = (float("inf"), 0.0) if real else (float("nan"), 1.0)
+        ks = sorted(int(v) for v in np.unique(levels[:, j]))
+        means, ses, cis, nobs = [], [], [], []
+        for k in ks:
+            obs = y[levels[:, j] == k]
+            m = float(obs.mean())
+            se = float(np.sqrt(ms_pe / obs.size))
+            means.append(m)
+            ses.append(se)
+            cis.append([m - t * se, m + t * se])
+            nobs.append(obs.size)
+        hi, lo = int(np.argmax(means)), int(np.argmin(means))
+        R = means[hi] - means[lo]
+        hw = _tukey_half_width(ms_pe, df_pe, len(ks), nobs[hi], nobs[lo], confidence)
+        factors[f] = {"ss": ssf, "df": dff, "ms": msf, "f": float(F), "p": p, "significant": bool(p < alpha),
+                      "levels": ks, "level_means": means, "level_se": ses, "level_ci": cis, "range": R,
+                      "range_ci": [R - hw, R + hw], "hsd": hw, "n_per_level": nobs}
+    lof = {"ss": ss_lof, "df": int(df_lof), "ms": ss_lof / df_lof if df_lof > 0 else float("nan")}
+    if df_lof > 0 and ms_pe > 0:
+        lof["f"] = lof["ms"] / ms_pe
+        lof["p"] = float(stats.f.sf(lof["f"], df_lof, df_pe))
+    return {"pure_error": {"ss": ss_pe, "df": df_pe, "ms": ms_pe}, "lack_of_fit": lof, "factors": factors,
+            "total_ss": total, "replicates": r, "runs": n}
+
+
+def _best(means: list[float], maximize: bool) -> int:
+    return int(np.argmax(means) if maximize else np.argmin(means))
+
+
+def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: list[str],
+                       responses_replicated: dict[str, np.ndarray], senses: dict[str, bool],
+                       weights: dict[str, float] | None = None, *, alpha: float = 0.05, confidence: float = 0.95,
+                       level_values: dict[str, tuple[float, ...] | None] | None = None,
+                       units: dict[str, str] | None = None) -> dict:
+    """Analysis of a replicated orthogonal test, with every effect judged against the replicate noise.
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers.
+    values : ndarray (runs, factors)
+        Level values (for the eq. 19 regression of the run means).
+    factor_names : list of str
+    responses_replicated : dict name -> ndarray (runs, replicates)
+        At least 2 replicates, the same number for every response.
+    senses : dict name -> bool
+        True where larger is better.
+    weights : dict name -> float, optional
+        Priority of the responses (> 0, normalised); default equal.
+    alpha : float
+        An effect is significant only if its p-value < alpha.
+    confidence : float
+        Level of the intervals.
+    level_values, units : dict, optional
+        Level values and units per factor (reported, see :func:`factor_levels_report`).
+
+    Returns
+    -------
+    dict
+        ``significance_rule`` (the rule in words); per response (``responses``): range analysis of the
+        run means (``factors`` with level_means, level_ci, range, range_ci, best_level, significant,
+        verdict), ``anova`` (F and p against pure error, pure error and lack of fit), ``regression`` (eq.
+        19 on the run means); ``optimum``: per factor a chosen level with its reason, or level None with
+        "no meaningful difference", and the predicted response means with intervals.
+    """
+    if not 0 < alpha < 1 or not 0 < confidence < 1:
+        raise ConfigError("alpha and confidence must lie between 0 and 1")
+    levels = np.asarray(levels)
+    values = np.asarray(values, float)
+    reps = {}
+    for name, y in responses_replicated.items():
+        y = np.asarray(y, float)
+        if y.ndim != 2:
+            raise ConfigError(f"response {name!r}: replicated values must be an array (runs, replicates), got "
+                              f"shape {y.shape}")
+        reps[name] = y
+    check_inputs(levels, factor_names, reps, senses)
+    shapes = {y.shape for y in reps.values()}
+    if len(shapes) > 1:
+        raise ConfigError(f"responses have different shapes {sorted(shapes)}; every response needs the same "
+                          "runs x replicates")
+    n, r = next(iter(shapes))
+    if r < 2:
+        raise ConfigError("a replicated analysis needs at least 2 replicates per run (use analyze() for a single "
+                          "replicate, which pools the weakest factor into the error)")
+    w = check_weights(weights, reps)
+    rule = (f"an effect is significant only if p < {alpha:g} (F test of the factor mean square against the pure "
+            f"(replicate) error, {n} runs x {r} replicates = {n * (r - 1)} degrees of freedom); otherwise the "
+            f"levels show no meaningful difference. Intervals: {100 * confidence:g} % (level means: t; range: "
+            "Tukey-Kramer, simultaneous over all level pairs).")
+    out = {"significance_rule": rule, "alpha": alpha, "confidence": confidence, "runs": n, "replicates": r,
+           "weights": w, "factors": factor_levels_report(factor_names, levels, level_values, units),
+           "responses": {}}
+    notes = []
+    for name, y in reps.items():
+        an = replicated_anova(levels, y, factor_names, alpha, confidence)
+        mx = senses[name]
+        if an["pure_error"]["ms"] == 0:
+            notes.append(f"{name}: the replicates are identical (zero pure error); effects are exact for this "
+                         "model, not judged against noise - check that the replicates vary the seed")
+        fac = {}
+        for f, d in an["factors"].items():
+            b = _best(d["level_means"], mx)
+            best_val = d["level_means"][b]
+            within = [d["levels"][i] for i, m in enumerate(d["level_means"])
+                      if abs(best_val - m) <= d["hsd"] or not np.isfinite(d["hsd"])]
+            fac[f] = {**{k: d[k] for k in ("level_means", "level_se", "level_ci", "range", "range_ci", "hsd",
+                                           "significant", "p")},
+                      "K": [m * c for m, c in zip(d["level_means"], d["n_per_level"])],
+                      "best_level": d["levels"][b], "best_levels_within_noise": within,
+                      "verdict": (f"level {d['levels'][b]} best" if d["significant"] else "no meaningful difference")}
+        ranking = sorted(factor_names, key=lambda f: -fac[f]["range"])
+        run_means = y.mean(axis=1)
+        reg = quadratic_regression(values, run_means, factor_names)
+        reg.pop("_scaling")
+        out["responses"][name] = {
+            "maximize": mx, "factors": fac, "ranking": ranking, "run_means": run_means.tolist(),
+            "run_sd": y.std(axis=1, ddof=1).tolist(),
+            "best_levels": {f: fac[f]["best_level"] for f in factor_names},
+            "significant_factors": [f for f in factor_names if fac[f]["significant"]],
+            "anova": {"factors": {f: {k: an["factors"][f][k] for k in ("ss", "df", "ms", "f", "p", "significant")}
+                                  for f in factor_names},
+                      "error": {**an["pure_error"], "kind": "pure error (replicates)"},
+                      "pure_error": an["pure_error"], "lack_of_fit": an["lack_of_fit"], "pooled": [],
+                      "total_ss": an["total_ss"]},
+            "regression": reg,
+        }
+    out["optimum"] = _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence)
+    out["notes"] = notes
+    return out
+
+
+def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence) -> dict:
+    """Per factor: a level chosen from the responses it significantly affects, or no meaningful difference."""
+    from scipy import stats
+
+    n, r = next(iter(reps.values())).shape
+    scale = {}
+    for name, y in reps.items():
+        m = y.mean(axis=1)
+        scale[name] = float(m.max() - m.min())
+    choices, chosen = {}, {}
+    for j, f in enumerate(factor_names):
+        sig = [name for name in reps if name in w and scale[name] > 0
+               and out["responses"][name]["factors"][f]["significant"]]
+        pvals = {name: out["responses"][name]["factors"][f]["p"] for name in reps}
+        labels = out["factors"][f]["labels"]
+        nums = out["factors"][f]["level_numbers"]
+        if not sig:
+            reason = (f"no response differs significantly between the levels of {f} ("
+                      + ", ".join(f"{name}: p = {p:.3g}" for name, p in pvals.items()) + f", rule p < {alpha:g})")
+            choices[f] = {"level": None, "setting": None, "status": "no meaningful difference", "reason": reason,
+                          "significant_responses": [], "equivalent_levels": nums}
+            chosen[f] = None
+            continue
+        # composite per observation over the responses this factor significantly affects
+        z = sum((w[name] * (1.0 if senses[name] else -1.0) / scale[name]) * reps[name] for name in sig)
+        ss_pe, df_pe = pure_error(z)
+        ms = ss_pe / df_pe
+        ks = sorted(int(v) for v in np.unique(levels[:, j]))
+        means = [float(z[levels[:, j] == k].mean()) for k in ks]
+        nobs = [int(z[levels[:, j] == k].size) for k in ks]
+        b = int(np.argmax(means))
+        equivalent = [ks[i] for i in range(len(ks)) if i == b or
+                      means[b] - means[i] <= _tukey_half_width(ms, df_pe, len(ks), nobs[b], nobs[i], confidence)]
+        parts = []
+        for name in reps:
+            fr = out["responses"][name]["factors"][f]
+            if name in sig:
+                lm = ", ".join(f"{v:.4g}" for v in fr["level_means"])
+                parts.append(f"{name} differs (p = {pvals[name]:.3g}; level means {lm}; "
+                             f"{'max' if senses[name] else 'min'}imised best at level {fr['best_level']})")
+            elif name in w:
+                parts.append(f"{name}: no significant difference (p = {pvals[name]:.3g}), not used")
+        status = "chosen"
+        if len(equivalent) > 1:
+            status = "chosen; not distinguishable from level(s) " + ", ".join(
+                str(k) for k in equivalent if k != ks[b])
+        choices[f] = {"level": ks[b], "setting": labels[nums.index(ks[b])], "status": status,
+                      "reason": "; ".join(parts), "significant_responses": sig, "equivalent_levels": equivalent,
+                      "composite_level_means": means}
+        chosen[f] = ks[b]
+    # predicted response means at the choice: additive model over the factors significant for the response
+    pred, intervals = {}, {}
+    for name, y in reps.items():
+        ra = out["responses"][name]
+        grand = float(y.mean())
+        used = [f for f in factor_names if chosen[f] is not None and ra["factors"][f]["significant"]]
+        val = grand + sum(ra["factors"][f]["level_means"][out["factors"][f]["level_numbers"].index(chosen[f])] - grand
+                          for f in used)
+        dof_used = sum(len(out["factors"][f]["level_numbers"]) - 1 for f in used)
+        n_eff = y.size / (1 + dof_used)
+        pe = ra["anova"]["pure_error"]
+        t = float(stats.t.ppf(0.5 + confidence / 2, pe["df"]))
+        hw = t * float(np.sqrt(pe["ms"] / n_eff))
+        pred[name] = float(val)
+        intervals[name] = [float(val - hw), float(val + hw)]
+    return {"levels": chosen, "settings": {f: c["setting"] for f, c in choices.items()}, "choices": choices,
+            "values": pred, "intervals": intervals,
+            "method": ("per factor, a weighted sum of the responses whose effect of that factor is significant, each "
+                       "signed (+ maximise, - minimise) and divided by its range of run means over the design; "
+                       "responses without a significant effect contribute nothing"),
+            "prediction": ("additive model: grand mean + level-mean deviations of the factors significant for the "
+                           "response at the chosen levels (others averaged); interval from the pure error with "
+                           "Taguchi's effective number of replications N / (1 + dof of the factors used)")}
+
+
+def describe_replicated(res: dict) -> str:
+    """Plain-text summary of :func:`analyze_replicated` (rule, per-response table, optimum with reasons)."""
+    lines = [f"Significance rule: {res['significance_rule']}"]
+    for name, ra in res["responses"].items():
+        pe = ra["anova"]["pure_error"]
+        lines.append(f"{name} ({'maximise' if ra['maximize'] else 'minimise'}); pure error MS {pe['ms']:.4g} "
+                     f"({pe['df']} dof)")
+        for f, d in ra["factors"].items():
+            a = ra["anova"]["factors"][f]
+            lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d["level_means"], d["level_ci"]))
+            lines.append(f"  {f}: R = {d['range']:.4g} [{d['range_ci'][0]:.4g}, {d['range_ci'][1]:.4g}], "
+                         f"F = {a['f']:.3g}, p = {a['p']:.3g} -> {d['verdict']}; level means {lm}")
+    lines.append("Weighted choice:")
+    for f, c in res["optimum"]["choices"].items():
+        if c["level"] is None:
+            what = c["status"]
+        elif c["setting"] == f"level {c['level']}":
+            what = f"{c['setting']}, {c['status']}"
+        else:
+            what = f"{c['setting']} (level {c['level']}), {c['status']}"
+        lines.append(f"  {f}: {what}: {c['reason']}")
+    for name, v in res["optimum"]["values"].items():
+        lo, hi = res["optimum"]["intervals"][name]
+        lines.append(f"  predicted {name}: {v:.4g} [{lo:.4g}, {hi:.4g}]")
+    lines.extend(f"Note: {n}" for n in res.get("notes", []))
+    return "\n".join(lines)
+
+
+__all__ = ["analyze_replicated", "describe_replicated", "pure_error", "replicated_anova"]

@@ -1,0 +1,199 @@
+"""Trade-off table of candidate designs (clearance sets) and which of them are dominated beyond noise.
+
+A candidate *dominates* another if it is no worse beyond noise in every judged column and better beyond
+noise in at least one (Pareto dominance, e.g. Deb, *Multi-Objective Optimization Using Evolutionary
+Algorithms*, 2001, sec. 2.4, with "better" replaced by "better by more than the noise").  "Beyond noise"
+for two values a, b with confidence half-widths h_a, h_b (from their intervals) means
+|a - b| > sqrt(h_a^2 + h_b^2), the half-width of the interval of the difference of two independent
+estimates at the same confidence; a column without intervals (a deterministic model output) uses the
+relative tolerance ``rtol`` of the larger magnitude instead.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+
+import numpy as np
+import pandas as pd
+
+from berryshaker.errors import ConfigError
+
+#: substrings of a column name -> True (larger is better) / False (smaller is better) / None (descriptive)
+SENSE_PATTERNS: tuple[tuple[str, bool | None], ...] = (
+    ("clearance", None), ("efficiency", True), ("unripe", False), ("damage", False), ("force", False),
+    ("torque", False), ("energy", False), ("power", False), ("lost", False), ("loss", False),
+)
+
+
+def column_sense(column: str, senses: dict[str, bool | None] | None = None) -> bool | None:
+    """Whether larger is better (True), smaller (False) or the column is descriptive (None).
+
+    ``senses`` (exact column or its group, the part before ':') overrides :data:`SENSE_PATTERNS`.
+    """
+    senses = senses or {}
+    for key in (column, column.split(":")[0]):
+        if key in senses:
+            return senses[key]
+    low = column.lower()
+    for pat, s in SENSE_PATTERNS:
+        if pat in low:
+            return s
+    return None
+
+
+def _number(x, where: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, numbers.Real):
+        raise ConfigError(f"trade-off candidate {where}: {x!r} is not a number")
+    x = float(x)
+    if not math.isfinite(x):
+        raise ConfigError(f"trade-off candidate {where}: value is not finite")
+    return x
+
+
+def _estimate(x, where: str) -> tuple[float, float | None, float | None]:
+    """A number, or a dict {mean, ci: [lo, hi]} / {mean, lo, hi} -> (mean, lo, hi)."""
+    if isinstance(x, dict):
+        if "mean" not in x:
+            raise ConfigError(f"trade-off candidate {where}: a dict needs 'mean' (and 'ci': [lo, hi])")
+        m = _number(x["mean"], where)
+        lo, hi = x.get("ci", (x.get("lo"), x.get("hi")))
+        if lo is None or hi is None:
+            return m, None, None
+        lo, hi = _number(lo, where + " ci"), _number(hi, where + " ci")
+        if not lo <= m <= hi:
+            raise ConfigError(f"trade-off candidate {where}: interval [{lo:g}, {hi:g}] does not contain {m:g}")
+        return m, lo, hi
+    return _number(x, where), None, None
+
+
+def _is_estimate(x) -> bool:
+    return isinstance(x, numbers.Real) or (isinstance(x, dict) and "mean" in x)
+
+
+def _flatten(c: dict) -> dict:
+    if "name" not in c:
+        raise ConfigError("trade-off candidate without 'name'")
+    name = str(c["name"])
+    row = {"name": name}
+
+    def put(col: str, x, where: str) -> None:
+        m, lo, hi = _estimate(x, where)
+        row[col] = m
+        if lo is not None:
+            row[f"{col}_lo"], row[f"{col}_hi"] = lo, hi
+
+    for key, x in c.items():
+        if key == "name":
+            continue
+        where = f"{name!r}, {key!r}"
+        if key == "harvest" and isinstance(x, dict):  # harvest indexes become top-level columns
+            for idx, v in x.items():
+                put(idx, v, f"{where}[{idx!r}]")
+        elif isinstance(x, dict) and not _is_estimate(x):  # per joint
+            for sub, v in x.items():
+                put(f"{key}:{sub}", v, f"{where}[{sub!r}]")
+        elif isinstance(x, str):
+            row[key] = x
+        else:
+            put(key, x, where)
+    return row
+
+
+def _judged_columns(df: pd.DataFrame, senses) -> dict[str, bool]:
+    out = {}
+    for col in df.columns:
+        if col in ("name", "dominated", "dominated_by") or col.endswith(("_lo", "_hi")):
+            continue
+        if not pd.api.types.is_numeric_dtype(df[col]):
+            continue
+        s = column_sense(col, senses)
+        if s is not None:
+            out[col] = s
+    return out
+
+
+def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = None,
+                     rtol: float = 0.01) -> np.ndarray:
+    """``D[i, j]`` True where candidate i dominates candidate j beyond noise (see the module docstring)."""
+    cols = _judged_columns(df, senses)
+    n = len(df)
+    no_worse = np.ones((n, n), bool)
+    better = np.zeros((n, n), bool)
+    for col, maximize in cols.items():
+        v = df[col].to_numpy(float)
+        if f"{col}_lo" in df.columns:
+            h = (df[f"{col}_hi"].to_numpy(float) - df[f"{col}_lo"].to_numpy(float)) / 2
+            h = np.where(np.isnan(h), 0.0, h)
+            margin = np.sqrt(h[:, None] ** 2 + h[None, :] ** 2)
+        else:
+            margin = np.zeros((n, n))
+        margin = np.maximum(margin, np.where(margin > 0, 0.0, rtol * np.maximum(np.abs(v)[:, None],
+                                                                                 np.abs(v)[None, :])))
+        d = v[:, None] - v[None, :]
+        if not maximize:
+            d = -d
+        better |= d > margin
+        no_worse &= ~(-d > margin)
+    dom = no_worse & better
+    np.fill_diagonal(dom, False)
+    return dom
+
+
+def mark_dominated(df: pd.DataFrame, senses: dict[str, bool | None] | None = None, rtol: float = 0.01) -> pd.DataFrame:
+    """A copy of a trade-off table with ``dominated`` (bool) and ``dominated_by`` (names, comma-separated).
+
+    Judged columns: those with a sense (:func:`column_sense`: harvest efficiency larger is better;
+    unripe and damage rates, forces, torque, energy smaller is better; clearances descriptive).  Columns
+    ``<col>_lo`` / ``<col>_hi`` are the interval of ``<col>``; without them ``rtol`` is the noise.
+    """
+    if not 0 <= rtol < 1:
+        raise ConfigError(f"rtol={rtol!r}: give a relative tolerance between 0 and 1")
+    out = df.copy()
+    dom = dominance_matrix(out, senses, rtol)
+    names = out["name"].astype(str).to_numpy()
+    out["dominated"] = dom.any(axis=0)
+    out["dominated_by"] = [", ".join(names[dom[:, j]]) for j in range(len(out))]
+    return out
+
+
+def tradeoff_table(candidates: list[dict], senses: dict[str, bool | None] | None = None,
+                   rtol: float = 0.01) -> pd.DataFrame:
+    """One row per candidate, the non-dominated ones first.
+
+    Parameters
+    ----------
+    candidates : list of dict
+        Each with ``name`` and any of: ``clearance_mm`` {joint: value}; ``harvest`` {index: {"mean": m,
+        "ci": [lo, hi]}} (indexes become columns ``efficiency``, ``unripe``, ``damage`` with ``_lo`` /
+        ``_hi``); ``peak_force_N`` {joint: value or {mean, ci}}; ``drive_torque_Nm``; ``energy_lost_J``;
+        any other number or {mean, ci}.  Per-joint dicts become columns ``<key>:<joint>``.
+    senses : dict, optional
+        Overrides of :func:`column_sense` (column or group name -> True / False / None).
+    rtol : float
+        Relative noise of columns without intervals (deterministic model outputs).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Sorted by ``dominated`` (False first), then by the first larger-is-better column (descending),
+        then by name; with ``dominated`` and ``dominated_by`` (see :func:`mark_dominated`).
+    """
+    if not candidates:
+        raise ConfigError("trade-off table: no candidates")
+    rows = [_flatten(c) for c in candidates]
+    names = [r["name"] for r in rows]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"trade-off table: candidate names must be distinct ({names})")
+    df = mark_dominated(pd.DataFrame(rows), senses, rtol)
+    keys, asc = ["dominated"], [True]
+    first_max = next((c for c, s in _judged_columns(df, senses).items() if s), None)
+    if first_max is not None:
+        keys.append(first_max)
+        asc.append(False)
+    keys.append("name")
+    asc.append(True)
+    return df.sort_values(keys, ascending=asc, kind="stable").reset_index(drop=True)
+
+
+__all__ = ["SENSE_PATTERNS", "column_sense", "dominance_matrix", "mark_dominated", "tradeoff_table"]

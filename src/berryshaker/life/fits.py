@@ -1,0 +1,668 @@
+"""ISO 286 limits and fits: from a drawing's "H7/f7" at a nominal diameter to the clearance of a joint.
+
+A new machine leaves the shop with the clearance of its running fits (tens of micrometres); wear takes
+it towards the study's levels (0.1-0.75 mm).  This module turns a fit designation into the limits of
+hole and shaft, the clearance range and a statistical distribution of the clearance within it.
+
+Clearance convention
+--------------------
+Fit tables give the DIAMETRAL clearance: hole diameter minus shaft diameter.  The pin-in-bore joints
+of the harvester (pairs C and F, :class:`berryshaker.config.ClearancePair`) use the RADIAL clearance
+(bore radius minus pin radius) = diametral / 2.  :class:`Fit` therefore carries both:
+``clearance_min``/``clearance_max`` (diametral, m) and ``radial_clearance_min``/``radial_clearance_max``
+(m).  For a roller in a groove (pairs A and B) the free travel across the groove is the diametral value
+(groove width minus roller diameter).
+
+Supported tolerance classes (nominal sizes 0 < D <= 500 mm, grades IT01, IT0, IT1..IT18)
+---------------------------------------------------------------------------------------
+Holes: A, B, C, D, E, F, G, H, JS, K (IT3..IT8), M, N, P (IT3 and coarser).
+Shafts: a, b, c, d, e, f, g, h, js, k, m, n, p.
+Others (CD, EF, FG, J, R..ZC and their shaft counterparts) are refused with a :class:`ConfigError`.
+
+Sources
+-------
+ISO 286-1:2010 (tolerances, deviations and fits; Tables 1-3, Annex A), ISO 286-2:2010 (tables of limit
+deviations).  Tabulated values in :mod:`berryshaker.life.iso286_data`; the formulas below reproduce them
+within ISO's rounding and are used only as a check.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from berryshaker.errors import ConfigError
+from berryshaker.life import iso286_data as data
+
+Distribution = Literal["uniform", "uniform-parts", "normal"]
+DISTRIBUTIONS: tuple[str, ...] = ("uniform", "uniform-parts", "normal")
+
+#: Hole letters this module can evaluate.
+HOLE_LETTERS: tuple[str, ...] = ("A", "B", "C", "D", "E", "F", "G", "H", "JS", "K", "M", "N", "P")
+#: Shaft letters this module can evaluate.
+SHAFT_LETTERS: tuple[str, ...] = ("a", "b", "c", "d", "e", "f", "g", "h", "js", "k", "m", "n", "p")
+#: Tolerance grades, finest first.
+GRADES: tuple[str, ...] = tuple(data.STANDARD_TOLERANCE_UM)
+
+#: Multipliers of the standard tolerance factor i for IT5..IT18 (ISO 286-1:2010, Table 1 note / Annex).
+GRADE_MULTIPLIERS: dict[int, int] = {5: 7, 6: 10, 7: 16, 8: 25, 9: 40, 10: 64, 11: 100, 12: 160, 13: 250,
+                                     14: 400, 15: 640, 16: 1000, 17: 1600, 18: 2500}
+
+MAX_NOMINAL_MM = 500.0
+
+
+# ---------------------------------------------------------------------------------------------------
+# size ranges
+# ---------------------------------------------------------------------------------------------------
+def _check_nominal(nominal_mm: float) -> float:
+    try:
+        d = float(nominal_mm)
+    except (TypeError, ValueError):
+        raise ConfigError(f"nominal diameter: expected a number of mm, got {nominal_mm!r}") from None
+    if not (math.isfinite(d) and 0.0 < d <= MAX_NOMINAL_MM):
+        raise ConfigError(f"nominal diameter: {nominal_mm!r} mm is outside the ISO 286 tables built in "
+                          f"(over 0 up to and including {MAX_NOMINAL_MM:g} mm)")
+    return d
+
+
+def _range_index(nominal_mm: float, uppers: tuple[float, ...]) -> int:
+    d = _check_nominal(nominal_mm)
+    for k, upper in enumerate(uppers):
+        if d <= upper:
+            return k
+    raise AssertionError("unreachable: nominal size checked against the last range bound")
+
+
+def size_range_mm(nominal_mm: float, intermediate: bool = False) -> tuple[float, float]:
+    """ISO 286-1 size range (over a, up to and including b) that contains a nominal size.
+
+    Parameters
+    ----------
+    nominal_mm : float
+        Nominal size D (mm), 0 < D <= 500.
+    intermediate : bool
+        Use the intermediate ranges (those of the deviations of a, b, c) instead of the main ranges.
+
+    Returns
+    -------
+    (float, float)
+        (a, b) in mm; the first range is reported as (0, 3).
+    """
+    uppers = data.INTERMEDIATE_RANGE_UPPER_MM if intermediate else data.MAIN_RANGE_UPPER_MM
+    k = _range_index(nominal_mm, uppers)
+    return (0.0 if k == 0 else float(uppers[k - 1]), float(uppers[k]))
+
+
+def geometric_mean_size_mm(nominal_mm: float, intermediate: bool = False) -> float:
+    """Geometric mean D = sqrt(a b) of the size range containing a nominal size (mm).
+
+    Notes
+    -----
+    ISO 286-1 evaluates its formulas at the geometric mean of the range; for the first range
+    (up to 3 mm) it uses a = 1 mm, so D = sqrt(3).
+    """
+    a, b = size_range_mm(nominal_mm, intermediate)
+    return math.sqrt(max(a, 1.0) * b)
+
+
+def _grade_key(grade: str | int) -> str:
+    key = str(grade).strip().upper().removeprefix("IT")
+    if key not in data.STANDARD_TOLERANCE_UM:
+        raise ConfigError(f"tolerance grade {grade!r} is not an ISO 286 grade; grades are IT01, IT0, IT1..IT18")
+    return key
+
+
+def _grade_number(key: str) -> float:
+    return {"01": -1.0, "0": 0.0}.get(key, float(key) if key.isdigit() else math.nan)
+
+
+# ---------------------------------------------------------------------------------------------------
+# standard tolerances
+# ---------------------------------------------------------------------------------------------------
+def standard_tolerance_um(grade: str | int, nominal_mm: float) -> float:
+    """Standard tolerance ITn (um) of a grade at a nominal size, from the ISO 286-1 table.
+
+    Parameters
+    ----------
+    grade : str or int
+        "IT7", "7", 7, "01", "IT0" ...
+    nominal_mm : float
+        Nominal size (mm), 0 < D <= 500.
+
+    Returns
+    -------
+    float
+        ITn in micrometres.
+
+    Notes
+    -----
+    ISO 286-1:2010 Table 1 (IT1..IT18) and Annex A (IT01, IT0).  ISO does not use IT14..IT18 for
+    nominal sizes up to 1 mm; those are refused.
+    """
+    key = _grade_key(grade)
+    d = _check_nominal(nominal_mm)
+    if _grade_number(key) >= 14 and d <= 1.0:
+        raise ConfigError(f"IT{key} is not defined by ISO 286 for nominal sizes up to 1 mm (got {d:g} mm)")
+    return float(data.STANDARD_TOLERANCE_UM[key][_range_index(d, data.MAIN_RANGE_UPPER_MM)])
+
+
+def standard_tolerance_factor_um(nominal_mm: float) -> float:
+    """Standard tolerance factor i = 0.45 D^(1/3) + 0.001 D (um), D the range's geometric mean (mm).
+
+    Notes
+    -----
+    ISO 286-1:2010 (formula of the standard tolerance factor for sizes up to 500 mm).  ITn = m_n i with
+    the multipliers :data:`GRADE_MULTIPLIERS` for IT5..IT18.
+    """
+    d = geometric_mean_size_mm(nominal_mm)
+    return 0.45 * d ** (1.0 / 3.0) + 0.001 * d
+
+
+def standard_tolerance_formula_um(grade: str | int, nominal_mm: float) -> float:
+    """Unrounded ITn (um) from the ISO 286-1 formulas (a check of the table, not a replacement).
+
+    Parameters
+    ----------
+    grade : str or int
+        IT01, IT0 or IT5..IT18 (IT1..IT4 are tabulated only: ISO derives them approximately
+        geometrically between IT1 and IT5 and this function refuses them).
+    nominal_mm : float
+        Nominal size (mm).
+
+    Returns
+    -------
+    float
+        IT01 = 0.3 + 0.008 D, IT0 = 0.5 + 0.012 D, ITn = m_n (0.45 D^(1/3) + 0.001 D) for n >= 5,
+        with D the geometric mean of the size range (mm).
+
+    Notes
+    -----
+    ISO 286-1 rounds these results to the tabulated values with rules that ordinary rounding does not
+    reproduce; the tables (:func:`standard_tolerance_um`) are authoritative.
+    """
+    key = _grade_key(grade)
+    d = geometric_mean_size_mm(nominal_mm)
+    if key == "01":
+        return 0.3 + 0.008 * d
+    if key == "0":
+        return 0.5 + 0.012 * d
+    n = int(key)
+    if n not in GRADE_MULTIPLIERS:
+        raise ConfigError(f"IT{n}: ISO 286-1 gives no formula for IT1..IT4; use standard_tolerance_um")
+    return GRADE_MULTIPLIERS[n] * standard_tolerance_factor_um(nominal_mm)
+
+
+# ---------------------------------------------------------------------------------------------------
+# fundamental deviations
+# ---------------------------------------------------------------------------------------------------
+def shaft_deviation_formula_um(letter: str, nominal_mm: float) -> float:
+    """Unrounded fundamental deviation of a shaft (um) from the ISO 286-1 formulas (a check only).
+
+    Parameters
+    ----------
+    letter : str
+        a, b, c, d, e, f, g (es, negative) or k (grades 4..7), m, n (ei, positive).
+    nominal_mm : float
+        Nominal size (mm); D is the geometric mean of its size range (intermediate ranges for a, b, c).
+
+    Returns
+    -------
+    float
+        a: -(265 + 1.3 D) for D <= 120, -3.5 D above;  b: -(140 + 0.85 D) for D <= 160, -1.8 D above;
+        c: -52 D^0.2 for D <= 40, -(95 + 0.8 D) above;  d: -16 D^0.44;  e: -11 D^0.41;
+        f: -5.5 D^0.41;  g: -2.5 D^0.34;  k: +0.6 D^(1/3);  m: +(IT7 - IT6);  n: +5 D^0.34.
+
+    Notes
+    -----
+    ISO 286-1 (formulas for the fundamental deviations of shafts, sizes up to 500 mm), as quoted in
+    design textbooks.  The published tables round these values; :mod:`berryshaker.life.iso286_data`
+    holds the published values.  Measured departures from the tables above 3 mm: d, e, f, g, n within
+    1 um or 3 %; a within 2.5 %; b within 5 %; c above 40 mm within 2 %, but the quoted c formula for
+    D <= 40 mm gives -87/-98/-106 um where the table has -95/-110/-120 (10-18, 18-30, 30-40 mm): the
+    table is trusted.
+    """
+    interm = letter in ("a", "b", "c")
+    d = geometric_mean_size_mm(nominal_mm, intermediate=interm)
+    if letter == "a":
+        return -(265 + 1.3 * d) if d <= 120 else -3.5 * d
+    if letter == "b":
+        return -(140 + 0.85 * d) if d <= 160 else -1.8 * d
+    if letter == "c":
+        return -52 * d**0.2 if d <= 40 else -(95 + 0.8 * d)
+    powers = {"d": (-16, 0.44), "e": (-11, 0.41), "f": (-5.5, 0.41), "g": (-2.5, 0.34), "n": (5.0, 0.34),
+              "k": (0.6, 1.0 / 3.0)}
+    if letter in powers:
+        coef, expo = powers[letter]
+        return coef * d**expo
+    if letter == "m":
+        return standard_tolerance_um(7, nominal_mm) - standard_tolerance_um(6, nominal_mm)
+    raise ConfigError(f"no deviation formula for shaft letter {letter!r}; formulas exist for a b c d e f g k m n")
+
+
+def _shaft_fundamental_um(letter: str, key: str, d: float) -> tuple[str, float]:
+    """("es"|"ei", value) for a shaft letter from the tables."""
+    if letter in data.SHAFT_UPPER_DEVIATION_INTERMEDIATE_UM:
+        if letter in ("a", "b") and d <= 1.0:
+            raise ConfigError(f"shaft/hole letter {letter!r} is not defined by ISO 286 for sizes up to 1 mm")
+        k = _range_index(d, data.INTERMEDIATE_RANGE_UPPER_MM)
+        return "es", float(data.SHAFT_UPPER_DEVIATION_INTERMEDIATE_UM[letter][k])
+    k = _range_index(d, data.MAIN_RANGE_UPPER_MM)
+    if letter in data.SHAFT_UPPER_DEVIATION_UM:
+        return "es", float(data.SHAFT_UPPER_DEVIATION_UM[letter][k])
+    if letter == "k":
+        return "ei", float(data.SHAFT_LOWER_DEVIATION_UM["k"][k]) if key in ("4", "5", "6", "7") else 0.0
+    return "ei", float(data.SHAFT_LOWER_DEVIATION_UM[letter][k])
+
+
+def _delta_um(key: str, d: float) -> float:
+    """Delta = ITn - IT(n-1) of ISO 286-1 Table 3 (0 up to 3 mm)."""
+    n = int(key)
+    if d <= 3.0:
+        return 0.0
+    return standard_tolerance_um(n, d) - standard_tolerance_um(n - 1, d)
+
+
+def _split_class(designation: str) -> tuple[str, str]:
+    m = re.fullmatch(r"\s*([A-Za-z]{1,2})\s*(01|\d{1,2})\s*", designation)
+    if not m:
+        raise ConfigError(f"tolerance class {designation!r}: expected a letter and a grade, e.g. 'H7' or 'f7'")
+    return m.group(1), m.group(2)
+
+
+def limit_deviations_um(designation: str, nominal_mm: float) -> tuple[float, float]:
+    """Upper and lower limit deviations (um) of a hole (upper-case) or shaft (lower-case) class.
+
+    Parameters
+    ----------
+    designation : str
+        Tolerance class, e.g. "H7", "JS6", "K7" (holes) or "f7", "js6", "p6" (shafts).
+    nominal_mm : float
+        Nominal size (mm), 0 < D <= 500.
+
+    Returns
+    -------
+    (float, float)
+        (upper, lower) deviations in um: (ES, EI) for a hole, (es, ei) for a shaft.
+
+    Notes
+    -----
+    ISO 286-1:2010 rules: shafts a..h have es = fundamental deviation, ei = es - IT; shafts k..p have
+    ei = fundamental deviation, es = ei + IT; js is +/- IT/2 (not rounded to whole micrometres).
+    Holes A..H: EI = -es of the same shaft letter (the general rule).  Holes K, M, N up to IT8 and P up to
+    IT7: ES = -ei + Delta with Delta = ITn - IT(n-1) (the special rule of Table 3); K above IT8 is
+    refused, M above IT8 has ES = -ei, N above IT8 has ES = 0, P above IT7 has ES = -ei.  Up to 3 mm:
+    K ES = 0, M ES = -2, N ES = -4, P ES = -6 for every grade.  Special case M6 over 250 up to 315 mm:
+    ES = -9 um.  k has ei = 0 outside IT4..IT7.
+    """
+    letter, key = _split_class(designation)
+    d = _check_nominal(nominal_mm)
+    is_hole = letter.isupper()
+    if letter.upper() != letter and letter.lower() != letter:
+        raise ConfigError(f"tolerance class {designation!r}: use upper case for holes (H7) and lower case "
+                          "for shafts (f7)")
+    supported = HOLE_LETTERS if is_hole else SHAFT_LETTERS
+    if letter not in supported:
+        raise ConfigError(f"tolerance class {designation!r}: letter {letter!r} is not supported; "
+                          f"{'holes' if is_hole else 'shafts'}: {', '.join(supported)}")
+    it = standard_tolerance_um(key, d)
+    low = letter.lower()
+    if low == "js":
+        return it / 2.0, -it / 2.0
+    if not is_hole:
+        which, dev = _shaft_fundamental_um(low, key, d)
+        return (dev, dev - it) if which == "es" else (dev + it, dev)
+    # holes
+    if low in "abcdefgh":
+        _, es = _shaft_fundamental_um(low, key, d)
+        ei_hole = 0.0 - es  # 0.0 - 0.0 keeps H's EI a positive zero
+        return ei_hole + it, ei_hole
+    n = _grade_number(key)
+    if n < 3:
+        raise ConfigError(f"hole class {designation!r}: ISO 286 tabulates Delta only for IT3..IT8; "
+                          f"holes K, M, N, P are supported from IT3")
+    if letter == "K" and n > 8:
+        raise ConfigError(f"hole class {designation!r}: K is supported up to IT8 only")
+    k = _range_index(d, data.MAIN_RANGE_UPPER_MM)
+    ei_shaft = float(data.SHAFT_LOWER_DEVIATION_UM[low][k])
+    limit = 7 if letter == "P" else 8
+    if d <= 3.0:
+        es_hole = {"K": 0.0, "M": -2.0, "N": -4.0, "P": -6.0}[letter]
+    elif letter == "M" and key == "6" and 250.0 < d <= 315.0:
+        es_hole = data.M6_250_315_UPPER_DEVIATION_UM
+    elif n <= limit:
+        es_hole = -ei_shaft + _delta_um(key, d)
+    else:
+        es_hole = 0.0 if letter == "N" else -ei_shaft
+    return es_hole, es_hole - it
+
+
+# ---------------------------------------------------------------------------------------------------
+# tolerance zones and fits
+# ---------------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ToleranceZone:
+    """Limits of one part (hole or shaft) of a fit.
+
+    Attributes
+    ----------
+    designation : str
+        Tolerance class, e.g. "H7" or "f7".
+    nominal_mm : float
+        Nominal size (mm).
+    upper_um, lower_um : float
+        Upper and lower limit deviations (um): ES/EI for a hole, es/ei for a shaft.
+    is_hole : bool
+        True for a hole (internal feature).
+    """
+
+    designation: str
+    nominal_mm: float
+    upper_um: float
+    lower_um: float
+    is_hole: bool
+
+    @property
+    def tolerance_um(self) -> float:
+        """Width of the zone (um), the ITn of its grade."""
+        return self.upper_um - self.lower_um
+
+    @property
+    def max_size(self) -> float:
+        """Largest permitted size (m)."""
+        return (self.nominal_mm + self.upper_um * 1e-3) * 1e-3
+
+    @property
+    def min_size(self) -> float:
+        """Smallest permitted size (m)."""
+        return (self.nominal_mm + self.lower_um * 1e-3) * 1e-3
+
+    def summary(self) -> dict:
+        """JSON-able limits: deviations in um and limit sizes in mm."""
+        return {"class": self.designation, "upper_deviation_um": self.upper_um,
+                "lower_deviation_um": self.lower_um, "tolerance_um": self.tolerance_um,
+                "max_size_mm": round(self.max_size * 1e3, 6), "min_size_mm": round(self.min_size * 1e3, 6)}
+
+
+def tolerance_zone(designation: str, nominal_mm: float) -> ToleranceZone:
+    """The :class:`ToleranceZone` of a hole or shaft class at a nominal size (see :func:`limit_deviations_um`)."""
+    upper, lower = limit_deviations_um(designation, nominal_mm)
+    letter, key = _split_class(designation)
+    return ToleranceZone(f"{letter}{key}", float(nominal_mm), upper, lower, letter.isupper())
+
+
+def _truncated_normal(rng: np.random.Generator, n: int, lo: float, hi: float, cp: float) -> np.ndarray:
+    from scipy.stats import truncnorm
+
+    if hi <= lo:
+        return np.full(n, lo)
+    sd = (hi - lo) / (6.0 * cp)
+    half = (hi - lo) / 2.0 / sd  # = 3 cp
+    return truncnorm.rvs(-half, half, loc=(lo + hi) / 2.0, scale=sd, size=n, random_state=rng)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A fit between a hole and a shaft, or an explicit clearance range, with a clearance distribution.
+
+    Attributes
+    ----------
+    designation : str
+        "H7/f7" or the range text ("0.02..0.06 mm").
+    nominal_mm : float or None
+        Nominal diameter (mm); None for an explicit range.
+    hole, shaft : ToleranceZone or None
+        Part limits; None for an explicit range.
+    clearance_min, clearance_max : float
+        DIAMETRAL clearance limits (m): hole size minus shaft size; negative is interference.
+        ``clearance_min`` = min hole - max shaft, ``clearance_max`` = max hole - min shaft.
+    distribution : str
+        "uniform" (clearance uniform between the limits), "uniform-parts" (each part's size uniform in
+        its zone, independent; the clearance is then trapezoidal) or "normal" (each part normal, centred
+        in its zone with standard deviation = tolerance / (6 Cp), independent, truncated at its limits
+        because out-of-tolerance parts are rejected at inspection).
+    cp : float or None
+        Process capability index Cp for "normal".
+    """
+
+    designation: str
+    nominal_mm: float | None
+    hole: ToleranceZone | None
+    shaft: ToleranceZone | None
+    clearance_min: float
+    clearance_max: float
+    distribution: Distribution = "uniform"
+    cp: float | None = None
+
+    @property
+    def kind(self) -> str:
+        """"clearance" (min clearance >= 0), "interference" (max clearance <= 0) or "transition"."""
+        if self.clearance_min >= 0.0:
+            return "clearance"
+        if self.clearance_max <= 0.0:
+            return "interference"
+        return "transition"
+
+    @property
+    def basis(self) -> str:
+        """"hole" (hole H), "shaft" (shaft h), "hole and shaft" (H/h), "none" or "explicit range"."""
+        if self.hole is None or self.shaft is None:
+            return "explicit range"
+        h = self.hole.designation[0] == "H"
+        s = self.shaft.designation[0] == "h"
+        return {(True, True): "hole and shaft", (True, False): "hole", (False, True): "shaft"}.get((h, s), "none")
+
+    @property
+    def radial_clearance_min(self) -> float:
+        """Smallest RADIAL clearance (m) = clearance_min / 2 (the harvester's pin-in-bore ``size``)."""
+        return self.clearance_min / 2.0
+
+    @property
+    def radial_clearance_max(self) -> float:
+        """Largest RADIAL clearance (m) = clearance_max / 2."""
+        return self.clearance_max / 2.0
+
+    @property
+    def clearance_mean(self) -> float:
+        """Mean diametral clearance (m) of the distribution (the middle of the limits: every built-in
+        distribution is symmetric about it)."""
+        return 0.5 * (self.clearance_min + self.clearance_max)
+
+    def with_distribution(self, distribution: Distribution, cp: float | None = None) -> "Fit":
+        """A copy with another clearance distribution (validated as in :func:`parse_fit`)."""
+        _check_distribution(distribution, cp, explicit=self.hole is None)
+        return replace(self, distribution=distribution, cp=cp)
+
+    def sample(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
+        """Draw n DIAMETRAL clearances (m) from the fit's distribution.
+
+        Parameters
+        ----------
+        n : int
+            Number of assemblies.
+        rng : numpy Generator, int seed or None
+            Random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (n,), diametral clearances in m, all within [clearance_min, clearance_max].
+
+        Notes
+        -----
+        "normal": hole size ~ N(mid, T_h / (6 Cp)) and shaft size ~ N(mid, T_s / (6 Cp)), independent,
+        each truncated at its limits; clearance = hole - shaft.  For an explicit range the clearance
+        itself is normal, centred, with sd = (max - min) / (6 Cp), truncated at the limits.  The
+        centred-process assumption (Cpk = Cp) is ours; real processes drift (Cpk < Cp).
+        """
+        gen = np.random.default_rng(rng)
+        n = int(n)
+        if self.distribution == "uniform":
+            return gen.uniform(self.clearance_min, self.clearance_max, n)
+        if self.hole is None or self.shaft is None:  # explicit range, normal
+            return _truncated_normal(gen, n, self.clearance_min, self.clearance_max, float(self.cp))
+        if self.distribution == "uniform-parts":
+            hole = gen.uniform(self.hole.min_size, self.hole.max_size, n)
+            shaft = gen.uniform(self.shaft.min_size, self.shaft.max_size, n)
+        else:
+            hole = _truncated_normal(gen, n, self.hole.min_size, self.hole.max_size, float(self.cp))
+            shaft = _truncated_normal(gen, n, self.shaft.min_size, self.shaft.max_size, float(self.cp))
+        return hole - shaft
+
+    def sample_radial(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
+        """Draw n RADIAL clearances (m) = :meth:`sample` / 2."""
+        return self.sample(n, rng) / 2.0
+
+
+def _check_distribution(distribution: str, cp: float | None, explicit: bool) -> None:
+    if distribution not in DISTRIBUTIONS:
+        raise ConfigError(f"clearance distribution {distribution!r}: choose one of {', '.join(DISTRIBUTIONS)}")
+    if distribution == "normal":
+        if cp is None or not (isinstance(cp, (int, float)) and math.isfinite(cp) and cp > 0):
+            raise ConfigError(f"clearance distribution 'normal' needs a process capability cp > 0 "
+                              f"(e.g. cp=1.33), got {cp!r}")
+    if distribution == "uniform-parts" and explicit:
+        raise ConfigError("clearance distribution 'uniform-parts' needs hole and shaft classes; an explicit "
+                          "clearance range has no parts: use 'uniform' or 'normal'")
+
+
+_FIT_RE = re.compile(r"^\s*(?:(?:Ø|ø|⌀|d\s*=?)?\s*(?P<size>\d+(?:\.\d*)?)\s*(?:mm)?\s+)?"
+                     r"(?P<hole>[A-Za-z]{1,2}\s*(?:01|\d{1,2}))\s*/\s*(?P<shaft>[A-Za-z]{1,2}\s*(?:01|\d{1,2}))\s*$")
+_RANGE_RE = re.compile(r"^\s*(?P<lo>[-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*\.\.\s*"
+                       r"(?P<hi>[-+]?\d+(?:\.\d*)?(?:[eE][-+]?\d+)?)\s*(?P<unit>[^\d\s.][^\s]*)?\s*$")
+
+
+def iso_fit(hole: str, shaft: str, nominal_mm: float, distribution: Distribution = "uniform",
+            cp: float | None = None) -> Fit:
+    """The :class:`Fit` of a hole class and a shaft class at a nominal diameter.
+
+    Parameters
+    ----------
+    hole : str
+        Hole class, upper case: "H7", "F8", "JS7", "K7"...
+    shaft : str
+        Shaft class, lower case: "f7", "h6", "g6", "p6"...
+    nominal_mm : float
+        Nominal diameter (mm), 0 < D <= 500.
+    distribution, cp
+        Clearance distribution (see :class:`Fit`).
+
+    Returns
+    -------
+    Fit
+        Limits per ISO 286-1/-2; clearance_min = EI - es, clearance_max = ES - ei (diametral, m).
+    """
+    if not hole[:1].isupper():
+        raise ConfigError(f"fit {hole}/{shaft}: the hole class comes first and is upper case (e.g. H7/f7)")
+    if not shaft[:1].islower():
+        raise ConfigError(f"fit {hole}/{shaft}: the shaft class comes second and is lower case (e.g. H7/f7)")
+    hz, sz = tolerance_zone(hole, nominal_mm), tolerance_zone(shaft, nominal_mm)
+    _check_distribution(distribution, cp, explicit=False)
+    cmin = (hz.lower_um - sz.upper_um) * 1e-6
+    cmax = (hz.upper_um - sz.lower_um) * 1e-6
+    return Fit(f"{hz.designation}/{sz.designation}", float(nominal_mm), hz, sz, cmin, cmax, distribution, cp)
+
+
+def clearance_range_fit(clearance_min: float, clearance_max: float, distribution: Distribution = "uniform",
+                        cp: float | None = None, designation: str | None = None) -> Fit:
+    """A :class:`Fit` from explicit DIAMETRAL clearance limits (m), without part classes."""
+    lo, hi = float(clearance_min), float(clearance_max)
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise ConfigError(f"clearance range: limits must be finite, got {clearance_min!r}..{clearance_max!r}")
+    if hi < lo:
+        raise ConfigError(f"clearance range: the lower limit {lo * 1e3:g} mm exceeds the upper "
+                          f"{hi * 1e3:g} mm; write it as MIN..MAX")
+    _check_distribution(distribution, cp, explicit=True)
+    text = designation or f"{lo * 1e3:g}..{hi * 1e3:g} mm"
+    return Fit(text, None, None, None, lo, hi, distribution, cp)
+
+
+def parse_fit(text: str, nominal_mm: float | None = None, *, distribution: Distribution = "uniform",
+              cp: float | None = None) -> Fit:
+    """Parse a fit designation or an explicit diametral clearance range.
+
+    Parameters
+    ----------
+    text : str
+        "H7/f7" (then ``nominal_mm`` is required), "20 H7/f7", "Ø20 H7/f7", "F8/h7" (shaft basis), or an
+        explicit DIAMETRAL clearance range with a unit: "0.02..0.06 mm", "20..60 um".
+    nominal_mm : float, optional
+        Nominal diameter (mm), if not in the text.
+    distribution : {"uniform", "uniform-parts", "normal"}
+        Clearance distribution (see :class:`Fit`).
+    cp : float, optional
+        Process capability index, required for "normal".
+
+    Returns
+    -------
+    Fit
+
+    Raises
+    ------
+    ConfigError
+        Unreadable text, unsupported class, size outside (0, 500] mm, missing or conflicting size.
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise ConfigError(f"fit: expected a designation such as 'H7/f7' or a range such as '0.02..0.06 mm', "
+                          f"got {text!r}")
+    m = _RANGE_RE.match(text)
+    if m:
+        from berryshaker.units import parse_quantity
+
+        unit = m.group("unit")
+        if not unit:
+            raise ConfigError(f"fit range {text!r} needs a unit, e.g. '0.02..0.06 mm'")
+        unit = unit.replace("µ", "u").replace("μ", "u")
+        lo = parse_quantity(f"{m.group('lo')} {unit}", "length", field="fit range")
+        hi = parse_quantity(f"{m.group('hi')} {unit}", "length", field="fit range")
+        return clearance_range_fit(lo, hi, distribution, cp, designation=text.strip())
+    m = _FIT_RE.match(text)
+    if not m:
+        raise ConfigError(f"fit {text!r}: expected HOLE/SHAFT such as 'H7/f7' (optionally preceded by the "
+                          f"nominal diameter in mm, '20 H7/f7') or a clearance range such as '0.02..0.06 mm'")
+    size = m.group("size")
+    if size is not None:
+        if nominal_mm is not None and not math.isclose(float(size), float(nominal_mm)):
+            raise ConfigError(f"fit {text!r}: nominal diameter given twice ({size} mm and {nominal_mm} mm)")
+        nominal_mm = float(size)
+    if nominal_mm is None:
+        raise ConfigError(f"fit {text!r}: no nominal diameter; write e.g. '20 H7/f7' or pass nominal_mm")
+    hole = m.group("hole").replace(" ", "")
+    shaft = m.group("shaft").replace(" ", "")
+    return iso_fit(hole, shaft, nominal_mm, distribution, cp)
+
+
+def fit_summary(fit: Fit) -> dict:
+    """JSON-able description of a fit.
+
+    Returns
+    -------
+    dict
+        ``designation``, ``nominal_mm``, ``kind``, ``basis``, ``hole`` and ``shaft`` (deviations in um,
+        limit sizes in mm; None for an explicit range), ``clearance_min_mm`` / ``clearance_max_mm`` /
+        ``clearance_mean_mm`` (DIAMETRAL, as read in fit tables), ``clearance_min_um`` /
+        ``clearance_max_um``, ``radial_clearance_min_mm`` / ``radial_clearance_max_mm`` (RADIAL = diametral
+        / 2, the harvester's pin-in-bore ``size``), ``distribution``, ``cp`` and a ``convention`` note.
+    """
+    return {
+        "designation": fit.designation,
+        "nominal_mm": fit.nominal_mm,
+        "kind": fit.kind,
+        "basis": fit.basis,
+        "hole": fit.hole.summary() if fit.hole else None,
+        "shaft": fit.shaft.summary() if fit.shaft else None,
+        "clearance_min_mm": round(fit.clearance_min * 1e3, 7),
+        "clearance_max_mm": round(fit.clearance_max * 1e3, 7),
+        "clearance_mean_mm": round(fit.clearance_mean * 1e3, 7),
+        "clearance_min_um": round(fit.clearance_min * 1e6, 4),
+        "clearance_max_um": round(fit.clearance_max * 1e6, 4),
+        "radial_clearance_min_mm": round(fit.radial_clearance_min * 1e3, 7),
+        "radial_clearance_max_mm": round(fit.radial_clearance_max * 1e3, 7),
+        "distribution": fit.distribution,
+        "cp": fit.cp,
+        "convention": "clearance_* are diametral (hole diameter - shaft diameter); radial_clearance_* = "
+                      "diametral / 2 is the pin-in-bore clearance 'size' of the machine description",
+    }

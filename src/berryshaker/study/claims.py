@@ -1,0 +1,138 @@
+"""The reference study's eight claims (docs/study.md, "What the study claims"), each checked against our
+results with the criterion written beside the verdict.
+
+A claim names the study's machine (pairs A, B, C, F); on a machine with other pairs the pair-specific claims
+are "not comparable".  A claim whose runs failed is "not comparable" too, with the reason.
+"""
+
+from __future__ import annotations
+
+from berryshaker.experiment.clearance_sets import level_code as _level_code
+from berryshaker.reference_study import BEST_PER_INDEX, CLAIMS, EQ18_F, PAIRS
+
+#: claims that only need the plant (valid for any drive)
+DRIVE_INDEPENDENT = (5, 6)
+
+
+def _code(levels: dict) -> str:
+    return _level_code({p: levels[p] for p in PAIRS})
+
+
+def check_claims(res: dict, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
+    """Verdict and detail for each claim, from the study's results dict."""
+    claims = []
+    checkers = (_claim1, _claim2, _claim3, _claim4, _claim5, _claim6, _claim7, _claim8)
+    for cid, fn in enumerate(checkers, start=1):
+        if tuple(pair_names) != PAIRS and cid not in DRIVE_INDEPENDENT:
+            verdict, detail = "not comparable", ("the claim is about the study's machine (pairs A, B, C, F); this "
+                                                 f"drive's pairs are {', '.join(pair_names)}")
+        else:
+            try:
+                verdict, detail = fn(res)
+            except (KeyError, TypeError, IndexError) as exc:
+                verdict, detail = ("not comparable",
+                                   f"the runs this claim needs failed or are missing ({exc!r}); see Failed runs")
+        claims.append({"id": cid, "claim": CLAIMS[cid], "verdict": verdict, "detail": detail})
+    return claims
+
+
+def _claim1(res):
+    ag = res["agreement"]["pairs"]
+    ok = all(ag[p]["agree"] for p in PAIRS)
+    return ("reproduced" if ok else "not reproduced",
+            "; ".join(f"{p}: F = {ag[p]['f_statistic']:.3f} vs F_crit {ag[p]['f_critical']:.3f} (study {EQ18_F[p][0]} "
+                      f"vs {EQ18_F[p][1]}), NRMSE {ag[p]['nrmse']:.3f}, peak ratio {ag[p]['peak_ratio']:.2f}"
+                      for p in PAIRS))
+
+
+def _claim2(res):
+    mb = res["rows"]["multibody"]
+    order_ok, det = [], []
+    for row in (14, 15, 16):
+        pk = [mb[str(row)]["collision_force_N"][p]["peak"] for p in PAIRS]
+        mn = [mb[str(row)]["collision_force_N"][p]["mean"] for p in PAIRS]
+        order_ok.append(all(a > b for a, b in zip(pk, pk[1:])))
+        det.append(f"row {row}: peaks " + " / ".join(f"{p} {v:.0f}" for p, v in zip(PAIRS, pk))
+                   + " N, means " + " / ".join(f"{v:.0f}" for v in mn) + " N")
+    return ("reproduced" if all(order_ok) else "not reproduced",
+            "; ".join(det) + ("" if all(order_ok) else " (C and F nearly equal: they carry the same coupler force)"))
+
+
+def _claim3(res):
+    mb = res["rows"]["multibody"]
+    ok3, det3 = True, []
+    for k, p in enumerate(PAIRS):
+        rows = [1] + [2 + 3 * k + j for j in range(3)]
+        pk = [mb[str(r)]["collision_force_N"][p]["peak"] for r in rows]
+        ok3 &= all(a < b for a, b in zip(pk, pk[1:]))
+        det3.append(f"{p}: " + " -> ".join(f"{v:.0f}" for v in pk) + " N")
+    return ("reproduced" if ok3 else "not reproduced",
+            "peak force, no clearance then levels 1-3 (rows 1-13): " + "; ".join(det3))
+
+
+def _claim4(res):
+    mb = res["rows"]["multibody"]
+    lm = {r: mb[str(r)]["load_moment_Nm"] for r in (1, 14, 15, 16)}
+    left_gt = all(lm[r]["left"]["rms"] > lm[r]["right"]["rms"] for r in lm)
+    largest0 = all(lm[1][s]["rms"] >= lm[r][s]["rms"] for r in (14, 15, 16) for s in ("left", "right"))
+    falls = all(lm[a][s]["rms"] >= lm[b][s]["rms"] for a, b in ((14, 15), (15, 16)) for s in ("left", "right"))
+    parts = [left_gt, largest0, falls]
+    return ("reproduced" if all(parts) else ("not reproduced" if not any(parts) else "partly reproduced"),
+            "rms left/right (N m): " + "; ".join(f"row {r}: {lm[r]['left']['rms']:.2f} / {lm[r]['right']['rms']:.2f}"
+                                                 for r in lm)
+            + f"; left > right: {left_gt}, largest without clearance: {largest0}, falls with clearance: {falls}")
+
+
+def _claim5(res):
+    ff = res["fruit_force"]
+    pos = ff["chosen"]["summary"]["positions"]
+    peaks = {n: pos[n]["peak_force_N"] for n in pos}
+    within = {n: pos[n].get("within_study_range") for n in pos}
+    rises = ff["chosen"]["summary"]["rises_root_to_end"]
+    row_peaks = {r: ff["rows"][str(r)]["peaks_exact"]["end"] for r in (14, 15, 16)}
+    falls5 = row_peaks[14] >= row_peaks[15] >= row_peaks[16]
+    verdict = ("reproduced" if rises and all(within.values()) and falls5
+               else ("partly reproduced" if rises else "not reproduced"))
+    return (verdict, "peaks " + ", ".join(f"{n} {v:.2f} N ({'in' if within[n] else 'outside'} the study's range)"
+                                          for n, v in peaks.items())
+            + "; end fruit at level sets 1/2/3: " + " / ".join(f"{v:.2f}" for v in row_peaks.values())
+            + f" N (falls with clearance: {falls5}); the end value is the calibration target (docs/plant.md)")
+
+
+def _claim6(res):
+    pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+    v = {n: pos[n]["eq17"] for n in pos}
+    ok6 = (v["root"]["ripe"] != "picked" and v["middle"]["ripe"] == "picked" and v["middle"]["unripe"] == "kept"
+           and v["end"]["unripe"] != "kept")
+    return ("reproduced" if ok6 else "not reproduced",
+            "; ".join(f"{n}: ripe {v[n]['ripe']}, unripe {v[n]['unripe']}" for n in v))
+
+
+def _claim7(res):
+    l9 = res["l9"]
+    trend = {}
+    for name in ("efficiency", "unripe", "damage"):
+        km = l9["responses"][name]["factors"]
+        trend[name] = {p: km[p]["level_means"][2] - km[p]["level_means"][0] for p in PAIRS}
+    lower_all = {n: sum(1 for p in PAIRS if trend[n][p] < 0) for n in trend}
+    eff_b = l9["responses"]["efficiency"]["factors"]["B"]["best_level"]
+    verdict = "reproduced" if all(v_ >= 3 for v_ in lower_all.values()) and eff_b == 2 else (
+        "partly reproduced" if any(v_ >= 3 for v_ in lower_all.values()) else "not reproduced")
+    return (verdict, "; ".join(f"{n}: level-3 minus level-1 mean " + ", ".join(f"{p} {trend[n][p]:+.3g}"
+                                                                              for p in PAIRS) for n in trend)
+            + f"; best B level for efficiency: B{eff_b}")
+
+
+def _claim8(res):
+    l9 = res["l9"]
+    ours = {n: _code(l9["responses"][n]["best_levels"]) for n in ("efficiency", "unripe", "damage")}
+    rank_eff = l9["responses"]["efficiency"]["ranking"]
+    vh = l9["recommended"]["virtual_harvest"]
+    same = l9["recommended"]["same_as_study"]
+    verdict = ("reproduced" if same and rank_eff[0] == "A"
+               else ("partly reproduced" if same or rank_eff[0] == "A" else "not reproduced"))
+    return (verdict, f"ours: ranking for efficiency {' > '.join(rank_eff)}; best "
+            + ", ".join(f"{n} {c} (study {BEST_PER_INDEX[n]})" for n, c in ours.items())
+            + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min, "
+              f"{vh['unripe_rate_pct']:.2f} %, {vh['damage_rate_pct']:.2f} % (the harvest model is calibrated to "
+              "the study's values at A1B1C1F3, docs/harvest.md)")

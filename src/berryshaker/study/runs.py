@@ -1,0 +1,42 @@
+"""Run functions of the study's sweeps.  The cached runner (:mod:`berryshaker.runs.runner`) executes them,
+possibly on other machines: each is module-level, takes the machine as a JSON-compatible dict and returns
+JSON-compatible values."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from berryshaker.config import machine_from_dict
+
+
+def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
+    """Multibody summary of one clearance set."""
+    from berryshaker.drives.simulation import simulate_multibody
+
+    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions)[1]
+
+
+def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
+    """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set."""
+    from berryshaker.drives import drive_of
+
+    machine = machine_from_dict(machine_data)
+    return drive_of(machine).reduced_model(machine, clearance, revolutions=revolutions).summary()
+
+
+def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
+    """Coupled drive-past run: summary, decimated force series for figures, exact peaks."""
+    from berryshaker.plant.coupled import simulate_fruit_force
+
+    r = simulate_fruit_force(machine_from_dict(machine_data), clearance)
+    step = max(1, len(r.t) // 4000)
+    return {"summary": r.summary(), "distance": r.distance[::step].tolist(),
+            "forces": {k: v[::step].tolist() for k, v in r.fruit_force.items()},
+            "peaks_exact": {k: float(np.max(np.abs(v))) for k, v in r.fruit_force.items()}}
+
+
+def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
+    """Peak acceleration envelope along one branch class (virtual harvest input)."""
+    from berryshaker.harvest.virtual import acceleration_envelope
+
+    return acceleration_envelope(machine_from_dict(machine_data), clearance, scale).tolist()

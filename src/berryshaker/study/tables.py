@@ -1,0 +1,59 @@
+"""The study's tables: CSV files beside the report, and summary.json without the plotted series."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def strip_series(res: dict) -> dict:
+    """Results without the plotted series (summary.json keeps numbers, figures keep curves)."""
+    out = dict(res)
+    ff = dict(out.get("fruit_force") or {})
+    if ff:
+        if ff.get("chosen"):
+            ff["chosen"] = {k: v for k, v in ff["chosen"].items() if k not in ("distance", "forces")}
+        ff["rows"] = {r: {k: v for k, v in d.items() if k not in ("distance", "forces")} for r, d in ff["rows"].items()}
+        out["fruit_force"] = ff
+    return out
+
+
+def write_tables(machine, res: dict, tables: Path) -> None:
+    """The study's CSV tables (one writer: :func:`berryshaker.report.tables.write_csv`)."""
+    pairs = machine.pair_names
+    from berryshaker.report.tables import write_csv
+
+    def write(name, header, rows):
+        write_csv(tables / name, header, rows)
+
+    rows = []
+    for model in ("multibody", "mlsd"):
+        for r, s in res["rows"][model].items():
+            for p in pairs:
+                f = s["collision_force_N"][p]
+                rows.append([model, r, p, s["clearance_mm"][p], f["peak"], f["mean"], f["rms"]])
+    write("collision_force_rows.csv", ["model", "row", "pair", "clearance_mm", "peak_N", "mean_N", "rms_N"], rows)
+    rows = []
+    for model in ("multibody", "mlsd"):
+        for r, s in res["rows"][model].items():
+            for side in ("left", "right"):
+                m = s["load_moment_Nm"][side]
+                rows.append([model, r, side, m["peak"], m["rms"]])
+    write("load_moment_rows.csv", ["model", "row", "comb", "peak_Nm", "rms_Nm"], rows)
+    if res.get("agreement"):
+        write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "agree", "nrmse", "correlation", "peak_ratio"],
+              [[p, d["f_statistic"], d["f_critical"], d["agree"], d["nrmse"], d["correlation"], d["peak_ratio"]]
+               for p, d in res["agreement"]["pairs"].items()])
+    if (res.get("fruit_force") or {}).get("chosen"):
+        pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+        write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
+              [[n, d["z_m"], d["peak_force_N"], *d.get("study_range_N", ["", ""]), d["eq17"]["ripe"],
+                d["eq17"]["unripe"]] for n, d in pos.items()])
+    if res.get("l9"):
+        write("l9_runs.csv",
+              ["run", *[f"{p}_mm" for p in pairs], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],
+              [[r["run"], *[r["clearance_mm"][p] for p in pairs], r["efficiency"], r["unripe"], r["damage"]]
+               for r in res["l9"]["runs"]])
+    write("failed_runs.csv", ["step", "run", "inputs", "error"],
+          [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.get("failures", [])])
+    write("claims.csv", ["id", "verdict", "claim", "detail"],
+          [[c["id"], c["verdict"], c["claim"], c["detail"]] for c in res["claims"]])

@@ -1,0 +1,39 @@
+"""Tiny module-level run functions for the sweep-runner tests (module-level so worker processes can import
+them)."""
+
+from __future__ import annotations
+
+import os
+import time
+
+
+def square(x: float) -> dict:
+    """``{"y": x**2}`` at once."""
+    return {"y": x * x}
+
+
+def slow_square(x: float, delay: float = 0.2) -> dict:
+    """``{"y": x**2}`` after ``delay`` seconds."""
+    time.sleep(delay)
+    return {"y": x * x, "pid": os.getpid()}
+
+
+def fail_on_negative(x: float) -> dict:
+    """Raise for a negative ``x``."""
+    if x < 0:
+        raise ValueError(f"x must be >= 0, got {x}")
+    return {"y": x * x}
+
+
+def counted(x: float, log: str) -> dict:
+    """``{"y": x**2}``, appending a line to the file ``log`` each time it really runs."""
+    with open(log, "a") as fh:
+        fh.write(f"{x}\n")
+    return {"y": x * x}
+
+
+def touch_and_sleep(x: float, folder: str, delay: float = 30.0) -> dict:
+    """Create ``folder/started-<pid>-<x>`` (so a test knows the run started), then sleep ``delay`` seconds."""
+    open(os.path.join(folder, f"started-{os.getpid()}-{x}"), "w").close()
+    time.sleep(delay)
+    return {"y": x * x}

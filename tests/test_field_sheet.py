@@ -1,0 +1,221 @@
+"""Field sheets are never misread: level codings, plain factor columns, checked responses, large sheets,
+and the printable sheet."""
+
+import re
+import time
+import tracemalloc
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.analysis import analyze
+from berryshaker.experiment.designs import orthogonal_array
+from berryshaker.experiment.field_sheet import Factor, parse_factor, plan_html, plan_table, read_results
+
+SPECS = ["A=0.25,0.5,0.75mm", "B=0.2,0.4,0.6mm", "C=0.1,0.15,0.2mm", "F=0.1,0.15,0.2mm"]
+L9 = orthogonal_array("L9") + 1
+
+
+def _filled(randomize=True):
+    df = plan_table("L9", [parse_factor(s) for s in SPECS], randomize=randomize, seed=7 if randomize else None)
+    df["efficiency_kg_min"] = 4.0 - df["A_mm"]
+    df["unripe_rate_pct"] = 3.0
+    df["damage_rate_pct"] = 2.5
+    return df
+
+
+def _csv(df):
+    return df.to_csv(index=False)
+
+
+def test_plan_round_trip_gives_levels_values_and_units():
+    fr = read_results(_csv(_filled()), ["efficiency"])
+    assert np.array_equal(fr.levels, L9)
+    assert fr.level_values["A"] == (0.25, 0.5, 0.75) and fr.units["A"] == "mm"
+    assert np.allclose(fr.values[:, 0], np.array([0.25, 0.5, 0.75])[L9[:, 0] - 1])
+    assert np.allclose(fr.responses["efficiency"], 4.0 - fr.values[:, 0])
+    assert fr.factors == ["A_level", "B_level", "C_level", "F_level"]
+    assert np.array_equal(fr.table[fr.factors].to_numpy(int), L9)  # what the CLI reads
+
+
+@pytest.mark.parametrize("coding", ["zero-based", "values", "values with unit"])
+def test_level_columns_read_whatever_the_coding(coding):
+    df = _filled().astype(object)
+    for f in "ABCF":
+        lv = df[f"{f}_level"].astype(int)
+        if coding == "zero-based":
+            df[f"{f}_level"] = lv - 1
+        elif coding == "values":
+            df[f"{f}_level"] = df[f"{f}_mm"]
+            df = df.drop(columns=f"{f}_mm")
+        else:
+            df[f"{f}_level"] = [f"{v:g} mm" for v in df[f"{f}_mm"]]
+            df = df.drop(columns=f"{f}_mm")
+    fr = read_results(_csv(df), ["efficiency"])
+    assert np.array_equal(fr.levels, L9)
+    assert fr.level_values["B"] == (0.2, 0.4, 0.6)
+
+
+def test_plain_factor_columns_as_statistics_packages_write_them():
+    df = _filled(randomize=False)
+    plain = pd.DataFrame({"run": df["run"], "A": df["A_mm"], "B": df["B_mm"], "C": df["C_mm"], "F": df["F_mm"],
+                          "efficiency_kg_min": df["efficiency_kg_min"], "notes": "dry", "operator": "J. Doe"})
+    fr = read_results(_csv(plain), ["efficiency"])
+    assert fr.factor_names == list("ABCF") and np.array_equal(fr.levels, L9)
+    assert fr.level_values["C"] == (0.1, 0.15, 0.2) and fr.units["C"] == ""
+    assert np.allclose(fr.table["A_value"], fr.values[:, 0])
+
+
+def test_a_value_matching_no_level_names_row_and_column():
+    plain = pd.DataFrame({"run": range(1, 10), "A": L9[:, 0], "B": L9[:, 1], "efficiency_kg_min": 3.0})
+    plain = plain.astype(object)
+    plain.loc[4, "A"] = 1.4
+    with pytest.raises(ConfigError, match=r"row 6 \(run 5\), column 'A': 1.4 matches no level \(1, 2, 3"):
+        read_results(_csv(plain), ["efficiency"])
+    df = _filled(randomize=False).astype(object)
+    df.loc[2, "B_level"] = 1.4
+    with pytest.raises(ConfigError, match=r"row 4 \(run 3\), column 'B_level': 1.4 matches no level"):
+        read_results(_csv(df), ["efficiency"])
+    with pytest.raises(ConfigError, match=r"column 'B_level': 1.4 matches no level of factor 'B'"):
+        read_results(_csv(df), ["efficiency"], factors=[parse_factor(s) for s in SPECS])
+
+
+def test_level_and_value_columns_must_agree():
+    df = _filled(randomize=False)
+    df.loc[3, "A_mm"] = 0.75  # run 4 is A2 = 0.5 mm
+    with pytest.raises(ConfigError, match=r"row 5 \(run 4\), column 'A_mm': 0.75 disagrees with level"):
+        read_results(_csv(df), ["efficiency"])
+
+
+def test_ambiguous_coding_is_refused():
+    """Levels given as 3, 2, 1: a column of 1/2/3 reads as level numbers and as values, differently."""
+    df = pd.DataFrame({"run": range(1, 10), "A_level": L9[:, 0], "B_level": L9[:, 1], "efficiency_kg_min": 3.0})
+    with pytest.raises(ConfigError, match="with different meanings"):
+        read_results(_csv(df), ["efficiency"], factors=[Factor("A", (3.0, 2.0, 1.0), ""), Factor("B", (1, 2, 3), "")])
+
+
+def test_factor_named_like_a_response_column_is_refused():
+    with pytest.raises(ConfigError, match="reserved field-sheet column"):
+        parse_factor("duration=10,20,30s")
+    df = pd.DataFrame({"run": range(1, 10), "duration_level": L9[:, 0], "duration_s": 10 * L9[:, 0],
+                       "B_level": L9[:, 1], "efficiency_kg_min": 3.0})
+    with pytest.raises(ConfigError, match="factor 'duration' would take the column 'duration_s'"):
+        read_results(_csv(df), ["efficiency"])
+    with pytest.raises(ConfigError, match="factor .A. would take the column .A_mm."):
+        read_results(_csv(_filled()), ["A_mm"])
+
+
+@pytest.mark.parametrize("col,value,message", [
+    ("picked_mass_kg", -0.1, "mass must be >= 0"),
+    ("duration_s", 0.0, "duration must be > 0"),
+    ("picked_mass_kg", float("inf"), "must be a finite number"),
+    ("unripe_mass_kg", 0.9, "more than the picked mass"),
+])
+def test_raw_measurements_are_checked(col, value, message):
+    df = _filled(randomize=False)
+    df["efficiency_kg_min"] = np.nan
+    df["unripe_rate_pct"] = np.nan
+    df["duration_s"], df["picked_mass_kg"], df["unripe_mass_kg"], df["damaged_mass_kg"] = 10.0, 0.6, 0.02, 0.01
+    df.loc[2, col] = value
+    with pytest.raises(ConfigError, match=rf"row 4 \(run 3\), column '{col}'.*{message}"):
+        read_results(_csv(df), ["efficiency", "unripe"])
+
+
+@pytest.mark.parametrize("col,value,message", [
+    ("unripe_rate_pct", 120.0, "within 0-100"), ("damage_rate_pct", -1.0, "within 0-100"),
+    ("efficiency_kg_min", -3.0, "efficiency must be >= 0")])
+def test_indexes_are_checked(col, value, message):
+    df = _filled(randomize=False)
+    df.loc[6, col] = value
+    with pytest.raises(ConfigError, match=rf"row 8 \(run 7\), column '{col}'.*{message}"):
+        read_results(_csv(df), ["efficiency", "unripe", "damage"])
+
+
+def test_duplicate_run_header_only_and_unknown_response():
+    df = _filled(randomize=False)
+    dup = pd.concat([df, df.iloc[[3]]])
+    with pytest.raises(ConfigError, match=r"run 4 appears 2 times \(rows 5, 11\)"):
+        read_results(_csv(dup), ["efficiency"])
+    with pytest.raises(ConfigError, match="header but no rows"):
+        read_results(_csv(df.iloc[:0]) + "\n", ["efficiency"])
+    with pytest.raises(ConfigError, match=r"unknown response 'bogus'; valid: efficiency, unripe, damage"):
+        read_results(_csv(df), ["bogus"])
+
+
+def test_decimal_commas():
+    df = _filled(randomize=False)
+    text = df.to_csv(index=False, sep=";", decimal=",")
+    assert "0,25" in text
+    fr = read_results(text, ["efficiency"])
+    assert np.allclose(fr.responses["efficiency"], 4.0 - fr.values[:, 0])
+    assert fr.level_values["A"] == (0.25, 0.5, 0.75)
+    bad = df.astype(object)
+    bad.loc[3, "efficiency_kg_min"] = "3,9"
+    with pytest.raises(ConfigError, match=r"row 5 \(run 4\), column 'efficiency_kg_min': '3,9' is not a number; "
+                                          "decimal comma"):
+        read_results(_csv(bad), ["efficiency"])
+
+
+def test_weights_are_checked():
+    y = {"efficiency": np.arange(9.0), "damage": np.ones(9) + np.arange(9) % 2}
+    senses = {"efficiency": True, "damage": False}
+    for w, msg in [({"efficiency": 0.0}, "finite number > 0"), ({"efficiency": -1}, "finite number > 0"),
+                   ({"efficiency": float("nan")}, "finite number > 0"), ({"yield": 1.0}, "valid: efficiency, damage")]:
+        with pytest.raises(ConfigError, match=re.escape(msg)):
+            analyze(L9, L9.astype(float), list("ABCF"), y, senses, w)
+    with pytest.raises(ConfigError, match="unknown response"):
+        analyze(L9, L9.astype(float), list("ABCF"), y, {**senses, "bogus": True})
+
+
+def test_unitless_and_code_only_factors_are_reported_honestly():
+    plain = pd.DataFrame({"run": range(1, 10), "A": np.array([10.0, 20.0, 30.0])[L9[:, 0] - 1],
+                          "B_level": L9[:, 1], "efficiency_kg_min": L9[:, 0] + 0.1 * L9[:, 1]})
+    plain = plain.rename(columns={"A": "A_level"})
+    fr = read_results(_csv(plain), ["efficiency"])
+    res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, {"efficiency": True},
+                  level_values=fr.level_values, units=fr.units)
+    assert res["factors"]["A"]["values"] == [10.0, 20.0, 30.0] and res["factors"]["A"]["labels"][0] == "10"
+    assert res["factors"]["B"]["values"] is None and res["factors"]["B"]["labels"] == ["level 1", "level 2", "level 3"]
+    assert res["optimum"]["settings"] == {"A": "30", "B": "level 3"}
+
+
+def test_a_100000_row_sheet_is_analysed_without_an_n_by_n_matrix():
+    """L4 repeated 25,000 times.  The ridge LOO used to form the n x n hat matrix (80 GB at this size)."""
+    reps = 25_000
+    a = np.tile(orthogonal_array("L4") + 1, (reps, 1))
+    n = len(a)
+    rng = np.random.default_rng(1)
+    df = pd.DataFrame({"run": np.arange(1, n + 1), "A_level": a[:, 0], "B_level": a[:, 1], "C_level": a[:, 2],
+                       "efficiency_kg_min": 3.0 + 0.2 * a[:, 0] + 0.05 * rng.standard_normal(n)})
+    text = _csv(df)
+    t0 = time.perf_counter()
+    fr = read_results(text, ["efficiency"])
+    assert time.perf_counter() - t0 < 10
+    tracemalloc.start()  # numpy reports its buffers to tracemalloc
+    res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, {"efficiency": True})
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert res["responses"]["efficiency"]["factors"]["A"]["best_level"] == 2
+    assert peak < 400e6, f"peak {peak / 1e6:.0f} MB"  # the n x n matrix alone would be 80,000 MB
+
+
+def test_printable_sheet():
+    df = _filled()
+    df[["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]] = np.nan
+    page = plan_html(df, "L9 test")
+    assert "@page{size:landscape" in page and "table-layout:fixed" in page
+    for word in ("Date", "Operator", "Weather", "Notes", ">notes<"):
+        assert word in page
+    rows = re.findall(r"<tr>(.*?)</tr>", page)[1:]
+    assert len(rows) == 9
+    cells = [re.findall(r"<td[^>]*>(.*?)</td>", r) for r in rows]
+    assert [c[0] for c in cells] == [str(i) for i in range(1, 10)]  # sorted by order, printed as integers
+    assert sorted(int(c[1]) for c in cells) == list(range(1, 10))  # run numbers kept
+    by_run = df.set_index("run")
+    for c in cells:
+        assert by_run.loc[int(c[1]), "order"] == int(c[0])
+    assert not any(re.search(r"\d\.0$", x) for c in cells for x in c)
+    assert "0.25" in page
+    assert list(pd.read_csv(pd.io.common.StringIO(_csv(df))).columns[:4]) == ["run", "order", "A_level", "A_mm"]

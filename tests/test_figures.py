@@ -1,0 +1,239 @@
+"""Figures drawn from synthetic data: the drawn peak is the data peak, every axis and colour bar has a
+unit, one colour bar per surface figure, legends off the data, no offset tick labels."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from berryshaker.report import plots as P
+from berryshaker.report.style import (
+    PAIR_COLOURS,
+    audit_figure,
+    decimate_minmax,
+    decimate_minmax_shared,
+    has_unit,
+    pyplot,
+    require_unit,
+)
+
+
+def _impulsive(n=120_001, seed=0):
+    """A slow oscillation with one-sample impact spikes that striding (every 27th sample) misses."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.5, n)
+    y = 50 * np.sin(2 * np.pi * 2 * t) + rng.normal(0, 2, n)
+    spikes = (np.array([0.0083, 0.25, 0.6481, 0.8333]) * n).astype(int)
+    spikes += (spikes % 27 == 0)  # none on the 27-sample grid
+    assert np.all(spikes % 27 != 0)
+    y[spikes] = [900.0, -750.0, 1234.5678901234, 640.0]
+    return t, y
+
+
+def _drawn_lines_extremes(fig):
+    ys = [np.asarray(line.get_ydata(), float) for ax in fig.axes for line in ax.get_lines()
+          if len(line.get_ydata()) > 2]
+    return max(float(np.max(y)) for y in ys), min(float(np.min(y)) for y in ys)
+
+
+def _close(data):
+    pyplot().close(data["figure"])
+
+
+# ---- style helpers ---------------------------------------------------------------------------------
+def test_decimate_minmax_keeps_extremes_exactly_and_striding_does_not():
+    t, y = _impulsive()
+    xd, yd = decimate_minmax(t, y, 500)
+    assert len(xd) <= 2 * 500 + 2
+    assert yd.max() == y.max() and yd.min() == y.min()
+    assert np.all(np.diff(xd) > 0)  # time order kept
+    assert set(zip(xd.tolist(), yd.tolist())) <= set(zip(t.tolist(), y.tolist()))  # samples, not averages
+    assert y[::27].max() < 0.9 * y.max()  # the bug this replaces
+    # short series come back whole
+    _xs, ys = decimate_minmax(t[:100], y[:100], 500)
+    assert np.array_equal(ys, y[:100])
+
+
+def test_decimate_minmax_shared_keeps_every_series_peak():
+    t, y = _impulsive()
+    z = -0.5 * y[::-1]
+    xd, out = decimate_minmax_shared(t, {"y": y, "z": z}, 300)
+    assert out["y"].max() == y.max() and out["z"].min() == z.min() and out["z"].max() == z.max()
+    assert len(xd) == len(out["y"]) == len(out["z"])
+
+
+def test_unit_helper_refuses_labels_without_unit():
+    assert has_unit("force [N]") and has_unit("s (mm)") and has_unit("ratio [-]")
+    with pytest.raises(ValueError, match="no unit"):
+        require_unit("level of A")
+    with pytest.warns(UserWarning):
+        assert require_unit("efficiency", strict=False).endswith("[unit?]")
+
+
+# ---- figures ---------------------------------------------------------------------------------------
+def test_fruit_force_figure_draws_the_table_peak(tmp_path):
+    t, y = _impulsive()
+    d = 0.5 * t  # distance [m]
+    forces = {"root": 3e-4 * y, "middle": 7e-4 * y, "end": 1e-3 * y}
+    peaks = {k: float(np.max(np.abs(v))) for k, v in forces.items()}
+    ranges = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 1.2)}
+    data = P.plot_fruit_force(d, forces, ranges, tmp_path / "ff.png", peaks=peaks, return_figure=True)
+    for k in forces:
+        assert abs(data["fruit"][k]["peak_abs"] - peaks[k]) <= 1e-12
+        assert data["fruit"][k]["peak_matches_table"]
+    hi, lo = _drawn_lines_extremes(data["figure"])  # read back from the drawn Line2D objects
+    assert abs(hi - forces["end"].max()) <= 1e-12 and abs(lo - forces["end"].min()) <= 1e-12
+    assert not audit_figure(data["figure"])
+    _close(data)
+    # a series thinned by striding before it gets here is flagged, not silently drawn low
+    strided = {k: v[::27] for k, v in forces.items()}
+    data = P.plot_fruit_force(d[::27], strided, ranges, tmp_path / "ff2.png", peaks=peaks)
+    assert not data["fruit"]["end"]["peak_matches_table"]
+
+
+def test_time_series_multibody_under_mlsd_with_zoom(tmp_path):
+    t, y = _impulsive()
+    data = P.plot_time_series(t, {"multibody": y, "MLSD": 0.9 * y}, "collision force at A (N)",
+                              tmp_path / "ts.png", "Pair A", zoom="peak", return_figure=True)
+    fig = data["figure"]
+    for name, s in (("multibody", y), ("MLSD", 0.9 * y)):
+        assert abs(data["series"][name]["max"] - s.max()) <= 1e-12
+        assert abs(data["series"][name]["min"] - s.min()) <= 1e-12
+    main = fig.axes[0]
+    lines = {ln.get_label(): ln for ln in main.get_lines()}
+    mb, ml = lines["multibody"], lines["MLSD"]
+    assert mb.get_zorder() < ml.get_zorder() and mb.get_linewidth() > ml.get_linewidth()
+    assert mb.get_linestyle() == "-" and ml.get_linestyle() == "--"
+    assert data["zoom"] is not None and data["zoom"][0] < t[np.argmax(y)] < data["zoom"][1]
+    assert len(fig.axes) == 2
+    assert not audit_figure(fig)
+    _close(data)
+
+
+def test_joint_forces_one_panel_per_joint(tmp_path):
+    t, y = _impulsive(40_001)
+    forces = {p: np.abs(y) * s for p, s in zip("ABCF", (1.0, 0.7, 0.4, 0.2))}
+    data = P.plot_joint_forces(t, forces, tmp_path / "jf.png", "A 0.25 mm, B 0.2 mm, C 0.1 mm, F 0.2 mm",
+                               return_figure=True)
+    fig = data["figure"]
+    assert len(fig.axes) == 4
+    for ax, p in zip(fig.axes, "ABCF"):
+        assert abs(data["series"][p]["peak_abs"] - forces[p].max()) <= 1e-12
+        assert ax.get_lines()[0].get_color().lower() == PAIR_COLOURS[p].lower()
+        assert f"at {p}" in ax.get_ylabel()
+    assert "0.25 mm" in fig._suptitle.get_text()
+    assert not audit_figure(fig)
+    _close(data)
+
+
+def test_bars_reference_bar_hatched_and_legend_off_data(tmp_path):
+    labels = ["none", "0.25 mm", "0.5 mm", "0.75 mm"]
+    series = {"multibody peak": [10, 300, 420, 510], "MLSD peak": [11, 280, 400, 530],
+              "multibody mean": [5, 40, 45, 50]}
+    data = P.plot_bars(series, labels, "peak collision force at A [N]", tmp_path / "bars.png", "A alone",
+                       pair="A", reference_index=0, return_figure=True)
+    fig = data["figure"]
+    ax = fig.axes[0]
+    assert ax.get_ylabel() == "peak collision force at A [N]"
+    assert "joint reaction" in ax.get_xticklabels()[0].get_text()
+    assert "xx" in (ax.patches[0].get_hatch() or "")
+    assert [float(p.get_height()) for p in ax.patches[:4]] == series["multibody peak"]
+    assert ax.get_legend() is not None
+    assert not audit_figure(fig)
+    _close(data)
+
+
+L9 = np.array([[1, 1, 1, 1], [1, 2, 2, 2], [1, 3, 3, 3], [2, 1, 2, 3], [2, 2, 3, 1], [2, 3, 1, 2],
+               [3, 1, 3, 2], [3, 2, 1, 3], [3, 3, 2, 1]])  # the standard L9(3^4) orthogonal array
+LEVELS_MM = {"A": [0.25, 0.5, 0.75], "B": [0.2, 0.4, 0.6], "C": [0.1, 0.15, 0.2], "F": [0.1, 0.15, 0.2]}
+
+
+def _l9_analysis():
+    """A range analysis built here from synthetic responses (the figure tests do not depend on the
+    analysis module): level means, range, best level, and an ANOVA error with C pooled."""
+    values = np.array([[LEVELS_MM[p][L9[i, j] - 1] for j, p in enumerate("ABCF")] for i in range(9)])
+    rng = np.random.default_rng(3)
+    ys = {"efficiency": 3.9 - 1.2 * values[:, 0] + 0.3 * np.cos(10 * values[:, 1]) + rng.normal(0, 0.03, 9),
+          "unripe": 3 + 2 * values[:, 0] + rng.normal(0, 0.1, 9),
+          "damage": 2.8 + values[:, 1] + rng.normal(0, 0.1, 9)}
+    senses = {"efficiency": True, "unripe": False, "damage": False}
+    res = {"responses": {}, "composite": {"score": [0.0] * 9}}
+    for r, y in ys.items():
+        fac = {}
+        for j, p in enumerate("ABCF"):
+            k = [float(y[L9[:, j] == lv].mean()) for lv in (1, 2, 3)]
+            best = int(np.argmax(k) if senses[r] else np.argmin(k)) + 1
+            fac[p] = {"level_means": k, "range": max(k) - min(k), "best_level": best}
+        ss_c = 3 * sum((m - y.mean()) ** 2 for m in fac["C"]["level_means"])
+        res["responses"][r] = {"factors": fac, "maximize": senses[r],
+                               "anova": {"error": {"ss": ss_c, "df": 2, "ms": ss_c / 2}, "pooled": ["C"]}}
+    res["runs"] = [{"levels": {p: int(L9[i, j]) for j, p in enumerate("ABCF")},
+                    "clearance_mm": {p: float(values[i, j]) for j, p in enumerate("ABCF")}} for i in range(9)]
+    return res, values, ys
+
+
+def _quadratic_model(values, y):
+    """Least-squares main-effects quadratic (1, x, x^2 per factor) as a callable, for the surfaces."""
+    def design(X):
+        X = np.atleast_2d(X)
+        return np.column_stack([np.ones(len(X))] + [X[:, j] ** e for j in range(X.shape[1]) for e in (1, 2)])
+
+    coef = np.linalg.lstsq(design(values), y, rcond=None)[0]
+    return lambda X: design(X) @ coef
+
+
+def test_main_effects_units_levels_in_mm_and_error_bars(tmp_path):
+    res, _, _ = _l9_analysis()
+    data = P.plot_main_effects(res, tmp_path / "me.png", "Virtual L9", return_figure=True)
+    fig = data["figure"]
+    assert "kg/min" in fig.axes[0].get_ylabel()
+    assert "%" in fig.axes[4].get_ylabel()
+    assert fig.axes[-4].get_xlabel() == "A [mm]"
+    assert [t.get_text() for t in fig.axes[0].get_xticklabels()] == ["0.25", "0.5", "0.75"]
+    eff = data["responses"]["efficiency"]
+    assert eff["factors"]["A"]["errors"] is not None
+    se = float(eff["factors"]["A"]["errors"][0])
+    lo, hi = eff["ylim"]
+    assert hi - lo >= 2 * 4 * se  # at least +-4 standard errors: noise is not blown up
+    assert "standard error" in fig._suptitle.get_text()
+    labels = fig.axes[3].get_legend().get_texts()
+    assert any("best level" in t.get_text() for t in labels)
+    assert not audit_figure(fig)
+    _close(data)
+
+
+def test_response_surfaces_one_colour_bar_shared_scale(tmp_path):
+    _, values, ys = _l9_analysis()
+    y = ys["efficiency"]
+    data = P.plot_response_surfaces(values, y, list("ABCF"), None, "efficiency", tmp_path / "rs.png",
+                                    model=_quadratic_model(values, y), return_figure=True)
+    fig = data["figure"]
+    cbars = [ax for ax in fig.axes if ax.get_label() == "<colorbar>"]
+    assert len(cbars) == 1 and data["n_colorbars"] == 1
+    assert "kg/min" in cbars[0].get_ylabel()
+    panels = [ax for ax in fig.axes if ax.get_label() != "<colorbar>" and ax.get_visible()]
+    assert len(panels) == 6
+    clims = {tuple(np.round(c.get_clim(), 12)) for ax in panels for c in ax.collections if hasattr(c, "get_clim")
+             and c.get_array() is not None and c.get_label() != "test runs"}
+    assert len(clims) == 1  # one colour scale for all panels
+    for ax, (a, b) in zip(panels, [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]):
+        x0, x1 = ax.get_xlim()
+        y0, y1 = ax.get_ylim()
+        assert x0 < values[:, a].min() and x1 > values[:, a].max()  # design points not on the edge
+        assert y0 < values[:, b].min() and y1 > values[:, b].max()
+    assert not audit_figure(fig)
+    _close(data)
+
+
+def test_colour_bar_of_a_flat_surface_has_no_offset(tmp_path):
+    """A constant response once gave a colour bar reading "1e-14+2.86"."""
+    _, values, _ = _l9_analysis()
+    y = np.full(9, 2.86)
+    data = P.plot_response_surfaces(values, y, list("ABCF"), None, "damage", tmp_path / "flat.png",
+                                    model=lambda X: np.full(len(X), 2.86) + 1e-14 * X[:, 0], return_figure=True)
+    fig = data["figure"]
+    fig.canvas.draw()
+    cbar = next(ax for ax in fig.axes if ax.get_label() == "<colorbar>")
+    assert cbar.yaxis.get_offset_text().get_text() == ""
+    assert not audit_figure(fig)
+    _close(data)

@@ -1,0 +1,310 @@
+"""The sweep runner: code-aware cache keys, validated cache entries, shared-cache reuse, cold-cost stats,
+chunked local pools, Ctrl-C and a killed parent, clear errors for bad --workers / --scheduler."""
+
+import io
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pytest
+
+import berryshaker.runs.runner as R
+import runner_jobs as J
+from berryshaker.errors import ConfigError
+from berryshaker.runs.runner import SweepRunner, cache_entry_path, read_cache_entry, run_jobs, run_key
+
+TESTS = Path(__file__).resolve().parent
+
+
+def _runner(tmp_path, **kw):
+    kw.setdefault("workers", 1)
+    return SweepRunner(cache_dir=tmp_path / "cache", progress=False, **kw)
+
+
+def _calls(log: Path) -> int:
+    return len(log.read_text().splitlines()) if log.exists() else 0
+
+
+def test_key_covers_function_arguments_and_code(monkeypatch):
+    k = run_key(J.square, {"x": 1.0})
+    assert k == run_key(J.square, {"x": 1.0}) and len(k) == 64
+    assert k != run_key(J.square, {"x": 2.0}) and k != run_key(J.slow_square, {"x": 1.0})
+    monkeypatch.setattr(R, "code_fingerprint", lambda: "0" * 64)
+    assert run_key(J.square, {"x": 1.0}) != k
+
+
+def test_code_fingerprint_is_a_hash_of_the_package_sources():
+    import hashlib
+
+    import berryshaker
+
+    root = Path(berryshaker.__file__).resolve().parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
+        if "__pycache__" not in p.parts:
+            h.update(p.relative_to(root).as_posix().encode() + b"\0" + p.read_bytes() + b"\0")
+    assert R.code_fingerprint() == h.hexdigest()
+
+
+def test_code_change_invalidates_the_cache(tmp_path, monkeypatch):
+    log = tmp_path / "log"
+    jobs = [dict(x=float(i), log=str(log)) for i in range(3)]
+    assert _runner(tmp_path).values(J.counted, jobs) == [{"y": float(i * i)} for i in range(3)]
+    _runner(tmp_path).values(J.counted, jobs)
+    assert _calls(log) == 3  # repeated: all from the cache
+    monkeypatch.setattr(R, "code_fingerprint", lambda: "f" * 64)  # as if a model file had been edited
+    r = _runner(tmp_path)
+    r.values(J.counted, jobs)
+    assert _calls(log) == 6 and r.stats["cached"] == 0
+
+
+def _entry(tmp_path, fn, kw):
+    return cache_entry_path(tmp_path / "cache", run_key(fn, kw))
+
+
+@pytest.mark.parametrize("damage", ["edit_value", "empty_object", "truncate", "wrong_key", "not_object"])
+def test_invalid_entry_is_recomputed_with_a_warning(tmp_path, damage, capsys):
+    log = tmp_path / "log"
+    kw = dict(x=3.0, log=str(log))
+    _runner(tmp_path).values(J.counted, [kw])
+    path = _entry(tmp_path, J.counted, kw)
+    text = path.read_text()
+    entry = json.loads(text)
+    if damage == "edit_value":
+        entry["value"]["y"] = 10.0  # hand-edited, checksum no longer matches
+        path.write_text(json.dumps(entry))
+    elif damage == "empty_object":
+        path.write_text("{}")
+    elif damage == "truncate":
+        path.write_text(text[: len(text) // 2])
+    elif damage == "wrong_key":
+        entry["key"] = "0" * 64
+        path.write_text(json.dumps(entry))
+    else:
+        path.write_text("[1, 2]")
+    r = _runner(tmp_path)
+    assert r.values(J.counted, [kw]) == [{"y": 9.0}]
+    assert _calls(log) == 2  # recomputed, not used
+    assert len(r.warnings) == 1 and str(path) in r.warnings[0] and "recomputing" in r.warnings[0]
+    err = capsys.readouterr().err
+    assert err.count("warning:") == 1 and str(path) in err
+    fresh, problem = read_cache_entry(path, run_key(J.counted, kw), R.code_fingerprint())
+    assert problem is None and fresh["value"] == {"y": 9.0}  # overwritten with a valid entry
+
+
+def test_entry_records_what_computed_it(tmp_path):
+    kw = dict(x=2.0, delay=0.05)
+    _runner(tmp_path).values(J.slow_square, [kw])
+    e = json.loads(_entry(tmp_path, J.slow_square, kw).read_text())
+    assert e["key"] == run_key(J.slow_square, kw) and e["fingerprint"] == R.code_fingerprint()
+    assert e["fn"] == "runner_jobs.slow_square" and len(e["kwargs_sha256"]) == 64 and len(e["value_sha256"]) == 64
+    assert e["value"]["y"] == 4.0 and 0.04 < e["wall_s"] < 1.0
+
+
+def test_worker_reuses_an_entry_written_by_another_sweep(tmp_path):
+    """The cache is read again right before a job runs: a run another sweep finished meanwhile is reused."""
+    log = tmp_path / "log"
+    kw = dict(x=5.0, log=str(log))
+    key = run_key(J.counted, kw)
+    cache = tmp_path / "cache"
+    R.write_cache_entry(cache, key, "runner_jobs.counted", kw, {"y": 25.0}, 12.5, R.code_fingerprint())
+    out = run_jobs(J.counted, [(key, kw)], str(cache), R.code_fingerprint(), True)
+    assert out[0]["cached"] and out[0]["value"] == {"y": 25.0} and out[0]["wall_s"] == 12.5
+    assert _calls(log) == 0
+
+
+def test_runner_rechecks_the_cache_after_its_first_look(tmp_path, monkeypatch):
+    """Between the runner's first look and the run, another sweep writes the entry: it is not recomputed."""
+    log = tmp_path / "log"
+    jobs = [dict(x=float(i), log=str(log)) for i in range(2)]
+    r = _runner(tmp_path)
+    real = R.read_cache_entry
+    looks = []
+
+    def first_look_misses(path, key, fingerprint=None):
+        looks.append(key)
+        if looks.count(key) == 1:  # the runner's first look; meanwhile "another sweep" finishes the run
+            R.write_cache_entry(r.cache_dir, key, "runner_jobs.counted", {}, {"y": -1.0}, 3.0, fingerprint)
+            return None, None
+        return real(path, key, fingerprint)
+
+    monkeypatch.setattr(R, "read_cache_entry", first_look_misses)
+    out = r.map(J.counted, jobs)
+    assert [o.value for o in out] == [{"y": -1.0}] * 2 and all(o.cached for o in out)
+    assert _calls(log) == 0 and r.stats["cached"] == 2 and r.stats["computed"] == 0
+
+
+def test_stats_keep_the_cold_cost(tmp_path):
+    jobs = [dict(x=float(i), delay=0.15) for i in range(4)]
+    cold = _runner(tmp_path)
+    cold.values(J.slow_square, jobs)
+    assert cold.stats["computed"] == 4 and cold.stats["compute_s"] == pytest.approx(0.6, abs=0.15)
+    warm = _runner(tmp_path)
+    warm.values(J.slow_square, jobs)
+    s = warm.stats
+    assert s["cached"] == 4 and s["compute_s"] == 0.0 and s["elapsed_s"] < 0.3
+    assert s["cached_compute_s"] == pytest.approx(cold.stats["compute_s"], rel=1e-9)
+    assert s["cold_compute_s"] == pytest.approx(cold.stats["compute_s"], rel=1e-9)
+    assert "cold cost 0.6 s of compute" in warm.summary_line()
+
+
+def test_failures_are_recorded_not_cached_and_duplicates_run_once(tmp_path):
+    jobs = [dict(x=1.0), dict(x=-1.0), dict(x=1.0)]
+    r = _runner(tmp_path)
+    out = r.map(J.fail_on_negative, jobs)
+    assert [o.error is None for o in out] == [True, False, True] and "x must be >= 0" in out[1].error
+    assert out[2].value == out[0].value and r.stats["computed"] == 2 and r.stats["failed"] == 1
+    again = _runner(tmp_path).map(J.fail_on_negative, jobs)
+    assert [o.cached for o in again] == [True, False, True]
+
+
+def test_chunked_pool_keeps_order_and_per_run_progress(tmp_path):
+    from rich.console import Console
+
+    buf = io.StringIO()
+    r = SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=True,
+                    console=Console(file=buf, width=120, force_terminal=False))
+    jobs = [dict(x=float(i)) for i in range(60)]
+    out = r.map(J.square, jobs, label="tiny")
+    assert [o.index for o in out] == list(range(60)) and [o.value["y"] for o in out] == [i * i for i in range(60)]
+    assert "60/60" in buf.getvalue() and r.stats["computed"] == 60
+    assert all(_entry(tmp_path, J.square, kw).is_file() for kw in jobs)  # workers wrote each entry
+
+
+@pytest.mark.parametrize("bad", [0, -2, 1.5, "two"])
+def test_bad_worker_counts_are_config_errors(bad):
+    with pytest.raises(ConfigError, match=r"--workers must be >= 1.*omit it to use all cores"):
+        SweepRunner(workers=bad)
+
+
+@pytest.mark.parametrize("addr", ["", "tcp://", "localhost", "http://host:8786", "host:port", "tcp://h:99999",
+                                  "tcp://h:1/path"])
+def test_malformed_scheduler_is_a_config_error(addr):
+    with pytest.raises(ConfigError, match="--scheduler"):
+        SweepRunner(scheduler=addr)
+
+
+def test_unreachable_scheduler_is_a_quick_config_error(tmp_path):
+    pytest.importorskip("distributed")
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]  # closed again: nothing listens there
+    r = SweepRunner(scheduler=f"127.0.0.1:{port}", cache_dir=tmp_path, progress=False)
+    r.scheduler_timeout_s = 1.5
+    t0 = time.perf_counter()
+    with pytest.raises(ConfigError, match="no Dask scheduler answered"):
+        r.check_scheduler()
+    with pytest.raises(ConfigError, match="omit --scheduler"):
+        r.map(J.square, [dict(x=1.0)])
+    assert time.perf_counter() - t0 < 8.0
+
+
+# ---- interruption and a killed parent (real processes) -------------------------------------------------
+_SCRIPT = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, {tests!r})
+    import berryshaker.runs.runner as R
+    import runner_jobs as J
+    R._USE_PDEATHSIG = {pdeathsig!r}
+    if __name__ == "__main__":
+        r = R.SweepRunner(workers=2, cache_dir={cache!r}, progress=False)
+        try:
+            r.map(J.{fn}, {jobs!r})
+        except KeyboardInterrupt:
+            sys.exit(130)
+""")
+
+
+def _start(tmp_path, fn, jobs, pdeathsig=True):
+    script = tmp_path / "sweep.py"
+    script.write_text(_SCRIPT.format(tests=str(TESTS), cache=str(tmp_path / "cache"), fn=fn, jobs=jobs,
+                                     pdeathsig=pdeathsig))
+    return subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+
+
+def _wait_for(cond, timeout):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if cond():
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def _gone(pids, timeout):
+    import psutil
+
+    def all_gone():
+        for pid in pids:
+            try:
+                if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                    return False
+            except psutil.NoSuchProcess:
+                pass
+        return True
+
+    return _wait_for(all_gone, timeout)
+
+
+def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
+    psutil = pytest.importorskip("psutil")
+    jobs = [dict(x=float(i), delay=0.25) for i in range(40)]
+    proc = _start(tmp_path, "slow_square", jobs)
+    try:
+        cache = tmp_path / "cache"
+        assert _wait_for(lambda: len(list(cache.rglob("*.json"))) >= 3, 20), "no run finished"
+        children = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+        t0 = time.monotonic()
+        os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the whole process group
+        _, err = proc.communicate(timeout=10)
+        took = time.monotonic() - t0
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 130 and took < 2.5, (proc.returncode, took, err)
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    assert len(lines) == 1 and lines[0].startswith("interrupted:") and "run the same command again" in lines[0], err
+    entries = [read_cache_entry(p, p.stem)[0] for p in cache.rglob("*.json")]
+    assert 3 <= len(entries) < len(jobs) and all(entries)  # finished runs are kept, each entry valid
+    said = int(lines[0].split()[1])  # "interrupted: N of 40 runs had finished..."
+    assert 1 <= said <= len(entries)
+    assert _gone(children, 3.0), "worker processes outlived the interrupted sweep"
+    # the finished runs are not recomputed when the sweep is run again (the subprocess's code fingerprint:
+    # other people may be editing the package while the tests run)
+    fps = {e["fingerprint"] for e in entries}
+    assert len(fps) == 1
+    fp = fps.pop()
+    monkeypatch.setattr(R, "code_fingerprint", lambda: fp)
+    done = [kw for kw in jobs if any(e["value"]["y"] == kw["x"] ** 2 for e in entries)]
+    r = SweepRunner(workers=1, cache_dir=cache, progress=False)
+    r.map(J.slow_square, done)
+    assert r.stats["cached"] == len(done) == len(entries) and r.stats["computed"] == 0
+
+
+@pytest.mark.parametrize("pdeathsig", [True, False], ids=["death-signal", "polling-thread"])
+def test_workers_exit_when_the_parent_is_killed(tmp_path, pdeathsig):
+    psutil = pytest.importorskip("psutil")
+    started = tmp_path / "started"
+    started.mkdir()
+    jobs = [dict(x=float(i), folder=str(started), delay=60.0) for i in range(4)]
+    proc = _start(tmp_path, "touch_and_sleep", jobs, pdeathsig)
+    try:
+        assert _wait_for(lambda: len(list(started.iterdir())) >= 2, 20), "workers did not start"
+        children = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
+        assert len(children) >= 2
+        os.kill(proc.pid, signal.SIGKILL)  # the parent only: its workers are orphaned
+        proc.wait(timeout=5)
+        assert _gone(children, 4.0), "orphaned workers kept running after the parent was killed"
+    finally:
+        for pid in [proc.pid] + [c for c in locals().get("children", [])]:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
