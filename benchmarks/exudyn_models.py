@@ -68,10 +68,12 @@ def build_exudyn_mechanism(spec, y0, prescribed=None):
     mg = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=gnode, coordinate=0))
     nb = len(spec.bodies)
     nodes, objs = {}, {"ground": ground}
+    ref_angle = {"ground": 0.0}  # MarkerNodeCoordinate acts on the displacement from the reference coordinate
     for i, b in enumerate(spec.bodies):
         q = [float(v) for v in y0[3 * i:3 * i + 3]]
         v = [float(v) for v in y0[3 * nb + 3 * i:3 * nb + 3 * i + 3]]
         nodes[b.name] = mbs.AddNode(NodeRigidBody2D(referenceCoordinates=q, initialVelocities=v))
+        ref_angle[b.name] = q[2]
         objs[b.name] = mbs.AddObject(ObjectRigidBody2D(mass=b.mass, inertia=b.inertia, nodeNumber=nodes[b.name]))
 
     def marker(body, point, rigid=False):
@@ -122,7 +124,7 @@ def build_exudyn_mechanism(spec, y0, prescribed=None):
     for body, (tt, pp) in prescribed.items():
         period = float(tt[-1])
 
-        def offset(mbs_, t, item, l_offset, tt=tt, pp=pp, period=period):
+        def offset(mbs_, t, item, l_offset, tt=tt, pp=pp - ref_angle[body], period=period):
             return float(np.interp(t % period, tt, pp))
 
         mbs.AddObject(CoordinateConstraint(markerNumbers=[mg, angle_marker(body)], offsetUserFunction=offset))
@@ -132,7 +134,8 @@ def build_exudyn_mechanism(spec, y0, prescribed=None):
         mj = mg if f.body_j == "ground" else angle_marker(f.body_j)
         # Exudyn: F = k (q1 - q0 - offset) + d (q1' - q0'), marker 0 = body_j, marker 1 = body_i
         mbs.AddObject(CoordinateSpringDamper(markerNumbers=[mj, angle_marker(f.body_i)], stiffness=f.stiffness,
-                                             damping=f.damping, offset=f.angle0))
+                                             damping=f.damping,
+                                             offset=f.angle0 - (ref_angle[f.body_i] - ref_angle[f.body_j])))
     return sc, mbs, contacts
 
 

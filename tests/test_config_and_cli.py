@@ -32,7 +32,7 @@ def test_reference_machine_values(machine):
     assert machine.cam.base_radius == pytest.approx(0.08)
     assert machine.cam.speed == pytest.approx(4 * math.pi)
     assert machine.cam.inertia == pytest.approx(0.0176)  # [study]
-    assert machine.clearance.A.size == pytest.approx(0.25e-3)
+    assert machine.clearance["A"].size == pytest.approx(0.25e-3)
 
 
 def _kin(args, **kw):

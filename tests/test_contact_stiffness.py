@@ -24,7 +24,11 @@ from berryshaker.contact.conformal import (
     restitution_of_linear_damping,
     roller_on_wall_law,
 )
-from berryshaker.contact.stiffness import effective_modulus, pin_in_bore_stiffness, roller_on_flat_stiffness
+from berryshaker.contact.stiffness import (
+    effective_modulus,
+    pin_in_bore_stiffness,
+    roller_on_flat_stiffness,
+)
 from berryshaker.errors import ConfigError
 
 ES = effective_modulus(207e9, 0.3, 207e9, 0.3)

@@ -100,7 +100,7 @@ def test_self_locking_worm_never_returns_power():
     red = reflect_to_cam(spec)
     assert red.eta_back < 0
     tb = np.linspace(0.0, 40.0, 41)
-    alpha, t_in, t_out = mesh_acceleration(red, tb, -5.0 * np.ones_like(tb))
+    _, t_in, _ = mesh_acceleration(red, tb, -5.0 * np.ones_like(tb))
     assert np.all(t_in >= 0)  # the motor side always drives: power never flows back
 
 
@@ -163,9 +163,9 @@ def test_ripple_grows_with_load_amplitude():
 
 def test_stiff_belt_and_large_motor_recover_imposed_speed():
     spec = DrivelineSpec()
-    stiff = spec.model_copy(update=dict(
-        belt=spec.belt.model_copy(update=dict(axial_stiffness=1e7, pretension=5000.0)),
-        motor=InductionMotor(rated_power=1e5, rated_slip=0.002, rotor_inertia=0.5)))
+    stiff = spec.model_copy(update={
+        "belt": spec.belt.model_copy(update={"axial_stiffness": 1e7, "pretension": 5000.0}),
+        "motor": InductionMotor(rated_power=1e5, rated_slip=0.002, rotor_inertia=0.5)})
     run = simulate_two_inertia(stiff, _load(20.0, 30.0), revolutions=2)
     imposed = stiff.motor.synchronous_speed / reflect_to_cam(stiff).ratio
     assert run.ripple < 1e-4

@@ -166,10 +166,10 @@ def fast_machine(machine):
 
 @pytest.fixture(scope="module")
 def envelopes(fast_machine):
-    from berryshaker.experiment.clearance_rows import clearance_row
+    from berryshaker.experiment.clearance_sets import clearance_row
     from berryshaker.harvest.virtual import envelopes_for
 
-    return {row: envelopes_for(fast_machine, clearance_row(row)) for row in (14, 16)}
+    return {row: envelopes_for(fast_machine, clearance_row(fast_machine, row)) for row in (14, 16)}
 
 
 def test_virtual_harvest_is_deterministic_for_a_seed(fast_machine, envelopes):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
@@ -84,8 +85,8 @@ def test_it_table_structure():
     keys = list(data.STANDARD_TOLERANCE_UM)
     for key in keys:
         row = data.STANDARD_TOLERANCE_UM[key]
-        assert all(b >= a for a, b in zip(row, row[1:])), key
-    for lo, hi in zip(keys, keys[1:]):
+        assert all(b >= a for a, b in itertools.pairwise(row)), key
+    for lo, hi in itertools.pairwise(keys):
         assert all(b > a for a, b in zip(data.STANDARD_TOLERANCE_UM[lo], data.STANDARD_TOLERANCE_UM[hi]))
 
 

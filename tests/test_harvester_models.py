@@ -7,7 +7,7 @@ import pytest
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
-from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody
+from berryshaker.drives.simulation import simulate_multibody
 from berryshaker.experiment.agreement import curve_agreement, f_critical, f_statistic
 
 from test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
@@ -17,14 +17,14 @@ def test_ideal_multibody_harvester_equals_newton_euler(machine):
     """With zero clearance the engine uses ideal cam-roller, point-on-line and revolute joints; its
     Lagrange multipliers are the joint forces, which must equal the independent hand inverse dynamics."""
     m = _modified(machine, four_bar__coupler_mass=1e-3)
-    r, _ = simulate_harvester_multibody(m, ZERO, revolutions=2, rtol=1e-9, output_step=2e-4)
+    r, _ = simulate_multibody(m, ZERO, revolutions=2, rtol=1e-9, output_step=2e-4)
     sel = r.t > 0.5
     ne = newton_euler_inverse_dynamics(m, r.t[sel])
     for pair in "ABC":
         f = r.reaction(pair)[sel]
         # the coupler is nearly massless here but still has rotational inertia m l^2/12 -> 1e-3 scale
         np.testing.assert_allclose(f, ne[pair], atol=2e-3 * ne[pair].max())
-    np.testing.assert_allclose(-r.reaction("cam_drive")[sel], ne["M"], atol=2e-3 * np.abs(ne["M"]).max())
+    np.testing.assert_allclose(-r.reaction("drive")[sel], ne["M"], atol=2e-3 * np.abs(ne["M"]).max())
 
 
 def test_eq18_hand_value():

@@ -12,7 +12,16 @@ from berryshaker.config import machine_from_dict
 from berryshaker.contact.friction import coulomb_friction
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 from berryshaker.errors import ConfigError
-from berryshaker.experiment.clearance_rows import clearance_row, parse_clearance_spec
+from berryshaker.experiment.clearance_sets import clearance_row as _row, parse_clearance_spec as _parse
+from berryshaker.config import reference_machine as _ref
+
+
+def clearance_row(row):
+    return _row(_ref(), row)
+
+
+def parse_clearance_spec(spec):
+    return _parse(spec, _ref())
 from berryshaker.drives.groove_cam.kinematics import cycle_kinematics, mid_stroke_angles
 
 ZERO = dict(A=0.0, B=0.0, C=0.0, F=0.0)
@@ -164,8 +173,8 @@ def test_spring_law_holds_on_the_output(machine):
     m = machine_from_dict(d)
     r = simulate_mlsd(m, clearance_row(15), revolutions=2)
     for p in "ABCF":
-        pair = getattr(r.machine.clearance, p)
-        c = pair.size / 2 if pair.kind == "point-line" else pair.size
+        pair = r.machine.clearance[p]
+        c = pair.size / 2 if pair.kind != "pin-in-bore" else pair.size
         gap = np.abs(r.series(f"d_{p}_m"))
         f = np.abs(r.series(f"F_{p}_N"))
         np.testing.assert_allclose(f, pair.stiffness * np.maximum(gap - c, 0.0), rtol=1e-9, atol=1e-9)
@@ -242,7 +251,7 @@ def test_bad_clearances_are_named(machine):
         parse_clearance_spec("Q=0.1mm")
     with pytest.raises(ConfigError, match="needs a unit"):
         parse_clearance_spec("A=0.25")
-    with pytest.raises(ConfigError, match="clearance A = 5 mm is larger than the geometry allows"):
+    with pytest.raises(ConfigError, match="clearance.A.size = 5 mm is larger than the geometry allows"):
         simulate_mlsd(machine, {"A": 5e-3})
     d = machine.model_dump()
     d["clearance"]["C"]["stiffness"] = 0.0

@@ -260,7 +260,7 @@ class MaterialPair:
 
 
 _ARCHARD_1953 = ("Archard (1953) J. Appl. Phys. 24:981, Table 1 (pin on tool-steel ring, unlubricated, "
-                 "3.9 N, 1.8 m/s); reproduced in Hutchings (1992) Tribology, ch. 5")
+                 "3.9 N, 1.8 m/s); see also Hutchings (1992) Tribology, ch. 5")
 
 #: Material pairs with Archard coefficients.  Cited values are dry laboratory values (Archard 1953);
 #: lubricated and bush values are marked assumed -- measure them (pin-on-disc or bush test) for a design.

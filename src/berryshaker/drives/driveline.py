@@ -23,7 +23,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from berryshaker.errors import ConfigError, SimulationError
+from berryshaker.errors import SimulationError
 from berryshaker.quantity_fields import (
     AngularSpeed,
     Coefficient,
@@ -38,7 +38,7 @@ from berryshaker.quantity_fields import (
 def _power(v: Any) -> float:
     """Power in W from a number or a string with a unit ("1.5 kW", "2 hp")."""
     if isinstance(v, bool):
-        raise ValueError(f"expected a power, got {v!r}")
+        raise ValueError(f"expected a power, got {v!r}")  # noqa: TRY004 - pydantic wants ValueError
     if isinstance(v, (int, float)):
         return float(v)
     if isinstance(v, str):
@@ -47,7 +47,7 @@ def _power(v: Any) -> float:
         try:
             q = _registry().Quantity(v.strip())
             return float(q.to("W").magnitude)
-        except Exception as exc:  # pint raises several error types
+        except Exception as exc:  # noqa: BLE001 - pint raises several error types
             raise ValueError(f"cannot read {v!r} as a power ({exc})") from None
     raise ValueError(f"expected a power, got {v!r}")
 
@@ -194,7 +194,7 @@ def kloss_torque(omega, synchronous_speed, breakdown_torque, breakdown_slip):
     References
     ----------
     M. Kloss (1905), as given e.g. in W. Leonhard, *Control of Electrical Drives*, 3rd ed., Springer,
-    2001, ch. 18 (steady-state torque of the induction motor).
+    2001 (steady-state torque of the induction motor).
     """
     s = (synchronous_speed - np.asarray(omega, float)) / synchronous_speed
     return 2.0 * breakdown_torque * s * breakdown_slip / (s * s + breakdown_slip * breakdown_slip)
@@ -266,7 +266,7 @@ def worm_efficiencies(worm: WormSpec) -> tuple[float, float]:
 
     References
     ----------
-    R. G. Budynas, J. K. Nisbett, *Shigley's Mechanical Engineering Design*, McGraw-Hill, ch. 13
+    R. G. Budynas, J. K. Nisbett, *Shigley's Mechanical Engineering Design*, McGraw-Hill
     (worm gearing: force analysis and efficiency).
     """
     if worm.efficiency_forward is not None:
@@ -293,7 +293,7 @@ def capstan_force_limit(pretension, friction_coefficient, wrap_angle, groove_ang
 
     References
     ----------
-    Euler-Eytelwein (capstan) equation, e.g. Shigley's *Mechanical Engineering Design*, ch. 17 (flexible
+    Euler-Eytelwein (capstan) equation, e.g. Shigley's *Mechanical Engineering Design* (flexible
     mechanical elements: flat and V belts).
     """
     mu = friction_coefficient / math.sin(groove_angle / 2.0) if groove_angle > 0 else friction_coefficient
@@ -417,7 +417,7 @@ def belt_torque(red: ReflectedDriveline, windup, omega_rotor, omega_cam):
     References
     ----------
     Creep: O. Reynolds (1874); belt mechanics and Euler-Eytelwein as in Shigley's *Mechanical
-    Engineering Design*, ch. 17.
+    Engineering Design* (belt drives).
     """
     psi = np.asarray(windup, float)
     w_r = np.asarray(omega_rotor, float)
@@ -459,7 +459,7 @@ def mesh_acceleration(red: ReflectedDriveline, belt_torque_cam, load_torque):
 
     References
     ----------
-    Worm efficiencies: Shigley's *Mechanical Engineering Design*, ch. 13.
+    Worm efficiencies: Shigley's *Mechanical Engineering Design* (worm gearing).
     """
     tb = np.asarray(belt_torque_cam, float)
     tl = np.asarray(load_torque, float)
@@ -569,7 +569,7 @@ class DrivelineRun:
     input_power : float
         Mean prime-mover power over the measured revolutions (W).
     energy : dict
-        Over the whole run (J): motor_work, kinetic_change, spring_change, belt_damping, belt_creep_slip,
+        Over the whole run (J): motor_work, kinetic_change, spring_change, belt_dissipation (damping + creep + slip),
         gear_loss, load_work, and ``residual`` = motor_work - all the others, ``relative_residual``.
     """
 
@@ -649,8 +649,9 @@ def simulate_two_inertia(spec: DrivelineSpec, load_torque, revolutions: float = 
     j_cs = red.shaft_inertia + red.cam_inertia
     ke = 0.5 * red.rotor_inertia * w_r**2 + 0.5 * j_cs * w_c**2
     pe = 0.5 * red.torsional_stiffness * psi**2
-    energy = dict(motor_work=w_m[-1], kinetic_change=ke[-1] - ke[0], spring_change=pe[-1] - pe[0],
-                  belt_dissipation=d_b[-1], gear_loss=g_l[-1], load_work=w_l[-1])
+    energy = {"motor_work": float(w_m[-1]), "kinetic_change": float(ke[-1] - ke[0]),
+              "spring_change": float(pe[-1] - pe[0]), "belt_dissipation": float(d_b[-1]),
+              "gear_loss": float(g_l[-1]), "load_work": float(w_l[-1])}
     energy["residual"] = energy["motor_work"] - sum(v for k, v in energy.items() if k != "motor_work")
     energy["relative_residual"] = abs(energy["residual"]) / max(abs(energy["motor_work"]), 1e-300)
     sel = phi >= phi[-1] - revolutions_measured * 2 * math.pi

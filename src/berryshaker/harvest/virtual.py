@@ -7,7 +7,11 @@ Chain (docs/harvest.md):
    of each branch, with lognormal masses (mean m0, coefficient of variation ``fruit_mass_cv``), ripe or
    unripe (mass fraction ``unripe_fraction``), and bond forces drawn uniformly in eq. 17's ranges:
    ripe 0.26-0.30 N, unripe 1.0-3.6 N [study].
-3. A fruit comes off when its inertial force m a_peak(z) reaches its bond (eq. 16-17).
+3. A fruit comes off when its peak stem force reaches its bond (eq. 17).  The stem force is that of a
+   fruit on a compliant pedicel (berryshaker.plant.pedicel; per branch class a table over position
+   and fruit mass, :func:`stem_force_envelope`); with ``plant.fruit.pedicel.rigid`` or with the old
+   1-D acceleration envelopes it is the study's eq. 16, m a_peak(z).  No cumulative (fatigue) damage
+   of the stem: we know no source for blueberry pedicel fatigue under shaking.
 4. Damage: a detached fruit is damaged with probability 1 - exp(-(a_peak/a_d)^k) (Weibull in the
    acceleration it experienced: harder shaking, more bruising), k = 2 [assumed], a_d calibrated.
    The expected damaged mass is used (no sampling noise in the index).
@@ -65,6 +69,57 @@ def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, 
     return np.max(np.abs(acc), axis=0)
 
 
+#: fruit-mass factors (of m0) of the stem-force envelope table; fruit in between are interpolated in log mass
+MASS_FACTORS = np.exp(np.linspace(math.log(0.4), math.log(2.5), 9))
+
+
+def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
+    """Peak stem force (N) of fruit on compliant pedicels, table over Z_GRID (rows) x MASS_FACTORS * m0.
+
+    One coupled drive-past run for the branch class ``scale`` (diameters scaled); the fruit is one-way
+    coupled, so every (position, mass) is a post-processing of the same branch motion
+    (berryshaker.plant.coupled.stem_forces, berryshaker.plant.pedicel).  With ``pedicel.rigid`` the
+    table is m x the peak branch acceleration (eq. 16).
+    """
+    from berryshaker.plant.coupled import branch_motion, simulate_fruit_force, stem_forces
+    from berryshaker.plant.modes import branch_modes
+
+    d = machine.model_dump()
+    d["plant"]["branch"]["root_diameter"] *= scale
+    d["plant"]["branch"]["tip_diameter"] *= scale
+    m = machine_from_dict(d)
+    res = simulate_fruit_force(m, clearance)
+    pl = m.plant
+    motion = branch_motion(res.result, branch_modes(pl.branch, pl.contact.n_modes))
+    z = Z_GRID * pl.branch.length
+    masses = MASS_FACTORS * pl.fruit.mass
+    if pl.fruit.pedicel.rigid:
+        a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
+        return np.outer(a, masses)
+    table = np.zeros((len(z), len(masses)))
+    for j, mj in enumerate(masses):
+        table[:, j] = np.max(stem_forces(motion, z, mj, pl.fruit.pedicel)[2], axis=1)
+    return table
+
+
+def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+    """Peak force on fruit at fractions z with masses ``mass`` from one branch class's envelope.
+
+    A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope is a
+    stem-force table over Z_GRID x MASS_FACTORS m0, interpolated linearly in z and in log mass.
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 1:
+        return mass * np.interp(z, Z_GRID, env)
+    cols = np.array([np.interp(z, Z_GRID, env[:, j]) for j in range(env.shape[1])])  # (n_mass, n_fruit)
+    lm = np.log(np.clip(mass / m0, MASS_FACTORS[0], MASS_FACTORS[-1]))
+    lg = np.log(MASS_FACTORS)
+    j = np.clip(np.searchsorted(lg, lm) - 1, 0, len(lg) - 2)
+    w = (lm - lg[j]) / (lg[j + 1] - lg[j])
+    idx = np.arange(len(z))
+    return (1 - w) * cols[j, idx] + w * cols[j + 1, idx]
+
+
 @dataclass
 class Population:
     """Fruit of the sampled bushes (flat arrays)."""
@@ -103,8 +158,12 @@ def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Populati
                     damage_acceleration: float | None = None) -> dict:
     """Efficiency (kg/min), unripe shedding rate (%), damage rate (%) of a population under envelopes."""
     h = machine.harvest
-    a = np.array([np.interp(pop.z[i], Z_GRID, envelopes[c]) for i, c in enumerate(pop.branch_class)])
-    off = pop.mass * a >= pop.bond
+    force = np.zeros(len(pop.mass))
+    for c, env in enumerate(envelopes):
+        sel = pop.branch_class == c
+        force[sel] = fruit_peak_force(env, pop.z[sel], pop.mass[sel], machine.plant.fruit.mass)
+    a = force / pop.mass  # the fruit's own peak acceleration (m/s^2): stem force / mass
+    off = force >= pop.bond
     picked = pop.weight * float(np.sum(pop.mass[off]))
     unripe = pop.weight * float(np.sum(pop.mass[off & ~pop.ripe]))
     ad = h.damage_acceleration if damage_acceleration is None else damage_acceleration
@@ -118,6 +177,8 @@ def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Populati
         "unripe_rate_pct": 100.0 * unripe / picked if picked > 0 else float("nan"),
         "damage_rate_pct": 100.0 * damaged / picked if picked > 0 else float("nan"),
         "ripe_picked_fraction": float(np.sum(pop.mass[off & pop.ripe]) / ripe_total) if ripe_total else 0.0,
+        "unripe_shed_fraction": (float(np.sum(pop.mass[off & ~pop.ripe]) / np.sum(pop.mass[~pop.ripe]))
+                                 if np.any(~pop.ripe) else 0.0),
         "fruit_sampled": int(len(pop.mass)),
         "yield_per_bush_kg": pop.weight * float(np.sum(pop.mass)) / pop.bushes,
         "bushes": pop.bushes,
@@ -126,7 +187,8 @@ def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Populati
 
 
 def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:
-    return [acceleration_envelope(machine, clearance, s) for s in machine.harvest.branch_classes]
+    """Stem-force envelopes (:func:`stem_force_envelope`) of every branch class."""
+    return [stem_force_envelope(machine, clearance, s) for s in machine.harvest.branch_classes]
 
 
 def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None, seed: int | None = None,
@@ -159,3 +221,44 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None) -> dict:
                              1.0, 1e5, xtol=1e-3)
     check = idx(yb=yb, uf=uf, ad=ad)
     return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check}
+
+
+def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | None = None) -> dict:
+    """Virtual harvest at one drive (cam shaft) speed: a plain function of data for the cached runner.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description as a dict (``Machine.model_dump(mode="json")``).
+    speed_rpm : float
+        Cam shaft speed (r/min); replaces ``cam.speed``.
+    clearance : dict, optional
+        Clearance sizes (m).
+
+    Returns
+    -------
+    dict
+        speed_rpm, ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct
+        (unripe mass detached / unripe mass), damage_rate_pct, unripe_rate_pct, efficiency_kg_min.
+        Everything else held at the description's values (calibrated population included).
+    """
+    from berryshaker.errors import ConfigError
+
+    d = dict(machine_data)
+    if "cam" not in d:
+        raise ConfigError("removal_at_speed varies cam.speed: the machine description has no [cam] section")
+    if not speed_rpm > 0:
+        raise ConfigError(f"cam speed must be > 0 r/min, got {speed_rpm}")
+    d["cam"] = dict(d["cam"], speed=float(speed_rpm) * 2 * math.pi / 60.0)
+    m = machine_from_dict(d)
+    idx = harvest_indexes(m, envelopes_for(m, clearance), sample_population(m))
+    return {"speed_rpm": float(speed_rpm), "ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
+            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
+            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"]}
+
+
+def removal_vs_frequency(machine: Machine, speeds_rpm, clearance: dict | None = None) -> list[dict]:
+    """Ripe removal, unripe shedding and damage against cam speed (one :func:`removal_at_speed` row each)."""
+    data = machine.model_dump(mode="json")
+    return [removal_at_speed(data, s, clearance) for s in speeds_rpm]
+

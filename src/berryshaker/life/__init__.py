@@ -5,5 +5,15 @@ the wear loop that grows it towards the study's levels (:mod:`berryshaker.life.f
 from berryshaker.life.fits import Fit, ToleranceZone, fit_summary, iso_fit, parse_fit, tolerance_zone
 from berryshaker.life.wear import JointWear, WearLife, clearance_size_from_fit, wear_life
 
-__all__ = ["Fit", "ToleranceZone", "fit_summary", "iso_fit", "parse_fit", "tolerance_zone",
-           "JointWear", "WearLife", "clearance_size_from_fit", "wear_life"]
+__all__ = [
+           "Fit",
+           "JointWear",
+           "ToleranceZone",
+           "WearLife",
+           "clearance_size_from_fit",
+           "fit_summary",
+           "iso_fit",
+           "parse_fit",
+           "tolerance_zone",
+           "wear_life",
+]

@@ -471,7 +471,7 @@ class Fit:
         distribution is symmetric about it)."""
         return 0.5 * (self.clearance_min + self.clearance_max)
 
-    def with_distribution(self, distribution: Distribution, cp: float | None = None) -> "Fit":
+    def with_distribution(self, distribution: Distribution, cp: float | None = None) -> Fit:
         """A copy with another clearance distribution (validated as in :func:`parse_fit`)."""
         _check_distribution(distribution, cp, explicit=self.hole is None)
         return replace(self, distribution=distribution, cp=cp)
@@ -520,10 +520,10 @@ class Fit:
 def _check_distribution(distribution: str, cp: float | None, explicit: bool) -> None:
     if distribution not in DISTRIBUTIONS:
         raise ConfigError(f"clearance distribution {distribution!r}: choose one of {', '.join(DISTRIBUTIONS)}")
-    if distribution == "normal":
-        if cp is None or not (isinstance(cp, (int, float)) and math.isfinite(cp) and cp > 0):
-            raise ConfigError(f"clearance distribution 'normal' needs a process capability cp > 0 "
-                              f"(e.g. cp=1.33), got {cp!r}")
+    cp_ok = isinstance(cp, (int, float)) and math.isfinite(cp) and cp > 0
+    if distribution == "normal" and not cp_ok:
+        raise ConfigError(f"clearance distribution 'normal' needs a process capability cp > 0 "
+                          f"(e.g. cp=1.33), got {cp!r}")
     if distribution == "uniform-parts" and explicit:
         raise ConfigError("clearance distribution 'uniform-parts' needs hole and shaft classes; an explicit "
                           "clearance range has no parts: use 'uniform' or 'normal'")

@@ -81,7 +81,8 @@ class JointWear:
                 raise ConfigError(f"joint wear: load_direction {self.load_direction!r}: choose 'fixed' or 'rotating'")
         elif self.geometry == "area":
             if self.wear_area is None or not (math.isfinite(self.wear_area) and self.wear_area > 0):
-                raise ConfigError(f"joint wear: wear_area must be > 0 (m^2) for geometry 'area', got {self.wear_area!r}")
+                raise ConfigError(f"joint wear: wear_area must be > 0 (m^2) for geometry 'area', "
+                                  f"got {self.wear_area!r}")
         else:
             raise ConfigError(f"joint wear: geometry {self.geometry!r}: choose 'pin-in-bore' or 'area'")
 

@@ -29,10 +29,12 @@ the displacement transmissibility (tested against the time-domain solution below
 Parameters of the pedicel (docs/plant.md).  No measured blueberry fruit-stem frequency is known to us;
 the nearest measured system of the same fruit size is the coffee fruit-stem system, natural
 frequencies 11.6 Hz (ripe) and 13.3 Hz (green), equivalent stiffness 8.6 and 7.1 N/m, damping
-coefficient 0.025 and 0.029 N s/m (Villibor, Santos, Queiroz, Khoury & Pinto 2016, "Determination of
-modal properties of the coffee fruit-stem system using high speed digital video and digital image
-processing", Acta Scientiarum. Technology 38(1), doi:10.4025/actascitechnol.v38i1.27344).  We take
-k = 10 N/m (w_n/2pi = 11.9 Hz at m0 = 1.8 g) and c = 0.027 N s/m (zeta = 0.10) [assumed, by analogy].
+coefficient 0.025 and 0.029 N s/m, i.e. damping ratio about 0.1 (Villibor, Santos, Queiroz, Khoury &
+Pinto 2016, "Determination of modal properties of the coffee fruit-stem system using high speed digital
+video and digital image processing", Acta Scientiarum. Technology 38(1),
+doi:10.4025/actascitechnol.v38i1.27344).  The reference machine's stiffness is calibrated (82.3 N/m,
+34 Hz; docs/plant.md), the damping ratio 0.10 is taken from the coffee system [assumed]; the
+function defaults below are those values.
 
 One-way coupling.  The fruit does not load the branch's modes in this model.  The error of that is
 governed by the modal mass ratio mu_k = m0 phi_k(z_m)^2 (phi mass-normalised; 1/phi_k^2 is the
@@ -141,7 +143,7 @@ def _one(t_step, m, k, c, y, v, acc):
 
 
 def stem_response(t, base_displacement=None, base_velocity=None, base_acceleration=None, mass=1.8e-3,
-                  stiffness=10.0, damping=0.027):
+                  stiffness=82.3, damping=0.077):
     """Relative displacement and stem force of fruit on compliant pedicels under a given branch motion.
 
     Parameters
@@ -228,8 +230,8 @@ def two_way_stem_force_frf(modes, z_force, z_fruit, mass, stiffness, damping, fr
     The branch's modal equations (mass-normalised, modal damping of the branch) and the fruit's
     equation are solved together in the frequency domain for a unit force at z_force:
 
-        (w_k^2 - w^2 + 2 i xi w_k w) q_k = phi_k(z_F) + phi_k(z_m) F_s,
-        F_s = -(k + i w c)(x - y),  y = sum_k phi_k(z_m) q_k,  -w^2 m0 x = F_s... (fruit on the stem)
+        (w_k^2 - w^2 + 2 i xi w_k w) q_k = phi_k(z_F) - phi_k(z_m) F_s,     y = sum_k phi_k(z_m) q_k,
+        -w^2 m0 x = F_s = (k + i w c)(y - x)     (F_s: stem force on the fruit; -F_s acts on the branch)
 
     Parameters
     ----------

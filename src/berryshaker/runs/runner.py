@@ -270,9 +270,25 @@ def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, 
     return outs
 
 
-def _watch_parent(ppid: int, interval: float = 0.5) -> None:
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:  # a killed parent not yet reaped is a zombie
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _watch_parent(ppid: int, parent_pid: int, interval: float = 0.5) -> None:
     while True:
-        if os.getppid() != ppid:  # re-parented: the process that started this worker is gone
+        # re-parented (the process that started this worker is gone), or, under a fork server, the main
+        # process is gone (the fork server lives on while any of its children does)
+        if os.getppid() != ppid or (ppid != parent_pid and not _alive(parent_pid)):
             os._exit(1)
         time.sleep(interval)
 
@@ -298,7 +314,7 @@ def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) 
     ppid = os.getppid()
     if start_method != "forkserver" and ppid != parent_pid:  # the parent died before the watch was armed
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(ppid,), name="berryshaker-parent-watch", daemon=True).start()
+    threading.Thread(target=_watch_parent, args=(ppid, parent_pid), name="berryshaker-parent-watch", daemon=True).start()
 
 
 # ---- the runner ----------------------------------------------------------------------------------------
