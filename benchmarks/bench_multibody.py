@@ -1,6 +1,10 @@
 """Benchmark: berryshaker's multibody engine vs Exudyn on the clearance slider-crank at matched
 accuracy, and harvester simulations per second.  Run:  python benchmarks/bench_multibody.py
 
+NOTE: the Exudyn model here computes the contact force in a Python user function (Exudyn has no
+Lankarani-Nikravesh element), which slows Exudyn down; the fair comparison against Exudyn's built-in
+C++ contact is benchmarks/bench_exudyn_contact.py (see benchmarks/README.md).
+
 Accuracy measure: the first-impact peak force of the rod-slider clearance joint, relative to a
 reference computed by berryshaker at rtol = 1e-10 (Exudyn converges to the same value, see the table).
 For each engine we take the cheapest setting whose error is below the target, then time the full
@@ -21,7 +25,10 @@ sys.path.insert(0, str(ROOT / "src"))
 
 from berryshaker.config import reference_machine  # noqa: E402
 from berryshaker.multibody.engine import initial_state, simulate_mechanism  # noqa: E402
-from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody  # noqa: E402
+try:
+    from berryshaker.drives.simulation import simulate_multibody as simulate_harvester_multibody  # noqa: E402
+except ImportError:  # older layout
+    from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody  # noqa: E402
 from berryshaker.multibody.spec import load_mechanism  # noqa: E402
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd  # noqa: E402
 

@@ -308,3 +308,17 @@ def test_workers_exit_when_the_parent_is_killed(tmp_path, pdeathsig):
                 os.kill(pid, signal.SIGKILL)
             except (ProcessLookupError, PermissionError):
                 pass
+
+
+def test_dask_cluster_runs_are_cached_by_the_client(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None,
+                                  protocol="tcp://") as cluster:
+        jobs = [dict(x=float(i)) for i in range(6)] + [dict(x=-1.0)]
+        r = SweepRunner(scheduler=cluster.scheduler_address, cache_dir=tmp_path / "cache", progress=False)
+        out = r.map(J.fail_on_negative, jobs)
+        assert [o.value["y"] for o in out[:6]] == [i * i for i in range(6)] and "x must be >= 0" in out[6].error
+        assert all(_entry(tmp_path, J.fail_on_negative, kw).is_file() for kw in jobs[:6])
+        again = SweepRunner(scheduler=cluster.scheduler_address, cache_dir=tmp_path / "cache", progress=False)
+        again.map(J.fail_on_negative, jobs)
+        assert again.stats["cached"] == 6 and again.stats["computed"] == 1

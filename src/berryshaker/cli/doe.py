@@ -11,6 +11,7 @@ from rich.table import Table
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.report.files import write_provenance
+from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
@@ -25,95 +26,153 @@ from berryshaker.cli.app import (
 
 
 def _parse_weights(text: Optional[str]) -> Optional[dict]:
-    if not text:
+    """``efficiency=0.5,damage=0.3`` -> {"efficiency": 0.5, "damage": 0.3}; the values are checked by
+    :func:`berryshaker.experiment.analysis.check_weights` (finite, > 0, analysed responses only)."""
+    if text is None:
         return None
-    out = {}
+    weights = {}
     for part in text.split(","):
+        if not part.strip():
+            continue
         if "=" not in part:
-            raise BerryshakerError(f"--weights: {part!r} is not NAME=VALUE")
-        k, v = (s.strip() for s in part.split("=", 1))
+            raise BerryshakerError(f"--weights: {part.strip()!r} is not NAME=VALUE, e.g. efficiency=0.5,damage=0.3")
+        k, v = (x.strip() for x in part.split("=", 1))
         try:
-            out[k] = float(v)
+            weights[k] = float(v)
         except ValueError:
-            raise BerryshakerError(f"--weights: {v!r} is not a number") from None
-        if out[k] < 0:
-            raise BerryshakerError(f"--weights: {k} must be >= 0")
-    return out
+            raise BerryshakerError(f"--weights: {k}={v!r}: {v!r} is not a number") from None
+    return weights
+
+
+def _senses(maximize: str, minimize: str) -> dict[str, bool]:
+    up = [r.strip() for r in maximize.split(",") if r.strip()]
+    down = [r.strip() for r in minimize.split(",") if r.strip()]
+    both = sorted(set(up) & set(down))
+    if both:
+        raise BerryshakerError(f"{', '.join(both)} is named in both --maximize and --minimize; name it once")
+    senses = {r: True for r in up}
+    senses.update({r: False for r in down})
+    if not senses:
+        raise BerryshakerError("name at least one response with --maximize or --minimize, e.g. "
+                               "--maximize efficiency --minimize unripe,damage")
+    return senses
+
+
+def _plan_paths(out_file: Path) -> tuple[Path, Path]:
+    """Field sheet CSV and printable HTML from one --out: ``plan``, ``plan.csv`` or ``plan.html`` all give
+    ``plan.csv`` + ``plan.html`` (the CSV is never overwritten by the HTML)."""
+    if out_file.is_dir():
+        raise BerryshakerError(f"--out {out_file} is a folder; give a file name, e.g. {out_file / 'plan.csv'}")
+    ext = out_file.suffix.lower()
+    if ext not in ("", ".csv", ".html", ".htm"):
+        raise BerryshakerError(f"--out {out_file}: name the field sheet *.csv (the printable *.html is written "
+                               "beside it)")
+    stem = out_file.with_suffix("") if ext else out_file
+    return stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".html")
 
 
 @command(doe_app, "plan")
 def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
-    factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; repeat."),
+    factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3\\[unit], e.g. A=0.25,0.5,0.75mm; "
+                                     "repeat."),
     randomize: bool = typer.Option(False, "--randomize", help="Randomise the run order (needs --seed)."),
-    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the randomised order."),
-    out_file: Path = typer.Option(..., "--out", "-o", help="Field sheet CSV; a printable .html is written beside it."),
+    seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the randomised order (an integer >= 0)."),
+    out_file: Path = typer.Option(..., "--out", "-o", help="Field sheet: NAME.csv, and the printable NAME.html "
+                                  "beside it (--out NAME.html gives the same two files)."),
+    force: bool = typer.Option(False, "--force", help="Replace existing sheets of that name."),
 ):
     """Write a field sheet: run, run order, factor levels (units in the header), empty response columns."""
     try:
         from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
-        from berryshaker.report.files import write_text_atomic
+        from berryshaker.report.files import check_output_file, write_text_atomic
 
+        if seed is not None and seed < 0:
+            raise BerryshakerError(f"--seed {seed}: the seed must be an integer >= 0")
+        csv_path, html_path = _plan_paths(out_file)
         factors = [parse_factor(f) for f in factor]
         names = [f.name for f in factors]
         if len(set(names)) != len(names):
             raise BerryshakerError("factor names must be distinct")
+        check_output_file(csv_path, allowed_suffixes=(".csv",), overwrite=force)
+        check_output_file(html_path, allowed_suffixes=(".html",), overwrite=force)
         df = plan_table(array, factors, randomize, seed)
-        write_text_atomic(out_file, df.to_csv(index=False))
-        write_text_atomic(out_file.with_suffix(".html"), plan_html(df, f"berryshaker field sheet: {array} test of "
-                                                                       f"{', '.join(names)}"))
+        write_text_atomic(csv_path, df.to_csv(index=False))
+        write_text_atomic(html_path, plan_html(df, f"berryshaker field sheet: {array} test of {', '.join(names)}"))
     except BerryshakerError as exc:
         _fail(exc)
         return
-    err.print(f"wrote {out_file} and {out_file.with_suffix('.html')} ({len(df)} runs)")
+    err.print(f"wrote {csv_path} and {html_path} ({len(df)} runs)", markup=False, highlight=False)
 
 
 @command(doe_app, "analyze")
 def doe_analyze(
-    results: Path = typer.Argument(..., help="Filled field sheet (CSV)."),
+    results: Path = typer.Argument(..., help="Filled field sheet (CSV): `doe plan` columns, or plain factor "
+                                   "columns holding level values."),
     maximize: str = typer.Option("", "--maximize", help="Responses where larger is better, e.g. efficiency."),
     minimize: str = typer.Option("", "--minimize", help="Responses where smaller is better, e.g. unripe,damage."),
-    weights: Optional[str] = typer.Option(None, "--weights", help="e.g. efficiency=0.5,damage=0.3,unripe=0.2"),
+    weights: Optional[str] = typer.Option(None, "--weights", help="Weights of the composite score, e.g. "
+                                          "efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a response left out "
+                                          "gets no weight). Default: equal weights."),
     as_json: bool = JsonOpt,
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
+    report: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the analysis to a file: *.html "
+                                          "(printable report) or *.json."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
 ):
     """Range analysis, weighted optimum, pooled ANOVA and the eq. 19 regression of a field test.
 
     Responses: efficiency, unripe, damage (from indexes or raw masses in the sheet) or any numeric column.
     """
     try:
-        import numpy as np
-
         from berryshaker.experiment.analysis import analyze
         from berryshaker.experiment.field_sheet import read_results
 
-        senses = {r.strip(): True for r in maximize.split(",") if r.strip()}
-        senses.update({r.strip(): False for r in minimize.split(",") if r.strip()})
-        if not senses:
-            raise BerryshakerError("name at least one response with --maximize or --minimize")
+        if report is not None:
+            from berryshaker.report.files import check_output_file
+
+            if report.is_dir():
+                raise BerryshakerError(f"--out {report} is a folder; give a file name, e.g. "
+                                       f"{report / 'analysis.html'}")
+            check_output_file(report, allowed_suffixes=(".html", ".json"), overwrite=force)
+        if plot is not None:
+            from berryshaker.report.files import prepare_output_dir
+
+            prepare_output_dir(plot, kind="plots")
+        senses = _senses(maximize, minimize)
         fr = read_results(results, list(senses))
-        df = fr.table
-        levels = df[fr.factors].to_numpy(int)
-        value_cols = [next((c for c in df.columns if c.startswith(n + "_") and not c.endswith("_level")), None)
-                      for n in fr.factor_names]
-        values = np.column_stack([df[c].to_numpy(float) if c else levels[:, i] for i, c in enumerate(value_cols)])
-        res = analyze(levels, values, fr.factor_names, fr.responses, senses, _parse_weights(weights))
+        res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, _parse_weights(weights),
+                      level_values=fr.level_values, units=fr.units)
+        res["weights_given"] = weights is not None
+        res["results_file"] = str(results)
         res["version"] = __version__
         if plot is not None:
+            from berryshaker.experiment.analysis import quadratic_regression
             from berryshaker.report.files import staged_directory
             from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
 
-            with staged_directory(plot) as stage:
-                plot_main_effects(res, stage / "main_effects.png")
+            known = {f: v for f, v in fr.level_values.items() if v is not None}
+            with staged_directory(plot, kind="plots") as stage:
+                plot_main_effects(res, stage / "main_effects.png", level_values=known or None, factor_unit="-")
                 write_provenance(stage, results_file=str(results))
-                from berryshaker.experiment.analysis import quadratic_regression
-
-                for r, y in fr.responses.items():
-                    if len(fr.factor_names) >= 2:
-                        plot_response_surfaces(values, y, fr.factor_names,
-                                               quadratic_regression(values, y, fr.factor_names), r,
-                                               stage / f"surface_{r}.png")
+                if len(fr.factor_names) >= 2:
+                    units = {u for f, u in fr.units.items() if fr.level_values.get(f) is not None}
+                    unit = units.pop() if len(units) == 1 and "" not in units else "-"
+                    for r, y in fr.responses.items():
+                        plot_response_surfaces(fr.values, y, fr.factor_names,
+                                               quadratic_regression(fr.values, y, fr.factor_names), r,
+                                               stage / f"surface_{r}.png", factor_unit=unit)
             res["plots"] = sorted(str(p) for p in plot.glob("*.png"))
+        if report is not None:
+            from berryshaker.report.files import provenance, write_json_atomic, write_text_atomic
+
+            if report.suffix.lower() == ".json":
+                write_json_atomic(report, {**res, "provenance": provenance(results_file=str(results))})
+            else:
+                from berryshaker.report.html import doe_report
+
+                write_text_atomic(report, doe_report(res, f"Field test analysis: {results.name}"))
+            res["out"] = str(report)
     except BerryshakerError as exc:
         _fail(exc)
         return
@@ -121,11 +180,44 @@ def doe_analyze(
         _print_json(res)
         return
     _print_doe(res)
+    for p in res.get("plots", []):
+        err.print(f"wrote {p}", markup=False, highlight=False)
+    if res.get("out"):
+        err.print(f"wrote {res['out']}", markup=False, highlight=False)
+
+
+def _decimals(values) -> int:
+    """Decimals that give the largest |value| of a group four significant digits; the whole group is printed
+    with them, so 3 and 3.65 read "3.000" and "3.650", never "3" beside "3.65"."""
+    import math
+
+    vals = [abs(float(v)) for v in values if v is not None and math.isfinite(float(v))]
+    top = max(vals, default=0.0)
+    if top == 0.0:
+        return 3
+    return max(0, min(6, 3 - int(math.floor(math.log10(top)))))
+
+
+def _unit(response: str) -> str:
+    from berryshaker.report.style import RESPONSE_UNITS
+
+    u = RESPONSE_UNITS.get(response, "")
+    return f" {u}" if u else ""
+
+
+def weights_text(res: dict) -> str:
+    """The composite's weights as one line, e.g. "efficiency 0.50, damage 0.30, unripe 0.20 (given, scaled
+    to sum 1)"."""
+    w = res.get("weights") or {}
+    how = "given with --weights, scaled to sum 1" if res.get("weights_given") else "equal: no --weights given"
+    return ", ".join(f"{k} {v:.2f}" for k, v in w.items()) + f" ({how})"
 
 
 def _print_doe(res: dict) -> None:
+    factors_rep = res.get("factors") or {}
     for name, ra in res["responses"].items():
-        t = Table(title=f"{name} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis", header_style="bold")
+        t = Table(title=f"{name}{_unit(name)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis",
+                  header_style="bold")
         t.add_column("factor")
         nlev = len(next(iter(ra["factors"].values()))["level_means"])
         for j in range(nlev):
@@ -133,19 +225,27 @@ def _print_doe(res: dict) -> None:
         for col in ("R", "best", "ANOVA F", "p"):
             t.add_column(col, justify="right")
         an = ra["anova"]["factors"]
+        dec = _decimals([v for d in ra["factors"].values() for v in d["level_means"]])
         for f, d in ra["factors"].items():
             a = an.get(f)
-            t.add_row(f, *[f"{v:.4g}" for v in d["level_means"]], f"{d['range']:.4g}", str(d["best_level"]),
+            labels = (factors_rep.get(f) or {}).get("labels")
+            best = str(d["best_level"]) + (f" ({labels[d['best_level'] - 1]})" if labels and (factors_rep[f].get(
+                "values") is not None) else "")
+            t.add_row(f, *[f"{v:.{dec}f}" for v in d["level_means"]], f"{d['range']:.{dec}f}", best,
                       f"{a['f']:.3g}" if a else "pooled", f"{a['p']:.3g}" if a else "")
         out.print(t)
         reg = ra["regression"]
         out.print(f"  ranking {' > '.join(ra['ranking'])}; eq. 19 full quadratic: rank {reg['full_model_rank']} "
                   f"of {len(reg['full_model_terms'])} terms, aliased: {', '.join(reg['aliased_terms']) or 'none'}; "
                   f"main-effects quadratic R² = {reg['main_effects_quadratic']['r2']:.3f} with "
-                  f"{reg['main_effects_quadratic']['residual_df']} residual df")
+                  f"{reg['main_effects_quadratic']['residual_df']} residual df", markup=False)
     o = res["optimum"]
-    out.print("[bold]weighted optimum[/]: " + " ".join(f"{f}{lv}" for f, lv in o["levels"].items()) + "  predicted "
-              + ", ".join(f"{k} {v:.3g}" for k, v in o["values"].items()))
+    settings = o.get("settings") or {}
+    lv = " ".join(f"{f}{n}" + (f" ({settings[f]})" if f in settings and not str(settings[f]).startswith("level")
+                               else "") for f, n in o["levels"].items())
+    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k)}" for k, v in o["values"].items())
+    out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
+    out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
 
 
 @command(doe_app, "virtual")
@@ -181,7 +281,9 @@ def doe_virtual(
             pairs = list(machine.pair_names)
             values = np.array([[r["clearance_mm"][p] for p in pairs] for r in res["runs"]])
             with staged_directory(plot) as stage:
-                plot_main_effects(res, stage / "main_effects.png", "Virtual L9 test: main effects")
+                plot_main_effects(res, stage / "main_effects.png", "Virtual L9 test: main effects",
+                                  level_values={p: [v * 1e3 for v in machine.clearance_levels()[p]] for p in pairs},
+                                  factor_unit="mm")
                 write_provenance(stage, machine)
                 for r in ("efficiency", "unripe", "damage"):
                     y = np.array([run[r] for run in res["runs"]])

@@ -11,6 +11,7 @@ from rich.table import Table
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.report.files import write_provenance
+from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
@@ -106,21 +107,51 @@ def _print_comb_rows(t, s: dict) -> None:
     t.add_row("comb frequency", f"{d['comb_frequency_hz']:.3f} Hz", "")
 
 
+CAM_PROFILE_FORMATS = {".csv": "csv", ".dxf": "dxf"}
+
+
+def _cam_profile_format(out_file: Path, fmt: Optional[str]) -> str:
+    """The export format: ``--format`` if given, else from the file name's extension; a mismatch is an error."""
+    ext = out_file.suffix.lower()
+    if fmt is not None:
+        fmt = fmt.strip().lower()
+        if fmt not in CAM_PROFILE_FORMATS.values():
+            raise BerryshakerError(f"--format must be csv or dxf, got {fmt!r}")
+        if ext in CAM_PROFILE_FORMATS and CAM_PROFILE_FORMATS[ext] != fmt:
+            raise BerryshakerError(f"--format {fmt} does not match the file name {out_file.name} ({ext}); "
+                                   f"name the file *.{fmt} or drop --format")
+        if ext not in CAM_PROFILE_FORMATS:
+            raise BerryshakerError(f"--out {out_file}: name the file *.{fmt} (the extension says the format)")
+        return fmt
+    if ext not in CAM_PROFILE_FORMATS:
+        raise BerryshakerError(f"--out {out_file}: cannot tell the format from {ext or 'a name without extension'}; "
+                               "name the file *.csv or *.dxf")
+    return CAM_PROFILE_FORMATS[ext]
+
+
 @command(app, "cam-profile")
 def cam_profile(
-    out_file: Path = typer.Option(..., "--out", "-o", help="Output file."),
-    fmt: str = typer.Option("csv", "--format", "-f", help="csv (angle + pitch/inner/outer in mm) or dxf "
-                            "(closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL)."),
+    out_file: Path = typer.Option(..., "--out", "-o", help="Output file, *.csv or *.dxf (the extension sets the "
+                                  "format)."),
+    fmt: Optional[str] = typer.Option(None, "--format", "-f", help="csv (angle + pitch/inner/outer in mm) or dxf "
+                                      "(closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL). Default: from the "
+                                      "extension of --out."),
     config: Optional[Path] = ConfigOpt,
     points: int = typer.Option(1441, "--points", min=90, help="Points per revolution."),
+    force: bool = typer.Option(False, "--force", help="Replace an existing file."),
 ):
     """Export the groove walls of the cam (study eq. 2, corrected) for CAM."""
     try:
+        import os
+
         from berryshaker.drives.groove_cam.kinematics import check_machine
         from berryshaker.drives.groove_cam.profile_export import write_groove_csv, write_groove_dxf
+        from berryshaker.report.files import check_output_file
 
-        if fmt not in ("csv", "dxf"):
-            raise BerryshakerError(f"--format must be csv or dxf, got {fmt!r}")
+        if out_file.is_dir():
+            raise BerryshakerError(f"--out {out_file} is a folder; give a file name, e.g. {out_file / 'cam.dxf'}")
+        fmt = _cam_profile_format(out_file, fmt)
+        check_output_file(out_file, allowed_suffixes=(f".{fmt}",), overwrite=force)
         machine = _load(config)
         if machine.DRIVE != "groove_cam":
             raise BerryshakerError(f"cam-profile exports a groove cam; the {machine.DRIVE} drive has none")
@@ -129,10 +160,15 @@ def cam_profile(
             write_groove_csv(machine, out_file, points)
         else:
             write_groove_dxf(machine, out_file, points)
+            # the DXF writer saves through tempfile.mkstemp (mode 0600) and renames: give it the mode of every
+            # other output, 0666 less the umask (as report.files.write_text_atomic does for the CSV)
+            mask = os.umask(0)
+            os.umask(mask)
+            os.chmod(out_file, 0o666 & ~mask)
     except BerryshakerError as exc:
         _fail(exc)
         return
-    err.print(f"wrote {out_file} ({fmt}, {points} points per wall)")
+    err.print(f"wrote {out_file} ({fmt}, {points} points per wall)", markup=False, highlight=False)
 
 
 @command(config_app, "show")

@@ -11,11 +11,13 @@ from rich.table import Table
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.report.files import write_provenance
+from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
     app,
     command,
+    err,
     out,
     _fail,
     _load,
@@ -77,6 +79,15 @@ def plant(
         t.add_row(str(i + 1), f"{a['frequency_hz']:.4f} Hz", f"{f['frequency_hz']:.4f} Hz",
                   f"{abs(f['frequency_hz'] - a['frequency_hz']) / a['frequency_hz']:.1e}")
     out.print(t)
+    _print_written(res)
+
+
+def _print_written(res: dict) -> None:
+    """One "wrote ..." line per written figure or folder (on stderr, like every other command's)."""
+    for p in res.get("plots", []):
+        err.print(f"wrote {p}", markup=False, highlight=False)
+    if res.get("out"):
+        err.print(f"wrote {res['out']} (fruit_force.csv, summary.json)", markup=False, highlight=False)
 
 
 @command(app, "fruit-force")
@@ -110,7 +121,8 @@ def fruit_force_cmd(
 
             if plot is not None:
                 with staged_directory(plot) as stage:
-                    plot_fruit_force(res.distance, res.fruit_force, STUDY_FRUIT_FORCE_N, stage / "fruit_force.png")
+                    plot_fruit_force(res.distance, res.fruit_force, STUDY_FRUIT_FORCE_N, stage / "fruit_force.png",
+                                     peaks={n: d["peak_force_N"] for n, d in summary["positions"].items()})
                     write_provenance(stage, res.machine)
                 summary["plots"] = [str(plot / "fruit_force.png")]
             if out_dir is not None:
@@ -138,3 +150,4 @@ def fruit_force_cmd(
     out.print(t)
     out.print(f"force rises from root to end: {'yes' if summary['rises_root_to_end'] else 'no'}; "
               f"{summary['steps']} steps in {summary['wall_time_s']:.2f} s")
+    _print_written(summary)

@@ -11,6 +11,7 @@ from rich.table import Table
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.report.files import write_provenance
+from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
@@ -70,6 +71,9 @@ def simulate(
             from berryshaker.drives.simulation import simulate_multibody
 
             result, summary = simulate_multibody(machine, sizes, revolutions=revolutions)
+            guide = _guide_reaction(result)
+            if guide is not None:
+                summary["guide_reaction_N"] = guide
         summary["version"] = __version__
         if out_dir is not None:
             if model == "mlsd":
@@ -95,9 +99,28 @@ def simulate(
     t.add_row("cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
     for b, st in summary.get("bearing_reaction_N", {}).items():
         t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
+    for b, st in summary.get("guide_reaction_N", {}).items():
+        if isinstance(st, dict):
+            t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
     out.print(t)
     out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms"
               + (f"; wrote {out_dir}" if out_dir is not None else ""))
+
+
+def _guide_reaction(result) -> dict | None:
+    """Reaction of the push-rod guide (a prismatic joint named "guide") in the multibody model: the net force
+    normal to the guide, G + H of the MLSD table (the engine does not split it between the two bearings), with
+    peak, mean and rms of its magnitude over the statistics window, from the written samples.  None when the
+    mechanism has no joint "guide"."""
+    import numpy as np
+
+    if "guide" not in result.compiled.con_names:
+        return None
+    sel = result.t >= result.stats_from - 1e-12
+    y = np.abs(np.asarray(result.reaction("guide"), float)[sel])
+    return {"G+H (net normal)": {"peak": float(y.max()), "mean": float(y.mean()),
+                                 "rms": float(np.sqrt(np.mean(y**2)))},
+            "note": "net force normal to the push-rod guide (G + H); peaks from the written samples"}
 
 
 def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> None:
@@ -155,7 +178,7 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     import numpy as np
 
     from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from berryshaker.report.plots import plot_time_series
+    from berryshaker.report.plots import plot_joint_forces
 
     cm = result.compiled
     with staged_directory(out_dir) as stage:
@@ -167,15 +190,18 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
         cols += ["T_l_Nm", "T_r_Nm", "drive_moment_Nm"]
         data += [result.element_force("bush_left"), result.element_force("bush_right"),
                  -result.reaction("drive")]
+        if "guide" in cm.con_names:
+            cols.append("guide_normal_N")
+            data.append(result.reaction("guide"))
         arr = np.column_stack(data)
         write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
                           "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
         write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(machine)})
         sel = result.t >= result.stats_from
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in machine.clearance_sizes().items())
-        plot_time_series(result.t[sel], {f"|F_{p}|": np.abs(arr[sel, 1 + i]) for i, p in enumerate(pairs)},
-                         "collision force (N)", stage / "collision_forces.png",
-                         f"Clearance collision forces (multibody): {sizes_txt}")
+        plot_joint_forces(result.t[sel], {p: np.abs(arr[sel, 1 + i]) for i, p in enumerate(pairs)},
+                          stage / "collision_forces.png",
+                          f"Clearance collision forces (multibody), clearances {sizes_txt}")
 
 
 @command(app)
@@ -210,8 +236,9 @@ def compare(
             with staged_directory(plot) as stage:
                 write_provenance(stage, machine, clearance_mm=res["clearance_mm"])
                 for p, (a, b) in series.items():
-                    plot_time_series(t, {"multibody": a, "MLSD": b}, "collision force (N)",
-                                     stage / f"compare_{p}.png", f"Pair {p}: MLSD vs multibody (study Figs. 14-17)")
+                    plot_time_series(t, {"multibody": a, "MLSD": b}, f"collision force at {p} [N]",
+                                     stage / f"compare_{p}.png", f"Pair {p}: MLSD vs multibody (study Figs. 14-17)",
+                                     zoom="peak")
             res["plots"] = [str(plot / f"compare_{p}.png") for p in series]
     except BerryshakerError as exc:
         _fail(exc)
@@ -233,7 +260,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
 
     from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
     from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from berryshaker.report.plots import plot_time_series
+    from berryshaker.report.plots import plot_joint_forces, plot_time_series
 
     with staged_directory(out_dir) as stage:
         cols = ["time_s", "cam_angle_deg", "x_m", "theta_D_rad", "u_m", "theta_E_rad"] + list(RESULT_COLUMNS)
@@ -245,9 +272,9 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
         write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(result.machine)})
         sel = result.t >= result.stats_from
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in result.clearance.items())
-        plot_time_series(result.t[sel], {f"|F_{p}|": np.abs(result.series(f"F_{p}_N"))[sel] for p in "ABCF"},
-                         "collision force (N)", stage / "collision_forces.png",
-                         f"Clearance collision forces (MLSD, study eq. 8): {sizes_txt}")
+        plot_joint_forces(result.t[sel], {p: np.abs(result.series(f"F_{p}_N"))[sel] for p in result.clearance},
+                          stage / "collision_forces.png",
+                          f"Clearance collision forces (MLSD, study eq. 8), clearances {sizes_txt}")
         plot_time_series(result.t[sel], {"T_l": result.series("T_l_Nm")[sel], "T_r": result.series("T_r_Nm")[sel],
                                          "M (cam)": result.series("drive_moment_Nm")[sel]},
-                         "moment (N m)", stage / "moments.png", "Comb load moments and cam drive moment")
+                         "moment [N m]", stage / "moments.png", "Comb load moments and cam drive moment")

@@ -64,6 +64,8 @@ class ClearancePair(StrictModel):
     travel across the groove or slot (width minus roller diameter) of a roller pair.  ``law`` names a law of
     :mod:`berryshaker.contact.laws`; ``stiffness`` is K in N/m^n, ``damping`` the viscous coefficient
     (MLSD) or cmax (IMPACT), ``damping_depth`` the penetration at which IMPACT reaches full damping.
+    ``fit``, ``diameter``, ``bearing_length`` and ``material_pair`` describe the joint for its wear life
+    (:mod:`berryshaker.life`) and are optional.
     """
 
     kind: Literal["pin-in-bore", "roller-in-groove", "roller-in-slot"]
@@ -75,6 +77,12 @@ class ClearancePair(StrictModel):
     damping_depth: Length = 1e-5
     restitution: float = Field(0.9, gt=0, le=1)
     levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
+    # clearance life (berryshaker.life; docs/life.md).  None: the documented [assumed] defaults of
+    # berryshaker.life.joint_loads.  They do not enter the dynamics (the mechanism has no pin radius).
+    fit: str | None = None  # ISO 286 fit on the drawing, e.g. "H8/f7" (hole/shaft at ``diameter``)
+    diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
+    bearing_length: Length | None = None  # axial length of the contact (bush length, roller width)
+    material_pair: str | None = None  # key of berryshaker.contact.wear.MATERIAL_PAIRS
 
     @model_validator(mode="before")
     @classmethod
@@ -243,9 +251,18 @@ class MachineBase(StrictModel):
             if isinstance(size, bool) or not isinstance(size, (int, float)) or not math.isfinite(size) or size < 0:
                 raise ConfigError(f"clearance {pair}: size must be a finite length >= 0, got {size!r}")
             data["clearance"][pair]["size"] = float(size)
-        from berryshaker.config import machine_from_dict
+        from pydantic import ValidationError
 
-        return machine_from_dict(data, "(clearance override)", getattr(self, "__provenance__", None))
+        from berryshaker.quantity_fields import format_validation_error
+
+        try:
+            machine = type(self).model_validate(data)
+        except ValidationError as err:
+            raise ConfigError(format_validation_error(err, "(clearance override)")) from None
+        tags = getattr(self, "__provenance__", None)
+        if tags:
+            object.__setattr__(machine, "__provenance__", dict(tags))
+        return machine
 
     # ---- geometry every drive provides ------------------------------------------------------------
     @property

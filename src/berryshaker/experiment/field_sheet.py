@@ -365,17 +365,21 @@ def _split_unit(col: str) -> tuple[str, str] | None:
 
 
 def _balance_problem(sheet: _Sheet, col: str, x: np.ndarray) -> None:
-    """In an orthogonal array every level of a column occurs equally often: a value that occurs less often
-    than the others is a typo (it matches no level)."""
+    """In an orthogonal array every level of a column occurs equally often: a value that occurs less than half
+    as often as the typical level is a stray (a typo matching no level).  A cell changed to another level
+    leaves no stray; the orthogonality check reports it."""
     vals, counts = np.unique(x, return_counts=True)
-    if len(vals) < 2 or counts.min() == counts.max():
+    if len(vals) < 2:
         return
-    rare = vals[counts == counts.min()]
-    others = vals[counts > counts.min()]
-    i = int(np.flatnonzero(np.isin(x, rare))[0])
+    typical = float(np.median(counts))
+    stray = vals[counts < typical / 2]
+    others = vals[counts >= typical / 2]
+    if len(stray) == 0 or len(others) < 2:
+        return
+    i = int(np.flatnonzero(np.isin(x, stray))[0])
     raise ConfigError(f"{sheet.where(i, col)}: {x[i]:g} matches no level ({', '.join(f'{v:g}' for v in others)}) "
-                      f"and occurs only {int(counts.min())} time(s) where each level occurs "
-                      f"{int(counts.max())} times; correct the cell")
+                      f"and occurs only {int(counts[vals == x[i]][0])} time(s) where a level occurs about "
+                      f"{typical:g} times; correct the cell")
 
 
 def _codes_for(sheet: _Sheet, col: str, x: np.ndarray, levels: tuple[float, ...], fname: str, unit: str,

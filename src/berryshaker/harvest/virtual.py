@@ -49,24 +49,8 @@ def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, 
     m = machine_from_dict(d)
     res = simulate_fruit_force(m, clearance)
     # fruit forces are m0 * acceleration; recover accelerations on the grid from the modal solution
-    cm = res.result.compiled
-    from berryshaker.plant.modes import branch_modes
-
-    modes = branch_modes(m.plant.branch, m.plant.contact.n_modes)
-    nb3 = 3 * len(cm.spec.bodies)
-    nm = len(modes.omega)
-    n = cm.n
-    y = res.result.y
-    eta, etad = y[:, nb3:nb3 + nm], y[:, n + nb3:n + nb3 + nm]
-    w = modes.omega
-    zeta = m.plant.branch.damping_ratio
-    etadd = -(w**2) * eta - 2 * zeta * w * etad
-    for row, c in enumerate(cm.spec.plant.contacts):
-        k = cm.frc_names.index(c.name)
-        etadd += np.outer(c.side * res.result.elements[:, k, 0], cm.model[13][row])
-    phi = modes.shape_at(Z_GRID * m.plant.branch.length)  # (nm, nz)
-    acc = etadd @ phi
-    return np.max(np.abs(acc), axis=0)
+    acc = res.motion.lateral(Z_GRID * m.plant.branch.length)[2]  # (nz, n_t)
+    return np.max(np.abs(acc), axis=1)
 
 
 #: fruit-mass factors (of m0) of the stem-force envelope table; fruit in between are interpolated in log mass
@@ -81,8 +65,7 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
     (berryshaker.plant.coupled.stem_forces, berryshaker.plant.pedicel).  With ``pedicel.rigid`` the
     table is m x the peak branch acceleration (eq. 16).
     """
-    from berryshaker.plant.coupled import branch_motion, simulate_fruit_force, stem_forces
-    from berryshaker.plant.modes import branch_modes
+    from berryshaker.plant.coupled import simulate_fruit_force, stem_forces
 
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale
@@ -90,7 +73,7 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
     m = machine_from_dict(d)
     res = simulate_fruit_force(m, clearance)
     pl = m.plant
-    motion = branch_motion(res.result, branch_modes(pl.branch, pl.contact.n_modes))
+    motion = res.motion
     z = Z_GRID * pl.branch.length
     masses = MASS_FACTORS * pl.fruit.mass
     if pl.fruit.pedicel.rigid:

@@ -108,7 +108,7 @@ class JointWear:
         return float(volume[-1]) * self.depth_per_volume / duration
 
 
-def clearance_size_from_fit(fit: Fit, joint_kind: Literal["revolute", "point-line"],
+def clearance_size_from_fit(fit: Fit, joint_kind: str,
                             which: Literal["min", "mean", "max"] = "mean") -> float:
     """A joint's clearance ``size`` (m) from a fit, in the machine description's convention.
 
@@ -116,9 +116,9 @@ def clearance_size_from_fit(fit: Fit, joint_kind: Literal["revolute", "point-lin
     ----------
     fit : Fit
         Diametral clearance limits.
-    joint_kind : {"revolute", "point-line"}
-        "revolute" (pin in bore): radial clearance = diametral / 2.  "point-line" (roller in a groove,
-        groove width against roller diameter): free travel = diametral value.
+    joint_kind : {"pin-in-bore", "roller-in-groove", "roller-in-slot"}
+        A pin in a bore: radial clearance = diametral / 2.  A roller in a groove or slot (width against roller
+        diameter): free travel = diametral value.  The 0.1.0 names "revolute" and "point-line" are accepted.
     which : {"min", "mean", "max"}
         Which value of the fit.
 
@@ -130,10 +130,10 @@ def clearance_size_from_fit(fit: Fit, joint_kind: Literal["revolute", "point-lin
     value = {"min": fit.clearance_min, "mean": fit.clearance_mean, "max": fit.clearance_max}.get(which)
     if value is None:
         raise ConfigError(f"which={which!r}: choose 'min', 'mean' or 'max'")
-    if joint_kind == "revolute":
+    if joint_kind in ("pin-in-bore", "revolute"):
         value /= 2.0
-    elif joint_kind != "point-line":
-        raise ConfigError(f"joint kind {joint_kind!r}: choose 'revolute' or 'point-line'")
+    elif joint_kind not in ("roller-in-groove", "roller-in-slot", "point-line"):
+        raise ConfigError(f"joint kind {joint_kind!r}: choose pin-in-bore, roller-in-groove or roller-in-slot")
     return max(value, 0.0)
 
 

@@ -5,6 +5,7 @@ the machine-to-plant distance, and the eq. 17 verdict per position."""
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -21,6 +22,35 @@ from berryshaker.plant.response import harvest_verdict
 
 #: the study's fruit-force ranges (N) at the root, middle and end of the branch [study, claim 5]
 STUDY_FRUIT_FORCE_N = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 1.2)}
+
+
+@functools.lru_cache(maxsize=32)
+def _fruit_branch(branch_key: tuple, n_modes: int, z: tuple, mass: float, stiffness: float, damping: float):
+    from berryshaker.plant.branch import Branch
+    from berryshaker.plant.modes import analytic_modes
+    from berryshaker.plant.pedicel import fruit_branch_modes
+
+    return fruit_branch_modes(analytic_modes(Branch(*branch_key), n_modes), np.array(z), mass, stiffness, damping)
+
+
+def plant_modes(machine: Machine):
+    """Modes the coupled run integrates: ``(modes, fruit_branch)``.
+
+    With the pedicel model and ``pedicel.coupling = "two_way"`` (default) the named fruit sit on their
+    stems inside the modal model (berryshaker.plant.pedicel.fruit_branch_modes: n_modes branch modes
+    + one mode per fruit); ``fruit_branch`` then gives the fruit displacements.  Otherwise the branch's
+    own modes (study eq. 15) and ``None``.
+    """
+    pl = machine.plant
+    modes = branch_modes(pl.branch, pl.contact.n_modes)
+    ped = pl.fruit.pedicel
+    if ped.rigid or ped.coupling == "one_way":
+        return modes, None
+    b = pl.branch
+    key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
+    z = tuple(float(f * b.length) for f in pl.fruit.positions)
+    fb = _fruit_branch(key, pl.contact.n_modes, z, pl.fruit.mass, ped.stiffness, ped.damping)
+    return fb.modes, fb
 
 
 def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15):
@@ -46,7 +76,7 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     k_contact, n_contact = ct.impact_stiffness(
         pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter) * station
                                    / pl.branch.length))
-    modes = branch_modes(pl.branch, ct.n_modes)
+    modes = plant_modes(machine)[0]
     spec["plant"] = dict(
         omega=modes.omega.tolist(), damping_ratio=pl.branch.damping_ratio,
         shapes=[np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist()
@@ -92,6 +122,7 @@ class FruitForceResult:
     rigid_force: dict[str, np.ndarray] = field(default_factory=dict)  # eq. 16, m0 x branch acceleration (N)
     stem_lateral: dict[str, np.ndarray] = field(default_factory=dict)  # lateral stem force on the fruit (N)
     stem_axial: dict[str, np.ndarray] = field(default_factory=dict)  # axial stem force incl. weight (N)
+    motion: "BranchMotion | None" = field(default=None, repr=False)  # modal solution, for post-processing
 
     def summary(self) -> dict:
         """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics."""
@@ -215,13 +246,16 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     """Drive the harvester past one branch and record the fruit harvesting force.
 
     With the pedicel model (default) the force is the stem force of a fruit on a compliant stem
-    (berryshaker.plant.pedicel, one-way coupled); with ``plant.fruit.pedicel.rigid`` it is the study's
+    (berryshaker.plant.pedicel; lateral: two-way coupled inside the modal model, or one-way by
+    post-processing with ``pedicel.coupling = "one_way"``; axial: one-way, from the branch's
+    foreshortening); with ``plant.fruit.pedicel.rigid`` it is the study's
     eq. 16, m0 x branch acceleration at the fruit.  Both are returned (``rigid_force`` is always eq. 16).
     """
     spec, machine = coupled_mechanism(machine, clearance)
     res = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
     pl = machine.plant
-    motion = branch_motion(res, branch_modes(pl.branch, pl.contact.n_modes))
+    modes, fb = plant_modes(machine)
+    motion = branch_motion(res, modes)
     ped = pl.fruit.pedicel
     m0 = pl.fruit.mass
     fruit, rigid, zs, defl, lat, ax = {}, {}, {}, {}, {}, {}
@@ -230,6 +264,9 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     y, _, a = motion.lateral(zarr)
     if not ped.rigid:
         f_lat, f_ax, f_mag = stem_forces(motion, zarr, m0, ped)
+        if fb is not None:  # two-way: the fruit are in the modal model, their stem force is exact
+            f_lat = fb.stem_force(motion.eta, motion.etad)
+            f_mag = np.hypot(f_lat, f_ax)
     for i, name in enumerate(names):
         zs[name] = float(zarr[i])
         defl[name] = y[i]
@@ -239,4 +276,6 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
         else:
             fruit[name], lat[name], ax[name] = f_mag[i], f_lat[i], f_ax[i]
     distance = spec.plant.start_distance + spec.plant.walking_speed * res.t
-    return FruitForceResult(distance, res.t, fruit, zs, motion.contact_force, defl, res, machine, rigid, lat, ax)
+    out = FruitForceResult(distance, res.t, fruit, zs, motion.contact_force, defl, res, machine, rigid, lat, ax)
+    out.motion = motion
+    return out

@@ -47,6 +47,7 @@ one-way stem force with the two-way coupled frequency response.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import signal
@@ -224,47 +225,155 @@ def modal_mass_ratio(modes, z, mass):
     return float(mass) * phi**2
 
 
-def two_way_stem_force_frf(modes, z_force, z_fruit, mass, stiffness, damping, frequencies_hz):
-    """Stem force per unit harmonic branch load, with the fruit coupled back to the branch (two-way).
+def two_way_stem_force_frf(modes, z_force, z_fruit, mass, stiffness, damping, frequencies_hz, modes_one_way=None):
+    """Stem force per unit harmonic branch load, one-way and with the fruit coupled back (two-way).
 
-    The branch's modal equations (mass-normalised, modal damping of the branch) and the fruit's
-    equation are solved together in the frequency domain for a unit force at z_force:
+    The branch's modal equations (mass-normalised, modal damping ratio xi of the branch) and the fruit's
+    equations are solved together in the frequency domain for a unit force at z_force:
 
-        (w_k^2 - w^2 + 2 i xi w_k w) q_k = phi_k(z_F) - phi_k(z_m) F_s,     y = sum_k phi_k(z_m) q_k,
-        -w^2 m0 x = F_s = (k + i w c)(y - x)     (F_s: stem force on the fruit; -F_s acts on the branch)
+        (w_k^2 - w^2 + 2 i xi w_k w) q_k = phi_k(z_F) - sum_j phi_k(z_j) F_j,    y_j = sum_k phi_k(z_j) q_k,
+        -w^2 m0 x_j = F_j = (k + i w c)(y_j - x_j)     (F_j: stem force on fruit j; -F_j acts on the branch)
 
     Parameters
     ----------
     modes : Modes
-    z_force, z_fruit : float
-        Load and fruit positions (m).
+        Branch modes of the two-way solution (without fruit masses).
+    z_force : float
+        Load position (m).
+    z_fruit : float or array_like
+        Fruit positions (m); every fruit has the same m0, k, c.
     mass, stiffness, damping : float
         m0 (kg), k (N/m), c (N s/m).
     frequencies_hz : array_like
         Excitation frequencies (Hz).
+    modes_one_way : Modes, optional
+        Modes used for the one-way answer (e.g. :func:`fruit_loaded_modes`); default ``modes``.
 
     Returns
     -------
-    one_way, two_way : ndarray (complex)
-        Stem force amplitude (N per N of branch load) without and with the fruit's reaction on the branch.
+    one_way, two_way : ndarray (n_fruit, n_freq), complex
+        Stem force (N per N of branch load) without and with the fruits' reaction on the branch.
     """
     m, k, c = (float(x) for x in _check(mass, stiffness, damping))
-    xi = modes.branch.damping_ratio
-    pf = modes.shape_at(np.atleast_1d(z_force))[:, 0]
-    pm = modes.shape_at(np.atleast_1d(z_fruit))[:, 0]
-    wk = modes.omega
+    zs = np.atleast_1d(np.asarray(z_fruit, float))
+    mo = modes if modes_one_way is None else modes_one_way
+
+    def receptances(md, w):
+        hk = 1.0 / (md.omega**2 - w**2 + 2j * md.branch.damping_ratio * md.omega * w)
+        pf = md.shape_at(np.atleast_1d(z_force))[:, 0]
+        pm = md.shape_at(zs)  # (n_modes, n_fruit)
+        return (pm * (pf * hk)[:, None]).sum(axis=0), (pm.T * hk) @ pm
+
     one, two = [], []
     for f in np.atleast_1d(np.asarray(frequencies_hz, float)):
         w = 2 * math.pi * f
-        hk = 1.0 / (wk**2 - w**2 + 2j * xi * wk * w)  # modal receptance
-        g_mf = np.sum(pm * pf * hk)  # branch receptance fruit <- force point
-        g_mm = np.sum(pm * pm * hk)  # branch receptance at the fruit
         ks = k + 1j * w * c
-        # fruit: -w^2 m x = ks (y - x)  ->  x = ks y / (ks - w^2 m); stem force on fruit Fs = -w^2 m x
-        t_fruit = ks / (ks - w * w * m)
-        y1 = g_mf  # one-way: branch unaffected
-        one.append(-w * w * m * t_fruit * y1)
-        # two-way: the stem pulls the branch with -Fs:  y = g_mf * 1 + g_mm * (-Fs),  Fs = -w^2 m t_fruit y
-        y2 = g_mf / (1 - g_mm * w * w * m * t_fruit)
-        two.append(-w * w * m * t_fruit * y2)
-    return np.array(one), np.array(two)
+        t_fruit = ks / (ks - w * w * m)  # x = t_fruit y;  F = -w^2 m x
+        g1, _ = receptances(mo, w)
+        one.append(-w * w * m * t_fruit * g1)
+        g_f, g_mm = receptances(modes, w)
+        y = np.linalg.solve(np.eye(len(zs)) - g_mm * (w * w * m * t_fruit), g_f)
+        two.append(-w * w * m * t_fruit * y)
+    return np.array(one).T, np.array(two).T
+
+
+def fruit_loaded_modes(modes, z_fruit, masses):
+    """Branch modes with fruit masses attached rigidly at z_fruit (Rayleigh-Ritz on the unloaded modes).
+
+    M' = I + sum_j m_j phi(z_j) phi(z_j)^T in the unloaded modal coordinates, K = diag(omega^2);
+    the generalised eigenproblem K v = omega'^2 M' v (scipy.linalg.eigh) gives the loaded frequencies
+    and shapes psi = v^T phi, mass-normalised with respect to the branch plus the fruit.  The low-
+    frequency limit of a fruit on its stem (it moves with the branch below the stem frequency): used
+    so that the branch carries its fruit when the fruit is not light against the modes' effective
+    mass at its position (:func:`modal_mass_ratio`).
+
+    Returns
+    -------
+    Modes
+        Same branch, the loaded frequencies and shapes (dense samples), method noted.
+    """
+    from dataclasses import replace
+
+    from scipy import linalg
+
+    zs = np.atleast_1d(np.asarray(z_fruit, float))
+    ms = np.broadcast_to(np.asarray(masses, float), zs.shape)
+    phi = modes.shape_at(zs)  # (n_modes, n_fruit)
+    mm = np.eye(len(modes.omega)) + (phi * ms) @ phi.T
+    vals, vecs = linalg.eigh(np.diag(modes.omega**2), mm)
+    shapes = vecs.T @ modes.shapes
+    sign = np.where(shapes[:, -1] < 0, -1.0, 1.0)
+    return replace(modes, omega=np.sqrt(vals), shapes=shapes * sign[:, None],
+                   method=modes.method + f" + {len(zs)} fruit masses attached (Rayleigh-Ritz)")
+
+
+@dataclass(frozen=True)
+class FruitBranchModes:
+    """Undamped modes of a branch carrying fruit on compliant stems (two-way coupled), mass-normalised.
+
+    ``modes`` holds the frequencies and the branch part of each combined mode (dense samples, so
+    ``modes.shape_at(z)`` is the branch deflection per unit modal coordinate); ``fruit`` (n_modes,
+    n_fruit) the fruit displacement per unit modal coordinate.
+    """
+
+    modes: object  # berryshaker.plant.modes.Modes (branch part of the combined modes)
+    fruit: np.ndarray
+    z_fruit: np.ndarray
+    mass: float
+    stiffness: float
+    damping: float
+
+    def stem_force(self, eta, etad):
+        """Lateral stem force on each fruit (N), (n_fruit, n_t): k (y - x) + c (y' - x') from the modal
+        displacements ``eta`` and velocities ``etad`` (n_t, n_modes)."""
+        rel = self.modes.shape_at(self.z_fruit) - self.fruit  # (n_modes, n_fruit): y - x per unit eta
+        return (self.stiffness * (eta @ rel) + self.damping * (etad @ rel)).T
+
+
+def fruit_branch_modes(modes, z_fruit, mass, stiffness, damping=0.0) -> FruitBranchModes:
+    """Modes of the branch with fruit on stems attached (Rayleigh-Ritz on the branch's own modes).
+
+    Coordinates: the branch's mass-normalised modal coordinates q (n) and the fruit displacements x_j.
+    With phi_j = phi(z_j) (n-vector),
+
+        M = diag(I_n, m0 I),
+        K = [[diag(omega^2) + k sum_j phi_j phi_j^T,  -k phi_j],
+             [-k phi_j^T,                              k     ]],
+
+    scipy.linalg.eigh(K, M) gives n + n_fruit modes normalised to V^T M V = I, so the combined system
+    drops into the engine's modal body unchanged: each mode's force from a contact at z_c is
+    phi(z_c)^T V_q F.  Exact two-way coupling of the linear fruit-stem-branch system (the fruit's
+    reaction loads the branch); departure: the damping is modal (one ratio per mode) in the engine,
+    the stem's own c enters the stem force but not the combined modes' decay.
+
+    Parameters
+    ----------
+    modes : Modes
+        Branch modes without fruit.
+    z_fruit : array_like
+        Fruit positions (m).
+    mass, stiffness : float
+        m0 (kg), k (N/m), same for every fruit.
+    damping : float
+        Stem c (N s/m), used for the stem force.
+    """
+    from dataclasses import replace
+
+    from scipy import linalg
+
+    m, k, c = (float(x) for x in _check(mass, stiffness, damping))
+    zs = np.atleast_1d(np.asarray(z_fruit, float))
+    n, nf = len(modes.omega), len(zs)
+    phi = modes.shape_at(zs)  # (n, nf)
+    kk = np.zeros((n + nf, n + nf))
+    kk[:n, :n] = np.diag(modes.omega**2) + k * phi @ phi.T
+    kk[:n, n:] = -k * phi
+    kk[n:, :n] = -k * phi.T
+    kk[n:, n:] = k * np.eye(nf)
+    mm = np.diag(np.concatenate([np.ones(n), np.full(nf, m)]))
+    vals, vecs = linalg.eigh(kk, mm)
+    shapes = vecs[:n].T @ modes.shapes
+    sign = np.where(np.abs(shapes[:, -1]) > 0, np.sign(shapes[:, -1]), 1.0)
+    loaded = replace(modes, omega=np.sqrt(vals), shapes=shapes * sign[:, None],
+                     method=modes.method + f" + {nf} fruit on stems (two-way, Rayleigh-Ritz)")
+    return FruitBranchModes(loaded, (vecs[n:] * sign).T, zs, m, k, c)

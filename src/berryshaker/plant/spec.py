@@ -3,7 +3,7 @@ contact.  Values SI; strings with units accepted (see :mod:`berryshaker.quantity
 
 from __future__ import annotations
 
-from typing import Annotated
+from typing import Annotated, Literal
 
 from pydantic import BeforeValidator, Field, model_validator
 
@@ -42,6 +42,7 @@ class PedicelSpec(_Strict):
     stiffness: Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))] = 82.3
     damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 0.077
     include_weight: bool = True  # the stem also carries m0 g along the branch axis (upright branch)
+    coupling: Literal["two_way", "one_way"] = "two_way"  # named fruit inside the modal model, or post-processed
     rigid: bool = False
 
 
@@ -99,7 +100,7 @@ class CombContactSpec(_Strict):
                              "linear (exponent 1); give both stiffness and exponent, or neither")
         return self
 
-    n_modes: int = Field(8, ge=1, le=30)  # the engine (multibody.spec.PlantCouplingSpec) caps it at 30
+    n_modes: int = Field(8, ge=1, le=64)  # branch modes (two-way fruit add one mode each)
 
     def impact_stiffness(self, branch_diameter: float | None = None) -> tuple[float, float]:
         """(K, exponent) of the IMPACT law: the explicit ``stiffness`` if given, else the finger's."""

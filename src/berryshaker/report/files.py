@@ -167,10 +167,11 @@ def check_output_file(path: str | Path, allowed_suffixes: Iterable[str] | None =
     from berryshaker.errors import OutputError
 
     p = _absolute(path)
+    allowed = [s.lower() if s.startswith(".") else "." + s.lower() for s in (allowed_suffixes or [])]
     if p.is_dir():
-        raise OutputError(f"output {p} is a folder; give a file name inside it, e.g. {p / ('results' + next(iter(allowed_suffixes or ['.csv'])))}")
-    if allowed_suffixes:
-        allowed = [s.lower() if s.startswith(".") else "." + s.lower() for s in allowed_suffixes]
+        example = p / ("results" + (allowed[0] if allowed else ".csv"))
+        raise OutputError(f"output {p} is a folder; give a file name inside it, e.g. {example}")
+    if allowed:
         if not any(p.name.lower().endswith(s) and len(p.name) > len(s) for s in allowed):
             raise OutputError(f"output {p}: expected a file ending in {' or '.join(allowed)} "
                               f"(got {p.suffix or 'no suffix'}); change the name or the format")

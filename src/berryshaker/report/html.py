@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import html
+import re
 from pathlib import Path
 
 from berryshaker.config import machine_table
@@ -18,7 +19,20 @@ text-align:right;vertical-align:top}th{background:#eef2f7}td.l,th.l{text-align:l
 figure{margin:1em 0}figure img{max-width:100%;border:1px solid #dde3eb}figcaption{font-size:.9em;color:#4a5568}
 .v-reproduced{background:#e3f6e8}.v-not{background:#fbe4e4}.v-partly{background:#fff5d6}.v-nc{background:#eef}
 .small{font-size:.85em;color:#4a5568}code{background:#f3f5f8;padding:0 3px}
+.wrap{max-width:100%;overflow-x:auto}td,th{overflow-wrap:anywhere}thead{display:table-header-group}
+@page{size:A4;margin:14mm 12mm}
+@media print{
+body{max-width:none;margin:0;padding:0;font-size:9.5pt}h1{font-size:15pt}h2{font-size:12.5pt;margin-top:1.2em}
+h1,h2,h3{page-break-after:avoid;break-after:avoid}
+table{page-break-inside:auto;font-size:8pt;max-width:100%}tr{page-break-inside:avoid;break-inside:avoid}
+td,th{padding:2px 4px;-webkit-print-color-adjust:exact;print-color-adjust:exact}
+.wrap{overflow:visible}.wide table{font-size:7pt}.wide td,.wide th{padding:1px 3px}
+figure{page-break-inside:avoid;break-inside:avoid}figure img{max-width:100%;max-height:23cm;border:none}
+span[class^="v-"]{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 """
+
+#: Columns from which a table is printed in the smaller "wide" style.
+WIDE_COLUMNS = 8
 
 
 def _img(path: Path, caption: str) -> str:
@@ -39,7 +53,8 @@ def _table(header, rows, left=(0,)) -> str:
         body.append("<tr>" + "".join(
             f'<td class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html.escape(_fmt(c))}</td>'
             for i, c in enumerate(r)) + "</tr>")
-    return f"<table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+    wide = " wide" if len(header) >= WIDE_COLUMNS else ""
+    return f"<div class='wrap{wide}'><table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
 
 
 class _Raw(str):
@@ -52,6 +67,48 @@ def _fmt(v) -> str:
     if isinstance(v, float):
         return f"{v:.4g}"
     return str(v)
+
+
+def _plain(text: str) -> str:
+    """Python's True/False in a sentence read "yes"/"no" in the report."""
+    return re.sub(r"\bFalse\b", "no", re.sub(r"\bTrue\b", "yes", str(text)))
+
+
+def report_title(claims: list[dict]) -> str:
+    """Title of the study report: "reproduced" only when every claim is; otherwise "checked"."""
+    verdicts = [c.get("verdict") for c in claims]
+    if verdicts and all(v == "reproduced" for v in verdicts):
+        return "Blueberry harvester with transmission clearance: the reference study, reproduced"
+    return "Blueberry harvester with transmission clearance: the reference study, checked"
+
+
+def verdict_counts(claims: list[dict]) -> str:
+    """E.g. "5 of 8 claims reproduced, 2 partly reproduced, 1 not reproduced"."""
+    order = ("reproduced", "partly reproduced", "not reproduced", "not comparable")
+    counts = {v: sum(1 for c in claims if c.get("verdict") == v) for v in order}
+    others = sum(1 for c in claims if c.get("verdict") not in order)
+    parts = [f"{counts[order[0]]} of {len(claims)} claims reproduced"]
+    parts += [f"{counts[v]} {v}" for v in order[1:] if counts[v]]
+    if others:
+        parts.append(f"{others} other")
+    return ", ".join(parts)
+
+
+def runs_text(runs: dict) -> str:
+    """The run count for the report header: "N runs (M from the cache; cold compute X s)".  The cold cost
+    (:class:`berryshaker.runs.runner.SweepRunner` ``stats["cold_compute_s"]``: compute seconds now plus the
+    stored seconds of the cached runs) stays the same after a cached rerun."""
+    n = runs.get("runs", 0)
+    cached = runs.get("cached", 0)
+    cold = runs.get("cold_compute_s")
+    if cold is None and "compute_s" in runs:
+        cold = runs["compute_s"] + runs.get("cached_compute_s", 0.0)
+    text = f"{n} runs ({cached} from the cache"
+    if cold is not None:
+        text += f"; cold compute {cold:.1f} s"
+    if runs.get("failed"):
+        text += f"; {runs['failed']} failed"
+    return text + ")"
 
 
 def _vclass(verdict: str) -> str:
@@ -72,16 +129,19 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     k = res["kinematics"]
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
-             "<h1>Blueberry harvester with transmission clearance: the reference study, reproduced</h1>",
+             f"<h1>{html.escape(report_title(res['claims']))}</h1>",
              f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary['version'])}. "
-             f"Total time {summary['timings_s']['total']:.1f} s; {summary['runs']['runs']} runs "
-             f"({summary['runs']['cached']} from the cache).  Values marked [assumed] in the configuration are "
+             f"Total time {summary['timings_s']['total']:.1f} s; {html.escape(runs_text(summary['runs']))}.  "
+             f"{html.escape(verdict_counts(res['claims']))}.  Values marked [assumed] in the configuration are "
              "ours, not the study's (its tables were lost): see the end of this report.</p>"]
     # claims
     parts.append("<h2>Claims of the study and what our models give</h2>")
+    with_criterion = any(c.get("criterion") for c in res["claims"])
     rows = [[c["id"], c["claim"], _Raw(f'<span class="{_vclass(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
-             c["detail"]] for c in res["claims"]]
-    parts.append(_table(["#", "claim (docs/study.md)", "verdict", "our numbers"], rows, left=(1, 2, 3)))
+             *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
+            for c in res["claims"]]
+    parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
+                         "our numbers"], rows, left=(1, 2, 3, 4)))
     fails = summary.get("failures") or []
     parts.append("<h2>Failed runs</h2>")
     if fails:
@@ -207,3 +267,70 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                         left=(0, 1, 2)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def doe_report(res: dict, title: str) -> str:
+    """Self-contained, printable HTML of ``doe analyze``: per response the range analysis (level means, range,
+    best level with its value), pooled ANOVA and regression notes; the weighted optimum with the weights used
+    and the predicted responses; the factors' level values and units; input file and package version."""
+    from berryshaker.report.style import RESPONSE_UNITS
+
+    factors = res.get("factors") or {}
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+             f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
+             f"<p>Results file <code>{html.escape(str(res.get('results_file', '')))}</code>; berryshaker "
+             f"{html.escape(str(res.get('version', '')))}.</p>"]
+    if factors:
+        parts.append("<h2>Factors</h2>")
+        parts.append(_table(["factor", "unit", "levels"],
+                            [[f, d.get("unit") or "-", ", ".join(f"{n}: {lab}" for n, lab in
+                                                                 zip(d["level_numbers"], d["labels"]))]
+                             for f, d in factors.items()], left=(0, 1, 2)))
+    o = res["optimum"]
+    w = res.get("weights") or {}
+    how = "given with --weights, scaled to sum 1" if res.get("weights_given") else "equal (no --weights given)"
+    parts.append("<h2>Weighted optimum</h2>")
+    parts.append(f"<p>Weights of the composite score: {html.escape(', '.join(f'{k} {v:.2f}' for k, v in w.items()))} "
+                 f"({how}).  {html.escape(res.get('composite', {}).get('method', ''))}.</p>")
+    parts.append(_table(["factor", "level", "setting"], [[f, n, (o.get("settings") or {}).get(f, "")]
+                                                         for f, n in o["levels"].items()], left=(0, 2)))
+    parts.append(_table(["response", "predicted at the optimum", "unit"],
+                        [[r, _fixed([v])[0], RESPONSE_UNITS.get(r, "")] for r, v in o["values"].items()],
+                        left=(0, 2)))
+    parts.append(f"<p class='small'>{html.escape(o.get('prediction', ''))}</p>")
+    for name, ra in res["responses"].items():
+        unit = RESPONSE_UNITS.get(name)
+        parts.append(f"<h2>{html.escape(name)}{f' ({unit})' if unit else ''}: range analysis "
+                     f"({'maximise' if ra['maximize'] else 'minimise'})</h2>")
+        an = ra["anova"]["factors"]
+        nlev = len(next(iter(ra["factors"].values()))["level_means"])
+        means = [v for d in ra["factors"].values() for v in d["level_means"]]
+        rows = []
+        for f, d in ra["factors"].items():
+            cells = _fixed(list(d["level_means"]) + [d["range"]], reference=means)
+            labels = (factors.get(f) or {}).get("labels") or []
+            best = d["best_level"]
+            rows.append([f, *cells, f"{best}" + (f" ({labels[best - 1]})" if len(labels) >= best and
+                                                   (factors.get(f) or {}).get("values") is not None else ""),
+                         f"{an[f]['f']:.3g}" if f in an else "pooled", f"{an[f]['p']:.3g}" if f in an else ""])
+        parts.append(_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best level", "ANOVA F", "p"],
+                            rows))
+        reg = ra["regression"]
+        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra['ranking']))}.  Eq. 19 full quadratic: "
+                     f"rank {reg['full_model_rank']} of {len(reg['full_model_terms'])} terms; aliased: "
+                     f"{html.escape(', '.join(reg['aliased_terms']) or 'none')}.  Main-effects quadratic model: "
+                     f"R² = {reg['main_effects_quadratic']['r2']:.3f} with "
+                     f"{reg['main_effects_quadratic']['residual_df']} residual df.</p>")
+    parts.append("</body></html>")
+    return "\n".join(parts)
+
+
+def _fixed(values: list, reference: list | None = None) -> list[str]:
+    """Numbers of one group with the same decimals: four significant digits for the group's largest |value|
+    (so 3 and 3.65 print as 3.000 and 3.650)."""
+    import math
+
+    ref = [abs(float(v)) for v in (reference if reference is not None else values) if math.isfinite(float(v))]
+    top = max(ref, default=0.0)
+    dec = 3 if top == 0.0 else max(0, min(6, 3 - int(math.floor(math.log10(top)))))
+    return [f"{float(v):.{dec}f}" for v in values]

@@ -12,9 +12,11 @@ of the value.  An entry that fails validation (truncated, hand-edited, ``{}``) i
 overwritten, with a one-line warning naming it.  Run functions must be module-level (so they pickle) and
 return JSON-compatible values (dicts, lists, numbers, strings).
 
-Local runs go to a ``spawn`` process pool in chunks (a few chunks per worker, so inter-process overhead does
-not dominate short runs), with progress reported per run.  Workers ignore Ctrl-C (the parent cancels and
-terminates them) and exit by themselves when the parent process dies (``kill -9``).
+Local runs go to a process pool (``forkserver``, see :data:`DEFAULT_START_METHOD`) in chunks (a few chunks
+per worker, so inter-process overhead does not dominate short runs), with progress reported per run.
+Workers ignore Ctrl-C (the parent cancels and terminates them) and exit by themselves when the parent
+process dies (``kill -9``); the pool is kept across :meth:`SweepRunner.map` calls until
+:meth:`SweepRunner.close`.
 """
 
 from __future__ import annotations
@@ -42,11 +44,13 @@ from berryshaker import __version__
 CACHE_SCHEMA = 2
 #: Seconds to wait for a Dask scheduler before giving up with a ConfigError.
 SCHEDULER_TIMEOUT_S = 5.0
-#: Process start method of the local pool (override with ``BERRYSHAKER_START_METHOD``).  ``spawn`` costs
-#: about 0.6 s of imports per worker but never inherits the parent's threads or locks (``fork`` with a
-#: running progress-bar or Dask thread can deadlock, and Python 3.12+ warns about it); numba's on-disk
-#: cache serves compiled kernels to spawned workers as well as to forked ones.
-DEFAULT_START_METHOD = "spawn"
+#: Process start method of the local pool (override with ``BERRYSHAKER_START_METHOD``): ``forkserver``
+#: where available (Linux, macOS), else ``spawn``.  Workers never inherit the parent's threads or locks
+#: (``fork`` with a running progress-bar or Dask thread can deadlock, and Python 3.12+ warns about it),
+#: yet after the fork server's one-time start a worker costs a fork, not a fresh interpreter (``spawn``
+#: costs about 0.4 s more per worker).  Numba's on-disk cache serves compiled kernels under every method;
+#: the pool is kept across :meth:`SweepRunner.map` calls so workers stay warm.
+DEFAULT_START_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
 _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
@@ -314,7 +318,8 @@ def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) 
     ppid = os.getppid()
     if start_method != "forkserver" and ppid != parent_pid:  # the parent died before the watch was armed
         os._exit(1)
-    threading.Thread(target=_watch_parent, args=(ppid, parent_pid), name="berryshaker-parent-watch", daemon=True).start()
+    threading.Thread(target=_watch_parent, args=(ppid, parent_pid), name="berryshaker-parent-watch",
+                     daemon=True).start()
 
 
 # ---- the runner ----------------------------------------------------------------------------------------
@@ -358,7 +363,7 @@ class SweepRunner:
     progress : bool
         Show a progress bar (rich) on ``console`` or stderr.
     start_method : str, optional
-        ``spawn`` (default, :data:`DEFAULT_START_METHOD`), ``forkserver`` or ``fork``.
+        ``forkserver``, ``spawn`` or ``fork`` (default :data:`DEFAULT_START_METHOD`).
 
     ``stats`` counts runs, cached, computed, failed, ``compute_s`` (compute seconds spent now),
     ``cached_compute_s`` (the stored compute seconds of runs served by the cache) and ``cold_compute_s``

@@ -98,8 +98,9 @@ def step_agreement(ctx: StudyContext) -> StepResult:
     figs = []
     for k, (p, (a, b)) in enumerate(ag["series"].items()):
         name = f"fig{14 + k}_agreement_{p}.png"
-        P.plot_time_series(ag["t"], {"multibody": a, "MLSD": b}, "collision force (N)", ctx.figs / name,
-                           f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})")
+        P.plot_time_series(ag["t"], {"multibody": a, "MLSD": b}, f"collision force at {p} [N]", ctx.figs / name,
+                           f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})",
+                           zoom="peak")
         figs.append(name)
     return StepResult("agreement", {"clearance_mm": {p: v * 1e3 for p, v in lvl.items()}, "pairs": ag["pairs"]},
                       figs)
@@ -146,12 +147,14 @@ def step_fruit_force(ctx: StudyContext) -> StepResult:
     if ff[0] is not None:
         P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
                            FRUIT_FORCE_N, ctx.figs / "fig24_26_fruit_force.png",
-                           "Fruit harvesting force at the chosen clearances (study Figs. 24-26)")
+                           "Fruit harvesting force at the chosen clearances (study Figs. 24-26)",
+                           peaks=ff[0]["peaks_exact"])
         figs.append("fig24_26_fruit_force.png")
     if all(v is not None for v in ff[1:]):
-        P.plot_bars({f"row {r}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
-                     for i, r in enumerate(level_rows)}, ["root", "middle", "end"], "peak fruit force (N)",
-                    ctx.figs / "fruit_force_by_level.png", "Peak fruit force at level sets 1-3")
+        P.plot_bars({f"level {i + 1}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
+                     for i, r in enumerate(level_rows)}, ["root", "middle", "end"], "peak fruit force [N]",
+                    ctx.figs / "fruit_force_by_level.png",
+                    f"Peak fruit force at level sets 1-3 (rows {level_rows[0]}-{level_rows[-1]})")
         figs.append("fruit_force_by_level.png")
     return StepResult("fruit_force", data, figs)
 
@@ -170,7 +173,9 @@ def step_l9(ctx: StudyContext) -> StepResult:
         return StepResult("l9", None, note=f"the virtual L9 failed: {exc}")
     pairs = list(ctx.machine.pair_names)
     values = np.array([[r["clearance_mm"][p] for p in pairs] for r in l9["runs"]])
-    P.plot_main_effects(l9, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)")
+    levels_mm = {p: [v * 1e3 for v in ctx.machine.clearance_levels()[p]] for p in pairs}
+    P.plot_main_effects(l9, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)",
+                        level_values=levels_mm, factor_unit="mm")
     figs = ["l9_main_effects.png"]
     for k, name in enumerate(("efficiency", "unripe", "damage")):
         y = np.array([r[name] for r in l9["runs"]])
@@ -269,8 +274,8 @@ def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
             series["MLSD peak"] = [ml[str(r)]["collision_force_N"][p]["peak"] for r in rr]
         series["multibody mean"] = [mb[str(r)]["collision_force_N"][p]["mean"] for r in rr]
         name = f"fig{18 + k}_rows_{p}.png"
-        P.plot_bars(series, labels, f"collision force at {p} (N)", figs / name,
-                    f"Clearance {p} alone (rows {rr[1]}-{rr[-1]}; study Fig. {18 + k})")
+        P.plot_bars(series, labels, f"collision force at joint {p} [N]", figs / name,
+                    f"Clearance {p} alone (rows {rr[1]}-{rr[-1]}; study Fig. {18 + k})", pair=p, reference_index=0)
         names.append(name)
     rr = [1, last - 2, last - 1, last]
     labels = ["none", "level 1", "level 2", "level 3"]
@@ -280,7 +285,7 @@ def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
         if ml:
             series["MLSD rms"] = [ml[str(r)]["load_moment_Nm"][side]["rms"] for r in rr]
         name = f"fig{22 + k}_moment_{side}.png"
-        P.plot_bars(series, labels, f"{side} comb load moment (N m)", figs / name,
+        P.plot_bars(series, labels, f"{side} comb load moment [N m]", figs / name,
                     f"{side.capitalize()} comb load moment, row 1 and the level sets (study Fig. {22 + k})")
         names.append(name)
     return names

@@ -25,13 +25,16 @@ def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> di
 
 
 def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
-    """Coupled drive-past run: summary, decimated force series for figures, exact peaks."""
+    """Coupled drive-past run: summary, force series thinned by peak-preserving min-max decimation for figures,
+    exact peaks."""
     from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.report.style import decimate_minmax_shared
 
     r = simulate_fruit_force(machine_from_dict(machine_data), clearance)
-    step = max(1, len(r.t) // 4000)
-    return {"summary": r.summary(), "distance": r.distance[::step].tolist(),
-            "forces": {k: v[::step].tolist() for k, v in r.fruit_force.items()},
+    # min-max decimation keeps every series' peaks (a strided series could miss an impact peak)
+    distance, forces = decimate_minmax_shared(r.distance, r.fruit_force, 2000)
+    return {"summary": r.summary(), "distance": distance.tolist(),
+            "forces": {k: v.tolist() for k, v in forces.items()},
             "peaks_exact": {k: float(np.max(np.abs(v))) for k, v in r.fruit_force.items()}}
 
 

@@ -90,7 +90,7 @@ def parameter_vector(machine: Machine) -> np.ndarray:
     p[P_TD0], p[P_TE0] = mid_stroke_angles(machine)
     for k, name in enumerate(PAIR_NAMES):
         pair = machine.clearance[name]
-        half = 0.5 if pair.kind == "point-line" else 1.0
+        half = 0.5 if pair.kind != "pin-in-bore" else 1.0  # roller pairs: free travel across the groove or slot
         p[P_PAIR0 + 3 * k] = pair.size * half
         p[P_PAIR0 + 3 * k + 1] = pair.stiffness
         p[P_PAIR0 + 3 * k + 2] = pair.damping
