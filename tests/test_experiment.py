@@ -146,6 +146,10 @@ def test_malformed_field_sheets_name_row_and_column(tmp_path):
     edited = df.copy()
     edited.loc[0, "B_level"] = 3
     edited.to_csv(p, index=False)
+    with pytest.raises(ConfigError, match=r"row 2 \(run 1\), column 'B_mm': 0.2 disagrees with level 3"):
+        read_results(p, ["efficiency"])
+    edited.loc[0, "B_mm"] = 0.6  # level and value edited together: the design is no longer balanced
+    edited.to_csv(p, index=False)
     with pytest.raises(ConfigError, match="do not form an orthogonal"):
         read_results(p, ["efficiency"])
     df["efficiency_kg_min"] = np.nan

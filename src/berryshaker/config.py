@@ -22,7 +22,7 @@ from pydantic import BaseModel, ValidationError
 from berryshaker.drives import get_drive
 from berryshaker.drives.base import MachineBase
 from berryshaker.errors import ConfigError
-from berryshaker.quantity_fields import format_validation_error
+from berryshaker.quantity_fields import format_validation_error, plausibility_warnings
 
 #: any drive's machine description
 Machine = MachineBase
@@ -107,6 +107,47 @@ def load_machine(path: str | Path | None = None, drive: str = "groove_cam"):
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{source}: not valid TOML ({exc})") from None
     return machine_from_dict(data, source, provenance_tags(text))
+
+
+def machine_warnings(machine) -> list[str]:
+    """Plausibility warnings of a machine description: one message per value that lies orders of magnitude
+    outside engineering ranges (:func:`berryshaker.units.plausibility_warning`; e.g. a damping 10^6 times
+    too large, a base radius in km), each naming its dotted key.  Empty for the reference machines."""
+    return plausibility_warnings(machine)
+
+
+def validate_machine(machine, strict: bool = False, allow_undercut: bool = False) -> list[str]:
+    """Everything a simulation checks before any work, plus plausibility: the drive's ``check`` (assembly
+    over the cycle, undercut, ...) and :func:`machine_warnings`.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        A loaded description (values, units, ranges and clearance limits were checked when it was built).
+    strict : bool
+        Turn plausibility warnings into an error (``berryshaker config validate --strict``).
+    allow_undercut : bool
+        Passed to the drive's check.
+
+    Returns
+    -------
+    list of str
+        The plausibility warnings (empty when everything is in range).
+
+    Raises
+    ------
+    GeometryError
+        The drive cannot run as described.
+    ConfigError
+        ``strict`` and at least one warning (all are listed).
+    """
+    from berryshaker.drives import drive_of
+
+    drive_of(machine).check(machine, allow_undercut=allow_undercut)
+    warnings = machine_warnings(machine)
+    if strict and warnings:
+        raise ConfigError("implausible values (--strict):\n  " + "\n  ".join(warnings))
+    return warnings
 
 
 def reference_machine(drive: str = "groove_cam"):

@@ -8,15 +8,29 @@ errors into located messages (``cam.stroke: must be > 0 ...``).
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+import dataclasses
+import math
+import re
+import types
+import typing
+from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
-from berryshaker.units import parse_quantity
+from berryshaker.units import DIMENSIONS, parse_quantity, parse_unit, plausibility_warning
 
 
-def _q(dimension: str):
+@dataclasses.dataclass(frozen=True, slots=True)
+class QuantityValidator(BeforeValidator):
+    """The before-validator of a quantity field; it also records the field's physical ``dimension``
+    (read back by :func:`field_dimension` for plausibility checks and sweep value lists)."""
+
+    dimension: str = "dimensionless"
+
+
+def _q(dimension: str) -> QuantityValidator:
     def convert(v: Any) -> float:
         try:
             return parse_quantity(v, dimension)
@@ -24,7 +38,7 @@ def _q(dimension: str):
             # pydantic turns ValueError into a located validation error; drop our generic prefix
             raise ValueError(str(exc).removeprefix("value: ")) from None
 
-    return BeforeValidator(convert)
+    return QuantityValidator(convert, dimension=dimension)
 
 
 def _d(unit: str) -> dict:
@@ -46,24 +60,267 @@ TorsionalDamping = Annotated[float, _q("torsional_damping"), Field(ge=0, json_sc
 Coefficient = Annotated[float, _q("dimensionless"), Field(ge=0, json_schema_extra=_d("1"))]
 
 
+# ---- plain numeric fields: no booleans, no lists or tables where one number belongs ----------------------
+_NUMBER_TYPES = (int, float)
+
+
+def _strip(annotation: Any) -> tuple[Any, list[Any]]:
+    """(core type, metadata) of an annotation, looking through ``Annotated``."""
+    meta: list[Any] = []
+    while typing.get_origin(annotation) is Annotated:
+        args = typing.get_args(annotation)
+        annotation, meta = args[0], meta + list(args[1:])
+    return annotation, meta
+
+
+def _union_members(annotation: Any) -> tuple[list[Any], bool]:
+    """Members of a union annotation without ``None``, and whether ``None`` was one of them."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Union or origin is types.UnionType:
+        members = [a for a in typing.get_args(annotation) if a is not type(None)]
+        return members, len(members) < len(typing.get_args(annotation))
+    return [annotation], False
+
+
+def _is_number_type(annotation: Any) -> bool:
+    core, _ = _strip(annotation)
+    if core in _NUMBER_TYPES:
+        return True
+    if typing.get_origin(core) is Literal:
+        return all(isinstance(a, _NUMBER_TYPES) and not isinstance(a, bool) for a in typing.get_args(core))
+    return False
+
+
+def _number_shape(annotation: Any) -> tuple[str, bool] | None:
+    """("scalar" | "sequence", None allowed) for a field that holds a number or a sequence of numbers."""
+    core, _ = _strip(annotation)
+    members, optional = _union_members(core)
+    if len(members) != 1:
+        return None
+    member, _ = _strip(members[0])
+    if _is_number_type(member):
+        return "scalar", optional
+    if typing.get_origin(member) in (tuple, list):
+        args = [a for a in typing.get_args(member) if a is not Ellipsis]
+        if args and all(_is_number_type(a) for a in args):
+            return "sequence", optional
+    return None
+
+
+def _what(v: Any) -> str:
+    if isinstance(v, bool):
+        return f"{str(v).lower()} (a boolean)"
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, (list, tuple)):
+        return "a list"
+    text = repr(v)
+    return f"{text if len(text) <= 40 else text[:37] + '...'} ({type(v).__name__})"
+
+
+def _check_number(v: Any, where: str = "") -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, float, str)):
+        raise ValueError(f"{where}got {_what(v)}; expected a number")
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class _NumberScreen(BeforeValidator):
+    """Runs before any other validator of a plain numeric field: a TOML ``true`` is not 1.0, a list or a
+    table is not a number (pydantic's lax mode would coerce the first and crash a ``float(v)`` on the
+    second)."""
+
+    shape: str = "scalar"
+
+
+def _number_screen(shape: str, optional: bool) -> _NumberScreen:
+    def screen(v: Any) -> Any:
+        if v is None and optional:
+            return v
+        if shape == "scalar":
+            _check_number(v)
+        elif isinstance(v, (list, tuple)):
+            for i, item in enumerate(v):
+                _check_number(item, f"item {i + 1}: ")
+        elif isinstance(v, bool) or isinstance(v, (int, float, dict)):
+            raise ValueError(f"got {_what(v)}; expected a list of numbers, e.g. [0.85, 1.0, 1.15]")
+        return v
+
+    return _NumberScreen(screen, shape=shape)
+
+
 class StrictModel(BaseModel):
-    """Base of every description section: unknown keys are errors, values are frozen."""
+    """Base of every description section: unknown keys are errors, values are frozen, infinities and NaN are
+    refused in every float field, and a plain numeric field (``float``, ``int``, a ``Literal`` of numbers or a
+    tuple of them) refuses booleans, lists and tables with the field named."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        changed = False
+        for info in cls.model_fields.values():
+            if any(isinstance(m, (_NumberScreen, QuantityValidator)) for m in info.metadata):
+                continue  # screened already, or a quantity (parse_quantity refuses bools and lists itself)
+            shape = _number_shape(info.annotation)
+            if shape is not None:
+                info.metadata.append(_number_screen(*shape))  # the last before-validator runs first
+                changed = True
+        if changed:
+            cls.model_rebuild(force=True)
+
+
+def _located(loc: str, msg: str) -> str:
+    # a model-level validator's message that already starts with its dotted key ("clearance.A.size = ...",
+    # "cam.speed = ..."): print it once, without the section's location in front
+    m = re.match(r"^([A-Za-z_]\w*(?:\.\w+)+)\b", msg)
+    if m and (loc == "(top level)" or m.group(1).startswith(loc + ".")):
+        return msg
+    return f"{loc}: {msg}"
 
 
 def format_validation_error(err: ValidationError, source: str) -> str:
+    """Turn pydantic's errors into located messages, one line per field (``cam.stroke: must be > 0 ...``)."""
+    """pydantic's errors as one message, a line per error, each starting with the dotted key of the field."""
     lines = []
     for e in err.errors():
         loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
         msg = e["msg"].removeprefix("Value error, ")
-        if e["type"] == "missing":
+        ctx = e.get("ctx") or {}
+        typ = e["type"]
+        if typ == "missing":
             msg = "missing value"
-        elif e["type"] == "extra_forbidden":
+        elif typ == "extra_forbidden":
             msg = "unknown key (check the spelling against `berryshaker config show`)"
-        elif e["type"] in ("greater_than", "greater_than_equal"):
-            limit = e.get("ctx", {}).get("gt", e.get("ctx", {}).get("ge"))
-            msg = f"must be {'>' if e['type'] == 'greater_than' else '>='} {limit} (SI), got {e.get('input')!r}"
-        lines.append(f"{loc}: {msg}")
+        elif typ in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
+            op = {"greater_than": ">", "greater_than_equal": ">=", "less_than": "<", "less_than_equal": "<="}[typ]
+            limit = ctx.get({"greater_than": "gt", "greater_than_equal": "ge", "less_than": "lt",
+                             "less_than_equal": "le"}[typ])
+            msg = f"must be {op} {limit} (SI), got {e.get('input')!r}"
+        elif typ == "finite_number":
+            msg = f"must be a finite number, got {e.get('input')!r}"
+        elif typ.endswith("_parsing") or typ.endswith("_type") or typ == "int_from_float":
+            msg = f"{msg}, got {_what(e.get('input'))}"
+        lines.append(_located(loc, msg))
     return f"invalid machine description {source}:\n  " + "\n  ".join(lines)
+
+
+# ---- the physical dimension of a field, and plausibility -----------------------------------------------
+def field_dimension(info: FieldInfo) -> str | None:
+    """Physical dimension of a description field (a key of :data:`berryshaker.units.DIMENSIONS`).
+
+    A quantity field (declared with one of the types above) carries it; a plain float with a ``display``
+    unit in its schema gets the dimension of that unit; a plain number without one is ``"dimensionless"``;
+    anything else (text, flags, sections) is None.
+    """
+    for m in info.metadata:
+        if isinstance(m, QuantityValidator):
+            return m.dimension
+    extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    unit = extra.get("display")
+    if isinstance(unit, str):
+        for dim in DIMENSIONS:
+            try:
+                parse_unit(unit, dim)
+            except ConfigError:
+                continue
+            return dim
+    shape = _number_shape(info.annotation)
+    if shape is not None:
+        return "dimensionless"
+    return None
+
+
+def _section_class(annotation: Any) -> tuple[type[BaseModel] | None, bool]:
+    """The model class of a section annotation and whether it is a table of them (``dict[str, Model]``)."""
+    core, _ = _strip(annotation)
+    members, _ = _union_members(core)
+    for m in members:
+        m, _ = _strip(m)
+        if isinstance(m, type) and issubclass(m, BaseModel):
+            return m, False
+        if typing.get_origin(m) is dict:
+            args = typing.get_args(m)
+            if len(args) == 2 and isinstance(args[1], type) and issubclass(args[1], BaseModel):
+                return args[1], True
+    return None, False
+
+
+def field_info_at(model_class: type[BaseModel], key: str) -> FieldInfo:
+    """The pydantic field of a dotted key of a description class (``clearance.A.size``, ``cam.speed``).
+
+    Raises
+    ------
+    ConfigError
+        A part of the key is not a field (the known fields at that level are listed).
+    """
+    cls: type[BaseModel] | None = model_class
+    parts = key.split(".")
+    i = 0
+    while i < len(parts):
+        name = parts[i]
+        if cls is None or name not in cls.model_fields:
+            known = ", ".join(cls.model_fields) if cls is not None else "(none)"
+            where = ".".join(parts[:i]) or "the machine description"
+            raise ConfigError(f"unknown parameter {key!r}: {where} has no {name!r} (its keys: {known})")
+        info = cls.model_fields[name]
+        if i == len(parts) - 1:
+            return info
+        sub, is_table = _section_class(info.annotation)
+        if sub is None:
+            raise ConfigError(f"unknown parameter {key!r}: {'.'.join(parts[:i + 1])} is a value, not a section")
+        i += 2 if is_table else 1  # a table of sections: the next part is its entry name (clearance.A.size)
+        cls = sub
+        if is_table and i > len(parts) - 1:
+            raise ConfigError(f"unknown parameter {key!r}: name a value inside {'.'.join(parts[:i])}")
+    raise ConfigError(f"unknown parameter {key!r}")  # pragma: no cover - loop always returns
+
+
+def plausibility_warnings(model: BaseModel, prefix: str = "") -> list[str]:
+    """Warnings for every quantity of a description whose value lies orders of magnitude outside
+    engineering ranges (:func:`berryshaker.units.plausibility_warning`, e.g. a length in metres written
+    for millimetres), walking the nested sections; one message per field, naming its dotted key."""
+    out: list[str] = []
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        key = f"{prefix}{name}"
+        if isinstance(value, BaseModel):
+            out += plausibility_warnings(value, key + ".")
+            continue
+        if isinstance(value, dict):
+            for k, v in value.items():
+                if isinstance(v, BaseModel):
+                    out += plausibility_warnings(v, f"{key}.{k}.")
+            continue
+        dim = field_dimension(info)
+        if dim is None or dim == "dimensionless":
+            continue  # plain numbers (exponents, fractions, counts) have no engineering scale to check
+        values = value if isinstance(value, tuple) else (value,)
+        for j, v in enumerate(values):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                continue
+            w = plausibility_warning(float(v), dim, key if len(values) == 1 else f"{key}[{j + 1}]")
+            if w:
+                out.append(w)
+    return out
+
+
+#: drive-shaft speeds a machine description may have (rpm).  Outside, a run cannot be simulated within the
+#: engines' budgets: below 1 rpm three revolutions take over 3 min of simulated time (> 1.8 million output
+#: samples at the 0.1 ms output step), above 100 000 rpm a revolution is shorter than a few integrator steps.
+DRIVE_SPEED_RANGE_RPM = (1.0, 1.0e5)
+
+
+def check_drive_speed(speed: float, field: str) -> None:
+    """Refuse a drive-shaft speed (rad/s) outside :data:`DRIVE_SPEED_RANGE_RPM`.
+
+    Raises
+    ------
+    ValueError
+        With the field, the speed in rpm and the accepted range (pydantic locates it).
+    """
+    rpm = speed * 60.0 / (2.0 * math.pi)
+    lo, hi = DRIVE_SPEED_RANGE_RPM
+    if not lo <= rpm <= hi:
+        raise ValueError(f"{field} = {rpm:.4g} rpm is outside the speeds berryshaker can simulate "
+                         f"({lo:g} .. {hi:g} rpm); check the number and its unit (e.g. '120 rpm', '2 Hz')")

@@ -263,8 +263,11 @@ def doe_virtual(
     """
     try:
         from berryshaker.runs.runner import SweepRunner
+        from berryshaker.report.files import prepare_output_dir
         from berryshaker.study.l9 import virtual_l9
 
+        if plot is not None:
+            prepare_output_dir(plot, kind="plots")
         machine = _load(config)
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")

@@ -40,7 +40,10 @@ def kinematics(
     """
     try:
         from berryshaker.drives import drive_of
+        from berryshaker.report.files import prepare_output_dir
 
+        if plot is not None:
+            prepare_output_dir(plot, kind="plots")
         machine = _load(config)
         drive = drive_of(machine)
         kin = drive.check(machine, allow_undercut=allow_undercut)

@@ -44,6 +44,10 @@ def plant(
     """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements."""
     try:
         from berryshaker.plant.modes import analytic_modes, fe_modes
+        from berryshaker.report.files import prepare_output_dir
+
+        if plot is not None:
+            prepare_output_dir(plot, kind="plots")
 
         machine = _load(config)
         br = _branch_of(machine)
@@ -107,6 +111,11 @@ def fruit_force_cmd(
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
         from berryshaker.plant.coupled import simulate_fruit_force
         from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
+        from berryshaker.report.files import prepare_output_dir
+
+        for folder in (plot, out_dir):
+            if folder is not None:
+                prepare_output_dir(folder, kind="fruit-force")
 
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)

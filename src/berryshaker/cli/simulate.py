@@ -24,6 +24,15 @@ from berryshaker.cli.app import (
 )
 
 
+def _check_folders(*folders, kind: str = "simulation") -> None:
+    """Refuse output folders that hold files berryshaker did not write, before any work."""
+    from berryshaker.report.files import prepare_output_dir
+
+    for f in folders:
+        if f is not None:
+            prepare_output_dir(f, kind=kind)
+
+
 @command(app)
 def simulate(
     model: str = typer.Option("mlsd", "--model", "-m",
@@ -51,6 +60,7 @@ def simulate(
     try:
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
 
+        _check_folders(out_dir)
         if mechanism is not None:
             _simulate_mechanism_file(mechanism, duration, as_json, out_dir)
             return
@@ -224,6 +234,7 @@ def compare(
         from berryshaker.experiment.agreement import model_agreement
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
 
+        _check_folders(plot, kind="plots")
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)
         res = model_agreement(machine, sizes, revolutions=revolutions, points=points, alpha=alpha)

@@ -212,6 +212,19 @@ class MachineBase(StrictModel):
                                  f"allows ({what} = {lim * 1e3:g} mm)")
         return self
 
+    @model_validator(mode="after")
+    def _harvest_population(self) -> "MachineBase":
+        h = self.harvest  # checked here so that every drive's description refuses it the same way
+        if not h.branch_classes or any(not c > 0 for c in h.branch_classes):
+            raise ValueError(f"harvest.branch_classes must list at least one diameter scale > 0, e.g. "
+                             f"[0.85, 1.0, 1.15]; got {list(h.branch_classes)}")
+        if h.seed < 0:
+            raise ValueError(f"harvest.seed must be a whole number >= 0, got {h.seed}")
+        if not 0.0 <= h.fruit_zone[0] < h.fruit_zone[1] <= 1.0:
+            raise ValueError(f"harvest.fruit_zone must be two fractions of the branch length, start < end, both in "
+                             f"0 .. 1; got {list(h.fruit_zone)}")
+        return self
+
     # ---- clearances: the one owner of their validation ------------------------------------------
     @property
     def pair_names(self) -> tuple[str, ...]:

@@ -239,6 +239,7 @@ def quadratic_regression(x: np.ndarray, y: np.ndarray, names: list[str]) -> dict
 
 
 def predict_main_quadratic(reg: dict, x: np.ndarray, names: list[str]) -> np.ndarray:
+    """Predict a response from the main-effects quadratic fit of :func:`quadratic_regression` at points ``x``."""
     lo, span = (np.array(v) for v in reg["_scaling"])
     xs = 2 * (np.atleast_2d(x) - lo) / span - 1
     mq = reg["main_effects_quadratic"]

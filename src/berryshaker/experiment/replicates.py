@@ -8,8 +8,9 @@ between-run degrees of freedom (a saturated L9 with four 3-level factors, where 
 has to pool a factor into the error).
 
 Methods (Montgomery, *Design and Analysis of Experiments*, 8th ed., 2013: sec. 3.3 ANOVA F test, 3.5.7
-Tukey's test, and the lack-of-fit test against pure error of its regression chapter; Taguchi's effective number of replications
-for the prediction interval of an additive model, e.g. Roy, *A Primer on the Taguchi Method*, 1990):
+Tukey's test, and the lack-of-fit test against pure error of its regression chapter; Taguchi's effective
+number of replications for the prediction interval of an additive model, e.g. Roy, *A Primer on the
+Taguchi Method*, 1990):
 
 * sums of squares of the main effects from statsmodels OLS (``y ~ C(A) + C(B) + ...`` on all
   observations, ``anova_lm``; the array is orthogonal, so sequential = partial sums of squares);

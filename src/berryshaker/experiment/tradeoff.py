@@ -2,7 +2,7 @@
 
 A candidate *dominates* another if it is no worse beyond noise in every judged column and better beyond
 noise in at least one (Pareto dominance, e.g. Deb, *Multi-Objective Optimization Using Evolutionary
-Algorithms*, 2001, sec. 2.4, with "better" replaced by "better by more than the noise").  "Beyond noise"
+Algorithms*, 2001, ch. 2, with "better" replaced by "better by more than the noise").  "Beyond noise"
 for two values a, b with confidence half-widths h_a, h_b (from their intervals) means
 |a - b| > sqrt(h_a^2 + h_b^2), the half-width of the interval of the difference of two independent
 estimates at the same confidence; a column without intervals (a deterministic model output) uses the

@@ -294,17 +294,69 @@ def _stats(f: np.ndarray, peak: float) -> dict:
             "p99": float(np.percentile(f, 99))}
 
 
+#: most output samples one run may write (the series are held in memory: about 0.7 kB per sample for the
+#: harvester drives, so 1.4 GB at the cap); a longer run must use a coarser ``output_step`` or be shorter
+MAX_OUTPUT_SAMPLES = 2_000_000
+#: default step budget: one integrator step (accepted or rejected) per STEP_BUDGET_DT of simulated time.  The
+#: harvester drives take about one step per 50 us (27 000 steps for 3 revolutions at 120 rpm), so the budget
+#: is some 50 times what a sound run needs; a run that needs more is stiffer than any description here
+#: should be (a contact stiffness or damping off by orders of magnitude) and would run for many minutes.
+STEP_BUDGET_DT = 1e-6
+#: the budget is never below this many steps (short runs with many contact onsets)
+MIN_STEP_BUDGET = 200_000
+#: output samples integrated between two budget checks (at most; fewer for short runs)
+_BUDGET_CHUNK_SAMPLES = 500
+
+
+def default_step_budget(duration: float) -> int:
+    """The step budget of a run of ``duration`` seconds: ``max(MIN_STEP_BUDGET, duration / STEP_BUDGET_DT)``."""
+    return int(max(MIN_STEP_BUDGET, math.ceil(duration / STEP_BUDGET_DT)))
+
+
 def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol: float | None = None,
                        output_step: float | None = None, max_step: float | None = None,
-                       y0: np.ndarray | None = None) -> MultibodyResult:
-    """Simulate a mechanism description; statistics over whole driver revolutions after the first."""
+                       y0: np.ndarray | None = None, max_steps: int | None = None) -> MultibodyResult:
+    """Simulate a mechanism description; statistics over whole driver revolutions after the first.
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        The mechanism; ``spec.simulation`` gives the defaults of the arguments below.
+    duration, rtol, output_step, max_step : float, optional
+        Simulated time (s), relative tolerance, spacing of the written series (s), largest step (s).
+    y0 : ndarray, optional
+        Initial state (positions then velocities); default: assembled with the clearance joints centred.
+    max_steps : int, optional
+        Step budget of the run (accepted + rejected integrator steps); default
+        :func:`default_step_budget` (``duration / 1e-6 s``, at least 200 000).  The run stops with a
+        :class:`~berryshaker.errors.SimulationError` when it is spent; it is checked every
+        ``_BUDGET_CHUNK_SAMPLES`` output samples, so a run may overshoot by one such chunk.
+
+    Raises
+    ------
+    ConfigError
+        Non-positive duration or output step, or more than :data:`MAX_OUTPUT_SAMPLES` output samples.
+    SimulationError
+        The integrator gave up, or the step budget was spent.
+    """
     sim = spec.simulation
     duration = sim.duration if duration is None else duration
     rtol = sim.rtol if rtol is None else rtol
     output_step = sim.output_step if output_step is None else output_step
     max_step = sim.max_step if max_step is None else max_step
-    if not duration > 0:
-        raise ConfigError(f"duration must be > 0, got {duration}")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"duration must be a finite time > 0 s, got {duration}")
+    if not (math.isfinite(output_step) and output_step > 0):
+        raise ConfigError(f"output_step must be a finite time > 0 s, got {output_step}")
+    n_samples = duration / output_step + 1
+    if n_samples > MAX_OUTPUT_SAMPLES:
+        raise ConfigError(f"a run of {duration:.6g} s written every {output_step:.3g} s needs {n_samples:.3g} output "
+                          f"samples, more than the {MAX_OUTPUT_SAMPLES:,} one run may hold in memory; simulate a "
+                          f"shorter time (fewer revolutions: at most "
+                          f"{(MAX_OUTPUT_SAMPLES - 1) * output_step:.4g} s) or write a coarser output_step")
+    budget = default_step_budget(duration) if max_steps is None else int(max_steps)
+    if budget < 1:
+        raise ConfigError(f"max_steps must be >= 1, got {max_steps}")
     cm = compile_mechanism(spec)
     state, work = _state_and_work(cm)
     y = initial_state(spec) if y0 is None else np.array(y0, float)
@@ -327,8 +379,35 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
                  np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)), np.zeros(nf),
                  np.zeros((nf, 4)), np.zeros(6))
     t0 = time.perf_counter()
-    mb.integrate(y, t_out, cm.model, state, work, rtol, atol, max_step, stats_from, out_y, out_e, out_lam,
-                 peaks, first, info)
+    # integrate in chunks of output samples, checking the step budget in between (the compiled kernel has no
+    # step limit of its own); each chunk restarts the step-size controller at min(max_step, 1 us), which costs
+    # a handful of steps and changes results only within the integration tolerance
+    chunk_info = np.zeros(6)
+    totals = np.zeros(3)  # accepted, rejected, event cuts
+    max_res = 0.0
+    i0 = 0
+    while i0 < n_out - 1:
+        i1 = min(n_out - 1, i0 + _BUDGET_CHUNK_SAMPLES)
+        sl = slice(i0, i1 + 1)
+        chunk_info[:] = 0.0
+        mb.integrate(y, t_out[sl], cm.model, state, work, rtol, atol, max_step, stats_from, out_y[sl], out_e[sl],
+                     out_lam[sl], peaks, first, chunk_info)
+        totals += chunk_info[:3]
+        max_res = max(max_res, float(chunk_info[5]))
+        if int(chunk_info[4]) != 0:
+            break
+        y = out_y[i1].copy()
+        i0 = i1
+        if totals[0] + totals[1] > budget and i0 < n_out - 1:
+            raise SimulationError(
+                f"multibody simulation stopped at t = {t_out[i0]:.6g} s of {duration:.6g} s: it used "
+                f"{int(totals[0] + totals[1]):,} integrator steps, over its budget of {budget:,} (mean step "
+                f"{t_out[i0] / max(totals[0], 1):.3g} s). The model is far stiffer than intended: check contact stiffness and damping (and their units), or "
+                "simulate fewer revolutions; to allow a longer run pass max_steps")
+    info[:] = chunk_info
+    info[0:3] = totals
+    if int(chunk_info[4]) == 0:
+        info[5] = max_res
     wall = time.perf_counter() - t0
     status = int(info[4])
     if status != 0:

@@ -698,6 +698,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
 
 @njit(cache=True)
 def fint_is_contact(model, j):
+    """True where force element ``j`` is a contact (clearance joint or modal-body contact)."""
     ftype = model[7]
     t = ftype[j]
     return t == FRC_REV_CL or t == FRC_SLOT_CL or t == FRC_GROOVE_CL or t == FRC_BRANCH

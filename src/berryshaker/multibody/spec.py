@@ -93,6 +93,7 @@ class _Strict(BaseModel):
 
 
 class BodySpec(_Strict):
+    """A rigid body: mass (kg), central inertia (kg m^2), initial position of its centre (m) and angle (rad)."""
     name: str
     mass: Mass
     inertia: Inertia  # about the centre of mass
@@ -126,6 +127,7 @@ class ContactSpec(_Strict):
 
 
 class JointSpec(_Strict):
+    """A joint between two bodies (or a body and ground): ideal or with clearance and a contact law."""
     name: str
     type: Literal["revolute", "prismatic", "point_on_line", "cam_roller",
                   "revolute_clearance", "slot_clearance", "groove_clearance"]
@@ -168,6 +170,7 @@ class CamSpec(_Strict):
 
 
 class DriverSpec(_Strict):
+    """A driver: imposed angle (constant speed) or applied torque on a body."""
     name: str
     type: Literal["angle", "torque"] = "angle"
     body: str
@@ -192,6 +195,7 @@ class ForceSpec(_Strict):
 
 
 class SimulationSpec(_Strict):
+    """Integration settings: duration (s), relative tolerance, output step and largest step (s)."""
     duration: Annotated[float, _q("time"), Field(gt=0)] = 0.05
     rtol: float = Field(1e-7, gt=0, lt=1)
     output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
@@ -234,12 +238,14 @@ class ModalBodySpec(_Strict):
 
 
 class MechanismInfo(_Strict):
+    """Name, description and gravity (m/s^2) of a mechanism."""
     name: str = "mechanism"
     description: str = ""
     gravity: Accel = (0.0, 0.0)
 
 
 class MechanismSpec(_Strict):
+    """A complete planar mechanism description (bodies, joints, drivers, forces, cams, an optional modal body)."""
     mechanism: MechanismInfo = MechanismInfo()
     bodies: list[BodySpec]
     joints: list[JointSpec] = []
@@ -291,6 +297,7 @@ class MechanismSpec(_Strict):
 
 
 def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:
+    """Validate a nested dict into a :class:`MechanismSpec`; errors are located (``joints.2.clearance: ...``)."""
     try:
         return MechanismSpec.model_validate(data)
     except ValidationError as err:
@@ -298,6 +305,7 @@ def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:
 
 
 def load_mechanism(path: str | Path) -> MechanismSpec:
+    """Read a mechanism description from TOML (units allowed) and validate it."""
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"mechanism file not found: {p}")

@@ -47,6 +47,7 @@ class PedicelSpec(_Strict):
 
 
 class FruitSpec(_Strict):
+    """Fruit on the branch: mass m0, positions (fractions of the length) and names (study eq. 16-17)."""
     mass: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
     pedicel: PedicelSpec = PedicelSpec()
     positions: tuple[float, ...] = (0.2, 0.5, 0.85)  # fractions of the branch length
@@ -113,6 +114,7 @@ class CombContactSpec(_Strict):
 
 
 class PlantSpec(_Strict):
+    """The plant section of a machine description: branch, fruit and the comb-branch contact."""
     branch: BranchSpec
     fruit: FruitSpec
     contact: CombContactSpec = CombContactSpec()

@@ -19,7 +19,8 @@ text-align:right;vertical-align:top}th{background:#eef2f7}td.l,th.l{text-align:l
 figure{margin:1em 0}figure img{max-width:100%;border:1px solid #dde3eb}figcaption{font-size:.9em;color:#4a5568}
 .v-reproduced{background:#e3f6e8}.v-not{background:#fbe4e4}.v-partly{background:#fff5d6}.v-nc{background:#eef}
 .small{font-size:.85em;color:#4a5568}code{background:#f3f5f8;padding:0 3px}
-.wrap{max-width:100%;overflow-x:auto}td,th{overflow-wrap:anywhere}thead{display:table-header-group}
+.wrap{max-width:100%;overflow-x:auto}td,th{overflow-wrap:break-word}thead{display:table-header-group}
+span[class^="v-"]{white-space:nowrap}
 @page{size:A4;margin:14mm 12mm}
 @media print{
 body{max-width:none;margin:0;padding:0;font-size:9.5pt}h1{font-size:15pt}h2{font-size:12.5pt;margin-top:1.2em}

@@ -51,6 +51,9 @@ SCHEDULER_TIMEOUT_S = 5.0
 #: costs about 0.4 s more per worker).  Numba's on-disk cache serves compiled kernels under every method;
 #: the pool is kept across :meth:`SweepRunner.map` calls so workers stay warm.
 DEFAULT_START_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+#: Local jobs are sent to the pool in about this many chunks per worker (fewer round trips for short runs,
+#: still balanced across workers when run times differ).
+CHUNKS_PER_WORKER = 4
 _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
@@ -77,12 +80,21 @@ def _jsonable(obj):
 
 
 def _not_json(obj):
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
     raise TypeError(f"{type(obj).__name__} is not JSON-compatible (use numbers, strings, lists, dicts)")
 
 
 def _canonical(obj) -> str:
     """Canonical JSON text of ``obj`` (sorted keys, no spaces): the input of every hash here."""
-    return json.dumps(_jsonable(obj), sort_keys=True, separators=(",", ":"), default=_not_json)
+    try:  # fast path: json walks dicts and lists itself, numpy values go through _not_json
+        return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_not_json)
+    except TypeError:  # e.g. keys of mixed types: normalise first
+        return json.dumps(_jsonable(obj), sort_keys=True, separators=(",", ":"), default=_not_json)
 
 
 def _sha256(text: str) -> str:
@@ -121,23 +133,25 @@ def function_name(fn: Callable) -> str:
 def _outside_source(fn: Callable) -> str:
     """Content hash of the module file of a run function that lives outside the berryshaker package (its
     code is not covered by :func:`code_fingerprint`); empty for berryshaker's own functions."""
+    mod = sys.modules.get(getattr(fn, "__module__", "") or "")
+    return _module_file_sha256(getattr(mod, "__file__", None) or "")
+
+
+@functools.lru_cache(maxsize=None)
+def _module_file_sha256(path: str) -> str:
     import berryshaker
 
-    mod = sys.modules.get(getattr(fn, "__module__", "") or "")
-    path = getattr(mod, "__file__", None)
     if not path:
         return ""
     root = Path(berryshaker.__file__).resolve().parent
     p = Path(path).resolve()
-    if root in p.parents:
-        return ""
-    return _file_sha256(str(p))
+    return "" if root in p.parents else _file_sha256(str(p))
 
 
 def run_key(fn: Callable, kwargs: dict) -> str:
     """sha256 of the function's dotted name, its resolved arguments and the code that computes the run
     (:func:`code_fingerprint`, plus the module file of a function outside the package)."""
-    payload = {"fn": function_name(fn), "kwargs": _jsonable(kwargs), "code": code_fingerprint(),
+    payload = {"fn": function_name(fn), "kwargs": kwargs, "code": code_fingerprint(),
                "module": _outside_source(fn), "schema": CACHE_SCHEMA}
     return _sha256(_canonical(payload))
 
@@ -587,7 +601,7 @@ class SweepRunner:
     def _run_local(self, ctx) -> None:
         keys = list(ctx["jobs"])
         nw = min(self.workers, len(keys))
-        size = max(1, math.ceil(len(keys) / (4 * nw)))  # about four chunks per worker
+        size = max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * nw)))
         chunks = [keys[k:k + size] for k in range(0, len(keys), size)]
         pool, progress = self._pool()
         advanced: set[str] = set()

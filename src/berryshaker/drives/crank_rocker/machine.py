@@ -15,7 +15,7 @@ from typing import ClassVar, Literal
 from pydantic import Field, model_validator
 
 from berryshaker.drives.base import MachineBase, PairInfo
-from berryshaker.quantity_fields import Angle, AngularSpeed, Inertia, Length, Mass, _d
+from berryshaker.quantity_fields import Angle, AngularSpeed, Inertia, Length, Mass, _d, check_drive_speed
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 
@@ -26,6 +26,11 @@ class Crank(_Strict):
     speed: AngularSpeed  # omega, drive shaft
     inertia: Inertia  # drive shaft + crank about O
     mass: Mass = 3.0  # loads only the shaft bearing (the shaft is driven at constant speed)
+
+    @model_validator(mode="after")
+    def _speed(self) -> "Crank":
+        check_drive_speed(self.speed, "crank.speed")
+        return self
 
 
 class ConnectingRod(_Strict):

@@ -27,6 +27,7 @@ from berryshaker.quantity_fields import (
     NonNegAngle,
     PositiveAngle,
     _d,
+    check_drive_speed,
 )
 from berryshaker.quantity_fields import StrictModel as _Strict
 from berryshaker.units import parse_quantity
@@ -55,6 +56,7 @@ class Cam(_Strict):
                 "rise_angle + far_dwell_angle + return_angle + near_dwell_angle must be 360 deg, "
                 f"got {math.degrees(total):.4g} deg"
             )
+        check_drive_speed(self.speed, "cam.speed")
         if self.offset >= self.base_radius:
             raise ValueError(
                 f"offset e = {self.offset * 1e3:.4g} mm must be smaller than base_radius "
@@ -140,6 +142,21 @@ class GrooveCamMachine(MachineBase):
     cam: Cam
     push_rod: PushRod
     rocker: Rocker
+
+    @model_validator(mode="after")
+    def _roller_clears_shaft_D(self) -> "GrooveCamMachine":
+        # B runs along y = e from x = s0 + l_AB to s0 + h + l_AB; the slot pivots on shaft D, so the roller
+        # must stay more than its radius from D (closer, the left comb's rate -v dy / |BD|^2 blows up)
+        xd, yd = self.shaft_D
+        x0 = self.cam.s0 + self.push_rod.length
+        dx = max(x0 - xd, 0.0, xd - (x0 + self.cam.stroke))
+        dist = math.hypot(dx, self.cam.offset - yd)
+        if not dist > self.cam.roller_radius:
+            raise ValueError(f"rocker.shaft_D_drop = {self.rocker.shaft_D_drop * 1e3:.4g} mm: the push-rod roller B "
+                             f"passes {dist * 1e3:.4g} mm from shaft D, closer than the roller radius "
+                             f"{self.cam.roller_radius * 1e3:.4g} mm (the slot pivots on D); increase shaft_D_drop "
+                             f"or move shaft_D_x")
+        return self
 
     @property
     def shaft_D(self) -> tuple[float, float]:

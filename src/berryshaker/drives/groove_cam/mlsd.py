@@ -30,8 +30,6 @@ import numpy as np
 from numba import njit
 
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-
-PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result layout
 from berryshaker.contact.force_laws import mlsd_kernel
 from berryshaker.contact.friction import coulomb_friction_kernel
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
@@ -54,6 +52,8 @@ from berryshaker.drives.groove_cam.kinematics import (
     ideal_state,
     mid_stroke_angles,
 )
+
+PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result layout
 
 # dynamic parameter vector
 P_M2, P_J3, P_M4, P_J5, P_MU2, P_V0, P_V1, P_XG, P_XH, P_KP, P_CP, P_TD0, P_TE0 = range(13)

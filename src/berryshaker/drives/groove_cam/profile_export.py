@@ -57,4 +57,5 @@ def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
 
 
 def write_groove_csv(machine: Machine, path: str | Path, n: int = 721) -> None:
+    """Write the groove walls as CSV (cam angle in deg, pitch/inner/outer wall x, y in mm), atomically."""
     write_text_atomic(path, groove_csv_text(machine, n))

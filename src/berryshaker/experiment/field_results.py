@@ -1,0 +1,544 @@
+"""Reading a filled field sheet back, strictly (issue "never compute on a misread input").
+
+Every cell that is used is parsed and checked, and anything that cannot be read unambiguously stops with a
+:class:`ConfigError` naming the row (line of the file, header = line 1), the run and the column, and
+saying how to fix it.  Level cells are matched by value or by level number whatever the coding; factor
+columns may be the planner's ``<name>_level`` / ``<name>_<unit>`` pair or plain value columns as
+statistics packages write them.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.field_sheet import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
+                                                Factor, FieldResults, _reserved_columns, compute_indexes)
+
+_MISSING = {"", "na", "n/a", "nan", "none", "-"}
+_CELL = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z%µμ/^*·0-9_]*)\s*$")
+
+
+class _Sheet:
+    """The raw sheet (all cells as text) with the helpers that read cells and name them in errors."""
+
+    def __init__(self, df: pd.DataFrame, decimal_comma: bool, sep: str):
+        self.df = df
+        self.decimal_comma = decimal_comma
+        self.sep = sep
+        self.run_label = [str(i + 1) for i in range(len(df))]
+        self.adopted_units: dict[str, str] = {}
+
+    def where(self, i: int, col: str) -> str:
+        return f"results CSV row {i + 2} (run {self.run_label[i]}), column {col!r}"
+
+    def text(self, col: str) -> pd.Series:
+        return self.df[col]
+
+    def numbers(self, col: str, allow_unit: str | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Floats of a column (NaN where empty) and a mask of empty cells.
+
+        ``allow_unit``: cells may carry a unit ("0.25 mm"), converted to this unit ('?': the first unit
+        found in the column, kept in ``adopted_units``; None: no unit allowed).
+        """
+        s = self.df[col]
+        empty = np.array(s.isna(), dtype=bool)
+        t = s.fillna("")
+        if self.decimal_comma:
+            both = t.str.contains(",", regex=False) & t.str.contains(".", regex=False)
+            if both.any():
+                i = int(np.argmax(both.to_numpy()))
+                raise ConfigError(f"{self.where(i, col)}: {s.iloc[i]!r} mixes '.' and ',' (thousands separator?); "
+                                  "write the number without a thousands separator")
+            t = t.str.replace(",", ".", regex=False)
+        vals = np.array(pd.to_numeric(t.where(~empty, "nan"), errors="coerce"), dtype=float)
+        bad = np.flatnonzero(np.isnan(vals) & ~empty)
+        for i in bad:
+            cell = str(s.iloc[i])
+            tt = str(t.iloc[i])
+            m = _CELL.match(tt)
+            if m and m.group(2) and allow_unit is not None:
+                if allow_unit == "?":  # unit not known yet: the first unit in the column is the unit
+                    allow_unit = self.adopted_units.setdefault(col, m.group(2).strip())
+                vals[i] = float(m.group(1)) * _unit_factor(m.group(2), allow_unit, self.where(i, col))
+                continue
+            if tt.strip().lower() in ("nan",):
+                empty[i] = True
+                continue
+            hint = ""
+            if "," in cell and not self.decimal_comma:
+                hint = ("; decimal comma? this sheet is comma-separated, so write 3.9, or save it with ';' as the "
+                        "separator (then decimal commas are read)")
+            elif m and m.group(2):
+                hint = "; units are not allowed in this column (its unit is in the header)"
+            raise ConfigError(f"{self.where(i, col)}: {cell!r} is not a number{hint}")
+        return vals, empty
+
+
+def _unit_factor(unit: str, target: str, where: str) -> float:
+    """Factor converting a value in ``unit`` to ``target`` (1 when they are the same)."""
+    unit = unit.strip()
+    if unit == target:
+        return 1.0
+    if not target:
+        raise ConfigError(f"{where}: unit {unit!r} given, but the factor has no unit; write the plain number")
+    from berryshaker.units import _registry
+
+    ureg = _registry()
+    try:
+        return float(ureg.Quantity(1.0, ureg.Unit(unit)).to(ureg.Unit(target)).magnitude)
+    except Exception:  # noqa: BLE001 - pint raises several types
+        raise ConfigError(f"{where}: unit {unit!r} cannot be read as {target!r}; write the value in {target}") from None
+
+
+def _load_sheet(path_or_text) -> _Sheet:
+    try:
+        if isinstance(path_or_text, str) and "\n" in path_or_text:
+            text = path_or_text
+        else:
+            text = Path(path_or_text).read_text(encoding="utf-8-sig")
+    except FileNotFoundError:
+        raise ConfigError(f"results file not found: {path_or_text}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read the results file {path_or_text} ({exc}); save it as UTF-8 CSV") from None
+    text = text.lstrip("\ufeff")
+    header = next((ln for ln in text.splitlines() if ln.strip()), "")
+    if not header:
+        raise ConfigError("results CSV is empty; fill in the field sheet from `berryshaker doe plan`")
+    counts = {s: header.count(s) for s in (",", ";", "\t")}
+    sep = max(counts, key=counts.get)
+    try:
+        df = pd.read_csv(io.StringIO(text), sep=sep, dtype=str, keep_default_na=False, skipinitialspace=True,
+                         skip_blank_lines=True)
+    except Exception as exc:  # pandas parser errors
+        raise ConfigError(f"cannot read the results CSV ({exc})") from None
+    names = [h.strip() for h in next(iter(pd.read_csv(io.StringIO(header), sep=sep, header=None, dtype=str)
+                                           .itertuples(index=False, name=None)))]
+    dup = sorted({h for h in names if names.count(h) > 1})
+    if dup:
+        raise ConfigError(f"results CSV: column(s) {dup} appear more than once in the header; keep one of each")
+    df.columns = [str(c).strip() for c in df.columns]
+    if len(df) > MAX_ROWS:
+        raise ConfigError(f"results CSV has {len(df)} rows, more than the {MAX_ROWS} a field sheet can have; "
+                          "is this the right file?")
+    for c in df.columns:
+        s = df[c].astype(str).str.strip()
+        df[c] = s.where(~s.str.lower().isin(_MISSING), None)
+    df = df.dropna(how="all").reset_index(drop=True)
+    return _Sheet(df, decimal_comma=sep != ",", sep=sep)
+
+
+def _split_unit(col: str) -> tuple[str, str] | None:
+    """``A_mm`` -> ('A', 'mm') if the part after the last '_' is a unit; None otherwise."""
+    if "_" not in col:
+        return None
+    name, unit = col.rsplit("_", 1)
+    if not name or not unit:
+        return None
+    if unit in ("%", "pct"):
+        return name, "%"
+    from berryshaker.units import _registry
+
+    try:
+        _registry().Unit(unit)
+    except Exception:  # noqa: BLE001
+        return None
+    return name, unit
+
+
+def _balance_problem(sheet: _Sheet, col: str, x: np.ndarray) -> None:
+    """In an orthogonal array every level of a column occurs equally often: a value that occurs less than half
+    as often as the typical level is a stray (a typo matching no level).  A cell changed to another level
+    leaves no stray; the orthogonality check reports it."""
+    vals, counts = np.unique(x, return_counts=True)
+    if len(vals) < 2:
+        return
+    typical = float(np.median(counts))
+    stray = vals[counts < typical / 2]
+    others = vals[counts >= typical / 2]
+    if len(stray) == 0 or len(others) < 2:
+        return
+    i = int(np.flatnonzero(np.isin(x, stray))[0])
+    raise ConfigError(f"{sheet.where(i, col)}: {x[i]:g} matches no level ({', '.join(f'{v:g}' for v in others)}) "
+                      f"and occurs only {int(counts[vals == x[i]][0])} time(s) where a level occurs about "
+                      f"{typical:g} times; correct the cell")
+
+
+def _codes_for(sheet: _Sheet, col: str, x: np.ndarray, levels: tuple[float, ...], fname: str, unit: str,
+               is_code_column: bool) -> np.ndarray:
+    """1-based level numbers of column ``col`` whose cells are level codes (1..k or 0..k-1) or level values."""
+    k = len(levels)
+    lv = np.asarray(levels, float)
+    match = np.isclose(x[:, None], lv[None, :], rtol=1e-9, atol=1e-12)
+    by_value = match.argmax(axis=1) + 1 if match.any(axis=1).all() else None
+    codings = {}
+    if by_value is not None:
+        codings["level values"] = by_value
+    if is_code_column:
+        integral = np.all(x == np.round(x))
+        if integral and x.min() >= 1 and x.max() <= k:
+            codings["level numbers 1..%d" % k] = x.astype(int)
+        if integral and x.min() >= 0 and x.max() <= k - 1:
+            codings["level numbers 0..%d" % (k - 1)] = x.astype(int) + 1
+    distinct = {tuple(v) for v in (np.asarray(c) for c in codings.values())}
+    if len(distinct) == 1:
+        return next(iter(codings.values()))
+    shown = ", ".join(f"{v:g}" for v in levels) + (f" {unit}" if unit else "")
+    if len(distinct) > 1:
+        raise ConfigError(f"results CSV column {col!r}: its cells read both as {' and as '.join(codings)} of "
+                          f"factor {fname!r} (levels {shown}) with different meanings; write the level values with "
+                          f"the unit (e.g. '{levels[0]:g} {unit or ''}'.strip()) or fill the value column")
+    # nothing fits every cell: name the first cell that matches no level value and no level number
+    ok = match.any(axis=1)
+    if is_code_column:
+        ok |= (x == np.round(x)) & (x >= 0) & (x <= k)
+    bad = np.flatnonzero(~ok)
+    i = int(bad[0]) if len(bad) else 0
+    codes = f"; or level numbers 1..{k}" if is_code_column else ""
+    raise ConfigError(f"{sheet.where(i, col)}: {x[i]:g} matches no level of factor {fname!r} (levels {shown}{codes}); "
+                      "correct the cell")
+
+
+def _resolve_factor(sheet: _Sheet, name: str, code_col: str | None, value_col: str | None, unit: str,
+                    given: Factor | None) -> tuple[np.ndarray, tuple[float, ...] | None, np.ndarray | None, str]:
+    """Level numbers (1-based), level values (or None), the value per run and the unit of one factor."""
+    xc = xv = None
+    if code_col is not None:
+        xc, empty = sheet.numbers(code_col, allow_unit=unit if (unit or given is not None) else "?")
+        unit = unit or sheet.adopted_units.get(code_col, "")
+        if empty.any():
+            i = int(np.argmax(empty))
+            raise ConfigError(f"{sheet.where(i, code_col)}: empty level; fill in the level of {name!r}")
+        if not np.isfinite(xc).all():
+            i = int(np.argmax(~np.isfinite(xc)))
+            raise ConfigError(f"{sheet.where(i, code_col)}: level must be a finite number")
+    if value_col is not None:
+        xv, empty = sheet.numbers(value_col, allow_unit=unit if (unit or given is not None) else "?")
+        unit = unit or sheet.adopted_units.get(value_col, "")
+        if empty.any():
+            if xc is None:
+                i = int(np.argmax(empty))
+                raise ConfigError(f"{sheet.where(i, value_col)}: empty level value; fill in the value of {name!r}")
+            xv = None if empty.all() else xv
+            if xv is not None:
+                i = int(np.argmax(empty))
+                raise ConfigError(f"{sheet.where(i, value_col)}: empty level value (other rows have one); fill it in")
+        if xv is not None and not np.isfinite(xv).all():
+            i = int(np.argmax(~np.isfinite(xv)))
+            raise ConfigError(f"{sheet.where(i, value_col)}: level value must be a finite number")
+    if given is not None:
+        levels = given.levels
+        codes_v = _codes_for(sheet, value_col, xv, levels, name, unit, False) if xv is not None else None
+        codes_c = _codes_for(sheet, code_col, xc, levels, name, unit, True) if xc is not None else None
+    else:
+        codes_c = codes_v = None
+        levels = None
+        if xc is not None:  # a typo in the level column; a value column is checked against it below
+            _balance_problem(sheet, code_col, xc)
+        elif xv is not None:
+            _balance_problem(sheet, value_col, xv)
+        if xc is not None and xv is not None:
+            integral = np.all(xc == np.round(xc))
+            k = len(np.unique(xv))
+            if integral and xc.min() >= 0 and xc.max() <= k and len(np.unique(xc)) == k:
+                codes_c = xc.astype(int) + (1 if xc.min() == 0 else 0)
+                levels = [None] * k
+                for c in range(1, k + 1):  # level value = the value most rows with this level number have
+                    rows = np.flatnonzero(codes_c == c)
+                    if len(rows) == 0:
+                        continue
+                    u, cnt = np.unique(xv[rows], return_counts=True)
+                    levels[c - 1] = float(u[np.argmax(cnt)])
+                    off = rows[~np.isclose(xv[rows], levels[c - 1], rtol=1e-9, atol=1e-12)]
+                    if len(off):
+                        i = int(off[0])
+                        raise ConfigError(f"{sheet.where(i, value_col)}: {xv[i]:g} disagrees with level {c} in "
+                                          f"{code_col!r}, which is {levels[c - 1]:g} in the other rows; correct "
+                                          "the level or the value")
+                if any(lv is None for lv in levels):
+                    levels = None
+                    codes_c = None
+                else:
+                    levels = tuple(levels)
+            if levels is None:  # the code column holds values: they must equal the value column
+                diff = ~np.isclose(xc, xv, rtol=1e-9, atol=1e-12)
+                if diff.any():
+                    i = int(np.argmax(diff))
+                    raise ConfigError(f"{sheet.where(i, code_col)}: {xc[i]:g} is neither a level number nor the value "
+                                      f"{xv[i]:g} in {value_col!r}; correct one of them")
+                levels = tuple(float(v) for v in np.unique(xv))
+                codes_v = _codes_for(sheet, value_col, xv, levels, name, unit, False)
+        elif xv is not None:
+            levels = tuple(float(v) for v in np.unique(xv))
+            codes_v = _codes_for(sheet, value_col, xv, levels, name, unit, False)
+        else:
+            integral = np.all(xc == np.round(xc))
+            u = np.unique(xc)
+            if integral and (u.min() in (0, 1)) and u.max() - u.min() == len(u) - 1 and not unit:
+                codes_c = xc.astype(int) + (1 if u.min() == 0 else 0)  # level numbers; values not in the sheet
+            else:
+                levels = tuple(float(v) for v in u)
+                codes_c = _codes_for(sheet, code_col, xc, levels, name, unit, False)
+    if codes_c is not None and codes_v is not None and not np.array_equal(codes_c, codes_v):
+        i = int(np.argmax(codes_c != codes_v))
+        raise ConfigError(f"{sheet.where(i, code_col)}: level {codes_c[i]} disagrees with the value {xv[i]:g} in "
+                          f"{value_col!r} (level {codes_v[i]}); correct one of them")
+    codes = codes_c if codes_c is not None else codes_v
+    values = None if levels is None else np.asarray(levels, float)[codes - 1]
+    return codes, levels, values, unit
+
+
+def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: set[str]):
+    """(name, code column, value column, unit, given Factor) per factor, and the columns ignored."""
+    cols = list(sheet.df.columns)
+    reserved = _reserved_columns() | response_cols
+    meta = {c for c in cols if c.lower() in META_COLUMNS}
+    found = []
+    if factors is not None:
+        for f in factors:
+            code = f"{f.name}_level" if f"{f.name}_level" in cols else None
+            value = f.column if f.column in cols else (f.name if f.name in cols else None)
+            if code is None and value is None:
+                raise ConfigError(f"results CSV: factor {f.name!r} has neither a {f.name + '_level'!r} nor a "
+                                  f"{f.column!r} column")
+            found.append((f.name, code, value, f.unit, f))
+    else:
+        level_cols = [c for c in cols if c.endswith("_level") and len(c) > 6]
+        if level_cols:
+            for code in level_cols:
+                name = code[:-6]
+                cand = [c for c in cols if c != code and c not in meta and not c.endswith("_level")
+                        and (c == name or (c.startswith(name + "_") and (_split_unit(c) or ("", ""))[0] == name))]
+                if len(cand) > 1:
+                    raise ConfigError(f"results CSV: factor {name!r} has several value columns {cand}; keep one")
+                value = cand[0] if cand else None
+                unit = (_split_unit(value) or (name, ""))[1] if value and value != name else ""
+                found.append((name, code, value, unit, None))
+        else:
+            for c in cols:
+                if c in reserved or c in meta:
+                    continue
+                su = _split_unit(c)
+                name, unit = su if su else (c, "")
+                found.append((name, None, c, unit, None))
+            if not found:
+                raise ConfigError("results CSV: no factor columns found (<FACTOR>_level columns as written by "
+                                  "`berryshaker doe plan`, or plain factor columns such as A, B holding level values)")
+    names = [f[0] for f in found]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"results CSV: factor names {names} are not distinct")
+    for name, code, value, unit, _ in found:
+        for c in (name, value, code):
+            if c is not None and c in reserved:
+                raise ConfigError(f"results CSV: factor {name!r} would take the column {c!r}, which is a response, "
+                                  "raw-measurement or reserved column; rename the factor (e.g. "
+                                  f"{name + '_x'!r}) in the sheet")
+    used = {c for f in found for c in f[1:3] if c}
+    ignored = [c for c in cols if c not in used and c not in reserved]
+    return found, ignored
+
+
+def _check_runs(sheet: _Sheet) -> np.ndarray:
+    if "run" not in sheet.df.columns:
+        raise ConfigError("results CSV: no 'run' column (the field sheet from `berryshaker doe plan` has one)")
+    runs, empty = sheet.numbers("run")
+    if empty.any():
+        i = int(np.argmax(empty))
+        raise ConfigError(f"results CSV row {i + 2}, column 'run': empty run number; fill it in")
+    bad = ~np.isfinite(runs) | (runs != np.round(runs)) | (runs < 1)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ConfigError(f"results CSV row {i + 2}, column 'run': {sheet.df['run'].iloc[i]!r} is not a run "
+                          "number (1, 2, 3, ...)")
+    runs = runs.astype(np.int64)
+    sheet.run_label = [str(r) for r in runs]
+    n = len(runs)
+    _, first, counts = np.unique(runs, return_index=True, return_counts=True)
+    if (counts > 1).any():
+        dup = int(np.unique(runs)[np.argmax(counts > 1)])
+        rows = (np.flatnonzero(runs == dup) + 2).tolist()
+        raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
+                          "keep one row per run (a repeat of a run needs its own design)")
+    if runs.max() != n:
+        missing = sorted(set(range(1, n + 1)) - set(runs.tolist()))[:10]
+        raise ConfigError(f"results CSV: runs must be numbered 1..{n} once each"
+                          + (f"; missing run(s) {missing}" if missing else ""))
+    return runs
+
+
+def _orthogonality_problem(levels: np.ndarray, names: list[str]) -> str:
+    import itertools
+
+    n = len(levels)
+    for i, j in itertools.combinations(range(levels.shape[1]), 2):
+        li, lj = np.unique(levels[:, i]), np.unique(levels[:, j])
+        expected = n / (len(li) * len(lj))
+        for x in li:
+            for y in lj:
+                c = int(np.sum((levels[:, i] == x) & (levels[:, j] == y)))
+                if c != expected:
+                    return (f"levels {names[i]}{x} with {names[j]}{y} occur {c} time(s), expected {expected:g}")
+    return ""
+
+
+def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:
+    """Read a filled field sheet; compute indexes from raw masses where the index cells are empty.
+
+    Parameters
+    ----------
+    path_or_text : path or str
+        CSV file (or its text).  Comma-, semicolon- or tab-separated; in semicolon- and tab-separated
+        sheets a decimal comma is read as a decimal point (it cannot be a separator there); in
+        comma-separated sheets a cell such as "3,9" is refused with a hint.
+    responses : list of str
+        ``efficiency``, ``unripe``, ``damage`` (from the index columns, or computed from the raw masses
+        where those are empty) or the name of any other numeric column.
+    factors : list of Factor, optional
+        The plan's factors.  Without them the factors are found in the sheet: ``<name>_level`` columns
+        (with an optional ``<name>_<unit>`` or ``<name>`` value column), or else every column that is not
+        run, order, a response, a raw measurement or a note (``date``, ``operator``, ``weather``,
+        ``notes``, ...) is a factor holding level values, as statistics packages write them.
+
+    Notes
+    -----
+    Level cells are matched by value or by level number, whatever the coding: 1/2/3, 0/1/2 or the level
+    values themselves ("0.25" or "0.25 mm"); a coding that reads two ways is refused.  A value that
+    matches no level is an error naming the row and column.  Checked as well: run numbers 1..n once
+    each, levels forming an orthogonal (balanced) design, finite non-negative masses, duration > 0,
+    unripe and damaged mass not above the picked mass, rates within 0-100 %, efficiency >= 0, a factor
+    that would take a response column, an unknown response name, a header-only sheet.  Every error is a
+    :class:`ConfigError` naming the row (line of the file; header = line 1), run and column.
+    """
+    sheet = _load_sheet(path_or_text)
+    df = sheet.df
+    if len(df) == 0:
+        raise ConfigError("results CSV has a header but no rows; fill in the field sheet (one row per run)")
+    runs = _check_runs(sheet)
+    response_cols = {INDEX_NAMES.get(r, r) for r in responses} | set(responses)
+    found, ignored = _find_factors(sheet, factors, response_cols)
+    # responses named like a factor column
+    factor_cols = {c for f in found for c in (f[0], f[1], f[2]) if c}
+    for r in responses:
+        if r in factor_cols or INDEX_NAMES.get(r, r) in factor_cols:
+            raise ConfigError(f"response {r!r} is also a factor column of the sheet; analyse another column or "
+                              "rename the factor")
+    names, codes, level_values, units, values = [], [], {}, {}, []
+    for name, code_col, value_col, unit, given in found:
+        c, lv, v, unit = _resolve_factor(sheet, name, code_col, value_col, unit, given)
+        names.append(name)
+        codes.append(c)
+        level_values[name] = lv
+        units[name] = unit
+        values.append(v if v is not None else c.astype(float))
+    levels = np.column_stack(codes).astype(int)
+    valuearr = np.column_stack(values).astype(float)
+    order = np.argsort(runs, kind="stable")
+    levels, valuearr = levels[order], valuearr[order]
+    from berryshaker.experiment.designs import is_orthogonal
+
+    if levels.shape[1] > 1 and not is_orthogonal(levels):
+        raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
+                          + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")
+    out = {r: _response(sheet, r)[order] for r in responses}
+    # the table: sorted by run, numbers where the sheet's cells are numbers, level numbers normalised
+    table = df.iloc[order].reset_index(drop=True).copy()
+    for c in table.columns:
+        if c.lower() in META_COLUMNS:
+            continue
+        conv = pd.to_numeric(table[c].str.replace(",", ".", regex=False) if sheet.decimal_comma else table[c],
+                             errors="coerce")
+        if (conv.notna() | table[c].isna()).all():
+            table[c] = conv.astype(float)
+    table["run"] = runs[order]
+    level_cols = []
+    for j, name in enumerate(names):
+        col = f"{name}_level"
+        table[col] = levels[:, j]
+        level_cols.append(col)
+        vcol = next((f[2] for f in found if f[0] == name), None)
+        if level_values[name] is not None:
+            if vcol is None or vcol == name:  # give the values a column ``<name>_<unit>`` / ``<name>_value``
+                table[f"{name}_{units[name] or 'value'}"] = valuearr[:, j]
+            else:
+                table[vcol] = valuearr[:, j]
+    return FieldResults(table, level_cols, names, out, levels, valuearr, level_values, units, ignored)
+
+
+def _response(sheet: _Sheet, r: str) -> np.ndarray:
+    """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
+    df = sheet.df
+    numeric_cols = [c for c in df.columns if c not in ("run", "order") and c.lower() not in META_COLUMNS]
+    col = INDEX_NAMES.get(r, r)
+    if r not in INDEX_NAMES and col not in df.columns:
+        raise ConfigError(f"unknown response {r!r}; valid: {', '.join(INDEX_NAMES)} (indexes or raw masses) or a "
+                          f"column of the sheet ({', '.join(c for c in numeric_cols if not c.endswith('_level'))})")
+    n = len(df)
+    if col in df.columns:
+        vals, empty = sheet.numbers(col)
+    else:
+        vals, empty = np.full(n, np.nan), np.ones(n, bool)
+    _check_range(sheet, col, vals, ~empty)
+    if empty.any() and col in INDEX_COLUMNS:
+        need = np.flatnonzero(empty)
+        raw = {}
+        for c in RAW_COLUMNS:
+            if c not in df.columns:
+                i = int(need[0])
+                raise ConfigError(f"{sheet.where(i, col)}: response {r!r} is empty and cannot be computed from "
+                                  f"{', '.join(RAW_COLUMNS)} (no {c!r} column); fill in {col!r}")
+            v, e = sheet.numbers(c)
+            _check_range(sheet, c, v, ~e)
+            miss = need[e[need]]
+            if len(miss):
+                i = int(miss[0])
+                raise ConfigError(f"results CSV run {sheet.run_label[i]} (row {i + 2}): response {r!r} is empty and "
+                                  f"cannot be computed from {', '.join(RAW_COLUMNS)}: {c!r} is empty; fill in "
+                                  f"{col!r} or the raw measurements")
+            raw[c] = v
+        d, p, u, dm = (raw[c] for c in RAW_COLUMNS)
+        for c, x in (("unripe_mass_kg", u), ("damaged_mass_kg", dm)):
+            over = np.flatnonzero(x[need] > p[need])
+            if len(over):
+                i = int(need[over[0]])
+                raise ConfigError(f"{sheet.where(i, c)}: {x[i]:g} kg is more than the picked mass {p[i]:g} kg "
+                                  "(rates would exceed 100 %); the picked mass is everything picked, including "
+                                  "unripe and damaged fruit")
+        if col != "efficiency_kg_min":
+            zero = np.flatnonzero(p[need] <= 0)
+            if len(zero):
+                i = int(need[zero[0]])
+                raise ConfigError(f"{sheet.where(i, 'picked_mass_kg')}: picked mass is 0, so the rate {col!r} is "
+                                  "undefined; fill in the rate or check the mass")
+        computed = compute_indexes(d, p, u, dm)[col]
+        vals = np.where(empty, computed, vals)
+    elif empty.any():
+        i = int(np.argmax(empty))
+        raise ConfigError(f"results CSV run {sheet.run_label[i]} (row {i + 2}): response {r!r} is empty; fill in "
+                          f"{col!r}")
+    return vals
+
+
+def _check_range(sheet: _Sheet, col: str, vals: np.ndarray, filled: np.ndarray) -> None:
+    """Physical ranges of the measured quantities (only filled cells are checked)."""
+    v = np.where(filled, vals, 0.0)
+    checks = [(~np.isfinite(v), "must be a finite number")]
+    if col == "duration_s":
+        checks.append(((v <= 0) & filled, "duration must be > 0 s"))
+    elif col in RAW_COLUMNS:
+        checks.append((v < 0, "mass must be >= 0 kg"))
+    elif col in ("unripe_rate_pct", "damage_rate_pct"):
+        checks.append(((v < 0) | (v > 100), "rate must be within 0-100 % (a fraction 0.03 is 3 %)"))
+    elif col == "efficiency_kg_min":
+        checks.append((v < 0, "efficiency must be >= 0 kg/min"))
+    for bad, msg in checks:
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(f"{sheet.where(i, col)}: {sheet.df[col].iloc[i]!r}: {msg}")
+
+
+__all__ = ["read_results"]

@@ -1,0 +1,211 @@
+"""Variance-based (Sobol) sensitivity of the drive's outputs to joint clearances and any named parameter.
+
+First-order indices S1 (the share of the output variance explained by one parameter alone) and total indices
+ST (including all its interactions) with bootstrap confidence intervals, estimated with SALib: Saltelli's
+extension of the Sobol sequence for sampling (``SALib.sample.sobol``) and the Saltelli/Jansen estimators for
+the analysis (``SALib.analyze.sobol``).
+
+Sources: I. M. Sobol', "Global sensitivity indices for nonlinear mathematical models and their Monte Carlo
+estimates", Math. Comput. Simul. 55 (2001) 271-280; A. Saltelli et al., "Variance based sensitivity analysis
+of model output. Design and estimator for the total sensitivity index", Comput. Phys. Commun. 181 (2010)
+259-270; J. Herman and W. Usher, "SALib: An open-source Python library for sensitivity analysis", JOSS 2 (2017).
+
+The machine runs go through the cached sweep runner (local processes or a Dask cluster): N (D + 2) runs for D
+parameters and a base sample N (a power of two).  Parameters are sampled uniformly over their ranges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from berryshaker.errors import ConfigError
+
+
+@dataclass(frozen=True)
+class SobolParameter:
+    """One input of a Sobol analysis: a dotted key of the machine description and its SI range.
+
+    Attributes
+    ----------
+    key : str
+        ``clearance.A.size``, ``cam.speed`` ...
+    lo, hi : float
+        SI bounds (uniform distribution).
+    unit : str
+        Display unit of the user's input ("mm"); ``factor`` is its SI value.
+    factor : float
+        SI value of one ``unit``.
+    """
+
+    key: str
+    lo: float
+    hi: float
+    unit: str = ""
+    factor: float = 1.0
+
+
+def parse_sensitivity_param(spec: str) -> SobolParameter:
+    """``KEY=LO..HI[unit]`` (e.g. ``clearance.A.size=0.1..0.8mm``) as a :class:`SobolParameter` (SI bounds)."""
+    from berryshaker.runs.sweep import parse_param
+
+    p = parse_param(spec)
+    if p.kind != "range":
+        raise ConfigError(f"--param {spec!r}: a Sobol analysis needs a range KEY=LO..HI[unit], e.g. "
+                          "clearance.A.size=0.1..0.8mm")
+    return SobolParameter(p.key, p.values[0] * p.factor, p.values[1] * p.factor, p.unit, p.factor)
+
+
+def default_clearance_params(machine) -> list[SobolParameter]:
+    """Every clearance pair's size over its test levels (smallest to largest level), in mm."""
+    levels = machine.clearance_levels()
+    return [SobolParameter(f"clearance.{p}.size", min(lv), max(lv), "mm", 1e-3) for p, lv in levels.items()]
+
+
+def sobol_problem(params: list[SobolParameter]) -> dict:
+    """SALib problem dict (names, SI bounds)."""
+    if not params:
+        raise ConfigError("a sensitivity analysis needs at least one --param KEY=LO..HI[unit]")
+    names = [p.key for p in params]
+    if len(set(names)) != len(names):
+        raise ConfigError(f"--param: each parameter once, got {', '.join(names)}")
+    for p in params:
+        if not (math.isfinite(p.lo) and math.isfinite(p.hi) and p.hi > p.lo):
+            raise ConfigError(f"--param {p.key}: needs LO < HI, got {p.lo!r}..{p.hi!r}")
+    return {"num_vars": len(params), "names": names, "bounds": [[p.lo, p.hi] for p in params]}
+
+
+def _check_n(n: int) -> int:
+    n = int(n)
+    if n < 2 or n & (n - 1):
+        raise ConfigError(f"--samples must be a power of two >= 2 (the Sobol sequence's balance), got {n}")
+    return n
+
+
+def sobol_sample(problem: dict, n: int, seed: int | None = 0, second_order: bool = False) -> np.ndarray:
+    """Saltelli sample of a problem: shape (N (D + 2), D), or (N (2 D + 2), D) with second order.
+
+    Notes
+    -----
+    ``SALib.sample.sobol.sample`` (scrambled Sobol sequence, Saltelli 2010 cross-sampling matrices).
+    """
+    from SALib.sample import sobol as sobol_sampler
+
+    return sobol_sampler.sample(problem, _check_n(n), calc_second_order=second_order, scramble=True, seed=seed)
+
+
+def sobol_analyze(problem: dict, y, seed: int | None = 0, second_order: bool = False,
+                  conf_level: float = 0.95, num_resamples: int = 200) -> dict[str, dict[str, float | None]]:
+    """First-order and total Sobol indices with bootstrap confidence half-widths.
+
+    Parameters
+    ----------
+    problem : dict
+        :func:`sobol_problem`.
+    y : array_like
+        Model outputs at :func:`sobol_sample`'s rows, in order.
+    seed : int
+        Bootstrap seed.
+    second_order : bool
+        As sampled.
+    conf_level : float
+        Confidence level of the intervals.
+    num_resamples : int
+        Bootstrap resamples.
+
+    Returns
+    -------
+    dict
+        parameter -> {"S1", "S1_conf", "ST", "ST_conf"} (None where the output has no variance).
+
+    Notes
+    -----
+    S1_i = V[E(Y | X_i)] / V(Y) (Saltelli 2010 estimator), ST_i = E[V(Y | X_~i)] / V(Y) (Jansen estimator), as
+    implemented in ``SALib.analyze.sobol.analyze``.  ``*_conf`` is the half-width of the bootstrap interval.
+    """
+    from SALib.analyze import sobol as sobol_analyzer
+
+    y = np.asarray(y, float)
+    if not np.all(np.isfinite(y)):
+        raise ConfigError("sensitivity: some outputs are not finite; the Sobol estimators need every run")
+    names = problem["names"]
+    if np.ptp(y) == 0.0:
+        return {n: {"S1": None, "S1_conf": None, "ST": None, "ST_conf": None} for n in names}
+    res = sobol_analyzer.analyze(problem, y, calc_second_order=second_order, num_resamples=num_resamples,
+                                 conf_level=conf_level, print_to_console=False, seed=seed)
+
+    def num(x):
+        return float(x) if math.isfinite(float(x)) else None
+
+    return {n: {"S1": num(res["S1"][k]), "S1_conf": num(res["S1_conf"][k]), "ST": num(res["ST"][k]),
+                "ST_conf": num(res["ST_conf"][k])} for k, n in enumerate(names)}
+
+
+def sobol_indices(fn: Callable[[np.ndarray], np.ndarray], problem: dict, n: int, seed: int | None = 0) -> dict:
+    """Sobol indices of a vectorised function ``fn(X) -> y`` (X of shape (runs, D)): sample, evaluate, analyse.
+
+    Used for analytic checks (e.g. the Ishigami function) of the same plumbing the machine analysis uses.
+    """
+    x = sobol_sample(problem, n, seed)
+    return sobol_analyze(problem, fn(x), seed)
+
+
+def machine_sobol(machine, params: list[SobolParameter], outputs: list[str], n: int, runner, model: str = "mlsd",
+                  revolutions: int = 2, seed: int | None = 0, label: str = "sensitivity") -> dict:
+    """Sobol indices of machine outputs, every run through the cached sweep runner.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (the runs override the parameters on a copy).
+    params : list of SobolParameter
+        Inputs and their SI ranges.
+    outputs : list of str
+        Output names of :func:`berryshaker.life.runs.summary_outputs_run` (``collision_force_A_peak``...).
+    n : int
+        Base sample (power of two); the runs are N (D + 2).
+    runner : SweepRunner
+        Cached, local or Dask.
+    model : {"mlsd", "multibody"}
+        Which dynamics.
+    revolutions : int
+        Drive revolutions per run (>= 2).
+    seed : int
+        Seed of the scrambled Sobol sequence and of the bootstrap.
+
+    Returns
+    -------
+    dict
+        ``indices[output][param] = {S1, S1_conf, ST, ST_conf}``, ``output_mean``/``output_std``, ``runs``,
+        ``parameters`` (key, SI bounds, unit), ``model``, ``samples``, ``seed``.
+    """
+    from berryshaker.life.runs import summary_outputs_run
+
+    problem = sobol_problem(params)
+    if not outputs:
+        raise ConfigError("sensitivity: name at least one --output, e.g. collision_force_A_peak")
+    x = sobol_sample(problem, n, seed)
+    data = machine.model_dump(mode="json")
+    jobs = [dict(machine_data=data, overrides={p.key: float(v) for p, v in zip(params, row)}, model=model,
+                 revolutions=int(revolutions)) for row in x]
+    values = runner.values(summary_outputs_run, jobs, label)
+    available = sorted(values[0])
+    missing = [o for o in outputs if o not in available]
+    if missing:
+        raise ConfigError(f"unknown output(s) {', '.join(missing)} for the {model} model; available: "
+                          f"{', '.join(available)}")
+    result = {"model": model, "samples": int(n), "runs": len(jobs), "seed": seed, "revolutions": int(revolutions),
+              "parameters": [{"key": p.key, "lo": p.lo, "hi": p.hi, "unit": p.unit,
+                              "lo_display": p.lo / p.factor, "hi_display": p.hi / p.factor} for p in params],
+              "indices": {}, "output_mean": {}, "output_std": {},
+              "method": "Sobol indices, Saltelli sampling (scrambled Sobol sequence) and SALib's Saltelli/Jansen "
+                        "estimators; 95 % bootstrap confidence half-widths"}
+    for o in outputs:
+        y = np.array([math.nan if v.get(o) is None else v[o] for v in values], float)
+        result["indices"][o] = sobol_analyze(problem, y, seed)
+        result["output_mean"][o] = float(np.mean(y))
+        result["output_std"][o] = float(np.std(y))
+    return result

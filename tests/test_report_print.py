@@ -1,0 +1,135 @@
+"""The study report prints to PDF (A4) without losing a table: rendered by Debian's Chromium (print-to-PDF),
+then read back with poppler's pdftotext.  Built from a synthetic results dict with the real machine's
+configuration table, so it runs in seconds and needs no simulation."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from berryshaker.config import load_machine, machine_table
+from berryshaker.report.html import report_title, runs_text, study_report
+
+PAIRS = ("A", "B", "C", "F")
+
+
+def _row(r: int) -> dict:
+    rng = np.random.default_rng(r)
+    return {"clearance_mm": {p: round(0.1 * ((r + i) % 4), 2) for i, p in enumerate(PAIRS)},
+            "collision_force_N": {p: {"peak": float(1000 + 400 * rng.random()), "mean": float(200 * rng.random())}
+                                  for p in PAIRS},
+            "load_moment_Nm": {s: {"peak": 80.0 + r, "rms": 45.0 - r / 10} for s in ("left", "right")}}
+
+
+def _claims(verdicts) -> list[dict]:
+    return [{"id": i + 1, "claim": f"Claim number {i + 1} of the study, stated at some length so that the cell "
+             "wraps over several lines in print", "verdict": v,
+             "detail": f"row 14: peaks A 5227 / B 4982 / C 2914 / F 2838 N; left > right: {i % 2 == 0}, "
+                       f"falls with clearance: {i % 3 == 0}; the harvest model is calibrated to the study's values at "
+                       "A1B1C1F3 (docs/harvest.md, docs/plant.md, clearance.A.bearing_length)"}
+            for i, v in enumerate(verdicts)]
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    from berryshaker.report.plots import plot_bars
+
+    machine = load_machine(None)
+    figs = tmp_path_factory.mktemp("figs")
+    plot_bars({"multibody peak": [1.0, 2.0, 3.0, 4.0], "multibody mean": [0.5, 1.0, 1.5, 2.0]},
+              ["none", "0.25 mm", "0.5 mm", "0.75 mm"], "collision force at joint A [N]",
+              figs / "fig18_rows_A.png", "Clearance A alone", pair="A", reference_index=0)
+    res = {
+        "kinematics": {"combs": {s: {"swing_deg": {"min": -5.0, "max": 5.0}} for s in ("left", "right")},
+                       "linkage": {"transmission_angle_deg": {"min": 40.0, "max": 120.0}},
+                       "drive": {"comb_frequency_hz": 4.0}},
+        "agreement": {"pairs": {p: {"f_statistic": 1.1, "f_critical": 3.18, "agree": True, "nrmse": 0.2,
+                                    "correlation": 0.9, "peak_ratio": 1.1} for p in PAIRS}},
+        "rows": {"multibody": {str(r): _row(r) for r in range(1, 17)}, "mlsd": {}},
+        "fruit_force": None, "l9": None,
+        "claims": _claims(["reproduced", "reproduced", "partly reproduced", "not reproduced", "reproduced",
+                           "reproduced", "partly reproduced", "not comparable"]),
+    }
+    summary = {"version": "0.0-test", "timings_s": {"total": 3.2, "kinematics": 0.1},
+               "runs": {"runs": 40, "cached": 40, "computed": 0, "failed": 0, "compute_s": 0.0,
+                        "cached_compute_s": 93.4, "cold_compute_s": 93.4, "elapsed_s": 0.5},
+               "failures": [], "optimum": None}
+    text = study_report(res, summary, machine, figs)
+    out = tmp_path_factory.mktemp("report") / "report.html"
+    out.write_text(text, encoding="utf-8")
+    return out, text, res, machine
+
+
+def test_report_header_and_claims_table(report):
+    _, text, res, machine = report
+    assert "the reference study, checked" in text and "reproduced</h1>" not in text
+    assert report_title([{"verdict": "reproduced"}] * 8).endswith("reproduced")
+    # a cached rerun keeps the cold cost in the header
+    assert "40 runs (40 from the cache; cold compute 93.4 s)" in text
+    assert runs_text({"runs": 3, "cached": 0, "compute_s": 2.0, "cached_compute_s": 0.0}) == \
+        "3 runs (0 from the cache; cold compute 2.0 s)"
+    claims = text[text.index("<h2>Claims"):text.index("<h2>Failed runs")]
+    assert not re.search(r"\b(True|False)\b", claims)
+    assert "left &gt; right: yes" in claims and "falls with clearance: no" in claims
+    # provenance tags of the configuration table
+    for _k, _v, tag in machine_table(machine)[:5]:
+        assert f"[{tag}]" in text
+    assert "@page{size:A4" in text and "tr{page-break-inside:avoid" in text
+
+
+def _words_bbox(pdf: Path) -> tuple[list[tuple[float, float]], list[tuple[float, float, float, float]]]:
+    """Page sizes and word boxes (xmin, ymin, xmax, ymax) from ``pdftotext -bbox``."""
+    html = subprocess.run(["pdftotext", "-bbox", str(pdf), "-"], capture_output=True, text=True, check=True).stdout
+    pages = [(float(w), float(h)) for w, h in re.findall(r'<page width="([\d.]+)" height="([\d.]+)"', html)]
+    words = [tuple(float(v) for v in m) for m in
+             re.findall(r'<word xMin="([-\d.]+)" yMin="([-\d.]+)" xMax="([-\d.]+)" yMax="([-\d.]+)"', html)]
+    return pages, words
+
+
+def test_report_prints_to_a4_without_cutting_tables(report, tmp_path):
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Debian's chromium is not installed (.ci/run installs it)")
+    if shutil.which("pdftotext") is None:
+        pytest.skip("pdftotext (poppler-utils) is not installed: apt-get install -y poppler-utils")
+    path, text, res, machine = report
+    pdf = tmp_path / "report.pdf"
+    cmd = [chromium, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           f"--user-data-dir={tmp_path / 'profile'}", "--no-pdf-header-footer", f"--print-to-pdf={pdf}",
+           path.resolve().as_uri()]
+    try:
+        subprocess.run(cmd, capture_output=True, timeout=90, check=False)
+    except subprocess.TimeoutExpired:
+        pytest.skip("chromium did not finish printing within 90 s")
+    if not pdf.exists():
+        pytest.skip("chromium could not print here (no PDF written)")
+    pages, words = _words_bbox(pdf)
+    assert 2 <= len(pages) <= 25, f"{len(pages)} pages"
+    for w, h in pages:  # A4 portrait in points
+        assert w == pytest.approx(595, abs=3) and h == pytest.approx(842, abs=3)
+    # nothing runs off the right edge of the page (a wide table would be cut there)
+    width = pages[0][0]
+    assert words and max(x1 for _, _, x1, _ in words) <= width + 0.5
+    assert min(x0 for x0, _, _, _ in words) >= -0.5
+    flat = re.sub(r"\s+", "", subprocess.run(["pdftotext", str(pdf), "-"], capture_output=True, text=True,
+                                             check=True).stdout)
+
+    def present(s) -> bool:
+        return re.sub(r"\s+", "", str(s)) in flat
+
+    # every table's header cells and every row's first cell are in the PDF
+    for table in re.findall(r"<table>(.*?)</table>", text, flags=re.S):
+        heads = [re.sub(r"<[^>]+>", "", h) for h in re.findall(r"<th[^>]*>(.*?)</th>", table, flags=re.S)]
+        for h in heads:
+            assert present(h.replace("&amp;", "&").replace("&gt;", ">")), f"header {h!r} missing from the PDF"
+        for row in re.findall(r"<tr><td[^>]*>(.*?)</td>", table, flags=re.S):
+            cell = re.sub(r"<[^>]+>", "", row).replace("&amp;", "&").replace("&gt;", ">")
+            assert present(cell), f"row {cell!r} missing from the PDF"
+    for key, _v, _t in machine_table(machine):
+        assert present(key)
