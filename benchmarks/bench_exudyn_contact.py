@@ -19,9 +19,10 @@ its finest step, see the printout):
   (a) the first-impact peak contact force;
   (b) over the first two crank revolutions (24 ms): mean and RMS of the contact force sampled on the
       10 us output grid, and the impulse (trapezoid on that grid) of revolution 1 and of revolution 2.
-Cost: wall time of the two-revolution run (time.perf_counter, best of 3, after a warm-up call; numba
-compilation and Exudyn's import are excluded; ours is the whole simulate_mechanism call including the
-model compilation and assembly, Exudyn's is SolveDynamic only, model building excluded).
+Cost: wall time (time.perf_counter) and CPU time (time.process_time, robust on a shared machine) of the
+two-revolution run, best of 3 (Exudyn runs over 5 s: one), after a warm-up call; numba compilation and
+Exudyn's import are excluded; ours is the whole simulate_mechanism call including the model compilation
+and assembly, Exudyn's is SolveDynamic only, model building excluded.
 Matched accuracy: for each engine, time versus error (running best, i.e. the cheapest setting reaching
 an error) is interpolated in log-log at the accuracy level; ratio = Exudyn time / our time.
 """

@@ -11,8 +11,8 @@ Lagrange's equations in these minimal coordinates (no constraints, no multiplier
 with e = (cos beta, sin beta), e_perp = (-sin beta, cos beta), A the crank pin (acceleration
 a_A = -a omega^2 (cos phi, sin phi)), P = r_A + L e the journal on the rod, the bore centre at (x, 0),
 d = P - (x, 0), penetration delta = |d| - c, n = d/|d| and F_P = -F_n n the contact force on the journal
-(F_n from the same law as the engine: Hunt-Crossley, Lankarani-Nikravesh or Hertz through
-:func:`berryshaker.contact.force_laws.hysteresis_kernel`).  L is the rod length (crank pin to journal),
+(F_n from the same law as the engine: Hunt-Crossley, Lankarani-Nikravesh or Hertz, the formula of
+:func:`berryshaker.contact.force_laws.hysteresis_kernel`, inlined).  L is the rod length (crank pin to journal),
 m2, J2 the rod mass and centroidal inertia, m3 the slider mass.
 
 Integrator: the engine's adaptive Dormand-Prince 5(4) (same tableau, same mixed error norm, same atol

@@ -47,7 +47,8 @@ def test_compare_cli_reports_agreement_per_pair(tmp_path):
         # the two formulations describe the same machine: same peaks within 20 %, same mean level
         assert 0.8 < pair["peak_ratio"] < 1.25
         assert 0.95 < pair["mean_ratio"] < 1.05
-        assert pair["agree"]  # the study's criterion (eq. 18) at 10 points
+        assert pair["eq18_agree"]  # the study's criterion (eq. 18) at 10 points
+        assert pair["agree"] == pair["statistics"]["agree"]
         assert (tmp_path / "cmp" / f"compare_{p}.png").exists()
 
 
@@ -59,3 +60,22 @@ def test_multibody_cli_same_keys_as_mlsd():
         assert set(a[key]) == set(b[key])
     assert set(b["drive_moment_Nm"]) >= {"peak", "rms", "mean"}
     assert b["model"] == "multibody" and b["wall_time_s"] > 0
+
+
+def test_eq18_passes_on_noise_but_our_criterion_does_not():
+    """Eq. 18 compares only peak-normalised spreads: noise, a reversed curve and a curve / 10 all 'agree'.
+    The statistics criterion (mean, RMS, p95, impulse per revolution) must reject the noise and the / 10 case."""
+    from berryshaker.experiment.agreement import eq18_passes_on_noise
+
+    r = eq18_passes_on_noise()
+    assert r["uniform noise"]["eq18_agree"] and r["divided by 10"]["eq18_agree"]
+    assert not r["uniform noise"]["statistics_agree"] and not r["divided by 10"]["statistics_agree"]
+
+
+def test_statistics_agreement_passes_identical_and_fails_scaled():
+    from berryshaker.experiment.agreement import statistics_agreement
+
+    t = np.linspace(0, 1, 1001)
+    f = np.abs(np.sin(20 * t)) ** 4
+    assert statistics_agreement(t, f, f)["agree"]
+    assert not statistics_agreement(t, 1.3 * f, f)["agree"]

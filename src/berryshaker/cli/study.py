@@ -59,6 +59,8 @@ def study(
             raise BerryshakerError("the study needs a [plant] block in the machine description")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, use_cache=not no_cache,
                              progress=not as_json, console=err)
+        if scheduler:
+            runner.check_scheduler()
         summary = run_study(machine, out_dir, runner, console=None if as_json else err)
     except BerryshakerError as exc:
         _fail(exc)

@@ -242,7 +242,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
     from berryshaker.report.html import study_report
     from berryshaker.study.tables import strip_series, write_tables
 
-    with staged_directory(out_dir) as stage:
+    with staged_directory(out_dir, kind="study") as stage:
         figs = stage / "figures"
         figs.mkdir()
         tables = stage / "tables"

@@ -40,8 +40,10 @@ def write_tables(machine, res: dict, tables: Path) -> None:
                 rows.append([model, r, side, m["peak"], m["rms"]])
     write("load_moment_rows.csv", ["model", "row", "comb", "peak_Nm", "rms_Nm"], rows)
     if res.get("agreement"):
-        write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "agree", "nrmse", "correlation", "peak_ratio"],
-              [[p, d["f_statistic"], d["f_critical"], d["agree"], d["nrmse"], d["correlation"], d["peak_ratio"]]
+        write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "eq18_agree", "statistics_agree", "nrmse",
+                                      "correlation", "peak_ratio"],
+              [[p, d["f_statistic"], d["f_critical"], d.get("eq18_agree"), d["agree"], d["nrmse"], d["correlation"],
+                d["peak_ratio"]]
                for p, d in res["agreement"]["pairs"].items()])
     if (res.get("fruit_force") or {}).get("chosen"):
         pos = res["fruit_force"]["chosen"]["summary"]["positions"]

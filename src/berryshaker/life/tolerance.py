@@ -1,0 +1,412 @@
+"""Tolerance design: choose an ISO 286 fit for every clearance joint, trading manufacturing cost, collision
+force and life (NSGA-II, pymoo).
+
+Each joint picks one fit from a discrete list of running fits (default :data:`CANDIDATE_FITS`) at its nominal
+diameter (``[clearance.<pair>] diameter``).  Three objectives, all minimised:
+
+1. **cost** -- a reciprocal-power cost-tolerance model per part, C(T) = a + b / T^k (T the part's IT width,
+   um), summed over hole and shaft of every joint, in relative cost units.  This model form is one of the
+   cost-tolerance curves compared by Chase, Greenwood, Loosli and Hauglund (1990), "Least cost tolerance
+   allocation for mechanical assemblies with automated process selection", Manufacturing Review 3(1).  The
+   coefficients (a = 1, b = 20 um, k = 1) are **[assumed]**: fit them to the shop's own cost data.
+2. **peak collision force** (N) -- the largest over the joints, each joint's peak at its fit's mean clearance.
+3. **-life** (h) -- the machine's maintenance interval: the first joint to grow from its fit's mean clearance
+   to its clearance limit, dc/dh = r(c) with r the Archard growth rate (hours = int dc / r(c)).
+
+The dynamics enter through a **surrogate**: a small one-at-a-time grid (``n_points`` clearances per joint,
+the other joints at the description's sizes) of multibody runs through the cached sweep runner gives, per
+joint, its peak collision force and growth rate against its own clearance; NSGA-II then runs on the linear
+interpolants.  Interactions between joints are therefore ignored, and the force at clearances below
+:data:`GRID_FLOOR` (m) is taken as the force at the floor (the engine's step control makes runs below about
+0.02 mm expensive: one at 0.012 mm took about a minute).  The recommended design is the compromise point of the
+Pareto front nearest the ideal point in objectives normalised to [0, 1] over the front.
+
+NSGA-II: K. Deb, A. Pratap, S. Agarwal and T. Meyarivan, "A fast and elitist multiobjective genetic algorithm:
+NSGA-II", IEEE Trans. Evol. Comput. 6 (2002) 182-197; pymoo: J. Blank and K. Deb, IEEE Access 8 (2020).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from berryshaker.errors import ConfigError
+from berryshaker.life.fits import Fit, parse_fit
+from berryshaker.life.wear import clearance_size_from_fit
+
+#: Running fits offered to every joint, tightest first (ISO 286 hole-basis clearance fits).
+CANDIDATE_FITS: tuple[str, ...] = ("H7/g6", "H7/f7", "H8/f7", "H8/e8", "H9/d9", "H11/c11")
+#: Reciprocal-power cost model C(T) = a + b / T^k per part, T in um [assumed coefficients].
+COST_MODEL: dict[str, float] = {"a": 1.0, "b": 20.0, "k": 1.0}
+#: Smallest clearance of the surrogate grid (m); below it the force and growth rate are held constant.
+GRID_FLOOR = 0.025e-3
+#: Hours reported when a joint does not wear (zero growth rate).
+LIFE_CAP_H = 1e7
+
+
+def tolerance_cost(tolerance_um, a: float = COST_MODEL["a"], b: float = COST_MODEL["b"],
+                   k: float = COST_MODEL["k"]):
+    """Relative manufacturing cost of one part with tolerance T (um): C = a + b / T^k.
+
+    Parameters
+    ----------
+    tolerance_um : float or array_like
+        Tolerance width T (um), > 0.
+    a, b, k : float
+        Fixed cost, precision cost scale (cost units um^k) and exponent [assumed defaults].
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Cost in relative units (1 = the fixed cost of a part).
+
+    Notes
+    -----
+    Reciprocal-power cost-tolerance model, one of the forms compared by Chase, Greenwood, Loosli and Hauglund
+    (1990), Manufacturing Review 3(1).  Coefficients are assumed, not fitted to cost data.
+    """
+    t = np.asarray(tolerance_um, float)
+    if np.any(~(t > 0)):
+        raise ConfigError(f"tolerance must be > 0 um, got {tolerance_um!r}")
+    out = a + b / t**k
+    return float(out) if out.ndim == 0 else out
+
+
+def fit_cost(fit: Fit) -> float:
+    """Cost of a fit: :func:`tolerance_cost` of the hole's plus the shaft's IT width."""
+    if fit.hole is None or fit.shaft is None:
+        raise ConfigError(f"fit {fit.designation!r}: a cost needs hole and shaft classes, not a clearance range")
+    return tolerance_cost(fit.hole.tolerance_um) + tolerance_cost(fit.shaft.tolerance_um)
+
+
+def _joint_kind(machine, joint: str) -> str:
+    return "revolute" if machine.clearance[joint].kind == "pin-in-bore" else "point-line"
+
+
+@dataclass
+class JointCandidates:
+    """The fits one joint may take and what each means for it.
+
+    Attributes
+    ----------
+    joint : str
+        Pair name.
+    diameter_mm : float
+        Nominal diameter of the fits (mm).
+    fits : list of Fit
+        Candidate fits.
+    size : numpy.ndarray
+        Mean clearance of each fit in the machine's convention (m): radial for pins, diametral (free travel)
+        for rollers.
+    cost : numpy.ndarray
+        :func:`fit_cost` of each.
+    """
+
+    joint: str
+    diameter_mm: float
+    fits: list[Fit]
+    size: np.ndarray
+    cost: np.ndarray
+
+
+def joint_candidates(machine, joints, fits=CANDIDATE_FITS) -> dict[str, JointCandidates]:
+    """Candidate fits per joint at its diameter (``[clearance.<pair>] diameter``, else the [assumed] default)."""
+    from berryshaker.life.joint_loads import joint_geometry
+
+    if not fits:
+        raise ConfigError("tolerance: give at least one candidate fit, e.g. H7/f7")
+    out = {}
+    for j in joints:
+        geo = joint_geometry(machine, j)
+        d_mm = geo.diameter * 1e3
+        fl = [parse_fit(f, d_mm) for f in fits]
+        bad = [f.designation for f in fl if f.kind != "clearance"]
+        if bad:
+            raise ConfigError(f"tolerance: {', '.join(bad)} are not clearance fits at {d_mm:g} mm; a running "
+                              "joint needs a clearance fit (e.g. H7/f7)")
+        kind = _joint_kind(machine, j)
+        out[j] = JointCandidates(j, d_mm, fl, np.array([clearance_size_from_fit(f, kind, "mean") for f in fl]),
+                                 np.array([fit_cost(f) for f in fl]))
+    return out
+
+
+@dataclass
+class ClearanceResponse:
+    """One joint's peak collision force and wear growth rate against its own clearance (a surrogate).
+
+    Attributes
+    ----------
+    joint : str
+        Pair name.
+    clearance : numpy.ndarray
+        Grid clearances (m, increasing).
+    peak_force : numpy.ndarray
+        Peak collision force of the joint (N) at each.
+    growth_rate : numpy.ndarray
+        Archard growth rate of its clearance (m per operating hour) at each.
+    """
+
+    joint: str
+    clearance: np.ndarray
+    peak_force: np.ndarray
+    growth_rate: np.ndarray
+
+    def force(self, c):
+        """Peak force (N) at clearance c (m): linear interpolation, constant beyond the grid."""
+        return np.interp(c, self.clearance, self.peak_force)
+
+    def rate(self, c):
+        """Growth rate (m/h) at clearance c (m): linear interpolation, constant beyond the grid."""
+        return np.interp(c, self.clearance, self.growth_rate)
+
+    def hours_to(self, c0: float, c_limit: float, n: int = 400) -> float:
+        """Operating hours for the clearance to grow from c0 to c_limit: int_{c0}^{c_limit} dc / r(c) (trapezoid
+        rule on ``n`` points); 0 if c0 >= c_limit, :data:`LIFE_CAP_H` if the rate vanishes."""
+        if c0 >= c_limit:
+            return 0.0
+        c = np.linspace(c0, c_limit, n)
+        r = self.rate(c)
+        if np.any(r <= 0):
+            return LIFE_CAP_H
+        return float(min(np.trapezoid(1.0 / r, c), LIFE_CAP_H))
+
+    def grow(self, c0: float, hours) -> np.ndarray:
+        """Clearance (m) after each of ``hours`` (increasing, from 0) starting at c0: dc/dh = r(c), solved
+        with scipy's RK45 on the interpolant."""
+        from scipy.integrate import solve_ivp
+
+        hours = np.asarray(hours, float)
+        sol = solve_ivp(lambda h, c: self.rate(c), (0.0, float(hours[-1])), [c0], t_eval=hours, rtol=1e-8,
+                        atol=1e-12)
+        return sol.y[0]
+
+    def to_dict(self) -> dict:
+        """JSON-able grid (mm, N, um/h)."""
+        return {"clearance_mm": (self.clearance * 1e3).tolist(), "peak_force_N": self.peak_force.tolist(),
+                "growth_rate_um_per_h": (self.growth_rate * 1e6).tolist()}
+
+
+def default_clearance_limits(machine, joints) -> dict[str, float]:
+    """Clearance limit per joint (m): the largest test level of the pair (the study's worst level)."""
+    levels = machine.clearance_levels()
+    return {j: float(max(levels[j])) for j in joints}
+
+
+def response_grid(machine, joints, limits: dict[str, float], lo: dict[str, float], n_points: int = 4) -> dict:
+    """Grid clearances (m) per joint: ``n_points`` from max(lo, GRID_FLOOR) to the joint's limit."""
+    if n_points < 2:
+        raise ConfigError(f"the surrogate grid needs >= 2 points per joint, got {n_points}")
+    out = {}
+    for j in joints:
+        a = max(lo[j], GRID_FLOOR)
+        b = limits[j]
+        if b <= a:
+            b = a * 1.5
+        out[j] = np.linspace(a, b, n_points)
+    return out
+
+
+def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, revolutions: int = 2,
+                        label: str = "tolerance grid") -> dict[str, ClearanceResponse]:
+    """Run the one-at-a-time grid through the cached runner (:func:`berryshaker.life.runs.wear_rate_run`) and
+    build each joint's :class:`ClearanceResponse`."""
+    from berryshaker.life.runs import wear_rate_run
+
+    data = machine.model_dump(mode="json")
+    jobs, where = [], []
+    for j in joints:
+        for c in grid[j]:
+            jobs.append(dict(machine_data=data, clearance={j: float(c)}, revolutions=int(revolutions)))
+            where.append(j)
+    values = runner.values(wear_rate_run, jobs, label)
+    out = {}
+    for j in joints:
+        vals = [v for v, w in zip(values, where) if w == j]
+        out[j] = ClearanceResponse(j, np.asarray(grid[j], float), np.array([v["peak_force_N"][j] for v in vals]),
+                                   np.array([v["growth_rate_m_per_h"][j] for v in vals]))
+    return out
+
+
+def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCandidates],
+                     responses: dict[str, ClearanceResponse], limits: dict[str, float]) -> np.ndarray:
+    """Objectives [cost, peak force (N), -life (h)] of designs (rows of fit indices, one column per joint)."""
+    choice = np.atleast_2d(np.asarray(choice, int))
+    out = np.zeros((choice.shape[0], 3))
+    for r, row in enumerate(choice):
+        cost, force, life = 0.0, 0.0, math.inf
+        for k, j in enumerate(joints):
+            cand = candidates[j]
+            c0 = float(cand.size[row[k]])
+            cost += float(cand.cost[row[k]])
+            force = max(force, float(responses[j].force(c0)))
+            life = min(life, responses[j].hours_to(c0, limits[j]))
+        out[r] = (cost, force, -life)
+    return out
+
+
+def non_dominated(f: np.ndarray) -> np.ndarray:
+    """Boolean mask of the rows of f (minimised objectives) that no other row dominates."""
+    f = np.asarray(f, float)
+    keep = np.ones(len(f), bool)
+    for i in range(len(f)):
+        dominated = np.all(f <= f[i], axis=1) & np.any(f < f[i], axis=1)
+        keep[i] = not dominated.any()
+    return keep
+
+
+def compromise_index(f: np.ndarray) -> int:
+    """Index of the point nearest the ideal point, objectives normalised to [0, 1] over the given set."""
+    f = np.asarray(f, float)
+    lo, hi = f.min(axis=0), f.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    d = np.linalg.norm((f - lo) / span, axis=1)
+    return int(np.argmin(d))
+
+
+@dataclass
+class ToleranceDesign:
+    """Pareto front of fit choices and the recommended one.
+
+    Attributes
+    ----------
+    joints : list of str
+        Joints designed.
+    front : list of dict
+        Non-dominated designs: ``fits`` (joint -> fit), ``cost``, ``peak_force_N``, ``life_h``.
+    recommended : dict
+        The compromise design with, per joint, the fit, its clearance range and mean (mm), the predicted peak
+        force and the hours to the joint's limit (``maintenance_interval_h``).
+    responses : dict
+        The surrogate per joint.
+    limits_m : dict
+        Clearance limit per joint (m).
+    runs : int
+        Multibody runs of the grid.
+    notes : list of str
+        Assumptions of this design.
+    """
+
+    joints: list[str]
+    front: list[dict]
+    recommended: dict
+    responses: dict[str, ClearanceResponse]
+    limits_m: dict[str, float]
+    runs: int
+    seed: int
+    notes: list[str] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        """JSON-able result."""
+        return {"joints": self.joints, "front": self.front, "recommended": self.recommended,
+                "surrogate": {j: r.to_dict() for j, r in self.responses.items()},
+                "clearance_limit_mm": {j: v * 1e3 for j, v in self.limits_m.items()},
+                "simulations": self.runs, "seed": self.seed, "cost_model": dict(COST_MODEL), "notes": self.notes}
+
+
+def nsga2_front(joints, candidates, responses, limits, pop_size: int = 24, generations: int = 30,
+                seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """NSGA-II (pymoo) over integer fit indices; returns (designs, objectives) of the final non-dominated set.
+
+    Integer coding: one variable per joint in 0..len(fits)-1, integer random sampling, SBX crossover and
+    polynomial mutation with rounding repair (pymoo's recipe for discrete variables); duplicates eliminated.
+    """
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.problem import Problem
+    from pymoo.operators.crossover.sbx import SBX
+    from pymoo.operators.mutation.pm import PM
+    from pymoo.operators.repair.rounding import RoundingRepair
+    from pymoo.operators.sampling.rnd import IntegerRandomSampling
+    from pymoo.optimize import minimize
+
+    ub = np.array([len(candidates[j].fits) - 1 for j in joints])
+
+    class FitChoice(Problem):
+        def __init__(self):
+            super().__init__(n_var=len(joints), n_obj=3, xl=np.zeros(len(joints)), xu=ub, vtype=int)
+
+        def _evaluate(self, x, out, *args, **kwargs):
+            out["F"] = evaluate_designs(np.rint(x).astype(int), joints, candidates, responses, limits)
+
+    algo = NSGA2(pop_size=pop_size, sampling=IntegerRandomSampling(),
+                 crossover=SBX(prob=0.9, eta=3.0, vtype=float, repair=RoundingRepair()),
+                 mutation=PM(eta=3.0, vtype=float, repair=RoundingRepair()), eliminate_duplicates=True)
+    res = minimize(FitChoice(), algo, ("n_gen", int(generations)), seed=int(seed), verbose=False)
+    x = np.atleast_2d(np.rint(res.X).astype(int))
+    f = evaluate_designs(x, joints, candidates, responses, limits)
+    keep = non_dominated(f)
+    x, f = x[keep], f[keep]
+    order = np.lexsort((f[:, 1], f[:, 0]))
+    x, f = x[order], f[order]
+    uniq = np.unique(x, axis=0, return_index=True)[1]
+    uniq.sort()
+    return x[uniq], f[uniq]
+
+
+def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: dict[str, float] | None = None,
+                     n_points: int = 4, revolutions: int = 2, pop_size: int = 24, generations: int = 30,
+                     seed: int = 1) -> ToleranceDesign:
+    """Choose a fit per joint: surrogate grid through the runner, NSGA-II on it, compromise design.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (geometry, material and diameter of each pair).
+    runner : SweepRunner
+        Cached runner for the grid's multibody runs.
+    joints : list of str, optional
+        Joints to design (default every pair).
+    fits : sequence of str
+        Candidate fits (default :data:`CANDIDATE_FITS`).
+    limits : dict, optional
+        Clearance limit per joint (m) for the life objective (default :func:`default_clearance_limits`).
+    n_points : int
+        Grid clearances per joint (runs = joints x n_points).
+    revolutions : int
+        Drive revolutions per run (>= 2).
+    pop_size, generations, seed : int
+        NSGA-II settings (same seed, same front).
+
+    Returns
+    -------
+    ToleranceDesign
+    """
+    joints = list(joints) if joints else list(machine.pair_names)
+    unknown = [j for j in joints if j not in machine.pair_names]
+    if unknown:
+        raise ConfigError(f"unknown joint(s) {', '.join(unknown)}; pairs: {', '.join(machine.pair_names)}")
+    lim = default_clearance_limits(machine, joints)
+    lim.update({k: float(v) for k, v in (limits or {}).items() if k in joints})
+    cands = joint_candidates(machine, joints, fits)
+    grid = response_grid(machine, joints, lim, {j: float(cands[j].size.min()) for j in joints}, n_points)
+    responses = clearance_responses(machine, joints, grid, runner, revolutions)
+    x, f = nsga2_front(joints, cands, responses, lim, pop_size, generations, seed)
+    front = [{"fits": {j: cands[j].fits[row[k]].designation for k, j in enumerate(joints)},
+              "cost": float(fr[0]), "peak_force_N": float(fr[1]), "life_h": float(-fr[2])}
+             for row, fr in zip(x, f)]
+    best = compromise_index(f)
+    row = x[best]
+    per_joint = {}
+    for k, j in enumerate(joints):
+        fit = cands[j].fits[row[k]]
+        c0 = float(cands[j].size[row[k]])
+        per_joint[j] = {"fit": fit.designation, "diameter_mm": cands[j].diameter_mm,
+                        "clearance_min_mm": fit.clearance_min * 1e3, "clearance_max_mm": fit.clearance_max * 1e3,
+                        "size_mm": c0 * 1e3,
+                        "size_convention": "radial" if _joint_kind(machine, j) == "revolute" else "free travel",
+                        "cost": float(cands[j].cost[row[k]]),
+                        "peak_force_N": float(responses[j].force(c0)),
+                        "clearance_limit_mm": lim[j] * 1e3,
+                        "maintenance_interval_h": responses[j].hours_to(c0, lim[j])}
+    recommended = {**front[best], "index": best, "joints": per_joint,
+                   "maintenance_interval_h": float(-f[best, 2])}
+    notes = [f"surrogate: {n_points} multibody runs per joint, one joint at a time (others at the description's "
+             "sizes), linear interpolation; interactions between joints are ignored",
+             f"force and growth rate held constant below {GRID_FLOOR * 1e3:g} mm and beyond the grid",
+             "cost: reciprocal-power model a + b/T^k per part (Chase et al. 1990 compare this form); "
+             "coefficients [assumed]",
+             "life: Archard growth from the fit's mean clearance to the limit; k and H of the material pair "
+             "dominate its uncertainty",
+             "recommended: Pareto point nearest the ideal point, objectives normalised over the front"]
+    return ToleranceDesign(joints, front, recommended, responses, lim, len(joints) * n_points, int(seed), notes)
