@@ -211,7 +211,7 @@ def field_dimension(info: FieldInfo) -> str | None:
 
     A quantity field (declared with one of the types above) carries it; a plain float with a ``display``
     unit in its schema gets the dimension of that unit; a plain number without one is ``"dimensionless"``;
-    anything else (text, flags, sections) is None.
+    anything else (lists, text, flags, sections) is None.
     """
     for m in info.metadata:
         if isinstance(m, QuantityValidator):
@@ -226,7 +226,7 @@ def field_dimension(info: FieldInfo) -> str | None:
                 continue
             return dim
     shape = _number_shape(info.annotation)
-    if shape is not None:
+    if shape is not None and shape[0] == "scalar":
         return "dimensionless"
     return None
 

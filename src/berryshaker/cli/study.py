@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from berryshaker import __version__
@@ -89,44 +90,57 @@ def study(
 
 @command(app)
 def sweep(
-    param: list[str] = typer.Option(..., "--param", help="KEY=LO..HI[unit], KEY=v1,v2,...[unit] or KEY=MEAN+-SD[unit]; "
-                                    "KEY is a dotted path of the machine description, e.g. clearance.A.size. Repeat."),
+    param: list[str] = typer.Option(..., "--param", help="KEY=LO..HI unit, KEY=V1,V2,... unit or KEY=MEAN+-SD unit "
+                                    "(units on each item allowed: 0.1mm..0.3mm, 0.25mm+-0.05mm); KEY is a dotted path "
+                                    "of the machine description, e.g. clearance.A.size, and the values must have its "
+                                    "dimension. Repeat for more parameters, each key once."),
     method: str = typer.Option("grid", "--method", help="grid (ranges get --points levels), lhs or montecarlo."),
     points: int = typer.Option(3, "--points", "-n", min=1, help="Grid levels per range, or samples for lhs/montecarlo."),
-    seed: int = typer.Option(0, "--seed", help="Seed of lhs / montecarlo sampling."),
+    seed: int = typer.Option(0, "--seed", min=0, help="Seed of lhs / montecarlo sampling."),
     model: str = typer.Option("mlsd", "--model", help="mlsd or multibody."),
-    revolutions: int = typer.Option(3, "--revolutions", min=2),
+    revolutions: int = typer.Option(3, "--revolutions", min=2, help="Drive-shaft revolutions per run."),
     config: Optional[Path] = ConfigOpt,
     out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
-    workers: Optional[int] = typer.Option(None, "--workers"),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: all cores)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = CacheOpt,
     as_json: bool = JsonOpt,
 ):
     """Factor grid, Latin hypercube or Monte Carlo (tolerances, wear) over any machine parameter.
 
-    Every point is validated and simulated through the cached sweep runner; a failed point is recorded
-    with its error and the others finish.
+    Every point's machine is validated like a config file (values, clearance limits, geometry over the cycle)
+    before the first run starts; a sweep with an invalid point is refused, listing the points.  Points are
+    simulated through the cached sweep runner; a run that fails is recorded with its error and the others
+    finish.
     """
     try:
-
         from berryshaker.runs.runner import SweepRunner
-        from berryshaker.runs.sweep import model_run, parse_param, sample_params, tidy_rows
+        from berryshaker.runs.sweep import (
+            check_params,
+            model_run,
+            overrides_of,
+            parse_param,
+            sample_params,
+            tidy_rows,
+            validate_points,
+        )
 
         if model not in ("mlsd", "multibody"):
             raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")
         if workers is not None and workers < 1:
-            raise BerryshakerError("--workers must be >= 1 (omit it to use all cores)")
+            raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
         if out_file is not None:
             from berryshaker.report.files import check_output_file
 
             check_output_file(out_file, allowed_suffixes=(".csv",))
         machine = _load(config)
-        params = [parse_param(p) for p in param]
+        params = [parse_param(p, machine) for p in param]
+        check_params(params)
         pts = sample_params(params, method, points, seed)
+        validate_points(machine, params, pts, revolutions)  # every point, before any run
         data = machine.model_dump(mode="json")
-        jobs = [dict(machine_data=data, overrides={p.key: v * p.factor for p, v in zip(params, pt)},
-                     model=model, revolutions=revolutions) for pt in pts]
+        jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions)
+                for pt in pts]
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
         header, rows = tidy_rows(params, pts, results)
@@ -141,17 +155,16 @@ def sweep(
     if as_json:
         _print_json({"columns": header, "rows": rows, "failed": failed, "runs": len(rows), "version": __version__})
         return
-    t = Table(title=f"sweep: {len(rows)} runs, {failed} failed", header_style="bold")
+    from berryshaker.report.tables import rich_table
+
     show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
-    for c in show:
-        t.add_column(c, justify="right")
-    for row in rows[:40]:
-        d = dict(zip(header, row))
-        t.add_row(*[f"{d[c]:.4g}" if isinstance(d[c], float) else str(d[c]) for c in show])
-    out.print(t)
+    shown = [[dict(zip(header, row))[c] for c in show] for row in rows[:40]]
+    out.print(rich_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed"))
+    if len(rows) > 40:
+        out.print(f"(first 40 of {len(rows)} runs; --out writes them all)")
     if failed:
         for r in results:
             if r.error:
-                out.print(f"[red]run {r.index + 1} failed[/]: {r.error}")
+                out.print(f"[red]run {r.index + 1} failed[/]: {escape(r.error)}")
     if out_file is not None:
         out.print(f"wrote {out_file}")

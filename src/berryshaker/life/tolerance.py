@@ -305,12 +305,14 @@ class ToleranceDesign:
                 "simulations": self.runs, "seed": self.seed, "cost_model": dict(COST_MODEL), "notes": self.notes}
 
 
-def nsga2_front(joints, candidates, responses, limits, pop_size: int = 24, generations: int = 30,
+def nsga2_front(joints, candidates, responses, limits, pop_size: int = 60, generations: int = 80,
                 seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """NSGA-II (pymoo) over integer fit indices; returns (designs, objectives) of the final non-dominated set.
 
     Integer coding: one variable per joint in 0..len(fits)-1, integer random sampling, SBX crossover and
-    polynomial mutation with rounding repair (pymoo's recipe for discrete variables); duplicates eliminated.
+    polynomial mutation with rounding repair (pymoo's recipe for discrete variables).  Duplicate offspring are
+    allowed (the design space is small, and eliminating them makes pymoo's mating loop retry for long); the
+    returned set is de-duplicated and filtered to the non-dominated designs.
     """
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.problem import Problem
@@ -331,7 +333,7 @@ def nsga2_front(joints, candidates, responses, limits, pop_size: int = 24, gener
 
     algo = NSGA2(pop_size=pop_size, sampling=IntegerRandomSampling(),
                  crossover=SBX(prob=0.9, eta=3.0, vtype=float, repair=RoundingRepair()),
-                 mutation=PM(eta=3.0, vtype=float, repair=RoundingRepair()), eliminate_duplicates=True)
+                 mutation=PM(eta=3.0, vtype=float, repair=RoundingRepair()), eliminate_duplicates=False)
     res = minimize(FitChoice(), algo, ("n_gen", int(generations)), seed=int(seed), verbose=False)
     x = np.atleast_2d(np.rint(res.X).astype(int))
     f = evaluate_designs(x, joints, candidates, responses, limits)
@@ -345,7 +347,7 @@ def nsga2_front(joints, candidates, responses, limits, pop_size: int = 24, gener
 
 
 def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: dict[str, float] | None = None,
-                     n_points: int = 4, revolutions: int = 2, pop_size: int = 24, generations: int = 30,
+                     n_points: int = 4, revolutions: int = 2, pop_size: int = 60, generations: int = 80,
                      seed: int = 1) -> ToleranceDesign:
     """Choose a fit per joint: surrogate grid through the runner, NSGA-II on it, compromise design.
 

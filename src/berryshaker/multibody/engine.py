@@ -308,6 +308,33 @@ MIN_STEP_BUDGET = 200_000
 _BUDGET_CHUNK_SAMPLES = 500
 
 
+def check_output_samples(duration: float, output_step: float,
+                         fix: str = "simulate a shorter time or write a coarser output_step") -> int:
+    """Number of output samples of a run, refused above :data:`MAX_OUTPUT_SAMPLES` before anything is allocated.
+
+    Parameters
+    ----------
+    duration, output_step : float
+        Simulated time and spacing of the written series (s).
+    fix : str
+        What the user should change, quoted in the message (e.g. "use fewer --revolutions").
+
+    Raises
+    ------
+    ConfigError
+        Non-finite or non-positive times, or too many samples (the message gives the longest allowed time).
+    """
+    for name, v in (("duration", duration), ("output_step", output_step)):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not v > 0:
+            raise ConfigError(f"{name} must be a finite time > 0 s, got {v!r}")
+    n_samples = duration / output_step + 1
+    if n_samples > MAX_OUTPUT_SAMPLES:
+        raise ConfigError(f"a run of {duration:.6g} s written every {output_step:.3g} s needs {n_samples:.3g} output "
+                          f"samples, more than the {MAX_OUTPUT_SAMPLES:,} one run may hold in memory (at most "
+                          f"{(MAX_OUTPUT_SAMPLES - 1) * output_step:.4g} s of simulated time); {fix}")
+    return max(2, int(round(duration / output_step)) + 1)
+
+
 def default_step_budget(duration: float) -> int:
     """The step budget of a run of ``duration`` seconds: ``max(MIN_STEP_BUDGET, duration / STEP_BUDGET_DT)``."""
     return int(max(MIN_STEP_BUDGET, math.ceil(duration / STEP_BUDGET_DT)))
@@ -344,23 +371,14 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     rtol = sim.rtol if rtol is None else rtol
     output_step = sim.output_step if output_step is None else output_step
     max_step = sim.max_step if max_step is None else max_step
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise ConfigError(f"duration must be a finite time > 0 s, got {duration}")
-    if not (math.isfinite(output_step) and output_step > 0):
-        raise ConfigError(f"output_step must be a finite time > 0 s, got {output_step}")
-    n_samples = duration / output_step + 1
-    if n_samples > MAX_OUTPUT_SAMPLES:
-        raise ConfigError(f"a run of {duration:.6g} s written every {output_step:.3g} s needs {n_samples:.3g} output "
-                          f"samples, more than the {MAX_OUTPUT_SAMPLES:,} one run may hold in memory; simulate a "
-                          f"shorter time (fewer revolutions: at most "
-                          f"{(MAX_OUTPUT_SAMPLES - 1) * output_step:.4g} s) or write a coarser output_step")
+    n_out = check_output_samples(duration, output_step,
+                                 "simulate a shorter time (fewer revolutions) or write a coarser output_step")
     budget = default_step_budget(duration) if max_steps is None else int(max_steps)
     if budget < 1:
         raise ConfigError(f"max_steps must be >= 1, got {max_steps}")
     cm = compile_mechanism(spec)
     state, work = _state_and_work(cm)
     y = initial_state(spec) if y0 is None else np.array(y0, float)
-    n_out = max(2, int(round(duration / output_step)) + 1)
     t_out = np.linspace(0.0, duration, n_out)
     nf = len(cm.frc_names)
     out_y = np.zeros((n_out, 2 * cm.n))

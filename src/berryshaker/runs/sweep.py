@@ -11,62 +11,172 @@ from dataclasses import dataclass
 
 from berryshaker.runs.runner import RunResult
 
+#: most points one sweep may have (each is validated before the runner starts)
+MAX_SWEEP_POINTS = 100_000
+#: spacing of the written series of a sweep point's run (s), as in the reduced and multibody models
+SWEEP_OUTPUT_STEP = 1e-4
+
+
 @dataclass(frozen=True)
 class SweepParam:
+    """One swept parameter, read by :func:`parse_param`."""
+
     key: str  # dotted path in the machine description, e.g. clearance.A.size
     kind: str  # "range", "levels" or "normal"
     values: tuple  # (lo, hi) | levels | (mean, sd), in ``unit``
     unit: str
     factor: float  # SI value of one ``unit``
+    dimension: str = "dimensionless"  # of the field (berryshaker.units.DIMENSIONS)
 
 
-def _unit_factor(unit: str) -> float:
-    if not unit:
-        return 1.0
-    from berryshaker.units import _registry
+def _machine_class(machine):
+    if machine is None:
+        from berryshaker.drives import get_drive
 
-    ureg = _registry()
-    try:
-        return float(ureg.Quantity(1.0, unit.replace("r/min", "rpm")).to_base_units().magnitude)
-    except Exception:  # noqa: BLE001
-        from berryshaker.errors import ConfigError
-
-        raise ConfigError(f"--param: unknown unit {unit!r}") from None
+        return get_drive("groove_cam").machine_class
+    return machine if isinstance(machine, type) else type(machine)
 
 
-def parse_param(spec: str) -> SweepParam:
-    """``clearance.A.size=0.1..0.8mm`` (range), ``cam.speed=100,120,140rpm`` (levels) or
-    ``clearance.C.size=0.1+-0.02mm`` (normal: mean +- standard deviation, for Monte Carlo tolerances)."""
-    import re
+def parse_param(spec: str, machine=None) -> SweepParam:
+    """Read one ``--param KEY=VALUES``: ``clearance.A.size=0.1..0.8mm`` (range), ``cam.speed=100,120,140rpm``
+    (levels) or ``clearance.C.size=0.1+-0.02mm`` (normal: mean +- standard deviation, for Monte Carlo
+    tolerances); units may be written on every item (``0.1mm..0.3mm``, ``0.25mm+-0.05mm``).
 
+    The values are read by :func:`berryshaker.units.parse_value_list` with the dimension of KEY's field in the
+    machine description (its declared quantity type or display unit), so ``cam.speed=100,120kg`` is refused
+    instead of running at 100 rad/s, and an angle needs its unit.
+
+    Parameters
+    ----------
+    spec : str
+        ``KEY=VALUES``.
+    machine : MachineBase instance or class, optional
+        Whose fields KEY names; default the groove-cam drive's description.
+
+    Raises
+    ------
+    ConfigError
+        No ``=``, an unknown key, a key that is not a number (a name, a flag, a section), or values that
+        :func:`~berryshaker.units.parse_value_list` refuses (wrong dimension, unit missing, LO >= HI, ...).
+    """
+    from berryshaker.errors import ConfigError
+    from berryshaker.quantity_fields import field_dimension, field_info_at
+    from berryshaker.units import parse_value_list
+
+    forms = "KEY=LO..HI unit, KEY=V1,V2,... unit or KEY=MEAN+-SD unit"
+    if not isinstance(spec, str) or "=" not in spec:
+        raise ConfigError(f"--param {spec!r}: expected {forms}, e.g. clearance.A.size=0.1..0.3mm")
+    key, rhs = (t.strip() for t in spec.split("=", 1))
+    if not key:
+        raise ConfigError(f"--param {spec!r}: the key before '=' is empty; expected {forms}")
+    info = field_info_at(_machine_class(machine), key)
+    dim = field_dimension(info)
+    if dim is None:
+        raise ConfigError(f"--param {key}: not a single number in the machine description (a name, a flag, a list "
+                          "or a section), so it cannot be swept")
+    if machine is not None and not isinstance(machine, type):
+        apply_overrides(machine.model_dump(mode="json"), {key: None})  # the entry exists (clearance.X.size)
+    vs = parse_value_list(rhs, dim, f"--param {key}")
+    return SweepParam(key, vs.kind, tuple(float(f"{v:.12g}") for v in vs.in_unit()), vs.unit, vs.unit_si, dim)
+
+
+def check_params(params: list[SweepParam]) -> None:
+    """Refuse a sweep that names a key twice.
+
+    Raises
+    ------
+    ConfigError
+    """
     from berryshaker.errors import ConfigError
 
-    if "=" not in spec:
-        raise ConfigError(f"--param {spec!r}: expected KEY=LO..HI[unit], KEY=v1,v2[unit] or KEY=MEAN+-SD[unit]")
-    key, rhs = (s.strip() for s in spec.split("=", 1))
-    num = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?"
-    m = re.fullmatch(rf"({num})\.\.({num})\s*(.*)", rhs, re.I)
-    if m:
-        lo, hi, unit = float(m.group(1)), float(m.group(2)), m.group(3).strip()
-        if not hi > lo:
-            raise ConfigError(f"--param {spec!r}: the range needs LO < HI")
-        return SweepParam(key, "range", (lo, hi), unit, _unit_factor(unit))
-    m = re.fullmatch(rf"({num})\s*\+-\s*({num})\s*(.*)", rhs, re.I)
-    if m:
-        mean, sd, unit = float(m.group(1)), float(m.group(2)), m.group(3).strip()
-        if sd < 0:
-            raise ConfigError(f"--param {spec!r}: the standard deviation must be >= 0")
-        return SweepParam(key, "normal", (mean, sd), unit, _unit_factor(unit))
-    parts = [p.strip() for p in rhs.split(",") if p.strip()]
-    m = re.fullmatch(rf"({num})\s*(.*)", parts[-1] if parts else "", re.I)
-    if not parts or not m:
-        raise ConfigError(f"--param {spec!r}: cannot read the values")
-    unit = m.group(2).strip()
-    try:
-        levels = tuple(float(p) for p in parts[:-1] + [m.group(1)])
-    except ValueError:
-        raise ConfigError(f"--param {spec!r}: levels must be numbers") from None
-    return SweepParam(key, "levels", levels, unit, _unit_factor(unit))
+    seen: set[str] = set()
+    for p in params:
+        if p.key in seen:
+            raise ConfigError(f"--param {p.key} is given twice; give each parameter once (list several values "
+                              f"in one --param, e.g. {p.key}=V1,V2,V3)")
+        seen.add(p.key)
+
+
+def apply_overrides(machine_data: dict, overrides: dict) -> dict:
+    """A copy of a machine's dict (as dumped to JSON) with SI values set at dotted keys.
+
+    Raises
+    ------
+    ConfigError
+        A key that is not in the description.
+    """
+    from berryshaker.errors import ConfigError
+
+    data = json.loads(json.dumps(machine_data))
+    for key, value in overrides.items():
+        node = data
+        parts = key.split(".")
+        for k in parts[:-1]:
+            if not isinstance(node, dict) or k not in node:
+                raise ConfigError(f"unknown parameter {key!r} (no {k!r} in the machine description)")
+            node = node[k]
+        if not isinstance(node, dict) or parts[-1] not in node:
+            raise ConfigError(f"unknown parameter {key!r}")
+        node[parts[-1]] = value
+    return data
+
+
+def point_machine(machine_data: dict, overrides: dict, revolutions: int = 3, check: bool = True):
+    """The validated machine of one sweep point: overrides applied, the description validated like a config
+    file, the drive's check run (geometry over the cycle) and the run length checked against the engines'
+    output cap (:func:`berryshaker.multibody.engine.check_output_samples`).
+
+    Raises
+    ------
+    ConfigError, GeometryError
+        The point would be refused by a simulation; the message names the field.
+    """
+    import math
+
+    from berryshaker.config import machine_from_dict
+    from berryshaker.drives import drive_of
+    from berryshaker.multibody.engine import check_output_samples
+
+    machine = machine_from_dict(apply_overrides(machine_data, overrides), "(sweep point)")
+    if check:
+        drive_of(machine).check(machine)
+    check_output_samples(revolutions * 2 * math.pi / machine.drive_speed, SWEEP_OUTPUT_STEP,
+                         "use fewer --revolutions")
+    return machine
+
+
+def validate_points(machine, params: list[SweepParam], points: list[list[float]], revolutions: int,
+                    limit: int = 8) -> None:
+    """Validate every sweep point's machine before any run starts (values, clearance limits, geometry over
+    the cycle, run length); refuse the sweep listing the first ``limit`` bad points with their errors.
+
+    Raises
+    ------
+    ConfigError
+        Too many points, or at least one point that a run would refuse.
+    """
+    from berryshaker.errors import BerryshakerError, ConfigError
+
+    if len(points) > MAX_SWEEP_POINTS:
+        raise ConfigError(f"the sweep has {len(points):,} points, more than {MAX_SWEEP_POINTS:,}; use fewer "
+                          "--points or levels, or --method lhs")
+    data = machine.model_dump(mode="json")
+    bad = []
+    for i, pt in enumerate(points):
+        try:
+            point_machine(data, overrides_of(params, pt), revolutions)
+        except BerryshakerError as exc:
+            where = ", ".join(f"{p.key} = {v:.6g}{' ' + p.unit if p.unit else ''}" for p, v in zip(params, pt))
+            bad.append(f"point {i + 1} ({where}): {str(exc).replace(chr(10), ' ')}")
+    if bad:
+        more = f"\n  ... and {len(bad) - limit} more" if len(bad) > limit else ""
+        raise ConfigError(f"{len(bad)} of {len(points)} sweep points would be refused; nothing was run:\n  "
+                          + "\n  ".join(bad[:limit]) + more)
+
+
+def overrides_of(params: list[SweepParam], point: list[float]) -> dict:
+    """SI overrides (dotted key -> value) of one sampled point (values in each parameter's unit)."""
+    return {p.key: float(v) * p.factor for p, v in zip(params, point)}
 
 
 def sample_params(params: list[SweepParam], method: str, n: int, seed: int | None) -> list[list[float]]:
@@ -78,6 +188,18 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
 
     from berryshaker.errors import ConfigError
 
+    if not params:
+        raise ConfigError("a sweep needs at least one --param KEY=VALUES")
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"--points must be a whole number >= 1, got {n!r}")
+    size = n
+    if method == "grid":
+        size = 1
+        for p in params:
+            size *= len(p.values) if p.kind == "levels" else n
+    if size > MAX_SWEEP_POINTS:
+        raise ConfigError(f"the sweep would have {size:,} points, more than {MAX_SWEEP_POINTS:,}; use fewer "
+                          "--points or levels, or --method lhs")
     if method == "grid":
         axes = []
         for p in params:
@@ -110,25 +232,11 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
 
 def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3) -> dict:
     """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise."""
-    from berryshaker.config import machine_from_dict
+    from berryshaker.drives import drive_of
     from berryshaker.errors import ConfigError
 
-    data = json.loads(json.dumps(machine_data))
-    for key, value in overrides.items():
-        node = data
-        parts = key.split(".")
-        for k in parts[:-1]:
-            if not isinstance(node, dict) or k not in node:
-                raise ConfigError(f"unknown parameter {key!r} (no {k!r} in the machine description)")
-            node = node[k]
-        if parts[-1] not in node:
-            raise ConfigError(f"unknown parameter {key!r}")
-        node[parts[-1]] = value
-    machine = machine_from_dict(data, "(sweep point)")
-    from berryshaker.drives import drive_of
-
+    machine = point_machine(machine_data, overrides, revolutions)
     drive = drive_of(machine)
-    drive.check(machine)
     if model == "mlsd":
         if drive.reduced_model is None:
             raise ConfigError(f"the {drive.name} drive has no reduced model; use --model multibody")
