@@ -126,21 +126,34 @@ def test_bad_branches_are_refused(machine):
         machine_from_dict(d)
 
 
+#: plant lines proposed for the reference TOML (docs/plant.md): finger-derived contact, branch modulus
+#: inside the cited range.  Once the TOML carries them, applying them is a no-op.
+PROPOSED_PLANT = {"contact": {"stiffness": None, "exponent": None}, "branch": {"elastic_modulus": 0.83e9}}
+
+
+def proposed_machine(machine):
+    d = machine.model_dump()
+    for section, values in PROPOSED_PLANT.items():
+        d["plant"][section].update(values)
+    return machine_from_dict(d)
+
+
 @pytest.fixture(scope="module")
 def drive_past(machine):
     from berryshaker.plant.coupled import simulate_fruit_force
 
-    return simulate_fruit_force(machine)
+    return simulate_fruit_force(proposed_machine(machine))
 
 
 def test_reference_fruit_force_rises_from_root_to_end(drive_past):
-    """Study claim 5: fruit force rises from root to end.  The end force is the calibration target
-    (1.0 N, study 0.8-1.2 N); root and middle are predictions, reported beside the study's ranges."""
+    """Study claim 5: fruit force rises from root to end.  With the fruit on compliant stems the study's
+    ranges (0.25-0.4, 0.65-0.9, 0.8-1.2 N, eq. 16) are held out: reported beside ours, not fitted."""
     s = drive_past.summary()
     p = s["positions"]
+    assert s["fruit_model"] == "pedicel" and s["pedicel"]["natural_frequency_hz"] == pytest.approx(11.86, abs=0.01)
     assert s["rises_root_to_end"]
-    assert 0.8 <= p["end"]["peak_force_N"] <= 1.2  # the stored calibration is current
     for name in ("root", "middle", "end"):
+        assert p[name]["rigid_peak_force_N"] > 0
         assert p[name]["study_range_N"] == list(s["study_ranges_N"][name])
         assert "within_study_range" in p[name] and p[name]["eq17"]["ripe"]
     # the comb pushes the branch: the fruit follows, with deflection growing towards the tip
@@ -154,7 +167,7 @@ def test_reference_fruit_force_rises_from_root_to_end(drive_past):
 def test_coupled_run_converges_with_step_tolerance(machine, drive_past):
     from berryshaker.plant.coupled import simulate_fruit_force
 
-    tight = simulate_fruit_force(machine, rtol=1e-7).summary()["positions"]
+    tight = simulate_fruit_force(proposed_machine(machine), rtol=1e-7).summary()["positions"]
     loose = drive_past.summary()["positions"]
     for name in ("root", "middle", "end"):
         # a peak over a chaotic 2 s response: agreement to 15 % between tolerances 1e-6 and 1e-7

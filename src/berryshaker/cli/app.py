@@ -18,6 +18,7 @@ import typer
 from rich.console import Console
 
 from berryshaker import __version__
+from berryshaker.cli.flag_help import show_flags_as_flags
 from berryshaker.errors import BerryshakerError
 
 app = typer.Typer(
@@ -34,6 +35,8 @@ app.add_typer(config_app, name="config")
 doe_app = typer.Typer(help="Plan, analyse and simulate orthogonal field tests (study sec. 2.6, 3.5).",
                       no_args_is_help=True)
 app.add_typer(doe_app, name="doe")
+
+show_flags_as_flags()  # boolean options show as flags in --help, not as <bool>
 
 out = Console()
 err = Console(stderr=True, soft_wrap=True)

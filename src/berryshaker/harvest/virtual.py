@@ -195,15 +195,25 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None) -> dict:
         pop = sample_population(machine, unripe_fraction=uf, yield_per_bush=yb)
         return harvest_indexes(machine, env, pop, ad)
 
+    from berryshaker.errors import ConfigError
+
     yb, uf, ad = machine.harvest.yield_per_bush, machine.harvest.unripe_fraction, machine.harvest.damage_acceleration
+    if idx(yb=yb, uf=uf)["efficiency_kg_min"] <= 0:
+        raise ConfigError("no fruit comes off in the virtual harvest (every peak stem force is below its bond): "
+                          "the picking indexes cannot be calibrated")
+    reachable = {"unripe_rate_pct": idx(yb=yb, uf=0.95)["unripe_rate_pct"] > targets["unripe_rate_pct"]}
     for _ in range(4):  # the three couple weakly through the sampled population: a few sweeps converge
-        uf = optimize.brentq(lambda u: idx(yb=yb, uf=u)["unripe_rate_pct"] - targets["unripe_rate_pct"],
-                             1e-3, 0.95, xtol=1e-6)
+        if reachable["unripe_rate_pct"]:
+            uf = optimize.brentq(lambda u: idx(yb=yb, uf=u)["unripe_rate_pct"] - targets["unripe_rate_pct"],
+                                 1e-3, 0.95, xtol=1e-6)
         yb = yb * targets["efficiency_kg_min"] / idx(yb=yb, uf=uf)["efficiency_kg_min"]
         ad = optimize.brentq(lambda a: idx(yb=yb, uf=uf, ad=a)["damage_rate_pct"] - targets["damage_rate_pct"],
                              1.0, 1e5, xtol=1e-3)
     check = idx(yb=yb, uf=uf, ad=ad)
-    return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check}
+    # the unripe rate cannot reach the target when no unripe fruit's stem force reaches its bond (1.0-3.6 N):
+    # the unripe fraction is then left as described and the rate reported as predicted
+    return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check,
+            "reachable": reachable}
 
 
 def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | None = None) -> dict:

@@ -76,7 +76,7 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     k_contact, n_contact = ct.impact_stiffness(
         pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter) * station
                                    / pl.branch.length))
-    modes = plant_modes(machine)[0]
+    modes, fb = plant_modes(machine)
     spec["plant"] = dict(
         omega=modes.omega.tolist(), damping_ratio=pl.branch.damping_ratio,
         shapes=[np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist()
@@ -97,6 +97,15 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     )
     spec["simulation"]["duration"] = duration
     spec["mechanism"]["name"] = f"{machine.machine.name} + branch (rigid-flexible coupling)"
+    if fb is not None:
+        # per-mode damping of the fruit-branch modes; an engine taking one ratio only gets the branch's
+        spec["plant"]["damping_ratio"] = fb.damping_ratios.tolist()
+        try:
+            out = mechanism_from_dict(spec, "(harvester + branch)")
+        except ConfigError:
+            spec["plant"]["damping_ratio"] = pl.branch.damping_ratio
+            out = mechanism_from_dict(spec, "(harvester + branch)")
+        return out, machine
     out = mechanism_from_dict(spec, "(harvester + branch)")
     return out, machine
 
@@ -136,7 +145,11 @@ class FruitForceResult:
             out["pedicel"] = {"stiffness_N_m": ped.stiffness, "damping_N_s_m": ped.damping,
                               "natural_frequency_hz": float(natural_frequency(m0, ped.stiffness)),
                               "damping_ratio": float(damping_ratio(m0, ped.stiffness, ped.damping)),
-                              "include_weight": ped.include_weight}
+                              "include_weight": ped.include_weight, "coupling": ped.coupling}
+            if ped.coupling == "two_way":
+                per_mode = isinstance(self.result.compiled.spec.plant.damping_ratio, list)
+                out["pedicel"]["mode_damping"] = ("per mode" if per_mode else
+                                                  "one ratio for all modes (engine limitation; docs/plant.md)")
         for name, f in self.fruit_force.items():
             peak = float(np.max(np.abs(f)))
             entry = {"z_m": self.z[name], "peak_force_N": peak,
@@ -210,7 +223,7 @@ def branch_motion(res: MultibodyResult, modes) -> BranchMotion:
     eta = res.y[:, nb3:nb3 + nm]
     etad = res.y[:, n + nb3:n + nb3 + nm]
     w = modes.omega
-    zeta = spec.plant.damping_ratio
+    zeta = np.asarray(spec.plant.damping_ratio, float)  # one ratio, or one per mode
     etadd = -(w**2) * eta - 2 * zeta * w * etad
     phi_tab = cm.model[13]
     contact_force = {}

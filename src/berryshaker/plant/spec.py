@@ -31,16 +31,16 @@ class BranchSpec(_Strict):
 class PedicelSpec(_Strict):
     """The fruit's stem as a spring-damper between branch and berry (berryshaker.plant.pedicel).
 
-    stiffness [calibrated]: 82.3 N/m puts the END fruit's peak stem force at 1.0 N (study 0.8-1.2 N) on the
-    reference machine (berryshaker.plant.calibration.calibrate_pedicel_stiffness); 34 Hz for 1.8 g.  The
-    nearest measured system, the coffee fruit-stem of the same fruit size, has 7.1-8.6 N/m and 11.6-13.3 Hz
-    (Villibor et al. 2016, Acta Scientiarum Technology 38(1)); with that stiffness the end force is 0.35 N.
-    damping: 0.077 N s/m, damping ratio 0.10 as measured on the coffee system [assumed by analogy].
-    ``rigid = true`` restores the study's eq. 16 (fruit force = m0 x branch acceleration).
+    Defaults [assumed, by analogy]: no blueberry fruit-stem frequency is known to us; the nearest
+    measured system of the same fruit size, the coffee fruit-stem, has 7.1-8.6 N/m, 0.025-0.029 N s/m,
+    11.6-13.3 Hz, damping ratio about 0.1 (Villibor et al. 2016, Acta Scientiarum Technology 38(1)).
+    k = 10 N/m and c = 0.027 N s/m give 11.9 Hz and 0.10 for a 1.8 g berry.  ``coupling = "two_way"``
+    puts the named fruit into the branch's modal model (their mass loads the thin end of the branch:
+    berryshaker.plant.pedicel.modal_mass_ratio); ``rigid = true`` restores the study's eq. 16.
     """
 
-    stiffness: Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))] = 82.3
-    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 0.077
+    stiffness: Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))] = 10.0
+    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 0.027
     include_weight: bool = True  # the stem also carries m0 g along the branch axis (upright branch)
     coupling: Literal["two_way", "one_way"] = "two_way"  # named fruit inside the modal model, or post-processed
     rigid: bool = False

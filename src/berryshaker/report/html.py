@@ -257,6 +257,19 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
         _maybe_img(parts, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
+    # clearance life
+    parts.append("<h2>7. Clearance life: wear and fits (docs/life.md)</h2>")
+    note("clearance_life")
+    life = res.get("clearance_life")
+    if life:
+        rec = life["recommended"]
+        parts.append(_table(["joint", "clearance now (mm)", f"after {life['horizon_h']:g} h (mm)", "limit (mm)",
+                             "hours to the limit", "recommended fit"],
+                            [[j, g["clearance_mm"][0], g["clearance_mm"][-1], life["clearance_limit_mm"][j],
+                              "not reached" if life["hours_to_limit"][j] is None else life["hours_to_limit"][j],
+                              rec["fits"].get(j, "")] for j, g in life["growth"].items()]))
+        parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.get("notes", [])) + "</p>")
+        _maybe_img(parts, figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     # config
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "

@@ -185,8 +185,21 @@ def step_l9(ctx: StudyContext) -> StepResult:
     return StepResult("l9", l9, figs)
 
 
+def step_clearance_life(ctx: StudyContext) -> StepResult:
+    """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/)."""
+    from berryshaker.study.life_step import step_life
+
+    ctx.say("clearance life (wear, fits)")
+    try:
+        return step_life(ctx)
+    except Exception as exc:  # noqa: BLE001 - a life estimate must not sink the whole study
+        ctx.failures.append({"step": "clearance life", "run": "", "inputs": "wear and fit surrogate",
+                             "error": f"{type(exc).__name__}: {exc}"})
+        return StepResult("clearance_life", None, note=f"the clearance-life step failed: {exc}")
+
+
 STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), ("clearance_rows", step_rows),
-         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9))
+         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("clearance_life", step_clearance_life))
 
 
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
@@ -227,7 +240,7 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
     return {
         "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
         "drive": machine.DRIVE,
-        "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim")} for c in results["claims"]],
+        "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim", "criterion")} for c in results["claims"]],
         "optimum": optimum, "failures": failures, "timings_s": timings, "runs": dict(runner_stats),
     }
 

@@ -4,6 +4,12 @@ from __future__ import annotations
 
 import io
 import os
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 import tempfile
 from pathlib import Path
 
@@ -49,6 +55,7 @@ def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
     os.close(fd)
     try:
         doc.saveas(tmp)
+        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; a DXF is an ordinary file like the CSV
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -1,0 +1,391 @@
+"""Clearance over the machine's life: ``fits``, ``wear``, ``sensitivity``, ``tolerance`` (docs/life.md)."""
+
+from __future__ import annotations
+
+import math
+import re
+import time
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.table import Table
+
+from berryshaker import __version__
+from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out
+from berryshaker.errors import ConfigError
+
+WorkersOpt = typer.Option(None, "--workers", help="Local processes (default: all cores).")
+SchedulerOpt = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs).")
+PlotOpt = typer.Option(None, "--plot", help="Folder for PNG figures.")
+
+_LIMIT_DIMENSION = {"clearance": "length", "peak_force": "force", "mean_force": "force"}
+
+
+def parse_limit(spec: str) -> tuple[str, float]:
+    """``peak_force:A=8000N``, ``clearance:C=0.5mm`` or ``OUTPUT=VALUE`` -> (key, SI value) for
+    :func:`berryshaker.life.wear.wear_life` (a maximum)."""
+    from berryshaker.units import parse_quantity
+
+    if "=" not in spec:
+        raise ConfigError(f"--limit {spec!r}: expected KIND:JOINT=VALUE, e.g. clearance:C=0.5mm or peak_force:A=8000N")
+    key, value = (s.strip() for s in spec.split("=", 1))
+    kind = key.partition(":")[0] if ":" in key else ""
+    if ":" in key and kind not in _LIMIT_DIMENSION:
+        raise ConfigError(f"--limit {spec!r}: kind {kind!r} is not one of {', '.join(_LIMIT_DIMENSION)}")
+    dim = _LIMIT_DIMENSION.get(kind)
+    try:
+        v = parse_quantity(value, dim, field=f"--limit {key}") if dim else float(value)
+    except ValueError:
+        raise ConfigError(f"--limit {spec!r}: {value!r} is not a number") from None
+    return key, float(v)
+
+
+def _runner(workers, scheduler, cache, progress: bool):
+    from berryshaker.runs.runner import SweepRunner
+
+    return SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=progress, console=err)
+
+
+# ---- fits ------------------------------------------------------------------------------------------------
+@command(app, "fits")
+def fits_cmd(
+    spec: str = typer.Argument(..., help="Fit, e.g. H7/f7 (with --diameter), '20 H7/f7', or a range '0.02..0.06 mm'."),
+    diameter: Optional[str] = typer.Option(None, "--diameter", "-d", help="Nominal diameter, e.g. 20mm."),
+    as_json: bool = JsonOpt,
+):
+    """Limits and clearance of an ISO 286 fit (diametral; radial = half, the pin-in-bore 'size')."""
+    from berryshaker.life.fits import fit_summary, parse_fit
+    from berryshaker.units import parse_quantity
+
+    nominal = parse_quantity(diameter, "length", field="--diameter") * 1e3 if diameter else None
+    s = fit_summary(parse_fit(spec, nominal))
+    s["version"] = __version__
+    if as_json:
+        _print_json(s)
+        return
+    t = Table(title=f"fit {s['designation']}" + (f" at {s['nominal_mm']:g} mm" if s["nominal_mm"] else ""),
+              header_style="bold")
+    for col in ("part", "upper", "lower", "tolerance", "max size", "min size"):
+        t.add_column(col, justify="left" if col == "part" else "right")
+    for part in ("hole", "shaft"):
+        z = s[part]
+        if z:
+            t.add_row(f"{part} {z['class']}", f"{z['upper_deviation_um']:+g} µm", f"{z['lower_deviation_um']:+g} µm",
+                      f"{z['tolerance_um']:g} µm", f"{z['max_size_mm']:.3f} mm", f"{z['min_size_mm']:.3f} mm")
+    out.print(t)
+    out.print(f"{s['kind']} fit ({s['basis']} basis): diametral clearance {s['clearance_min_mm']:.4g} .. "
+              f"{s['clearance_max_mm']:.4g} mm (mean {s['clearance_mean_mm']:.4g}); radial "
+              f"{s['radial_clearance_min_mm']:.4g} .. {s['radial_clearance_max_mm']:.4g} mm")
+
+
+# ---- wear ------------------------------------------------------------------------------------------------
+def wear_report(machine, hours: float, limits: dict[str, float], revolutions: int = 2, runner=None,
+                load_direction: str = "fixed", slip: float | None = None, joints=None, from_fit: bool = False,
+                say=None) -> dict:
+    """Run the wear loop on the machine's multibody dynamics (one cached run per state) and return its JSON.
+
+    Every simulation goes through ``runner`` (:func:`berryshaker.life.runs.joint_loads_run`, one job at a time:
+    each state depends on the previous), so a repeated command is served from the cache.
+    """
+    from berryshaker.life.joint_loads import DEFAULT_SLIP, joint_geometry, joint_wear_models
+    from berryshaker.life.runs import joint_loads_run, loads_from_json
+    from berryshaker.life.wear import clearance_size_from_fit, wear_life
+    from berryshaker.life.fits import parse_fit
+
+    slip = DEFAULT_SLIP if slip is None else slip
+    joints = list(joints) if joints else list(machine.pair_names)
+    models = joint_wear_models(machine, joints, load_direction)
+    geos = {j: joint_geometry(machine, j) for j in joints}
+    initial = {}
+    if from_fit:
+        for j in joints:
+            if not geos[j].fit:
+                raise ConfigError(f"--from-fit: clearance.{j}.fit is not set in the machine description")
+            fit = parse_fit(geos[j].fit, geos[j].diameter * 1e3)
+            initial[j] = clearance_size_from_fit(fit, "revolute" if geos[j].is_pin else "point-line", "mean")
+    data = machine.model_dump(mode="json")
+    count = {"n": 0, "cached": 0}
+    t0 = time.perf_counter()
+
+    def simulate(c):
+        count["n"] += 1
+        if say:
+            say(f"simulation {count['n']}: " + ", ".join(f"{k} {v * 1e3:.4g} mm" for k, v in c.items()))
+        before = runner.stats["cached"]
+        value = runner.values(joint_loads_run, [dict(machine_data=data, clearance={k: float(v) for k, v in c.items()},
+                                                     revolutions=int(revolutions), slip=float(slip))], "wear state")[0]
+        count["cached"] += runner.stats["cached"] - before
+        return loads_from_json(value)
+
+    life = wear_life(machine, hours, limits, simulate=simulate, joints=models, initial_clearances=initial or None)
+    res = life.to_dict()
+    for j in joints:
+        keys = [k for k in life.limits if k.partition(":")[2] == j]
+        hits = [life.limits[k]["hours"] for k in keys if life.limits[k]["hours"] is not None]
+        g = geos[j]
+        res["joints"][j].update(
+            maintenance_interval_h=min(hits) if hits else None,
+            limits=keys, diameter_mm=g.diameter * 1e3, bearing_length_mm=g.bearing_length * 1e3,
+            material_pair=g.material_pair, fit=g.fit, assumed_defaults=list(g.assumed),
+            size_convention="radial" if g.is_pin else "free travel")
+    res.update(machine=machine.machine.name, drive=machine.DRIVE, horizon_h=float(hours), simulations=count["n"],
+               simulations_from_cache=count["cached"], revolutions=int(revolutions), slip=slip,
+               load_direction=load_direction, wall_time_s=time.perf_counter() - t0, version=__version__,
+               limits_si={k: v for k, v in limits.items()})
+    return res
+
+
+def _default_wear_limits(machine, joints) -> dict[str, float]:
+    levels = machine.clearance_levels()
+    return {f"clearance:{j}": float(max(levels[j])) for j in joints}
+
+
+def _plot_wear(res: dict, folder: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for j, d in res["joints"].items():
+        line, = ax.plot(d["hours"], d["clearance_mm"], marker=".", label=f"{j} ({d['size_convention']})")
+        lim = res["limits_si"].get(f"clearance:{j}")
+        if lim is not None:
+            ax.axhline(lim * 1e3, color=line.get_color(), ls=":", lw=1)
+    ax.set_xlabel("operating hours (h)")
+    ax.set_ylabel("clearance (mm)")
+    ax.set_title(f"Clearance growth by wear (interval {res['maintenance_interval_h'] or 'not reached'} h)")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    name = "wear_clearance.png"
+    fig.savefig(folder / name, dpi=120)
+    plt.close(fig)
+    return [name]
+
+
+@command(app, "wear")
+def wear_cmd(
+    hours: float = typer.Option(2000.0, "--hours", help="Operating hours to simulate."),
+    limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, "
+                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each pair's largest test level."),
+    joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, help="Drive revolutions per simulation."),
+    load_direction: str = typer.Option("fixed", "--load-direction", help="Pins: fixed (conservative) or rotating."),
+    slip: Optional[float] = typer.Option(None, "--slip", help="Roller slip ratio (default 0.05 [assumed])."),
+    from_fit: bool = typer.Option(False, "--from-fit", help="Start from each pair's fit (mean clearance), not its size."),
+    cache: Optional[Path] = CacheOpt,
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = PlotOpt,
+):
+    """Clearance growth of every joint by Archard wear over operating hours and the maintenance interval.
+
+    Simulates the multibody drive, wears the joints (adaptive steps in hours), re-simulates; each simulation is
+    cached.  JSON: joints.<name>.hours[], .clearance_mm[], .maintenance_interval_h (null if not reached).
+    """
+    machine = _load(config)
+    joints = joint or list(machine.pair_names)
+    limits = dict(parse_limit(s) for s in limit) if limit else _default_wear_limits(machine, joints)
+    runner = _runner(1, None, cache, progress=False)
+    status = None if as_json else err.status("wear: starting")
+    if status is not None:
+        status.start()
+    try:
+        res = wear_report(machine, hours, limits, revolutions, runner, load_direction, slip, joints, from_fit,
+                          say=(lambda m: status.update(f"wear: {m}")) if status is not None else None)
+    finally:
+        if status is not None:
+            status.stop()
+        runner.close()
+    if plot is not None:
+        res["figures"] = [str(plot / f) for f in _plot_wear(res, plot)]
+    if as_json:
+        _print_json(res)
+        return
+    t = Table(title=f"clearance over {hours:g} h - {machine.machine.name}", header_style="bold")
+    for col in ("joint", "material", "start", "end", "growth rate (start)", "maintenance interval"):
+        t.add_column(col, justify="left" if col in ("joint", "material") else "right")
+    for j, d in res["joints"].items():
+        rate = d.get("growth_rate_um_per_h", [math.nan])[0]
+        mi = d["maintenance_interval_h"]
+        t.add_row(j, d["material_pair"], f"{d['clearance_mm'][0]:.4g} mm", f"{d['clearance_mm'][-1]:.4g} mm",
+                  f"{rate:.3g} µm/h", "not reached" if mi is None else f"{mi:.0f} h")
+    out.print(t)
+    mi = res["maintenance_interval_h"]
+    out.print(f"maintenance interval: {'not reached within the horizon' if mi is None else f'{mi:.0f} h'}"
+              + (f" ({res['governing_limit']})" if res["governing_limit"] else "")
+              + f"; {res['simulations']} simulations ({res['simulations_from_cache']} from the cache) in "
+                f"{res['wall_time_s']:.1f} s; {res['message']}")
+
+
+# ---- sensitivity -----------------------------------------------------------------------------------------
+def _plot_sobol(res: dict, folder: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    folder.mkdir(parents=True, exist_ok=True)
+    names = []
+    for o, ind in res["indices"].items():
+        keys = list(ind)
+        x = np.arange(len(keys))
+        fig, ax = plt.subplots(figsize=(max(4, 1.3 * len(keys) + 2), 4))
+        for off, (s, lab) in zip((-0.2, 0.2), (("S1", "first order S1"), ("ST", "total ST"))):
+            v = [ind[k][s] if ind[k][s] is not None else 0.0 for k in keys]
+            e = [ind[k][s + "_conf"] if ind[k][s + "_conf"] is not None else 0.0 for k in keys]
+            ax.bar(x + off, v, 0.4, yerr=e, capsize=3, label=lab)
+        ax.set_xticks(x, keys, rotation=20, ha="right")
+        ax.set_ylabel("Sobol index (share of variance, 1)")
+        ax.set_title(f"Sensitivity of {o} (95 % CI)")
+        ax.legend()
+        fig.tight_layout()
+        name = f"sobol_{re.sub(r'[^A-Za-z0-9_]+', '_', o)}.png"
+        fig.savefig(folder / name, dpi=120)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+@command(app, "sensitivity")
+def sensitivity_cmd(
+    output: list[str] = typer.Option([], "--output", help="Output name, repeatable (default: every pair's peak "
+                                     "collision force, collision_force_<pair>_peak)."),
+    param: list[str] = typer.Option([], "--param", help="KEY=LO..HI[unit], repeatable, e.g. "
+                                    "clearance.A.size=0.1..0.8mm (default: every pair over its test levels)."),
+    samples: int = typer.Option(64, "--samples", "-N", help="Base sample N (power of two); runs = N (D + 2)."),
+    model: Optional[str] = typer.Option(None, "--model", help="mlsd (default where the drive has it) or multibody."),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2),
+    seed: int = typer.Option(0, "--seed"),
+    workers: Optional[int] = WorkersOpt,
+    scheduler: Optional[str] = SchedulerOpt,
+    cache: Optional[Path] = CacheOpt,
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = PlotOpt,
+):
+    """Sobol sensitivity indices (S1, ST with 95 % confidence) of outputs to clearances and named parameters."""
+    from berryshaker.drives import drive_of
+    from berryshaker.life.sensitivity import default_clearance_params, machine_sobol, parse_sensitivity_param
+
+    machine = _load(config)
+    if model is None:
+        model = "mlsd" if drive_of(machine).reduced_model is not None else "multibody"
+    params = [parse_sensitivity_param(p) for p in param] if param else default_clearance_params(machine)
+    outputs = output or [f"collision_force_{p}_peak" for p in machine.pair_names]
+    with _runner(workers, scheduler, cache, progress=not as_json) as runner:
+        res = machine_sobol(machine, params, outputs, samples, runner, model, revolutions, seed)
+        res["runner"] = runner.summary_line()
+    res["version"] = __version__
+    if plot is not None:
+        res["figures"] = [str(plot / f) for f in _plot_sobol(res, plot)]
+    if as_json:
+        _print_json(res)
+        return
+    for o, ind in res["indices"].items():
+        t = Table(title=f"{o}: mean {res['output_mean'][o]:.4g}, sd {res['output_std'][o]:.3g}", header_style="bold")
+        for col in ("parameter", "S1", "± 95 %", "ST", "± 95 % "):
+            t.add_column(col, justify="left" if col == "parameter" else "right")
+        for k, v in ind.items():
+            def f(x):
+                return "n/a" if x is None else f"{x:.3f}"
+
+            t.add_row(k, f(v["S1"]), f(v["S1_conf"]), f(v["ST"]), f(v["ST_conf"]))
+        out.print(t)
+    out.print(f"{res['runs']} {model} runs (N = {samples}); {res['runner']}")
+
+
+# ---- tolerance -------------------------------------------------------------------------------------------
+def _plot_front(res: dict, folder: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    fr = res["front"]
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    sc = ax.scatter([d["cost"] for d in fr], [d["peak_force_N"] for d in fr], c=[d["life_h"] for d in fr],
+                    cmap="viridis")
+    rec = res["recommended"]
+    ax.scatter([rec["cost"]], [rec["peak_force_N"]], s=160, facecolors="none", edgecolors="red",
+               label="recommended: " + ", ".join(f"{j} {f}" for j, f in rec["fits"].items()))
+    fig.colorbar(sc, label="maintenance interval (h)")
+    ax.set_xlabel("manufacturing cost (relative units)")
+    ax.set_ylabel("peak collision force (N)")
+    ax.set_title("Pareto front of fit choices (NSGA-II on the surrogate)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    name = "tolerance_pareto.png"
+    fig.savefig(folder / name, dpi=120)
+    plt.close(fig)
+    return [name]
+
+
+@command(app, "tolerance")
+def tolerance_cmd(
+    fits: str = typer.Option(",".join(("H7/g6", "H7/f7", "H8/f7", "H8/e8", "H9/d9", "H11/c11")), "--fits",
+                             help="Candidate fits, comma-separated."),
+    joint: list[str] = typer.Option([], "--joint", help="Joints to design (repeatable; default all pairs)."),
+    limit: list[str] = typer.Option([], "--limit", help="Clearance limit for the life objective, clearance:C=0.3mm "
+                                    "(repeatable; default each pair's largest test level)."),
+    points: int = typer.Option(4, "--points", help="Surrogate grid clearances per joint (multibody runs each)."),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2),
+    pop_size: int = typer.Option(60, "--pop-size"),
+    generations: int = typer.Option(80, "--generations"),
+    seed: int = typer.Option(1, "--seed"),
+    workers: Optional[int] = WorkersOpt,
+    scheduler: Optional[str] = SchedulerOpt,
+    cache: Optional[Path] = CacheOpt,
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    plot: Optional[Path] = PlotOpt,
+):
+    """Choose a fit per joint: Pareto front of cost, peak collision force and life (NSGA-II on a cached surrogate
+    of a few multibody runs per joint) and the recommended fit specification."""
+    from berryshaker.life.tolerance import tolerance_design
+
+    machine = _load(config)
+    lims = {}
+    for s in limit:
+        key, v = parse_limit(s)
+        kind, _, j = key.partition(":")
+        if kind != "clearance" or not j:
+            raise ConfigError(f"--limit {s!r}: tolerance takes clearance limits, clearance:<joint>=VALUE")
+        lims[j] = v
+    with _runner(workers, scheduler, cache, progress=not as_json) as runner:
+        design = tolerance_design(machine, runner, joint or None, [f.strip() for f in fits.split(",") if f.strip()],
+                                  lims, points, revolutions, pop_size, generations, seed)
+        res = design.to_dict()
+        res["runner"] = runner.summary_line()
+    res["version"] = __version__
+    if plot is not None:
+        res["figures"] = [str(plot / f) for f in _plot_front(res, plot)]
+    if as_json:
+        _print_json(res)
+        return
+    t = Table(title="Pareto front (cost, peak collision force, maintenance interval)", header_style="bold")
+    for col in ["#"] + design.joints + ["cost", "peak force", "interval"]:
+        t.add_column(col, justify="right")
+    for k, d in enumerate(res["front"]):
+        mark = " *" if k == res["recommended"]["index"] else ""
+        t.add_row(f"{k + 1}{mark}", *[d["fits"][j] for j in design.joints], f"{d['cost']:.2f}",
+                  f"{d['peak_force_N']:.0f} N", f"{d['life_h']:.0f} h")
+    out.print(t)
+    s = Table(title="recommended fit specification (*)", header_style="bold")
+    for col in ("joint", "fit", "clearance (diametral)", "size", "peak force", "interval to limit"):
+        s.add_column(col, justify="left" if col in ("joint", "fit") else "right")
+    for j, d in res["recommended"]["joints"].items():
+        s.add_row(j, f"Ø{d['diameter_mm']:g} {d['fit']}", f"{d['clearance_min_mm']:.3f}..{d['clearance_max_mm']:.3f} mm",
+                  f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['peak_force_N']:.0f} N",
+                  f"{d['maintenance_interval_h']:.0f} h to {d['clearance_limit_mm']:g} mm")
+    out.print(s)
+    for n in res["notes"]:
+        out.print(f"- {n}", markup=False)
+    out.print(res["runner"])

@@ -1,0 +1,86 @@
+"""Study step "Clearance life": a cheap summary of joint wear and fit choice for the report.
+
+Three multibody runs per clearance pair (one pair varied at a time, cached through the study's runner) give each
+pair's Archard growth rate and peak collision force against its own clearance (:mod:`berryshaker.life.tolerance`'s
+surrogate).  From it: the clearance of every pair over 2000 operating hours from the description's sizes
+(dc/dh = r(c) on the interpolant), the hours to each pair's largest test level, and the fit recommended by
+NSGA-II on the surrogate.  Coarse on purpose (about 12 runs of 2 revolutions); ``berryshaker wear`` re-simulates
+at every state and ``berryshaker tolerance`` uses a finer grid.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+HORIZON_H = 2000.0
+
+
+def step_life(ctx):
+    """Clearance growth over 2000 h and the recommended fits (coarse surrogate; see the module docstring).
+
+    Returns
+    -------
+    StepResult
+        ``data``: ``growth[pair]`` (hours[], clearance_mm[]), ``hours_to_limit[pair]``, ``recommended``
+        (fits, cost, peak force, maintenance interval), ``front_size``, ``simulations``, ``notes``; one figure.
+    """
+    from berryshaker.life.tolerance import (
+        clearance_responses,
+        default_clearance_limits,
+        joint_candidates,
+        nsga2_front,
+        compromise_index,
+        response_grid,
+    )
+    from berryshaker.study.pipeline import StepResult
+
+    m = ctx.machine
+    joints = list(m.pair_names)
+    ctx.say("clearance life (wear surrogate and fit choice)")
+    limits = default_clearance_limits(m, joints)
+    sizes = m.clearance_sizes()
+    cands = joint_candidates(m, joints)
+    lo = {j: min(float(cands[j].size.min()), sizes[j]) for j in joints}
+    grid = response_grid(m, joints, limits, lo, n_points=3)
+    resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid")
+    hours = np.linspace(0.0, HORIZON_H, 21)
+    growth = {j: {"hours": hours.tolist(), "clearance_mm": (resp[j].grow(sizes[j], hours) * 1e3).tolist()}
+              for j in joints}
+    to_limit = {j: resp[j].hours_to(sizes[j], limits[j]) for j in joints}
+    x, f = nsga2_front(joints, cands, resp, limits, pop_size=40, generations=40, seed=1)
+    best = compromise_index(f)
+    rec = {"fits": {j: cands[j].fits[x[best][k]].designation for k, j in enumerate(joints)},
+           "cost": float(f[best, 0]), "peak_force_N": float(f[best, 1]), "maintenance_interval_h": float(-f[best, 2])}
+    data = {"horizon_h": HORIZON_H, "growth": growth, "hours_to_limit": to_limit,
+            "clearance_limit_mm": {j: v * 1e3 for j, v in limits.items()}, "recommended": rec,
+            "front_size": int(len(x)), "simulations": len(joints) * 3,
+            "surrogate": {j: r.to_dict() for j, r in resp.items()},
+            "notes": ["3 multibody runs (2 revolutions) per pair, one pair at a time; growth integrated on the "
+                      "interpolated rate (no re-simulation per state)",
+                      "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"]}
+    figs = []
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 4.5))
+        for j in joints:
+            line, = ax.plot(hours, growth[j]["clearance_mm"], label=j)
+            ax.axhline(limits[j] * 1e3, color=line.get_color(), ls=":", lw=1)
+        ax.set_xlabel("operating hours (h)")
+        ax.set_ylabel("clearance (mm)")
+        ax.set_title("Clearance growth by wear (coarse surrogate; dotted: limits)")
+        ax.grid(alpha=0.3)
+        ax.legend()
+        fig.tight_layout()
+        ctx.figs.mkdir(parents=True, exist_ok=True)
+        fig.savefig(ctx.figs / "life_clearance_growth.png", dpi=120)
+        plt.close(fig)
+        figs.append("life_clearance_growth.png")
+    except OSError:
+        pass
+    return StepResult("clearance_life", data, figs,
+                      "coarse surrogate of the wear and the fit choice; run `berryshaker wear` and "
+                      "`berryshaker tolerance` for the full analyses")

@@ -1,0 +1,100 @@
+"""Clearance-life commands and joint loads: fits, wear, limits; sliding speeds against finite differences of
+the positions; the new ClearancePair fields leave the dynamics unchanged."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from berryshaker.cli import app
+from berryshaker.config import load_machine
+from berryshaker.errors import ConfigError
+
+cli = CliRunner()
+
+
+def test_fits_json():
+    r = cli.invoke(app, ["fits", "H7/f7", "--diameter", "20mm", "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["clearance_min_mm"] == pytest.approx(0.020) and s["clearance_max_mm"] == pytest.approx(0.062)
+    r = cli.invoke(app, ["fits", "H7/f7"])
+    assert r.exit_code == 2
+
+
+def test_parse_limit():
+    from berryshaker.cli.life import parse_limit
+
+    assert parse_limit("peak_force:A=8000N") == ("peak_force:A", 8000.0)
+    assert parse_limit("clearance:C=0.5mm") == ("clearance:C", pytest.approx(5e-4))
+    with pytest.raises(ConfigError):
+        parse_limit("speed:C=3")
+    with pytest.raises(ConfigError):
+        parse_limit("clearance:C")
+
+
+def test_wear_json(tmp_path):
+    r = cli.invoke(app, ["wear", "--hours", "300", "--joint", "C", "--limit", "clearance:C=0.105mm",
+                         "--cache", str(tmp_path), "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    c = s["joints"]["C"]
+    assert c["hours"][0] == 0 and c["hours"][-1] == pytest.approx(300)
+    assert np.all(np.diff(c["clearance_mm"]) >= 0) and c["clearance_mm"][0] == pytest.approx(0.1)
+    assert 0 < c["maintenance_interval_h"] < 300
+    assert s["joints"]["A"]["clearance_mm"][0] == s["joints"]["A"]["clearance_mm"][-1]  # A does not wear here
+    assert s["simulations"] == len(c["hours"])
+    again = json.loads(cli.invoke(app, ["wear", "--hours", "300", "--joint", "C", "--limit", "clearance:C=0.105mm",
+                                        "--cache", str(tmp_path), "--json"]).stdout)
+    assert again["simulations_from_cache"] == again["simulations"]
+    assert again["joints"]["C"]["clearance_mm"] == c["clearance_mm"]
+
+
+def test_sliding_speeds_match_finite_differences_of_positions():
+    from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.life.joint_loads import sliding_speed
+
+    m = load_machine(None)
+    res, _ = simulate_multibody(m, {"A": 0.0, "B": 0.0, "C": 0.0, "F": 0.0}, revolutions=2)  # ideal joints
+    sel = slice(2000, -2000)
+    bi = res.compiled.body_index
+    t = res.t
+    # pin C: |d/dt (phi_left_comb - phi_coupler)| * d / 2, from positions only
+    dphi = np.gradient(res.y[:, 3 * bi["left_comb"] + 2] - res.y[:, 3 * bi["coupler"] + 2], t)
+    assert sliding_speed(res, "C", 0.02)[sel] == pytest.approx(np.abs(dphi)[sel] * 0.01, rel=1e-3, abs=1e-5)
+    # roller A: speed of the roller centre relative to the cam, in the cam's frame, from positions only
+    spec = {j.name: j for j in res.compiled.spec.joints}["A"]
+    q = lambda b, k: res.y[:, 3 * bi[b] + k]  # noqa: E731
+    ph = q("push_rod", 2)
+    px = q("push_rod", 0) + np.cos(ph) * spec.point_i[0] - np.sin(ph) * spec.point_i[1]
+    py = q("push_rod", 1) + np.sin(ph) * spec.point_i[0] + np.cos(ph) * spec.point_i[1]
+    pc = q("cam", 2)
+    lx = np.cos(pc) * (px - q("cam", 0)) + np.sin(pc) * (py - q("cam", 1))
+    ly = -np.sin(pc) * (px - q("cam", 0)) + np.cos(pc) * (py - q("cam", 1))
+    vrel = np.hypot(np.gradient(lx, t), np.gradient(ly, t))
+    assert sliding_speed(res, "A", 0.03, slip=1.0)[sel] == pytest.approx(vrel[sel], rel=1e-3, abs=1e-4)
+    assert sliding_speed(res, "A", 0.03, slip=0.05)[sel] == pytest.approx(0.05 * vrel[sel], rel=1e-3, abs=1e-5)
+
+
+def test_life_fields_do_not_change_the_dynamics():
+    from berryshaker.config import machine_from_dict
+    from berryshaker.drives import drive_of
+
+    m = load_machine(None)
+    data = m.model_dump(mode="json")
+    assert data["clearance"]["C"]["fit"] == "H8/f7"
+    for pair in data["clearance"].values():
+        for k in ("fit", "diameter", "bearing_length", "material_pair"):
+            pair.pop(k, None)
+    bare = machine_from_dict(data, "(test)")
+    assert bare.clearance["C"].diameter is None
+    d = drive_of(m)
+    assert d.mechanism(m, 2).model_dump() == d.mechanism(bare, 2).model_dump()
+    with pytest.raises(ConfigError, match="material_pair"):
+        from berryshaker.life.joint_loads import joint_geometry
+
+        data["clearance"]["C"]["material_pair"] = "unobtainium"
+        joint_geometry(machine_from_dict(data, "(test)"), "C")
