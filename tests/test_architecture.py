@@ -137,3 +137,21 @@ def test_clearances_are_validated_where_the_machine_is_built():
         m.with_clearances({"Q": 1e-4})
     with pytest.raises(ConfigError, match="finite length >= 0"):
         m.with_clearances({"B": float("nan")})
+
+
+def test_two_machine_files_side_by_side(tmp_path):
+    """compare-machines puts the groove cam beside the crank-rocker (different pairs, same comb swing)."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from berryshaker.cli import app
+
+    crank = Path(__file__).parents[1] / "examples" / "crank_rocker_harvester.toml"
+    r = CliRunner().invoke(app, ["compare-machines", "reference", str(crank), "--no-fruit-force", "-n", "2", "--json"])
+    assert r.exit_code == 0, r.output
+    res = json.loads(r.stdout)["machines"]
+    ref, cr = res["reference"], res["crank_rocker_harvester"]
+    assert list(cr["collision_force_N"]) == ["crank_pin", "rocker_pin", "C", "F"]
+    assert cr["comb_swing_deg"]["left"] == pytest.approx(ref["comb_swing_deg"]["left"], rel=2e-3)
+    assert ref["drive_moment_Nm"]["peak"] > 0 and cr["drive_moment_Nm"]["peak"] > 0
