@@ -33,7 +33,7 @@ EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
 
 def fuzz(n: int) -> settings:
     """Settings of a fuzz test: ``n`` fixed examples in CI, or ``EXPLORE`` random ones."""
-    return settings(deadline=None, max_examples=EXPLORE or n, derandomize=not EXPLORE,
+    return settings(deadline=None, max_examples=EXPLORE or n, derandomize=not EXPLORE, database=None,
                     suppress_health_check=[HealthCheck.too_slow])
 
 

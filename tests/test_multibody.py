@@ -203,7 +203,7 @@ def test_parallel_runs_equal_serial(machine):
     ser = SweepRunner(workers=1, use_cache=False, progress=False).map(reduced_row, jobs[:1])
     assert [o.index for o in par] == [0, 1, 2, 3]
     assert par[0].value["collision_force_N"] == ser[0].value["collision_force_N"]
-    assert par[3].error and "must be >= 0" in par[3].error and par[2].value is not None
+    assert par[3].error and "finite length >= 0" in par[3].error and par[2].value is not None
 
 
 def test_applied_force_and_gravity_on_a_pendulum():

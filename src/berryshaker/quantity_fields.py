@@ -2,8 +2,11 @@
 (parsed by :func:`berryshaker.units.parse_quantity`, dimension checked) and stores an SI float; the display
 unit travels in the field's schema (``display``) so every view prints engineering units.
 
-Also the strict base model every description section derives from, and the formatter that turns pydantic's
-errors into located messages (``cam.stroke: must be > 0 ...``).
+Also the strict base model every description section derives from (unknown keys, infinities and NaN refused;
+a plain numeric field refuses ``true`` and lists or tables with the field named), the formatter that turns
+pydantic's errors into located messages (``cam.stroke: must be > 0 ...``), the lookup of a field's physical
+dimension (:func:`field_dimension`, :func:`field_info_at`: sweeps read values with it), the plausibility walk
+over a description (:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`).
 """
 
 from __future__ import annotations

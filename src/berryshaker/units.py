@@ -24,6 +24,8 @@ Safety rules (issue "never compute on a misread input"):
   ``deg/s`` are taken as written.  An ``angle`` string must carry an angle unit ("180 deg", "3.1 rad",
   "0.5 turn"); "180" alone is refused.  A plain JSON/TOML number (not a string) stays SI (rad, rad/s).
 * ``dimensionless`` takes plain numbers and percentages ("5 %" -> 0.05).
+
+long module: the strict quantity grammar, the dimension table and the value-list parser are one parser; splitting would separate the grammar from its only users.
 """
 
 from __future__ import annotations

@@ -55,9 +55,9 @@ def kinematics(
             from berryshaker.report.plots import write_kinematics_figures
 
             with staged_directory(plot) as stage:
-                write_kinematics_figures(machine, kin, stage)
+                fig_names = write_kinematics_figures(machine, kin, stage)
                 write_provenance(stage, machine)
-            summary["plots"] = [str(plot / n) for n in ("svaj.png", "groove_profile.png", "comb_angles.png")]
+            summary["plots"] = [str(plot / n) for n in fig_names]
     except BerryshakerError as exc:
         _fail(exc)
         return

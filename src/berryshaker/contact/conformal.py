@@ -15,6 +15,8 @@ journal/bearing radii, the contact length and the materials, instead of assuming
 
 Sign conventions as in :mod:`berryshaker.contact.force_laws`: penetration delta > 0 in contact (m),
 forces are magnitudes (N).  SI throughout.
+
+long module: the conformal (pin-in-bore) and roller contact models share their line-contact core, fits and validity checks; split, each half would import the other.
 """
 
 from __future__ import annotations

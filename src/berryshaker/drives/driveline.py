@@ -12,6 +12,8 @@ slip cap) and a ratio coupling with direction-dependent efficiency (CVT + worm) 
 with J_s the driven pulley/CVT/worm inertia reflected to the cam and J_c the cam (+ follower train).
 Angular speeds are positive in the drive direction; the model assumes the cam keeps turning forward.
 See docs/driveline.md.
+
+long module: the driveline's spec, component laws (motor, belt, CVT, worm), reflection to the cam and the two-inertia check model belong together as one documented model.
 """
 
 from __future__ import annotations

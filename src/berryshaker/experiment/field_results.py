@@ -444,7 +444,7 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     if levels.shape[1] > 1 and not is_orthogonal(levels):
         raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
                           + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")
-    out = {r: _response(sheet, r)[order] for r in responses}
+    out = {r: _response(sheet, r, factor_cols)[order] for r in responses}
     # the table: sorted by run, numbers where the sheet's cells are numbers, level numbers normalised
     table = df.iloc[order].reset_index(drop=True).copy()
     for c in table.columns:
@@ -469,10 +469,11 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     return FieldResults(table, level_cols, names, out, levels, valuearr, level_values, units, ignored)
 
 
-def _response(sheet: _Sheet, r: str) -> np.ndarray:
+def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.ndarray:
     """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
     df = sheet.df
-    numeric_cols = [c for c in df.columns if c not in ("run", "order") and c.lower() not in META_COLUMNS]
+    numeric_cols = [c for c in df.columns if c not in ("run", "order") and c.lower() not in META_COLUMNS
+                    and c not in factor_cols and c not in RAW_COLUMNS]
     col = INDEX_NAMES.get(r, r)
     if r not in INDEX_NAMES and col not in df.columns:
         raise ConfigError(f"unknown response {r!r}; valid: {', '.join(INDEX_NAMES)} (indexes or raw masses) or a "

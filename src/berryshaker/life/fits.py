@@ -24,6 +24,8 @@ Sources
 ISO 286-1:2010 (tolerances, deviations and fits; Tables 1-3, Annex A), ISO 286-2:2010 (tables of limit
 deviations).  Tabulated values in :mod:`berryshaker.life.iso286_data`; the formulas below reproduce them
 within ISO's rounding and are used only as a check.
+
+long module: ISO 286 limits, fit parsing and clearance distributions read as one standard; the tables themselves are in iso286_data.py.
 """
 
 from __future__ import annotations

@@ -11,6 +11,8 @@ Coulomb friction.  Time integration: adaptive Dormand-Prince 5(4); after every a
 positions and velocities are projected back onto the constraint manifold (mass-weighted), and contact
 onset is located (the step is cut back until the penetration at its end is below 1 nm) so that the
 hysteresis laws get the true impact velocity.  Everything in the loop is numba-compiled (cache on).
+
+long module: the compiled core (constraints, forces, accelerations, projection, integrator with event location) must live in one numba module so the functions inline and cache together.
 """
 
 from __future__ import annotations

@@ -185,6 +185,11 @@ class BranchMotion:
     etadd: np.ndarray  # modal accelerations (branch stiffness, damping and the comb contacts)
     contact_force: dict[str, np.ndarray]
 
+    def every(self, n: int) -> "BranchMotion":
+        """Every n-th sample (for post-processing on a coarser, still uniform, time grid)."""
+        return BranchMotion(self.t[::n], self.modes, self.eta[::n], self.etad[::n], self.etadd[::n],
+                            {k: v[::n] for k, v in self.contact_force.items()})
+
     def lateral(self, z):
         """Lateral displacement (m), velocity (m/s), acceleration (m/s^2) at positions z, each (n_z, n_t)."""
         phi = self.modes.shape_at(np.atleast_1d(z))  # (n_modes, n_z)
@@ -203,9 +208,11 @@ class BranchMotion:
         from scipy import integrate as _int
 
         cum = _int.cumulative_trapezoid(prod, m.z, axis=-1, initial=0.0)
+        j = np.clip(np.searchsorted(m.z, zs) - 1, 0, len(m.z) - 2)
+        wgt = (zs - m.z[j]) / (m.z[j + 1] - m.z[j])
         u, v = np.zeros((len(zs), len(self.t))), np.zeros((len(zs), len(self.t)))
-        for i, zi in enumerate(zs):
-            g = np.array([[np.interp(zi, m.z, cum[a, b]) for b in range(cum.shape[1])] for a in range(cum.shape[0])])
+        for i in range(len(zs)):
+            g = (1 - wgt[i]) * cum[:, :, j[i]] + wgt[i] * cum[:, :, j[i] + 1]
             eg = self.eta @ g
             u[i] = -0.5 * np.sum(eg * self.eta, axis=1)
             v[i] = -np.sum(eg * self.etad, axis=1)
@@ -238,6 +245,8 @@ def branch_motion(res: MultibodyResult, modes) -> BranchMotion:
 def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Stem force on fruit of mass ``mass`` at positions z (berryshaker.plant.pedicel).
 
+    ``z``: positions (m), or a tuple (y, v, y_axial, v_axial) of branch motions already evaluated there
+    (BranchMotion.lateral / axial), to reuse them for several masses.
     Returns (lateral, axial, magnitude), each (n_z, n_t), N.  The axial force includes the weight m0 g
     when ``pedicel.include_weight`` (upright branch: its axis is vertical).  Lateral: driven by the
     branch's lateral displacement and velocity (absolute-coordinate form, smooth inputs); axial: by the
@@ -245,9 +254,12 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
     """
     from berryshaker.plant.pedicel import GRAVITY, stem_response
 
-    y, v, _ = motion.lateral(z)
+    if isinstance(z, tuple) and len(z) == 4:  # precomputed (y, v, y_axial, v_axial): many masses, one motion
+        y, v, ya, va = z
+    else:
+        y, v, _ = motion.lateral(z)
+        ya, va = motion.axial(z)
     _, f_lat = stem_response(motion.t, y, v, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
-    ya, va = motion.axial(z)
     _, f_ax = stem_response(motion.t, ya, va, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
     if pedicel.include_weight:
         f_ax = f_ax + mass * GRAVITY

@@ -7,6 +7,8 @@ Every function saves a PNG and returns the data it drew as a dict (decimated ser
 colour scales...), so a test or the report can check a figure against its table.  With
 ``return_figure=True`` the matplotlib figure is left open and returned under ``"figure"`` (the caller
 closes it).
+
+long module: one function per figure of the study and the commands, each short, over the one style module.
 """
 
 from __future__ import annotations
@@ -668,12 +670,18 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
 
 
 def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
-    """SVAJ, groove profile and comb-angle figures of a machine's drive into ``folder``; returns names."""
-    from berryshaker.drives.groove_cam.kinematics import cam_groove, mid_stroke_angles
+    """Kinematics figures of a machine's drive into ``folder`` (comb angles for every drive; SVAJ and the groove
+    profile for a groove cam); returns the file names."""
+    from berryshaker.drives import drive_of
+
+    d0, e0 = drive_of(machine).mid_stroke_angles(machine)
+    if not hasattr(machine, "cam"):
+        plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
+        return ["comb_angles.png"]
+    from berryshaker.drives.groove_cam.kinematics import cam_groove
 
     plot_svaj(kin, folder / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
     _, pitch, inner, outer = cam_groove(machine)
     plot_groove(pitch, inner, outer, machine.cam.base_radius, folder / "groove_profile.png")
-    d0, e0 = mid_stroke_angles(machine)
     plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
     return ["svaj.png", "groove_profile.png", "comb_angles.png"]

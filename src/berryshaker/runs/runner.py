@@ -17,6 +17,8 @@ per worker, so inter-process overhead does not dominate short runs), with progre
 Workers ignore Ctrl-C (the parent cancels and terminates them) and exit by themselves when the parent
 process dies (``kill -9``); the pool is kept across :meth:`SweepRunner.map` calls until
 :meth:`SweepRunner.close`.
+
+long module: the cache (keys, fingerprint, validated entries), the local pool (chunking, interruption, orphan-proof workers) and the Dask backend are one runner; they share the job protocol.
 """
 
 from __future__ import annotations

@@ -23,7 +23,7 @@ from berryshaker.kinematics.linkage import four_bar_position, transmission_angle
 class CrankRockerKinematics:
     """Ideal kinematics of the crank-rocker drive sampled over crank angle (SI)."""
 
-    phi: np.ndarray  # crank angle (rad), decreasing with time
+    phi: np.ndarray  # crank angle turned since t = 0 (rad; the crank turns clockwise)
     t: np.ndarray  # time (s)
     theta_r: np.ndarray  # rod direction P->R (rad)
     theta_d: np.ndarray
@@ -85,7 +85,7 @@ def cycle_kinematics(machine, n: int = 3600) -> CrankRockerKinematics:
     th_rod = np.arctan2(ry - py, rx - px)
     th_arm = np.arctan2(ry - yd, rx - xd)
     mu = np.abs(np.arcsin(np.clip(np.sin(th_rod - th_arm), -1, 1)))
-    return CrankRockerKinematics(phi, t, th_rod, th_d, om_d, al_d, th4, th_e, om_e, al_e, ok,
+    return CrankRockerKinematics(-phi, t, th_rod, th_d, om_d, al_d, th4, th_e, om_e, al_e, ok,
                                  mu, transmission_angle(th4, th_e))
 
 
@@ -102,7 +102,7 @@ def check_machine(machine, allow_undercut: bool = False) -> CrankRockerKinematic
     kin = cycle_kinematics(machine)
     if not np.all(kin.assembled):
         i = int(np.argmin(kin.assembled))
-        raise GeometryError(f"the crank-rocker cannot assemble at crank angle {math.degrees(kin.phi[i]) % 360:.1f} "
+        raise GeometryError(f"the crank-rocker cannot assemble at crank angle {math.degrees(-kin.phi[i]) % 360:.1f} "
                             "deg: the rod cannot reach the rocker (check crank.radius, rod.length, rocker.arm_R and "
                             "the position of shaft D: the crank must be the shortest link, Grashof)")
     if np.min(kin.rod_transmission_angle) < math.radians(5):
