@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from hypothesis.configuration import set_hypothesis_home_dir
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
@@ -25,6 +26,7 @@ from berryshaker.errors import ConfigError, GeometryError
 
 runner = CliRunner()
 WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-"))
+set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
 #: longest a single example may take (a hang or a huge allocation shows up here first)
 SLOW_S = 10.0
 #: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)

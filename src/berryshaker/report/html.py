@@ -254,6 +254,13 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                      f"{', '.join(reg['aliased_terms'])}.  Fitted instead: the main-effects quadratic model "
                      f"(R² = {reg['main_effects_quadratic']['r2']:.3f}, {reg['main_effects_quadratic']['residual_df']} "
                      "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
+    rep = l9.get("replicated") if isinstance(l9, dict) else None
+    if rep:
+        parts.append(f"<h3>Against its own noise ({len(rep.get('seeds', []))} population seeds per run)</h3>")
+        parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
+                     "tested against that replicate error, and a factor whose effect is not significant is 'no "
+                     "meaningful difference' in the recommendation.</p>")
+        parts.append(f"<pre>{html.escape(rep.get('text', ''))}</pre>")
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
         _maybe_img(parts, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
