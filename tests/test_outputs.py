@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from berryshaker.errors import OutputError
-from berryshaker.report.files import (
+from berryshaker.outputs import (
     MARKER_NAME,
     _host_tag,
     _umask,

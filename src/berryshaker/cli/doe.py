@@ -10,7 +10,7 @@ from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
-from berryshaker.report.files import write_provenance
+from berryshaker.outputs import write_provenance
 from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -85,7 +85,7 @@ def doe_plan(
     """Write a field sheet: run, run order, factor levels (units in the header), empty response columns."""
     try:
         from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
-        from berryshaker.report.files import check_output_file, write_text_atomic
+        from berryshaker.outputs import check_output_file, write_text_atomic
 
         if seed is not None and seed < 0:
             raise BerryshakerError(f"--seed {seed}: the seed must be an integer >= 0")
@@ -129,14 +129,14 @@ def doe_analyze(
         from berryshaker.experiment.field_sheet import read_results
 
         if report is not None:
-            from berryshaker.report.files import check_output_file
+            from berryshaker.outputs import check_output_file
 
             if report.is_dir():
                 raise BerryshakerError(f"--out {report} is a folder; give a file name, e.g. "
                                        f"{report / 'analysis.html'}")
             check_output_file(report, allowed_suffixes=(".html", ".json"), overwrite=force)
         if plot is not None:
-            from berryshaker.report.files import prepare_output_dir
+            from berryshaker.outputs import prepare_output_dir
 
             prepare_output_dir(plot, kind="plots")
         senses = _senses(maximize, minimize)
@@ -148,7 +148,7 @@ def doe_analyze(
         res["version"] = __version__
         if plot is not None:
             from berryshaker.experiment.analysis import quadratic_regression
-            from berryshaker.report.files import staged_directory
+            from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
 
             known = {f: v for f, v in fr.level_values.items() if v is not None}
@@ -164,7 +164,7 @@ def doe_analyze(
                                                stage / f"surface_{r}.png", factor_unit=unit)
             res["plots"] = sorted(str(p) for p in plot.glob("*.png"))
         if report is not None:
-            from berryshaker.report.files import provenance, write_json_atomic, write_text_atomic
+            from berryshaker.outputs import provenance, write_json_atomic, write_text_atomic
 
             if report.suffix.lower() == ".json":
                 write_json_atomic(report, {**res, "provenance": provenance(results_file=str(results))})
@@ -263,7 +263,7 @@ def doe_virtual(
     """
     try:
         from berryshaker.runs.runner import SweepRunner
-        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.outputs import prepare_output_dir
         from berryshaker.study.l9 import virtual_l9
 
         if plot is not None:
@@ -278,7 +278,7 @@ def doe_virtual(
             import numpy as np
 
             from berryshaker.experiment.analysis import quadratic_regression
-            from berryshaker.report.files import staged_directory
+            from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
 
             pairs = list(machine.pair_names)

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
-from berryshaker.report.files import write_provenance
+from berryshaker.outputs import write_provenance
 from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -40,7 +40,7 @@ def kinematics(
     """
     try:
         from berryshaker.drives import drive_of
-        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.outputs import prepare_output_dir
 
         if plot is not None:
             prepare_output_dir(plot, kind="plots")
@@ -51,7 +51,7 @@ def kinematics(
         summary["machine"] = machine.machine.name
         summary["version"] = __version__
         if plot is not None:
-            from berryshaker.report.files import staged_directory
+            from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import write_kinematics_figures
 
             with staged_directory(plot) as stage:
@@ -149,7 +149,7 @@ def cam_profile(
 
         from berryshaker.drives.groove_cam.kinematics import check_machine
         from berryshaker.drives.groove_cam.profile_export import write_groove_csv, write_groove_dxf
-        from berryshaker.report.files import check_output_file
+        from berryshaker.outputs import check_output_file
 
         if out_file.is_dir():
             raise BerryshakerError(f"--out {out_file} is a folder; give a file name, e.g. {out_file / 'cam.dxf'}")
@@ -213,7 +213,7 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
     """Write an editable copy of a drive's reference machine (each value annotated \\[study], \\[assumed] or
     \\[calibrated])."""
     from berryshaker.config import reference_toml_text
-    from berryshaker.report.files import write_text_atomic
+    from berryshaker.outputs import write_text_atomic
 
     if path.is_dir():
         _fail(BerryshakerError(f"{path} is a folder; give a file name, e.g. {path / 'machine.toml'}"))

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
-from berryshaker.report.files import write_provenance
+from berryshaker.outputs import write_provenance
 from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -44,7 +44,7 @@ def plant(
     """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements."""
     try:
         from berryshaker.plant.modes import analytic_modes, fe_modes
-        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.outputs import prepare_output_dir
 
         if plot is not None:
             prepare_output_dir(plot, kind="plots")
@@ -62,7 +62,7 @@ def plant(
             "version": __version__,
         }
         if plot is not None:
-            from berryshaker.report.files import staged_directory
+            from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_mode_shapes
 
             with staged_directory(plot) as stage:
@@ -111,7 +111,7 @@ def fruit_force_cmd(
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
         from berryshaker.plant.coupled import simulate_fruit_force
         from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
-        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.outputs import prepare_output_dir
 
         for folder in (plot, out_dir):
             if folder is not None:
@@ -125,7 +125,7 @@ def fruit_force_cmd(
         if plot is not None or out_dir is not None:
             import numpy as np
 
-            from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+            from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
             from berryshaker.report.plots import plot_fruit_force
 
             if plot is not None:

@@ -10,7 +10,7 @@ from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
-from berryshaker.report.files import write_provenance
+from berryshaker.outputs import write_provenance
 from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -26,7 +26,7 @@ from berryshaker.cli.app import (
 
 def _check_folders(*folders, kind: str = "simulation") -> None:
     """Refuse output folders that hold files berryshaker did not write, before any work."""
-    from berryshaker.report.files import prepare_output_dir
+    from berryshaker.outputs import prepare_output_dir
 
     for f in folders:
         if f is not None:
@@ -144,7 +144,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
     if out_dir is not None:
         import numpy as np
 
-        from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+        from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
 
         cm = result.compiled
         with staged_directory(out_dir) as stage:
@@ -187,7 +187,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
 def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     import numpy as np
 
-    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.plots import plot_joint_forces
 
     cm = result.compiled
@@ -241,7 +241,7 @@ def compare(
         series, t = res.pop("series"), res.pop("t")
         res["version"] = __version__
         if plot is not None:
-            from berryshaker.report.files import staged_directory
+            from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_time_series
 
             with staged_directory(plot) as stage:
@@ -270,7 +270,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
     import numpy as np
 
     from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
-    from berryshaker.report.files import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.plots import plot_joint_forces, plot_time_series
 
     with staged_directory(out_dir) as stage:

@@ -49,7 +49,7 @@ def study(
     """
     try:
         from berryshaker.drives import drive_of
-        from berryshaker.report.files import prepare_output_dir
+        from berryshaker.outputs import prepare_output_dir
         from berryshaker.runs.runner import SweepRunner
         from berryshaker.study.pipeline import run_study
 
@@ -130,7 +130,7 @@ def sweep(
         if workers is not None and workers < 1:
             raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
         if out_file is not None:
-            from berryshaker.report.files import check_output_file
+            from berryshaker.outputs import check_output_file
 
             check_output_file(out_file, allowed_suffixes=(".csv",))
         machine = _load(config)

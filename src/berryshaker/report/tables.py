@@ -30,7 +30,7 @@ def csv_text(header: Sequence[str], rows: Iterable[Sequence]) -> str:
 
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
     """Write a CSV table atomically (see :func:`csv_text`)."""
-    from berryshaker.report.files import write_text_atomic
+    from berryshaker.outputs import write_text_atomic
 
     write_text_atomic(path, csv_text(header, list(rows)))
 

@@ -41,6 +41,7 @@ from typing import Any, Callable
 from urllib.parse import urlsplit
 
 from berryshaker import __version__
+from berryshaker.outputs import code_fingerprint
 
 #: Version of the cache-entry layout; part of every key.
 CACHE_SCHEMA = 2
@@ -104,21 +105,6 @@ def _sha256(text: str) -> str:
 
 
 @functools.lru_cache(maxsize=None)
-def code_fingerprint() -> str:
-    """sha256 over every ``.py`` file of the installed berryshaker package (relative path and content,
-    sorted by path); computed once per process.  Any edit to the code gives new cache keys."""
-    import berryshaker
-
-    root = Path(berryshaker.__file__).resolve().parent
-    h = hashlib.sha256()
-    for p in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
-        if "__pycache__" in p.parts:
-            continue
-        h.update(p.relative_to(root).as_posix().encode() + b"\0")
-        h.update(p.read_bytes() + b"\0")
-    return h.hexdigest()
-
-
 @functools.lru_cache(maxsize=None)
 def _file_sha256(path: str) -> str:
     try:
@@ -212,7 +198,7 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
 def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dict, value, wall_s: float,
                       fingerprint: str) -> Path:
     """Write one cache entry atomically (temporary file and rename); return its path."""
-    from berryshaker.report.files import write_text_atomic
+    from berryshaker.outputs import write_text_atomic
 
     entry = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,
              "kwargs_sha256": _sha256(_canonical(kwargs)), "version": __version__,

@@ -248,10 +248,10 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
 def run_study(machine, out_dir: Path, runner, console=None) -> dict:
     """Run every step and write report.html, summary.json, tables/ and figures/ into ``out_dir``.
 
-    The destination is checked before any work (:func:`berryshaker.report.files.prepare_output_dir`: a new or
+    The destination is checked before any work (:func:`berryshaker.outputs.prepare_output_dir`: a new or
     empty folder, or a previous berryshaker output); outputs are staged and moved in atomically.
     """
-    from berryshaker.report.files import staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.outputs import staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.html import study_report
     from berryshaker.study.tables import strip_series, write_tables
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.report.files import write_text_atomic
+from berryshaker.outputs import write_text_atomic
 from berryshaker.drives.groove_cam.kinematics import cam_groove
 
 

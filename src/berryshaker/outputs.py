@@ -343,8 +343,6 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
 # ---- provenance ---------------------------------------------------------------------------------------
 def provenance(machine=None, **extra) -> dict:
     """Package version, code fingerprint and resolved config (SI) recorded with every output."""
-    from berryshaker.runs.runner import code_fingerprint
-
     out = {"package": "berryshaker", "version": __version__, "code_sha256": code_fingerprint()}
     if machine is not None:
         out["machine_si"] = machine.model_dump(mode="json")
@@ -355,3 +353,18 @@ def provenance(machine=None, **extra) -> dict:
 def write_provenance(folder: str | Path, machine=None, **extra) -> None:
     """``provenance.json`` (package version, resolved config in SI, extra inputs) beside outputs."""
     write_json_atomic(Path(folder) / "provenance.json", provenance(machine, **extra))
+
+
+def code_fingerprint() -> str:
+    """sha256 over every ``.py`` file of the installed berryshaker package (relative path and content,
+    sorted by path); computed once per process.  Any edit to the code gives new cache keys."""
+    import berryshaker
+
+    root = Path(berryshaker.__file__).resolve().parent
+    h = hashlib.sha256()
+    for p in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
+        if "__pycache__" in p.parts:
+            continue
+        h.update(p.relative_to(root).as_posix().encode() + b"\0")
+        h.update(p.read_bytes() + b"\0")
+    return h.hexdigest()
