@@ -355,6 +355,7 @@ def write_provenance(folder: str | Path, machine=None, **extra) -> None:
     write_json_atomic(Path(folder) / "provenance.json", provenance(machine, **extra))
 
 
+@functools.lru_cache(maxsize=None)
 def code_fingerprint() -> str:
     """sha256 over every ``.py`` file of the installed berryshaker package (relative path and content,
     sorted by path); computed once per process.  Any edit to the code gives new cache keys."""
