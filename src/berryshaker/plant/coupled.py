@@ -102,7 +102,9 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         spec["plant"]["damping_ratio"] = fb.damping_ratios.tolist()
         try:
             out = mechanism_from_dict(spec, "(harvester + branch)")
-        except ConfigError:
+        except ConfigError as err:
+            if "damping_ratio" not in str(err):
+                raise
             spec["plant"]["damping_ratio"] = pl.branch.damping_ratio
             out = mechanism_from_dict(spec, "(harvester + branch)")
         return out, machine
