@@ -4,20 +4,14 @@ from __future__ import annotations
 
 import io
 import os
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.outputs import write_text_atomic
 from berryshaker.drives.groove_cam.kinematics import cam_groove
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
+from berryshaker.outputs import _umask, write_text_atomic
 
 
 def groove_csv_text(machine: Machine, n: int = 721) -> str:
