@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Optional
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from berryshaker import __version__
@@ -225,13 +226,16 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
 
 @command(config_app, "validate")
 def config_validate(path: Path = typer.Argument(..., help="Machine description to check."),
+                    strict: bool = typer.Option(False, "--strict", help="Implausible values are errors, not "
+                                                "warnings."),
                     as_json: bool = JsonOpt):
-    """Check a machine description: values, units, assembly over the cycle, cam undercut."""
+    """Check a machine description: values, units, assembly over the cycle, cam undercut, and values orders of
+    magnitude outside engineering ranges (warnings; errors with --strict)."""
     try:
-        from berryshaker.drives import drive_of
+        from berryshaker.config import validate_machine
 
         machine = _load(path)
-        drive_of(machine).check(machine)
+        warnings = validate_machine(machine, strict=strict)
     except BerryshakerError as exc:
         if as_json:
             _print_json({"valid": False, "error": str(exc)})
@@ -239,6 +243,9 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
         _fail(exc)
         return
     if as_json:
-        _print_json({"valid": True, "machine": machine.machine.name})
+        _print_json({"valid": True, "machine": machine.machine.name, "warnings": warnings})
     else:
-        out.print(f"[green]valid[/]: {path} ({machine.machine.name})")
+        for w in warnings:
+            err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+        out.print(f"[green]valid[/]: {escape(str(path))} ({escape(machine.machine.name)})"
+                  + (f" with {len(warnings)} warning(s)" if warnings else ""))

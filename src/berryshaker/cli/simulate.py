@@ -73,6 +73,12 @@ def simulate(
         if model in ("mlsd", "reduced") and drive.reduced_model is None:
             raise BerryshakerError(f"the {drive.name} drive has no reduced model; use --model multibody")
         sizes = parse_clearance_spec(clearance, machine)
+        import math
+
+        from berryshaker.multibody.engine import check_output_samples
+
+        # simulate -n 100000000 would allocate terabytes: refuse before any work
+        check_output_samples(revolutions * 2 * math.pi / machine.drive_speed, 1e-4, "use fewer --revolutions")
         if model in ("mlsd", "reduced"):
             model = "mlsd"
             result = drive.reduced_model(machine, sizes, revolutions=revolutions)

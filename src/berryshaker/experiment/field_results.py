@@ -117,8 +117,12 @@ def _load_sheet(path_or_text) -> _Sheet:
                          skip_blank_lines=True)
     except Exception as exc:  # pandas parser errors
         raise ConfigError(f"cannot read the results CSV ({exc})") from None
-    names = [h.strip() for h in next(iter(pd.read_csv(io.StringIO(header), sep=sep, header=None, dtype=str)
-                                           .itertuples(index=False, name=None)))]
+    names = [str(h).strip() for h in next(iter(pd.read_csv(io.StringIO(header), sep=sep, header=None, dtype=str,
+                                                           keep_default_na=False)
+                                                .itertuples(index=False, name=None)))]
+    if any(not h for h in names):
+        raise ConfigError(f"results CSV: header column {names.index('') + 1} has no name; name every column "
+                          "(as written by `berryshaker doe plan`)")
     dup = sorted({h for h in names if names.count(h) > 1})
     if dup:
         raise ConfigError(f"results CSV: column(s) {dup} appear more than once in the header; keep one of each")

@@ -146,7 +146,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     if spec.plant is not None:
         pl = spec.plant
         modal_w = np.array(pl.omega, float)
-        modal_z = np.full(len(modal_w), pl.damping_ratio)
+        modal_z = (np.array(pl.damping_ratio, float) if isinstance(pl.damping_ratio, list)
+                   else np.full(len(modal_w), pl.damping_ratio))
         phi_tab = np.array(pl.shapes, float)
         plant_p = np.array([pl.walking_speed, pl.start_distance, pl.half_span, pl.ramp, pl.ramp_depth])
         ax, ay = np.array(pl.lateral_axis, float) / math.hypot(*pl.lateral_axis)
@@ -304,8 +305,6 @@ MAX_OUTPUT_SAMPLES = 2_000_000
 STEP_BUDGET_DT = 1e-6
 #: the budget is never below this many steps (short runs with many contact onsets)
 MIN_STEP_BUDGET = 200_000
-#: output samples integrated between two budget checks (at most; fewer for short runs)
-_BUDGET_CHUNK_SAMPLES = 500
 
 
 def check_output_samples(duration: float, output_step: float,
@@ -356,8 +355,8 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     max_steps : int, optional
         Step budget of the run (accepted + rejected integrator steps); default
         :func:`default_step_budget` (``duration / 1e-6 s``, at least 200 000).  The run stops with a
-        :class:`~berryshaker.errors.SimulationError` when it is spent; it is checked every
-        ``_BUDGET_CHUNK_SAMPLES`` output samples, so a run may overshoot by one such chunk.
+        :class:`~berryshaker.errors.SimulationError` when it is spent (checked by the compiled integrator at
+        every step).
 
     Raises
     ------
@@ -397,35 +396,15 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
                  np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)), np.zeros(nf),
                  np.zeros((nf, 4)), np.zeros(6))
     t0 = time.perf_counter()
-    # integrate in chunks of output samples, checking the step budget in between (the compiled kernel has no
-    # step limit of its own); each chunk restarts the step-size controller at min(max_step, 1 us), which costs
-    # a handful of steps and changes results only within the integration tolerance
-    chunk_info = np.zeros(6)
-    totals = np.zeros(3)  # accepted, rejected, event cuts
-    max_res = 0.0
-    i0 = 0
-    while i0 < n_out - 1:
-        i1 = min(n_out - 1, i0 + _BUDGET_CHUNK_SAMPLES)
-        sl = slice(i0, i1 + 1)
-        chunk_info[:] = 0.0
-        mb.integrate(y, t_out[sl], cm.model, state, work, rtol, atol, max_step, stats_from, out_y[sl], out_e[sl],
-                     out_lam[sl], peaks, first, chunk_info)
-        totals += chunk_info[:3]
-        max_res = max(max_res, float(chunk_info[5]))
-        if int(chunk_info[4]) != 0:
-            break
-        y = out_y[i1].copy()
-        i0 = i1
-        if totals[0] + totals[1] > budget and i0 < n_out - 1:
-            raise SimulationError(
-                f"multibody simulation stopped at t = {t_out[i0]:.6g} s of {duration:.6g} s: it used "
-                f"{int(totals[0] + totals[1]):,} integrator steps, over its budget of {budget:,} (mean step "
-                f"{t_out[i0] / max(totals[0], 1):.3g} s). The model is far stiffer than intended: check contact stiffness and damping (and their units), or "
-                "simulate fewer revolutions; to allow a longer run pass max_steps")
-    info[:] = chunk_info
-    info[0:3] = totals
-    if int(chunk_info[4]) == 0:
-        info[5] = max_res
+    info[0] = budget  # the kernel stops with status 4 when accepted + rejected steps reach it
+    mb.integrate(y, t_out, cm.model, state, work, rtol, atol, max_step, stats_from, out_y, out_e, out_lam, peaks,
+                 first, info)
+    if int(info[4]) == 4:
+        raise SimulationError(
+            f"multibody simulation stopped at t = {info[3]:.6g} s of {duration:.6g} s: it used "
+            f"{int(info[0] + info[1]):,} integrator steps, over its budget of {budget:,} (mean step "
+            f"{info[3] / max(info[0], 1):.3g} s). The model is far stiffer than intended: check contact stiffness "
+            "and damping (and their units), or simulate fewer revolutions; to allow a longer run pass max_steps")
     wall = time.perf_counter() - t0
     status = int(info[4])
     if status != 0:

@@ -575,6 +575,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     out_e[0, :, :] = eout
     out_lam[0, :] = lam
     h = min(h_max, 1e-6)
+    budget = info[0]  # on entry: the step budget (accepted + rejected steps; <= 0: none)
     acc = 0
     rej = 0
     cuts = 0
@@ -582,6 +583,13 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     for io in range(1, t_out.shape[0]):
         t_target = t_out[io]
         while t < t_target - 1e-15:
+            if budget > 0.0 and acc + rej >= budget:
+                info[0] = acc
+                info[1] = rej
+                info[2] = cuts
+                info[3] = t
+                info[4] = 4
+                return
             h_try = h if h < t_target - t else t_target - t
             for s in range(1, 7):
                 for i in range(ny):

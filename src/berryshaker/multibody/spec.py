@@ -225,7 +225,7 @@ class ModalBodySpec(_Strict):
     """
 
     omega: list[Annotated[float, Field(gt=0)]]  # rad/s
-    damping_ratio: float = Field(ge=0, lt=1)
+    damping_ratio: Annotated[float, Field(ge=0, lt=1)] | list[Annotated[float, Field(ge=0, lt=1)]]  # one, or per mode
     shapes: list[list[float]]  # per contact, per mode
     lateral_axis: Direction = (1.0, 0.0)
     walking_speed: Annotated[float, _q("speed"), Field(gt=0)] = 0.5

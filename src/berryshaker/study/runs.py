@@ -39,7 +39,7 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
 
 
 def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
-    """Peak acceleration envelope along one branch class (virtual harvest input)."""
-    from berryshaker.harvest.virtual import acceleration_envelope
+    """Peak stem-force table along one branch class (virtual harvest input; fruit on compliant pedicels)."""
+    from berryshaker.harvest.virtual import stem_force_envelope
 
-    return acceleration_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
+    return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
