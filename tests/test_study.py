@@ -57,11 +57,16 @@ def test_sweep_sampling():
 
 
 def test_sweep_cli_table(tmp_path):
-    r = runner_cli.invoke(app, ["sweep", "--param", "clearance.A.size=0.1..0.3mm", "--param", "clearance.F.size=0.1,0.6,-1mm",
-                                "--points", "2", "--json", "--cache", str(tmp_path / "c"), "--out", str(tmp_path / "s.csv")])
+    bad = runner_cli.invoke(app, ["sweep", "--param", "clearance.A.size=0.1..0.3mm", "--param",
+                                  "clearance.F.size=0.1,0.6,-1mm", "--points", "2", "--json", "--cache",
+                                  str(tmp_path / "c"), "--out", str(tmp_path / "s.csv")])
+    assert bad.exit_code == 2 and "nothing was run" in bad.output  # every point is checked before launching
+    assert not (tmp_path / "s.csv").exists()
+    r = runner_cli.invoke(app, ["sweep", "--param", "clearance.A.size=0.1..0.3mm", "--param", "clearance.F.size=0.1,0.6mm",
+                                "--points", "3", "--json", "--cache", str(tmp_path / "c"), "--out", str(tmp_path / "s.csv")])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
-    assert s["runs"] == 6 and s["failed"] == 2  # F = -1 mm is refused per run, the rest finish
+    assert s["runs"] == 6 and s["failed"] == 0
     assert "collision_force_A_peak_N" in s["columns"]
     assert (tmp_path / "s.csv").read_text().startswith("run,clearance.A.size[mm],clearance.F.size[mm],status")
 
@@ -147,8 +152,9 @@ def test_study_outputs(study_out):
     for c in saved["claims"]:
         assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "not comparable") and c["detail"]
     assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")
-    for k in ("efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"):
+    for k in ("efficiency_kg_min", "damage_rate_pct"):
         assert saved["optimum"][k] > 0
+    assert saved["optimum"]["unripe_rate_pct"] >= 0
     assert saved["timings_s"]["total"] > 0 and saved["version"]
     assert saved["machine_si"]["cam"]["base_radius"] == 0.08
     for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "fruit_force.csv",
