@@ -49,6 +49,7 @@ def _d(unit: str) -> dict:
 
 
 Length = Annotated[float, _q("length"), Field(gt=0, json_schema_extra=_d("mm"))]
+SignedLength = Annotated[float, _q("length"), Field(json_schema_extra=_d("mm"))]  # a coordinate
 LengthNonNeg = Annotated[float, _q("length"), Field(ge=0, json_schema_extra=_d("mm"))]
 Angle = Annotated[float, _q("angle"), Field(json_schema_extra=_d("deg"))]
 PositiveAngle = Annotated[float, _q("angle"), Field(gt=0, json_schema_extra=_d("deg"))]

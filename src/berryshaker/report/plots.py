@@ -108,7 +108,7 @@ def plot_comb_angles(kin, theta_d0: float, theta_e0: float, comb_length: float, 
     label_axes(axes[1], ylabel="tip speed [m/s]")
     legend_outside(axes[1])
     axes[2].plot(deg, np.degrees(kin.transmission_angle), color="#444444")
-    label_axes(axes[2], "cam angle [deg]", "transmission angle [deg]")
+    label_axes(axes[2], "drive-shaft angle [deg]", "transmission angle [deg]")
     axes[2].set_xlim(0, 360)
     for ax in axes:
         ax.grid(alpha=0.3)
@@ -321,7 +321,7 @@ def plot_fruit_force(distance, forces: dict, ranges: dict, path: Path, title: st
         xd, yd = decimate_minmax(x, y, n_bins)
         ex = _extremes(yd)
         colour = FRUIT_COLOURS.get(name, SERIES_COLOURS[0])
-        ax.plot(xd, yd, lw=0.7, color=colour, label=f"{name} fruit, F (eq. 16)")
+        ax.plot(xd, yd, lw=0.7, color=colour, label=f"{name} fruit, F")
         k = int(np.argmax(np.abs(yd)))
         entry = {"x": xd, "y": yd, **ex, "peak_at_m": float(xd[k])}
         peak_label = f"peak |F| = {ex['peak_abs']:.4g} N"
@@ -484,7 +484,9 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
             for ax in axes[i]:
                 ax.axhspan(mean - h, mean + h, color="#888888", alpha=BAND_ALPHA, lw=0,
                            label="grand mean +- 1 error half-width")
-        lo, hi = widen_span(lo, hi, rel=0.02)
+        flat = hi - lo <= 1e-12 * max(1.0, abs(hi))
+        # a response that does not change at all (e.g. no unripe fruit shed) gets one display unit of span
+        lo, hi = widen_span(lo, hi, rel=0.02, abs_min=1.0 if flat else 1e-12)
         pad = 0.08 * (hi - lo)
         axes[i, 0].set_ylim(lo - pad, hi + pad)
         for ax in axes[i]:
@@ -500,8 +502,11 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
     if any(d["factors"][factors[0]]["errors"] is not None for d in data["responses"].values()):
         handles.append(Patch(color="#888888", alpha=BAND_ALPHA, label="grand mean +- 1 error half-width"))
     legend_outside(axes[0, -1], handles=handles, labels=[h.get_label() for h in handles])
-    fig.suptitle((title or "Main effects (range analysis)") + ("\n" + "; ".join(sorted(notes)) if notes else ""),
-                 fontsize=10)
+    import textwrap
+
+    note = sorted(notes)[0] if notes else ""  # one explanation of the error bars (they differ only in dof)
+    fig.suptitle((title or "Main effects (range analysis)")
+                 + ("\n" + "\n".join(textwrap.wrap(note, 150)) if note else ""), fontsize=9)
     return _out(fig, path, data, return_figure, dpi=100)
 
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 import math
 from typing import ClassVar, Literal
 
-from pydantic import Field, model_validator
+from pydantic import model_validator
 
 from berryshaker.drives.base import MachineBase, PairInfo
-from berryshaker.quantity_fields import Angle, AngularSpeed, Inertia, Length, Mass, _d, check_drive_speed
+from berryshaker.quantity_fields import Angle, SignedLength, AngularSpeed, Inertia, Length, Mass, check_drive_speed
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 
@@ -43,29 +43,13 @@ class ConnectingRod(_Strict):
 class CrankRocker(_Strict):
     """Left comb rocker: shaft D, pin R at ``arm_R`` from D, arm DC to the connecting rod of the four-bar."""
 
-    shaft_D_x: float = Field(json_schema_extra=_d("mm"))
-    shaft_D_y: float = Field(json_schema_extra=_d("mm"))
+    shaft_D_x: SignedLength  # frame x of shaft D (may be negative)
+    shaft_D_y: SignedLength
     arm_R: Length  # D->R
     arm_R_angle: Angle = 0.0  # direction of D->R from the comb direction
     arm_CD: Length  # D->C
     arm_angle: Angle = math.pi  # direction of D->C from the comb direction
     assembly: Literal[-1, 1] = 1  # which of the two rod-rocker closures
-
-    @model_validator(mode="before")
-    @classmethod
-    def _units(cls, data):
-        if isinstance(data, dict):
-            from berryshaker.errors import ConfigError
-            from berryshaker.units import parse_quantity
-
-            data = dict(data)
-            for key in ("shaft_D_x", "shaft_D_y"):
-                if key in data:
-                    try:
-                        data[key] = parse_quantity(data[key], "length", key)
-                    except ConfigError as exc:
-                        raise ValueError(str(exc)) from None
-        return data
 
 
 class CrankRockerMachine(MachineBase):
