@@ -140,7 +140,7 @@ def proposed_machine(machine):
 
 @pytest.fixture(scope="module")
 def drive_past(machine):
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
 
     return simulate_fruit_force(proposed_machine(machine))
 
@@ -165,7 +165,7 @@ def test_reference_fruit_force_rises_from_root_to_end(drive_past):
 
 @pytest.mark.slow
 def test_coupled_run_converges_with_step_tolerance(machine, drive_past):
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
 
     tight = simulate_fruit_force(proposed_machine(machine), rtol=1e-7).summary()["positions"]
     loose = drive_past.summary()["positions"]

@@ -21,7 +21,7 @@ def proposed(machine, **fruit):
 
 @pytest.fixture(scope="module")
 def convergence(machine):
-    from berryshaker.plant.convergence import fruit_force_convergence
+    from berryshaker.harvest.convergence import fruit_force_convergence
 
     return fruit_force_convergence(proposed(machine), modes=(8, 16, 32))
 
@@ -29,7 +29,7 @@ def convergence(machine):
 def test_stem_force_converges_with_branch_modes(convergence):
     """16 vs 32 modes within 3 % at root, middle and end (measured: < 0.5 %), and the default of 8
     modes is the smallest count within 3 % of the 32-mode answer."""
-    from berryshaker.plant.convergence import smallest_converged_modes
+    from berryshaker.harvest.convergence import smallest_converged_modes
     from berryshaker.plant.spec import CombContactSpec
 
     by_n = {r["n_modes"]: r for r in convergence}
@@ -50,7 +50,7 @@ def test_two_way_equals_one_way_for_a_light_fruit(machine):
     fruit-branch modes (two-way) and the base-excited post-processing (one-way) give the same peak stem
     force to a few percent.  (Measured with per-mode damping: 0.6-2.1 %; with one damping ratio for
     all modes, as an engine without per-mode ratios integrates them, the peaks differ by up to ~10 %.)"""
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
 
     ped = {"stiffness": 0.1, "damping": 2.7e-4, "include_weight": False}
     peaks = {}

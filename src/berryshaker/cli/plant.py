@@ -109,7 +109,7 @@ def fruit_force_cmd(
     """
     try:
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
-        from berryshaker.plant.coupled import simulate_fruit_force
+        from berryshaker.harvest.coupled import simulate_fruit_force
         from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
         from berryshaker.outputs import prepare_output_dir
 

@@ -42,7 +42,7 @@ def compare_machines(machines: dict[str, object], revolutions: int = 3, fruit_fo
             "load_moment_Nm": {side: v["rms"] for side, v in s["load_moment_Nm"].items()},
         }
         if fruit_force and m.plant is not None:
-            from berryshaker.plant.coupled import simulate_fruit_force
+            from berryshaker.harvest.coupled import simulate_fruit_force
 
             ff = simulate_fruit_force(m, None).summary()
             row["fruit_force_peak_N"] = {n: p["peak_force_N"] for n, p in ff["positions"].items()}

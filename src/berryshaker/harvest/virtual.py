@@ -2,7 +2,7 @@
 
 Chain (docs/harvest.md):
 1. For each branch class (the reference branch with its diameters scaled), one coupled drive-past
-   simulation (berryshaker.plant.coupled) gives the peak acceleration envelope a_peak(z) of the branch.
+   simulation (berryshaker.harvest.coupled) gives the peak acceleration envelope a_peak(z) of the branch.
 2. Bushes carry ``branches_per_bush`` branches of random class; fruit sit uniformly along the fruit zone
    of each branch, with lognormal masses (mean m0, coefficient of variation ``fruit_mass_cv``), ripe or
    unripe (mass fraction ``unripe_fraction``), and bond forces drawn uniformly in eq. 17's ranges:
@@ -41,7 +41,7 @@ FRUIT_SAMPLES_PER_BUSH = 200  # sampled fruit per bush; each stands for yield/(2
 
 def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
     """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class."""
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
 
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale
@@ -62,10 +62,10 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
 
     One coupled drive-past run for the branch class ``scale`` (diameters scaled); the fruit is one-way
     coupled, so every (position, mass) is a post-processing of the same branch motion
-    (berryshaker.plant.coupled.stem_forces, berryshaker.plant.pedicel).  With ``pedicel.rigid`` the
+    (berryshaker.harvest.coupled.stem_forces, berryshaker.plant.pedicel).  With ``pedicel.rigid`` the
     table is m x the peak branch acceleration (eq. 16).
     """
-    from berryshaker.plant.coupled import simulate_fruit_force, stem_forces
+    from berryshaker.harvest.coupled import simulate_fruit_force, stem_forces
 
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale

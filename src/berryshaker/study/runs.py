@@ -27,7 +27,7 @@ def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> di
 def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
     """Coupled drive-past run: summary, force series thinned by peak-preserving min-max decimation for figures,
     exact peaks."""
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
     from berryshaker.report.style import decimate_minmax_shared
 
     r = simulate_fruit_force(machine_from_dict(machine_data), clearance)

@@ -25,7 +25,7 @@ from scipy import optimize
 
 from berryshaker.config import Machine, machine_from_dict
 from berryshaker.errors import ConfigError
-from berryshaker.plant.coupled import simulate_fruit_force
+from berryshaker.harvest.coupled import simulate_fruit_force
 
 
 def calibrate_contact_damping(machine: Machine, target_end_force: float = 1.0, bracket=(2.0, 40.0),

@@ -41,7 +41,7 @@ def fruit_force_convergence(machine: Machine, modes=(8, 16, 24, 30), clearance: 
         ``<name>_stem_N`` (peak stem force), ``<name>_rigid_N`` (eq. 16 peak), ``<name>_stem_rel`` (stem
         force relative to the row with the most modes, minus 1), ``contact_peak_N`` (largest comb force).
     """
-    from berryshaker.plant.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import simulate_fruit_force
     from berryshaker.plant.modes import branch_modes
 
     rows = []
