@@ -139,3 +139,15 @@ def test_config_init_show_validate(tmp_path):
 def test_machine_from_dict_roundtrip(machine):
     again = machine_from_dict(machine.model_dump())
     assert again == machine
+
+
+def test_rich_tables_and_errors_print_brackets_as_written():
+    """Provenance tags and lists are data, not rich markup: "[study]" must survive the terminal table."""
+    from rich.console import Console
+
+    from berryshaker.report.tables import rich_table
+
+    con = Console(record=True, width=120)
+    con.print(rich_table(["value [mm]", "tag"], [[0.25, "[study]"], [0.1, "[bold]x[/]"]], title="levels [mm]"))
+    text = con.export_text()
+    assert "[study]" in text and "value [mm]" in text and "[bold]x[/]" in text and "levels [mm]" in text

@@ -16,6 +16,7 @@ from typing import Optional
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 
 from berryshaker import __version__
 from berryshaker.cli.flag_help import show_flags_as_flags
@@ -47,7 +48,7 @@ JsonOpt = typer.Option(False, "--json", help="Print one JSON object on stdout in
 
 
 def _fail(exc: Exception) -> None:
-    err.print(f"[bold red]error:[/] {exc}", highlight=False, markup=True)
+    err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True)
     raise typer.Exit(code=2)
 
 

@@ -138,8 +138,15 @@ def wear_report(machine, hours: float, limits: dict[str, float], revolutions: in
 
 
 def _default_wear_limits(machine, joints) -> dict[str, float]:
+    """Default service limit per joint: its largest test level, but never below twice its present size.
+
+    A joint whose size already is its largest level (F on the reference machine) would otherwise start at
+    its limit and report a 0 h interval; "replace when the clearance has doubled" is a common workshop
+    rule for pin joints [assumed].
+    """
     levels = machine.clearance_levels()
-    return {f"clearance:{j}": float(max(levels[j])) for j in joints}
+    now = machine.clearance_sizes()
+    return {f"clearance:{j}": float(max(max(levels[j]), 2.0 * now[j])) for j in joints}
 
 
 def _plot_wear(res: dict, folder: Path) -> list[str]:
@@ -171,7 +178,8 @@ def _plot_wear(res: dict, folder: Path) -> list[str]:
 def wear_cmd(
     hours: float = typer.Option(2000.0, "--hours", help="Operating hours to simulate."),
     limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, "
-                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each pair's largest test level."),
+                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each pair's largest test level, at least twice its "
+                                    "present size."),
     joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
     revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, help="Drive revolutions per simulation."),
     load_direction: str = typer.Option("fixed", "--load-direction", help="Pins: fixed (conservative) or rotating."),

@@ -159,8 +159,8 @@ def sweep(
 
     show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
     shown = [[dict(zip(header, row))[c] for c in show] for row in rows[:40]]
-    # headers such as "clearance.A.size[mm]" are escaped (rich would read "[mm]" as markup) and fold, never cut
-    out.print(rich_table([escape(c) for c in show], shown, title=f"sweep: {len(rows)} runs, {failed} failed"))
+    # headers such as "clearance.A.size[mm]" fold, never cut (rich_table escapes markup)
+    out.print(rich_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed"))
     if len(rows) > 40:
         out.print(f"(first 40 of {len(rows)} runs; --out writes them all)")
     if failed:

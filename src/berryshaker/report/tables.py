@@ -38,15 +38,17 @@ def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence])
 def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | None = None, digits: int = 4):
     """The same rows as a :class:`rich.table.Table` for the terminal (numbers to ``digits`` significant
     digits, columns never truncated: long headers wrap)."""
+    from rich.markup import escape
     from rich.table import Table
 
-    tb = Table(title=title, header_style="bold")
+    # cells and headers are data, not markup: "[study]" or "[0.1, 0.2]" must print as written
+    tb = Table(title=escape(title) if title else None, header_style="bold")
     for i, h in enumerate(header):
-        tb.add_column(str(h), justify="left" if i == 0 else "right", overflow="fold")
+        tb.add_column(escape(str(h)), justify="left" if i == 0 else "right", overflow="fold")
     for r in rows:
         cells = []
         for v in r:
             v = _cell(v)
-            cells.append(f"{v:.{digits}g}" if isinstance(v, float) else str(v))
+            cells.append(f"{v:.{digits}g}" if isinstance(v, float) else escape(str(v)))
         tb.add_row(*cells)
     return tb
