@@ -237,3 +237,22 @@ def test_colour_bar_of_a_flat_surface_has_no_offset(tmp_path):
     assert cbar.yaxis.get_offset_text().get_text() == ""
     assert not audit_figure(fig)
     _close(data)
+
+
+def test_main_effects_ring_marks_ties_and_no_ring_on_a_flat_factor(tmp_path):
+    """The red ring names the best level; tied levels share it and a factor with R = 0 has none."""
+    res, _, _ = _l9_analysis()
+    fa = res["responses"]["efficiency"]["factors"]
+    fa["A"]["level_means"] = [2.0, 2.0, 2.0]
+    fa["A"]["range"], fa["A"]["best_level"] = 0.0, 1
+    fa["B"]["level_means"] = [1.0, 3.0, 3.0]
+    fa["B"]["range"], fa["B"]["best_level"] = 2.0, 2
+    data = P.plot_main_effects(res, tmp_path / "me.png", "ties", return_figure=True)
+    fig = data["figure"]
+
+    def rings(ax):
+        return sum(len(ln.get_xdata()) for ln in ax.get_lines() if ln.get_markersize() == 12)
+
+    assert rings(fig.axes[0]) == 0
+    assert rings(fig.axes[1]) == 2
+    _close(data)

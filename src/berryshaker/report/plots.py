@@ -456,8 +456,12 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
             colour = PAIR_COLOURS.get(f, SERIES_COLOURS[j % len(SERIES_COLOURS)])
             ax.errorbar(xs, k, yerr=e, fmt="o-", color=colour, ms=5, capsize=3, lw=1.3,
                         label="level mean" + (" +- error bar" if e is not None else ""))
+            # ring the best level; levels tied with it are ringed too, and a flat factor (R = 0) gets none
             best = ra["factors"][f]["best_level"]
-            ax.plot([xs[best - 1]], [k[best - 1]], "o", ms=12, mfc="none", mec="#C00000", mew=1.5)
+            tie = 1e-9 * max(1.0, float(np.max(np.abs(k))))
+            tied = np.flatnonzero(np.abs(k - k[best - 1]) <= tie)
+            if len(tied) < len(k):
+                ax.plot(xs[tied], k[tied], "o", ls="none", ms=12, mfc="none", mec="#C00000", mew=1.5)
             ax.set_xticks(xs)
             ax.set_xticklabels([f"{v:g}" for v in xs] if f in lv else [str(n) for n in range(1, len(k) + 1)])
             ax.margins(x=0.15)
