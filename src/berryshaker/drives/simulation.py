@@ -41,17 +41,26 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     for side, name in (("left", "bush_left"), ("right", "bush_right")):
         if name in cm.frc_names:
             out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
-    torque = -result.reaction("drive")  # moment in the direction of rotation
+    if "drive" in cm.con_names:
+        torque = -result.reaction("drive")  # moment in the direction of rotation
+    else:  # powered driveline: the mesh's moment on the drive shaft (drives/powered.py)
+        torque = -result.element_force("mesh")
     out["drive_moment_Nm"] = _stats(torque, sel)
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
     out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),
                contact_onsets_located=int(result.info[2]), wall_time_s=result.wall_time_s,
                revolutions=n_rev, statistics_over=f"revolutions 2..{n_rev}")
+    if "mesh" in cm.frc_names and cm.acc_start >= 0:
+        from berryshaker.drives.powered import driveline_summary
+
+        shaft = cm.spec.bodies[int(cm.model[8][cm.frc_names.index("mesh"), 1])].name
+        out.update(driveline_summary(result, shaft))
     return out
 
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
-                       rtol: float = 1e-6, output_step: float = 1e-4) -> tuple[MultibodyResult, dict]:
+                       rtol: float = 1e-6, output_step: float = 1e-4,
+                       driveline: str | None = None) -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
     Parameters
@@ -66,6 +75,10 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
         Relative tolerance of the integrator.
     output_step : float
         Spacing of the written series (s); peaks are taken over every step.
+    driveline : {"imposed", "powered"}, optional
+        Override of ``[driveline] mode``: "powered" turns the drive shaft through the driveline
+        (drives/powered.py; the summary then has cam speed, ripple, input power and energy lost per revolution
+        in each joint); default: as the machine description says (imposed speed without a ``[driveline]``).
 
     Returns
     -------
@@ -74,7 +87,9 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     """
     if revolutions < 2:
         raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
-    machine = machine.with_clearances(clearance)
+    from berryshaker.drives.powered import with_driveline_mode
+
+    machine = with_driveline_mode(machine.with_clearances(clearance), driveline)
     spec = drive_of(machine).mechanism(machine, revolutions=revolutions)
     result = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
     return result, multibody_summary(machine, result)
