@@ -107,19 +107,29 @@ def rotor_torque_table(red, n_points: int = 64) -> tuple[np.ndarray, np.ndarray,
     (speeds, torques, max_error) : (ndarray, ndarray, float)
         Rotor speeds (rad/s, drive-shaft scale, from standstill to above the top speed) and
         ``red.rotor_torque`` there; points are added greedily where linear interpolation of the exact curve
-        (on 4001 points) errs most, and ``max_error`` is the largest remaining error (N m).
+        (on 4001 points) errs most, weighted: 1 on the running range (stable branch, above the torque peak,
+        with 0 <= T <= half the peak), 0.1 on the rest of the stable branch, 0.02 below the peak;
+        ``max_error`` is the largest remaining error on the running range (N m).  A ``table`` motor of
+        at most ``n_points`` points is passed as given (error 0).
     """
-    from berryshaker.drives.driveline import _top_speed
+    from berryshaker.drives.driveline import TableCurve, _top_speed
 
+    m = red.spec.motor
+    if isinstance(m, TableCurve) and len(m.speeds) <= n_points:  # the engine interpolates it exactly as given
+        return np.asarray(m.speeds) / red.ratio, red.ratio * np.asarray(m.torques), 0.0
     top = _top_speed(red.spec) / red.ratio
     fine = np.linspace(0.0, top, 4001)
     exact = red.rotor_torque(fine)
+    # the drive runs on the stable branch (above the torque peak) below half the peak torque: error there counts
+    # most, on the rest of the stable branch a tenth, below the peak a fiftieth
+    stable = fine >= fine[int(np.argmax(exact))]
+    weight = np.where(stable, np.where((exact >= 0.0) & (exact <= 0.5 * exact.max()), 1.0, 0.1), 0.02)
     idx = [0, len(fine) - 1]
     err = np.abs(np.interp(fine, fine[idx], exact[idx]) - exact)
     while len(idx) < n_points:
-        idx = sorted(set(idx) | {int(np.argmax(err))})
+        idx = sorted(set(idx) | {int(np.argmax(weight * err))})
         err = np.abs(np.interp(fine, fine[idx], exact[idx]) - exact)
-    return fine[idx], exact[idx], float(err.max())
+    return fine[idx], exact[idx], float(np.max(err[weight == 1.0]))
 
 
 def mean_drive_torque(spec_data: dict) -> float:
@@ -167,6 +177,70 @@ def cvt_for_speed(spec: DrivelineSpec, load_torque: float, target_speed: float) 
     return spec.model_copy(update={"cvt_ratio": float(c)})
 
 
+def driveline_elements(dspec: DrivelineSpec, load_torque: float, driven_body: str, direction: float,
+                       mesh_stiffness: float, mesh_damping_ratio: float, bearings: bool = False):
+    """Bodies, joints, driver and force elements of a driveline driving ``driven_body``, at its steady state.
+
+    Parameters
+    ----------
+    dspec : DrivelineSpec
+        The driveline (``cam_inertia`` = the driven body's inertia about its axis, kg m^2).
+    load_torque : float
+        Mean load on the driven body (N m, resisting) for the initial steady state.
+    driven_body : str
+        Name of the body the mesh turns.
+    direction : float
+        +1 or -1: the sense in which the driven body turns (the rotor and input shaft turn positive).
+    mesh_stiffness, mesh_damping_ratio : float
+        Mesh stiffness (N m/rad at the driven body) and the damping ratio of the mesh mode (J_s against J_c).
+    bearings : bool
+        Pin the rotor and the input shaft to ground (needed only with gravity).
+
+    Returns
+    -------
+    (parts, steady, table_error) : (dict, SteadyState, float)
+        ``parts`` has lists ``bodies``, ``joints``, ``drivers``, ``forces`` (mechanism-description dicts, SI);
+        the steady state they start from; the largest error of the tabulated motor curve (N m, drive-shaft
+        scale).
+
+    Raises
+    ------
+    ConfigError
+        A self-locking worm, or a stall / belt slip at the mean load.
+    """
+    red = reflect_to_cam(dspec)
+    if red.eta_back <= 0:
+        raise ConfigError(f"driveline.worm: the worm is self-locking (back-driven efficiency {red.eta_back:.3g}); "
+                          "the engine's compliant mesh needs a back-drivable set: raise lead_angle or give "
+                          "efficiency_back > 0")
+    try:
+        ss = steady_state_speed(dspec, load_torque)
+    except SimulationError as exc:
+        raise ConfigError(f"driveline: {exc}") from None
+    speeds, torques, tab_err = rotor_torque_table(red)
+    t_b = ss.belt_torque
+    j_s, j_c = red.shaft_inertia, dspec.cam_inertia
+    c_mesh = 2.0 * mesh_damping_ratio * math.sqrt(mesh_stiffness * j_s * j_c / (j_s + j_c))
+    parts = {
+        "bodies": [dict(name="motor_rotor", mass=1.0, inertia=red.rotor_inertia),  # mass: see the module doc
+                   dict(name="input_shaft", mass=1.0, inertia=j_s)],
+        "joints": [dict(name="rotor_bearing", type="revolute", body_i="ground", body_j="motor_rotor"),
+                   dict(name="input_shaft_bearing", type="revolute", body_i="ground", body_j="input_shaft")]
+        if bearings else [],
+        "drivers": [dict(name="drive", type="torque_speed", body="motor_rotor", speed=ss.motor_speed / red.ratio,
+                         speeds=speeds.tolist(), torques=torques.tolist())],
+        "forces": [
+            dict(name="belt", type="geared_spring_damper", body_i="motor_rotor", body_j="input_shaft", ratio=1.0,
+                 stiffness=red.torsional_stiffness, damping=red.torsional_damping,
+                 creep_compliance=red.creep_compliance, slip_torque=red.slip_torque,
+                 windup0=t_b / red.torsional_stiffness),
+            dict(name="mesh", type="geared_spring_damper", body_i="input_shaft", body_j=driven_body, ratio=direction,
+                 stiffness=mesh_stiffness, damping=c_mesh, efficiency_forward=red.eta_forward,
+                 efficiency_back=red.eta_back, windup0=t_b / mesh_stiffness)],
+    }
+    return parts, ss, tab_err
+
+
 def powered_mechanism(spec_data: dict, machine, driven_body: str) -> dict:
     """Replace the imposed-speed driver ``drive`` of a drive's mechanism description by the machine's driveline.
 
@@ -194,45 +268,19 @@ def powered_mechanism(spec_data: dict, machine, driven_body: str) -> dict:
     """
     dl = machine.driveline if machine.driveline is not None else MachineDriveline()
     drive = next(d for d in spec_data["drivers"] if d["name"] == "drive")
-    direction = math.copysign(1.0, drive["speed"])
     t_load = mean_drive_torque(spec_data)
     dspec = dl.driveline_spec(machine.drive_inertia)
     if dl.match_speed:
         dspec = cvt_for_speed(dspec, t_load, abs(drive["speed"]))
-    red = reflect_to_cam(dspec)
-    if red.eta_back <= 0:
-        raise ConfigError(f"driveline.worm: the worm is self-locking (back-driven efficiency {red.eta_back:.3g}); "
-                          "the engine's compliant mesh needs a back-drivable set: raise lead_angle or give "
-                          "efficiency_back > 0")
-    try:
-        ss = steady_state_speed(dspec, t_load)
-    except SimulationError as exc:
-        raise ConfigError(f"driveline: {exc}") from None
-    speeds, torques, tab_err = rotor_torque_table(red)
-    w_r0 = ss.motor_speed / red.ratio
-    t_b = ss.belt_torque
-    j_s, j_c = red.shaft_inertia, machine.drive_inertia
-    c_mesh = 2.0 * dl.mesh_damping_ratio * math.sqrt(dl.mesh_stiffness * j_s * j_c / (j_s + j_c))
+    gravity = spec_data.get("mechanism", {}).get("gravity", (0.0, 0.0))
+    parts, ss, tab_err = driveline_elements(dspec, t_load, driven_body, math.copysign(1.0, drive["speed"]),
+                                            dl.mesh_stiffness, dl.mesh_damping_ratio,
+                                            bearings=any(abs(g) > 0 for g in gravity))
     out = dict(spec_data)
-    out["bodies"] = list(spec_data["bodies"]) + [
-        dict(name="motor_rotor", mass=1.0, inertia=red.rotor_inertia),  # mass carries no force (see module doc)
-        dict(name="input_shaft", mass=1.0, inertia=j_s),
-    ]
-    if any(abs(g) > 0 for g in spec_data.get("mechanism", {}).get("gravity", (0.0, 0.0))):
-        out["joints"] = list(spec_data["joints"]) + [
-            dict(name="rotor_bearing", type="revolute", body_i="ground", body_j="motor_rotor"),
-            dict(name="input_shaft_bearing", type="revolute", body_i="ground", body_j="input_shaft")]
-    out["drivers"] = [d for d in spec_data["drivers"] if d["name"] != "drive"] + [
-        dict(name="drive", type="torque_speed", body="motor_rotor", speed=w_r0, speeds=speeds.tolist(),
-             torques=torques.tolist())]
-    out["forces"] = list(spec_data.get("forces", [])) + [
-        dict(name="belt", type="geared_spring_damper", body_i="motor_rotor", body_j="input_shaft", ratio=1.0,
-             stiffness=red.torsional_stiffness, damping=red.torsional_damping, creep_compliance=red.creep_compliance,
-             slip_torque=red.slip_torque, windup0=t_b / red.torsional_stiffness),
-        dict(name="mesh", type="geared_spring_damper", body_i="input_shaft", body_j=driven_body, ratio=direction,
-             stiffness=dl.mesh_stiffness, damping=c_mesh, efficiency_forward=red.eta_forward,
-             efficiency_back=red.eta_back, windup0=t_b / dl.mesh_stiffness),
-    ]
+    out["bodies"] = list(spec_data["bodies"]) + parts["bodies"]
+    out["joints"] = list(spec_data["joints"]) + parts["joints"]
+    out["drivers"] = [d for d in spec_data["drivers"] if d["name"] != "drive"] + parts["drivers"]
+    out["forces"] = list(spec_data.get("forces", [])) + parts["forces"]
     info = dict(spec_data.get("mechanism", {}))
     info["description"] = (f"{info.get('description', '')} powered driveline: mean load {t_load:.4g} N m, CVT ratio "
                            f"{dspec.cvt_ratio:.6g}, steady speed {ss.cam_speed * 30 / math.pi:.6g} r/min, motor "

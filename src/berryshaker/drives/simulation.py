@@ -17,6 +17,14 @@ def _stats(series: np.ndarray, sel: np.ndarray, peak: float = 0.0) -> dict:
     return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2)))}
 
 
+def drive_moment(result: MultibodyResult) -> np.ndarray:
+    """Moment on the drive shaft in its direction of rotation (clockwise), N m: the imposed-speed driver's, or with
+    a powered driveline the mesh's (drives/powered.py)."""
+    if "drive" in result.compiled.con_names:
+        return -result.reaction("drive")
+    return -result.element_force("mesh")
+
+
 def multibody_summary(machine, result: MultibodyResult) -> dict:
     """The JSON of ``simulate --model multibody``: collision force per pair (N), comb load moments (N m), drive
     moment (N m; ``mean`` signed, in the direction of rotation), integrator statistics.
@@ -41,10 +49,7 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     for side, name in (("left", "bush_left"), ("right", "bush_right")):
         if name in cm.frc_names:
             out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
-    if "drive" in cm.con_names:
-        torque = -result.reaction("drive")  # moment in the direction of rotation
-    else:  # powered driveline: the mesh's moment on the drive shaft (drives/powered.py)
-        torque = -result.element_force("mesh")
+    torque = drive_moment(result)
     out["drive_moment_Nm"] = _stats(torque, sel)
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
     out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),

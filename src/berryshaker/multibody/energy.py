@@ -172,3 +172,20 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
         out["residual_J"] = float(residual)
         out["relative_residual"] = float(abs(residual) / max(abs(w_in), 1e-300))
     return out
+
+
+def element_work(result, name: str) -> np.ndarray:
+    """Work (J) done on the mechanism by force element ``name`` since the start, at every output sample (its
+    energy accumulator; a source's is its input work, a passive element's is minus what it stored and dissipated).
+
+    Raises
+    ------
+    ValueError
+        The run had no energy accumulators, or there is no such element.
+    """
+    cm = result.compiled
+    if cm.acc_start < 0:
+        raise ValueError("this run has no energy accumulators; set simulation.energy_audit = true")
+    if name not in cm.frc_names:
+        raise ValueError(f"no force element {name!r}; elements: {', '.join(cm.frc_names)}")
+    return result.y[:, cm.n + cm.acc_start + cm.frc_names.index(name)]

@@ -255,33 +255,46 @@ def initial_state(spec: MechanismSpec) -> np.ndarray:
 
 
 def _speed_driver_spec(spec: MechanismSpec) -> dict | None:
-    """The description as a dict with temporary ``angle`` drivers on every torque- or torque-speed-driven body
-    and on every body driven through geared spring-dampers (see :func:`initial_state`), energy audit off; None
-    when no driver needs it."""
+    """The description as a dict with temporary ``angle`` drivers that fix the initial speeds (see
+    :func:`initial_state`), energy audit off; None when no driver needs it.
+
+    Speeds come from the ``angle`` and ``torque_speed`` drivers first, spread along the geared spring-dampers,
+    then from ``torque`` drivers on bodies still without a speed (a torque driver on a body that already has one
+    is a load and is left out of the temporary description)."""
     if not any(d.type in ("torque", "torque_speed") for d in spec.drivers):
         return None
     data = spec.model_dump()
     data["simulation"]["energy_audit"] = False
-    speeds = {}
-    for d in data["drivers"]:
-        if d["type"] in ("torque", "torque_speed"):
-            d.update(type="angle", speeds=[], torques=[])
-        if d["type"] == "angle":
-            speeds[d["body"]] = d["speed"]
+    speeds: dict[str, float] = {}
+    drivers = []
     geared = [f for f in spec.forces if f.type == "geared_spring_damper"]
-    changed = True
-    while changed:
-        changed = False
-        for f in geared:
-            drift = 1.0 - f.creep_compliance * f.stiffness * f.windup0
-            if f.body_i in speeds and f.body_j not in speeds and f.body_j != "ground":
-                new, speeds[f.body_j] = f.body_j, speeds[f.body_i] * drift / f.ratio
-            elif f.body_j in speeds and f.body_i not in speeds and f.body_i != "ground":
-                new, speeds[f.body_i] = f.body_i, speeds[f.body_j] * f.ratio / drift
-            else:
-                continue
-            data["drivers"].append(dict(name=f"initial speed of {new}", type="angle", body=new, speed=speeds[new]))
-            changed = True
+
+    def spread():
+        changed = True
+        while changed:
+            changed = False
+            for f in geared:
+                drift = 1.0 - f.creep_compliance * f.stiffness * f.windup0
+                if f.body_i in speeds and f.body_j not in speeds and f.body_j != "ground":
+                    new, speeds[f.body_j] = f.body_j, speeds[f.body_i] * drift / f.ratio
+                elif f.body_j in speeds and f.body_i not in speeds and f.body_i != "ground":
+                    new, speeds[f.body_i] = f.body_i, speeds[f.body_j] * f.ratio / drift
+                else:
+                    continue
+                drivers.append(dict(name=f"initial speed of {new}", type="angle", body=new, speed=speeds[new]))
+                changed = True
+
+    for d in data["drivers"]:
+        if d["type"] in ("angle", "torque_speed") and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle", speeds=[], torques=[]))
+    spread()
+    for d in data["drivers"]:
+        if d["type"] == "torque" and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle"))
+            spread()
+    data["drivers"] = drivers
     return data
 
 
