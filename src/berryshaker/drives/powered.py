@@ -306,7 +306,8 @@ def driveline_summary(result, driven_body: str = "cam") -> dict:
     -------
     dict
         ``cam_speed_rpm`` {min, max, mean} over the statistics window (min/max from the written samples, mean
-        = turned angle / time), ``speed_ripple_percent`` = 100 (max - min) / mean, ``input_power_W`` = motor work
+        = turned angle / time), ``speed_ripple_percent`` = 100 (max - min) / mean (``driveline_speed_ripple_percent``:
+        the same for the motor rotor and the input shaft, against their sample means), ``input_power_W`` = motor work
         / time, ``energy_per_revolution_J`` = energy dissipated per drive-shaft revolution in each clearance joint,
         bush, the guide friction, the belt and the mesh, and ``energy_audit`` (:func:`energy_audit`).
     """
@@ -322,7 +323,13 @@ def driveline_summary(result, driven_body: str = "cam") -> dict:
     mean = turned / dt
     revs = turned / (2 * math.pi)
     rpm = 30.0 / math.pi
+    upstream = {}
+    for name in ("motor_rotor", "input_shaft"):
+        if name in cm.body_index:
+            wu = np.abs(result.y[i0:, cm.n + 3 * cm.body_index[name] + 2])
+            upstream[name] = float(100.0 * np.ptp(wu) / np.mean(wu))
     return {"driveline_mode": "powered",
+            "driveline_speed_ripple_percent": upstream,
             "cam_speed_rpm": {"min": float(w.min() * rpm), "max": float(w.max() * rpm), "mean": float(mean * rpm)},
             "speed_ripple_percent": float(100.0 * (w.max() - w.min()) / mean),
             "input_power_W": float(audit["input_work_J"] / dt),
