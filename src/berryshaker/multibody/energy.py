@@ -156,7 +156,9 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
             w_in += float(d_w[k])
         else:
             dissipated[name] = float(-d_w[k] - (u1[name] - u0[name]))
-    dissipated["guide friction"] = float(-d_w[nf])  # prismatic joints' Coulomb friction (all of them)
+    cflt = cm.model[5]
+    if np.any((cm.model[3] == mb.CON_PRISMATIC) & (cflt[:, mb.CF_MU] > 0)):
+        dissipated["guide friction"] = float(-d_w[nf])  # prismatic joints' Coulomb friction (all of them)
     if len(cm.model[11]):
         dissipated["modal damping"] = float(-d_w[nf + 1] - (m1 - m0))
     d_pot = (g1 - g0) + sum(u1.values()) - sum(u0.values()) + (m1 - m0)
