@@ -47,6 +47,11 @@ def simulate(
                                              help="Simulate any mechanism description (TOML) instead of the harvester, "
                                                   "e.g. examples/slider_crank_clearance.toml."),
     duration: Optional[float] = typer.Option(None, "--duration", help="With --mechanism: simulated time (s)."),
+    driveline: Optional[str] = typer.Option(None, "--driveline",
+                                            help="imposed: the drive shaft turns at its nominal speed; powered: the "
+                                                 "motor, belt, CVT and worm of [driveline] turn it (multibody model; "
+                                                 "cam speed, ripple, input power, energy lost per joint). Default: "
+                                                 "the description's [driveline] mode (imposed without one)."),
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Write time series (CSV, units in the header), "
@@ -73,6 +78,12 @@ def simulate(
         if model in ("mlsd", "reduced") and drive.reduced_model is None:
             raise BerryshakerError(f"the {drive.name} drive has no reduced model; use --model multibody")
         sizes = parse_clearance_spec(clearance, machine)
+        from berryshaker.drives.powered import is_powered, with_driveline_mode
+
+        machine = with_driveline_mode(machine, driveline)
+        if is_powered(machine) and model != "multibody":
+            raise BerryshakerError("the powered driveline runs in the multibody model: add --model multibody "
+                                   "(or --driveline imposed)")
         import math
 
         from berryshaker.multibody.engine import check_output_samples
@@ -87,6 +98,7 @@ def simulate(
             from berryshaker.drives.simulation import simulate_multibody
 
             result, summary = simulate_multibody(machine, sizes, revolutions=revolutions)
+            summary.setdefault("driveline_mode", "imposed")
             guide = _guide_reaction(result)
             if guide is not None:
                 summary["guide_reaction_N"] = guide
@@ -119,6 +131,12 @@ def simulate(
         if isinstance(st, dict):
             t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
     out.print(t)
+    if summary.get("driveline_mode") == "powered":
+        sp = summary["cam_speed_rpm"]
+        out.print(f"powered driveline: drive-shaft speed {sp['min']:.2f} .. {sp['max']:.2f} r/min (mean {sp['mean']:.2f}), "
+                  f"ripple {summary['speed_ripple_percent']:.2f} %, input power {summary['input_power_W']:.1f} W; "
+                  "energy lost per revolution: " + ", ".join(
+                      f"{k} {v:.3g} J" for k, v in summary["energy_per_revolution_J"].items()))
     out.print(f"{summary['statistics_over']}; {summary['steps']} steps in {summary['wall_time_s'] * 1e3:.0f} ms"
               + (f"; wrote {out_dir}" if out_dir is not None else ""))
 
@@ -204,8 +222,13 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
             cols.append(f"F_{p}_N")
             data.append(result.element_force(p) if p in cm.frc_names else result.reaction(p))
         cols += ["T_l_Nm", "T_r_Nm", "drive_moment_Nm"]
-        data += [result.element_force("bush_left"), result.element_force("bush_right"),
-                 -result.reaction("drive")]
+        from berryshaker.drives.simulation import drive_moment
+
+        data += [result.element_force("bush_left"), result.element_force("bush_right"), drive_moment(result)]
+        if "mesh" in cm.frc_names:  # powered driveline: the drive shaft's speed
+            shaft = int(cm.model[8][cm.frc_names.index("mesh"), 1])
+            cols.append("drive_shaft_speed_rpm")
+            data.append(np.abs(result.y[:, cm.n + 3 * shaft + 2]) * 30.0 / np.pi)
         if "guide" in cm.con_names:
             cols.append("guide_normal_N")
             data.append(result.reaction("guide"))

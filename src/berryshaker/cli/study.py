@@ -99,6 +99,10 @@ def sweep(
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of lhs / montecarlo sampling."),
     model: str = typer.Option("mlsd", "--model", help="mlsd or multibody."),
     revolutions: int = typer.Option(3, "--revolutions", min=2, help="Drive-shaft revolutions per run."),
+    driveline: Optional[str] = typer.Option(None, "--driveline",
+                                            help="imposed or powered (with --model multibody): powered runs report "
+                                                 "cam speed ripple, input power and energy lost per revolution per "
+                                                 "joint. Default: the description's [driveline] mode."),
     config: Optional[Path] = ConfigOpt,
     out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: all cores)."),
@@ -127,6 +131,8 @@ def sweep(
 
         if model not in ("mlsd", "multibody"):
             raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")
+        if driveline is not None and driveline not in ("imposed", "powered"):
+            raise BerryshakerError(f"--driveline {driveline!r}: choose imposed or powered")
         if workers is not None and workers < 1:
             raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
         if out_file is not None:
@@ -134,13 +140,18 @@ def sweep(
 
             check_output_file(out_file, allowed_suffixes=(".csv",))
         machine = _load(config)
+        from berryshaker.drives.powered import is_powered, with_driveline_mode
+
+        if is_powered(with_driveline_mode(machine, driveline)) and model != "multibody":
+            raise BerryshakerError("the powered driveline runs in the multibody model: add --model multibody "
+                                   "(or --driveline imposed)")
         params = [parse_param(p, machine) for p in param]
         check_params(params)
         pts = sample_params(params, method, points, seed)
         validate_points(machine, params, pts, revolutions)  # every point, before any run
         data = machine.model_dump(mode="json")
-        jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions)
-                for pt in pts]
+        jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions,
+                     **({"driveline": driveline} if driveline else {})) for pt in pts]
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
         header, rows = tidy_rows(params, pts, results)
@@ -158,6 +169,7 @@ def sweep(
     from berryshaker.report.tables import rich_table
 
     show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
+    show += [c for c in ("speed_ripple_percent", "input_power_W") if c in header]
     shown = [[dict(zip(header, row))[c] for c in show] for row in rows[:40]]
     # headers such as "clearance.A.size[mm]" fold, never cut (rich_table escapes markup)
     out.print(rich_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed"))

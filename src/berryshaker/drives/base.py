@@ -28,6 +28,7 @@ from typing import Annotated, Any, Callable, ClassVar, Literal
 
 from pydantic import Field, model_validator
 
+from berryshaker.drives.powered import MachineDriveline
 from berryshaker.errors import ConfigError
 from berryshaker.harvest.spec import HarvestSpec
 from berryshaker.plant.spec import PlantSpec
@@ -168,6 +169,7 @@ class MachineBase(StrictModel):
     plant: PlantSpec | None = None
     operation: OperationSpec = OperationSpec()
     harvest: HarvestSpec = HarvestSpec()
+    driveline: MachineDriveline | None = None  # powered drive (docs/driveline.md); None: imposed speed
 
     @model_validator(mode="before")
     @classmethod

@@ -17,6 +17,14 @@ def _stats(series: np.ndarray, sel: np.ndarray, peak: float = 0.0) -> dict:
     return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2)))}
 
 
+def drive_moment(result: MultibodyResult) -> np.ndarray:
+    """Moment on the drive shaft in its direction of rotation (clockwise), N m: the imposed-speed driver's, or with
+    a powered driveline the mesh's (drives/powered.py)."""
+    if "drive" in result.compiled.con_names:
+        return -result.reaction("drive")
+    return -result.element_force("mesh")
+
+
 def multibody_summary(machine, result: MultibodyResult) -> dict:
     """The JSON of ``simulate --model multibody``: collision force per pair (N), comb load moments (N m), drive
     moment (N m; ``mean`` signed, in the direction of rotation), integrator statistics.
@@ -41,17 +49,23 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     for side, name in (("left", "bush_left"), ("right", "bush_right")):
         if name in cm.frc_names:
             out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
-    torque = -result.reaction("drive")  # moment in the direction of rotation
+    torque = drive_moment(result)
     out["drive_moment_Nm"] = _stats(torque, sel)
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
     out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),
                contact_onsets_located=int(result.info[2]), wall_time_s=result.wall_time_s,
                revolutions=n_rev, statistics_over=f"revolutions 2..{n_rev}")
+    if "mesh" in cm.frc_names and cm.acc_start >= 0:
+        from berryshaker.drives.powered import driveline_summary
+
+        shaft = cm.spec.bodies[int(cm.model[8][cm.frc_names.index("mesh"), 1])].name
+        out.update(driveline_summary(result, shaft))
     return out
 
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
-                       rtol: float = 1e-6, output_step: float = 1e-4) -> tuple[MultibodyResult, dict]:
+                       rtol: float = 1e-6, output_step: float = 1e-4,
+                       driveline: str | None = None) -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
     Parameters
@@ -66,6 +80,10 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
         Relative tolerance of the integrator.
     output_step : float
         Spacing of the written series (s); peaks are taken over every step.
+    driveline : {"imposed", "powered"}, optional
+        Override of ``[driveline] mode``: "powered" turns the drive shaft through the driveline
+        (drives/powered.py; the summary then has cam speed, ripple, input power and energy lost per revolution
+        in each joint); default: as the machine description says (imposed speed without a ``[driveline]``).
 
     Returns
     -------
@@ -74,7 +92,9 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     """
     if revolutions < 2:
         raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
-    machine = machine.with_clearances(clearance)
+    from berryshaker.drives.powered import with_driveline_mode
+
+    machine = with_driveline_mode(machine.with_clearances(clearance), driveline)
     spec = drive_of(machine).mechanism(machine, revolutions=revolutions)
     result = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
     return result, multibody_summary(machine, result)

@@ -29,6 +29,10 @@ class CompiledMechanism:
     n: int
     q0: np.ndarray
     period: float | None
+    # powered drives: auxiliary coordinates after the bodies and modes (kernel.accumulator_start)
+    n_base: int = 0  # 3 x bodies + modes: where the auxiliary coordinates begin
+    state_windup0: list[float] = field(default_factory=list)  # initial windup of each geared element, in order
+    acc_start: int = -1  # first energy accumulator (-1: no energy audit)
 
 
 def _cam_array(spec: MechanismSpec) -> tuple[np.ndarray, dict[str, int]]:
@@ -56,6 +60,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     ctype, cint, cflt, crow, con_names, con_rows = [], [], [], [], [], []
     ftype, fint, fflt, frc_names, frc_kinds = [], [], [], [], []
     row = 0
+    n_modes = len(spec.plant.omega) if spec.plant is not None else 0
+    windup0 = []  # geared spring-dampers: their windup states follow the bodies and modes
 
     def add_con(name, typ, bi, bj, cam=0, **vals):
         nonlocal row
@@ -127,6 +133,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
             add_con(d.name, mb.CON_DRIVER, b, -1, phi0=phi0, speed=d.speed)
             if period is None and d.speed != 0:
                 period = 2 * math.pi / abs(d.speed)
+        elif d.type == "torque_speed":
+            add_frc(d.name, "torque_speed", mb.FRC_TORQUE_SPEED, b, -1, ntab=len(d.speeds))
+            fflt[-1][mb.FF_TAB:mb.FF_TAB + len(d.speeds)] = d.speeds
+            fflt[-1][mb.FF_TAB + mb.MAX_TABLE:mb.FF_TAB + mb.MAX_TABLE + len(d.torques)] = d.torques
+            if period is None and d.speed != 0:
+                period = 2 * math.pi / abs(d.speed)  # statistics skip the first revolution of the source
         else:
             add_frc(d.name, "torque", mb.FRC_TORQUE, b, -1, torque=d.torque)
     for f in spec.forces:
@@ -135,6 +147,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
                 raise ConfigError(f"force {f.name!r}: an applied force needs a moving body, not ground")
             add_frc(f.name, "force", mb.FRC_FORCE, bidx_g[f.body_i], -1, six=f.point[0], siy=f.point[1],
                     ux=f.force[0], uy=f.force[1])
+        elif f.type == "geared_spring_damper":
+            add_frc(f.name, f.type, mb.FRC_GEAR_SD, bidx_g[f.body_i], bidx_g[f.body_j],
+                    cam=3 * nb + n_modes + len(windup0), k=f.stiffness, c=f.damping, ratio=f.ratio,
+                    eta_f=f.efficiency_forward, eta_b=f.efficiency_back, creep=f.creep_compliance,
+                    slip=f.slip_torque)  # fint[., 2] holds the coordinate of its windup state
+            windup0.append(f.windup0)
         else:
             add_frc(f.name, f.type, mb.FRC_ROT_SD, bidx_g[f.body_i], bidx_g[f.body_j], k=f.stiffness, c=f.damping,
                     phi0=f.angle0)
@@ -167,11 +185,17 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
              arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64),
              arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 4), np.int64),
              arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table())
-    q0 = np.zeros(3 * nb + len(modal_w))
+    audit = spec.simulation.energy_audit
+    if audit is None:
+        audit = any(d.type == "torque_speed" for d in spec.drivers)
+    n_base = 3 * nb + len(modal_w)
+    n_aux = len(windup0) + (len(ftype) + 2 if audit else 0)
+    q0 = np.zeros(n_base + n_aux)
     for i, b in enumerate(spec.bodies):
         q0[3 * i:3 * i + 3] = [b.position[0], b.position[1], b.angle]
     return CompiledMechanism(spec, bidx, model, con_names, con_rows, frc_names, frc_kinds, row,
-                             3 * nb + len(modal_w), q0, period)
+                             n_base + n_aux, q0, period, n_base, windup0,
+                             n_base + len(windup0) if audit else -1)
 
 
 def _state_and_work(cm: CompiledMechanism):
@@ -193,16 +217,16 @@ def _state_and_work(cm: CompiledMechanism):
 def initial_state(spec: MechanismSpec) -> np.ndarray:
     """Assembled positions and consistent velocities with every clearance joint centred (ideal).
 
-    Torque-driven bodies start at their driver's ``speed``.
+    Torque-driven bodies start at their driver's ``speed``.  Powered drives: a ``torque_speed`` driver's body
+    starts at its ``speed``, and a body driven through a geared spring-damper at the speed that keeps the windup
+    constant, omega_j = omega_i (1 - creep k psi0) / ratio (propagated along the chain of gears); every windup
+    starts at its ``windup0`` and every energy accumulator at zero.
     """
     ideal = compile_mechanism(spec, ideal_clearances=True)
-    # temporary speed constraints for torque drivers, so that the velocity projection is determined
-    extra = [d for d in spec.drivers if d.type == "torque"]
-    if extra:
-        data = spec.model_dump()
-        for d in data["drivers"]:
-            if d["type"] == "torque":
-                d["type"] = "angle"
+    target = compile_mechanism(spec) if ideal.n > ideal.n_base else ideal  # layout of the auxiliary coordinates
+    # temporary speed constraints for torque-driven bodies, so that the velocity projection is determined
+    data = _speed_driver_spec(spec)
+    if data is not None:
         from berryshaker.multibody.spec import mechanism_from_dict
 
         ideal = compile_mechanism(mechanism_from_dict(data), ideal_clearances=True)
@@ -218,7 +242,60 @@ def initial_state(spec: MechanismSpec) -> np.ndarray:
             name = next(n for n, (r0, nr) in zip(ideal.con_names, ideal.con_rows) if r0 <= worst < r0 + nr)
             raise GeometryError(f"the mechanism cannot assemble: joint {name!r} stays {abs(work[0][worst]):.3g} "
                                 "(m or rad) from closing; check its points and the bodies' initial positions")
+    if ideal.n != target.n or target.state_windup0:
+        # the temporary mechanism has no energy accumulators (they come last): pad, then set the windups
+        n_t, n = ideal.n, target.n
+        full = np.zeros(2 * n)
+        full[:n_t] = y[:n_t]
+        full[n:n + n_t] = y[n_t:]
+        for i, psi0 in enumerate(target.state_windup0):
+            full[n + target.n_base + i] = psi0
+        y = full
     return y
+
+
+def _speed_driver_spec(spec: MechanismSpec) -> dict | None:
+    """The description as a dict with temporary ``angle`` drivers that fix the initial speeds (see
+    :func:`initial_state`), energy audit off; None when no driver needs it.
+
+    Speeds come from the ``angle`` and ``torque_speed`` drivers first, spread along the geared spring-dampers,
+    then from ``torque`` drivers on bodies still without a speed (a torque driver on a body that already has one
+    is a load and is left out of the temporary description)."""
+    if not any(d.type in ("torque", "torque_speed") for d in spec.drivers):
+        return None
+    data = spec.model_dump()
+    data["simulation"]["energy_audit"] = False
+    speeds: dict[str, float] = {}
+    drivers = []
+    geared = [f for f in spec.forces if f.type == "geared_spring_damper"]
+
+    def spread():
+        changed = True
+        while changed:
+            changed = False
+            for f in geared:
+                drift = 1.0 - f.creep_compliance * f.stiffness * f.windup0
+                if f.body_i in speeds and f.body_j not in speeds and f.body_j != "ground":
+                    new, speeds[f.body_j] = f.body_j, speeds[f.body_i] * drift / f.ratio
+                elif f.body_j in speeds and f.body_i not in speeds and f.body_i != "ground":
+                    new, speeds[f.body_i] = f.body_i, speeds[f.body_j] * f.ratio / drift
+                else:
+                    continue
+                drivers.append(dict(name=f"initial speed of {new}", type="angle", body=new, speed=speeds[new]))
+                changed = True
+
+    for d in data["drivers"]:
+        if d["type"] in ("angle", "torque_speed") and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle", speeds=[], torques=[]))
+    spread()
+    for d in data["drivers"]:
+        if d["type"] == "torque" and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle"))
+            spread()
+    data["drivers"] = drivers
+    return data
 
 
 @dataclass
@@ -271,6 +348,10 @@ class MultibodyResult:
                                          "impact_velocity_m_s": float(self.first[k, 1]),
                                          "peak_force_N": float(self.first[k, 2])}
             out["joints"][name] = entry
+        if cm.acc_start >= 0:
+            from berryshaker.multibody.energy import energy_audit
+
+            out["energy"] = energy_audit(self)
         for k, name in enumerate(cm.con_names):
             typ = cm.model[3][k]
             if typ == mb.CON_DRIVER:
@@ -334,6 +415,21 @@ def check_output_samples(duration: float, output_step: float,
     return max(2, int(round(duration / output_step)) + 1)
 
 
+def _auxiliary_tolerances(cm: CompiledMechanism, rtol: float, atol: np.ndarray) -> tuple[float, np.ndarray]:
+    """Error weights with auxiliary coordinates: a windup state (velocity slot) is weighted like a position,
+    the integral slots and the energy accumulators are left out of the step-size control (atol 1e300), and
+    rtol and atol are scaled by sqrt(n_controlled / 2n) so that the integrator's RMS error norm, which divides
+    by all 2n components, asks the same accuracy of the physical state as a run without them."""
+    n, n0 = cm.n, cm.n_base
+    atol = atol.copy()
+    atol[n0:n] = 1e300
+    n_states = len(cm.state_windup0)
+    atol[n + n0:n + n0 + n_states] = atol[0]
+    atol[n + n0 + n_states:] = 1e300
+    f = math.sqrt(np.count_nonzero(atol < 1e299) / (2 * n))
+    return rtol * f, atol * f
+
+
 def default_step_budget(duration: float) -> int:
     """The step budget of a run of ``duration`` seconds: ``max(MIN_STEP_BUDGET, duration / STEP_BUDGET_DT)``."""
     return int(max(MIN_STEP_BUDGET, math.ceil(duration / STEP_BUDGET_DT)))
@@ -387,6 +483,8 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     first = np.zeros((nf, 4))
     info = np.zeros(6)
     atol = np.concatenate([np.full(cm.n, 1e-3 * rtol), np.full(cm.n, 1e-1 * rtol)])
+    if cm.n > cm.n_base:
+        rtol, atol = _auxiliary_tolerances(cm, rtol, atol)
     stats_from = 0.0
     if cm.period is not None and duration >= 2 * cm.period:
         stats_from = cm.period

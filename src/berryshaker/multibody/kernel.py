@@ -30,6 +30,12 @@ CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
 FRC_REV_CL, FRC_SLOT_CL, FRC_GROOVE_CL, FRC_ROT_SD, FRC_TORQUE, FRC_BRANCH = 11, 12, 13, 20, 21, 30
 FRC_FORCE = 22  # constant force (FF_UX, FF_UY components, N) at body point FF_SIX, FF_SIY
+# powered drives (docs/multibody.md "Powered drives"): a torque-speed source on body i (reaction on body j or
+# ground), T = table(w_i - w_j) with linear interpolation and end values held; and a geared torsional
+# spring-damper from body i (input) to body j (output) with ratio r = w_i / w_j, efficiencies by the direction of
+# power flow, belt creep and a slip cap, whose windup psi is an element state (an auxiliary coordinate)
+FRC_TORQUE_SPEED, FRC_GEAR_SD = 23, 24
+GEAR_W_EPS = 1e-3  # rad/s: below this output speed the mesh loss torque is scaled down linearly (no chatter)
 
 # float parameters of a constraint row block
 CF_SIX, CF_SIY, CF_SJX, CF_SJY, CF_UX, CF_UY, CF_PHI0, CF_SPEED, CF_MU, CF_XIG, CF_XIH = range(11)
@@ -37,7 +43,12 @@ N_CF = 12
 # float parameters of a force element
 (FF_SIX, FF_SIY, FF_SJX, FF_SJY, FF_UX, FF_UY, FF_GAP, FF_K, FF_N, FF_E, FF_C, FF_D, FF_MU, FF_RPIN,
  FF_PHI0, FF_TORQUE) = range(16)
-N_FF = 16
+# powered-drive parameters (appended): ratio, efficiencies forward / back-driven, creep compliance (1/(N m)),
+# slip torque (N m, 0: none), number of table points; the torque-speed table follows (speeds, then torques)
+FF_RATIO, FF_ETA_F, FF_ETA_B, FF_CREEP, FF_SLIP, FF_NTAB = range(16, 22)
+MAX_TABLE = 64  # most points of a torque-speed table
+FF_TAB = 22
+N_FF = FF_TAB + 2 * MAX_TABLE
 # element outputs
 EO_FN, EO_PEN, EO_PENDOT, EO_FT = range(4)
 N_EO = 4
@@ -231,6 +242,55 @@ def _apply(Q, b, fx, fy, armx, army):
 
 
 @njit(cache=True)
+def table_torque(fflt, k, w):
+    """Torque of the torque-speed table of force element k at relative speed w: linear interpolation between
+    the points (speeds increasing), end values held outside (as numpy.interp)."""
+    nt = int(fflt[k, FF_NTAB])
+    if w <= fflt[k, FF_TAB]:
+        return fflt[k, FF_TAB + MAX_TABLE]
+    if w >= fflt[k, FF_TAB + nt - 1]:
+        return fflt[k, FF_TAB + MAX_TABLE + nt - 1]
+    lo, hi = 0, nt - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if fflt[k, FF_TAB + mid] <= w:
+            lo = mid
+        else:
+            hi = mid
+    x0, x1 = fflt[k, FF_TAB + lo], fflt[k, FF_TAB + hi]
+    y0, y1 = fflt[k, FF_TAB + MAX_TABLE + lo], fflt[k, FF_TAB + MAX_TABLE + hi]
+    return y0 + (y1 - y0) * (w - x0) / (x1 - x0)
+
+
+@njit(cache=True)
+def accumulator_start(ftype, n_base, n_all):
+    """First energy-accumulator coordinate, or -1 when the run has none.
+
+    Auxiliary coordinates follow the bodies and modal coordinates (``n_base`` = 3 bodies + modes): first one
+    windup state per geared spring-damper (element order), then, when the energy audit is on, one accumulator
+    per force element plus two (prismatic guide friction, modal-body internal forces).  An accumulator's
+    velocity slot is the work done on the mechanism so far (J): its rate (the generalised-force slot, unit mass)
+    is the element's power sum_i dQ_i q'_i, so the Runge-Kutta stages integrate it with the state."""
+    nf = ftype.shape[0]
+    ns = 0
+    for k in range(nf):
+        if ftype[k] == FRC_GEAR_SD:
+            ns += 1
+    if n_all - n_base - ns == nf + 2:
+        return n_base + ns
+    return -1
+
+
+@njit(cache=True)
+def _power(Q, qd, n):
+    """sum_i Q_i q'_i over the first n coordinates (rate of work of the forces accumulated in Q so far)."""
+    p = 0.0
+    for i in range(n):
+        p += Q[i] * qd[i]
+    return p
+
+
+@njit(cache=True)
 def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_mem_f,
            ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout, laws):
     """Generalised applied forces Q: gravity, clearance contacts (normal + friction), spring-dampers,
@@ -245,7 +305,17 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
     nm = modal_w.shape[0]
     for k in range(nm):
         Q[n0 + k] = -modal_w[k] * modal_w[k] * q[n0 + k] - 2.0 * modal_z[k] * modal_w[k] * qd[n0 + k]
+    # powered drives: auxiliary coordinates (element states, energy accumulators) after the modal ones
+    n_phys = n0 + nm
+    for i in range(n_phys, q.shape[0]):
+        Q[i] = 0.0
+    acc0 = accumulator_start(ftype, n_phys, q.shape[0])
+    if acc0 >= 0:
+        Q[acc0 + ftype.shape[0] + 1] = _power(Q, qd, n_phys) - _power(Q, qd, n0)  # modal stiffness + damping
+    p_before = 0.0
     for k in range(ftype.shape[0]):
+        if acc0 >= 0:
+            p_before = _power(Q, qd, n_phys)
         typ = ftype[k]
         bi, bj = fint[k, 0], fint[k, 1]
         eout[k, EO_FN] = 0.0
@@ -366,6 +436,53 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
                     Q[n0 + m] += side * fn * phi_tab[row, m]
                 _apply(Q, bi, -side * fn * ax, -side * fn * ay, pix - oix, piy - oiy)
                 eout[k, EO_FN] = fn
+        elif typ == FRC_TORQUE_SPEED:
+            wrel = (qd[3 * bi + 2] if bi >= 0 else 0.0) - (qd[3 * bj + 2] if bj >= 0 else 0.0)
+            tq = table_torque(fflt, k, wrel)
+            if bi >= 0:
+                Q[3 * bi + 2] += tq
+            if bj >= 0:
+                Q[3 * bj + 2] -= tq
+            eout[k, EO_FN] = tq
+        elif typ == FRC_GEAR_SD:
+            wi = qd[3 * bi + 2] if bi >= 0 else 0.0
+            wj = qd[3 * bj + 2] if bj >= 0 else 0.0
+            st = fint[k, 2]  # coordinate of the windup state psi (its velocity slot holds psi)
+            psi = qd[st]
+            ratio = fflt[k, FF_RATIO]
+            t_el = fflt[k, FF_K] * psi
+            # windup rate: kinematic mismatch less elastic creep (Reynolds) ...
+            rate = wi - ratio * wj - wi * fflt[k, FF_CREEP] * t_el
+            # ... and no further stretch while the element slips at its cap (gross slip)
+            slip = fflt[k, FF_SLIP]
+            if slip > 0.0 and abs(t_el) >= slip and rate * t_el > 0.0:
+                rate = 0.0
+            ts = t_el + fflt[k, FF_C] * rate  # torque at the input (N m)
+            Q[st] = rate
+            # mesh loss: a friction torque against the output speed, of size (1 - eta_f)|r ts| while power flows
+            # into the output (T_out = eta_f r ts) and (1/eta_b - 1)|r ts| while the output drives back
+            # (T_out = r ts / eta_b); sign(w_j) is regularised over |w_j| < GEAR_W_EPS so that it is continuous
+            t_o = ratio * ts
+            if t_o * wj >= 0.0:
+                loss = (1.0 - fflt[k, FF_ETA_F]) * abs(t_o)
+            else:
+                loss = (1.0 / fflt[k, FF_ETA_B] - 1.0) * abs(t_o)
+            sat = wj / GEAR_W_EPS
+            if sat > 1.0:
+                sat = 1.0
+            elif sat < -1.0:
+                sat = -1.0
+            tj = t_o - loss * sat
+            if bi >= 0:
+                Q[3 * bi + 2] -= ts
+            if bj >= 0:
+                Q[3 * bj + 2] += tj
+            eout[k, EO_FN] = tj
+            eout[k, EO_FT] = ts
+        if acc0 >= 0:
+            Q[acc0 + k] = _power(Q, qd, n_phys) - p_before
+    if acc0 >= 0:
+        p_before = _power(Q, qd, n_phys)
     # guide friction of prismatic joints, normal forces from the last accepted step's multipliers
     for k in range(ctype.shape[0]):
         if ctype[k] != CON_PRISMATIC or cflt[k, CF_MU] <= 0.0:
@@ -391,6 +508,8 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
         ojx, ojy, _e, _f, _g, _h = _body_origin(q, qd, bj)
         _apply(Q, bj, ff * ux, ff * uy, ppx - ojx, ppy - ojy)
         _apply(Q, bi, -ff * ux, -ff * uy, ppx - oix, ppy - oiy)
+    if acc0 >= 0:
+        Q[acc0 + ftype.shape[0]] = _power(Q, qd, n_phys) - p_before
 
 
 @njit(cache=True)

@@ -14,8 +14,14 @@ revolute_clearance  pin of body_i (``point_i``) in a bore of body_j (``point_j``
 slot_clearance      pin of body_i in a straight slot of body_j, ``clearance`` = total free travel
 groove_clearance    roller of body_i in the groove of cam ``cam`` on body_j, ``clearance`` = total free travel
 
-Drivers: ``angle`` (prescribed constant speed, a constraint) or ``torque`` (constant motor torque).
-Forces: ``rotational_spring_damper`` between a body and ground or another body; gravity on the whole.
+Drivers: ``angle`` (prescribed constant speed, a constraint), ``torque`` (constant motor torque) or
+``torque_speed`` (a motor's torque-speed table T(omega), linear interpolation, end values held; ``speed`` is the
+body's initial speed).
+Forces: ``rotational_spring_damper`` between a body and ground or another body; ``geared_spring_damper`` from
+body_i (input) to body_j (output) with ``ratio`` = omega_i / omega_j, stiffness and damping on the windup
+psi (psi' = omega_i - ratio omega_j - creep), efficiencies by the direction of power flow, belt creep and a slip
+cap (docs/multibody.md "Powered drives"); gravity on the whole.  ``simulation.energy_audit`` integrates every
+force element's power with the state (on by default when a ``torque_speed`` driver is present).
 """
 
 from __future__ import annotations
@@ -170,13 +176,30 @@ class CamSpec(_Strict):
 
 
 class DriverSpec(_Strict):
-    """A driver: imposed angle (constant speed) or applied torque on a body."""
+    """A driver: imposed angle (constant speed), applied torque, or a torque-speed source on a body."""
     name: str
-    type: Literal["angle", "torque"] = "angle"
+    type: Literal["angle", "torque", "torque_speed"] = "angle"
     body: str
-    speed: Annotated[float, _q("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; torque: initial)
+    speed: Annotated[float, _q("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; otherwise: initial)
     angle0: Angle | None = None  # default: the body's initial angle
     torque: Annotated[float, _q("torsional_stiffness")] = 0.0  # N m (torque driver)
+    speeds: list[Annotated[float, _q("angular_speed")]] = []  # torque_speed: table speeds (rad/s, increasing)
+    torques: list[Annotated[float, _q("torsional_stiffness")]] = []  # torque_speed: table torques (N m)
+
+    @model_validator(mode="after")
+    def _table(self) -> "DriverSpec":
+        if self.type == "torque_speed":
+            from berryshaker.multibody.kernel import MAX_TABLE
+
+            n = len(self.speeds)
+            if n < 2 or n != len(self.torques) or n > MAX_TABLE:
+                raise ValueError(f"driver {self.name!r}: a torque_speed driver needs speeds and torques of the same "
+                                 f"length, 2 to {MAX_TABLE} points (got {n} and {len(self.torques)})")
+            if any(b <= a for a, b in zip(self.speeds, self.speeds[1:])):
+                raise ValueError(f"driver {self.name!r}: speeds must increase")
+        elif self.speeds or self.torques:
+            raise ValueError(f"driver {self.name!r}: speeds/torques belong to type = \"torque_speed\"")
+        return self
 
 
 class ForceSpec(_Strict):
@@ -184,7 +207,7 @@ class ForceSpec(_Strict):
     (``force`` = [Fx, Fy] in the frame, N) at ``point`` of body_i."""
 
     name: str
-    type: Literal["rotational_spring_damper", "force"] = "rotational_spring_damper"
+    type: Literal["rotational_spring_damper", "force", "geared_spring_damper"] = "rotational_spring_damper"
     body_i: str
     body_j: str = "ground"
     stiffness: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
@@ -192,6 +215,26 @@ class ForceSpec(_Strict):
     angle0: Angle = 0.0  # free angle phi_i - phi_j
     point: Point = (0.0, 0.0)
     force: Annotated[tuple[float, float], BeforeValidator(lambda v: _force(v))] = (0.0, 0.0)
+    # geared_spring_damper: omega_i / omega_j, efficiencies (power into body_j / out of it), creep compliance
+    # (fractional speed loss per N m of elastic torque, 1/(N m)), slip torque (N m, 0 = never slips), and the
+    # initial windup psi (rad at the input)
+    ratio: Real = 1.0
+    efficiency_forward: Annotated[float, Field(gt=0, le=1)] = 1.0
+    efficiency_back: Annotated[float, Field(gt=0, le=1)] = 1.0
+    creep_compliance: Annotated[float, Field(ge=0)] = 0.0
+    slip_torque: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
+    windup0: Angle = 0.0
+
+    @model_validator(mode="after")
+    def _geared(self) -> "ForceSpec":
+        if self.type == "geared_spring_damper":
+            if self.ratio == 0 or not math.isfinite(self.ratio):
+                raise ValueError(f"force {self.name!r}: ratio must be a finite number other than 0")
+            if self.stiffness <= 0:
+                raise ValueError(f"force {self.name!r}: a geared_spring_damper needs stiffness > 0 (N m/rad)")
+            if self.body_i == self.body_j:
+                raise ValueError(f"force {self.name!r}: body_i and body_j are the same body")
+        return self
 
 
 class SimulationSpec(_Strict):
@@ -200,6 +243,7 @@ class SimulationSpec(_Strict):
     rtol: float = Field(1e-7, gt=0, lt=1)
     output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
     max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
+    energy_audit: bool | None = None  # work of every force element; None: on when a torque_speed driver exists
 
 
 class BranchContactSpec(_Strict):

@@ -277,6 +277,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                               rec["fits"].get(j, "")] for j, g in life["growth"].items()]))
         parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.get("notes", [])) + "</p>")
         _maybe_img(parts, figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
+    _powered_drive_section(parts, res.get("powered_drive"), PAIR_NAMES, note)
     # config
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
@@ -288,6 +289,27 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                         left=(0, 1, 2)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
+    """Section 8: the powered driveline at clearance levels 1-3 (study step ``powered_drive``)."""
+    parts.append("<h2>8. Powered drive: speed ripple, input power and energy lost per joint (docs/driveline.md)</h2>")
+    note("powered_drive")
+    if not pw:
+        return
+    rows = []
+    for lv, d in pw["levels"].items():
+        e, sp = d["energy_per_revolution_J"], d["cam_speed_rpm"]
+        rows.append([lv, ", ".join(f"{p} {d['clearance_mm'][p]:g}" for p in pairs),
+                     f"{sp['min']:.1f} .. {sp['max']:.1f} ({sp['mean']:.2f})", d["speed_ripple_percent"],
+                     d["input_power_W"], *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
+                     d["audit_relative_residual"]])
+    parts.append(_table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min", "ripple (%)",
+                         "input power (W)", *[f"lost in {p} (J/rev)" for p in pairs], "belt (J/rev)",
+                         "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2)))
+    parts.append(f"<p>{html.escape(pw['finding'])} Energy lost per revolution is the work of each joint's contact "
+                 "damping and friction, integrated with the motion; the audit residual is |motor work - kinetic, "
+                 "stored and dissipated energy| / motor work over revolutions 2-3.</p>")
 
 
 def doe_report(res: dict, title: str) -> str:

@@ -230,8 +230,11 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
     return out.tolist()
 
 
-def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3) -> dict:
-    """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise."""
+def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3,
+              driveline: str | None = None) -> dict:
+    """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise.
+
+    ``driveline`` ("imposed" or "powered") overrides the machine's ``[driveline] mode`` (multibody model only)."""
     from berryshaker.drives import drive_of
     from berryshaker.errors import ConfigError
 
@@ -243,7 +246,7 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
         return drive.reduced_model(machine, {}, revolutions=revolutions).summary()
     from berryshaker.drives.simulation import simulate_multibody
 
-    return simulate_multibody(machine, {}, revolutions=revolutions)[1]
+    return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline)[1]
 
 
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
@@ -263,6 +266,12 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
             d = r.value.get("drive_moment_Nm", {})
             if d:
                 vals["drive_moment_peak_Nm"], vals["drive_moment_rms_Nm"] = d["peak"], d["rms"]
+            if r.value.get("driveline_mode") == "powered":  # powered driveline (drives/powered.py)
+                vals["cam_speed_mean_rpm"] = r.value["cam_speed_rpm"]["mean"]
+                vals["speed_ripple_percent"] = r.value["speed_ripple_percent"]
+                vals["input_power_W"] = r.value["input_power_W"]
+                for name, e in r.value["energy_per_revolution_J"].items():
+                    vals[f"energy_lost_{name.replace(' ', '_')}_J_per_rev"] = e
         for k in vals:
             if k not in out_cols:
                 out_cols.append(k)

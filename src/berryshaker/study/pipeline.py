@@ -22,7 +22,7 @@ from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_ro
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
 from berryshaker.study.claims import check_claims
 from berryshaker.study.l9 import virtual_l9
-from berryshaker.study.runs import fruit_force_run, multibody_row, reduced_row
+from berryshaker.study.runs import fruit_force_run, multibody_row, powered_row, reduced_row
 
 
 @dataclass
@@ -198,8 +198,38 @@ def step_clearance_life(ctx: StudyContext) -> StepResult:
         return StepResult("clearance_life", None, note=f"the clearance-life step failed: {exc}")
 
 
+def step_powered_drive(ctx: StudyContext) -> StepResult:
+    """Powered drive: speed ripple, input power and energy lost per joint against clearance (levels 1-3), the
+    driveline of ``[driveline]`` (or its defaults) turning the drive shaft (docs/driveline.md sec. 5)."""
+    ctx.say("powered drive at clearance levels 1-3")
+    levels = (1, 2, 3)
+    jobs = [dict(machine_data=ctx.data, clearance=level_set(ctx.machine, lv), revolutions=3) for lv in levels]
+    outs = ctx.collect(powered_row, jobs, "powered drive, levels 1-3", lambda j: _describe(j["clearance"]))
+    data = {}
+    for lv, s in zip(levels, outs):
+        if s is not None:
+            data[str(lv)] = {k: s[k] for k in ("clearance_mm", "cam_speed_rpm", "speed_ripple_percent", "input_power_W",
+                                               "energy_per_revolution_J", "drive_moment_Nm")}
+            data[str(lv)]["audit_relative_residual"] = s["energy_audit"]["relative_residual"]
+    if len(data) < 2:
+        return StepResult("powered_drive", None, note="the powered-drive runs failed (see Failed runs)")
+    ripple = [data[k]["speed_ripple_percent"] for k in sorted(data)]
+    grows = all(b > a for a, b in zip(ripple, ripple[1:]))
+    lost = {k: sum(v for j, v in d["energy_per_revolution_J"].items() if j in ctx.machine.pair_names)
+            for k, d in data.items()}
+    trend = " -> ".join(f"{r:.2f} %" for r in ripple)
+    verdict = (f"The drive-shaft speed ripple grows with clearance ({trend} at levels {', '.join(sorted(data))}): "
+               "larger clearances give faster impacts and larger drive-moment peaks, which the compliant mesh and "
+               "belt pass to the shaft's speed." if grows else
+               f"The drive-shaft speed ripple does not grow monotonically with clearance ({trend}): at these levels "
+               "the swing of the drive moment over the cam cycle, not the impacts, sets the ripple.")
+    return StepResult("powered_drive", {"levels": data, "ripple_grows_with_clearance": grows,
+                                        "clearance_energy_per_revolution_J": lost, "finding": verdict})
+
+
 STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), ("clearance_rows", step_rows),
-         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("clearance_life", step_clearance_life))
+         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("clearance_life", step_clearance_life),
+         ("powered_drive", step_powered_drive))
 
 
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:

@@ -16,6 +16,15 @@ def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> 
     return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions)[1]
 
 
+def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
+    """Multibody summary of one clearance set with the powered driveline turning the drive shaft
+    (drives/powered.py: cam speed, ripple, input power, energy lost per revolution in each joint)."""
+    from berryshaker.drives.simulation import simulate_multibody
+
+    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions,
+                              driveline="powered")[1]
+
+
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
     """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set."""
     from berryshaker.drives import drive_of
