@@ -644,6 +644,9 @@ def _onset_fraction(p0, d0, p1, d1, h):
     return hi
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
+SAFETY = 0.9  # step-size safety factor
+BETA = 0.04  # PI step-size control: weight of the previous step's error (Hairer & Wanner's DOPRI5 default)
+EXPO1 = 0.2 - 0.75 * BETA
 
 
 @njit(cache=True)
@@ -688,6 +691,8 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     cuts = 0
     max_res = 0.0
     h_resume = 0.0  # step size before a contact-onset cut (0: no cut pending)
+    err_old = 1e-4  # error of the last accepted step (PI controller)
+    last_rejected = False
     n_out = t_out.shape[0]
     t_end = t_out[n_out - 1]
     io = 1
@@ -729,16 +734,8 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
             info[3] = t
             info[4] = 2
             return
-        if err > 1.0:
-            rej += 1
-            fac = max(0.2, 0.9 * err ** (-0.2))
-            h = h_try * fac
-            if h < 1e-14:
-                info[3] = t
-                info[4] = 1
-                return
-            continue
-        # contact onset inside the step: cut the step back to the crossing
+        # contact onset inside the step: cut the step back to the crossing (before the error test: a step across
+        # an onset is cut whatever its error, and rejecting it first would only shrink it blindly)
         frac = 2.0
         for j in range(nf):
             pe = eout[j, EO_PEN]
@@ -749,11 +746,21 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         if frac < 1.5 and h_try > 1e-13:
             cuts += 1
             if h_resume == 0.0:
-                h_resume = h_try  # passed the error test: the size to resume with once the onset is taken
+                # the size to resume with once the onset is taken (what the error test allows)
+                h_resume = h_try if err <= 1.0 else h_try * max(0.2, SAFETY * err ** (-EXPO1))
             h_new = h_try * frac + 1e-15
             if h_new >= h_try:
                 h_new = 0.5 * h_try
             h = h_new  # retry a step that ends just past the crossing
+            continue
+        if err > 1.0:
+            rej += 1
+            h = h_try * max(0.2, SAFETY * err ** (-EXPO1))
+            last_rejected = True
+            if h < 1e-14:
+                info[3] = t
+                info[4] = 1
+                return
             continue
         # accept
         t_old = t
@@ -828,8 +835,14 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 peaks[j] = abs(fn)
             pen_start[j] = pe
             pdot_start[j] = eout[j, EO_PENDOT]
-        fac = 5.0 if err < 1e-10 else min(5.0, 0.9 * err ** (-0.2))
-        h = min(h_max, max(h_try, h) * fac) if fac > 1.0 else h_try * fac
+        # PI step-size control (Gustafsson; Hairer & Wanner's DOPRI5: err^-(0.2 - 0.75 beta) err_old^beta)
+        e_acc = max(err, 1e-10)
+        grow = min(5.0, max(0.1, SAFETY * e_acc ** (-EXPO1) * err_old ** BETA))
+        err_old = max(err, 1e-4)
+        if last_rejected and grow > 1.0:
+            grow = 1.0  # no growth right after a rejection
+        last_rejected = False
+        h = min(h_max, h_try * grow)
         if onset and h_resume > 0.0:
             # the step that took the onset was cut short on purpose, not for accuracy: go on with the size
             # that passed the error test before the cut (the controller shrinks it if contact needs less)
