@@ -36,3 +36,25 @@ def test_batch_equals_one_by_one_bitwise():
         np.testing.assert_array_equal(b.info[:6], one.info[:6])
     # different clearances do give different runs (the sets are not mixed up)
     assert batch[0].peaks[0] != pytest.approx(batch[2].peaks[0], rel=1e-3)
+
+
+def test_sweep_runner_batches_multibody_rows(tmp_path):
+    """The runner sends chunks of a run function with a batched twin (study.runs.multibody_row) through one
+    compiled call; each run's summary equals the single run's, a bad point fails alone, and the cache holds
+    the batched runs like single ones."""
+    from berryshaker.config import reference_machine
+    from berryshaker.runs.runner import SweepRunner, batchable, execute_job
+    from berryshaker.study.runs import multibody_row
+
+    assert batchable(multibody_row)
+    data = reference_machine().model_dump(mode="json")
+    jobs = [dict(machine_data=data, clearance={"A": a}, revolutions=2) for a in (0.2e-3, 0.4e-3)]
+    jobs.append(dict(machine_data=data, clearance={"A": -1.0}, revolutions=2))
+    runner = SweepRunner(workers=1, cache_dir=tmp_path, progress=False)
+    out = runner.map(multibody_row, jobs)
+    assert out[2].error and "finite length >= 0" in out[2].error
+    single = execute_job(multibody_row, jobs[1])["value"]
+    for key in ("collision_force_N", "load_moment_Nm", "drive_moment_Nm", "steps", "rejected_steps"):
+        assert out[1].value[key] == single[key], key
+    again = SweepRunner(workers=1, cache_dir=tmp_path, progress=False).map(multibody_row, jobs[:2])
+    assert all(r.cached for r in again) and again[0].value == out[0].value
