@@ -628,6 +628,19 @@ _C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
 
 
 @njit(cache=True)
+def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
+    """Output sample io: state, element outputs, multipliers (element-wise loops: a slice assignment would
+    compile numpy's broadcasting and its error messages into the integrator, seconds of cold start)."""
+    for i in range(y.shape[0]):
+        out_y[io, i] = y[i]
+    for j in range(eout.shape[0]):
+        for c in range(eout.shape[1]):
+            out_e[io, j, c] = eout[j, c]
+    for a in range(lam.shape[0]):
+        out_lam[io, a] = lam[a]
+
+
+@njit(cache=True)
 def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
     """State at t0 + th h inside an accepted DOPRI5 step y0 -> y1 (continuous extension of order 4;
     bspl = h k1 - (y1 - y0), rc5 = h sum_i D_i k_i; Hairer, Norsett & Wanner sec. II.6)."""
@@ -714,9 +727,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     for j in range(nf):
         pen_start[j] = eout[j, EO_PEN]
         pdot_start[j] = eout[j, EO_PENDOT]
-    out_y[0, :] = y
-    out_e[0, :, :] = eout
-    out_lam[0, :] = lam
+    _write_sample(0, y, eout, lam, out_y, out_e, out_lam)
     h = min(h_max, 1e-6)
     budget = info[0]  # on entry: the step budget (accepted + rejected steps; <= 0: none)
     acc = 0
@@ -734,9 +745,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
             for i in range(ny):
                 y_out[i] = y[i]
             accelerations(t, y_out, model, state, work, k_out)
-            out_y[io, :] = y_out
-            out_e[io, :, :] = eout
-            out_lam[io, :] = lam
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
             io += 1
             continue
         if budget > 0.0 and acc + rej >= budget:
@@ -899,17 +908,13 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         while io < n_out and t_out[io] < t - 1e-15:
             _dense_state((t_out[io] - t_old) / h_try, h_try, k, ytmp, y_old, bspl, rc5, y_out)
             accelerations(t_out[io], y_out, model, state, work, k_out)
-            out_y[io, :] = y_out
-            out_e[io, :, :] = eout
-            out_lam[io, :] = lam
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
             io += 1
         if io < n_out and t_out[io] <= t + 1e-15:
             # a sample at the step's end: the accepted (projected) state itself
             if dense:
                 accelerations(t, y, model, state, work, k_out)
-            out_y[io, :] = y
-            out_e[io, :, :] = eout
-            out_lam[io, :] = lam
+            _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
             io += 1
     info[0] = acc
     info[1] = rej
