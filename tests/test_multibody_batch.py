@@ -26,7 +26,17 @@ def test_batch_equals_one_by_one_bitwise():
     spec = load_mechanism(EXAMPLE)
     sizes = [0.1e-3, 0.25e-3, 0.5e-3, 0.03]  # the last does not fit the pin: a ConfigError for that set only
     specs = [_with_clearance(spec, c) for c in sizes]
-    batch = simulate_mechanisms(specs, duration=4e-3, output_step=2e-5)
+    import numba
+
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))  # the prange path where there are 2 cores
+    try:
+        batch = simulate_mechanisms(specs, duration=4e-3, output_step=2e-5)
+        numba.set_num_threads(1)  # the serial path
+        serial = simulate_mechanisms(specs, duration=4e-3, output_step=2e-5)
+    finally:
+        numba.set_num_threads(1)
+    for a, b in zip(batch[:3], serial[:3]):
+        np.testing.assert_array_equal(a.elements, b.elements)
     assert isinstance(batch[3], ConfigError) and "does not fit a pin" in str(batch[3])
     for s, b in zip(specs[:3], batch[:3]):
         one = simulate_mechanism(s, duration=4e-3, output_step=2e-5)

@@ -10,7 +10,8 @@ its own arrays and runs the same compiled :func:`berryshaker.multibody.kernel.in
 own (tests/test_multibody_batch.py).
 
 Threads: the loop runs on numba's current thread count (``numba.set_num_threads``); the sweep runner sets it
-from ``BERRYSHAKER_BATCH_THREADS`` (default 1, because its worker processes already use every core).
+from ``BERRYSHAKER_BATCH_THREADS`` (default 1, because its worker processes already use every core).  On one
+thread the sets run one after the other through the single-run kernel (no parallel specialisation compiled).
 """
 
 from __future__ import annotations
@@ -63,8 +64,22 @@ def _stack(arrays: list[np.ndarray]) -> np.ndarray:
 
 
 def integrate_prepared(runs: list[PreparedRun]) -> float:
-    """Integrate prepared runs of one structure in one compiled call, writing into each run's own arrays;
-    returns the wall time of the call."""
+    """Integrate prepared runs of one structure, writing into each run's own arrays; returns the wall time.
+
+    On more than one numba thread: one compiled call, ``prange`` over the sets (:func:`integrate_sets`).  On
+    one thread the sets go one after the other through the same compiled ``kernel.integrate`` as single runs:
+    the result is the same and no second specialisation of the integrator is compiled (the parallel one costs
+    some 25 s of cold start, which one thread cannot win back).
+    """
+    import numba
+
+    if numba.get_num_threads() == 1 or len(runs) == 1:
+        t0 = time.perf_counter()
+        for r in runs:
+            r.info[0] = r.budget
+            mb.integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from,
+                         r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
+        return time.perf_counter() - t0
     first_run = runs[0]
     model = first_run.cm.model
     fl = {i: _stack([r.cm.model[i] for r in runs]) for i in _FLOAT_MODEL}
