@@ -28,13 +28,14 @@ def test_batch_equals_one_by_one_bitwise():
     specs = [_with_clearance(spec, c) for c in sizes]
     import numba
 
+    threads = numba.get_num_threads()
     numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))  # the prange path where there are 2 cores
     try:
         batch = simulate_mechanisms(specs, duration=4e-3, output_step=2e-5)
         numba.set_num_threads(1)  # the serial path
         serial = simulate_mechanisms(specs, duration=4e-3, output_step=2e-5)
     finally:
-        numba.set_num_threads(1)
+        numba.set_num_threads(threads)
     for a, b in zip(batch[:3], serial[:3]):
         np.testing.assert_array_equal(a.elements, b.elements)
     assert isinstance(batch[3], ConfigError) and "does not fit a pin" in str(batch[3])
