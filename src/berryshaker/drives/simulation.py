@@ -98,3 +98,33 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     spec = drive_of(machine).mechanism(machine, revolutions=revolutions)
     result = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
     return result, multibody_summary(machine, result)
+
+
+def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] | None], revolutions: int = 2,
+                             rtol: float = 1e-6, output_step: float = 1e-4, driveline: str | None = None) -> list:
+    """:func:`simulate_multibody` for many (machine, clearance) pairs in batched compiled calls
+    (:func:`berryshaker.multibody.batch.simulate_mechanisms`: runs of one mechanism structure share a call).
+
+    Returns, per pair, ``(MultibodyResult, summary)`` exactly as :func:`simulate_multibody` gives it, or the
+    :class:`~berryshaker.errors.BerryshakerError` that pair raised.
+    """
+    from berryshaker.drives.powered import with_driveline_mode
+    from berryshaker.errors import BerryshakerError
+    from berryshaker.multibody.batch import simulate_mechanisms
+
+    if revolutions < 2:
+        raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
+    out: list = [None] * len(machines)
+    specs, where, used = [], [], []
+    for i, (machine, clearance) in enumerate(zip(machines, clearances)):
+        try:
+            m = with_driveline_mode(machine.with_clearances(clearance), driveline)
+            specs.append(drive_of(m).mechanism(m, revolutions=revolutions))
+        except BerryshakerError as exc:
+            out[i] = exc
+            continue
+        where.append(i)
+        used.append(m)
+    for i, m, r in zip(where, used, simulate_mechanisms(specs, rtol=rtol, output_step=output_step)):
+        out[i] = r if isinstance(r, BaseException) else (r, multibody_summary(m, r))
+    return out

@@ -461,6 +461,49 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     SimulationError
         The integrator gave up, or the step budget was spent.
     """
+    run = prepare_run(spec, duration, rtol, output_step, max_step, y0, max_steps)
+    cm, nf = run.cm, len(run.cm.frc_names)
+    # compile (or load from the numba cache) outside the timed region
+    s2, w2 = _state_and_work(cm)
+    mb.integrate(run.y.copy(), run.t_out[:2] * 1e-9, cm.model, s2, w2, run.rtol, run.atol, run.max_step, 0.0,
+                 np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)), np.zeros(nf),
+                 np.zeros((nf, 4)), np.zeros(6))
+    t0 = time.perf_counter()
+    run.info[0] = run.budget  # the kernel stops with status 4 when accepted + rejected steps reach it
+    mb.integrate(run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step, run.stats_from,
+                 run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info)
+    wall = time.perf_counter() - t0
+    return finish_run(run, wall)
+
+
+@dataclass
+class PreparedRun:
+    """Everything one compiled integration needs (:func:`prepare_run`) and fills (outputs, peaks, info)."""
+
+    cm: CompiledMechanism
+    state: tuple
+    work: tuple
+    y: np.ndarray
+    t_out: np.ndarray
+    rtol: float
+    atol: np.ndarray
+    max_step: float
+    stats_from: float
+    budget: int
+    duration: float
+    out_y: np.ndarray
+    out_e: np.ndarray
+    out_lam: np.ndarray
+    peaks: np.ndarray
+    first: np.ndarray
+    info: np.ndarray
+
+
+def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float | None = None,
+                output_step: float | None = None, max_step: float | None = None, y0: np.ndarray | None = None,
+                max_steps: int | None = None) -> PreparedRun:
+    """Check the arguments of :func:`simulate_mechanism` (same meaning and defaults), compile the description,
+    assemble the initial state and allocate the arrays of one integration."""
     sim = spec.simulation
     duration = sim.duration if duration is None else duration
     rtol = sim.rtol if rtol is None else rtol
@@ -476,34 +519,26 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     y = initial_state(spec) if y0 is None else np.array(y0, float)
     t_out = np.linspace(0.0, duration, n_out)
     nf = len(cm.frc_names)
-    out_y = np.zeros((n_out, 2 * cm.n))
-    out_e = np.zeros((n_out, nf, mb.N_EO))
-    out_lam = np.zeros((n_out, cm.m))
-    peaks = np.zeros(nf)
-    first = np.zeros((nf, 4))
-    info = np.zeros(6)
     atol = np.concatenate([np.full(cm.n, 1e-3 * rtol), np.full(cm.n, 1e-1 * rtol)])
     if cm.n > cm.n_base:
         rtol, atol = _auxiliary_tolerances(cm, rtol, atol)
     stats_from = 0.0
     if cm.period is not None and duration >= 2 * cm.period:
         stats_from = cm.period
-    # compile (or load from the numba cache) outside the timed region
-    s2, w2 = _state_and_work(cm)
-    mb.integrate(y.copy(), t_out[:2] * 1e-9, cm.model, s2, w2, rtol, atol, max_step, 0.0,
-                 np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)), np.zeros(nf),
-                 np.zeros((nf, 4)), np.zeros(6))
-    t0 = time.perf_counter()
-    info[0] = budget  # the kernel stops with status 4 when accepted + rejected steps reach it
-    mb.integrate(y, t_out, cm.model, state, work, rtol, atol, max_step, stats_from, out_y, out_e, out_lam, peaks,
-                 first, info)
+    return PreparedRun(cm, state, work, y, t_out, float(rtol), atol, float(max_step), stats_from, budget,
+                       float(duration), np.zeros((n_out, 2 * cm.n)), np.zeros((n_out, nf, mb.N_EO)),
+                       np.zeros((n_out, cm.m)), np.zeros(nf), np.zeros((nf, 4)), np.zeros(6))
+
+
+def finish_run(run: PreparedRun, wall: float) -> MultibodyResult:
+    """The result of an integration of :func:`prepare_run`'s arrays, or the SimulationError its status means."""
+    info, duration, budget = run.info, run.duration, run.budget
     if int(info[4]) == 4:
         raise SimulationError(
             f"multibody simulation stopped at t = {info[3]:.6g} s of {duration:.6g} s: it used "
             f"{int(info[0] + info[1]):,} integrator steps, over its budget of {budget:,} (mean step "
             f"{info[3] / max(info[0], 1):.3g} s). The model is far stiffer than intended: check contact stiffness "
             "and damping (and their units), or simulate fewer revolutions; to allow a longer run pass max_steps")
-    wall = time.perf_counter() - t0
     status = int(info[4])
     if status != 0:
         why = {1: "the step size fell below 1e-14 s (contact too stiff for the tolerance, or a "
@@ -512,4 +547,5 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
                   "locked joint?)",
                3: f"the constraints could not be satisfied after the step (residual {info[5]:.3g})"}[status]
         raise SimulationError(f"multibody simulation gave up at t = {info[3]:.6g} s: {why}")
-    return MultibodyResult(t_out, out_y, out_e, out_lam, peaks, first, info, wall, stats_from, cm)
+    return MultibodyResult(run.t_out, run.out_y, run.out_e, run.out_lam, run.peaks, run.first, info, wall,
+                           run.stats_from, run.cm)

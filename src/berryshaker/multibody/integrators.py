@@ -1,6 +1,9 @@
 """Shared integrator data: the Dormand-Prince 5(4) tableau used by the compiled MLSD and multibody
 integrators (Hairer, Norsett & Wanner, *Solving Ordinary Differential Equations I*, 2nd ed., Table 5.2).
-Row 7 of A is the 5th-order solution (FSAL); E holds b - b* for the embedded 4th-order error estimate."""
+Row 7 of A is the 5th-order solution (FSAL); E holds b - b* for the embedded 4th-order error estimate; D the
+coefficients of the continuous extension of order 4 (dense output; Hairer, Norsett & Wanner sec. II.6, as in
+their code DOPRI5: y(t0 + th h) = y0 + th (dy + (1 - th) (b + th (dy - h k7 - b + (1 - th) h sum_i D_i k_i)))
+with dy = y1 - y0 and b = h k1 - dy)."""
 
 import numpy as np
 
@@ -15,3 +18,5 @@ DOPRI_A = np.array([
     [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84],
 ])
 DOPRI_E = np.array([71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
+DOPRI_D = np.array([-12715105075 / 11282082432, 0.0, 87487479700 / 32700410799, -10690763975 / 1880347072,
+                    701980252875 / 199316789632, -1453857185 / 822651844, 69997945 / 29380423])

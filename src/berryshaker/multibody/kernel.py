@@ -24,7 +24,7 @@ from numba import njit
 
 from berryshaker.contact.friction import coulomb_friction_kernel
 from berryshaker.kinematics.cam import _follower_svaj_scalar
-from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
 
 CON_REVOLUTE, CON_PRISMATIC, CON_POINT_LINE, CON_CAM_ROLLER, CON_DRIVER = 1, 2, 3, 4, 5
 CON_ROWS = {CON_REVOLUTE: 2, CON_PRISMATIC: 2, CON_POINT_LINE: 1, CON_CAM_ROLLER: 1, CON_DRIVER: 1}
@@ -126,12 +126,27 @@ def pitch_foot(lx, ly, cam, guess):
 
 @njit(cache=True)
 def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, gam):
-    """Fill Phi (phi), its Jacobian (jac), nu = -Phi_t and gamma for all constraints at (t, q, qd)."""
-    jac[:, :] = 0.0
+    """Fill Phi (phi), its Jacobian (jac), nu = -Phi_t and gamma for all constraints at (t, q, qd).
+
+    Sparsity (relied on by :func:`accelerations` and :func:`project`): the rows of constraint block k touch
+    only the coordinates of its two bodies ``cint[k, 0]`` and ``cint[k, 1]``; only those columns are zeroed
+    and written here, every other entry of ``jac`` stays zero from its allocation.
+    """
+    m = phi.shape[0]
     for k in range(ctype.shape[0]):
         r = crow[k]
         bi, bj = cint[k, 0], cint[k, 1]
         typ = ctype[k]
+        r_end = _block_end(crow, k, m)
+        for a in range(r, r_end):
+            if bi >= 0:
+                jac[a, 3 * bi] = 0.0
+                jac[a, 3 * bi + 1] = 0.0
+                jac[a, 3 * bi + 2] = 0.0
+            if bj >= 0:
+                jac[a, 3 * bj] = 0.0
+                jac[a, 3 * bj + 1] = 0.0
+                jac[a, 3 * bj + 2] = 0.0
         nu[r] = 0.0
         gam[r] = 0.0
         if typ == CON_REVOLUTE:
@@ -513,6 +528,81 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
 
 
 @njit(cache=True)
+def _block_end(crow, k, m):
+    """One past the last row of constraint block k (blocks are numbered in row order)."""
+    return crow[k + 1] if k + 1 < crow.shape[0] else m
+
+
+@njit(cache=True)
+def _row_dot(jac, a, bi, bj, v):
+    """Phi_q[a] . v over the columns of bodies bi and bj (the only nonzero ones of row a)."""
+    acc = 0.0
+    if bi >= 0:
+        acc += jac[a, 3 * bi] * v[3 * bi] + jac[a, 3 * bi + 1] * v[3 * bi + 1] + jac[a, 3 * bi + 2] * v[3 * bi + 2]
+    if bj >= 0 and bj != bi:
+        acc += jac[a, 3 * bj] * v[3 * bj] + jac[a, 3 * bj + 1] * v[3 * bj + 1] + jac[a, 3 * bj + 2] * v[3 * bj + 2]
+    return acc
+
+
+@njit(cache=True)
+def _body_term(jac, a, b, body, minv):
+    """sum_c Phi_q[a, c] M^-1_c Phi_q[b, c] over the three coordinates c of one body."""
+    i = 3 * body
+    return (jac[a, i] * minv[i] * jac[b, i] + jac[a, i + 1] * minv[i + 1] * jac[b, i + 1]
+            + jac[a, i + 2] * minv[i + 2] * jac[b, i + 2])
+
+
+@njit(cache=True)
+def _schur(cint, crow, jac, minv, W, m):
+    """W = Phi_q M^-1 Phi_q^T (M diagonal), assembled block by block over the bodies two constraint blocks share.
+
+    Each block touches at most two bodies, so an entry costs at most four 3-term sums instead of a sum over
+    all n coordinates (modal coordinates of a flexible body never enter a constraint); blocks without a common
+    body give exact zeros.
+    """
+    nc = crow.shape[0]
+    for k1 in range(nc):
+        i1, j1 = cint[k1, 0], cint[k1, 1]
+        if j1 == i1:
+            j1 = -1
+        e1 = _block_end(crow, k1, m)
+        for k2 in range(k1, nc):
+            i2, j2 = cint[k2, 0], cint[k2, 1]
+            if j2 == i2:
+                j2 = -1
+            e2 = _block_end(crow, k2, m)
+            s_ii = i1 >= 0 and (i1 == i2 or i1 == j2)
+            s_jj = j1 >= 0 and (j1 == i2 or j1 == j2)
+            for a in range(crow[k1], e1):
+                b0 = a if k2 == k1 else crow[k2]
+                for b in range(b0, e2):
+                    acc = 0.0
+                    if s_ii:
+                        acc += _body_term(jac, a, b, i1, minv)
+                    if s_jj:
+                        acc += _body_term(jac, a, b, j1, minv)
+                    W[a, b] = acc
+                    W[b, a] = acc
+
+
+@njit(cache=True)
+def _add_jac_t(cint, crow, jac, x, scale, minv, out, off, m):
+    """out[off + c] += scale M^-1_c (Phi_q^T x)_c over the body columns of every row (sparse Phi_q^T x)."""
+    for k in range(crow.shape[0]):
+        bi, bj = cint[k, 0], cint[k, 1]
+        if bj == bi:
+            bj = -1
+        for a in range(crow[k], _block_end(crow, k, m)):
+            xa = scale * x[a]
+            if bi >= 0:
+                for c in range(3 * bi, 3 * bi + 3):
+                    out[off + c] += minv[c] * jac[a, c] * xa
+            if bj >= 0:
+                for c in range(3 * bj, 3 * bj + 3):
+                    out[off + c] += minv[c] * jac[a, c] * xa
+
+
+@njit(cache=True)
 def _spd_solve(W, b, m):
     """Solve W x = b in place (b <- x) for a symmetric positive definite W (Cholesky, W overwritten)."""
     for j in range(m):
@@ -554,27 +644,20 @@ def accelerations(t, y, model, state, work, dy):
     forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_f,
            ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout, laws)
     m = phi.shape[0]
+    for i in range(n):
+        dy[i] = qd[i]
+        dy[n + i] = minv[i] * Q[i]  # unconstrained accelerations M^-1 Q
     if m > 0:
-        for a in range(m):
-            acc = 0.0
-            for i in range(n):
-                acc += jac[a, i] * minv[i] * Q[i]
-            rhs[a] = acc - gam[a]
-            for b in range(a, m):
-                acc = 0.0
-                for i in range(n):
-                    acc += jac[a, i] * minv[i] * jac[b, i]
-                W[a, b] = acc
-                W[b, a] = acc
+        # Schur complement (Phi_q M^-1 Phi_q^T) lambda = Phi_q M^-1 Q - gamma, sparse by constraint block
+        for k in range(ctype.shape[0]):
+            bi, bj = cint[k, 0], cint[k, 1]
+            for a in range(crow[k], _block_end(crow, k, m)):
+                rhs[a] = _row_dot(jac, a, bi, bj, dy[n:]) - gam[a]
+        _schur(cint, crow, jac, minv, W, m)
         _spd_solve(W, rhs, m)
         for a in range(m):
             lam[a] = rhs[a]
-    for i in range(n):
-        dy[i] = qd[i]
-        f = Q[i]
-        for a in range(m):
-            f -= jac[a, i] * lam[a]
-        dy[n + i] = minv[i] * f
+        _add_jac_t(cint, crow, jac, lam, -1.0, minv, dy, n, m)
 
 
 @njit(cache=True)
@@ -598,47 +681,34 @@ def project(t, y, model, state, work, iters):
             res = max(res, abs(phi[a]))
         if it == iters or res < 1e-13:
             break
+        _schur(cint, crow, jac, minv, W, m)
         for a in range(m):
-            for b in range(a, m):
-                acc = 0.0
-                for i in range(n):
-                    acc += jac[a, i] * minv[i] * jac[b, i]
-                W[a, b] = acc
-                W[b, a] = acc
             rhs[a] = phi[a]
         _spd_solve(W, rhs, m)
-        for i in range(n):
-            acc = 0.0
-            for a in range(m):
-                acc += jac[a, i] * rhs[a]
-            q[i] -= minv[i] * acc
+        _add_jac_t(cint, crow, jac, rhs, -1.0, minv, q, 0, m)
     # velocities (jac and W from the final positions)
-    for a in range(m):
-        for b in range(a, m):
-            acc = 0.0
-            for i in range(n):
-                acc += jac[a, i] * minv[i] * jac[b, i]
-            W[a, b] = acc
-            W[b, a] = acc
-        acc = 0.0
-        for i in range(n):
-            acc += jac[a, i] * qd[i]
-        rhs[a] = acc - nu[a]
+    _schur(cint, crow, jac, minv, W, m)
+    for k in range(ctype.shape[0]):
+        bi, bj = cint[k, 0], cint[k, 1]
+        for a in range(crow[k], _block_end(crow, k, m)):
+            rhs[a] = _row_dot(jac, a, bi, bj, qd) - nu[a]
     _spd_solve(W, rhs, m)
-    for i in range(n):
-        acc = 0.0
-        for a in range(m):
-            acc += jac[a, i] * rhs[a]
-        qd[i] -= minv[i] * acc
+    _add_jac_t(cint, crow, jac, rhs, -1.0, minv, qd, 0, m)
     return res
 
 
 @njit(cache=True)
 def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
     """Largest contact force inside a step from a cubic Hermite interpolation of the penetration
-    (p0, d0) -> (p1, d1) over h; O(h^4) accurate, needs no extra right-hand-side evaluation."""
+    (p0, d0) -> (p1, d1) over h (O(h^4) in the penetration, O(h^3) in its rate), sampled at 15 interior
+    points, and the fraction of the step where it occurs (refined by a parabola through the samples around
+    the largest).  :func:`integrate` re-evaluates the force at that fraction from the dense output."""
     fint, fflt = model[8], model[9]
     best = 0.0
+    s_best = 0
+    f_prev = 0.0
+    f_left = 0.0
+    f_right = 0.0
     for s in range(1, 16):
         u = s / 16.0
         h00 = 2 * u**3 - 3 * u**2 + 1
@@ -651,17 +721,94 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
         dh01 = (-6 * u**2 + 6 * u) / h
         dh11 = 3 * u**2 - 2 * u
         pd = dh00 * p0 + dh10 * d0 + dh01 * p1 + dh11 * d1
+        f = 0.0
         if pen > 0.0:
             f = _law(model[15], fint[j, 3], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
                      fflt[j, FF_D])
-            if f > best:
-                best = f
-    return best
+        if s == s_best + 1 and s_best > 0:
+            f_right = f
+        if f > best:
+            best = f
+            s_best = s
+            f_left = f_prev
+            f_right = 0.0
+        f_prev = f
+    u_best = s_best / 16.0
+    if 1 < s_best < 15:
+        den = f_left - 2.0 * best + f_right
+        if den < 0.0:
+            shift = 0.5 * (f_left - f_right) / den
+            if -1.0 < shift < 1.0:
+                u_best += shift / 16.0
+    return best, u_best
 
 
-_C, _A, _E = DOPRI_C, DOPRI_A, DOPRI_E
+_C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
+
+
+@njit(cache=True)
+def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
+    """Output sample io: state, element outputs, multipliers (element-wise loops: a slice assignment would
+    compile numpy's broadcasting and its error messages into the integrator, seconds of cold start)."""
+    for i in range(y.shape[0]):
+        out_y[io, i] = y[i]
+    for j in range(eout.shape[0]):
+        for c in range(eout.shape[1]):
+            out_e[io, j, c] = eout[j, c]
+    for a in range(lam.shape[0]):
+        out_lam[io, a] = lam[a]
+
+
+@njit(cache=True)
+def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
+    """State at t0 + th h inside an accepted DOPRI5 step y0 -> y1 (continuous extension of order 4;
+    bspl = h k1 - (y1 - y0), rc5 = h sum_i D_i k_i; Hairer, Norsett & Wanner sec. II.6)."""
+    th1 = 1.0 - th
+    for i in range(out.shape[0]):
+        yd = y1[i] - y0[i]
+        out[i] = y0[i] + th * (yd + th1 * (bspl[i] + th * (yd - h * k[6, i] - bspl[i] + th1 * rc5[i])))
+
+
+@njit(cache=True)
+def _onset_fraction(p0, d0, p1, d1, h):
+    """Fraction of a step of length h at which a contact's penetration reaches EVENT_TOL / 2 (the onset).
+
+    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0, p1 > EVENT_TOL
+    and rates d0, d1 at the ends (error O(h^4), as in :func:`_interior_peak`); its first crossing of
+    EVENT_TOL / 2 is bracketed on 16 sub-intervals and refined by bisection.  A step that ends there
+    takes the onset with a penetration inside (0, EVENT_TOL], so the impact velocity is that at first
+    contact.  (A straight line through p0 and p1 lags the crossing of a converging contact, so the cut
+    step ends short of it and the next tries again: several wasted steps per impact.)
+    """
+    target = 0.5 * EVENT_TOL
+    lo = 0.0
+    hi = 1.0
+    prev = p0 - target
+    for s in range(1, 17):
+        u = s / 16.0
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1 - target
+        if v > 0.0 and prev <= 0.0:
+            lo = u - 1.0 / 16.0
+            hi = u
+            break
+        prev = v
+    for _ in range(40):
+        u = 0.5 * (lo + hi)
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1 - target
+        if v > 0.0:
+            hi = u
+        else:
+            lo = u
+        if (hi - lo) * h < 1e-16:
+            break
+    return hi
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
+SAFETY = 0.9  # step-size safety factor
+BETA = 0.04  # PI step-size control: weight of the previous step's error (Hairer & Wanner's DOPRI5 default)
+EXPO1 = 0.2 - 0.75 * BETA
 
 
 @njit(cache=True)
@@ -676,7 +823,10 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     """
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
+    (mass, inertia, gravity, ctype_m, cint_m, cflt, crow_m, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p, laws) = model
     ny = y0.shape[0]
+    n_q = ny // 2
     nf = eout.shape[0]
     k = np.zeros((7, ny))
     ytmp = np.empty(ny)
@@ -684,140 +834,207 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     t = t_out[0]
     pen_start = np.empty(nf)
     pdot_start = np.empty(nf)
+    y_old = np.empty(ny)
+    y_out = np.empty(ny)
+    k_out = np.empty(ny)
+    bspl = np.empty(ny)
+    rc5 = np.empty(ny)
+    e_save = np.empty((nf, N_EO))
     accelerations(t, y, model, state, work, k[0])
     for j in range(lam.shape[0]):
         lam_prev[j] = lam[j]
     for j in range(nf):
         pen_start[j] = eout[j, EO_PEN]
         pdot_start[j] = eout[j, EO_PENDOT]
-    out_y[0, :] = y
-    out_e[0, :, :] = eout
-    out_lam[0, :] = lam
+    _write_sample(0, y, eout, lam, out_y, out_e, out_lam)
     h = min(h_max, 1e-6)
     budget = info[0]  # on entry: the step budget (accepted + rejected steps; <= 0: none)
     acc = 0
     rej = 0
     cuts = 0
     max_res = 0.0
-    for io in range(1, t_out.shape[0]):
-        t_target = t_out[io]
-        while t < t_target - 1e-15:
-            if budget > 0.0 and acc + rej >= budget:
-                info[0] = acc
-                info[1] = rej
-                info[2] = cuts
-                info[3] = t
-                info[4] = 4
-                return
-            h_try = h if h < t_target - t else t_target - t
-            for s in range(1, 7):
-                for i in range(ny):
-                    a_i = y[i]
-                    for mm in range(s):
-                        a_i += h_try * _A[s, mm] * k[mm, i]
-                    ytmp[i] = a_i
-                accelerations(t + _C[s] * h_try, ytmp, model, state, work, k[s])
-            err = 0.0
+    h_resume = 0.0  # step size before a contact-onset cut (0: no cut pending)
+    err_old = 1e-4  # error of the last accepted step (PI controller)
+    last_rejected = False
+    n_out = t_out.shape[0]
+    t_end = t_out[n_out - 1]
+    io = 1
+    while io < n_out:
+        if t >= t_end - 1e-15:  # only reached with t_end within 1e-15 s: the remaining samples are the state
             for i in range(ny):
-                ei = 0.0
-                for mm in range(7):
-                    ei += _E[mm] * k[mm, i]
-                ei *= h_try
-                sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
-                err += (ei / sc) ** 2
-            err = math.sqrt(err / ny)
-            if not math.isfinite(err):
-                info[3] = t
-                info[4] = 2
-                return
-            if err > 1.0:
-                rej += 1
-                fac = max(0.2, 0.9 * err ** (-0.2))
-                h = h_try * fac
-                if h < 1e-14:
-                    info[3] = t
-                    info[4] = 1
-                    return
-                continue
-            # contact onset inside the step: cut the step back to the crossing
-            frac = 2.0
-            for j in range(nf):
-                pe = eout[j, EO_PEN]
-                if (not in_contact[j]) and pen_start[j] <= 0.0 and pe > EVENT_TOL and fint_is_contact(model, j):
-                    f = pen_start[j] / (pen_start[j] - pe)
-                    if f < frac:
-                        frac = f
-            if frac < 1.5 and h_try > 1e-13:
-                cuts += 1
-                h_new = h_try * frac * (1.0 + 1e-9) + 1e-15
-                if h_new >= h_try:
-                    h_new = 0.5 * h_try
-                h = h_new  # retry a step that ends at the crossing; the controller regrows h afterwards
-                continue
-            # accept
-            t += h_try
+                y_out[i] = y[i]
+            accelerations(t, y_out, model, state, work, k_out)
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
+            io += 1
+            continue
+        if budget > 0.0 and acc + rej >= budget:
+            info[0] = acc
+            info[1] = rej
+            info[2] = cuts
+            info[3] = t
+            info[4] = 4
+            return
+        h_try = h if h < t_end - t else t_end - t
+        for s in range(1, 7):
             for i in range(ny):
-                y[i] = ytmp[i]
-            acc += 1
-            # constraint residuals at the new state are in the work arrays (last stage was at ytmp)
-            n_q = ny // 2
-            res_p = 0.0
-            res_v = 0.0
-            for a in range(phi.shape[0]):
+                a_i = y[i]
+                for mm in range(s):
+                    a_i += h_try * _A[s, mm] * k[mm, i]
+                ytmp[i] = a_i
+            accelerations(t + _C[s] * h_try, ytmp, model, state, work, k[s])
+        err = 0.0
+        for i in range(ny):
+            ei = 0.0
+            for mm in range(7):
+                ei += _E[mm] * k[mm, i]
+            ei *= h_try
+            sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
+            err += (ei / sc) ** 2
+        err = math.sqrt(err / ny)
+        if not math.isfinite(err):
+            info[3] = t
+            info[4] = 2
+            return
+        # contact onset inside the step: cut the step back to the crossing (before the error test: a step across
+        # an onset is cut whatever its error, and rejecting it first would only shrink it blindly)
+        frac = 2.0
+        for j in range(nf):
+            pe = eout[j, EO_PEN]
+            if (not in_contact[j]) and pen_start[j] <= 0.0 and pe > EVENT_TOL and fint_is_contact(model, j):
+                f = _onset_fraction(pen_start[j], pdot_start[j], pe, eout[j, EO_PENDOT], h_try)
+                if f < frac:
+                    frac = f
+        if frac < 1.5 and h_try > 1e-13:
+            cuts += 1
+            if h_resume == 0.0:
+                # the size to resume with once the onset is taken (what the error test allows)
+                h_resume = h_try if err <= 1.0 else h_try * max(0.2, SAFETY * err ** (-EXPO1))
+            h_new = h_try * frac + 1e-15
+            if h_new >= h_try:
+                h_new = 0.5 * h_try
+            h = h_new  # retry a step that ends just past the crossing
+            continue
+        if err > 1.0:
+            rej += 1
+            h = h_try * max(0.2, SAFETY * err ** (-EXPO1))
+            last_rejected = True
+            if h < 1e-14:
+                info[3] = t
+                info[4] = 1
+                return
+            continue
+        # accept
+        t_old = t
+        t += h_try
+        for i in range(ny):
+            y_old[i] = y[i]
+            y[i] = ytmp[i]
+        dense = io < n_out and t_out[io] < t - 1e-15
+        # DOPRI5 continuous extension (Hairer, Norsett & Wanner, sec. II.6, dense output of order 4), before
+        # k[0] is overwritten: output samples and interior force peaks inside the step
+        for i in range(ny):
+            bspl[i] = h_try * k[0, i] - (ytmp[i] - y_old[i])
+            acc5 = 0.0
+            for mm in range(7):
+                acc5 += _D[mm] * k[mm, i]
+            rc5[i] = h_try * acc5
+        acc += 1
+        # constraint residuals at the new state are in the work arrays (last stage was at ytmp)
+        res_p = 0.0
+        res_v = 0.0
+        m_rows = phi.shape[0]
+        for kc in range(ctype_m.shape[0]):
+            bi, bj = cint_m[kc, 0], cint_m[kc, 1]
+            for a in range(crow_m[kc], _block_end(crow_m, kc, m_rows)):
                 if abs(phi[a]) > res_p:
                     res_p = abs(phi[a])
-                vr = -nu[a]
-                for i in range(n_q):
-                    vr += jac[a, i] * y[n_q + i]
+                vr = _row_dot(jac, a, bi, bj, y[n_q:]) - nu[a]
                 if abs(vr) > res_v:
                     res_v = abs(vr)
-            if res_p > max_res:
-                max_res = res_p
-            if res_p > 1e-11 or res_v > 1e-9:
-                res = project(t, y, model, state, work, 3)
-                if not math.isfinite(res) or res > 1e-6:
-                    info[3] = t
-                    info[4] = 3
-                    info[5] = res
-                    return
-                accelerations(t, y, model, state, work, k[0])
+        if res_p > max_res:
+            max_res = res_p
+        if res_p > 1e-11 or res_v > 1e-9:
+            res = project(t, y, model, state, work, 3)
+            if not math.isfinite(res) or res > 1e-6:
+                info[3] = t
+                info[4] = 3
+                info[5] = res
+                return
+            accelerations(t, y, model, state, work, k[0])
+        else:
+            for i in range(ny):
+                k[0, i] = k[6, i]
+        for j in range(lam.shape[0]):
+            lam_prev[j] = lam[j]
+        onset = False
+        for j in range(nf):
+            pe = eout[j, EO_PEN]
+            fn = eout[j, EO_FN]
+            if pe > 0.0:
+                if not in_contact[j]:
+                    onset = True
+                    in_contact[j] = True
+                    vi = eout[j, EO_PENDOT]
+                    v_imp[j] = vi if vi > 1e-6 else 1e-6
+                    if first[j, 3] == 0.0:
+                        first[j, 0] = t
+                        first[j, 1] = vi
+                        first[j, 3] = 1.0
             else:
-                for i in range(ny):
-                    k[0, i] = k[6, i]
-            for j in range(lam.shape[0]):
-                lam_prev[j] = lam[j]
-            for j in range(nf):
-                pe = eout[j, EO_PEN]
-                fn = eout[j, EO_FN]
-                if pe > 0.0:
-                    if not in_contact[j]:
-                        in_contact[j] = True
-                        vi = eout[j, EO_PENDOT]
-                        v_imp[j] = vi if vi > 1e-6 else 1e-6
-                        if first[j, 3] == 0.0:
-                            first[j, 0] = t
-                            first[j, 1] = vi
-                            first[j, 3] = 1.0
-                else:
-                    if in_contact[j] and first[j, 3] == 1.0:
-                        first[j, 3] = 2.0  # first episode finished
-                    in_contact[j] = False
-                if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j):
-                    fi = _interior_peak(model, j, v_imp[j], h_try, pen_start[j], pdot_start[j], pe,
-                                        eout[j, EO_PENDOT])
-                    if fi > abs(fn):
-                        fn = fi
-                if first[j, 3] == 1.0 and abs(fn) > first[j, 2]:
-                    first[j, 2] = abs(fn)
-                if t >= stats_from and abs(fn) > peaks[j]:
-                    peaks[j] = abs(fn)
-                pen_start[j] = pe
-                pdot_start[j] = eout[j, EO_PENDOT]
-            fac = 5.0 if err < 1e-10 else min(5.0, 0.9 * err ** (-0.2))
-            h = min(h_max, max(h_try, h) * fac) if fac > 1.0 else h_try * fac
-        out_y[io, :] = y
-        out_e[io, :, :] = eout
-        out_lam[io, :] = lam
+                if in_contact[j] and first[j, 3] == 1.0:
+                    first[j, 3] = 2.0  # first episode finished
+                in_contact[j] = False
+            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j):
+                fi, u_pk = _interior_peak(model, j, v_imp[j], h_try, pen_start[j], pdot_start[j], pe,
+                                          eout[j, EO_PENDOT])
+                if fi > abs(fn):
+                    # the peak is inside the step: the force there, from the dense-output state (the
+                    # interpolated penetration only locates it); the step-end element values are kept
+                    _dense_state(u_pk, h_try, k, ytmp, y_old, bspl, rc5, y_out)
+                    for jj in range(nf):
+                        for c in range(N_EO):
+                            e_save[jj, c] = eout[jj, c]
+                    forces(t_old + u_pk * h_try, y_out[:n_q], y_out[n_q:], mass, gravity, ftype, fint, fflt, cams,
+                           in_contact, v_imp, psi_f, ctype_m, cint_m, cflt, crow_m, lam_prev, modal_w, modal_z,
+                           phi_tab, plant_p, Q, eout, laws)
+                    f_in = abs(eout[j, EO_FN])
+                    for jj in range(nf):
+                        for c in range(N_EO):
+                            eout[jj, c] = e_save[jj, c]
+                    if f_in > abs(fn):
+                        fn = f_in
+            if first[j, 3] == 1.0 and abs(fn) > first[j, 2]:
+                first[j, 2] = abs(fn)
+            if t >= stats_from and abs(fn) > peaks[j]:
+                peaks[j] = abs(fn)
+            pen_start[j] = pe
+            pdot_start[j] = eout[j, EO_PENDOT]
+        # PI step-size control (Gustafsson; Hairer & Wanner's DOPRI5: err^-(0.2 - 0.75 beta) err_old^beta)
+        e_acc = max(err, 1e-10)
+        grow = min(5.0, max(0.1, SAFETY * e_acc ** (-EXPO1) * err_old ** BETA))
+        err_old = max(err, 1e-4)
+        if last_rejected and grow > 1.0:
+            grow = 1.0  # no growth right after a rejection
+        last_rejected = False
+        h = min(h_max, h_try * grow)
+        if onset and h_resume > 0.0:
+            # the step that took the onset was cut short on purpose, not for accuracy: go on with the size
+            # that passed the error test before the cut (the controller shrinks it if contact needs less)
+            if h < h_resume:
+                h = min(h_max, h_resume)
+            h_resume = 0.0
+        # output samples inside the step: interpolated state, forces and multipliers evaluated there
+        while io < n_out and t_out[io] < t - 1e-15:
+            _dense_state((t_out[io] - t_old) / h_try, h_try, k, ytmp, y_old, bspl, rc5, y_out)
+            accelerations(t_out[io], y_out, model, state, work, k_out)
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
+            io += 1
+        if io < n_out and t_out[io] <= t + 1e-15:
+            # a sample at the step's end: the accepted (projected) state itself
+            if dense:
+                accelerations(t, y, model, state, work, k_out)
+            _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
+            io += 1
     info[0] = acc
     info[1] = rej
     info[2] = cuts

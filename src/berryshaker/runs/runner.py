@@ -237,6 +237,53 @@ def execute_job(fn: Callable, kwargs: dict) -> dict:
 
 
 _PROGRESS = None  # a multiprocessing queue in pool workers: the key of every finished run
+#: Most runs one batched call takes (a run function with a ``batch`` twin, see :func:`run_jobs`); bounds the
+#: memory of the stacked output series and keeps the progress bar moving.
+BATCH_SIZE = 16
+
+
+def batch_threads() -> int:
+    """Threads of a batched compiled call: ``BERRYSHAKER_BATCH_THREADS`` (default 1: the local pool's worker
+    processes, or Dask's worker threads, already use every core)."""
+    try:
+        return max(1, int(os.environ.get("BERRYSHAKER_BATCH_THREADS", "1")))
+    except ValueError:
+        return 1
+
+
+def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
+    """Run jobs through ``fn.batch`` (one call for all; it returns per job a value or the exception the job
+    raised) and wrap each outcome like :func:`execute_job`; the call's wall time is shared out equally.  If
+    the batched call itself fails, the jobs are run one by one."""
+    import numba
+
+    numba.set_num_threads(min(batch_threads(), numba.config.NUMBA_NUM_THREADS))
+    t0 = time.perf_counter()
+    try:
+        raws = fn.batch(kwargs_list)
+        if len(raws) != len(kwargs_list):
+            raise ValueError(f"batch returned {len(raws)} results for {len(kwargs_list)} runs")
+    except Exception:  # noqa: BLE001 - fall back to single runs, which record their own errors
+        return [execute_job(fn, kw) for kw in kwargs_list]
+    wall = (time.perf_counter() - t0) / max(len(kwargs_list), 1)
+    outs = []
+    for raw in raws:
+        if isinstance(raw, BaseException):
+            outs.append({"value": None, "error": f"{type(raw).__name__}: {raw}", "wall_s": wall})
+            continue
+        try:
+            value = _jsonable(raw)
+            _canonical(value)
+            outs.append({"value": value, "error": None, "wall_s": wall})
+        except Exception as exc:  # noqa: BLE001 - as in execute_job
+            outs.append({"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": wall})
+    return outs
+
+
+def batchable(fn: Callable) -> bool:
+    """True when ``fn`` has a batched twin ``fn.batch(kwargs_list) -> list`` (e.g.
+    :func:`berryshaker.runs.sweep.model_run`, :func:`berryshaker.study.runs.multibody_row`)."""
+    return callable(getattr(fn, "batch", None))
 
 
 def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, fingerprint: str,
@@ -247,17 +294,24 @@ def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, 
     a computed run is stored at once when ``store`` (local workers share the parent's disk).  Returns one
     outcome per job: key, value, error, wall_s, cached, stored, problem (why an existing entry was unusable).
     """
+    batched: dict[str, dict] = {}
+    if batchable(fn) and len(jobs) > 1:
+        # a run function with a batched twin: the chunk's runs not in the cache go through one call
+        todo = [(key, kw) for key, kw in jobs if not (cache_dir and read_cache_entry(
+            cache_entry_path(cache_dir, key), key, fingerprint)[0] is not None)]
+        if len(todo) > 1:
+            batched = dict(zip([k for k, _ in todo], execute_batch(fn, [kw for _, kw in todo])))
     outs = []
     for key, kw in jobs:
         out = None
         problem = None
-        if cache_dir:
+        if cache_dir and key not in batched:
             entry, problem = read_cache_entry(cache_entry_path(cache_dir, key), key, fingerprint)
             if entry is not None:
                 out = {"key": key, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
                        "cached": True, "stored": True, "problem": None}
         if out is None:
-            res = execute_job(fn, kw)
+            res = batched[key] if key in batched else execute_job(fn, kw)
             out = {"key": key, **res, "cached": False, "stored": False, "problem": problem}
             if store and cache_dir and res["error"] is None:
                 try:
@@ -497,8 +551,11 @@ class SweepRunner:
                 if self.scheduler:
                     self._run_dask(ctx)
                 elif self.workers <= 1 or len(todo) == 1:
-                    for key, kw in jobs.items():
-                        self._finish(ctx, run_jobs(fn, [(key, kw)], cache, fp, True)[0])
+                    keys = list(jobs)
+                    size = BATCH_SIZE if batchable(fn) else 1
+                    for k0 in range(0, len(keys), size):
+                        for out in run_jobs(fn, [(k, jobs[k]) for k in keys[k0:k0 + size]], cache, fp, True):
+                            self._finish(ctx, out)
                 else:
                     self._run_local(ctx)
         except KeyboardInterrupt:
@@ -589,6 +646,8 @@ class SweepRunner:
         keys = list(ctx["jobs"])
         nw = min(self.workers, len(keys))
         size = max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * nw)))
+        if batchable(ctx["fn"]):
+            size = min(size, BATCH_SIZE)
         chunks = [keys[k:k + size] for k in range(0, len(keys), size)]
         pool, progress = self._pool()
         advanced: set[str] = set()
@@ -647,17 +706,24 @@ class SweepRunner:
         client = self.connect()
         futs = {}
         try:
-            for key, kw in ctx["jobs"].items():
-                f = client.submit(run_jobs, ctx["fn"], [(key, kw)], ctx["cache"], ctx["fp"], False,
-                                  key=f"berryshaker-{key}", pure=False, retries=3)
-                futs[f] = key
+            keys = list(ctx["jobs"])
+            # a run function with a batched twin: chunks of runs per task (one compiled call each)
+            size = 1
+            if batchable(ctx["fn"]):
+                size = min(BATCH_SIZE, max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * self._dask_cores(client)))))
+            for k0 in range(0, len(keys), size):
+                chunk = keys[k0:k0 + size]
+                f = client.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
+                                  False, key=f"berryshaker-{chunk[0]}-{len(chunk)}", pure=False, retries=3)
+                futs[f] = chunk
             for f in as_completed(list(futs)):
-                key = futs[f]
+                chunk = futs[f]
                 try:
-                    out = f.result()[0]
+                    outs = f.result()
                 except Exception as exc:  # noqa: BLE001 - lost beyond its retries
-                    out = self._failed(key, f"{type(exc).__name__}: {exc}")
-                self._finish(ctx, out)
+                    outs = [self._failed(k, f"{type(exc).__name__}: {exc}") for k in chunk]
+                for out in outs:
+                    self._finish(ctx, out)
         except BaseException:
             try:
                 client.cancel(list(futs), force=True)
@@ -666,6 +732,14 @@ class SweepRunner:
             raise
         finally:
             client.close(timeout=2)
+
+    @staticmethod
+    def _dask_cores(client) -> int:
+        """Threads across the cluster's workers (at least 1)."""
+        try:
+            return max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
+        except Exception:  # noqa: BLE001 - a scheduler that does not say: assume one
+            return 1
 
     def _bar(self, label, total, done):
         if not self.progress:

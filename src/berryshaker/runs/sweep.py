@@ -249,6 +249,38 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
     return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline)[1]
 
 
+def model_runs(kwargs_list: list[dict]) -> list:
+    """Batched twin of :func:`model_run` (the sweep runner calls it with a chunk of runs' arguments): multibody
+    points of one mechanism structure share one compiled call; per run its summary or the error it raised."""
+    from berryshaker.drives.simulation import simulate_multibody_batch
+    from berryshaker.errors import BerryshakerError
+
+    out: list = [None] * len(kwargs_list)
+    groups: dict[tuple[int, str | None], list[tuple[int, object]]] = {}
+    for i, kw in enumerate(kwargs_list):
+        if kw.get("model", "mlsd") != "multibody":
+            try:
+                out[i] = model_run(**kw)
+            except BerryshakerError as exc:
+                out[i] = exc
+            continue
+        rev = int(kw.get("revolutions", 3))
+        try:
+            machine = point_machine(kw["machine_data"], kw["overrides"], rev)
+        except BerryshakerError as exc:
+            out[i] = exc
+            continue
+        groups.setdefault((rev, kw.get("driveline")), []).append((i, machine))
+    for (rev, driveline), items in groups.items():
+        res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline)
+        for (i, _), r in zip(items, res):
+            out[i] = r if isinstance(r, BaseException) else r[1]
+    return out
+
+
+model_run.batch = model_runs
+
+
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
     """A tidy results table: one row per run, parameter columns (their units), status, outputs."""
     header = ["run"] + [f"{p.key}[{p.unit}]" if p.unit else p.key for p in params] + ["status", "error"]

@@ -1,0 +1,144 @@
+"""Many parameter sets of one mechanism structure in one compiled call.
+
+A sweep over clearances, stiffnesses or masses changes only the floating-point parameters of a mechanism;
+its structure (which constraints and force elements act between which bodies, the number of output
+samples, the tolerances) stays the same.  :func:`simulate_mechanisms` groups the descriptions by that
+structure, stacks each group's parameters, state and work arrays along a leading "set" axis and integrates
+the group in one numba call that loops over the sets with ``prange`` (:func:`integrate_sets`).  Each set has
+its own arrays and runs the same compiled :func:`berryshaker.multibody.kernel.integrate` as
+:func:`berryshaker.multibody.engine.simulate_mechanism`, so a set's result is bitwise that of a run on its
+own (tests/test_multibody_batch.py).
+
+Threads: the loop runs on numba's current thread count (``numba.set_num_threads``); the sweep runner sets it
+from ``BERRYSHAKER_BATCH_THREADS`` (default 1, because its worker processes already use every core).  On one
+thread the sets run one after the other through the single-run kernel (no parallel specialisation compiled).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+from numba import njit, prange
+
+from berryshaker.errors import BerryshakerError
+from berryshaker.multibody import kernel as mb
+from berryshaker.multibody.engine import MultibodyResult, PreparedRun, finish_run, prepare_run
+from berryshaker.multibody.spec import MechanismSpec
+
+#: positions in the model tuple of the arrays that may differ between the sets of one batch (floats)
+_FLOAT_MODEL = (0, 1, 2, 5, 9, 10, 11, 12, 13, 14)
+#: positions of the integer arrays that define the structure (equal within a batch)
+_INT_MODEL = (3, 4, 6, 7, 8)
+
+
+@njit(cache=True, parallel=True)
+def integrate_sets(y0, t_out, mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w,
+                   modal_z, phi_tab, plant_p, laws, in_contact, v_imp, psi_c, psi_f, lam_prev, phi, jac, nu, gam, q_f,
+                   eout, lam, minv, w_mat, rhs, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks, first,
+                   info):
+    """:func:`berryshaker.multibody.kernel.integrate` for every set s (leading axis of each stacked array) in
+    parallel; the structure arrays (ctype, cint, crow, ftype, fint), t_out, rtol, h_max and the contact laws are
+    shared."""
+    for s in prange(y0.shape[0]):
+        model = (mass[s], inertia[s], gravity[s], ctype, cint, cflt[s], crow, ftype, fint, fflt[s], cams[s],
+                 modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws)
+        state = (in_contact[s], v_imp[s], psi_c[s], psi_f[s], lam_prev[s])
+        work = (phi[s], jac[s], nu[s], gam[s], q_f[s], eout[s], lam[s], minv[s], w_mat[s], rhs[s])
+        mb.integrate(y0[s], t_out, model, state, work, rtol, atol[s], h_max, stats_from[s], out_y[s], out_e[s],
+                     out_lam[s], peaks[s], first[s], info[s])
+
+
+def structure_key(run: PreparedRun) -> tuple:
+    """What must be equal for two runs to share one batch: the structure arrays, every array's shape, the
+    output times, tolerances, largest step and step budget."""
+    model = run.cm.model
+    ints = tuple(model[i].tobytes() for i in _INT_MODEL)
+    shapes = tuple(np.shape(model[i]) for i in _FLOAT_MODEL) + tuple(np.shape(a) for a in run.state + run.work)
+    return (ints, shapes, run.t_out.tobytes(), run.rtol, run.max_step, run.budget,
+            tuple(id(f) for f in model[15]))
+
+
+def _stack(arrays: list[np.ndarray]) -> np.ndarray:
+    return np.ascontiguousarray(np.stack(arrays))
+
+
+def integrate_prepared(runs: list[PreparedRun]) -> float:
+    """Integrate prepared runs of one structure, writing into each run's own arrays; returns the wall time.
+
+    On more than one numba thread: one compiled call, ``prange`` over the sets (:func:`integrate_sets`).  On
+    one thread the sets go one after the other through the same compiled ``kernel.integrate`` as single runs:
+    the result is the same and no second specialisation of the integrator is compiled (the parallel one costs
+    some 25 s of cold start, which one thread cannot win back).
+    """
+    import numba
+
+    if numba.get_num_threads() == 1 or len(runs) == 1:
+        t0 = time.perf_counter()
+        for r in runs:
+            r.info[0] = r.budget
+            mb.integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from,
+                         r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
+        return time.perf_counter() - t0
+    first_run = runs[0]
+    model = first_run.cm.model
+    fl = {i: _stack([r.cm.model[i] for r in runs]) for i in _FLOAT_MODEL}
+    st = [_stack([r.state[i] for r in runs]) for i in range(len(first_run.state))]
+    wk = [_stack([r.work[i] for r in runs]) for i in range(len(first_run.work))]
+    out_y, out_e, out_lam = (_stack([r.out_y for r in runs]), _stack([r.out_e for r in runs]),
+                             _stack([r.out_lam for r in runs]))
+    peaks, first, info = (_stack([r.peaks for r in runs]), _stack([r.first for r in runs]),
+                          _stack([r.info for r in runs]))
+    info[:, 0] = [r.budget for r in runs]
+    t0 = time.perf_counter()
+    integrate_sets(_stack([r.y for r in runs]), first_run.t_out, fl[0], fl[1], fl[2], model[3], model[4], fl[5],
+                   model[6], model[7], model[8], fl[9], fl[10], fl[11], fl[12], fl[13], fl[14], model[15], *st, *wk,
+                   first_run.rtol, _stack([r.atol for r in runs]), first_run.max_step,
+                   np.array([r.stats_from for r in runs]), out_y, out_e, out_lam, peaks, first, info)
+    wall = time.perf_counter() - t0
+    for s, r in enumerate(runs):
+        r.out_y, r.out_e, r.out_lam = out_y[s], out_e[s], out_lam[s]
+        r.peaks, r.first, r.info = peaks[s], first[s], info[s]
+    return wall
+
+
+def simulate_mechanisms(specs: list[MechanismSpec], duration: float | None = None, rtol: float | None = None,
+                        output_step: float | None = None, max_step: float | None = None,
+                        max_steps: int | None = None) -> list[MultibodyResult | BerryshakerError]:
+    """Simulate many descriptions, batching those of one structure into one compiled call.
+
+    Parameters
+    ----------
+    specs : list of MechanismSpec
+        The mechanisms (typically one description with different parameters).
+    duration, rtol, output_step, max_step, max_steps
+        As in :func:`berryshaker.multibody.engine.simulate_mechanism` (each description's own
+        ``simulation`` block gives the defaults).
+
+    Returns
+    -------
+    list
+        Per description, in order: its :class:`~berryshaker.multibody.engine.MultibodyResult` (equal to that of
+        ``simulate_mechanism``; ``wall_time_s`` is the batch's wall time shared out equally), or the
+        :class:`~berryshaker.errors.BerryshakerError` (ConfigError, GeometryError, SimulationError) the run
+        raised, so that one bad set does not stop the others.
+    """
+    out: list = [None] * len(specs)
+    groups: dict[tuple, list[int]] = {}
+    prepared: dict[int, PreparedRun] = {}
+    for i, spec in enumerate(specs):
+        try:
+            prepared[i] = prepare_run(spec, duration, rtol, output_step, max_step, None, max_steps)
+        except BerryshakerError as exc:
+            out[i] = exc
+            continue
+        groups.setdefault(structure_key(prepared[i]), []).append(i)
+    for idx in groups.values():
+        runs = [prepared[i] for i in idx]
+        wall = integrate_prepared(runs)
+        for i, r in zip(idx, runs):
+            try:
+                out[i] = finish_run(r, wall / len(runs))
+            except BerryshakerError as exc:
+                out[i] = exc
+    return out
