@@ -22,6 +22,9 @@ Summary of the formulation (details, symbols and departures from the printed equ
 * With zero clearance the links are stiff springs and the model tends to the ideal mechanism's inverse
   dynamics as they stiffen (tested against an independent Newton-Euler calculation); at finite stiffness
   the chain rings after the cam law's jerk steps (docs/mlsd.md sec. 4).
+
+long module: the link forces, the compiled integrator with contact-onset location and the result summary share
+the parameter and result layouts and must compile and cache together in one numba module.
 """
 
 from __future__ import annotations
