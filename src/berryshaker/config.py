@@ -217,7 +217,8 @@ def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
         if c.geometry is not None:
             g = c.geometry
             basis = (f" (Johnson line contact, {g.material_pair}, d = {g.diameter * 1e3:g} mm, L = {g.length * 1e3:g} mm; "
-                     f"fit {c.fit_force_range[0]:g}-{c.fit_force_range[1]:.3g} N, max error {c.fit_error:.0%})")
+                     f"fit {c.fit_force_range[0]:g}-{c.fit_force_range[1]:.3g} N, max error {c.fit_error:.0%}"
+                     + (f"; {', '.join(g.assumed)} [assumed default]" if g.assumed else "") + ")")
         rows.append((f"{key} stiffness", f"K = {c.stiffness:.4g} N/m^{c.exponent:.4g}{basis}", tg["stiffness"]))
         rows.append((f"{key} exponent", f"n = {c.exponent:.4g}", tg["exponent"]))
         rows.append((f"{key} at {OPERATING_LOAD:g} N", f"k_tangent = {c.tangent_stiffness:.3g} N/m, "

@@ -29,6 +29,7 @@ from berryshaker.contact.conformal import (
     pin_in_bore_law,
     roller_on_wall_law,
 )
+from berryshaker.contact.stiffness import effective_modulus
 from berryshaker.errors import ConfigError
 
 #: the law of a pair that gives no law and no stiffness: hysteresis damping of Lankarani & Nikravesh (1990),
@@ -96,13 +97,11 @@ def pair_geometry(kind, size, diameter=None, bearing_length=None, material_pair=
                   wall_radius=math.inf) -> PairGeometry:
     """:class:`PairGeometry` of a clearance pair, filling in :data:`DEFAULT_DIAMETER`,
     :data:`DEFAULT_BEARING_LENGTH` and :data:`DEFAULT_MATERIAL_PAIR` where a value is ``None``."""
-    assumed = []
-    if diameter is None:
-        diameter, _ = DEFAULT_DIAMETER, assumed.append("diameter")
-    if bearing_length is None:
-        bearing_length, _ = DEFAULT_BEARING_LENGTH, assumed.append("bearing_length")
-    if material_pair is None:
-        material_pair, _ = DEFAULT_MATERIAL_PAIR, assumed.append("material_pair")
+    given = {"diameter": diameter, "bearing_length": bearing_length, "material_pair": material_pair}
+    assumed = [k for k, v in given.items() if v is None]
+    diameter = DEFAULT_DIAMETER if diameter is None else diameter
+    bearing_length = DEFAULT_BEARING_LENGTH if bearing_length is None else bearing_length
+    material_pair = DEFAULT_MATERIAL_PAIR if material_pair is None else material_pair
     return PairGeometry(kind, float(size), float(diameter), float(bearing_length), str(material_pair),
                         float(wall_radius), tuple(assumed))
 
@@ -122,8 +121,6 @@ def fit_range_for(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> tuple[floa
         power law.
     """
     m1, m2 = _materials(geom)
-    from berryshaker.contact.stiffness import effective_modulus
-
     es = effective_modulus(*m1, *m2)
     r1 = geom.diameter / 2
     f_lo, f_hi = map(float, force_range)
