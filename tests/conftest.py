@@ -49,3 +49,21 @@ def write_toml(tmp_path):
         return p
 
     return _write
+
+
+def with_linear_springs(machine):
+    """The machine with the linear clearance springs of berryshaker 0.1.0 (K_A = K_B = 1e8 N/m, K_C = K_F = 5e7 N/m,
+    C_i = 2000 N s/m, IMPACT law): the linear-spring (study eq. 8) properties the MLSD tests check."""
+    from berryshaker.config import machine_from_dict
+
+    d = machine.model_dump()
+    for p in machine.pair_names:
+        pin = d["clearance"][p]["kind"] == "pin-in-bore"
+        d["clearance"][p].update(law="impact", stiffness=5e7 if pin else 1e8, damping=2000.0, exponent=None)
+    return machine_from_dict(d)
+
+
+@pytest.fixture(scope="session")
+def linear_machine(machine):
+    """The reference machine with the 0.1.0 linear clearance springs (:func:`with_linear_springs`)."""
+    return with_linear_springs(machine)

@@ -80,10 +80,21 @@ def test_sliding_speeds_match_finite_differences_of_positions():
 
 
 def test_life_fields_do_not_change_the_dynamics():
+    """The ISO fit never enters the dynamics; diameter, bearing_length and material_pair enter it only through
+    the contact law resolved from them (docs/contact.md sec. 6), so with the stiffness given (here the 0.1.0
+    linear springs) removing them changes nothing, and with the default law they set K and n."""
+    from conftest import with_linear_springs
+
     from berryshaker.config import machine_from_dict
     from berryshaker.drives import drive_of
 
     m = load_machine(None)
+    d = drive_of(m)
+    no_fit = m.model_dump(mode="json")
+    for pair in no_fit["clearance"].values():
+        pair.pop("fit", None)
+    assert d.mechanism(m, 2).model_dump() == d.mechanism(machine_from_dict(no_fit, "(test)"), 2).model_dump()
+    m = with_linear_springs(m)
     data = m.model_dump(mode="json")
     assert data["clearance"]["C"]["fit"] == "H8/f7"
     for pair in data["clearance"].values():
@@ -91,8 +102,8 @@ def test_life_fields_do_not_change_the_dynamics():
             pair.pop(k, None)
     bare = machine_from_dict(data, "(test)")
     assert bare.clearance["C"].diameter is None
-    d = drive_of(m)
     assert d.mechanism(m, 2).model_dump() == d.mechanism(bare, 2).model_dump()
+    assert load_machine(None).pair_contact("C").stiffness != with_linear_springs(bare).pair_contact("C").stiffness
     with pytest.raises(ConfigError, match="material_pair"):
         from berryshaker.life.joint_loads import joint_geometry
 

@@ -192,3 +192,47 @@ def machine_table(machine) -> list[tuple[str, str, str]]:
 
     walk(machine, "")
     return rows
+
+
+def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
+    """(key, value, provenance tag) rows of every clearance pair's resolved contact law, for ``config show``.
+
+    Per pair: the law, K (N/m^n) and n, the equivalent linear stiffness at the operating load, the damping
+    (law and value) and the damping ramp depth, each tagged ``derived`` (from geometry and materials,
+    :mod:`berryshaker.contact.pair_law`), ``assumed``/``study`` (the description's tag) or ``default``.
+    """
+    from berryshaker.contact.pair_law import OPERATING_LOAD
+
+    rows: list[tuple[str, str, str]] = []
+    for p in machine.pair_names:
+        pair = machine.clearance[p]
+        key = f"(resolved) contact {p}"
+        if pair.size <= 0:
+            rows.append((key, "ideal joint (zero clearance): no contact law", "derived"))
+            continue
+        c = machine.pair_contact(p)
+        tg = c.tags
+        rows.append((f"{key} law", c.law, tg["law"]))
+        basis = ""
+        if c.geometry is not None:
+            g = c.geometry
+            basis = (f" (Johnson line contact, {g.material_pair}, d = {g.diameter * 1e3:g} mm, L = {g.length * 1e3:g} mm; "
+                     f"fit {c.fit_force_range[0]:g}-{c.fit_force_range[1]:.3g} N, max error {c.fit_error:.0%}"
+                     + (f"; {', '.join(g.assumed)} [assumed default]" if g.assumed else "") + ")")
+        rows.append((f"{key} stiffness", f"K = {c.stiffness:.4g} N/m^{c.exponent:.4g}{basis}", tg["stiffness"]))
+        rows.append((f"{key} exponent", f"n = {c.exponent:.4g}", tg["exponent"]))
+        rows.append((f"{key} at {OPERATING_LOAD:g} N", f"k_tangent = {c.tangent_stiffness:.3g} N/m, "
+                     f"k_secant = {c.secant_stiffness:.3g} N/m", "derived"))
+        if c.uses("damping"):
+            rows.append((f"{key} damping", f"viscous, c = {c.damping:g} N s/m", tg["damping"]))
+        else:
+            from berryshaker.contact.conformal import hysteresis_factor
+
+            rows.append((f"{key} damping", f"hysteresis ({c.law}), restitution e = {c.restitution:g}, factor "
+                         f"f(e) = {float(hysteresis_factor(c.restitution, c.law)):.4g}", tg["restitution"]))
+        if c.uses("damping_depth"):
+            rows.append((f"{key} damping ramp", f"full damping at {c.damping_depth * 1e3:g} mm", tg["damping_depth"]))
+        else:
+            rows.append((f"{key} damping ramp", "none: the hysteresis force K delta^n (f(e) delta'/v0) starts at "
+                         "zero at first touch", "derived"))
+    return rows

@@ -221,6 +221,12 @@ def field_dimension(info: FieldInfo) -> str | None:
         if isinstance(m, QuantityValidator):
             return m.dimension
     extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    for arg in typing.get_args(info.annotation):  # an optional quantity: ``Length | None``
+        for m in getattr(arg, "__metadata__", ()):
+            if isinstance(m, QuantityValidator):
+                return m.dimension
+            if not extra and isinstance(m, FieldInfo) and isinstance(m.json_schema_extra, dict):
+                extra = m.json_schema_extra
     unit = extra.get("display")
     if isinstance(unit, str):
         for dim in DIMENSIONS:

@@ -199,11 +199,10 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     t.add_row("(derived) shaft E", f"({machine.shaft_E[0] * 1e3:.3f}, {machine.shaft_E[1] * 1e3:.3f}) mm")
     if hasattr(machine, "cam"):
         t.add_row("(derived) s0", f"{machine.cam.s0 * 1e3:.4f} mm")
-    for p in machine.pair_names:
-        c = machine.clearance[p]
-        ramp = f", full damping at {c.damping_depth * 1e3:g} mm" if c.law == "impact" else ""
-        t.add_row(f"(resolved) contact {p}", f"{c.law}: K = {c.stiffness:.4g} N/m^{c.exponent:g}, "
-                  f"c = {c.damping:g} N s/m{ramp}")
+    from berryshaker.config import pair_contact_rows
+
+    for key, value, tag in pair_contact_rows(machine):
+        t.add_row(key, value, f"\\[{tag}]")
     out.print(t)
 
 

@@ -59,27 +59,31 @@ def _law_name(v: Any) -> str:
 
 
 class ClearancePair(StrictModel):
-    """One clearance joint of a drive: its size and the contact law of its collisions.
+    """One clearance joint of a drive: its size, geometry and the contact law of its collisions.
 
     ``size`` is the radial clearance (bore radius minus pin radius) of a pin-in-bore pair and the total free
     travel across the groove or slot (width minus roller diameter) of a roller pair.  ``law`` names a law of
-    :mod:`berryshaker.contact.laws`; ``stiffness`` is K in N/m^n, ``damping`` the viscous coefficient
-    (MLSD) or cmax (IMPACT), ``damping_depth`` the penetration at which IMPACT reaches full damping.
-    ``fit``, ``diameter``, ``bearing_length`` and ``material_pair`` describe the joint for its wear life
-    (:mod:`berryshaker.life`) and are optional.
+    :mod:`berryshaker.contact.laws`.
+
+    The contact law by default comes from the geometry (``diameter``, ``bearing_length``) and the materials
+    (``material_pair``): K and n of the power law fitted to Johnson's line-contact relation with hysteresis
+    damping for the coefficient of ``restitution`` (:mod:`berryshaker.contact.pair_law`, docs/contact.md
+    sec. 6).  Giving ``stiffness`` (K in N/m^n; ``exponent`` n, default 1) overrides the geometry; a pair
+    that gives its stiffness but no ``law`` is a berryshaker 0.1.0/0.2 pair and keeps their law, the IMPACT
+    function with the linear spring K_i, cmax = ``damping`` and full damping at ``damping_depth``.  The
+    linear spring-damper of the study's eq. 8 is ``law = "mlsd"``.  ``fit``, ``diameter``,
+    ``bearing_length`` and ``material_pair`` also describe the joint for its wear life (:mod:`berryshaker.life`).
     """
 
     kind: Literal["pin-in-bore", "roller-in-groove", "roller-in-slot"]
     size: LengthNonNeg
-    law: str = "impact"
-    stiffness: Stiffness  # K_i: N/m for exponent 1; a plain SI number (N/m^n) otherwise
-    damping: Damping
-    exponent: float = Field(1.0, gt=0, le=3)
+    law: str = "lankarani_nikravesh"  # berryshaker.contact.pair_law.DEFAULT_LAW
+    stiffness: Stiffness | None = None  # K_i: None = from geometry; N/m for exponent 1, a plain SI number (N/m^n)
+    damping: Damping | None = None  # viscous C_i (mlsd) or cmax (impact); not used by the hysteresis laws
+    exponent: float | None = Field(None, gt=0, le=3)  # None: from geometry (or 1 with a given stiffness)
     damping_depth: Length = 1e-5
-    restitution: float = Field(0.9, gt=0, le=1)
+    restitution: float = Field(0.9, gt=0, le=1)  # [assumed] steel on steel (Flores & Ambrosio 2004 use 0.9)
     levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
-    # clearance life (berryshaker.life; docs/life.md).  None: the documented [assumed] defaults of
-    # berryshaker.life.joint_loads.  They do not enter the dynamics (the mechanism has no pin radius).
     fit: str | None = None  # ISO 286 fit on the drawing, e.g. "H8/f7" (hole/shaft at ``diameter``)
     diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
     bearing_length: Length | None = None  # axial length of the contact (bush length, roller width)
@@ -88,12 +92,31 @@ class ClearancePair(StrictModel):
     @model_validator(mode="before")
     @classmethod
     def _law(cls, data: Any) -> Any:
-        if isinstance(data, dict) and "law" in data:
-            try:
-                _law_name(data["law"])
-            except ValueError as exc:
-                raise ValueError(str(exc)) from None
+        if isinstance(data, dict):
+            if "law" in data:
+                try:
+                    _law_name(data["law"])
+                except ValueError as exc:
+                    raise ValueError(str(exc)) from None
+            elif data.get("stiffness") is not None:  # a 0.1.0/0.2 pair: its linear spring with IMPACT
+                from berryshaker.contact.pair_law import LEGACY_LAW
+
+                data = dict(data, law=LEGACY_LAW)
         return data
+
+    def geometry(self, wall_radius: float = math.inf):
+        """The pair's :class:`~berryshaker.contact.pair_law.PairGeometry` ([assumed] defaults filled in)."""
+        from berryshaker.contact.pair_law import pair_geometry
+
+        return pair_geometry(self.kind, self.size, self.diameter, self.bearing_length, self.material_pair,
+                             wall_radius)
+
+    def contact(self, wall_radius: float = math.inf, tags: dict | None = None, field_prefix: str = "clearance"):
+        """The resolved contact law (:class:`~berryshaker.contact.pair_law.PairContact`) at the pair's size."""
+        from berryshaker.contact.pair_law import resolve_pair_contact
+
+        return resolve_pair_contact(self.law, self.geometry(wall_radius), self.stiffness, self.exponent,
+                                    self.damping, self.damping_depth, self.restitution, tags, field_prefix)
 
 
 class Combs(StrictModel):
@@ -151,6 +174,7 @@ class PairInfo:
     kind: str
     joins: str
     limit: Callable[[Any], tuple[float, str]]  # machine -> (largest size in m, what the limit is)
+    wall_radius: Callable[[Any], float] | None = None  # roller pairs: machine -> wall curvature radius (m)
 
 
 class MachineBase(StrictModel):
@@ -226,6 +250,28 @@ class MachineBase(StrictModel):
             raise ValueError(f"harvest.fruit_zone must be two fractions of the branch length, start < end, both in "
                              f"0 .. 1; got {list(h.fruit_zone)}")
         return self
+
+    @model_validator(mode="after")
+    def _pair_contacts(self) -> "MachineBase":
+        for p in self.PAIRS:
+            if self.clearance[p.name].size > 0:
+                try:
+                    self.pair_contact(p.name)
+                except ConfigError as exc:
+                    raise ValueError(f"clearance.{p.name}: {exc}") from None
+        return self
+
+    def pair_contact(self, name: str):
+        """The resolved contact law of clearance pair ``name`` at its size
+        (:class:`~berryshaker.contact.pair_law.PairContact`: law, K, n, damping, with provenance tags).
+
+        What the multibody mechanism and the reduced model run with and ``berryshaker config show`` prints.
+        """
+        info = next(p for p in self.PAIRS if p.name == name)
+        wall = info.wall_radius(self) if info.wall_radius is not None else math.inf
+        tags = getattr(self, "__provenance__", None) or {}
+        own = {k.rsplit(".", 1)[1]: v for k, v in tags.items() if k.startswith(f"clearance.{name}.")}
+        return self.clearance[name].contact(wall, own, f"clearance.{name}")
 
     # ---- clearances: the one owner of their validation ------------------------------------------
     @property

@@ -27,10 +27,14 @@ def drive_moment(result: MultibodyResult) -> np.ndarray:
 
 def multibody_summary(machine, result: MultibodyResult) -> dict:
     """The JSON of ``simulate --model multibody``: collision force per pair (N), comb load moments (N m), drive
-    moment (N m; ``mean`` signed, in the direction of rotation), integrator statistics.
+    moment (N m), contact onsets, integrator statistics.
 
     Statistics are over revolutions 2..N (the first is the start-up from the centred joints).  A pair with zero
     clearance reports its ideal joint's reaction force, not a collision force (``pair_state`` says which).
+    ``drive_moment_Nm``: the moment the drive applies to its shaft in the direction of rotation; ``mean`` is its
+    signed mean over revolutions 2..N (mean drive power / speed), ``mean_abs`` the mean of its magnitude, as in
+    the MLSD summary.  ``contact_onsets``: impacts per pair (:func:`contact_onsets`), ``contact_onsets_located``
+    their total; ``event_cuts``: integrator steps cut back to an onset (the whole run).
     """
     cm = result.compiled
     sel = result.t >= result.stats_from - 1e-12
@@ -51,15 +55,40 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
             out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
     torque = drive_moment(result)
     out["drive_moment_Nm"] = _stats(torque, sel)
+    out["drive_moment_Nm"]["mean_abs"] = out["drive_moment_Nm"]["mean"]
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
+    onsets = contact_onsets(result, machine.pair_names)
     out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),
-               contact_onsets_located=int(result.info[2]), wall_time_s=result.wall_time_s,
+               contact_onsets=onsets, contact_onsets_located=int(sum(onsets.values())),
+               event_cuts=int(result.info[2]), wall_time_s=result.wall_time_s,
                revolutions=n_rev, statistics_over=f"revolutions 2..{n_rev}")
     if "mesh" in cm.frc_names and cm.acc_start >= 0:
         from berryshaker.drives.powered import driveline_summary
 
         shaft = cm.spec.bodies[int(cm.model[8][cm.frc_names.index("mesh"), 1])].name
         out.update(driveline_summary(result, shaft))
+    return out
+
+
+def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
+    """Contact onsets (impacts) per clearance pair over the statistics window: transitions of the written
+    penetration series from separated (<= 0) to in contact (> 0).
+
+    Counted on the written series (spacing ``output_step``): a contact episode that begins and ends between two
+    samples is missed, so the count is a lower bound; it is not the engine's count of step cut-backs to an
+    onset (``event_cuts``), which counts every refinement.  An ideal joint (zero clearance) has none.
+    """
+    from berryshaker.multibody.kernel import EO_PEN
+
+    cm = result.compiled
+    sel = result.t >= result.stats_from - 1e-12
+    out = {}
+    for p in pairs:
+        if p not in cm.frc_names:
+            out[p] = 0
+            continue
+        touch = result.elements[sel, cm.frc_names.index(p), EO_PEN] > 0.0
+        out[p] = int(np.count_nonzero(touch[1:] & ~touch[:-1]))
     return out
 
 

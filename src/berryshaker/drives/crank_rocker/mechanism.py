@@ -46,11 +46,9 @@ def crank_rocker_mechanism(machine, revolutions: int = 2) -> MechanismSpec:
     sizes = machine.clearance_sizes()
 
     def pin(name, body_i, body_j, point_i, point_j):
-        p = machine.clearance[name]
         return dict(name=name, type="revolute_clearance" if sizes[name] > 0 else "revolute", body_i=body_i,
                     body_j=body_j, point_i=point_i, point_j=point_j, clearance=sizes[name],
-                    contact=dict(law=p.law, stiffness=p.stiffness, exponent=p.exponent, damping=p.damping,
-                                 damping_depth=p.damping_depth, restitution=p.restitution))
+                    contact=machine.pair_contact(name).engine_contact() if sizes[name] > 0 else {})
 
     b = ro.arm_R
     joints = [

@@ -128,7 +128,11 @@ class GrooveCamMachine(MachineBase):
     DRIVE: ClassVar[str] = "groove_cam"
     PAIRS: ClassVar[tuple[PairInfo, ...]] = (
         PairInfo("A", "roller-in-groove", "cam roller in the cam groove",
-                 lambda m: (0.2 * m.cam.roller_radius, "20 % of the cam roller radius")),
+                 lambda m: (0.2 * m.cam.roller_radius, "20 % of the cam roller radius"),
+                 # contact law: the convex inner groove wall at the base circle, r0 - r_r [derived]; the concave
+                 # outer wall (r0 + r_r) gives a 3-5 % softer law (docs/contact.md sec. 6)
+                 wall_radius=lambda m: (m.cam.base_radius - m.cam.roller_radius if m.cam.base_radius > 2 * m.cam.roller_radius
+                                      else math.inf)),  # an undercut cam is refused by its check
         PairInfo("B", "roller-in-slot", "push-rod roller in the rocker slot",
                  lambda m: (0.2 * m.cam.roller_radius, "20 % of the roller radius")),
         PairInfo("C", "pin-in-bore", "connecting-rod pin on the left comb",

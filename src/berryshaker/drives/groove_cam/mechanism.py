@@ -4,8 +4,9 @@ Bodies: cam (driven clockwise at the cam speed), push rod (prismatic guide with 
 (pivot D, slot for roller B), connecting rod CF, right comb (pivot E).  A pair with a clearance > 0
 becomes a clearance joint with a contact law; a pair with zero clearance is the ideal joint
 (cam_roller, point_on_line, revolute).  The bush acts on each comb as the same viscoelastic moment as
-in the MLSD model.  Contact law default: the ADAMS IMPACT function the study used, with the pair's
-stiffness K_i (exponent 1, so K_i has the MLSD's units), cmax = C_i and full damping at 0.01 mm.
+in the MLSD model.  Contact law: the pair's resolved law (:meth:`MachineBase.pair_contact`): by default the
+steel line-contact power law from its geometry with Lankarani-Nikravesh hysteresis damping; a pair that gives
+its linear stiffness K_i keeps the ADAMS IMPACT function (cmax = C_i, full damping at 0.01 mm) of 0.1.0.
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ CAM_MASS = 8.0  # kg [assumed]; the cam is driven at constant speed, so its mass
 def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec:
     """Mechanism description of the groove-cam drive with its clearances (SI numbers).
 
-    Each clearance pair's contact law and parameters come from the machine description
-    (``[clearance.<pair>]``: law, stiffness, exponent, damping, damping_depth, restitution).
+    Each clearance pair's contact law and parameters are resolved from the machine description
+    (``[clearance.<pair>]``; :meth:`~berryshaker.drives.base.MachineBase.pair_contact`).
     """
     check_machine(machine)
     g = geometry_vector(machine)
@@ -62,9 +63,9 @@ def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec
     ]
 
     def contact(pair):
-        p = machine.clearance[pair]
-        return dict(law=p.law, stiffness=p.stiffness, exponent=p.exponent, damping=p.damping,
-                    damping_depth=p.damping_depth, restitution=p.restitution)
+        if machine.clearance[pair].size <= 0:  # an ideal joint: no contact law
+            return {}
+        return machine.pair_contact(pair).engine_contact()
 
     sizes = machine.clearance_sizes()
     pin_a = [-lab / 2, 0.0]

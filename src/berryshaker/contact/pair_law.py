@@ -1,0 +1,313 @@
+"""The contact law of one clearance pair, resolved from its geometry and materials (docs/contact.md sec. 6).
+
+A clearance pair of a machine description names its kind (pin in a bore, roller in a groove, roller in a
+slot), its size, the pin or roller diameter, the contact length and a material pair.  Unless the
+description gives the stiffness itself, :func:`resolve_pair_contact` turns these into the force law the
+engines use:
+
+* the elastic part F = K delta^n is the power law fitted (:func:`~berryshaker.contact.conformal.fit_power_law`)
+  to Johnson's line-contact relation of the two cylinders (:func:`~berryshaker.contact.conformal.pin_in_bore_law`
+  for a pin, :func:`~berryshaker.contact.conformal.roller_on_wall_law` for a roller), over the load range
+  :data:`FIT_FORCE_RANGE` of the reference machine's joints;
+* the dissipation is a hysteresis law (default :data:`DEFAULT_LAW`, Lankarani & Nikravesh 1990) with the
+  pair's coefficient of restitution, so no viscous coefficient or damping ramp is needed.
+
+Every resolved value carries a provenance tag: ``derived`` (computed here), ``assumed`` (a documented
+default), or the tag of the description's own line (``study``, ``assumed``, ``default`` if untagged).
+SI throughout.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from berryshaker.contact.conformal import (
+    CylinderContactLaw,
+    line_contact_load_limit,
+    material_constants,
+    pin_in_bore_law,
+    roller_on_wall_law,
+)
+from berryshaker.contact.stiffness import effective_modulus
+from berryshaker.errors import ConfigError
+
+#: the law of a pair that gives no law and no stiffness: hysteresis damping of Lankarani & Nikravesh (1990),
+#: the usual law of clearance-joint studies for metal contact with e close to 1 (Flores & Ambrosio 2004)
+DEFAULT_LAW = "lankarani_nikravesh"
+#: the law of a pair that gives its stiffness but no law (berryshaker 0.1.0 and 0.2 files): the ADAMS IMPACT
+#: function with exponent 1, as those versions used, so such files keep their results
+LEGACY_LAW = "impact"
+#: loads over which the power law is fitted to Johnson's relation (N) [assumed]: they span the collision
+#: forces of both reference machines with steel contact (docs/contact.md sec. 6)
+FIT_FORCE_RANGE = (100.0, 2.0e4)
+#: load at which the equivalent linear stiffness of the law is reported (N) [assumed]
+OPERATING_LOAD = 1.0e3
+#: pin or roller diameter when ``diameter`` is not given (m) [assumed] (the same as berryshaker.life)
+DEFAULT_DIAMETER = 0.020
+#: contact length when ``bearing_length`` is not given (m) [assumed] (the same as berryshaker.life)
+DEFAULT_BEARING_LENGTH = 0.020
+#: material pair when ``material_pair`` is not given [assumed] (the same as berryshaker.life)
+DEFAULT_MATERIAL_PAIR = "steel-on-bronze-greased"
+
+#: elastic materials (pin or roller, bore or wall) of the wear material pairs of
+#: :data:`berryshaker.contact.wear.MATERIAL_PAIRS`; the polymer pairs are absent on purpose: a steel pin in
+#: a polymer bush is a conformal contact outside Johnson's narrow-contact relation (give K and n instead)
+ELASTIC_MATERIALS: dict[str, tuple[str, str]] = {
+    "mild-steel-dry": ("steel", "steel"),
+    "hardened-steel-dry": ("steel", "steel"),
+    "brass-on-steel-dry": ("steel", "bronze"),  # 60/40 brass E ~ 100 GPa, as bronze within 10 % [typical]
+    "steel-steel-lubricated": ("steel", "steel"),
+    "steel-on-bronze-greased": ("steel", "bronze"),
+}
+
+
+@dataclass(frozen=True)
+class PairGeometry:
+    """What the contact law of a clearance pair depends on (SI), with the [assumed] defaults filled in.
+
+    Attributes
+    ----------
+    kind : str
+        ``"pin-in-bore"``, ``"roller-in-groove"`` or ``"roller-in-slot"``.
+    size : float
+        Radial clearance (pin) or free travel across the groove or slot (roller) (m).
+    diameter : float
+        Pin or roller diameter (m).
+    length : float
+        Axial contact length: bush length or roller width (m).
+    material_pair : str
+        Key of :data:`ELASTIC_MATERIALS`.
+    wall_radius : float
+        Roller pairs: radius of curvature of the wall (m): > 0 convex, < 0 concave, ``inf`` flat.
+    assumed : tuple of str
+        The fields filled in with the defaults of this module.
+    """
+
+    kind: str
+    size: float
+    diameter: float
+    length: float
+    material_pair: str
+    wall_radius: float = math.inf
+    assumed: tuple[str, ...] = ()
+
+
+def pair_geometry(kind, size, diameter=None, bearing_length=None, material_pair=None,
+                  wall_radius=math.inf) -> PairGeometry:
+    """:class:`PairGeometry` of a clearance pair, filling in :data:`DEFAULT_DIAMETER`,
+    :data:`DEFAULT_BEARING_LENGTH` and :data:`DEFAULT_MATERIAL_PAIR` where a value is ``None``."""
+    given = {"diameter": diameter, "bearing_length": bearing_length, "material_pair": material_pair}
+    assumed = [k for k, v in given.items() if v is None]
+    diameter = DEFAULT_DIAMETER if diameter is None else diameter
+    bearing_length = DEFAULT_BEARING_LENGTH if bearing_length is None else bearing_length
+    material_pair = DEFAULT_MATERIAL_PAIR if material_pair is None else material_pair
+    return PairGeometry(kind, float(size), float(diameter), float(bearing_length), str(material_pair),
+                        float(wall_radius), tuple(assumed))
+
+
+def fit_range_for(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> tuple[float, float]:
+    """The load range (N) Johnson's relation can be fitted over for this pair: ``force_range`` with its top
+    lowered to the model's limits where needed.
+
+    Returns
+    -------
+    (F_min, F_max)
+        F_max = min(force_range[1], F_lim / 10, F_arc): F_lim = 4 pi L E* dR / e^2 is where the logarithmic
+        relation stops being monotone (:func:`~berryshaker.contact.conformal.line_contact_load_limit`) and, for
+        a pin, F_arc the load at which the Hertz half-width reaches 0.35 R_pin (a contact arc of about 40 deg,
+        a^2 = 4 F R1 R2 / (pi L E* c)), the validity limits :func:`~berryshaker.contact.conformal.pin_in_bore_law`
+        enforces.  Small clearances (conformal contact) lower F_max; forces above it are extrapolated by the
+        power law.
+    """
+    m1, m2 = _materials(geom)
+    es = effective_modulus(*m1, *m2)
+    r1 = geom.diameter / 2
+    f_lo, f_hi = map(float, force_range)
+    if geom.kind == "pin-in-bore":
+        dr = geom.size
+        f_arc = 0.35**2 * r1**2 * math.pi * geom.length * es * dr / (4.0 * r1 * (r1 + dr))
+        f_hi = min(f_hi, 0.999 * f_arc)
+    elif math.isinf(geom.wall_radius):
+        dr = 2.0 * r1
+    else:
+        dr = r1 + geom.wall_radius if geom.wall_radius > 0 else -geom.wall_radius - r1
+    f_hi = min(f_hi, 0.0999 * line_contact_load_limit(geom.length, dr, es))
+    if not f_hi > 3.0 * f_lo:
+        raise ConfigError(f"the line-contact model of this {geom.kind} pair (size {geom.size * 1e3:g} mm) holds only "
+                          f"below {f_hi:.3g} N; give stiffness and exponent explicitly")
+    return f_lo, f_hi
+
+
+def _materials(geom: PairGeometry):
+    if geom.material_pair not in ELASTIC_MATERIALS:
+        raise ConfigError(f"material_pair {geom.material_pair!r} has no elastic line-contact law (known: "
+                          f"{', '.join(sorted(ELASTIC_MATERIALS))}); for a polymer bush give stiffness and "
+                          "exponent explicitly")
+    a, b = ELASTIC_MATERIALS[geom.material_pair]
+    return material_constants(a), material_constants(b)
+
+
+def geometric_contact_law(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> CylinderContactLaw:
+    """Johnson's line-contact law of a clearance pair and its power-law fit (docs/contact.md sec. 1-2).
+
+    Parameters
+    ----------
+    geom : PairGeometry
+        The pair; ``size`` > 0 for a pin (the radial clearance is Johnson's dR).
+    force_range : (float, float)
+        Loads to fit over (N), narrowed by :func:`fit_range_for`.
+
+    Returns
+    -------
+    CylinderContactLaw
+        Pin in bore: dR = c (internal contact, :func:`~berryshaker.contact.conformal.pin_in_bore_law`).
+        Roller in a groove: the wall of radius ``wall_radius`` (convex inner wall of a cam groove > 0).
+        Roller in a slot: a flat wall, compression referred to a depth 2 R_roller
+        (:func:`~berryshaker.contact.conformal.roller_on_wall_law`).
+
+    References
+    ----------
+    K. L. Johnson, *Contact Mechanics*, 1985, ch. 5; C. M. Pereira, A. L. Ramalho, J. A. Ambrosio,
+    Nonlinear Dyn. 63 (2011) 681-697.
+    """
+    m1, m2 = _materials(geom)
+    rng = fit_range_for(geom, force_range)
+    if geom.kind == "pin-in-bore":
+        if not geom.size > 0:
+            raise ConfigError("a pin-in-bore pair with zero clearance is an ideal joint: it has no contact law")
+        return pin_in_bore_law(geom.diameter / 2, geom.size, geom.length, m1, m2, rng)
+    if geom.kind in ("roller-in-groove", "roller-in-slot"):
+        return roller_on_wall_law(geom.diameter / 2, geom.length, geom.wall_radius, m1, m2, rng)
+    raise ConfigError(f"unknown clearance pair kind {geom.kind!r}")
+
+
+@dataclass(frozen=True)
+class PairContact:
+    """The contact law a clearance pair runs with, every parameter resolved (SI) and tagged.
+
+    Attributes
+    ----------
+    law : str
+        Name in :mod:`berryshaker.contact.laws`.
+    stiffness, exponent : float
+        K (N/m^n) and n of the elastic part F = K delta^n.
+    damping : float
+        Viscous coefficient (``mlsd``) or cmax (``impact``), N s/m; 0 where the law does not use it.
+    damping_depth : float
+        Penetration at which ``impact`` reaches full damping (m).
+    restitution : float
+        Coefficient of restitution of the hysteresis laws.
+    tags : dict
+        Provenance tag per parameter (``derived``, ``assumed``, ``study``, ``default``, ...).
+    geometry : PairGeometry or None
+        What the law was derived from (None: the description gave the stiffness).
+    fit_force_range : (float, float) or None
+        Loads of the power-law fit (N).
+    fit_error : float or None
+        Worst relative force error of the fit over that range.
+    tangent_stiffness, secant_stiffness : float
+        dF/d(delta) and F/delta of the law at :data:`OPERATING_LOAD` (N/m): the linear springs it compares with.
+    """
+
+    law: str
+    stiffness: float
+    exponent: float
+    damping: float
+    damping_depth: float
+    restitution: float
+    tags: dict = field(default_factory=dict)
+    geometry: PairGeometry | None = None
+    fit_force_range: tuple[float, float] | None = None
+    fit_error: float | None = None
+    tangent_stiffness: float = float("nan")
+    secant_stiffness: float = float("nan")
+
+    def engine_contact(self) -> dict:
+        """The ``contact`` table of a clearance joint of :mod:`berryshaker.multibody.spec` (SI)."""
+        return dict(law=self.law, stiffness=self.stiffness, exponent=self.exponent, damping=self.damping,
+                    damping_depth=self.damping_depth, restitution=self.restitution)
+
+    def uses(self, parameter: str) -> bool:
+        """True if the law reads ``parameter`` (a key of :data:`berryshaker.contact.laws.LAW_PARAMETERS`)."""
+        from berryshaker.contact.laws import get_law
+
+        return parameter in get_law(self.law).uses
+
+
+def _at_load(k, n, load):
+    """(tangent, secant) stiffness (N/m) of F = K delta^n at load F: delta = (F/K)^(1/n)."""
+    d = (load / k) ** (1.0 / n)
+    return n * load / d, load / d
+
+
+def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None, damping=None,
+                         damping_depth=1e-5, restitution=0.9, tags=None, field_prefix="clearance") -> PairContact:
+    """Resolve the contact law of a clearance pair (docs/contact.md sec. 6).
+
+    Parameters
+    ----------
+    law : str
+        Registered law name.
+    geom : PairGeometry
+        The pair's geometry and materials (used when ``stiffness`` is None).
+    stiffness, exponent : float or None
+        Given by the description (K in N/m^n, n); None: from geometry.  A given stiffness without an exponent
+        has n = 1 (the linear springs of 0.1.0 files).  An exponent without a stiffness is refused.
+    damping : float or None
+        N s/m; required by the laws that use it (``mlsd``, ``impact``).
+    damping_depth, restitution : float
+        As in :class:`berryshaker.drives.base.ClearancePair`.
+    tags : dict, optional
+        Provenance of the description's own values, per parameter name.
+    field_prefix : str
+        ``clearance.<pair>`` for error messages.
+
+    Returns
+    -------
+    PairContact
+        Geometry: K and n of the power law fitted to Johnson's relation (:func:`geometric_contact_law`),
+        ``derived``.  For the linear law ``mlsd`` with no stiffness: the secant stiffness at
+        :data:`OPERATING_LOAD`, n = 1 (``derived``).
+
+    Raises
+    ------
+    ConfigError
+        Missing damping for a viscous law, an exponent without stiffness, or a geometry outside the model.
+    """
+    from berryshaker.contact.laws import get_law
+
+    tags = dict(tags or {})
+    spec = get_law(law)
+    out_tags = {"law": tags.get("law", "default")}
+    geometry = fit_rng = fit_err = None
+    if stiffness is None:
+        if exponent is not None:
+            raise ConfigError(f"{field_prefix}.exponent is set but stiffness is not: give both, or neither (then K "
+                              "and n come from the pair's geometry and materials)")
+        cl = geometric_contact_law(geom)
+        geometry, fit_rng, fit_err = geom, cl.fit.force_range, cl.fit.max_relative_error
+        if law == "mlsd":  # a linear law: the secant stiffness at the operating load
+            k, n = float(cl.secant_stiffness(OPERATING_LOAD)), 1.0
+        else:
+            k, n = cl.fit.stiffness, cl.fit.exponent
+        out_tags.update(stiffness="derived", exponent="derived")
+    else:
+        k = float(stiffness)
+        n = 1.0 if exponent is None else float(exponent)
+        out_tags.update(stiffness=tags.get("stiffness", "default"),
+                        exponent=tags.get("exponent", "default"))
+    if "damping" in spec.uses:
+        if damping is None:
+            raise ConfigError(f"{field_prefix}.damping: the {law!r} law needs a damping coefficient (N s/m), e.g. "
+                              f"damping = \"2000 N*s/m\"; or use law = \"{DEFAULT_LAW}\" (restitution only)")
+        c = float(damping)
+        out_tags["damping"] = tags.get("damping", "default")
+    else:
+        c = 0.0
+    out_tags["damping_depth"] = tags.get("damping_depth", "default")
+    out_tags["restitution"] = tags.get("restitution", "default")
+    kt, ks = _at_load(k, n, OPERATING_LOAD)
+    return PairContact(law=law, stiffness=k, exponent=n, damping=c, damping_depth=float(damping_depth),
+                       restitution=float(restitution), tags=out_tags, geometry=geometry, fit_force_range=fit_rng,
+                       fit_error=fit_err, tangent_stiffness=kt, secant_stiffness=ks)
