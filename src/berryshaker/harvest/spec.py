@@ -26,7 +26,7 @@ class HarvestSpec(_Strict):
     seed: int = 2024
     # replicates of each virtual test run (docs/harvest.md, "Replicates"): replicate k uses seed + 1000 k for
     # its bushes and for its machine's initial state (clearance eccentricities, drive phase at the bush)
-    replicates: int = Field(5, ge=2)
+    replicates: int = Field(3, ge=2)
     initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
     start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]
     tolerance_replicates: int = Field(2, ge=0)  # replicates re-run at rtol 1e-7 for the tolerance check
