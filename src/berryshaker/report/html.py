@@ -163,6 +163,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
+        if opt.get("statement"):
+            parts.append(f"<p class='small'>{html.escape(opt['statement'])} Index values: means of the replicates "
+                         "(section 6 gives their intervals and the trade-off table).</p>")
     # kinematics
     parts.append("<h2>1. Kinematics of the drive (eq. 1-3)</h2>")
     krows = []
