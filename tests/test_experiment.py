@@ -215,28 +215,6 @@ def test_stored_harvest_calibration_reproduces_the_study_values(machine):
     assert r["unripe_rate_pct"] < 3.1
 
 
-def test_doe_virtual_json(fast_machine, tmp_path):
-    import tomllib
-
-    from berryshaker.config import reference_toml_text
-
-    # a config file with the fast harvest settings
-    text = reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
-        "bushes = 40 ", "bushes = 15 ")
-    assert tomllib.loads(text)["harvest"]["branch_classes"] == [1.0]
-    cfg = tmp_path / "fast.toml"
-    cfg.write_text(text)
-    r = runner.invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2",
-                            "--cache", str(tmp_path / "cache")])
-    assert r.exit_code == 0, r.output
-    s = json.loads(r.stdout)
-    assert len(s["runs"]) == 9
-    assert s["recommended"]["study"]["code"] == "A1B1C1F3"
-    assert set(s["recommended"]["levels"]) == set("ABCF")
-    for name in ("efficiency", "unripe", "damage"):
-        assert set(s["responses"][name]["factors"]) == set("ABCF")
-
-
 def test_published_l9_example_yang_el_haik():
     """K. Yang, B. El-Haik, *Design for Six Sigma: A Roadmap for Product Development*, McGraw-Hill 2003,
     ch. 13 (Taguchi's orthogonal array experiment, pp. 487 and 491): L9 with A in column 1, B in column 2,

@@ -26,7 +26,8 @@ runner_cli = CliRunner()
 @pytest.fixture(scope="module")
 def fast_config(tmp_path_factory):
     text = reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
-        "bushes = 40 ", "bushes = 15 ")
+        "bushes = 40 ", "bushes = 15 ").replace("replicates = 3 ", "replicates = 2 ").replace(
+        "tolerance_replicates = 2 ", "tolerance_replicates = 1 ")
     p = tmp_path_factory.mktemp("cfg") / "fast.toml"
     p.write_text(text)
     return p

@@ -256,10 +256,26 @@ def doe_virtual(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=2, help="Replicates per run (>= 2; default "
+                                             "harvest.replicates in the description)."),
 ):
-    """The study's L9 clearance test run through the virtual harvest and analysed like field data.
+    """The study's L9 clearance test run through the virtual harvest, replicated, and analysed against its noise.
 
-    The 27 coupled machine-plant runs go through the cached sweep runner (a repeat is instant).
+    Each of the 9 runs is replicated (harvest.replicates, or --replicates): replicate k uses seed + 1000 k for
+    the bushes and for the machine's initial state (eccentricity in every clearance, drive phase at the bush);
+    one coupled run per branch class and replicate goes through the cached sweep runner (a repeat is instant).
+
+    --json keys: runs (levels, clearance_mm, replicate means of efficiency/unripe/damage, replicates: per
+    response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the pure
+    error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
+    optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
+    rule in method); recommended (levels, code, clearance_mm, virtual_harvest, replicates, basis per factor,
+    rule, statement); tolerance_check (rtol 1e-6 vs 1e-7: per response max_abs_change, replicate_sd,
+    within_replicate_spread; statement); tradeoff (one row per candidate: name, clearance_mm:<pair>, efficiency,
+    ripe_removal, unripe, unripe_shed, damage, peak_force_N:<pair>, drive_torque_peak_Nm, drive_torque_rms_Nm,
+    each with _lo/_hi (95 % interval); dominated, dominated_by); tradeoff_columns; response_units.
+    Responses: efficiency (kg/min), ripe_removal (%), unripe (% of the picked mass), unripe_shed (% of the unripe
+    mass), damage (%), peak_force_<pair> (N), drive_torque_peak and drive_torque_rms (N m).
     """
     try:
         from berryshaker.runs.runner import SweepRunner
@@ -272,7 +288,7 @@ def doe_virtual(
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
-        res = virtual_l9(machine, runner)
+        res = virtual_l9(machine, runner, replicates)
         res["version"] = __version__
         if plot is not None:
             import numpy as np
@@ -307,6 +323,28 @@ def doe_virtual(
                   f"{r['unripe']:.2f} %", f"{r['damage']:.2f} %")
     out.print(t)
     _print_doe(res)
+    _print_tradeoff(res)
     rec = res["recommended"]
     out.print(f"recommended {rec['code']} ({', '.join(f'{k} {v} mm' for k, v in rec['clearance_mm'].items())}); "
               f"study: {rec['study']['code']}")
+    out.print(rec.get("statement", ""), markup=False, highlight=False)
+    tc = res.get("tolerance_check") or {}
+    if tc.get("done"):
+        out.print(f"solver tolerance: {tc['statement']}", markup=False, highlight=False)
+
+
+def _print_tradeoff(res: dict) -> None:
+    """The trade-off table: mean [95 % interval] of each column per candidate."""
+    recs = res.get("tradeoff") or []
+    if not recs:
+        return
+    cols = [c for c in res.get("tradeoff_columns", []) if c in recs[0] and not c.endswith(("_lo", "_hi"))
+            and not c.startswith("clearance") and c not in ("name", "dominated", "dominated_by", "unripe_shed")]
+    t = Table(title="Trade-off (mean [95 % interval]); * = dominated beyond noise", header_style="bold")
+    t.add_column("candidate")
+    for c in cols:
+        t.add_column(c, justify="right")
+    for r in recs:
+        t.add_row(r["name"] + (" *" if r.get("dominated") else ""),
+                  *[f"{r[c]:.4g} [{r.get(c + '_lo', r[c]):.4g}, {r.get(c + '_hi', r[c]):.4g}]" for c in cols])
+    out.print(t)

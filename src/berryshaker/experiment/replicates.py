@@ -157,7 +157,7 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
                        responses_replicated: dict[str, np.ndarray], senses: dict[str, bool],
                        weights: dict[str, float] | None = None, *, alpha: float = 0.05, confidence: float = 0.95,
                        level_values: dict[str, tuple[float, ...] | None] | None = None,
-                       units: dict[str, str] | None = None) -> dict:
+                       units: dict[str, str] | None = None, fallback_weights: dict[str, float] | None = None) -> dict:
     """Analysis of a replicated orthogonal test, with every effect judged against the replicate noise.
 
     Parameters
@@ -179,6 +179,10 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
         Level of the intervals.
     level_values, units : dict, optional
         Level values and units per factor (reported, see :func:`factor_levels_report`).
+    fallback_weights : dict name -> float, optional
+        Second-tier responses (e.g. machine loads when the primary ones are harvest indexes): they decide a
+        factor's level only where the weighted (primary) responses show no significant difference, or
+        cannot tell the best levels apart (:data:`TIERED_RULE`).
 
     Returns
     -------
@@ -252,14 +256,17 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
             "regression": reg,
         }
     out["optimum"] = _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence)
+    if fallback_weights:
+        wf = check_weights(fallback_weights, reps)
+        out["fallback_weights"] = wf
+        fb = _weighted_optimum(levels, factor_names, reps, senses, wf, out, alpha, confidence)
+        out["optimum"] = _tiered_optimum(out["optimum"], fb, factor_names, reps, out, confidence)
     out["notes"] = notes
     return out
 
 
 def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence) -> dict:
     """Per factor: a level chosen from the responses it significantly affects, or no meaningful difference."""
-    from scipy import stats
-
     n, r = next(iter(reps.values())).shape
     scale = {}
     for name, y in reps.items():
@@ -306,6 +313,24 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
                       "reason": "; ".join(parts), "significant_responses": sig, "equivalent_levels": equivalent,
                       "composite_level_means": means}
         chosen[f] = ks[b]
+    pred, intervals = _predict(factor_names, reps, out, chosen, confidence)
+    return {"levels": chosen, "settings": {f: c["setting"] for f, c in choices.items()}, "choices": choices,
+            "values": pred, "intervals": intervals, "weights": w,
+            "method": ("per factor, a weighted sum of the responses whose effect of that factor is significant, each "
+                       "signed (+ maximise, - minimise) and divided by its range of run means over the design; "
+                       "responses without a significant effect contribute nothing"),
+            "prediction": PREDICTION_RULE}
+
+
+PREDICTION_RULE = ("additive model: grand mean + level-mean deviations of the factors significant for the response at "
+                   "the chosen levels (others averaged); interval from the pure error with Taguchi's effective number "
+                   "of replications N / (1 + dof of the factors used)")
+
+
+def _predict(factor_names, reps, out, chosen, confidence) -> tuple[dict, dict]:
+    """Predicted response means at the chosen levels (``None``: the factor is averaged) with intervals."""
+    from scipy import stats
+
     # predicted response means at the choice: additive model over the factors significant for the response
     pred, intervals = {}, {}
     for name, y in reps.items():
@@ -321,14 +346,50 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
         hw = t * float(np.sqrt(pe["ms"] / n_eff))
         pred[name] = float(val)
         intervals[name] = [float(val - hw), float(val + hw)]
+    return pred, intervals
+
+
+TIERED_RULE = ("two tiers, never ranking noise: per factor, the primary responses (weighted) whose effect of that factor "
+               "is significant choose the level; where they cannot tell several levels apart (Tukey-Kramer) or no "
+               "primary response differs significantly, the fallback responses that do differ significantly decide "
+               "(among the primary's indistinguishable levels, or among all levels); where nothing differs "
+               "significantly the factor is 'no meaningful difference' (level None). Each tier's composite divides a "
+               "response by its range of run means over the whole design (fixed per response), so a noise-sized "
+               "level difference is never stretched to full weight, and a response without a significant effect of "
+               "the factor has weight zero for it")
+
+
+def _tiered_optimum(primary: dict, fallback: dict, factor_names, reps, out, confidence) -> dict:
+    """Merge a primary and a fallback :func:`_weighted_optimum` per factor (:data:`TIERED_RULE`)."""
+    choices, chosen = {}, {}
+    for f in factor_names:
+        p, s = primary["choices"][f], fallback["choices"][f]
+        if p["level"] is not None:
+            eq = p["equivalent_levels"]
+            if len(eq) > 1 and s["level"] is not None:
+                ks = sorted(int(v) for v in out["factors"][f]["level_numbers"])
+                means = s["composite_level_means"]
+                best = max(eq, key=lambda k: means[ks.index(k)])
+                c = dict(p, level=best, setting=out["factors"][f]["labels"][ks.index(best)], tier="primary + fallback",
+                         status=(f"primary responses cannot tell levels {', '.join(map(str, eq))} apart; the fallback "
+                                 f"responses choose level {best} among them"),
+                         reason=p["reason"] + " | fallback: " + s["reason"])
+            else:
+                c = dict(p, tier="primary")
+        elif s["level"] is not None:
+            c = dict(s, tier="fallback",
+                     status=f"primary responses do not differ; fallback responses choose: {s['status']}",
+                     reason="primary: " + p["reason"] + " | fallback: " + s["reason"])
+        else:
+            c = dict(p, tier="none", reason="primary: " + p["reason"] + " | fallback: " + s["reason"])
+        choices[f] = c
+        chosen[f] = c["level"]
+    pred, intervals = _predict(factor_names, reps, out, chosen, confidence)
     return {"levels": chosen, "settings": {f: c["setting"] for f, c in choices.items()}, "choices": choices,
-            "values": pred, "intervals": intervals,
-            "method": ("per factor, a weighted sum of the responses whose effect of that factor is significant, each "
-                       "signed (+ maximise, - minimise) and divided by its range of run means over the design; "
-                       "responses without a significant effect contribute nothing"),
-            "prediction": ("additive model: grand mean + level-mean deviations of the factors significant for the "
-                           "response at the chosen levels (others averaged); interval from the pure error with "
-                           "Taguchi's effective number of replications N / (1 + dof of the factors used)")}
+            "values": pred, "intervals": intervals, "weights": primary["weights"],
+            "fallback_weights": fallback["weights"], "method": TIERED_RULE, "prediction": PREDICTION_RULE,
+            "primary": {k: primary[k] for k in ("levels", "choices")},
+            "fallback": {k: fallback[k] for k in ("levels", "choices")}}
 
 
 def describe_replicated(res: dict) -> str:

@@ -269,7 +269,7 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
 
 
 def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = 1e-6,
-                         output_step: float = 2e-5) -> FruitForceResult:
+                         output_step: float = 2e-5, initial_perturbation=None) -> FruitForceResult:
     """Drive the harvester past one branch and record the fruit harvesting force.
 
     With the pedicel model (default) the force is the stem force of a fruit on a compliant stem
@@ -277,9 +277,11 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     post-processing with ``pedicel.coupling = "one_way"``; axial: one-way, from the branch's
     foreshortening); with ``plant.fruit.pedicel.rigid`` it is the study's
     eq. 16, m0 x branch acceleration at the fruit.  Both are returned (``rigid_force`` is always eq. 16).
+    ``initial_perturbation`` (berryshaker.multibody.engine.InitialPerturbation or RandomInitialPerturbation):
+    start the machine off centre in its clearances and at another drive phase (replicate runs).
     """
     spec, machine = coupled_mechanism(machine, clearance)
-    res = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
+    res = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)
     pl = machine.plant
     modes, fb = plant_modes(machine)
     motion = branch_motion(res, modes)

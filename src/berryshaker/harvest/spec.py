@@ -7,7 +7,7 @@ from typing import Annotated
 
 from pydantic import BeforeValidator, Field
 
-from berryshaker.quantity_fields import _d, _q
+from berryshaker.quantity_fields import NonNegAngle, _d, _q
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 
@@ -24,3 +24,9 @@ class HarvestSpec(_Strict):
     damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
     bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run
     seed: int = 2024
+    # replicates of each virtual test run (docs/harvest.md, "Replicates"): replicate k uses seed + 1000 k for
+    # its bushes and for its machine's initial state (clearance eccentricities, drive phase at the bush)
+    replicates: int = Field(3, ge=2)
+    initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
+    start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]
+    tolerance_replicates: int = Field(2, ge=0)  # replicates re-run at rtol 1e-7 for the tolerance check

@@ -58,7 +58,19 @@ MASS_FACTORS = np.exp(np.linspace(math.log(0.4), math.log(2.5), 9))
 
 
 def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
-    """Peak stem force (N) of fruit on compliant pedicels, table over Z_GRID (rows) x MASS_FACTORS * m0.
+    """Peak stem force (N) of fruit on compliant pedicels, table over Z_GRID (rows) x MASS_FACTORS * m0
+    (:func:`stem_force_envelope_run` from the centred initial state)."""
+    return stem_force_envelope_run(machine, clearance, scale)[0]
+
+
+def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None, scale: float,
+                            initial_perturbation=None, rtol: float = 1e-6):
+    """Peak stem-force table of one branch class and the coupled run it came from: ``(table, FruitForceResult)``.
+
+    Table: peak stem force (N) of fruit on compliant pedicels over Z_GRID (rows) x MASS_FACTORS * m0.
+    ``initial_perturbation`` and ``rtol`` go to the coupled run
+    (:func:`berryshaker.harvest.coupled.simulate_fruit_force`): a replicate starts the machine off centre in
+    its clearances and at another drive phase.
 
     One coupled drive-past run for the branch class ``scale`` (diameters scaled); the fruit is one-way
     coupled, so every (position, mass) is a post-processing of the same branch motion
@@ -71,7 +83,7 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
     d["plant"]["branch"]["root_diameter"] *= scale
     d["plant"]["branch"]["tip_diameter"] *= scale
     m = machine_from_dict(d)
-    res = simulate_fruit_force(m, clearance)
+    res = simulate_fruit_force(m, clearance, rtol=rtol, initial_perturbation=initial_perturbation)
     pl = m.plant
     # every 5th sample (1e-4 s): peak stem forces change by < 1e-4 relative against the full 2e-5 s grid
     motion = res.motion.every(5)
@@ -79,13 +91,13 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
     masses = MASS_FACTORS * pl.fruit.mass
     if pl.fruit.pedicel.rigid:
         a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
-        return np.outer(a, masses)
+        return np.outer(a, masses), res
     table = np.zeros((len(z), len(masses)))
     y, v, _ = motion.lateral(z)
     at = (y, v, *motion.axial(z))
     for j, mj in enumerate(masses):
         table[:, j] = np.max(stem_forces(motion, at, mj, pl.fruit.pedicel)[2], axis=1)
-    return table
+    return table, res
 
 
 def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:

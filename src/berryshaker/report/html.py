@@ -163,6 +163,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
+        if opt.get("statement"):
+            parts.append(f"<p class='small'>{html.escape(opt['statement'])} Index values: means of the replicates "
+                         "(section 6 gives their intervals and the trade-off table).</p>")
     # kinematics
     parts.append("<h2>1. Kinematics of the drive (eq. 1-3)</h2>")
     krows = []
@@ -261,6 +264,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
         parts.append(f"<pre>{html.escape(rep.get('text', ''))}</pre>")
+        parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
         _maybe_img(parts, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
@@ -310,6 +314,75 @@ def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
     parts.append(f"<p>{html.escape(pw['finding'])} Energy lost per revolution is the work of each joint's contact "
                  "damping and friction, integrated with the motion; the audit residual is |motor work - kinetic, "
                  "stored and dissipated energy| / motor work over revolutions 2-3.</p>")
+
+
+def _ci_text(est: dict | None, digits: int = 4) -> str:
+    """"m +- h [lo, hi]" of a {mean, sd, ci} estimate (h: half-width of the interval)."""
+    if not est:
+        return ""
+    lo, hi = est["ci"]
+    return f"{est['mean']:.{digits}g} [{lo:.{digits}g}, {hi:.{digits}g}]"
+
+
+def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
+    """Replicate spread, significance, the recommendation's basis, the solver-tolerance check and the trade-off
+    table of the virtual L9 (study/l9.py), as HTML parts."""
+    rep = l9.get("replicated") or {}
+    units = l9.get("response_units") or rep.get("units") or {}
+    parts = []
+    pert = rep.get("perturbation")
+    if pert:
+        parts.append(f"<p class='small'>Replicates: {html.escape(pert['what'])}.</p>")
+    rows = []
+    for name, ra in rep.get("responses", {}).items():
+        sd = ra["anova"]["pure_error"]["ms"] ** 0.5
+        sig = ", ".join(f"{f} (p = {ra['factors'][f]['p']:.2g})" for f in ra["significant_factors"]) or "none"
+        rows.append([name, units.get(name, ""), float(sum(ra["run_means"]) / len(ra["run_means"])), sd,
+                     ra["anova"]["pure_error"]["df"], sig])
+    if rows:
+        parts.append("<h3>Replicate spread and significance</h3>")
+        parts.append(_table(["response", "unit", "grand mean", "replicate SD (pooled)", "dof", "significant factors"],
+                            rows, left=(0, 1, 5)))
+    rec = l9.get("recommended") or {}
+    if rec.get("statement"):
+        parts.append("<h3>Recommendation and its basis</h3>")
+        parts.append(f"<p><b>{html.escape(rec['code'])}</b>: {html.escape(rec['statement'])}</p>")
+        parts.append(_table(["factor", "level", "basis"], [[p, rec["levels"][p], rec["basis"][p]]
+                                                          for p in pair_names if p in rec.get("basis", {})],
+                            left=(0, 2)))
+        parts.append(f"<p class='small'>Rule: {html.escape(rec.get('rule', ''))}.</p>")
+    tc = l9.get("tolerance_check") or {}
+    if tc.get("done"):
+        parts.append("<h3>Solver-tolerance check</h3>")
+        parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
+                     "re-run at rtol 1e-7).</p>")
+        parts.append(_table(["response", "largest change 1e-6 -> 1e-7", "replicate SD", "within"],
+                            [[n, v["max_abs_change"], v["replicate_sd"], v["within_replicate_spread"]]
+                             for n, v in tc["responses"].items()]))
+    elif tc:
+        parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.get('reason', ''))}.</p>")
+    recs = l9.get("tradeoff") or []
+    if recs:
+        parts.append("<h3>Trade-off of the candidate clearance sets</h3>")
+        forces = [f"peak_force_N:{p}" for p in pair_names if f"peak_force_N:{p}" in recs[0]]
+        idx = [n for n in ("efficiency", "ripe_removal", "unripe", "damage") if n in recs[0]]
+        tq = [c for c in ("drive_torque_peak_Nm", "drive_torque_rms_Nm") if c in recs[0]]
+
+        def cell(r, c):
+            return _ci_text({"mean": r[c], "ci": [r.get(f"{c}_lo", r[c]), r.get(f"{c}_hi", r[c])]})
+
+        header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx]
+                  + [f"peak force {c.split(':')[1]} (N)" for c in forces]
+                  + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)] + ["dominated by"])
+        body = [[r["name"]] + [cell(r, c) for c in idx + forces + tq] + [r.get("dominated_by") or "-"] for r in recs]
+        parts.append(_table(header, body, left=(0, len(header) - 1)))
+        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean].  A candidate is "
+                     "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
+                     "one (experiment/tradeoff.py); clearances are descriptive.</p>")
+    _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
+    _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
+    _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    return parts
 
 
 def doe_report(res: dict, title: str) -> str:

@@ -694,3 +694,82 @@ def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     plot_groove(pitch, inner, outer, machine.cam.base_radius, folder / "groove_profile.png")
     plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
     return ["svaj.png", "groove_profile.png", "comb_angles.png"]
+
+
+def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_figure: bool = False) -> dict:
+    """Trade-off of the candidate clearance sets: picking efficiency (mean and 95 % interval) against the
+    largest peak collision force over the joints and against the peak drive torque (means and intervals).
+
+    Parameters
+    ----------
+    records : list of dict
+        Rows of :func:`berryshaker.study.l9.tradeoff_records` (``efficiency``, ``efficiency_lo``/``_hi``,
+        ``peak_force_N:<joint>`` with ``_lo``/``_hi``, ``drive_torque_peak_Nm``, ``dominated``, ``name``).
+        Filled markers: not dominated beyond noise; open: dominated.
+
+    Returns
+    -------
+    dict
+        ``points``: per candidate the x/y values drawn in each panel; ``path``.
+    """
+    forces = sorted({k for r in records for k in r if k.startswith("peak_force_N:") and not k.endswith(("_lo", "_hi"))})
+    panels = [("largest peak collision force [N]", "force")]
+    if all("drive_torque_peak_Nm" in r for r in records):
+        panels.append(("peak drive torque [N m]", "torque"))
+    fig, axes = new_figure(1, len(panels), figsize=(5.2 * len(panels) + 1.8, 4.2), squeeze=False, sharey="row")
+    data = {"points": []}
+    for i, rec in enumerate(records):
+        y = rec["efficiency"]
+        yerr = [[y - rec.get("efficiency_lo", y)], [rec.get("efficiency_hi", y) - y]]
+        label = rec["name"].split(" (")[0]
+        point = {"name": rec["name"], "efficiency": y}
+        for j, (_, kind) in enumerate(panels):
+            if kind == "force":
+                key = max(forces, key=lambda k: rec[k])
+            else:
+                key = "drive_torque_peak_Nm"
+            x = rec[key]
+            xerr = [[x - rec.get(f"{key}_lo", x)], [rec.get(f"{key}_hi", x) - x]]
+            colour = PAIR_COLOURS.get(key.split(":")[-1], SERIES_COLOURS[0]) if kind == "force" else SERIES_COLOURS[1]
+            ax = axes[0, j]
+            ax.errorbar([x], [y], xerr=xerr, yerr=yerr, fmt="o", ms=6, capsize=3, color=colour,
+                        mfc="white" if rec.get("dominated") else colour)
+            ax.annotate(label + (" *" if "recommended" in rec["name"] else ""), (x, y), textcoords="offset points",
+                        xytext=(4, 4), fontsize=7)
+            point[kind] = {"column": key, "x": x}
+        data["points"].append(point)
+    for j, (xl, kind) in enumerate(panels):
+        ax = axes[0, j]
+        ax.grid(alpha=0.3)
+        label_axes(ax, xl, "picking efficiency [kg/min]" if j == 0 else None)
+        plain_ticks(ax)
+    from matplotlib.lines import Line2D
+
+    handles = [Line2D([], [], ls="none", marker="o", color="#555555", label="not dominated beyond noise"),
+               Line2D([], [], ls="none", marker="o", color="#555555", mfc="white", label="dominated beyond noise"),
+               Line2D([], [], color="#555555", label="95 % interval of the replicate mean")]
+    handles += [Line2D([], [], ls="none", marker="o", color=PAIR_COLOURS.get(k.split(":")[-1], SERIES_COLOURS[0]),
+                       label=f"force at joint {k.split(':')[-1]}") for k in forces]
+    legend_outside(axes[0, -1], handles=handles, labels=[h.get_label() for h in handles])
+    fig.suptitle(title or "Trade-off of the candidate clearance sets (* = recommended)", fontsize=9)
+    return _out(fig, path, data, return_figure, dpi=100)
+
+
+def plot_replicated_effects(rep: dict, responses: list[str], path: Path, title: str = "", *,
+                            level_values: dict | None = None, units: dict | None = None,
+                            return_figure: bool = False) -> dict:
+    """Main effects of a replicated test with 95 % intervals of the level means (pure error, t with its dof).
+
+    ``rep``: :func:`berryshaker.experiment.replicates.analyze_replicated` output; ``responses``: which rows to
+    draw.  Drawn by :func:`plot_main_effects` with the interval half-widths as error bars (the grey band is
+    grand mean +- one half-width: level means inside it do not differ from the average beyond noise).
+    """
+    sub = {"responses": {n: rep["responses"][n] for n in responses if n in rep["responses"]},
+           "factors": rep.get("factors", {})}
+    errors = {n: {f: [(hi - lo) / 2 for lo, hi in d["level_ci"]] for f, d in ra["factors"].items()}
+              for n, ra in sub["responses"].items()}
+    conf = 100 * rep.get("confidence", 0.95)
+    return plot_main_effects(sub, path, (title or "Main effects") + f" (error bars: {conf:g} % interval of the level "
+                             f"mean from the pure error, {rep['runs']} runs x {rep['replicates']} replicates)",
+                             level_values=level_values, response_units=units, errors=errors,
+                             return_figure=return_figure)

@@ -1,81 +1,281 @@
-"""The study's L9 field test run through the virtual harvest and analysed exactly like field data."""
+"""The study's L9 field test run through the virtual harvest, replicated, and analysed against its own noise.
+
+Replicates (docs/harvest.md, "Replicates"): replicate k of every run uses the seed ``harvest.seed + 1000 k``
+for its bushes (population) *and* for the machine's initial state in each branch class's coupled drive-past
+(random eccentricity inside every clearance, random drive phase when the comb reaches the bush:
+:class:`berryshaker.multibody.engine.RandomInitialPerturbation`).  The same seeds are used for every run
+(common random numbers), so differences between clearance sets are not confounded with different luck; the
+pure-error test is then conservative (the replicate-to-replicate part shared by all runs cancels from the
+effects but stays in the error).
+
+Every response (harvest indexes and machine loads) carries its mean, replicate standard deviation and 95 %
+interval per run; range analysis and ANOVA use the pure (replicate) error; the recommendation is tiered
+(:data:`berryshaker.experiment.replicates.TIERED_RULE`): harvest indexes first, machine loads where the
+harvest indexes do not differ, and the configured clearance where nothing differs.
+"""
 
 from __future__ import annotations
+
+import json
+import math
 
 import numpy as np
 
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
-from berryshaker.study.runs import envelope_run
+from berryshaker.study.runs import replicate_run
+
+#: harvest responses: name -> (key of harvest_indexes, factor to the reported unit, unit, larger is better)
+HARVEST_RESPONSES = {
+    "efficiency": ("efficiency_kg_min", 1.0, "kg/min", True),
+    "ripe_removal": ("ripe_picked_fraction", 100.0, "%", True),
+    "unripe": ("unripe_rate_pct", 1.0, "%", False),
+    "unripe_shed": ("unripe_shed_fraction", 100.0, "%", False),
+    "damage": ("damage_rate_pct", 1.0, "%", False),
+}
+#: tolerances of the solver-tolerance check (the runs' own, and the tighter one)
+RTOL_RUN, RTOL_CHECK = 1e-6, 1e-7
+CONFIDENCE = 0.95
 
 
-def virtual_l9(machine, runner) -> dict:
-    """The L9 over the machine's clearance pairs through the virtual harvest (envelopes via the sweep runner),
-    analysed like field data; the recommended combination is run through the virtual harvest itself."""
+def load_responses(pairs) -> list[str]:
+    """Names of the machine-load responses: peak collision force per pair, drive torque peak and RMS."""
+    return [f"peak_force_{p}" for p in pairs] + ["drive_torque_peak", "drive_torque_rms"]
+
+
+def response_units(pairs) -> dict[str, str]:
+    """Unit of every response of the replicated L9."""
+    return {**{k: v[2] for k, v in HARVEST_RESPONSES.items()}, **{f"peak_force_{p}": "N" for p in pairs},
+            "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
+
+
+def _cell(machine, outs: list[dict], pop) -> dict[str, float]:
+    """One run's replicate: harvest indexes from its branch classes' envelopes, loads over its drive-pasts.
+
+    Peak force and peak torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over
+    all of them (equal durations).
+    """
+    from berryshaker.harvest.virtual import harvest_indexes
+
+    h = harvest_indexes(machine, [np.array(o["envelope"]) for o in outs], pop)
+    out = {name: scale * float(h[key]) for name, (key, scale, _, _) in HARVEST_RESPONSES.items()}
+    for p in machine.pair_names:
+        out[f"peak_force_{p}"] = max(float(o["peak_force_N"].get(p, float("nan"))) for o in outs)
+    if all("drive_torque_Nm" in o for o in outs):
+        out["drive_torque_peak"] = max(o["drive_torque_Nm"]["peak"] for o in outs)
+        out["drive_torque_rms"] = math.sqrt(float(np.mean([o["drive_torque_Nm"]["rms"] ** 2 for o in outs])))
+    return out
+
+
+def interval(y, pooled: tuple[float, int] | None = None) -> dict:
+    """Mean, replicate standard deviation and 95 % t-interval of the mean of one run's replicates.
+
+    ``pooled`` = (pure-error mean square, its dof) of the whole test: the interval is then
+    t(dof) sqrt(MS_PE / n), the error model of the ANOVA (the run's own SD, with n - 1 dof, is still
+    reported as ``sd``); without it t(n - 1) sd / sqrt(n).
+    """
+    from scipy import stats
+
+    y = np.asarray(y, float)
+    m, sd = float(np.mean(y)), float(np.std(y, ddof=1))
+    s, dof = (sd, y.size - 1) if pooled is None else (math.sqrt(pooled[0]), int(pooled[1]))
+    hw = float(stats.t.ppf(0.5 + CONFIDENCE / 2, dof)) * s / math.sqrt(y.size)
+    return {"mean": m, "sd": sd, "ci": [m - hw, m + hw], "n": int(y.size), "interval_from": (
+        f"pooled replicate error ({dof} dof)" if pooled is not None else f"this run's replicates ({dof} dof)")}
+
+
+def _configured_level(machine, p: str) -> int:
+    """Level (1-based) nearest to the clearance the machine description gives for pair p."""
+    size = machine.clearance_sizes()[p]
+    lv = machine.clearance_levels()[p]
+    return int(np.argmin([abs(v - size) for v in lv])) + 1
+
+
+def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
+    """The L9 over the machine's clearance pairs through the virtual harvest, replicated (module docstring).
+
+    Parameters
+    ----------
+    machine : Machine
+        With a ``[plant]`` and ``[harvest]`` block.
+    runner : SweepRunner
+        Runs the coupled drive-pasts (cached).
+    replicates : int, optional
+        Replicates per run (>= 2); default ``harvest.replicates``.
+
+    Returns
+    -------
+    dict
+        ``runs`` (levels, clearances, replicate means of efficiency/unripe/damage and ``replicates``: every
+        response's mean, sd, ci), ``responses`` (range analysis of the replicate means, as the study's Table
+        8), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against
+        pure error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
+        recommended), ``recommended`` (levels, code, clearances, mean indexes, per-response intervals,
+        ``basis`` per factor, ``rule``, ``statement``), ``tolerance_check``, ``tradeoff`` (records of the
+        trade-off table) and ``tradeoff_columns``.
+    """
+    from berryshaker.errors import ConfigError
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.designs import orthogonal_array
-    from berryshaker.harvest.virtual import harvest_indexes, sample_population
+    from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
+    from berryshaker.harvest.virtual import sample_population
 
     pairs = list(machine.pair_names)
     runs, _codes = l9_runs(machine)
     levels_m = machine.clearance_levels()
-    classes = machine.harvest.branch_classes
+    h = machine.harvest
+    r = int(h.replicates if replicates is None else replicates)
+    if r < 2:
+        raise ConfigError(f"replicates={r}: the replicated L9 needs at least 2 replicates per run")
+    seeds = [h.seed + 1000 * k for k in range(r)]
+    classes = h.branch_classes
     data = machine.model_dump(mode="json")
-    jobs = [dict(machine_data=data, clearance=c, scale=s) for c in runs for s in classes]
-    env = runner.values(envelope_run, jobs, "virtual L9: coupled runs")
-    pop = sample_population(machine)
-    results = []
-    for i in range(len(runs)):
-        e = [np.array(env[i * len(classes) + k]) for k in range(len(classes))]
-        results.append(harvest_indexes(machine, e, pop))
+
+    def jobs_for(cl, seeds_, rtol=RTOL_RUN):
+        return [dict(machine_data=data, clearance=cl, scale=s, seed=[sd, c], rtol=rtol)
+                for sd in seeds_ for c, s in enumerate(classes)]
+
+    def cells(outs, seeds_, pops_):
+        nc = len(classes)
+        return [_cell(machine, outs[k * nc:(k + 1) * nc], pops_[k]) for k in range(len(seeds_))]
+
+    jobs = [j for cl in runs for j in jobs_for(cl, seeds)]
+    outs = runner.values(replicate_run, jobs, f"virtual L9: {len(runs)} runs x {r} replicates, coupled runs")
+    pops = [sample_population(machine, seed=s) for s in seeds]
+    per = len(seeds) * len(classes)
+    run_cells = [cells(outs[i * per:(i + 1) * per], seeds, pops) for i in range(len(runs))]
+    names = [n for n in run_cells[0][0] if all(np.isfinite(c[n]) for rc in run_cells for c in rc)]
+    y = {n: np.array([[c[n] for c in rc] for rc in run_cells]) for n in names}
     a = orthogonal_array("L9")[:, :len(pairs)] + 1
-    values = np.array([[r[p] * 1e3 for p in pairs] for r in runs])
-    responses = {"efficiency": np.array([r["efficiency_kg_min"] for r in results]),
-                 "unripe": np.array([r["unripe_rate_pct"] for r in results]),
-                 "damage": np.array([r["damage_rate_pct"] for r in results])}
-    an = analyze(a, values, pairs, responses, SENSES, PRIORITY_WEIGHTS)
+    values = np.array([[rr[p] * 1e3 for p in pairs] for rr in runs])
+    units = response_units(pairs)
+    # range analysis of the replicate means, laid out as the study's Table 8 (its optimum is not used: it would
+    # rank differences of any size; the recommendation is the replicated, tiered one below)
+    study_idx = ("efficiency", "unripe", "damage")
+    an = analyze(a, values, pairs, {n: y[n].mean(axis=1) for n in study_idx}, SENSES, PRIORITY_WEIGHTS)
+    senses = {n: HARVEST_RESPONSES[n][3] if n in HARVEST_RESPONSES else False for n in names}
+    loads = [n for n in load_responses(pairs) if n in y]
+    rep = analyze_replicated(a, values, pairs, y, senses, PRIORITY_WEIGHTS, confidence=CONFIDENCE,
+                             level_values={p: tuple(v * 1e3 for v in levels_m[p]) for p in pairs},
+                             units={p: "mm" for p in pairs},
+                             fallback_weights={n: 1.0 for n in loads} or None)
+    rep["seeds"] = seeds
+    rep["units"] = units
+    rep["perturbation"] = {"initial_eccentricity": h.initial_eccentricity,
+                           "start_phase_spread_rad": h.start_phase_spread,
+                           "what": ("replicate k: seed + 1000 k for the bushes and for every branch class's coupled "
+                                    "run (seed, class): clearance eccentricities uniform over the disc of "
+                                    f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
+                                    f"in +-{math.degrees(h.start_phase_spread):.0f} deg")}
+    rep["text"] = describe_replicated(rep)
+    pe = {n: (rep["responses"][n]["anova"]["pure_error"]["ms"], rep["responses"][n]["anova"]["pure_error"]["df"])
+          for n in names}
     an["runs"] = [{"run": i + 1, "levels": {p: int(a[i, j]) for j, p in enumerate(pairs)},
                    "clearance_mm": {p: float(values[i, j]) for j, p in enumerate(pairs)},
-                   **{k: float(v[i]) for k, v in responses.items()}} for i in range(9)]
-    opt = an["optimum"]["levels"]
-    an["recommended"] = {"levels": opt, "code": level_code(opt),
-                         "clearance_mm": {p: levels_m[p][opt[p] - 1] * 1e3 for p in pairs},
-                         "study": {"code": CHOSEN_CODE}, "same_as_study": opt == CHOSEN_LEVELS}
-    best_cl = {p: levels_m[p][opt[p] - 1] for p in pairs}
-    jobs = [dict(machine_data=data, clearance=best_cl, scale=s) for s in classes]
-    e_best = [np.array(v) for v in runner.values(envelope_run, jobs, "virtual harvest at the optimum")]
-    an["recommended"]["virtual_harvest"] = harvest_indexes(machine, e_best, pop)
-    an["replicated"] = replicated_l9(machine, env, classes, a, values, pairs, levels_m)
+                   **{n: float(y[n][i].mean()) for n in study_idx},
+                   "replicates": {n: interval(y[n][i], pe[n]) for n in names}} for i in range(len(runs))]
+    an["replicated"] = rep
+    an["response_units"] = units
+
+    # recommendation: the tiered optimum; a factor where nothing differs keeps the configured clearance
+    opt = rep["optimum"]
+    rec_levels, basis = {}, {}
+    for p in pairs:
+        c = opt["choices"][p]
+        if c["level"] is None:
+            rec_levels[p] = _configured_level(machine, p)
+            basis[p] = (f"no response differs significantly between the levels of {p}: kept at the configured "
+                        f"clearance (level {rec_levels[p]})")
+        else:
+            rec_levels[p] = int(c["level"])
+            basis[p] = {"primary": "harvest indexes", "fallback": "machine loads (harvest indexes do not differ)",
+                        "primary + fallback": "harvest indexes, tie among their indistinguishable levels broken by "
+                        "machine loads"}[c["tier"]] + f": {c['status']}"
+    harvest_sig = {n: rep["responses"][n]["significant_factors"] for n in HARVEST_RESPONSES if n in rep["responses"]}
+    if not any(harvest_sig.values()):
+        statement = ("The harvest indexes do not differ meaningfully between any clearance levels (no factor effect "
+                     f"beyond the replicate noise, p >= {rep['alpha']:g}); the recommendation is decided on what does "
+                     "differ: peak collision forces and drive torque (" + ", ".join(
+                         f"{n}: {', '.join(rep['responses'][n]['significant_factors']) or 'none'}" for n in loads)
+                     + " significant), and the configured clearance where nothing differs.")
+    else:
+        statement = ("Harvest indexes that differ beyond the replicate noise: " + "; ".join(
+            f"{n}: {', '.join(f) or 'none'}" for n, f in harvest_sig.items())
+            + ". Other factors are decided on machine loads where those differ, else kept as configured.")
+    opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"])
+    an["optimum"] = opt
+    best_cl = {p: levels_m[p][rec_levels[p] - 1] for p in pairs}
+    row = next((i for i, rr in enumerate(runs) if all(abs(rr[p] - best_cl[p]) < 1e-12 for p in pairs)), None)
+    if row is not None:
+        rec_cells = run_cells[row]
+    else:
+        o = runner.values(replicate_run, jobs_for(best_cl, seeds), "virtual harvest at the recommendation")
+        rec_cells = cells(o, seeds, pops)
+    rec_y = {n: np.array([c[n] for c in rec_cells]) for n in names}
+    vh = {key: float(np.mean(rec_y[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items() if n in rec_y}
+    an["recommended"] = {"levels": rec_levels, "code": level_code(rec_levels),
+                         "clearance_mm": {p: best_cl[p] * 1e3 for p in pairs}, "l9_run": None if row is None else row + 1,
+                         "study": {"code": CHOSEN_CODE}, "same_as_study": rec_levels == CHOSEN_LEVELS,
+                         "virtual_harvest": vh, "replicates": {n: interval(rec_y[n], pe[n]) for n in names},
+                         "basis": basis, "rule": rep["optimum"]["method"]
+                         + "; a factor with no significant difference keeps the configured clearance",
+                         "statement": statement}
+    an["tolerance_check"] = _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
+                                             rep, names)
+    cands = [_candidate(f"run {i + 1} ({level_code(an['runs'][i]['levels'])})", runs[i], y, names, pairs, i, pe)
+             for i in range(len(runs))]
+    if row is None:
+        cands.append(_candidate(f"recommended ({an['recommended']['code']})", best_cl,
+                                {n: rec_y[n][None, :] for n in names}, names, pairs, 0, pe))
+    else:
+        cands[row]["name"] += ", recommended"
+    an["tradeoff"], an["tradeoff_columns"] = tradeoff_records(cands)
     return an
 
 
-#: population seeds per L9 run for the replicate error (the sampling noise of the virtual harvest)
-REPLICATES = 5
+def _candidate(name, cl, y, names, pairs, i, pe) -> dict:
+    """One trade-off candidate: harvest indexes and loads with their intervals (pooled replicate error)."""
+    def est(n):
+        s = interval(y[n][i], pe[n])
+        return {"mean": s["mean"], "ci": s["ci"]}
+
+    c = {"name": name, "clearance_mm": {p: cl[p] * 1e3 for p in pairs},
+         "harvest": {n: est(n) for n in HARVEST_RESPONSES if n in names},
+         "peak_force_N": {p: est(f"peak_force_{p}") for p in pairs if f"peak_force_{p}" in names}}
+    for n, key in (("drive_torque_peak", "drive_torque_peak_Nm"), ("drive_torque_rms", "drive_torque_rms_Nm")):
+        if n in names:
+            c[key] = est(n)
+    return c
 
 
-def replicated_l9(machine, env, classes, a, values, pairs, levels_m) -> dict:
-    """The L9 analysed against its own noise: each run's harvest indexes for ``REPLICATES`` population seeds
-    (the same simulated envelopes, independently sampled bushes and fruit), range analysis and ANOVA against the
-    replicate (pure) error, effects with 95 % intervals, and a choice per factor that is "no meaningful
-    difference" where the factor's effect is not significant (:func:`berryshaker.experiment.replicates.
-    analyze_replicated`)."""
-    from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
-    from berryshaker.harvest.virtual import harvest_indexes, sample_population
+def tradeoff_records(candidates: list[dict]) -> tuple[list[dict], list[str]]:
+    """The trade-off table (:func:`berryshaker.experiment.tradeoff.tradeoff_table`) as JSON records and its
+    column order (ripe removal larger is better; efficiency larger, the rest smaller)."""
+    from berryshaker.experiment.tradeoff import tradeoff_table
 
-    seeds = [machine.harvest.seed + 1000 * k for k in range(REPLICATES)]
-    pops = [sample_population(machine, seed=s) for s in seeds]
-    y = {"efficiency": np.zeros((9, REPLICATES)), "unripe": np.zeros((9, REPLICATES)),
-         "damage": np.zeros((9, REPLICATES))}
-    for i in range(9):
-        e = [np.array(env[i * len(classes) + k]) for k in range(len(classes))]
-        for r, pop in enumerate(pops):
-            h = harvest_indexes(machine, e, pop)
-            y["efficiency"][i, r] = h["efficiency_kg_min"]
-            y["unripe"][i, r] = h["unripe_rate_pct"]
-            y["damage"][i, r] = h["damage_rate_pct"]
-    res = analyze_replicated(a, values, pairs, y, SENSES, PRIORITY_WEIGHTS,
-                             level_values={p: tuple(v * 1e3 for v in levels_m[p]) for p in pairs},
-                             units={p: "mm" for p in pairs})
-    res["seeds"] = seeds
-    res["text"] = describe_replicated(res)
-    return res
+    df = tradeoff_table(candidates, senses={"ripe_removal": True}, rtol=0.01)
+    return json.loads(df.to_json(orient="records")), list(df.columns)
+
+
+def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, rep, names) -> dict:
+    """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at rtol 1e-7: the largest
+    change of each response against the pooled replicate standard deviation sqrt(MS_PE) of the L9."""
+    k = min(machine.harvest.tolerance_replicates, len(seeds))
+    if k == 0:
+        return {"done": False, "reason": "harvest.tolerance_replicates = 0"}
+    s = seeds[:k]
+    o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol 1e-7")
+    tight = cells(o, s, pops[:k])
+    out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "replicates": k, "responses": {}}
+    for n in names:
+        d = [tight[j][n] - rec_cells[j][n] for j in range(k)]
+        sd = math.sqrt(rep["responses"][n]["anova"]["pure_error"]["ms"])
+        worst = float(np.max(np.abs(d)))
+        out["responses"][n] = {"max_abs_change": worst, "changes": d, "replicate_sd": sd,
+                               "within_replicate_spread": bool(worst <= sd)}
+    bad = [n for n, v in out["responses"].items() if not v["within_replicate_spread"]]
+    out["all_within"] = not bad
+    out["statement"] = ("the change from rtol 1e-6 to 1e-7 is within the replicate standard deviation for every "
+                        "response" if not bad else "the change from rtol 1e-6 to 1e-7 is NOT within the replicate "
+                        "standard deviation for: " + ", ".join(bad) + " (solver error comparable to the noise there)")
+    return out

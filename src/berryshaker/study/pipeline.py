@@ -182,7 +182,31 @@ def step_l9(ctx: StudyContext) -> StepResult:
         P.plot_response_surfaces(values, y, pairs, quadratic_regression(values, y, pairs), name,
                                  ctx.figs / f"fig{27 + k}_surface_{name}.png")
         figs.append(f"fig{27 + k}_surface_{name}.png")
+    figs += l9_replicate_figures(l9, levels_mm, ctx.figs)
     return StepResult("l9", l9, figs)
+
+
+def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
+    """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9."""
+    from berryshaker.report import plots as P
+    from berryshaker.study.l9 import HARVEST_RESPONSES
+
+    rep = l9.get("replicated") or {}
+    out = []
+    if l9.get("tradeoff"):
+        P.plot_tradeoff(l9["tradeoff"], figs / "l9_tradeoff.png")
+        out.append("l9_tradeoff.png")
+    units = l9.get("response_units") or {}
+    for name, rows, title in (("l9_effects_harvest.png", [n for n in HARVEST_RESPONSES if n != "unripe_shed"],
+                               "Virtual L9: harvest indexes"),
+                              ("l9_effects_loads.png", [n for n in rep.get("responses", {})
+                                                        if n.startswith(("peak_force_", "drive_torque_"))],
+                               "Virtual L9: machine loads")):
+        rows = [n for n in rows if n in rep.get("responses", {})]
+        if rows:
+            P.plot_replicated_effects(rep, rows, figs / name, title, level_values=levels_mm, units=units)
+            out.append(name)
+    return out
 
 
 def step_clearance_life(ctx: StudyContext) -> StepResult:
@@ -266,13 +290,31 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
         vh = rec["virtual_harvest"]
         optimum = {"code": rec["code"], "clearance_mm": rec["clearance_mm"],
                    "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
-                   "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": CHOSEN_CODE, **FIELD_RESULT}}
+                   "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": CHOSEN_CODE, **FIELD_RESULT},
+                   "intervals": rec.get("replicates"), "basis": rec.get("basis"), "statement": rec.get("statement")}
     return {
         "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
         "drive": machine.DRIVE,
         "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim", "criterion")} for c in results["claims"]],
         "optimum": optimum, "failures": failures, "timings_s": timings, "runs": dict(runner_stats),
+        **l9_summary(l9),
     }
+
+
+def l9_summary(l9: dict | None) -> dict:
+    """summary.json entries of the replicated L9: ``l9_replicates`` (pooled replicate SD, dof and significant
+    factors per response; the solver-tolerance check) and ``tradeoff`` (the trade-off table's rows)."""
+    if not l9 or "replicated" not in l9:
+        return {}
+    rep = l9["replicated"]
+    per = {n: {"replicate_sd": ra["anova"]["pure_error"]["ms"] ** 0.5, "dof": ra["anova"]["pure_error"]["df"],
+               "significant_factors": ra["significant_factors"],
+               "p": {f: d["p"] for f, d in ra["factors"].items()}}
+           for n, ra in rep["responses"].items()}
+    return {"l9_replicates": {"replicates": rep["replicates"], "seeds": rep.get("seeds"),
+                              "perturbation": rep.get("perturbation"), "significance_rule": rep["significance_rule"],
+                              "responses": per, "tolerance_check": l9.get("tolerance_check")},
+            "tradeoff": l9.get("tradeoff", []), "tradeoff_columns": l9.get("tradeoff_columns", [])}
 
 
 def run_study(machine, out_dir: Path, runner, console=None) -> dict:

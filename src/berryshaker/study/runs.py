@@ -74,3 +74,30 @@ def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
     from berryshaker.harvest.virtual import stem_force_envelope
 
     return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
+
+
+def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list, rtol: float = 1e-6) -> dict:
+    """One replicate of a virtual test run for one branch class: the coupled drive-past from a perturbed start.
+
+    The machine starts off centre in every clearance and at a random drive phase
+    (:class:`berryshaker.multibody.engine.RandomInitialPerturbation` with ``seed`` and the description's
+    ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  Returns the peak stem-force table
+    (``envelope``, :func:`berryshaker.harvest.virtual.stem_force_envelope_run`), the peak force of every
+    clearance pair over the statistics window (``peak_force_N``, N: contact force of a clearance joint,
+    reaction of an ideal one) and the drive torque (``drive_torque_Nm``: peak and RMS, N m; absent for a
+    torque-driven machine).
+    """
+    from berryshaker.harvest.virtual import stem_force_envelope_run
+    from berryshaker.multibody.engine import RandomInitialPerturbation
+
+    machine = machine_from_dict(machine_data)
+    h = machine.harvest
+    pert = RandomInitialPerturbation(tuple(int(s) for s in seed), h.initial_eccentricity, h.start_phase_spread)
+    table, res = stem_force_envelope_run(machine, clearance, scale, pert, rtol)
+    s = res.result.summary()
+    out = {"envelope": table.tolist(),
+           "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
+    if s["drivers"]:
+        tq = next(iter(s["drivers"].values()))["torque_Nm"]
+        out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"]}
+    return out

@@ -55,6 +55,9 @@ def write_tables(machine, res: dict, tables: Path) -> None:
               ["run", *[f"{p}_mm" for p in pairs], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],
               [[r["run"], *[r["clearance_mm"][p] for p in pairs], r["efficiency"], r["unripe"], r["damage"]]
                for r in res["l9"]["runs"]])
+        cols = res["l9"].get("tradeoff_columns") or []
+        if res["l9"].get("tradeoff"):
+            write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res["l9"]["tradeoff"]])
     write("failed_runs.csv", ["step", "run", "inputs", "error"],
           [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.get("failures", [])])
     write("claims.csv", ["id", "verdict", "claim", "detail"],

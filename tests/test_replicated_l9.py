@@ -1,0 +1,215 @@
+"""Replicates over perturbed initial states, effects judged against the replicate (pure) error, the tiered
+recommendation that never ranks noise, and the replicated virtual L9 through ``doe virtual --json``."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+from typer.testing import CliRunner
+
+from berryshaker.cli import app
+from berryshaker.config import reference_toml_text
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.designs import orthogonal_array
+from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
+
+L9 = orthogonal_array("L9") + 1
+FACTORS = ["A", "B", "C", "F"]
+#: five replicate deviations with mean 0 and sample standard deviation exactly 1 (ddof=1)
+UNIT_NOISE = np.array([-2.0, -1.0, 0.0, 1.0, 2.0]) / math.sqrt(2.5)
+
+
+def _replicated(level_offsets: dict[str, tuple[float, float, float]], sigma: float, base: float = 10.0):
+    """(9, 5) observations: base + the factors' level offsets + sigma x UNIT_NOISE in every run, so the pure
+    error mean square is exactly sigma^2 (9 x 4 dof) and the run means are exactly the model."""
+    mu = np.full(9, base)
+    for j, f in enumerate(FACTORS):
+        if f in level_offsets:
+            mu = mu + np.asarray(level_offsets[f])[L9[:, j] - 1]
+    return mu[:, None] + sigma * UNIT_NOISE[None, :]
+
+
+def test_pure_error_decides_half_sigma_is_noise_five_sigma_is_an_effect():
+    """Known pure error sigma = 2: a factor whose level means span 0.5 sigma is not significant, one spanning
+    5 sigma is; F = MS_factor / MS_PE in closed form (orthogonal array: 15 observations per level)."""
+    sigma = 2.0
+    small = (-0.25 * sigma, 0.0, 0.25 * sigma)  # range 0.5 sigma
+    big = (-2.5 * sigma, 0.0, 2.5 * sigma)  # range 5 sigma
+    y = _replicated({"A": small, "B": big}, sigma)
+    an = replicated_anova(L9, y, FACTORS)
+    assert an["pure_error"]["ms"] == pytest.approx(sigma**2) and an["pure_error"]["df"] == 36
+    for f, offs in (("A", small), ("B", big)):
+        ms = 15 * sum(o**2 for o in offs) / 2
+        assert an["factors"][f]["f"] == pytest.approx(ms / sigma**2)
+        assert an["factors"][f]["p"] == pytest.approx(stats.f.sf(ms / sigma**2, 2, 36))
+        assert an["factors"][f]["range"] == pytest.approx(offs[2] - offs[0])
+    assert not an["factors"]["A"]["significant"] and an["factors"]["A"]["p"] > 0.3
+    assert an["factors"]["B"]["significant"] and an["factors"]["B"]["p"] < 1e-10
+    lo, hi = an["factors"]["A"]["range_ci"]
+    assert lo < 0 < hi  # a 0.5-sigma range is not distinguishable from zero
+    assert an["factors"]["B"]["range_ci"][0] > 0
+    for f in ("C", "F"):
+        assert an["factors"][f]["f"] == pytest.approx(0.0, abs=1e-9) and not an["factors"][f]["significant"]
+    # the same numbers with the noise scaled up 10x: the 5-sigma effect of before is now half a sigma
+    an10 = replicated_anova(L9, _replicated({"B": big}, 10 * sigma), FACTORS)
+    assert not an10["factors"]["B"]["significant"]
+
+
+def test_noise_sized_difference_gets_no_weight_in_the_optimum():
+    """A harvest index whose level differences are noise-sized (0.5 sigma) does not choose a level: the factor
+    is "no meaningful difference" and the composite does not stretch that difference to full weight."""
+    sigma = 1.0
+    y = {"efficiency": _replicated({"A": (0.0, 0.25, 0.5), "B": (0.0, 5.0, 2.0)}, sigma),
+         "damage": _replicated({}, sigma, base=2.0)}
+    res = analyze_replicated(L9, L9.astype(float), FACTORS, y, {"efficiency": True, "damage": False},
+                             {"efficiency": 0.5, "damage": 0.5})
+    ch = res["optimum"]["choices"]
+    assert ch["A"]["level"] is None and ch["A"]["status"] == "no meaningful difference"
+    assert ch["B"]["level"] == 2 and ch["B"]["significant_responses"] == ["efficiency"]
+    assert res["optimum"]["levels"]["C"] is None and res["optimum"]["levels"]["F"] is None
+
+
+def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
+    """Harvest indexes without any effect beyond the noise: the tiered optimum decides on the machine loads
+    that do differ (lowest peak force at A1, lowest drive torque at C3) and leaves F undecided."""
+    harvest = {"efficiency": _replicated({}, 1.0, base=4.0), "damage": _replicated({}, 0.3, base=2.0),
+               "unripe": _replicated({}, 0.2, base=1.0)}
+    loads = {"peak_force_A": _replicated({"A": (0.0, 800.0, 1500.0)}, 50.0, base=5000.0),
+             "drive_torque_peak": _replicated({"C": (30.0, 10.0, 0.0)}, 2.0, base=120.0)}
+    senses = {"efficiency": True, "damage": False, "unripe": False, "peak_force_A": False, "drive_torque_peak": False}
+    res = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest, **loads}, senses,
+                             {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
+                             fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
+    for n in harvest:
+        assert res["responses"][n]["significant_factors"] == []
+    ch = res["optimum"]["choices"]
+    assert ch["A"]["level"] == 1 and ch["A"]["tier"] == "fallback"
+    assert ch["C"]["level"] == 3 and ch["C"]["tier"] == "fallback"
+    assert ch["F"]["level"] is None and ch["F"]["tier"] == "none"
+    assert "never ranking noise" in res["optimum"]["method"]
+    # a primary tie (levels 2 and 3 of B give the same efficiency) is broken by the loads
+    harvest2 = dict(harvest, efficiency=_replicated({"B": (0.0, 6.0, 6.0)}, 1.0))
+    loads2 = dict(loads, peak_force_A=_replicated({"B": (0.0, 900.0, 300.0)}, 50.0, base=5000.0))
+    res2 = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest2, **loads2}, senses,
+                              {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
+                              fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
+    b = res2["optimum"]["choices"]["B"]
+    assert b["level"] == 3 and b["tier"] == "primary + fallback"
+
+
+def _harvester_spec(machine, revolutions=2):
+    from berryshaker.drives import drive_of
+    from berryshaker.experiment.clearance_sets import clearance_row
+
+    m = machine.with_clearances(clearance_row(machine, 16))
+    return drive_of(m).mechanism(m, revolutions=revolutions)
+
+
+def test_perturbed_start_sits_inside_the_clearances_and_changes_the_impacts(machine):
+    """A seeded perturbation starts every clearance joint at its drawn eccentricity (pin in bore: penetration
+    |e| - c; slot and groove: inside half their free travel) with the driver turned by its drawn phase; the
+    impact-by-impact force history then differs from the centred start while the same seed repeats exactly."""
+    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody.engine import InitialPerturbation, RandomInitialPerturbation, simulate_mechanism
+
+    spec = _harvester_spec(machine)
+    period = 2 * math.pi / abs(spec.drivers[0].speed)
+    dur = 1.5 * period
+    base = simulate_mechanism(spec, duration=dur)
+    p = RandomInitialPerturbation(5, 1.0, 0.5)
+    drawn = p.for_spec(spec)
+    a = simulate_mechanism(spec, duration=dur, initial_perturbation=p)
+    b = simulate_mechanism(spec, duration=dur, initial_perturbation=RandomInitialPerturbation(5, 1.0, 0.5))
+    cl = {j.name: j for j in spec.joints}
+    for name, d in drawn.joint_offsets.items():
+        k = a.compiled.frc_names.index(name)
+        pen0 = a.elements[0, k, mb.EO_PEN]
+        e = math.hypot(*d)
+        if cl[name].type == "revolute_clearance":
+            assert pen0 == pytest.approx(e - cl[name].clearance, abs=1e-9)
+        else:
+            assert -0.5 * cl[name].clearance <= pen0 <= e - 0.5 * cl[name].clearance + 1e-9
+    cam = a.compiled.body_index[spec.drivers[0].body]
+    assert a.y[0, 3 * cam + 2] - base.y[0, 3 * cam + 2] == pytest.approx(drawn.driver_phases["drive"], abs=1e-9)
+    np.testing.assert_array_equal(a.elements, b.elements)  # reproducible
+    f0, f1 = base.element_force("C"), a.element_force("C")
+    assert np.max(np.abs(f1 - f0)) > 0.2 * np.max(np.abs(f0))  # other impacts, impact by impact
+    with pytest.raises(ConfigError, match="free radius"):
+        simulate_mechanism(spec, duration=dur, initial_perturbation=InitialPerturbation({"C": (1e-3, 0.0)}))
+    with pytest.raises(ConfigError, match="not a clearance joint"):
+        InitialPerturbation({"nope": (0.0, 0.0)}).for_spec(spec)
+
+
+@pytest.fixture(scope="module")
+def virtual_json(tmp_path_factory):
+    """`doe virtual --json` on a fast description: one branch class, 15 bushes, 2 replicates, 1 tolerance
+    replicate (9 x 2 + 1 coupled runs, plus 2 if the recommendation is not an L9 run)."""
+    text = (reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]")
+            .replace("bushes = 40 ", "bushes = 15 ").replace("tolerance_replicates = 2 ", "tolerance_replicates = 1 "))
+    base = tmp_path_factory.mktemp("virtual")
+    cfg = base / "fast.toml"
+    cfg.write_text(text)
+    r = CliRunner().invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2", "--replicates",
+                                 "2", "--cache", str(base / "cache")])
+    assert r.exit_code == 0, r.output
+    return json.loads(r.stdout)
+
+
+def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json):
+    s = virtual_json
+    assert len(s["runs"]) == 9 and s["replicated"]["replicates"] == 2
+    names = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage", "peak_force_A", "peak_force_B",
+             "peak_force_C", "peak_force_F", "drive_torque_peak", "drive_torque_rms"]
+    for run in s["runs"]:
+        for n in names:
+            est = run["replicates"][n]
+            assert set(est) >= {"mean", "sd", "ci", "n"} and est["ci"][0] <= est["mean"] <= est["ci"][1]
+    # the perturbed starts spread the harvest indexes: finite, non-zero and reported
+    sd_eff = s["replicated"]["responses"]["efficiency"]["anova"]["pure_error"]["ms"] ** 0.5
+    assert 0 < sd_eff < math.inf
+    assert any(run["replicates"]["efficiency"]["sd"] > 0 for run in s["runs"])
+    for n in names:
+        fac = s["replicated"]["responses"][n]["factors"]
+        assert set(fac) == set("ABCF") and all("significant" in fac[f] and "level_ci" in fac[f] for f in fac)
+    rec = s["recommended"]
+    assert rec["statement"] and set(rec["basis"]) == set("ABCF") and rec["rule"]
+    assert set(s["optimum"]["levels"]) == set("ABCF") and all(isinstance(v, int) for v in s["optimum"]["levels"].values())
+    tc = s["tolerance_check"]
+    assert tc["done"] and tc["rtol"] == [1e-6, 1e-7] and "statement" in tc
+    assert set(tc["responses"]) == set(names)
+    rows = s["tradeoff"]
+    assert len(rows) in (9, 10) and sum("recommended" in r["name"] for r in rows) == 1
+    for col in ("efficiency", "efficiency_lo", "efficiency_hi", "damage", "peak_force_N:A", "peak_force_N:F_hi",
+                "drive_torque_peak_Nm", "drive_torque_rms_Nm", "dominated", "dominated_by", "clearance_mm:A"):
+        assert col in rows[0] and col in s["tradeoff_columns"]
+    assert any(not r["dominated"] for r in rows)
+    # the same seeds give the same replicates (explicit seeds, reproducible)
+    assert s["replicated"]["seeds"] == [2024, 3024]
+    assert s["recommended"]["study"]["code"] == "A1B1C1F3" and set(s["recommended"]["levels"]) == set("ABCF")
+    for name in ("efficiency", "unripe", "damage"):  # the study's Table 8 layout of the replicate means
+        assert set(s["responses"][name]["factors"]) == set("ABCF")
+
+
+def test_study_summary_and_report_sections(virtual_json, tmp_path):
+    """summary.json entries and the report section built from a replicated L9."""
+    from berryshaker.report.html import l9_replicates_section
+    from berryshaker.report.plots import plot_replicated_effects, plot_tradeoff
+    from berryshaker.study.pipeline import l9_summary
+
+    s = virtual_json
+    summ = l9_summary(s)
+    assert summ["tradeoff"] == s["tradeoff"] and summ["l9_replicates"]["replicates"] == 2
+    assert "replicate_sd" in summ["l9_replicates"]["responses"]["efficiency"]
+    d = plot_tradeoff(s["tradeoff"], tmp_path / "l9_tradeoff.png")
+    assert len(d["points"]) == len(s["tradeoff"])
+    e = plot_replicated_effects(s["replicated"], ["efficiency", "peak_force_A"], tmp_path / "l9_effects_harvest.png",
+                                units=s["response_units"])
+    ra = s["replicated"]["responses"]["efficiency"]["factors"]["A"]
+    np.testing.assert_allclose(e["responses"]["efficiency"]["factors"]["A"]["errors"],
+                               [(hi - lo) / 2 for lo, hi in ra["level_ci"]])
+    html = "\n".join(l9_replicates_section(s, tmp_path, list("ABCF")))
+    for text in ("Replicate spread and significance", "Trade-off of the candidate clearance sets",
+                 "Solver-tolerance check", "Recommendation and its basis", "data:image/png;base64,"):
+        assert text in html
