@@ -587,7 +587,7 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     SimulationError
         The integrator gave up, or the step budget was spent.
     """
-    run = prepare_run(spec, duration, rtol, output_step, max_step, y0, max_steps)
+    run = prepare_run(spec, duration, rtol, output_step, max_step, y0, max_steps, initial_perturbation)
     cm, nf = run.cm, len(run.cm.frc_names)
     # compile (or load from the numba cache) outside the timed region
     s2, w2 = _state_and_work(cm)
@@ -627,7 +627,9 @@ class PreparedRun:
 
 def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float | None = None,
                 output_step: float | None = None, max_step: float | None = None, y0: np.ndarray | None = None,
-                max_steps: int | None = None) -> PreparedRun:
+                max_steps: int | None = None,
+                initial_perturbation: "InitialPerturbation | RandomInitialPerturbation | None" = None
+                ) -> PreparedRun:
     """Check the arguments of :func:`simulate_mechanism` (same meaning and defaults), compile the description,
     assemble the initial state and allocate the arrays of one integration."""
     sim = spec.simulation
