@@ -112,7 +112,8 @@ def test_perturbed_start_sits_inside_the_clearances_and_changes_the_impacts(mach
     |e| - c; slot and groove: inside half their free travel) with the driver turned by its drawn phase; the
     impact-by-impact force history then differs from the centred start while the same seed repeats exactly."""
     from berryshaker.multibody import kernel as mb
-    from berryshaker.multibody.engine import InitialPerturbation, RandomInitialPerturbation, simulate_mechanism
+    from berryshaker.multibody.engine import simulate_mechanism
+    from berryshaker.multibody.perturbation import InitialPerturbation, RandomInitialPerturbation
 
     spec = _harvester_spec(machine)
     period = 2 * math.pi / abs(spec.drivers[0].speed)

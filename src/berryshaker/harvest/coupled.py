@@ -277,7 +277,7 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     post-processing with ``pedicel.coupling = "one_way"``; axial: one-way, from the branch's
     foreshortening); with ``plant.fruit.pedicel.rigid`` it is the study's
     eq. 16, m0 x branch acceleration at the fruit.  Both are returned (``rigid_force`` is always eq. 16).
-    ``initial_perturbation`` (berryshaker.multibody.engine.InitialPerturbation or RandomInitialPerturbation):
+    ``initial_perturbation`` (berryshaker.multibody.perturbation.InitialPerturbation or RandomInitialPerturbation):
     start the machine off centre in its clearances and at another drive phase (replicate runs).
     """
     spec, machine = coupled_mechanism(machine, clearance)

@@ -3,7 +3,7 @@
 Replicates (docs/harvest.md, "Replicates"): replicate k of every run uses the seed ``harvest.seed + 1000 k``
 for its bushes (population) *and* for the machine's initial state in each branch class's coupled drive-past
 (random eccentricity inside every clearance, random drive phase when the comb reaches the bush:
-:class:`berryshaker.multibody.engine.RandomInitialPerturbation`).  The same seeds are used for every run
+:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`).  The same seeds are used for every run
 (common random numbers), so differences between clearance sets are not confounded with different luck; the
 pure-error test is then conservative (the replicate-to-replicate part shared by all runs cancels from the
 effects but stays in the error).

@@ -80,7 +80,7 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     """One replicate of a virtual test run for one branch class: the coupled drive-past from a perturbed start.
 
     The machine starts off centre in every clearance and at a random drive phase
-    (:class:`berryshaker.multibody.engine.RandomInitialPerturbation` with ``seed`` and the description's
+    (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with ``seed`` and the description's
     ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  Returns the peak stem-force table
     (``envelope``, :func:`berryshaker.harvest.virtual.stem_force_envelope_run`), the peak force of every
     clearance pair over the statistics window (``peak_force_N``, N: contact force of a clearance joint,
@@ -88,7 +88,7 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     torque-driven machine).
     """
     from berryshaker.harvest.virtual import stem_force_envelope_run
-    from berryshaker.multibody.engine import RandomInitialPerturbation
+    from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
     machine = machine_from_dict(machine_data)
     h = machine.harvest
