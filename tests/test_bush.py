@@ -128,3 +128,36 @@ def test_aggregate_and_branches_are_never_both(machine):
     assert {c.reaction_weight for c in spec.plant.contacts} >= {1.0}
     with pytest.raises(ConfigError, match="load_model"):
         _with(machine, combs__load_model="both")
+
+
+@pytest.fixture(scope="module")
+def population_convergence(machine):
+    """Coupled runs on the reference machine: the default sample (members, modes per member), twice the
+    members, twice and half the modes."""
+    from berryshaker.harvest.coupled import simulate_fruit_force
+
+    bs = machine.plant.bush
+    out = {}
+    for members, modes in ((bs.members, bs.n_modes), (2 * bs.members, bs.n_modes), (bs.members, 2 * bs.n_modes),
+                           (bs.members, max(1, bs.n_modes // 2))):
+        s = simulate_fruit_force(_with(machine, bush__members=members, bush__n_modes=modes)).summary()
+        out[(members, modes)] = {"stem": {k: v["peak_force_N"] for k, v in s["positions"].items()},
+                                 "load_rms": 0.5 * sum(v["rms"] for v in s["load_moment_Nm"].values())}
+    return out
+
+
+def test_default_population_is_converged(machine, population_convergence):
+    """The default sample (docs/plant.md): the comb's rms load moment within 15 % and the instrumented
+    branch's stem forces within 10 % of twice the members and of twice the modes per member; half the modes
+    (one) is not converged, which is why the default keeps two."""
+    bs = machine.plant.bush
+    base = population_convergence[(bs.members, bs.n_modes)]
+    assert base["load_rms"] > 0
+    for key in ((2 * bs.members, bs.n_modes), (bs.members, 2 * bs.n_modes)):
+        other = population_convergence[key]
+        assert base["load_rms"] == pytest.approx(other["load_rms"], rel=0.15), key
+        for name, f in base["stem"].items():
+            assert f == pytest.approx(other["stem"][name], rel=0.10), (key, name)
+    fewer = population_convergence[(bs.members, max(1, bs.n_modes // 2))]
+    finer = population_convergence[(bs.members, 2 * bs.n_modes)]
+    assert abs(fewer["load_rms"] / finer["load_rms"] - 1) > 0.15

@@ -219,6 +219,37 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None) -> dict:
             "reachable": reachable}
 
 
+#: the indexes of :func:`harvest_response` (sweep columns and the removal figure), with their units
+HARVEST_INDEXES = {"ripe_removal_pct": "%", "unripe_shed_pct": "%", "damage_rate_pct": "%",
+                   "unripe_rate_pct": "%", "efficiency_kg_min": "kg/min"}
+
+
+def harvest_response(machine: Machine, clearance: dict | None = None) -> dict:
+    """Virtual harvest of one machine setting, as the vibratory-harvesting literature plots it.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (any drive with a [plant] and a [harvest] section); every value, the calibrated
+        population included, as described.
+    clearance : dict, optional
+        Clearance sizes (m).
+
+    Returns
+    -------
+    dict
+        ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct (unripe mass
+        detached / unripe mass), damage_rate_pct and unripe_rate_pct (of the picked mass, the study's
+        indexes), efficiency_kg_min, shaking_frequency_hz (one comb cycle per drive-shaft revolution:
+        drive speed / 2 pi).  One coupled run per branch class (:func:`envelopes_for`).
+    """
+    idx = harvest_indexes(machine, envelopes_for(machine, clearance), sample_population(machine))
+    return {"ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
+            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
+            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"],
+            "shaking_frequency_hz": machine.drive_speed / (2 * math.pi)}
+
+
 def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | None = None) -> dict:
     """Virtual harvest at one drive (cam shaft) speed: a plain function of data for the cached runner.
 
@@ -234,9 +265,7 @@ def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | Non
     Returns
     -------
     dict
-        speed_rpm, ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct
-        (unripe mass detached / unripe mass), damage_rate_pct, unripe_rate_pct, efficiency_kg_min.
-        Everything else held at the description's values (calibrated population included).
+        speed_rpm and the indexes of :func:`harvest_response`.
     """
     from berryshaker.errors import ConfigError
 
@@ -246,11 +275,7 @@ def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | Non
     if not speed_rpm > 0:
         raise ConfigError(f"cam speed must be > 0 r/min, got {speed_rpm}")
     d["cam"] = dict(d["cam"], speed=float(speed_rpm) * 2 * math.pi / 60.0)
-    m = machine_from_dict(d)
-    idx = harvest_indexes(m, envelopes_for(m, clearance), sample_population(m))
-    return {"speed_rpm": float(speed_rpm), "ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
-            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
-            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"]}
+    return {"speed_rpm": float(speed_rpm), **harvest_response(machine_from_dict(d), clearance)}
 
 
 def removal_vs_frequency(machine: Machine, speeds_rpm, clearance: dict | None = None) -> list[dict]:

@@ -157,7 +157,7 @@ class BushSpec(_Strict):
     seed: int = 12
     n_modes: int = Field(2, ge=1, le=16)  # bending modes per member (the fruit branch keeps plant.contact.n_modes)
     root_diameter: LengthRange = (0.008, 0.016)  # d0, uniform (m)
-    tip_ratio: float = Field(1 / 3, gt=0, le=1)  # dm / d0, as the reference branch
+    tip_ratio: float = Field(0.3333, gt=0, le=1)  # dm / d0, as the reference branch (4 / 12 mm)
     length: LengthRange = (0.9, 1.6)  # l, uniform (m); bush 1.5-1.7 m tall [study]
     base_height: LengthRange = (0.0, 0.15)  # where the cane leaves the crown, above the reference base (m)
     lean: AngleRange = (0.0, 0.5236)  # |angle from vertical| in the combs' plane, uniform (rad; 0-30 deg)

@@ -237,6 +237,10 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
 
     machine = point_machine(machine_data, overrides, revolutions)
     drive = drive_of(machine)
+    if model == "harvest":  # virtual harvest: coupled drive-past runs, picking indexes (revolutions unused)
+        from berryshaker.harvest.virtual import harvest_response
+
+        return harvest_response(machine)
     if model == "mlsd":
         if drive.reduced_model is None:
             raise ConfigError(f"the {drive.name} drive has no reduced model; use --model multibody")
@@ -244,6 +248,11 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
     from berryshaker.drives.simulation import simulate_multibody
 
     return simulate_multibody(machine, {}, revolutions=revolutions)[1]
+
+
+#: outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response)
+HARVEST_COLUMNS = ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct", "unripe_rate_pct",
+                   "efficiency_kg_min", "shaking_frequency_hz")
 
 
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
@@ -263,6 +272,9 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
             d = r.value.get("drive_moment_Nm", {})
             if d:
                 vals["drive_moment_peak_Nm"], vals["drive_moment_rms_Nm"] = d["peak"], d["rms"]
+            for key in HARVEST_COLUMNS:  # --model harvest
+                if key in r.value:
+                    vals[key] = r.value[key]
         for k in vals:
             if k not in out_cols:
                 out_cols.append(k)
