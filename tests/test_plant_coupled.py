@@ -49,13 +49,20 @@ def test_two_way_equals_one_way_for_a_light_fruit(machine):
     """A fruit 100 times lighter (same stem frequency and damping ratio) hardly loads the branch: the
     fruit-branch modes (two-way) and the base-excited post-processing (one-way) give the same peak stem
     force to a few percent.  (Measured with per-mode damping: 0.6-2.1 %; with one damping ratio for
-    all modes, as an engine without per-mode ratios integrates them, the peaks differ by up to ~10 %.)"""
+    all modes, as an engine without per-mode ratios integrates them, the peaks differ by up to ~10 %.)
+    The combs are driven with the aggregate load (the branch does not act back on them), so both runs see
+    the same comb motion: with the bush as the load the combs rattle more freely in their clearances and
+    a different modal model of the fruit branch changes their motion by a few percent, which is not what
+    this test is about."""
     from berryshaker.harvest.coupled import simulate_fruit_force
 
     ped = {"stiffness": 0.1, "damping": 2.7e-4, "include_weight": False}
     peaks = {}
     for coupling in ("two_way", "one_way"):
         m = proposed(machine, mass=1.8e-5, pedicel=dict(ped, coupling=coupling))
+        d = m.model_dump()
+        d["combs"]["load_model"] = "aggregate"
+        m = machine_from_dict(d)
         r = simulate_fruit_force(m)
         peaks[coupling] = {k: float(np.max(np.abs(v))) for k, v in r.stem_lateral.items()}
         per_mode = isinstance(r.result.compiled.spec.plant.damping_ratio, list)
