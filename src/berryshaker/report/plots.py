@@ -713,7 +713,11 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
     ax.set_ylim(bottom=0.0)
     if frequency_hz is not None and len(xs) > 1:
         fz = np.asarray(frequency_hz, float)[order]
-        top = ax.secondary_xaxis("top", functions=(lambda v: np.interp(v, xs, fz), lambda f: np.interp(f, fz, xs)))
+        # the frequency is linear in a drive speed (one comb cycle per revolution): a straight-line map, valid
+        # beyond the data too (the axis limits lie outside it)
+        slope, icpt = np.polyfit(xs, fz, 1)
+        top = ax.secondary_xaxis("top", functions=(lambda v: slope * np.asarray(v) + icpt,
+                                                   lambda f: (np.asarray(f) - icpt) / slope))
         top.set_xlabel("shaking frequency [Hz]")
         data["frequency_hz"] = fz
     legend_outside(ax)
