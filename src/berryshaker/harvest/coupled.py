@@ -95,10 +95,12 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     of a branch do.  The comb's load (``combs.load_model``): with ``"branches"`` (default) the bush population of
     ``plant.bush`` (berryshaker.plant.bush) joins the instrumented fruit branch in one block-diagonal
     modal body (each member's few modes, its own station, contact direction, contact stiffness and
-    place along the row), every branch acts back on its comb, and the drive's aggregate spring-dampers
-    (``bush_left``, ``bush_right``) are removed, so the comb's load moment is the sum of the branch
-    reactions (never both).  With ``"aggregate"`` the spring-dampers stay and the instrumented branch is
-    driven by the combs without acting back.
+    place along the row), each member acts back on its comb with weight branches / members (it stands for
+    that many branches of the bush), and the drive's aggregate spring-dampers (``bush_left``,
+    ``bush_right``) are removed, so the comb's load moment is the sum of the branch reactions (never both).
+    With ``"aggregate"`` the spring-dampers stay.  In both the instrumented fruit branch is a probe: driven
+    by the combs without acting back (in the bush it is one of the branches the sample represents), so the
+    combs' motion does not depend on its modal model and its fruit forces converge with its modes.
     """
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
@@ -127,10 +129,10 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     pad = [0.0] * (n_total - nm)
     contacts = [
         dict(name="comb_left", body="left_comb", finger_point=fingers["left"]["point"], station=ct.station_left,
-             side=1, mid_lateral=fingers["left"]["mid"][0], engagement=ct.engagement, reaction_weight=float(branches)),
+             side=1, mid_lateral=fingers["left"]["mid"][0], engagement=ct.engagement, reaction_weight=0.0),
         dict(name="comb_right", body="right_comb", finger_point=fingers["right"]["point"],
              station=ct.station_right, side=-1, mid_lateral=fingers["right"]["mid"][0], engagement=ct.engagement,
-             reaction_weight=float(branches)),
+             reaction_weight=0.0),
     ]
     shapes = [np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist() + pad
               for st in (ct.station_left, ct.station_right)]
@@ -183,8 +185,8 @@ def comb_load_moment(res: MultibodyResult, machine: Machine) -> dict[str, np.nda
 
     ``"branches"``: the sum over the comb's branch contacts of (finger point - shaft) x (force on the comb),
     the force on the comb being -side F_n n (F_n the contact's normal force, n its direction), times the
-    contact's reaction weight (1 for the instrumented branch, (branches - 1) / members for a sampled
-    member, 0 for a branch driven without acting back).  ``"aggregate"``: the spring-damper's moment
+    contact's reaction weight (branches / members for a sampled member, 0 for the instrumented fruit
+    branch, which is driven without acting back).  ``"aggregate"``: the spring-damper's moment
     (``bush_left``, ``bush_right``).
     """
     cm = res.compiled
@@ -276,8 +278,11 @@ class FruitForceResult:
         out["load_model"] = self.machine.combs.load_model
         # statistics while the bush centre is inside the comb's length (both load models alike)
         sel = np.abs(self.distance) <= self.result.compiled.spec.plant.half_span
+        # mean |M| (the moment's time average: what the impacts deliver per unit time) converges with the bush's
+        # sample and modes; rms and peak are set by the impact peaks, which depend on the modes kept (docs/plant.md)
         out["load_moment_Nm"] = {side: {"peak": float(np.max(np.abs(m[sel]))),
-                                        "rms": float(np.sqrt(np.mean(m[sel] ** 2)))}
+                                        "rms": float(np.sqrt(np.mean(m[sel] ** 2))),
+                                        "mean": float(np.mean(np.abs(m[sel])))}
                                  for side, m in self.load_moment.items()}
         if self.machine.combs.load_model == "branches":
             pop = self.machine.plant.bush

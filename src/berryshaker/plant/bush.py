@@ -14,8 +14,8 @@ lies relative to the finger's mid-stroke position: > 0 overlaps the finger at mi
 more of the stroke), < 0 is reached only near the end of the stroke.
 
 The distributions are uniform over the ranges of :class:`berryshaker.plant.spec.BushSpec` ([assumed]
-unless marked there).  The same seed gives the same bush (numpy's PCG64 through ``default_rng``, values
-drawn in a fixed order).
+unless marked there), sampled by a Latin hypercube (scipy.stats.qmc) seeded through numpy's PCG64: the
+same seed gives the same bush.
 """
 
 from __future__ import annotations
@@ -64,16 +64,25 @@ def sample_bush(plant) -> list[BushBranch]:
         ``plant.bush.members`` sampled members, reached by the fingers or not (``station`` None), in drawing
         order; each stands for :func:`member_weight` branches of the bush.
     """
+    from scipy.stats import qmc
+
     bs = plant.bush
     n = bs.members
-    rng = np.random.default_rng(bs.seed)
-    d0 = rng.uniform(*bs.root_diameter, n)
-    length = rng.uniform(*bs.length, n)
-    base = rng.uniform(*bs.base_height, n)
-    lean_mag = rng.uniform(*bs.lean, n)
-    left = rng.random(n) < 0.5
-    row = rng.uniform(-bs.row_spread / 2, bs.row_spread / 2, n)
-    lateral = rng.uniform(-bs.lateral_spread, bs.lateral_spread, n)
+    # Latin hypercube: each of the seven distributions is sampled once in each of n equal-probability strata
+    # (McKay, Beckman & Conover 1979), so a small sample covers every range -- the comb's load, a sum over the
+    # members, then converges with far fewer members than with independent draws; half go to each comb.
+    u = qmc.LatinHypercube(d=7, seed=np.random.default_rng(bs.seed)).random(n) if n else np.zeros((0, 7))
+
+    def scale(j, lo, hi):
+        return lo + u[:, j] * (hi - lo)
+
+    d0 = scale(0, *bs.root_diameter)
+    length = scale(1, *bs.length)
+    base = scale(2, *bs.base_height)
+    lean_mag = scale(3, *bs.lean)
+    left = u[:, 4] < 0.5
+    row = scale(5, -bs.row_spread / 2, bs.row_spread / 2)
+    lateral = scale(6, -bs.lateral_spread, bs.lateral_spread)
     mat = plant.branch
     out = []
     for i in range(n):
@@ -87,9 +96,10 @@ def sample_bush(plant) -> list[BushBranch]:
 
 
 def member_weight(bush_spec) -> float:
-    """Branches of the bush each simulated member stands for: (branches - 1) / members (the instrumented
-    fruit branch is simulated itself); 0 without members."""
-    return (bush_spec.branches - 1) / bush_spec.members if bush_spec.members else 0.0
+    """Branches of the bush each simulated member stands for in the comb's load: branches / members (the
+    instrumented fruit branch is one of the bush's branches, represented by the sample like the others; it
+    is driven by the combs without acting back); 0 without members."""
+    return bush_spec.branches / bush_spec.members if bush_spec.members else 0.0
 
 
 @functools.lru_cache(maxsize=256)

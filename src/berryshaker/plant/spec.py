@@ -146,10 +146,12 @@ class BushSpec(_Strict):
     0.7 of its 1.2 m length.  ``branches`` and ``n_modes`` come from the convergence check in
     tests/test_bush.py (docs/plant.md, "The bush is the load").
 
-    ``branches`` is the bush's physical count of branches the fingers engage (the instrumented fruit
-    branch is one of them); ``members`` of the others are sampled and simulated, each standing for
-    (branches - 1) / members like branches in the comb's load (its reaction is weighted by that), so the
-    load converges with ``members`` while the bush keeps its size.
+    ``branches`` is the bush's physical count of branches the fingers engage; ``members`` of them are
+    sampled and simulated, each standing for branches / members like branches in the comb's load (its
+    reaction is weighted by that), so the load converges with ``members`` while the bush keeps its size.
+    The instrumented fruit branch is one of the bush's branches, represented in the load by the sample: it
+    is driven by the combs without acting back (a probe), so its own modal model cannot change the combs'
+    motion.
     """
 
     branches: int = Field(12, ge=1, le=200)  # engaged branches per bush, as harvest.branches_per_bush [assumed]

@@ -216,6 +216,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     for i, p in enumerate(PAIR_NAMES):
         _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
     parts.append(f"<h2>4. Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)</h2>")
+    parts.append("<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model "
+                 "(a spring-damper about each comb shaft, [assumed]).  The load of an explicit bush of branches is "
+                 "in section 8.</p>")
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
                         [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
                           mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
