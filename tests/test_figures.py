@@ -256,3 +256,24 @@ def test_main_effects_ring_marks_ties_and_no_ring_on_a_flat_factor(tmp_path):
     assert rings(fig.axes[0]) == 0
     assert rings(fig.axes[1]) == 2
     _close(data)
+
+
+def test_harvest_response_draws_the_table_rows_sorted_with_a_frequency_axis(tmp_path):
+    rows = [{"ripe_removal_pct": 70.0, "unripe_shed_pct": 0.5, "damage_rate_pct": 2.0, "shaking_frequency_hz": 2.5},
+            {"ripe_removal_pct": 8.0, "unripe_shed_pct": 0.0, "damage_rate_pct": 0.8, "shaking_frequency_hz": 1.0},
+            {"ripe_removal_pct": 18.0, "unripe_shed_pct": 0.1, "damage_rate_pct": 3.0, "shaking_frequency_hz": 2.0}]
+    x = [150.0, 60.0, 120.0]
+    data = P.plot_harvest_response(x, rows, "cam speed [rpm]", tmp_path / "removal.svg", "removal",
+                                   frequency_hz=[r["shaking_frequency_hz"] for r in rows], return_figure=True)
+    fig = data["figure"]
+    ax = fig.axes[0]
+    assert list(data["x"]) == [60.0, 120.0, 150.0]
+    assert list(data["series"]["ripe_removal_pct"]) == [8.0, 18.0, 70.0]
+    lines = {ln.get_label(): list(ln.get_ydata()) for ln in ax.get_lines()}
+    assert lines["ripe removal (% of ripe mass)"] == [8.0, 18.0, 70.0]
+    assert ax.get_xlabel() == "cam speed [rpm]" and "[%]" in ax.get_ylabel()
+    assert list(data["frequency_hz"]) == [1.0, 2.0, 2.5]
+    assert ax.get_legend() is not None
+    assert not audit_figure(fig)
+    _close(data)
+    assert (tmp_path / "removal.svg").read_text().lstrip().startswith("<?xml")

@@ -88,6 +88,19 @@ def study(
     out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
 
 
+def _harvest_figure(param, points, results, path: Path) -> None:
+    """The removal figure of a ``--model harvest`` sweep over one parameter (failed points left out)."""
+    from berryshaker.report.plots import plot_harvest_response
+
+    ok = [(pt[0], r.value) for pt, r in zip(points, results) if not r.error and r.value]
+    if not ok:
+        raise BerryshakerError("--figure: every sweep point failed, nothing to draw")
+    label = f"{param.key} [{param.unit}]" if param.unit else f"{param.key} [1]"
+    freq = [v["shaking_frequency_hz"] for _, v in ok] if param.key.endswith(".speed") else None
+    plot_harvest_response([x for x, _ in ok], [v for _, v in ok], label, path,
+                          "virtual harvest against " + param.key, frequency_hz=freq)
+
+
 @command(app)
 def sweep(
     param: list[str] = typer.Option(..., "--param", help="KEY=LO..HI unit, KEY=V1,V2,... unit or KEY=MEAN+-SD unit "
@@ -97,7 +110,8 @@ def sweep(
     method: str = typer.Option("grid", "--method", help="grid (ranges get --points levels), lhs or montecarlo."),
     points: int = typer.Option(3, "--points", "-n", min=1, help="Grid levels per range, or samples for lhs/montecarlo."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of lhs / montecarlo sampling."),
-    model: str = typer.Option("mlsd", "--model", help="mlsd or multibody."),
+    model: str = typer.Option("mlsd", "--model", help="mlsd, multibody, or harvest (virtual harvest: ripe removal, "
+                              "unripe shedding, damage; coupled machine-plant runs)."),
     revolutions: int = typer.Option(3, "--revolutions", min=2, help="Drive-shaft revolutions per run."),
     driveline: Optional[str] = typer.Option(None, "--driveline",
                                             help="imposed or powered (with --model multibody): powered runs report "
@@ -105,6 +119,8 @@ def sweep(
                                                  "joint. Default: the description's [driveline] mode."),
     config: Optional[Path] = ConfigOpt,
     out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
+    figure: Optional[Path] = typer.Option(None, "--figure", help="With --model harvest and one --param: ripe removal, "
+                                          "unripe shedding and damage against it (PNG or SVG)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: all cores)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = CacheOpt,
@@ -129,10 +145,17 @@ def sweep(
             validate_points,
         )
 
-        if model not in ("mlsd", "multibody"):
-            raise BerryshakerError(f"--model {model!r}: choose mlsd or multibody")
+        if model not in ("mlsd", "multibody", "harvest"):
+            raise BerryshakerError(f"--model {model!r}: choose mlsd, multibody or harvest")
         if driveline is not None and driveline not in ("imposed", "powered"):
             raise BerryshakerError(f"--driveline {driveline!r}: choose imposed or powered")
+        if figure is not None:
+            from berryshaker.outputs import check_output_file
+
+            if model != "harvest" or len(param) != 1:
+                raise BerryshakerError("--figure draws the harvest indexes against one parameter: give --model harvest "
+                                       "and exactly one --param")
+            check_output_file(figure, allowed_suffixes=(".png", ".svg"))
         if workers is not None and workers < 1:
             raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
         if out_file is not None:
@@ -159,6 +182,8 @@ def sweep(
             from berryshaker.report.tables import write_csv
 
             write_csv(out_file, header, rows)
+        if figure is not None:
+            _harvest_figure(params[0], pts, results, figure)
     except BerryshakerError as exc:
         _fail(exc)
         return
@@ -181,3 +206,5 @@ def sweep(
                 out.print(f"[red]run {r.index + 1} failed[/]: {escape(r.error)}")
     if out_file is not None:
         out.print(f"wrote {out_file}")
+    if figure is not None:
+        out.print(f"wrote {figure}")

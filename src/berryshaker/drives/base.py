@@ -128,6 +128,10 @@ class Combs(StrictModel):
     plant_friction_coefficient: Coefficient = 0.3  # mu3
     load_stiffness: TorsionalStiffness = 200.0  # aggregate bush reaction on a comb about its shaft
     load_damping: TorsionalDamping = 20.0
+    # the comb's load in runs with a plant: "branches" = the bush population of [plant.bush] (its reactions are
+    # the load; the aggregate spring-damper is left out), "aggregate" = the spring-damper above (the plant's
+    # branch is then driven without acting back).  Runs without a plant always use the aggregate.
+    load_model: Literal["branches", "aggregate"] = "branches"
 
     @property
     def left_inertia(self) -> float:

@@ -53,6 +53,8 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     for side, name in (("left", "bush_left"), ("right", "bush_right")):
         if name in cm.frc_names:
             out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
+    if out["load_moment_Nm"]:  # a run without a plant: the comb's load is the aggregate model (docs/plant.md)
+        out["load_model"] = "aggregate (no plant in this run)"
     torque = drive_moment(result)
     out["drive_moment_Nm"] = _stats(torque, sel)
     out["drive_moment_Nm"]["mean_abs"] = out["drive_moment_Nm"]["mean"]

@@ -57,3 +57,80 @@ def calibrate_contact_damping(machine: Machine, target_end_force: float = 1.0, b
         run(log_k)
     return 10.0**log_k, cache[log_k]
 
+
+
+def calibration_table(machine: Machine, fruit_summary: dict | None = None, harvest_fit: dict | None = None) -> dict:
+    """Every plant and picking parameter with its value, provenance tag and target or source, and the held-out
+    comparisons with the study (docs/plant.md, "Calibration").
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine description (values as described).
+    fruit_summary : dict, optional
+        :meth:`berryshaker.harvest.coupled.FruitForceResult.summary` at the chosen clearances: the stem forces
+        at root, middle and end, compared with the study's ranges (held out: nothing is fitted to them).
+    harvest_fit : dict, optional
+        :func:`berryshaker.harvest.virtual.calibrate_harvest` at the chosen clearances: the refitted values
+        (they should equal the described ones) and the held-out indexes.
+
+    Returns
+    -------
+    dict
+        ``parameters``: rows (parameter, value, unit, tag, target or source); ``held_out``: rows (quantity,
+        model, study, and for a published range whether the model is inside it; None for a single value).
+    """
+    from berryshaker.harvest.coupled import STUDY_FRUIT_FORCE_N
+    from berryshaker.harvest.virtual import STUDY_TARGETS
+    from berryshaker.plant.response import RIPE_BOND_N, UNRIPE_BOND_N
+
+    pl, h = machine.plant, machine.harvest
+    b, f, ped, ct, bush = pl.branch, pl.fruit, pl.fruit.pedicel, pl.contact, pl.bush
+    fit = harvest_fit or {}
+
+    def refit(key):
+        return f" (refit here: {fit[key]:.4g})" if key in fit else ""
+
+    rows = [
+        ("branch E", b.elastic_modulus / 1e9, "GPa", "[assumed, cited range]",
+         "goji 0.29-0.83 GPa (docs/study.md sec. 7)"),
+        ("branch density", b.density, "kg/m^3", "[assumed, cited range]", "0.8-0.93 t/m^3 (docs/study.md sec. 7)"),
+        ("branch damping ratio", b.damping_ratio, "1", "[assumed, cited]", "blackcurrant 7.1 % (docs/study.md sec. 7)"),
+        ("branch d0 / dm / l", f"{b.root_diameter * 1e3:g} / {b.tip_diameter * 1e3:g} / {b.length:g}", "mm, mm, m",
+         "[assumed]", "reference sheet (docs/study.md sec. 6)"),
+        ("fruit mass m0", f.mass * 1e3, "g", "[assumed, cited range]", "blueberry 0.5-2.5 g (docs/study.md sec. 7)"),
+        ("pedicel k / c", f"{ped.stiffness:g} / {ped.damping:g}", "N/m, N s/m", "[assumed]",
+         "coffee fruit-stem analogue (docs/plant.md)"),
+        ("finger d / L / E", f"{ct.finger.diameter * 1e3:g} / {ct.finger.free_length * 1e3:g} / "
+         f"{ct.finger.elastic_modulus / 1e9:g}", "mm, mm, GPa", "[assumed]", "PA6 data-sheet range (docs/plant.md)"),
+        ("contact cmax", ct.damping, "N s/m", "[assumed]", "not identifiable with stems (docs/plant.md)"),
+        ("bush branches / members / modes", f"{bush.branches} / {bush.members} / {bush.n_modes}", "1",
+         "[assumed] / [convergence]", "tests/test_bush.py"),
+        ("bush d0, l, lean ranges", f"{bush.root_diameter[0] * 1e3:g}-{bush.root_diameter[1] * 1e3:g} mm, "
+         f"{bush.length[0]:g}-{bush.length[1]:g} m, {math.degrees(bush.lean[0]):g}-{math.degrees(bush.lean[1]):g} deg",
+         "", "[assumed]", "bush 1.5-1.7 m tall [study]"),
+        ("ripe / unripe bond", f"{RIPE_BOND_N[0]:g}-{RIPE_BOND_N[1]:g} / {UNRIPE_BOND_N[0]:g}-{UNRIPE_BOND_N[1]:g}",
+         "N", "[study]", "eq. 17"),
+        ("yield per bush", h.yield_per_bush, "kg", "[calibrated]",
+         f"efficiency {STUDY_TARGETS['efficiency_kg_min']} kg/min at A1B1C1F3 [study]" + refit("yield_per_bush_kg")),
+        ("damage scale a_d", h.damage_acceleration, "m/s^2", "[calibrated]",
+         f"damage {STUDY_TARGETS['damage_rate_pct']} % at A1B1C1F3 [study]" + refit("damage_acceleration_m_s2")),
+        ("unripe fraction", h.unripe_fraction, "1", "[assumed]",
+         f"not fitted: the unripe rate ({STUDY_TARGETS['unripe_rate_pct']} % [study]) is held out"),
+        ("damage shape, fruit-mass CV", f"{h.damage_shape:g}, {h.fruit_mass_cv:g}", "1", "[assumed]",
+         "docs/harvest.md"),
+    ]
+    params = [{"parameter": r[0], "value": r[1], "unit": r[2], "tag": r[3], "target_or_source": r[4]} for r in rows]
+    held = []
+    for name, (lo, hi) in STUDY_FRUIT_FORCE_N.items():
+        pos = (fruit_summary or {}).get("positions", {}).get(name)
+        if pos is not None:
+            v = pos["peak_force_N"]
+            held.append({"quantity": f"{name} fruit peak force (N)", "model": v, "study": f"{lo:g}-{hi:g}",
+                         "inside": bool(lo <= v <= hi)})
+    for key, cmp_ in fit.get("held_out", {}).items():
+        held.append({"quantity": key, "model": cmp_["model"], "study": f"{cmp_['study']:g}", "inside": None})
+    for key in fit.get("fitted", {}):
+        held.append({"quantity": key + " (fitted, not evidence)", "model": fit["check"][key],
+                     "study": f"{STUDY_TARGETS[key]:g}", "inside": None})
+    return {"parameters": params, "held_out": held}

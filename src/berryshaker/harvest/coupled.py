@@ -17,6 +17,7 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError
 from berryshaker.drives import drive_of
+from berryshaker.plant.bush import member_weight
 from berryshaker.plant.modes import branch_modes
 from berryshaker.plant.response import harvest_verdict
 
@@ -53,63 +54,166 @@ def plant_modes(machine: Machine):
     return fb.modes, fb
 
 
+#: names of the aggregate bush spring-dampers every drive's mechanism carries (drives/*/mechanism.py)
+AGGREGATE_LOAD_FORCES = ("bush_left", "bush_right")
+
+
+def _finger_points(machine, drive, ct):
+    """Finger sections (body point, mid-stroke global position, shaft position, push side) of both combs."""
+    lc = machine.combs.length
+    rf = ct.finger_radius
+    td0, te0 = drive.mid_stroke_angles(machine)
+    xd, yd = machine.shaft_D
+    xe, ye = machine.shaft_E
+    # left comb: the finger section rf from D along the comb (the body's +x axis); pushes +x
+    # right comb: the fingers point away from arm E->F (upwards); pushes -x
+    return {"left": dict(body="left_comb", point=[-lc / 2 + rf, 0.0], side=1, shaft=(xd, yd),
+                         mid=(xd + rf * math.cos(td0), yd + rf * math.sin(td0))),
+            "right": dict(body="right_comb", point=[-lc / 2 - rf, 0.0], side=-1, shaft=(xe, ye),
+                          mid=(xe - rf * math.cos(te0), ye - rf * math.sin(te0)))}
+
+
+def bush_members(machine: Machine):
+    """The reached members of the machine's bush population (berryshaker.plant.bush), with their modes.
+
+    Returns a list of ``(member, modes)`` for the members the fingers reach, in drawing order; empty when
+    ``combs.load_model = "aggregate"`` or ``plant.bush.members = 0``.
+    """
+    from berryshaker.plant.bush import member_modes, sample_bush
+
+    if machine.combs.load_model != "branches":
+        return []
+    return [(mb_, member_modes(mb_, machine.plant.bush.n_modes)) for mb_ in sample_bush(machine.plant)
+            if mb_.station is not None]
+
+
 def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15):
-    """Harvester mechanism description with the machine's branch coupled to both combs."""
+    """Harvester mechanism description with the machine's branch coupled to both combs.
+
+    The run covers the instrumented branch's passage through the comb (its span plus ``margin`` either
+    side); members standing elsewhere along the row enter or leave the comb during it, as the neighbours
+    of a branch do.  The comb's load (``combs.load_model``): with ``"branches"`` (default) the bush population of
+    ``plant.bush`` (berryshaker.plant.bush) joins the instrumented fruit branch in one block-diagonal
+    modal body (each member's few modes, its own station, contact direction, contact stiffness and
+    place along the row), each member acts back on its comb with weight branches / members (it stands for
+    that many branches of the bush), and the drive's aggregate spring-dampers (``bush_left``,
+    ``bush_right``) are removed, so the comb's load moment is the sum of the branch reactions (never both).
+    With ``"aggregate"`` the spring-dampers stay.  In both the instrumented fruit branch is a probe: driven
+    by the combs without acting back (in the bush it is one of the branches the sample represents), so the
+    combs' motion does not depend on its modal model and its fruit forces converge with its modes.
+    """
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
     machine = machine.with_clearances(clearance)
     drive = drive_of(machine)
     pl = machine.plant
     ct = pl.contact
+    branches = machine.combs.load_model == "branches"
+    members = bush_members(machine)
     half = ct.span / 2
     v = machine.operation.walking_speed
     duration = (2 * (half + margin)) / v
     period = 2 * math.pi / machine.drive_speed
     revolutions = max(2, int(math.ceil(duration / period)))
     spec = drive.mechanism(machine, revolutions=revolutions).model_dump()
-    lc = machine.combs.length
-    rf = ct.finger_radius
-    td0, te0 = drive.mid_stroke_angles(machine)
-    xd, _ = machine.shaft_D
-    xe, _ = machine.shaft_E
+    if branches:
+        spec["forces"] = [f for f in spec["forces"] if f["name"] not in AGGREGATE_LOAD_FORCES]
+    fingers = _finger_points(machine, drive, ct)
     station = 0.5 * (ct.station_left + ct.station_right) * pl.branch.length
     k_contact, n_contact = ct.impact_stiffness(
         pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter) * station
                                    / pl.branch.length))
     modes, fb = plant_modes(machine)
+    nm = len(modes.omega)
+    n_total = nm + sum(len(mm.omega) for _, mm in members)
+    pad = [0.0] * (n_total - nm)
+    contacts = [
+        dict(name="comb_left", body="left_comb", finger_point=fingers["left"]["point"], station=ct.station_left,
+             side=1, mid_lateral=fingers["left"]["mid"][0], engagement=ct.engagement, reaction_weight=0.0),
+        dict(name="comb_right", body="right_comb", finger_point=fingers["right"]["point"],
+             station=ct.station_right, side=-1, mid_lateral=fingers["right"]["mid"][0], engagement=ct.engagement,
+             reaction_weight=0.0),
+    ]
+    shapes = [np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist() + pad
+              for st in (ct.station_left, ct.station_right)]
+    law = dict(law="impact", stiffness=k_contact, exponent=n_contact, damping=ct.damping,
+               damping_depth=ct.penetration_depth)
+    omega = modes.omega.tolist()
+    zeta = (fb.damping_ratios.tolist() if fb is not None else [pl.branch.damping_ratio] * nm)
+    col = nm
+    weight = member_weight(pl.bush)  # each simulated member stands for this many branches of the bush
+    for member, mm in members:
+        f = fingers[member.comb]
+        n = member.normal
+        zc = member.station * member.branch.length
+        k_m, n_m = ct.impact_stiffness(float(member.branch.diameter(zc)))
+        row = [0.0] * n_total
+        row[col:col + len(mm.omega)] = np.atleast_1d(mm.shape_at(zc)).tolist()
+        col += len(mm.omega)
+        shapes.append(row)
+        omega += mm.omega.tolist()
+        zeta += [member.branch.damping_ratio] * len(mm.omega)
+        contacts.append(dict(
+            name=member.name, body=f["body"], finger_point=f["point"], station=member.station, side=f["side"],
+            # pen = side (n.p - n.p_mid) + lateral_offset: the offset folded into mid_lateral
+            mid_lateral=n[0] * f["mid"][0] + n[1] * f["mid"][1] - f["side"] * member.lateral_offset,
+            axis=list(n), row_offset=member.row_offset, contact=dict(law, stiffness=k_m, exponent=n_m),
+            reaction_weight=weight))
     spec["plant"] = dict(
-        omega=modes.omega.tolist(), damping_ratio=pl.branch.damping_ratio,
-        shapes=[np.atleast_1d(modes.shape_at(st * pl.branch.length)).tolist()
-                for st in (ct.station_left, ct.station_right)],
-        lateral_axis=[1.0, 0.0], walking_speed=v,
+        omega=omega, damping_ratio=zeta if (fb is not None or members) else pl.branch.damping_ratio,
+        shapes=shapes, lateral_axis=[1.0, 0.0], walking_speed=v,
         start_distance=-(half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
-        contact=dict(law="impact", stiffness=k_contact, exponent=n_contact, damping=ct.damping,
-                     damping_depth=ct.penetration_depth),
-        contacts=[
-            # left comb: the finger section rf from D along the comb (the body's +x axis); pushes +x
-            dict(name="comb_left", body="left_comb", finger_point=[-lc / 2 + rf, 0.0],
-                 station=ct.station_left, side=1, mid_lateral=xd + rf * math.cos(td0), engagement=ct.engagement),
-            # right comb: the fingers point away from arm E->F (upwards); pushes -x
-            dict(name="comb_right", body="right_comb", finger_point=[-lc / 2 - rf, 0.0],
-                 station=ct.station_right, side=-1, mid_lateral=xe - rf * math.cos(te0),
-                 engagement=ct.engagement),
-        ],
-    )
+        contact=law, contacts=contacts)
     spec["simulation"]["duration"] = duration
     spec["mechanism"]["name"] = f"{machine.machine.name} + branch (rigid-flexible coupling)"
-    if fb is not None:
-        # per-mode damping of the fruit-branch modes; an engine taking one ratio only gets the branch's
-        spec["plant"]["damping_ratio"] = fb.damping_ratios.tolist()
+    if fb is not None and not members:
         try:
             out = mechanism_from_dict(spec, "(harvester + branch)")
         except ConfigError as err:
             if "damping_ratio" not in str(err):
                 raise
+            # an engine taking one ratio only gets the branch's
             spec["plant"]["damping_ratio"] = pl.branch.damping_ratio
             out = mechanism_from_dict(spec, "(harvester + branch)")
         return out, machine
     out = mechanism_from_dict(spec, "(harvester + branch)")
     return out, machine
+
+
+def comb_load_moment(res: MultibodyResult, machine: Machine) -> dict[str, np.ndarray]:
+    """Moment of the bush on each comb about its shaft (N m, counter-clockwise positive), per output time.
+
+    ``"branches"``: the sum over the comb's branch contacts of (finger point - shaft) x (force on the comb),
+    the force on the comb being -side F_n n (F_n the contact's normal force, n its direction), times the
+    contact's reaction weight (branches / members for a sampled member, 0 for the instrumented fruit
+    branch, which is driven without acting back).  ``"aggregate"``: the spring-damper's moment
+    (``bush_left``, ``bush_right``).
+    """
+    cm = res.compiled
+    spec = cm.spec
+    out = {}
+    if machine.combs.load_model == "aggregate":
+        for side, name in (("left", "bush_left"), ("right", "bush_right")):
+            if name in cm.frc_names:
+                out[side] = res.elements[:, cm.frc_names.index(name), mb.EO_FN].copy()
+        return out
+    bidx = {b.name: i for i, b in enumerate(spec.bodies)}
+    shafts = {"left_comb": machine.shaft_D, "right_comb": machine.shaft_E}
+    axis0 = np.array(spec.plant.lateral_axis, float) / math.hypot(*spec.plant.lateral_axis)
+    for c in spec.plant.contacts:
+        if c.reaction_weight == 0:
+            continue
+        b = bidx[c.body]
+        x, y, phi = res.y[:, 3 * b], res.y[:, 3 * b + 1], res.y[:, 3 * b + 2]
+        px = x + np.cos(phi) * c.finger_point[0] - np.sin(phi) * c.finger_point[1]
+        py = y + np.sin(phi) * c.finger_point[0] + np.cos(phi) * c.finger_point[1]
+        n = axis0 if c.axis is None else np.array(c.axis, float) / math.hypot(*c.axis)
+        fn = res.elements[:, cm.frc_names.index(c.name), mb.EO_FN]
+        fx, fy = -c.reaction_weight * c.side * fn * n[0], -c.reaction_weight * c.side * fn * n[1]
+        sx, sy = shafts[c.body]
+        side = "left" if c.body == "left_comb" else "right"
+        out[side] = out.get(side, 0.0) + (px - sx) * fy - (py - sy) * fx
+    return out
 
 
 @dataclass
@@ -134,6 +238,7 @@ class FruitForceResult:
     stem_lateral: dict[str, np.ndarray] = field(default_factory=dict)  # lateral stem force on the fruit (N)
     stem_axial: dict[str, np.ndarray] = field(default_factory=dict)  # axial stem force incl. weight (N)
     motion: "BranchMotion | None" = field(default=None, repr=False)  # modal solution, for post-processing
+    load_moment: dict[str, np.ndarray] = field(default_factory=dict)  # bush on each comb about its shaft (N m)
 
     def summary(self) -> dict:
         """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics."""
@@ -170,6 +275,20 @@ class FruitForceResult:
         names = list(self.fruit_force)
         peaks = [out["positions"][n]["peak_force_N"] for n in names]
         out["rises_root_to_end"] = bool(all(a < b for a, b in zip(peaks[:-1], peaks[1:])))
+        out["load_model"] = self.machine.combs.load_model
+        # statistics while the bush centre is inside the comb's length (both load models alike)
+        sel = np.abs(self.distance) <= self.result.compiled.spec.plant.half_span
+        # mean |M| (the moment's time average: what the impacts deliver per unit time) converges with the bush's
+        # sample and modes; rms and peak are set by the impact peaks, which depend on the modes kept (docs/plant.md)
+        out["load_moment_Nm"] = {side: {"peak": float(np.max(np.abs(m[sel]))),
+                                        "rms": float(np.sqrt(np.mean(m[sel] ** 2))),
+                                        "mean": float(np.mean(np.abs(m[sel])))}
+                                 for side, m in self.load_moment.items()}
+        if self.machine.combs.load_model == "branches":
+            pop = self.machine.plant.bush
+            out["bush"] = {"branches": pop.branches, "members": pop.members,
+                           "reached": len(bush_members(self.machine)), "modes_per_member": pop.n_modes,
+                           "seed": pop.seed}
         out["steps"] = int(self.result.info[0])
         out["wall_time_s"] = self.result.wall_time_s
         out["clearance_mm"] = {k: v * 1e3 for k, v in self.machine.clearance_sizes().items()}
@@ -233,14 +352,17 @@ def branch_motion(res: MultibodyResult, modes) -> BranchMotion:
     etad = res.y[:, n + nb3:n + nb3 + nm]
     w = modes.omega
     zeta = np.asarray(spec.plant.damping_ratio, float)  # one ratio, or one per mode
+    zeta = zeta[:nm] if zeta.ndim else zeta  # the bush members' modes follow the branch's (block-diagonal)
     etadd = -(w**2) * eta - 2 * zeta * w * etad
     phi_tab = cm.model[13]
     contact_force = {}
     for row, c in enumerate(spec.plant.contacts):
+        if not np.any(phi_tab[row, :nm]):
+            continue  # a bush member's contact: it does not load this branch
         k = cm.frc_names.index(c.name)
         f = res.elements[:, k, mb.EO_FN]
         contact_force[c.name] = f
-        etadd = etadd + np.outer(c.side * f, phi_tab[row])
+        etadd = etadd + np.outer(c.side * f, phi_tab[row, :nm])
     return BranchMotion(res.t, modes, eta, etad, etadd, contact_force)
 
 
@@ -307,4 +429,5 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     distance = spec.plant.start_distance + spec.plant.walking_speed * res.t
     out = FruitForceResult(distance, res.t, fruit, zs, motion.contact_force, defl, res, machine, rigid, lat, ax)
     out.motion = motion
+    out.load_moment = comb_load_moment(res, machine)
     return out

@@ -19,7 +19,7 @@ class HarvestSpec(_Strict):
     fruit_zone: tuple[float, float] = (0.1, 0.95)  # fruit along the branch, fractions of its length
     fruit_mass_cv: float = Field(0.2, ge=0, lt=1)  # coefficient of variation of fruit mass
     yield_per_bush: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))] = 0.5  # [calibrated]
-    unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [calibrated]
+    unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [assumed; unripe rate held out]
     damage_acceleration: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 300.0  # m/s^2 [cal.]
     damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
     bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run

@@ -19,8 +19,10 @@ Chain (docs/harvest.md):
    speed / plant spacing), unripe rate = unripe picked mass / picked mass, damage rate = damaged mass /
    picked mass.
 
-Calibrated (only) so that the study's chosen clearances give its field values: ``yield_per_bush``
-(efficiency 3.93 kg/min), ``unripe_fraction`` (3.1 %), ``damage_acceleration`` (2.8 %).
+Calibrated (only) at the study's chosen clearances (:func:`calibrate_harvest`): ``yield_per_bush`` to
+the efficiency 3.93 kg/min and ``damage_acceleration`` to the damage rate 2.8 % [study]; the unripe
+rate (3.1 %) is held out (``unripe_fraction`` [assumed]), as are the fruit-force ranges and the L9's
+directions (berryshaker.harvest.calibration.calibration_table).
 """
 
 from __future__ import annotations
@@ -200,17 +202,44 @@ def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None,
     return out
 
 
-def calibrate_harvest(machine: Machine, targets: dict | None = None) -> dict:
-    """Fit yield per bush, unripe fraction and damage acceleration to the study's values at the machine's
-    (chosen) clearances; every other quantity stays a prediction.  Returns the three values and the check."""
+def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[str, ...] = ("efficiency", "damage"),
+                      envelopes: list[np.ndarray] | None = None) -> dict:
+    """Fit the picking model to some of the study's field values at the machine's (chosen) clearances and hold
+    the others out.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description at the study's chosen clearances (A1B1C1F3 on the reference machine).
+    targets : dict, optional
+        The study's values (:data:`STUDY_TARGETS`: 3.93 kg/min, 3.1 % unripe, 2.8 % damage [study]).
+    fit : tuple of {"efficiency", "unripe", "damage"}
+        What is fitted: "efficiency" -> ``yield_per_bush`` (the efficiency is proportional to it, one step),
+        "damage" -> ``damage_acceleration`` (Brent's method), "unripe" -> ``unripe_fraction`` (Brent's
+        method, when reachable).  Every value not fitted keeps its description value and its index is
+        reported as a held-out prediction.  Default: efficiency and damage fitted, the unripe rate held out.
+    envelopes : list of ndarray, optional
+        Stem-force envelopes (:func:`envelopes_for`) already computed at these clearances.
+
+    Returns
+    -------
+    dict
+        ``yield_per_bush_kg``, ``unripe_fraction``, ``damage_acceleration_m_s2`` (fitted or as described),
+        ``fitted`` (index -> parameter), ``held_out`` (index -> {"model", "study"}), ``check`` (the indexes
+        with the returned values), ``reachable``.
+    """
+    from berryshaker.errors import ConfigError
+
     targets = targets or STUDY_TARGETS
-    env = envelopes_for(machine, None)
+    unknown = set(fit) - {"efficiency", "unripe", "damage"}
+    if unknown:
+        raise ConfigError(f"calibrate_harvest: unknown index {sorted(unknown)} in fit; choose from efficiency, "
+                          "unripe, damage")
+    env = envelopes if envelopes is not None else envelopes_for(machine, None)
 
     def idx(yb=None, uf=None, ad=None):
         pop = sample_population(machine, unripe_fraction=uf, yield_per_bush=yb)
         return harvest_indexes(machine, env, pop, ad)
-
-    from berryshaker.errors import ConfigError
 
     yb, uf, ad = machine.harvest.yield_per_bush, machine.harvest.unripe_fraction, machine.harvest.damage_acceleration
     if idx(yb=yb, uf=uf)["efficiency_kg_min"] <= 0:
@@ -218,17 +247,74 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None) -> dict:
                           "the picking indexes cannot be calibrated")
     reachable = {"unripe_rate_pct": idx(yb=yb, uf=0.95)["unripe_rate_pct"] > targets["unripe_rate_pct"]}
     for _ in range(4):  # the three couple weakly through the sampled population: a few sweeps converge
-        if reachable["unripe_rate_pct"]:
+        if "unripe" in fit and reachable["unripe_rate_pct"]:
             uf = optimize.brentq(lambda u: idx(yb=yb, uf=u)["unripe_rate_pct"] - targets["unripe_rate_pct"],
                                  1e-3, 0.95, xtol=1e-6)
-        yb = yb * targets["efficiency_kg_min"] / idx(yb=yb, uf=uf)["efficiency_kg_min"]
-        ad = optimize.brentq(lambda a: idx(yb=yb, uf=uf, ad=a)["damage_rate_pct"] - targets["damage_rate_pct"],
-                             1.0, 1e5, xtol=1e-3)
+        if "efficiency" in fit:
+            yb = yb * targets["efficiency_kg_min"] / idx(yb=yb, uf=uf)["efficiency_kg_min"]
+        if "damage" in fit:
+            ad = optimize.brentq(lambda a: idx(yb=yb, uf=uf, ad=a)["damage_rate_pct"] - targets["damage_rate_pct"],
+                                 1.0, 1e5, xtol=1e-3)
     check = idx(yb=yb, uf=uf, ad=ad)
-    # the unripe rate cannot reach the target when no unripe fruit's stem force reaches its bond (1.0-3.6 N):
-    # the unripe fraction is then left as described and the rate reported as predicted
+    names = {"efficiency": ("efficiency_kg_min", "yield_per_bush"), "unripe": ("unripe_rate_pct", "unripe_fraction"),
+             "damage": ("damage_rate_pct", "damage_acceleration")}
+    fitted = {names[k][0]: names[k][1] for k in fit if k != "unripe" or reachable["unripe_rate_pct"]}
+    held_out = {key: {"model": check[key], "study": targets[key]} for key in targets if key not in fitted}
     return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check,
-            "reachable": reachable}
+            "fitted": fitted, "held_out": held_out, "reachable": reachable}
+
+
+#: the indexes of :func:`harvest_response` (sweep columns and the removal figure), with their units
+HARVEST_INDEXES = {"ripe_removal_pct": "%", "unripe_shed_pct": "%", "damage_rate_pct": "%",
+                   "unripe_rate_pct": "%", "efficiency_kg_min": "kg/min"}
+
+
+def harvest_response(machine: Machine, clearance: dict | None = None) -> dict:
+    """Virtual harvest of one machine setting, as the vibratory-harvesting literature plots it.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (any drive with a [plant] and a [harvest] section); every value, the calibrated
+        population included, as described.
+    clearance : dict, optional
+        Clearance sizes (m).
+
+    Returns
+    -------
+    dict
+        ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct (unripe mass
+        detached / unripe mass), damage_rate_pct and unripe_rate_pct (of the picked mass, the study's
+        indexes), efficiency_kg_min, shaking_frequency_hz (one comb cycle per drive-shaft revolution:
+        drive speed / 2 pi).  One coupled run per branch class (:func:`envelopes_for`).
+    """
+    return response_indexes(machine, envelopes_for(machine, clearance))
+
+
+def response_indexes(machine: Machine, envelopes: list[np.ndarray]) -> dict:
+    """:func:`harvest_response` from stem-force envelopes already computed (one per branch class)."""
+    idx = harvest_indexes(machine, envelopes, sample_population(machine))
+    return {"ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
+            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
+            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"],
+            "shaking_frequency_hz": machine.drive_speed / (2 * math.pi)}
+
+
+def with_drive_speed(machine_data: dict, speed: float) -> dict:
+    """A machine description (dict, SI) with the drive shaft's speed replaced (rad/s), for any drive: the
+    section whose ``speed`` is the machine's drive speed (``cam.speed``, ``crank.speed``, ...)."""
+    from berryshaker.errors import ConfigError
+
+    if not speed > 0:
+        raise ConfigError(f"drive speed must be > 0, got {speed} rad/s")
+    current = machine_from_dict(machine_data).drive_speed
+    d = dict(machine_data)
+    for key, sec in machine_data.items():
+        if isinstance(sec, dict) and isinstance(sec.get("speed"), (int, float)) and \
+                math.isclose(sec["speed"], current, rel_tol=1e-12):
+            d[key] = dict(sec, speed=float(speed))
+            return d
+    raise ConfigError("the machine description has no section whose speed is the drive speed")
 
 
 def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | None = None) -> dict:
@@ -246,9 +332,7 @@ def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | Non
     Returns
     -------
     dict
-        speed_rpm, ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct
-        (unripe mass detached / unripe mass), damage_rate_pct, unripe_rate_pct, efficiency_kg_min.
-        Everything else held at the description's values (calibrated population included).
+        speed_rpm and the indexes of :func:`harvest_response`.
     """
     from berryshaker.errors import ConfigError
 
@@ -258,11 +342,7 @@ def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | Non
     if not speed_rpm > 0:
         raise ConfigError(f"cam speed must be > 0 r/min, got {speed_rpm}")
     d["cam"] = dict(d["cam"], speed=float(speed_rpm) * 2 * math.pi / 60.0)
-    m = machine_from_dict(d)
-    idx = harvest_indexes(m, envelopes_for(m, clearance), sample_population(m))
-    return {"speed_rpm": float(speed_rpm), "ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
-            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
-            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"]}
+    return {"speed_rpm": float(speed_rpm), **harvest_response(machine_from_dict(d), clearance)}
 
 
 def removal_vs_frequency(machine: Machine, speeds_rpm, clearance: dict | None = None) -> list[dict]:

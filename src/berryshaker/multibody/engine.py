@@ -179,11 +179,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         plant_p = np.array([pl.walking_speed, pl.start_distance, pl.half_span, pl.ramp, pl.ramp_depth])
         ax, ay = np.array(pl.lateral_axis, float) / math.hypot(*pl.lateral_axis)
         for station_row, c in enumerate(pl.contacts):
-            cc = pl.contact
+            cc = pl.contact if c.contact is None else c.contact
+            cx, cy = (ax, ay) if c.axis is None else np.array(c.axis, float) / math.hypot(*c.axis)
             add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=get_law(cc.law).code,
-                    six=c.finger_point[0], siy=c.finger_point[1], ux=ax, uy=ay, gap=c.engagement,
+                    six=c.finger_point[0], siy=c.finger_point[1], ux=cx, uy=cy, gap=c.engagement,
                     k=float(cc.stiffness), n=cc.exponent, e=cc.restitution, c=cc.damping, d=cc.damping_depth,
-                    rpin=float(c.side), phi0=c.mid_lateral)
+                    rpin=float(c.side), phi0=c.mid_lateral, row=c.row_offset, react=c.reaction_weight)
             # fint[., 1] holds the phi_tab row of a branch contact
 
     def arr(x, shape, dtype):

@@ -49,6 +49,11 @@ FF_RATIO, FF_ETA_F, FF_ETA_B, FF_CREEP, FF_SLIP, FF_NTAB = range(16, 22)
 MAX_TABLE = 64  # most points of a torque-speed table
 FF_TAB = 22
 N_FF = FF_TAB + 2 * MAX_TABLE
+# a modal-body contact (FRC_BRANCH) reuses two slots it has no other use for: the contact's own position along
+# the row (m, added to the body's start distance: a bush of branches at different places) and the multiple of the
+# contact force that acts back on the striking body (1: two-way; 0: the body is driven, the mechanism feels
+# nothing; w: the contact stands for w like branches of a sampled population)
+FF_ROW, FF_REACT = FF_SJX, FF_SJY
 # element outputs
 EO_FN, EO_PEN, EO_PENDOT, EO_FT = range(4)
 N_EO = 4
@@ -431,7 +436,7 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
             pen = side * (xlat - fflt[k, FF_PHI0]) + fflt[k, FF_GAP] - side * u
             pen_dot = side * vlat - side * ud
             # the plant enters and leaves the comb as the machine drives past: reach ramps in and out
-            xrel = plant_p[1] + plant_p[0] * t
+            xrel = plant_p[1] + plant_p[0] * t - fflt[k, FF_ROW]
             half, ramp = plant_p[2], plant_p[3]
             dist = half - abs(xrel)
             if dist <= 0.0:
@@ -449,7 +454,8 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
                           fflt[k, FF_N], fflt[k, FF_E], fflt[k, FF_C], fflt[k, FF_D])
                 for m in range(nm):
                     Q[n0 + m] += side * fn * phi_tab[row, m]
-                _apply(Q, bi, -side * fn * ax, -side * fn * ay, pix - oix, piy - oiy)
+                react = fflt[k, FF_REACT]
+                _apply(Q, bi, -react * side * fn * ax, -react * side * fn * ay, pix - oix, piy - oiy)
                 eout[k, EO_FN] = fn
         elif typ == FRC_TORQUE_SPEED:
             wrel = (qd[3 * bi + 2] if bi >= 0 else 0.0) - (qd[3 * bj + 2] if bj >= 0 else 0.0)

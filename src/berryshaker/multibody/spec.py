@@ -256,6 +256,21 @@ class BranchContactSpec(_Strict):
     side: Literal[-1, 1] = 1  # +1: the finger pushes the branch towards +lateral_axis
     mid_lateral: Annotated[float, _q("length")]  # lateral coordinate of the finger where it just touches
     engagement: Annotated[float, _q("length"), Field(ge=0)] = 0.0  # overlap already at mid_lateral (m)
+    # appended for a body of several branches (a bush): where this contact's branch stands along the row
+    # relative to the body's start distance (m), its own contact direction (default: the body's lateral_axis;
+    # mid_lateral is then measured along it), its own contact law (default: the body's), and the multiple of
+    # its force that acts back on the striking body (1: two-way; 0: the branch is driven, the mechanism feels
+    # nothing; w > 1: it stands for w like branches of a sampled population)
+    row_offset: Annotated[float, _q("length")] = 0.0
+    axis: Direction | None = None
+    contact: ContactSpec | None = None
+    reaction_weight: float = Field(1.0, ge=0)
+
+    @model_validator(mode="after")
+    def _check_axis(self) -> "BranchContactSpec":
+        if self.axis is not None and math.hypot(*self.axis) == 0:
+            raise ValueError(f"plant contact {self.name!r}: axis must not be zero")
+        return self
 
 
 class ModalBodySpec(_Strict):

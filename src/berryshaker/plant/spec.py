@@ -113,8 +113,64 @@ class CombContactSpec(_Strict):
         return k, 1.0
 
 
+def _range(kind: str):
+    """A (low, high) pair of quantities of one dimension, low <= high."""
+    from berryshaker.errors import ConfigError
+    from berryshaker.units import parse_quantity
+
+    def convert(v):
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            raise ValueError(f"expected a range [low, high] of {kind} values, got {v!r}")
+        try:
+            lo, hi = (parse_quantity(c, kind) for c in v)
+        except ConfigError as exc:
+            raise ValueError(str(exc).removeprefix("value: ")) from None
+        if lo > hi:
+            raise ValueError(f"range [{lo:g}, {hi:g}] (SI) has low > high")
+        return (float(lo), float(hi))
+
+    return BeforeValidator(convert)
+
+
+LengthRange = Annotated[tuple[float, float], _range("length")]
+AngleRange = Annotated[tuple[float, float], _range("angle")]
+
+
+class BushSpec(_Strict):
+    """The bush the combs engage: a seeded population of branches (berryshaker.plant.bush).
+
+    Every value is [assumed] unless marked: the study gives the bush as 1.5-1.7 m tall [study] ('Bluecrop',
+    7 years) and 1.6-1.9 m in the literature it cites (docs/study.md sec. 7); no cane count, diameter or
+    lean distribution is published for it.  Diameters span the reference branch (12 mm) by a third either
+    way; lengths stay below the bush height; ``finger_height`` puts the reference branch's contact at
+    0.7 of its 1.2 m length.  ``branches`` and ``n_modes`` come from the convergence check in
+    tests/test_bush.py (docs/plant.md, "The bush is the load").
+
+    ``branches`` is the bush's physical count of branches the fingers engage; ``members`` of them are
+    sampled and simulated, each standing for branches / members like branches in the comb's load (its
+    reaction is weighted by that), so the load converges with ``members`` while the bush keeps its size.
+    The instrumented fruit branch is one of the bush's branches, represented in the load by the sample: it
+    is driven by the combs without acting back (a probe), so its own modal model cannot change the combs'
+    motion.
+    """
+
+    branches: int = Field(12, ge=1, le=200)  # engaged branches per bush, as harvest.branches_per_bush [assumed]
+    members: int = Field(6, ge=0, le=64)  # simulated sample of the other branches (convergence: tests/test_bush.py)
+    seed: int = 12
+    n_modes: int = Field(2, ge=1, le=16)  # bending modes per member (the fruit branch keeps plant.contact.n_modes)
+    root_diameter: LengthRange = (0.008, 0.016)  # d0, uniform (m)
+    tip_ratio: float = Field(0.3333, gt=0, le=1)  # dm / d0, as the reference branch (4 / 12 mm)
+    length: LengthRange = (0.9, 1.6)  # l, uniform (m); bush 1.5-1.7 m tall [study]
+    base_height: LengthRange = (0.0, 0.15)  # where the cane leaves the crown, above the reference base (m)
+    lean: AngleRange = (0.0, 0.5236)  # |angle from vertical| in the combs' plane, uniform (rad; 0-30 deg)
+    row_spread: LengthNonNeg = 0.3  # branches spread uniformly over this length along the row (m)
+    lateral_spread: LengthNonNeg = 0.04  # branch surface within +-this of the finger's mid-stroke position (m)
+    finger_height: Length = 0.84  # height of the striking finger section above the reference branch base (m)
+
+
 class PlantSpec(_Strict):
-    """The plant section of a machine description: branch, fruit and the comb-branch contact."""
+    """The plant section of a machine description: branch, fruit, the comb-branch contact and the bush."""
     branch: BranchSpec
     fruit: FruitSpec
     contact: CombContactSpec = CombContactSpec()
+    bush: BushSpec = BushSpec()

@@ -219,6 +219,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     for i, p in enumerate(PAIR_NAMES):
         _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
     parts.append(f"<h2>4. Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)</h2>")
+    parts.append("<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model "
+                 "(a spring-damper about each comb shaft, [assumed]).  The load of an explicit bush of branches is "
+                 "in section 8.</p>")
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
                         [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
                           mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
@@ -283,6 +286,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
         _maybe_img(parts, figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     _powered_drive_section(parts, res.get("powered_drive"), PAIR_NAMES, note)
     # config
+    parts.extend(harvest_response_section(res, figs, steps.get("harvest_response")))
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary["timings_s"].items()) + "</p>")
@@ -382,6 +386,48 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
     _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    return parts
+
+
+def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
+    """Section 9: the comb's load (the bush), harvest against shaking frequency, calibration (fitted / held out)."""
+    parts = ["<h2>9. The bush as the comb's load; harvest against shaking frequency; calibration</h2>"]
+    if step is not None and step.note:
+        parts.append(f"<p class='small'><b>Note:</b> {html.escape(step.note)}</p>")
+    chosen = ((res.get("fruit_force") or {}).get("chosen") or {}).get("summary") or {}
+    if chosen.get("load_moment_Nm"):
+        bush = chosen.get("bush") or {}
+        who = (f"the sum of the reactions of {bush.get('branches')} branches ({bush.get('members')} simulated "
+               f"members with {bush.get('modes_per_member')} modes each, seed {bush.get('seed')}, plus the "
+               "instrumented fruit branch)" if chosen.get("load_model") == "branches"
+               else "the aggregate spring-damper (combs.load_model = aggregate)")
+        parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
+                     "</p>")
+        parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
+                            [[side, v["peak"], v["rms"]] for side, v in chosen["load_moment_Nm"].items()]))
+    hr = res.get("harvest_response")
+    if not hr:
+        parts.append("<p>Not available (see Failed runs).</p>")
+        return parts
+    parts.append("<p>Ripe removal (% of the ripe mass), unripe shedding (% of the unripe mass) and damage (% of the "
+                 "picked mass) of the seeded virtual harvest against the drive-shaft speed, one comb cycle per "
+                 "revolution, at the configured clearances; every other value as described.</p>")
+    parts.append(_table(["drive speed (r/min)", "frequency (Hz)", "ripe removal (%)", "unripe shedding (%)",
+                         "damage (%)", "efficiency (kg/min)"],
+                        [[r["speed_rpm"], r["shaking_frequency_hz"], r["ripe_removal_pct"], r["unripe_shed_pct"],
+                          r["damage_rate_pct"], r["efficiency_kg_min"]] for r in hr["rows"]]))
+    _maybe_img(parts, figs / "harvest_vs_frequency.png", "Virtual harvest against shaking frequency")
+    cal = hr.get("calibration") or {}
+    if cal:
+        parts.append("<p>Calibration: every plant and picking parameter with its provenance; [calibrated] values "
+                     "were fitted to the target named, the quantities below them were not fitted and are "
+                     "held-out comparisons with the study (docs/plant.md).</p>")
+        parts.append(_table(["parameter", "value", "unit", "tag", "target or source"],
+                            [[p["parameter"], p["value"], p["unit"], p["tag"], p["target_or_source"]]
+                             for p in cal["parameters"]], left=(0, 3, 4)))
+        parts.append(_table(["quantity", "model", "study", "inside the study's range"],
+                            [[h["quantity"], h["model"], h["study"], "-" if h["inside"] is None else h["inside"]]
+                             for h in cal["held_out"]]))
     return parts
 
 

@@ -678,6 +678,58 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
     return _out(fig, path, data, return_figure, dpi=100)
 
 
+#: the three picking indexes against a machine setting, as the vibratory-harvesting literature draws them
+HARVEST_RESPONSE_SERIES = {"ripe_removal_pct": ("ripe removal (% of ripe mass)", "#1b7837", "o", "-"),
+                           "unripe_shed_pct": ("unripe shedding (% of unripe mass)", "#762a83", "s", "--"),
+                           "damage_rate_pct": ("damage rate (% of picked mass)", "#b2182b", "^", ":")}
+
+
+def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: str = "", *,
+                          frequency_hz=None, return_figure: bool = False) -> dict:
+    """Ripe removal, unripe shedding and damage against one machine setting (e.g. the cam speed).
+
+    Parameters
+    ----------
+    x : sequence of float
+        The swept values (in the unit named in ``xlabel``).
+    rows : list of dict
+        One :func:`berryshaker.harvest.virtual.harvest_response` per value.
+    xlabel : str
+        Axis label with unit, e.g. ``"cam speed [rpm]"``.
+    frequency_hz : sequence of float, optional
+        The shaking frequency of each point: drawn as a second x axis on top (drive speeds only).
+
+    Returns
+    -------
+    dict
+        ``x`` (sorted) and per index key the drawn values; ``path``.
+    """
+    fig, ax = new_figure(figsize=(7.5, 4.2))
+    order = np.argsort(np.asarray(x, float))
+    xs = np.asarray(x, float)[order]
+    data = {"x": xs, "series": {}}
+    for key, (label, colour, marker, ls) in HARVEST_RESPONSE_SERIES.items():
+        ys = np.array([float(rows[i].get(key, float("nan"))) for i in order])
+        ax.plot(xs, ys, color=colour, marker=marker, linestyle=ls, label=label)
+        data["series"][key] = ys
+    label_axes(ax, xlabel=xlabel, ylabel="share of the fruit mass [%]", strict=False)
+    ax.grid(alpha=0.3)
+    ax.set_ylim(bottom=0.0)
+    if frequency_hz is not None and len(xs) > 1:
+        fz = np.asarray(frequency_hz, float)[order]
+        # the frequency is linear in a drive speed (one comb cycle per revolution): a straight-line map, valid
+        # beyond the data too (the axis limits lie outside it)
+        slope, icpt = np.polyfit(xs, fz, 1)
+        top = ax.secondary_xaxis("top", functions=(lambda v: slope * np.asarray(v) + icpt,
+                                                   lambda f: (np.asarray(f) - icpt) / slope))
+        top.set_xlabel("shaking frequency [Hz]")
+        data["frequency_hz"] = fz
+    legend_outside(ax)
+    if title:
+        ax.set_title(title, pad=28 if frequency_hz is not None else 6)
+    return _out(fig, path, data, return_figure)
+
+
 def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     """Kinematics figures of a machine's drive into ``folder`` (comb angles for every drive; SVAJ and the groove
     profile for a groove cam); returns the file names."""

@@ -240,6 +240,10 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
 
     machine = point_machine(machine_data, overrides, revolutions)
     drive = drive_of(machine)
+    if model == "harvest":  # virtual harvest: coupled drive-past runs, picking indexes (revolutions unused)
+        from berryshaker.harvest.virtual import harvest_response
+
+        return harvest_response(machine)
     if model == "mlsd":
         if drive.reduced_model is None:
             raise ConfigError(f"the {drive.name} drive has no reduced model; use --model multibody")
@@ -281,6 +285,11 @@ def model_runs(kwargs_list: list[dict]) -> list:
 model_run.batch = model_runs
 
 
+#: outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response)
+HARVEST_COLUMNS = ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct", "unripe_rate_pct",
+                   "efficiency_kg_min", "shaking_frequency_hz")
+
+
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
     """A tidy results table: one row per run, parameter columns (their units), status, outputs."""
     header = ["run"] + [f"{p.key}[{p.unit}]" if p.unit else p.key for p in params] + ["status", "error"]
@@ -304,6 +313,9 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
                 vals["input_power_W"] = r.value["input_power_W"]
                 for name, e in r.value["energy_per_revolution_J"].items():
                     vals[f"energy_lost_{name.replace(' ', '_')}_J_per_rev"] = e
+            for key in HARVEST_COLUMNS:  # --model harvest
+                if key in r.value:
+                    vals[key] = r.value[key]
         for k in vals:
             if k not in out_cols:
                 out_cols.append(k)

@@ -46,6 +46,7 @@ class StudyContext:
     figs: Path
     failures: list = field(default_factory=list)
     say: Callable[[str], None] = lambda msg: None
+    results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
 
     @property
     def drive(self):
@@ -209,6 +210,54 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
     return out
 
 
+#: drive-shaft speeds of the harvest-against-frequency section (r/min); the configured speed is added
+RESPONSE_SPEEDS_RPM = (60.0, 90.0, 120.0, 150.0, 180.0)
+
+
+def step_harvest_response(ctx: StudyContext) -> StepResult:
+    """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances (one
+    coupled run per branch class and speed), and the calibration: what is fitted, what is held out."""
+    import math
+
+    from berryshaker.config import machine_from_dict
+    from berryshaker.harvest.calibration import calibration_table
+    from berryshaker.harvest.virtual import calibrate_harvest, response_indexes, with_drive_speed
+    from berryshaker.report import plots as P
+    from berryshaker.study.runs import envelope_run
+
+    ctx.say("harvest against shaking frequency, calibration")
+    own = ctx.machine.drive_speed * 60 / (2 * math.pi)
+    speeds = sorted(set(RESPONSE_SPEEDS_RPM) | {round(own, 6)})
+    classes = ctx.machine.harvest.branch_classes
+    datas = [with_drive_speed(ctx.data, rpm * 2 * math.pi / 60) if not math.isclose(rpm, own) else ctx.data
+             for rpm in speeds]
+    jobs = [dict(machine_data=d, clearance={}, scale=s) for d in datas for s in classes]
+    env = ctx.collect(envelope_run, jobs, "harvest vs frequency: coupled runs",
+                      lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
+                                f"r/min, branch class x{j['scale']:g}")
+    rows, own_env = [], None
+    for i, rpm in enumerate(speeds):
+        e = env[i * len(classes):(i + 1) * len(classes)]
+        if any(v is None for v in e):
+            continue
+        e = [np.array(v) for v in e]
+        if math.isclose(rpm, own):
+            own_env = e
+        rows.append({"speed_rpm": rpm, **response_indexes(machine_from_dict(datas[i]), e)})
+    data = {"rows": rows, "configured_rpm": own}
+    figs = []
+    if len(rows) > 1:
+        P.plot_harvest_response([r["speed_rpm"] for r in rows], rows, "drive-shaft speed [rpm]",
+                                ctx.figs / "harvest_vs_frequency.png",
+                                "Virtual harvest against shaking frequency (configured clearances)",
+                                frequency_hz=[r["shaking_frequency_hz"] for r in rows])
+        figs.append("harvest_vs_frequency.png")
+    fit = calibrate_harvest(ctx.machine, envelopes=own_env) if own_env is not None else None
+    chosen = (ctx.results.get("fruit_force") or {}).get("chosen") or {}
+    data["calibration"] = calibration_table(ctx.machine, chosen.get("summary"), fit)
+    return StepResult("harvest_response", data, figs)
+
+
 def step_clearance_life(ctx: StudyContext) -> StepResult:
     """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/)."""
     from berryshaker.study.life_step import step_life
@@ -252,8 +301,8 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
 
 
 STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), ("clearance_rows", step_rows),
-         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("clearance_life", step_clearance_life),
-         ("powered_drive", step_powered_drive))
+         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("harvest_response", step_harvest_response),
+         ("clearance_life", step_clearance_life), ("powered_drive", step_powered_drive))
 
 
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
@@ -264,7 +313,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
             console.print(f"[bold cyan]study[/] {msg}")
 
     ctx = StudyContext(machine, runner, figs, say=say)
-    results: dict = {}
+    results: dict = ctx.results
     steps: dict[str, StepResult] = {}
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
