@@ -970,7 +970,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
             for a in range(crow_m[kc], _block_end(crow_m, kc, m_rows)):
                 if abs(phi[a]) > res_p:
                     res_p = abs(phi[a])
-                vr = _row_dot(jac, a, bi, bj, y[n_q:]) - nu[a]
+                vr = _row_dot_at(jac, a, bi, bj, y, n_q) - nu[a]
                 if abs(vr) > res_v:
                     res_v = abs(vr)
         if res_p > max_res:
