@@ -15,12 +15,14 @@ d = P - (x, 0), penetration delta = |d| - c, n = d/|d| and F_P = -F_n n the cont
 :func:`berryshaker.contact.force_laws.hysteresis_kernel`, inlined).  L is the rod length (crank pin to journal),
 m2, J2 the rod mass and centroidal inertia, m3 the slider mass.
 
-Integrator: the engine's adaptive Dormand-Prince 5(4) (same tableau, same mixed error norm, same atol
-= 1e-3 rtol on positions and 1e-1 rtol on velocities, same step hitting every output time, same
-contact-onset location: a step that starts out of contact and ends with more than 1 nm of penetration
-is cut back by secant estimates until the penetration is below 1 nm, and the approach velocity there
-is the impact velocity of the hysteresis law).  So the steps per simulated second are comparable and
-the cost per step is the floor an engine evaluating the same physics could approach.
+Integrator: the engine's adaptive Dormand-Prince 5(4) with the engine's features (same tableau, same mixed
+error norm, same atol = 1e-3 rtol on positions and 1e-1 rtol on velocities, PI step-size control, steps that
+do not stop at output times with samples from the continuous extension, one right-hand side per sample, the
+same contact-onset location: a step that starts out of contact and ends with more than 1 nm of penetration is
+cut back to the crossing of the cubic Hermite interpolant of the penetration, before the error test, and
+the step size is resumed afterwards; the approach velocity there is the impact velocity of the hysteresis
+law).  So the steps per simulated second are comparable and the cost per step is the floor an engine
+evaluating the same physics could approach.
 
 Reference: the engine formulation is docs/multibody.md; the minimal-coordinate reduction is the
 textbook Lagrange form (e.g. P. E. Nikravesh, Computer-Aided Analysis of Mechanical Systems, 1988,
@@ -35,11 +37,13 @@ import time
 import numpy as np
 from numba import njit
 
-from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
+from berryshaker.multibody.kernel import BETA, EVENT_TOL, EXPO1, SAFETY, _onset_fraction
 
 _A = np.asarray(DOPRI_A, float)
 _C = np.asarray(DOPRI_C, float)
 _E = np.asarray(DOPRI_E, float)
+_D = np.asarray(DOPRI_D, float)
 
 # parameter vector layout
 P_A, P_L, P_M2, P_J2, P_M3, P_OM, P_PHI0, P_C, P_K, P_N, P_FAC = range(11)
@@ -98,9 +102,23 @@ def _rhs(t, y, p, v_imp, in_contact, dy):
 
 
 @njit(cache=True)
+def _dense(th, h, k, y1, y0, bspl, rc5, out):
+    """DOPRI5 continuous extension (as berryshaker.multibody.kernel._dense_state)."""
+    th1 = 1.0 - th
+    for i in range(out.shape[0]):
+        yd = y1[i] - y0[i]
+        out[i] = y0[i] + th * (yd + th1 * (bspl[i] + th * (yd - h * k[6, i] - bspl[i] + th1 * rc5[i])))
+
+
+@njit(cache=True)
 def integrate_reduced(y0, p, t_out, rtol, h_max, out_f, info):
     """DOPRI5 over the output times; out_f gets the normal force, info = [steps, rejected, onsets,
-    first-impact peak, first-impact time, overall peak]."""
+    first-impact peak, first-impact time, overall peak].
+
+    The integrator features are the engine's (berryshaker.multibody.kernel.integrate): steps do not stop at
+    output times (samples from the continuous extension of order 4), a step across a contact onset is cut back
+    to the crossing located on the cubic Hermite interpolant of the penetration (kernel._onset_fraction) before
+    the error test and the step size is then resumed, PI step-size control with no growth after a rejection."""
     ny = 4
     atol = np.empty(ny)
     atol[0] = 1e-3 * rtol
@@ -109,14 +127,19 @@ def integrate_reduced(y0, p, t_out, rtol, h_max, out_f, info):
     atol[3] = 1e-1 * rtol
     k = np.zeros((7, ny))
     ytmp = np.empty(ny)
+    y_old = np.empty(ny)
+    y_s = np.empty(ny)
+    d_s = np.empty(ny)
+    bspl = np.empty(ny)
+    rc5 = np.empty(ny)
     y = y0.copy()
     t = t_out[0]
     in_contact = False
     v_imp = 0.0
-    pen, pen_dot, fn, fx, fy = _contact(t, y, p, v_imp, in_contact)
-    if pen > 0.0:
+    pen0, pd0, fn, fx, fy = _contact(t, y, p, v_imp, in_contact)
+    if pen0 > 0.0:
         in_contact = True
-        v_imp = max(pen_dot, 1e-6)
+        v_imp = max(pd0, 1e-6)
     out_f[0] = _rhs(t, y, p, v_imp, in_contact, k[0])
     h = min(h_max, 1e-6)
     acc = 0
@@ -126,61 +149,94 @@ def integrate_reduced(y0, p, t_out, rtol, h_max, out_f, info):
     first_t = -1.0
     first_open = True
     peak = 0.0
-    for io in range(1, t_out.shape[0]):
-        t_target = t_out[io]
-        while t < t_target - 1e-15:
-            h_try = h if h < t_target - t else t_target - t
-            for s in range(1, 7):
-                for i in range(ny):
-                    a_i = y[i]
-                    for mm in range(s):
-                        a_i += h_try * _A[s, mm] * k[mm, i]
-                    ytmp[i] = a_i
-                _rhs(t + _C[s] * h_try, ytmp, p, v_imp, in_contact, k[s])
-            err = 0.0
+    err_old = 1e-4
+    last_rejected = False
+    h_resume = 0.0
+    n_out = t_out.shape[0]
+    t_end = t_out[n_out - 1]
+    io = 1
+    while t < t_end - 1e-15:
+        h_try = h if h < t_end - t else t_end - t
+        for s in range(1, 7):
             for i in range(ny):
-                ei = 0.0
-                for mm in range(7):
-                    ei += _E[mm] * k[mm, i]
-                ei *= h_try
-                sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
-                err += (ei / sc) ** 2
-            err = math.sqrt(err / ny)
-            if err > 1.0:
-                rej += 1
-                h = h_try * max(0.2, 0.9 * err ** -0.2)
-                continue
-            # contact onset inside the step: cut back to the first touch (penetration < 1 nm)
-            pen1, pd1, f1, _, _ = _contact(t + h_try, ytmp, p, v_imp, in_contact)
-            if not in_contact and pen1 > 1e-9:
-                pen0, pd0, _, _, _ = _contact(t, y, p, v_imp, in_contact)
-                frac = -pen0 / (pen1 - pen0) if pen1 > pen0 else 0.5
-                h = h_try * min(max(frac, 0.05), 0.95)
-                rej += 1
-                continue
-            t += h_try
-            for i in range(ny):
-                y[i] = ytmp[i]
-            acc += 1
-            if not in_contact and pen1 > 0.0:
-                in_contact = True
-                v_imp = pd1
-                onsets += 1
-            elif in_contact and pen1 <= 0.0:
-                in_contact = False
-                if first_t >= 0.0:
-                    first_open = False
-            f_end = _rhs(t, y, p, v_imp, in_contact, k[0])  # FSAL re-evaluated with the new contact state
-            if f_end > peak:
-                peak = f_end
-            if in_contact and first_open:
-                if first_t < 0.0:
-                    first_t = t
-                if f_end > first_peak:
-                    first_peak = f_end
-            fac = 0.9 * err ** -0.2 if err > 0.0 else 5.0
-            h = min(h_max, h_try * min(5.0, max(0.2, fac)))
-        out_f[io] = _rhs(t, y, p, v_imp, in_contact, ytmp)
+                a_i = y[i]
+                for mm in range(s):
+                    a_i += h_try * _A[s, mm] * k[mm, i]
+                ytmp[i] = a_i
+            _rhs(t + _C[s] * h_try, ytmp, p, v_imp, in_contact, k[s])
+        err = 0.0
+        for i in range(ny):
+            ei = 0.0
+            for mm in range(7):
+                ei += _E[mm] * k[mm, i]
+            ei *= h_try
+            sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
+            err += (ei / sc) ** 2
+        err = math.sqrt(err / ny)
+        # contact onset inside the step: cut back to the crossing (before the error test), as the engine
+        pen1, pd1, f1, _, _ = _contact(t + h_try, ytmp, p, v_imp, in_contact)
+        if not in_contact and pen0 <= 0.0 and pen1 > EVENT_TOL and h_try > 1e-13:
+            if h_resume == 0.0:
+                h_resume = h_try if err <= 1.0 else h_try * max(0.2, SAFETY * err ** (-EXPO1))
+            h_new = h_try * _onset_fraction(pen0, pd0, pen1, pd1, h_try) + 1e-15
+            h = h_new if h_new < h_try else 0.5 * h_try
+            continue
+        if err > 1.0:
+            rej += 1
+            h = h_try * max(0.2, SAFETY * err ** (-EXPO1))
+            last_rejected = True
+            continue
+        t_old = t
+        t += h_try
+        for i in range(ny):
+            y_old[i] = y[i]
+            y[i] = ytmp[i]
+            bspl[i] = h_try * k[0, i] - (ytmp[i] - y_old[i])
+            acc5 = 0.0
+            for mm in range(7):
+                acc5 += _D[mm] * k[mm, i]
+            rc5[i] = h_try * acc5
+        acc += 1
+        onset = False
+        if not in_contact and pen1 > 0.0:
+            in_contact = True
+            v_imp = pd1 if pd1 > 1e-6 else 1e-6
+            onsets += 1
+            onset = True
+        elif in_contact and pen1 <= 0.0:
+            in_contact = False
+            if first_t >= 0.0:
+                first_open = False
+        f_end = _rhs(t, y, p, v_imp, in_contact, k[0])  # FSAL re-evaluated with the new contact state
+        pen0, pd0 = pen1, pd1
+        if f_end > peak:
+            peak = f_end
+        if in_contact and first_open:
+            if first_t < 0.0:
+                first_t = t
+            if f_end > first_peak:
+                first_peak = f_end
+        grow = min(5.0, max(0.1, SAFETY * max(err, 1e-10) ** (-EXPO1) * err_old ** BETA))
+        err_old = max(err, 1e-4)
+        if last_rejected and grow > 1.0:
+            grow = 1.0
+        last_rejected = False
+        h = min(h_max, h_try * grow)
+        if onset and h_resume > 0.0:
+            if h < h_resume:
+                h = min(h_max, h_resume)
+            h_resume = 0.0
+        # output samples inside the step from the continuous extension (one right-hand side each, as the engine)
+        while io < n_out and t_out[io] <= t + 1e-15:
+            if t_out[io] < t - 1e-15:
+                _dense((t_out[io] - t_old) / h_try, h_try, k, ytmp, y_old, bspl, rc5, y_s)
+                out_f[io] = _rhs(t_out[io], y_s, p, v_imp, in_contact, d_s)
+            else:
+                out_f[io] = f_end
+            io += 1
+    while io < n_out:
+        out_f[io] = _rhs(t, y, p, v_imp, in_contact, d_s)
+        io += 1
     info[0] = acc
     info[1] = rej
     info[2] = onsets
