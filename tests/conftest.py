@@ -67,3 +67,15 @@ def with_linear_springs(machine):
 def linear_machine(machine):
     """The reference machine with the 0.1.0 linear clearance springs (:func:`with_linear_springs`)."""
     return with_linear_springs(machine)
+
+
+def linear_spring_toml_text(text: str) -> str:
+    """A machine file's text with the 0.1.0 linear clearance springs in place of the steel contact law (every
+    ``law = "lankarani_nikravesh"`` line becomes K = 1e8 N/m, C = 2000 N s/m, IMPACT).  Pipeline tests use it to
+    halve the cost of every harvester run (0.26 against 0.56 s CPU); the steel contact itself is tested in
+    test_clearance_contact.py and test_multibody_convergence.py."""
+    import re
+
+    out, n = re.subn(r'law = "lankarani_nikravesh".*\n', 'stiffness = "1e8 N/m"\ndamping = "2000 N*s/m"\n', text)
+    assert n >= 4, "the reference machine no longer names its clearance law as expected"
+    return out

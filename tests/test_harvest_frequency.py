@@ -17,7 +17,7 @@ def frequency_sweep(tmp_path_factory):
     """One sweep of the reference machine over 60-150 r/min (three speeds, three coupled runs each)."""
     d = tmp_path_factory.mktemp("freq")
     res = runner.invoke(app, ["sweep", "--model", "harvest", "--param", "cam.speed=60..150rpm", "--points", "3",
-                              "--workers", "1", "--cache", str(d / "cache"), "--out", str(d / "removal.csv"),
+                              "--workers", "2", "--cache", str(d / "cache"), "--out", str(d / "removal.csv"),
                               "--figure", str(d / "removal.png")])
     return d, res
 

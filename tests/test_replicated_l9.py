@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
+from conftest import linear_spring_toml_text
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import orthogonal_array
 from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
@@ -147,7 +148,8 @@ def test_perturbed_start_sits_inside_the_clearances_and_changes_the_impacts(mach
 def virtual_json(tmp_path_factory):
     """`doe virtual --json` on a fast description: one branch class, 15 bushes, 2 replicates, 1 tolerance
     replicate (9 x 2 + 1 coupled runs, plus 2 if the recommendation is not an L9 run)."""
-    text = (reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]")
+    text = (linear_spring_toml_text(reference_toml_text()).replace("branch_classes = [0.85, 1.0, 1.15]",
+                                                                   "branch_classes = [1.0]")
             .replace("bushes = 40 ", "bushes = 15 ").replace("tolerance_replicates = 2 ", "tolerance_replicates = 1 "))
     base = tmp_path_factory.mktemp("virtual")
     cfg = base / "fast.toml"

@@ -17,6 +17,7 @@ from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
+from conftest import linear_spring_toml_text
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.runs.sweep import model_run, parse_param, sample_params
 
@@ -25,7 +26,9 @@ runner_cli = CliRunner()
 
 @pytest.fixture(scope="module")
 def fast_config(tmp_path_factory):
-    text = reference_toml_text().replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
+    # the pipeline on a cheaper machine: one branch class, two replicates, linear clearance springs
+    text = linear_spring_toml_text(reference_toml_text()).replace(
+        "branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
         "bushes = 40 ", "bushes = 15 ").replace("replicates = 3 ", "replicates = 2 ").replace(
         "tolerance_replicates = 2 ", "tolerance_replicates = 1 ")
     p = tmp_path_factory.mktemp("cfg") / "fast.toml"
