@@ -203,16 +203,28 @@ def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, env
 
 
 def test_stored_harvest_calibration_reproduces_the_study_values(machine):
-    """yield, unripe fraction and damage scale were calibrated (docs/harvest.md) to the study's chosen
-    clearances: 3.93 kg/min, 3.1 %, 2.8 % [study]."""
-    from berryshaker.harvest.virtual import virtual_harvest
+    """yield and damage scale were calibrated (docs/harvest.md) to the study's chosen clearances, 3.93 kg/min and
+    2.8 % [study], on the virtual L9's statistic: the replicate mean over perturbed starts
+    (benchmarks/calibrate_harvest_replicates.py, ``harvest.replicates`` = 3 replicates).
 
-    r = virtual_harvest(machine)
-    assert r["efficiency_kg_min"] == pytest.approx(3.93, rel=0.02)
-    assert r["damage_rate_pct"] == pytest.approx(2.8, abs=0.15)
+    Smaller check (the 3 replicates cost ~110 s of CPU): the first replicate of the L9 (seed ``harvest.seed``,
+    3 coupled runs, the same jobs as the L9's), whose indexes lie within the replicate spread of the mean (per
+    replicate efficiencies within 1.5 % of the 3-replicate mean, damage within 0.03 points at the stored values),
+    inside the tolerances 2 % and 0.15 points."""
+    from berryshaker.harvest.virtual import calibrate_harvest
+    from berryshaker.study.l9 import replicate_envelopes, replicate_jobs, replicate_seeds
+    from berryshaker.study.runs import replicate_run
+
+    seeds = replicate_seeds(machine)[:1]
+    outs = [replicate_run(**job) for job in replicate_jobs(machine, machine.clearance_sizes(), seeds)]
+    # nothing fitted: the indexes at the stored values, as the replicated L9 computes them
+    r = calibrate_harvest(machine, fit=(), replicates=replicate_envelopes(machine, outs, seeds))
+    assert r["replicates"] == 1 and r["yield_per_bush_kg"] == machine.harvest.yield_per_bush
+    assert r["check"]["efficiency_kg_min"] == pytest.approx(3.93, rel=0.02)
+    assert r["check"]["damage_rate_pct"] == pytest.approx(2.8, abs=0.15)
     # with fruit on compliant stems no unripe fruit reaches its bond at the reference machine: the study's 3.1 %
     # cannot be calibrated (docs/harvest.md); the model says so rather than forcing it
-    assert r["unripe_rate_pct"] < 3.1
+    assert r["check"]["unripe_rate_pct"] < 3.1
 
 
 def test_published_l9_example_yang_el_haik():

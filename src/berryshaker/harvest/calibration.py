@@ -88,8 +88,10 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
     b, f, ped, ct, bush = pl.branch, pl.fruit, pl.fruit.pedicel, pl.contact, pl.bush
     fit = harvest_fit or {}
 
+    over = f", replicate mean of {fit['replicates']} replicates, perturbed starts" if fit.get("replicates") else ""
+
     def refit(key):
-        return f" (refit here: {fit[key]:.4g})" if key in fit else ""
+        return f" (refit here{over}: {fit[key]:.4g})" if key in fit else ""
 
     rows = [
         ("branch E", b.elastic_modulus / 1e9, "GPa", "[assumed, cited range]",

@@ -203,7 +203,8 @@ def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None,
 
 
 def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[str, ...] = ("efficiency", "damage"),
-                      envelopes: list[np.ndarray] | None = None) -> dict:
+                      envelopes: list[np.ndarray] | None = None,
+                      replicates: list[tuple[list[np.ndarray], int]] | None = None) -> dict:
     """Fit the picking model to some of the study's field values at the machine's (chosen) clearances and hold
     the others out.
 
@@ -219,14 +220,23 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         method, when reachable).  Every value not fitted keeps its description value and its index is
         reported as a held-out prediction.  Default: efficiency and damage fitted, the unripe rate held out.
     envelopes : list of ndarray, optional
-        Stem-force envelopes (:func:`envelopes_for`) already computed at these clearances.
+        Stem-force envelopes (:func:`envelopes_for`) already computed at these clearances: one drive-past per
+        branch class from the unperturbed start, with the description's population (``harvest.seed``).
+    replicates : list of (envelopes, population_seed), optional
+        Replicates of the virtual test run at these clearances (the replicated L9's statistic,
+        docs/harvest.md "Replicates"): per replicate the stem-force envelopes of its perturbed drive-pasts
+        (:func:`berryshaker.study.runs.replicate_run`) and the seed of its population.  Every index is then the
+        mean over the replicates, I = (1/R) sum_k I(envelopes_k, population(seed_k)), and the fit is on that
+        mean (the efficiency stays proportional to the yield per bush, so its fit is still one step).  Takes
+        precedence over ``envelopes``.
 
     Returns
     -------
     dict
         ``yield_per_bush_kg``, ``unripe_fraction``, ``damage_acceleration_m_s2`` (fitted or as described),
         ``fitted`` (index -> parameter), ``held_out`` (index -> {"model", "study"}), ``check`` (the indexes
-        with the returned values), ``reachable``.
+        with the returned values; replicate means with ``replicates``), ``reachable``, ``replicates`` (number
+        of replicates averaged; 0 for the single unperturbed drive-past).
     """
     from berryshaker.errors import ConfigError
 
@@ -235,11 +245,19 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     if unknown:
         raise ConfigError(f"calibrate_harvest: unknown index {sorted(unknown)} in fit; choose from efficiency, "
                           "unripe, damage")
-    env = envelopes if envelopes is not None else envelopes_for(machine, None)
+    if replicates is not None:
+        if not replicates:
+            raise ConfigError("calibrate_harvest: replicates is empty; give at least one (envelopes, seed) pair")
+        runs = [([np.asarray(e) for e in env_k], int(seed_k)) for env_k, seed_k in replicates]
+    else:
+        runs = [(envelopes if envelopes is not None else envelopes_for(machine, None), None)]
 
     def idx(yb=None, uf=None, ad=None):
-        pop = sample_population(machine, unripe_fraction=uf, yield_per_bush=yb)
-        return harvest_indexes(machine, env, pop, ad)
+        """Indexes averaged over the replicates (one run: that run's indexes)."""
+        each = [harvest_indexes(machine, env_k, sample_population(machine, seed=seed_k, unripe_fraction=uf,
+                                                                  yield_per_bush=yb), ad) for env_k, seed_k in runs]
+        return {k: float(np.mean([e[k] for e in each])) for k in each[0]
+                if isinstance(each[0][k], (int, float, np.floating))}
 
     yb, uf, ad = machine.harvest.yield_per_bush, machine.harvest.unripe_fraction, machine.harvest.damage_acceleration
     if idx(yb=yb, uf=uf)["efficiency_kg_min"] <= 0:
@@ -261,7 +279,8 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     fitted = {names[k][0]: names[k][1] for k in fit if k != "unripe" or reachable["unripe_rate_pct"]}
     held_out = {key: {"model": check[key], "study": targets[key]} for key in targets if key not in fitted}
     return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check,
-            "fitted": fitted, "held_out": held_out, "reachable": reachable}
+            "fitted": fitted, "held_out": held_out, "reachable": reachable,
+            "replicates": len(runs) if replicates is not None else 0}
 
 
 #: the indexes of :func:`harvest_response` (sweep columns and the removal figure), with their units

@@ -91,6 +91,38 @@ def _configured_level(machine, p: str) -> int:
     return int(np.argmin([abs(v - size) for v in lv])) + 1
 
 
+def replicate_seeds(machine, replicates: int | None = None) -> list[int]:
+    """Seeds of the replicates (module docstring): ``harvest.seed + 1000 k``, k = 0 .. R - 1, R =
+    ``replicates`` or ``harvest.replicates``."""
+    h = machine.harvest
+    r = int(h.replicates if replicates is None else replicates)
+    return [h.seed + 1000 * k for k in range(r)]
+
+
+def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTOL_RUN, data: dict | None = None
+                   ) -> list[dict]:
+    """Keyword arguments of :func:`berryshaker.study.runs.replicate_run` for one clearance set: for every seed,
+    one coupled drive-past per branch class (seed ``[seed, class index]``), replicate-major.  ``data``: the
+    machine as JSON (``machine.model_dump(mode="json")``) when the caller already has it (identical jobs are
+    shared through the runner's cache)."""
+    data = machine.model_dump(mode="json") if data is None else data
+    return [dict(machine_data=data, clearance=clearance, scale=s, seed=[sd, c], rtol=rtol)
+            for sd in seeds for c, s in enumerate(machine.harvest.branch_classes)]
+
+
+def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[list[np.ndarray], int]]:
+    """(stem-force envelopes of every branch class, population seed) per replicate from the outputs of
+    :func:`replicate_jobs` (in their order), the ``replicates`` of
+    :func:`berryshaker.harvest.virtual.calibrate_harvest`; a replicate with a failed run (None) is left out."""
+    nc = len(machine.harvest.branch_classes)
+    out = []
+    for k, sd in enumerate(seeds):
+        o = outs[k * nc:(k + 1) * nc]
+        if all(v is not None for v in o):
+            out.append(([np.array(v["envelope"]) for v in o], sd))
+    return out
+
+
 def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     """The L9 over the machine's clearance pairs through the virtual harvest, replicated (module docstring).
 
@@ -127,13 +159,12 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     r = int(h.replicates if replicates is None else replicates)
     if r < 2:
         raise ConfigError(f"replicates={r}: the replicated L9 needs at least 2 replicates per run")
-    seeds = [h.seed + 1000 * k for k in range(r)]
+    seeds = replicate_seeds(machine, r)
     classes = h.branch_classes
     data = machine.model_dump(mode="json")
 
     def jobs_for(cl, seeds_, rtol=RTOL_RUN):
-        return [dict(machine_data=data, clearance=cl, scale=s, seed=[sd, c], rtol=rtol)
-                for sd in seeds_ for c, s in enumerate(classes)]
+        return replicate_jobs(machine, cl, seeds_, rtol, data)
 
     def cells(outs, seeds_, pops_):
         nc = len(classes)

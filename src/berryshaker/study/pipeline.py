@@ -216,14 +216,16 @@ RESPONSE_SPEEDS_RPM = (60.0, 90.0, 120.0, 150.0, 180.0)
 
 def step_harvest_response(ctx: StudyContext) -> StepResult:
     """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances (one
-    coupled run per branch class and speed), and the calibration: what is fitted, what is held out."""
+    coupled run per branch class and speed), and the calibration (on the replicate mean over perturbed starts at
+    the configured clearances, the virtual L9's statistic): what is fitted, what is held out."""
     import math
 
     from berryshaker.config import machine_from_dict
     from berryshaker.harvest.calibration import calibration_table
     from berryshaker.harvest.virtual import calibrate_harvest, response_indexes, with_drive_speed
     from berryshaker.report import plots as P
-    from berryshaker.study.runs import envelope_run
+    from berryshaker.study.l9 import replicate_envelopes, replicate_jobs, replicate_seeds
+    from berryshaker.study.runs import envelope_run, replicate_run
 
     ctx.say("harvest against shaking frequency, calibration")
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
@@ -235,14 +237,12 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     env = ctx.collect(envelope_run, jobs, "harvest vs frequency: coupled runs",
                       lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
                                 f"r/min, branch class x{j['scale']:g}")
-    rows, own_env = [], None
+    rows = []
     for i, rpm in enumerate(speeds):
         e = env[i * len(classes):(i + 1) * len(classes)]
         if any(v is None for v in e):
             continue
         e = [np.array(v) for v in e]
-        if math.isclose(rpm, own):
-            own_env = e
         rows.append({"speed_rpm": rpm, **response_indexes(machine_from_dict(datas[i]), e)})
     data = {"rows": rows, "configured_rpm": own}
     figs = []
@@ -252,7 +252,15 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
                                 "Virtual harvest against shaking frequency (configured clearances)",
                                 frequency_hz=[r["shaking_frequency_hz"] for r in rows])
         figs.append("harvest_vs_frequency.png")
-    fit = calibrate_harvest(ctx.machine, envelopes=own_env) if own_env is not None else None
+    # the calibration is on the statistic the virtual L9 reports: the replicate mean over perturbed starts at the
+    # configured clearances (the same replicate_run jobs as the L9's, so identical runs come from the cache)
+    seeds = replicate_seeds(ctx.machine)
+    cal_cl = ctx.machine.clearance_sizes()
+    cal_out = ctx.collect(replicate_run, replicate_jobs(ctx.machine, cal_cl, seeds, data=ctx.data),
+                          "calibration: replicates at the configured clearances",
+                          lambda j: f"{_describe(j['clearance'])}, branch class x{j['scale']:g}, seed {j['seed']}")
+    reps = replicate_envelopes(ctx.machine, cal_out, seeds)
+    fit = calibrate_harvest(ctx.machine, replicates=reps) if reps else None
     chosen = (ctx.results.get("fruit_force") or {}).get("chosen") or {}
     data["calibration"] = calibration_table(ctx.machine, chosen.get("summary"), fit)
     return StepResult("harvest_response", data, figs)
