@@ -14,7 +14,8 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 
 def _stats(series: np.ndarray, sel: np.ndarray, peak: float = 0.0) -> dict:
     y = np.abs(series[sel])
-    return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2)))}
+    return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2))),
+            "p95": float(np.percentile(y, 95))}
 
 
 def drive_moment(result: MultibodyResult) -> np.ndarray:

@@ -201,6 +201,19 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                      + ", ".join(f"{EQ18_F[p][1]}" for p in EQ18_F) + ".</p>")
         for i, p in enumerate(PAIR_NAMES):
             _maybe_img(parts, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
+    row_ag = (res.get("rows") or {}).get("agreement") or {}
+    if row_ag:
+        parts.append("<p>Agreement on every clearance row (mean, RMS, p95 of each pair's force within 10 / 15 / 20 %; "
+                     "cell: agrees, or the statistic furthest outside with its relative difference).  A pair with no "
+                     "clearance compares the multibody model's ideal-joint reaction with the MLSD's stiff link, which "
+                     "rings (docs/mlsd.md).</p>")
+
+        def cell(c):
+            return "yes" if c["agree"] else f"no: {c['worst']} {100 * c['relative_difference'][c['worst']]:.0f} %"
+
+        parts.append(_table(["row"] + list(PAIR_NAMES),
+                            [[r] + [cell(per[p]) for p in PAIR_NAMES] for r, per in
+                             sorted(row_ag.items(), key=lambda kv: int(kv[0]))], left=tuple(range(len(PAIR_NAMES) + 1))))
     # rows
     last = 4 + 3 * len(PAIR_NAMES)
     lv = (last - 2, last - 1, last)

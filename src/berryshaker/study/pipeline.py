@@ -125,6 +125,14 @@ def step_rows(ctx: StudyContext) -> StepResult:
     if ctx.drive.reduced_model is not None:
         ml_rows = ctx.collect(reduced_row, jobs, f"rows 1-{last}, MLSD", describe)
         out["mlsd"] = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
+        # model agreement on every row, not only at the model-check level (the same statistics criterion)
+        from berryshaker.experiment.agreement import summary_statistics_agreement
+
+        out["agreement"] = {
+            r: {p: summary_statistics_agreement(out["multibody"][r]["collision_force_N"][p],
+                                                out["mlsd"][r]["collision_force_N"][p])
+                for p in ctx.machine.pair_names}
+            for r in out["multibody"] if r in out["mlsd"]}
     else:
         note = f"the {ctx.drive.name} drive has no reduced model: rows are multibody only"
     figs = _plot_rows(ctx.machine, out, ctx.figs)

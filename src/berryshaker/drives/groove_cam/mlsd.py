@@ -487,7 +487,7 @@ class MLSDResult:
         def stats(idx):
             y = np.abs(self.results[sel, idx])
             return {"peak": float(max(pk[idx], y.max())), "mean": float(y.mean()),
-                    "rms": float(np.sqrt(np.mean(y**2)))}
+                    "rms": float(np.sqrt(np.mean(y**2))), "p95": float(np.percentile(y, 95))}
 
         out = {
             "model": "mlsd",
