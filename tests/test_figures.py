@@ -277,3 +277,55 @@ def test_harvest_response_draws_the_table_rows_sorted_with_a_frequency_axis(tmp_
     assert not audit_figure(fig)
     _close(data)
     assert (tmp_path / "removal.svg").read_text().lstrip().startswith("<?xml")
+
+
+def _tradeoff_records():
+    """Ten candidates in the layout of the reference study's trade-off (runs 1 and 2 and the recommended set
+    crowded at low force and torque); the recommended set is not an L9 run."""
+    pts = {"run 1 (A1B1C1F1)": (3.92, 30800, 251), "run 2 (A1B2C2F2)": (3.92, 28400, 311),
+           "run 3 (A1B3C3F3)": (4.06, 35900, 370), "run 4 (A2B1C2F3)": (4.04, 30600, 338),
+           "run 5 (A2B2C3F1)": (4.01, 32100, 365), "run 6 (A2B3C1F2)": (4.14, 33200, 416),
+           "run 7 (A3B1C3F2)": (3.95, 33600, 352), "run 8 (A3B2C1F3)": (4.07, 30700, 433),
+           "run 9 (A3B3C2F1)": (4.17, 35400, 465), "recommended (A1B1C1F3)": (3.93, 21900, 263)}
+    recs = []
+    for name, (eff, force, torque) in pts.items():
+        r = {"name": name, "efficiency": eff, "efficiency_lo": eff - 0.17, "efficiency_hi": eff + 0.17,
+             "drive_torque_peak_Nm": torque, "drive_torque_peak_Nm_lo": torque - 33, "drive_torque_peak_Nm_hi": torque + 33,
+             "dominated": not name.startswith(("run 1 ", "recommended"))}
+        for p, f in zip("ABCF", (0.3 * force, 0.3 * force, force, 0.98 * force)):
+            r[f"peak_force_N:{p}"], r[f"peak_force_N:{p}_lo"], r[f"peak_force_N:{p}_hi"] = f, 0.75 * f, 1.25 * f
+        recs.append(r)
+    return recs
+
+
+def test_tradeoff_labels_clear_of_markers_and_each_other_and_a_torque_legend(tmp_path):
+    """The trade-off figure: the recommended set is a starred marker named in the legend (no text label lying
+    over runs 1 and 2); no run label covers another label or any marker; the torque panel's colour is its
+    own, not a joint's, and the legend says which panel each colour belongs to."""
+    data = P.plot_tradeoff(_tradeoff_records(), tmp_path / "tradeoff.png", return_figure=True)
+    fig = data["figure"]
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    axes = [ax for ax in fig.axes if ax.get_xlabel()]
+    assert len(axes) == 2
+    for ax in axes:
+        texts = [t for t in ax.texts if t.get_text()]
+        assert len(texts) == 9 and not any("recommended" in t.get_text() for t in texts)
+        boxes = [t.get_window_extent(renderer) for t in texts]
+        for i in range(len(boxes)):
+            for j in range(i + 1, len(boxes)):
+                assert not boxes[i].overlaps(boxes[j]), (texts[i].get_text(), texts[j].get_text())
+        marks = ax.transData.transform([(line.get_xdata()[0], line.get_ydata()[0]) for line in ax.get_lines()
+                                        if line.get_marker() in ("o", "*") and len(line.get_xdata()) == 1])
+        assert len(marks) == 10
+        px = fig.dpi / 72.0
+        for b, t in zip(boxes, texts):
+            for X, Y in marks:  # 3 points of marker radius must stay clear of every label
+                assert not (b.x0 - 3 * px < X < b.x1 + 3 * px and b.y0 - 3 * px < Y < b.y1 + 3 * px), t.get_text()
+    legend = [t.get_text() for t in fig.axes[-1].get_legend().get_texts()]
+    assert "recommended: A1B1C1F3" in legend and "right: peak drive torque" in legend
+    assert "left: largest force at joint C" in legend and "force at joint B" not in " ".join(legend)
+    torque_colours = {line.get_color() for line in axes[1].get_lines() if line.get_marker() in ("o", "*")}
+    assert torque_colours.isdisjoint({c.lower() for c in PAIR_COLOURS.values()} | set(PAIR_COLOURS.values()))
+    assert not audit_figure(fig)
+    _close(data)

@@ -216,3 +216,94 @@ def test_study_summary_and_report_sections(virtual_json, tmp_path):
     for text in ("Replicate spread and significance", "Trade-off of the candidate clearance sets",
                  "Solver-tolerance check", "Recommendation and its basis", "data:image/png;base64,"):
         assert text in html
+
+
+def _l9_with_interaction(delta_rms: float, sigma: float = 0.4):
+    """Nine runs x 3 replicates (pure error exactly sigma^2 on the drive torque RMS): harvest indexes without
+    any effect, peak force at A and drive torque RMS moved by A only (F has no main effect on anything); the
+    tiered choice A1B1C1F3 (A on loads, B, C, F kept at the configured levels 1, 1, 3) is not an L9 run and
+    measures like run 1 (A1B1C1F1) except a drive torque RMS higher by ``delta_rms``."""
+    noise3 = np.array([-1.0, 0.0, 1.0])  # sample SD exactly 1
+    r3 = {}
+    for n, (base, offs, s) in {"efficiency": (4.0, {}, 0.1), "ripe_removal": (36.0, {}, 1.0),
+                               "unripe": (1.0, {}, 0.05), "unripe_shed": (0.5, {}, 0.05), "damage": (2.8, {}, 0.05),
+                               "peak_force_A": (9000.0, {"A": (0.0, 900.0, 1800.0)}, 100.0),
+                               "drive_torque_rms": (20.0, {"A": (0.0, 3.0, 6.0)}, sigma)}.items():
+        mu = np.full(9, base)
+        for j, f in enumerate(FACTORS):
+            if f in offs:
+                mu = mu + np.asarray(offs[f])[L9[:, j] - 1]
+        r3[n] = mu[:, None] + s * noise3[None, :]
+    senses = {"efficiency": True, "ripe_removal": True, "unripe": False, "unripe_shed": False, "damage": False,
+              "peak_force_A": False, "drive_torque_rms": False}
+    rep = analyze_replicated(L9, L9.astype(float), FACTORS, r3, senses, {"efficiency": 0.5, "damage": 0.3,
+                                                                         "unripe": 0.2},
+                             fallback_weights={"peak_force_A": 1.0, "drive_torque_rms": 1.0})
+    pe = {n: (rep["responses"][n]["anova"]["pure_error"]["ms"], rep["responses"][n]["anova"]["pure_error"]["df"])
+          for n in r3}
+    levels_m = (0.1e-3, 0.2e-3, 0.3e-3)
+    run_levels = [{f: int(L9[i, j]) for j, f in enumerate(FACTORS)} for i in range(9)]
+    run_cl = [{f: levels_m[lv[f] - 1] for f in FACTORS} for lv in run_levels]
+    tiered = {f: (rep["optimum"]["levels"][f] or {"B": 1, "C": 1, "F": 3}[f]) for f in FACTORS}
+    rec_y = {n: v[0].copy() for n, v in r3.items()}
+    rec_y["drive_torque_rms"] = rec_y["drive_torque_rms"] + delta_rms
+    return r3, rep, pe, run_levels, run_cl, tiered, {f: levels_m[tiered[f] - 1] for f in FACTORS}, rec_y
+
+
+def test_tradeoff_dominance_uses_the_anovas_noise_and_never_contradicts_it():
+    """The recommended set A1B1C1F3 differs from run 1 (A1B1C1F1) only in F, which the ANOVA finds no effect of.
+    A drive-torque difference just beyond the old per-pair 95 % intervals (unadjusted, what the table used) but
+    inside the Tukey-Kramer margin on the pure error is noise: the table no longer draws the recommendation as
+    dominated and F stays at its configured level (the old table said 'dominated by run 1')."""
+    from berryshaker.experiment.tradeoff import tradeoff_table
+    from berryshaker.study.l9 import _candidate, confirm_recommendation
+
+    sigma, r, k = 0.4, 3, 10
+    t = stats.t.ppf(0.975, 18)
+    old_margin = t * sigma * math.sqrt(2 / r)  # sqrt(h_a^2 + h_b^2) of two 95 % intervals, pooled error
+    tukey = stats.studentized_range.ppf(0.95, k, 18) / math.sqrt(2) * sigma * math.sqrt(2 / r)
+    assert tukey > 1.6 * old_margin
+    delta = 1.1 * old_margin
+    y, rep, pe, lv, cl, tiered, tiered_cl, rec_y = _l9_with_interaction(delta, sigma)
+    assert tiered == {"A": 1, "B": 1, "C": 1, "F": 3} and rep["optimum"]["levels"]["F"] is None
+    assert all("F" not in rep["responses"][n]["significant_factors"] for n in y)
+    # the old table (95 % intervals only) called this noise-sized difference dominance
+    old = [_candidate(f"run {i + 1}", cl[i], {n: y[n][i] for n in y}, list(y), FACTORS, pe, k) for i in range(9)]
+    old.append(_candidate("recommended", tiered_cl, rec_y, list(y), FACTORS, pe, k))
+    for c in old:
+        for v in [*c["harvest"].values(), *c["peak_force_N"].values(), c["drive_torque_rms_Nm"]]:
+            v.pop("noise")
+    old_t = tradeoff_table(old, senses={"ripe_removal": True}).set_index("name")
+    assert "run 1" in old_t.loc["recommended", "dominated_by"].split(", ")
+    # the unified rule: same pure error, simultaneous (Tukey-Kramer) margin -> not dominated, kept
+    chk = confirm_recommendation(lv, cl, y, tiered, tiered_cl, rec_y, pe, FACTORS)
+    recs = {rr["name"]: rr for rr in chk["records"]}
+    rec = recs["recommended (A1B1C1F3)"]
+    assert not rec["dominated"] and not chk["moved"] and chk["levels"] == tiered and chk["l9_run"] is None
+    assert rec["drive_torque_rms_Nm_noise"] == pytest.approx(tukey / math.sqrt(2))
+    assert "run 1" not in rec["dominated_by"] and "confirmed" in chk["statement"]
+    assert sum("recommended" in n for n in recs) == 1
+
+
+def test_a_tested_run_that_dominates_beyond_the_anovas_noise_becomes_the_recommendation():
+    """The same set-up with a drive-torque difference three times the Tukey-Kramer margin (an interaction the
+    main effects miss): run 1 dominates the tiered choice beyond the ANOVA's own noise, so the recommendation
+    moves to run 1, which the table shows undominated, and the statement says why."""
+    from berryshaker.study.l9 import confirm_recommendation
+
+    sigma = 0.4
+    tukey = stats.studentized_range.ppf(0.95, 10, 18) / math.sqrt(2) * sigma * math.sqrt(2 / 3)
+    y, rep, pe, lv, cl, tiered, tiered_cl, rec_y = _l9_with_interaction(3 * tukey, sigma)
+    chk = confirm_recommendation(lv, cl, y, tiered, tiered_cl, rec_y, pe, FACTORS)
+    assert chk["moved"] and chk["l9_run"] == 1 and chk["levels"] == {"A": 1, "B": 1, "C": 1, "F": 1}
+    # runs 1-3 (all A1, the only factor that matters) measure alike; the table order (then name) picks run 1
+    assert chk["dominated_by"] == ["run 1 (A1B1C1F1)", "run 2 (A1B2C2F2)", "run 3 (A1B3C3F3)"]
+    assert chk["better_in"] == ["drive_torque_rms_Nm"]
+    recs = {rr["name"]: rr for rr in chk["records"]}
+    assert not recs["run 1 (A1B1C1F1), recommended"]["dominated"]
+    assert recs["tiered choice (A1B1C1F3)"]["dominated_by"].startswith("run 1 (A1B1C1F1), recommended")
+    assert "A1B1C1F3 is dominated" in chk["statement"] and "interaction" in chk["statement"]
+    # a tiered choice that is an L9 run and dominated by nothing stays, named in its run's row
+    chk2 = confirm_recommendation(lv, cl, y, lv[0], cl[0], None, pe, FACTORS)
+    assert not chk2["moved"] and chk2["l9_run"] == 1
+    assert any(rr["name"] == "run 1 (A1B1C1F1), recommended" for rr in chk2["records"])

@@ -269,11 +269,13 @@ def doe_virtual(
     response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the pure
     error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
     optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
-    rule in method); recommended (levels, code, clearance_mm, virtual_harvest, replicates, basis per factor,
-    rule, statement); tolerance_check (rtol 1e-6 vs 1e-7: per response max_abs_change, replicate_sd,
+    rule in method, tiered_levels); recommended (levels, code, clearance_mm, virtual_harvest, replicates, basis
+    per factor, rule, statement, check: the tiered choice confirmed against the trade-off table - moved,
+    tiered, dominated_by, better_in, statement); tolerance_check (rtol 1e-6 vs 1e-7: per response max_abs_change, replicate_sd,
     within_replicate_spread; statement); tradeoff (one row per candidate: name, clearance_mm:<pair>, efficiency,
     ripe_removal, unripe, unripe_shed, damage, peak_force_N:<pair>, drive_torque_peak_Nm, drive_torque_rms_Nm,
-    each with _lo/_hi (95 % interval); dominated, dominated_by); tradeoff_columns; response_units.
+    each with _lo/_hi (95 % interval) and _noise (Tukey-Kramer comparison half-width on the pure error);
+    dominated, dominated_by); tradeoff_columns; response_units.
     Responses: efficiency (kg/min), ripe_removal (%), unripe (% of the picked mass), unripe_shed (% of the unripe
     mass), damage (%), peak_force_<pair> (N), drive_torque_peak and drive_torque_rms (N m).
     """
@@ -338,7 +340,7 @@ def _print_tradeoff(res: dict) -> None:
     recs = res.get("tradeoff") or []
     if not recs:
         return
-    cols = [c for c in res.get("tradeoff_columns", []) if c in recs[0] and not c.endswith(("_lo", "_hi"))
+    cols = [c for c in res.get("tradeoff_columns", []) if c in recs[0] and not c.endswith(("_lo", "_hi", "_noise"))
             and not c.startswith("clearance") and c not in ("name", "dominated", "dominated_by", "unripe_shed")]
     t = Table(title="Trade-off (mean [95 % interval]); * = dominated beyond noise", header_style="bold")
     t.add_column("candidate")

@@ -65,6 +65,19 @@ def _tukey_half_width(ms: float, dof: int, k: int, n_a: int, n_b: int, confidenc
     return q / np.sqrt(2.0) * float(np.sqrt(ms * (1.0 / n_a + 1.0 / n_b)))
 
 
+def comparison_half_width(ms: float, dof: int, k: int, n: int, confidence: float = 0.95) -> float:
+    """Per-mean comparison half-width h = q(confidence; k, dof) / sqrt(2) sqrt(MS_E / n) of one of k means.
+
+    Two of the k means (n_a, n_b observations) differ beyond noise, simultaneously over all k (k - 1) / 2
+    pairs, iff |a - b| > sqrt(h_a^2 + h_b^2) = q / sqrt(2) sqrt(MS_E (1/n_a + 1/n_b)), the Tukey-Kramer margin
+    of :func:`_tukey_half_width` (Montgomery 2013, sec. 3.5.7) split per mean.  ``ms``, ``dof``: the pure-error
+    mean square and its degrees of freedom; nan if k < 2 or dof < 1; 0 if ms = 0.
+    """
+    if n < 1:
+        raise ConfigError(f"comparison half-width: n = {n} observations, need >= 1")
+    return _tukey_half_width(ms, dof, k, n, n, confidence) / np.sqrt(2.0)
+
+
 def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> tuple[dict, float, int]:
     """Main-effect sums of squares from statsmodels OLS on all observations; residual SS and dof."""
     import statsmodels.formula.api as smf
@@ -420,4 +433,4 @@ def describe_replicated(res: dict) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["analyze_replicated", "describe_replicated", "pure_error", "replicated_anova"]
+__all__ = ["analyze_replicated", "comparison_half_width", "describe_replicated", "pure_error", "replicated_anova"]

@@ -7,6 +7,14 @@ for two values a, b with confidence half-widths h_a, h_b (from their intervals) 
 |a - b| > sqrt(h_a^2 + h_b^2), the half-width of the interval of the difference of two independent
 estimates at the same confidence; a column without intervals (a deterministic model output) uses the
 relative tolerance ``rtol`` of the larger magnitude instead.
+
+An estimate may carry its own *comparison half-width* ``noise`` (``{"mean", "ci", "noise"}``, column
+``<col>_noise``): the margin is then sqrt(noise_a^2 + noise_b^2) instead of the one from the intervals, while
+the interval stays the one reported.  With noise = q(conf; k, dof) / sqrt(2) sqrt(MS_E / n) (q the studentized
+range of k candidates) this margin is exactly the Tukey-Kramer simultaneous margin q / sqrt(2) sqrt(MS_E (1/n_a
++ 1/n_b)) (Montgomery, *Design and Analysis of Experiments*, 8th ed., 2013, sec. 3.5.7): the comparison of
+all candidates then has the family-wise error of one test, as the level comparisons of a replicated ANOVA do
+(:func:`berryshaker.experiment.replicates.comparison_half_width`).
 """
 
 from __future__ import annotations
@@ -51,6 +59,16 @@ def _number(x, where: str) -> float:
     return x
 
 
+def _noise(x, where: str) -> float | None:
+    """The comparison half-width ``noise`` of a dict estimate (>= 0), or None."""
+    if not isinstance(x, dict) or x.get("noise") is None:
+        return None
+    v = _number(x["noise"], where + " noise")
+    if v < 0:
+        raise ConfigError(f"trade-off candidate {where}: noise {v:g} must be >= 0 (a half-width)")
+    return v
+
+
 def _estimate(x, where: str) -> tuple[float, float | None, float | None]:
     """A number, or a dict {mean, ci: [lo, hi]} / {mean, lo, hi} -> (mean, lo, hi)."""
     if isinstance(x, dict):
@@ -82,6 +100,9 @@ def _flatten(c: dict) -> dict:
         row[col] = m
         if lo is not None:
             row[f"{col}_lo"], row[f"{col}_hi"] = lo, hi
+        nz = _noise(x, where)
+        if nz is not None:
+            row[f"{col}_noise"] = nz
 
     for key, x in c.items():
         if key == "name":
@@ -103,7 +124,7 @@ def _flatten(c: dict) -> dict:
 def _judged_columns(df: pd.DataFrame, senses) -> dict[str, bool]:
     out = {}
     for col in df.columns:
-        if col in ("name", "dominated", "dominated_by") or col.endswith(("_lo", "_hi")):
+        if col in ("name", "dominated", "dominated_by") or col.endswith(("_lo", "_hi", "_noise")):
             continue
         if not pd.api.types.is_numeric_dtype(df[col]):
             continue
@@ -113,16 +134,17 @@ def _judged_columns(df: pd.DataFrame, senses) -> dict[str, bool]:
     return out
 
 
-def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = None,
-                     rtol: float = 0.01) -> np.ndarray:
-    """``D[i, j]`` True where candidate i dominates candidate j beyond noise (see the module docstring)."""
-    cols = _judged_columns(df, senses)
+def _column_comparisons(df: pd.DataFrame, senses, rtol: float):
+    """Per judged column: (column, d, margin) with ``d[i, j]`` how much better candidate i is than j (signed by
+    the column's sense) and ``margin[i, j]`` the noise of that difference (module docstring)."""
     n = len(df)
-    no_worse = np.ones((n, n), bool)
-    better = np.zeros((n, n), bool)
-    for col, maximize in cols.items():
+    for col, maximize in _judged_columns(df, senses).items():
         v = df[col].to_numpy(float)
-        if f"{col}_lo" in df.columns:
+        if f"{col}_noise" in df.columns:
+            h = df[f"{col}_noise"].to_numpy(float)
+            h = np.where(np.isnan(h), 0.0, h)
+            margin = np.sqrt(h[:, None] ** 2 + h[None, :] ** 2)
+        elif f"{col}_lo" in df.columns:
             h = (df[f"{col}_hi"].to_numpy(float) - df[f"{col}_lo"].to_numpy(float)) / 2
             h = np.where(np.isnan(h), 0.0, h)
             margin = np.sqrt(h[:, None] ** 2 + h[None, :] ** 2)
@@ -131,8 +153,16 @@ def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = N
         margin = np.maximum(margin, np.where(margin > 0, 0.0, rtol * np.maximum(np.abs(v)[:, None],
                                                                                  np.abs(v)[None, :])))
         d = v[:, None] - v[None, :]
-        if not maximize:
-            d = -d
+        yield col, (d if maximize else -d), margin
+
+
+def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = None,
+                     rtol: float = 0.01) -> np.ndarray:
+    """``D[i, j]`` True where candidate i dominates candidate j beyond noise (see the module docstring)."""
+    n = len(df)
+    no_worse = np.ones((n, n), bool)
+    better = np.zeros((n, n), bool)
+    for _col, d, margin in _column_comparisons(df, senses, rtol):
         better |= d > margin
         no_worse &= ~(-d > margin)
     dom = no_worse & better
@@ -140,12 +170,20 @@ def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = N
     return dom
 
 
+def better_columns(df: pd.DataFrame, i: int, j: int, senses: dict[str, bool | None] | None = None,
+                   rtol: float = 0.01) -> list[str]:
+    """The judged columns in which row i of a trade-off table is better than row j beyond noise (the same
+    margins as :func:`dominance_matrix`)."""
+    return [col for col, d, margin in _column_comparisons(df, senses, rtol) if d[i, j] > margin[i, j]]
+
+
 def mark_dominated(df: pd.DataFrame, senses: dict[str, bool | None] | None = None, rtol: float = 0.01) -> pd.DataFrame:
     """A copy of a trade-off table with ``dominated`` (bool) and ``dominated_by`` (names, comma-separated).
 
     Judged columns: those with a sense (:func:`column_sense`: harvest efficiency larger is better;
     unripe and damage rates, forces, torque, energy smaller is better; clearances descriptive).  Columns
-    ``<col>_lo`` / ``<col>_hi`` are the interval of ``<col>``; without them ``rtol`` is the noise.
+    ``<col>_lo`` / ``<col>_hi`` are the interval of ``<col>``, ``<col>_noise`` (if present) the comparison
+    half-width that replaces the interval's half-width in the margin; without either ``rtol`` is the noise.
     """
     if not 0 <= rtol < 1:
         raise ConfigError(f"rtol={rtol!r}: give a relative tolerance between 0 and 1")
@@ -166,7 +204,7 @@ def tradeoff_table(candidates: list[dict], senses: dict[str, bool | None] | None
     candidates : list of dict
         Each with ``name`` and any of: ``clearance_mm`` {joint: value}; ``harvest`` {index: {"mean": m,
         "ci": [lo, hi]}} (indexes become columns ``efficiency``, ``unripe``, ``damage`` with ``_lo`` /
-        ``_hi``); ``peak_force_N`` {joint: value or {mean, ci}}; ``drive_torque_Nm``; ``energy_lost_J``;
+        ``_hi``; an optional ``"noise"``, the comparison half-width of the module docstring, becomes ``_noise``); ``peak_force_N`` {joint: value or {mean, ci}}; ``drive_torque_Nm``; ``energy_lost_J``;
         any other number or {mean, ci}.  Per-joint dicts become columns ``<key>:<joint>``.
     senses : dict, optional
         Overrides of :func:`column_sense` (column or group name -> True / False / None).
@@ -196,4 +234,4 @@ def tradeoff_table(candidates: list[dict], senses: dict[str, bool | None] | None
     return df.sort_values(keys, ascending=asc, kind="stable").reset_index(drop=True)
 
 
-__all__ = ["SENSE_PATTERNS", "column_sense", "dominance_matrix", "mark_dominated", "tradeoff_table"]
+__all__ = ["SENSE_PATTERNS", "better_columns", "column_sense", "dominance_matrix", "mark_dominated", "tradeoff_table"]

@@ -395,7 +395,10 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         parts.append(_table(header, body, left=(0, len(header) - 1)))
         parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean].  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
-                     "one (experiment/tradeoff.py); clearances are descriptive.</p>")
+                     "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's pure error, simultaneous over "
+                     "all candidates (experiment/tradeoff.py, study/l9.py); clearances are descriptive.  The tiered "
+                     "choice is confirmed against this table: a tested run that dominates it becomes the "
+                     "recommendation.</p>")
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
     _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")

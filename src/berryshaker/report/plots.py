@@ -748,6 +748,56 @@ def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     return ["svaj.png", "groove_profile.png", "comb_angles.png"]
 
 
+def _place_point_labels(ax, items: list[tuple[float, float, str | None, float]],
+                        fontsize: float = 7.0) -> list[tuple[float, float] | None]:
+    """Annotate points so that no label covers another label or a marker.
+
+    ``items``: (x, y, text, marker radius in points); text None = a marker to keep clear, not labelled.  Per
+    label the first of twelve offsets (beside the corners, the sides, then farther out) with the least overlap
+    with the markers and the labels placed before, in display coordinates after the layout is drawn; a label
+    set farther out gets a thin leader line.  Returns the chosen offsets (points; None for unlabelled items)."""
+    fig = ax.figure
+    fig.canvas.draw()  # constrained layout and autoscale settle the transforms
+    px = fig.dpi / 72.0
+    xy = ax.transData.transform([(x, y) for x, y, _, _ in items]) if items else np.zeros((0, 2))
+    boxes = [(X - r * px, Y - r * px, X + r * px, Y + r * px) for (X, Y), (_, _, _, r) in zip(xy, items)]
+    frame = ax.get_window_extent()
+    chosen = []
+
+    def overlap(b, c):
+        return max(0.0, min(b[2], c[2]) - max(b[0], c[0])) * max(0.0, min(b[3], c[3]) - max(b[1], c[1]))
+
+    for (X, Y), (_, _, text, r) in zip(xy, items):
+        if text is None:
+            chosen.append(None)
+            continue
+        g = max(r - 3.0, 0.0)  # a larger marker pushes its label out
+        w, h = 0.62 * fontsize * len(text) + 2.0, fontsize + 2.0  # points
+        offsets = [(5 + g, 4 + g), (5 + g, -4 - g - h), (-5 - g - w, 4 + g), (-5 - g - w, -4 - g - h),
+                   (7 + g, -h / 2), (-7 - g - w, -h / 2), (-w / 2, 9 + g), (-w / 2, -9 - g - h),
+                   (12 + g, 14 + g), (-12 - g - w, 14 + g), (12 + g, -14 - g - h), (-12 - g - w, -14 - g - h)]
+        best, cost = offsets[0], math.inf
+        for dx, dy in offsets:
+            b = (X + dx * px, Y + dy * px, X + (dx + w) * px, Y + (dy + h) * px)
+            c = sum(overlap(b, o) for o in boxes)
+            outside = (max(0.0, frame.x0 - b[0]) + max(0.0, b[2] - frame.x1) + max(0.0, frame.y0 - b[1])
+                       + max(0.0, b[3] - frame.y1))
+            c += 1e3 * outside
+            if c < cost - 1e-9:
+                best, cost = (dx, dy), c
+        dx, dy = best
+        boxes.append((X + dx * px, Y + dy * px, X + (dx + w) * px, Y + (dy + h) * px))
+        chosen.append(best)
+    for (x, y, text, _), off in zip(items, chosen):
+        if off is None:
+            continue
+        dx, dy = off
+        far = abs(dx) > 10 and abs(dy) > 10
+        ax.annotate(text, (x, y), textcoords="offset points", xytext=(dx, dy), fontsize=fontsize, ha="left",
+                    va="bottom", arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "#777777"} if far else None)
+    return chosen
+
+
 def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_figure: bool = False) -> dict:
     """Trade-off of the candidate clearance sets: picking efficiency (mean and 95 % interval) against the
     largest peak collision force over the joints and against the peak drive torque (means and intervals).
@@ -757,37 +807,48 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
     records : list of dict
         Rows of :func:`berryshaker.study.l9.tradeoff_records` (``efficiency``, ``efficiency_lo``/``_hi``,
         ``peak_force_N:<joint>`` with ``_lo``/``_hi``, ``drive_torque_peak_Nm``, ``dominated``, ``name``).
-        Filled markers: not dominated beyond noise; open: dominated.
+        Filled markers: not dominated beyond noise; open: dominated; a star: the recommended candidate (its
+        name contains "recommended").  Force panel: colour of the joint with the largest peak force; torque
+        panel: one colour.  Labels are placed clear of the markers and of each other.
 
     Returns
     -------
     dict
-        ``points``: per candidate the x/y values drawn in each panel; ``path``.
+        ``points``: per candidate the x/y values drawn in each panel; ``label_offsets`` (points, per panel);
+        ``path``.
     """
-    forces = sorted({k for r in records for k in r if k.startswith("peak_force_N:") and not k.endswith(("_lo", "_hi"))})
+    forces = sorted({k for r in records for k in r if k.startswith("peak_force_N:")
+                     and not k.endswith(("_lo", "_hi", "_noise"))})
     panels = [("largest peak collision force [N]", "force")]
     if all("drive_torque_peak_Nm" in r for r in records):
         panels.append(("peak drive torque [N m]", "torque"))
+    torque_colour = SERIES_COLOURS[4]
     fig, axes = new_figure(1, len(panels), figsize=(5.2 * len(panels) + 1.8, 4.2), squeeze=False, sharey="row")
     data = {"points": []}
-    for i, rec in enumerate(records):
+    labels = [[] for _ in panels]
+    rec_name, used = None, set()
+    for rec in records:
         y = rec["efficiency"]
         yerr = [[y - rec.get("efficiency_lo", y)], [rec.get("efficiency_hi", y) - y]]
         label = rec["name"].split(" (")[0]
+        is_rec = "recommended" in rec["name"]
+        if is_rec:
+            rec_name = rec["name"].replace(", recommended", "")
+            if rec_name.startswith("recommended ("):  # "recommended (A1B1C1F3)" -> "A1B1C1F3"
+                rec_name = rec_name[len("recommended ("):].rstrip(")")
         point = {"name": rec["name"], "efficiency": y}
         for j, (_, kind) in enumerate(panels):
-            if kind == "force":
-                key = max(forces, key=lambda k: rec[k])
-            else:
-                key = "drive_torque_peak_Nm"
+            key = max(forces, key=lambda k: rec[k]) if kind == "force" else "drive_torque_peak_Nm"
+            used.add(key)
             x = rec[key]
             xerr = [[x - rec.get(f"{key}_lo", x)], [rec.get(f"{key}_hi", x) - x]]
-            colour = PAIR_COLOURS.get(key.split(":")[-1], SERIES_COLOURS[0]) if kind == "force" else SERIES_COLOURS[1]
+            colour = PAIR_COLOURS.get(key.split(":")[-1], SERIES_COLOURS[0]) if kind == "force" else torque_colour
             ax = axes[0, j]
-            ax.errorbar([x], [y], xerr=xerr, yerr=yerr, fmt="o", ms=6, capsize=3, color=colour,
-                        mfc="white" if rec.get("dominated") else colour)
-            ax.annotate(label + (" *" if "recommended" in rec["name"] else ""), (x, y), textcoords="offset points",
-                        xytext=(4, 4), fontsize=7)
+            ax.errorbar([x], [y], xerr=xerr, yerr=yerr, fmt="*" if is_rec else "o", ms=13 if is_rec else 6, capsize=3,
+                        color=colour, mfc="white" if rec.get("dominated") else colour,
+                        mec="black" if is_rec else colour, zorder=4 if is_rec else 3)
+            # an L9 run keeps its run label; an extra recommended set is the star of the legend, unlabelled
+            labels[j].append((x, y, None if (is_rec and label == "recommended") else label, 6.5 if is_rec else 3.5))
             point[kind] = {"column": key, "x": x}
         data["points"].append(point)
     for j, (xl, kind) in enumerate(panels):
@@ -800,10 +861,16 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
     handles = [Line2D([], [], ls="none", marker="o", color="#555555", label="not dominated beyond noise"),
                Line2D([], [], ls="none", marker="o", color="#555555", mfc="white", label="dominated beyond noise"),
                Line2D([], [], color="#555555", label="95 % interval of the replicate mean")]
+    if rec_name is not None:
+        handles.append(Line2D([], [], ls="none", marker="*", ms=11, color="#555555", mec="black",
+                              label=f"recommended: {rec_name}"))
     handles += [Line2D([], [], ls="none", marker="o", color=PAIR_COLOURS.get(k.split(":")[-1], SERIES_COLOURS[0]),
-                       label=f"force at joint {k.split(':')[-1]}") for k in forces]
+                       label=f"left: largest force at joint {k.split(':')[-1]}") for k in forces if k in used]
+    if len(panels) > 1:
+        handles.append(Line2D([], [], ls="none", marker="o", color=torque_colour, label="right: peak drive torque"))
     legend_outside(axes[0, -1], handles=handles, labels=[h.get_label() for h in handles])
-    fig.suptitle(title or "Trade-off of the candidate clearance sets (* = recommended)", fontsize=9)
+    fig.suptitle(title or "Trade-off of the candidate clearance sets (star = recommended)", fontsize=9)
+    data["label_offsets"] = [_place_point_labels(axes[0, j], labels[j]) for j in range(len(panels))]
     return _out(fig, path, data, return_figure, dpi=100)
 
 

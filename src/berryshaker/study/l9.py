@@ -11,7 +11,11 @@ effects but stays in the error).
 Every response (harvest indexes and machine loads) carries its mean, replicate standard deviation and 95 %
 interval per run; range analysis and ANOVA use the pure (replicate) error; the recommendation is tiered
 (:data:`berryshaker.experiment.replicates.TIERED_RULE`): harvest indexes first, machine loads where the
-harvest indexes do not differ, and the configured clearance where nothing differs.
+harvest indexes do not differ, and the configured clearance where nothing differs.  The tiered choice is then
+confirmed against the trade-off table of the runs (:data:`CONFIRMATION_RULE`), whose dominance test uses the
+ANOVA's pure error with Tukey-Kramer simultaneous margins, so the table cannot call a noise-sized difference
+dominance that the ANOVA calls no effect; a tested run that still dominates the choice becomes the
+recommendation.
 """
 
 from __future__ import annotations
@@ -142,8 +146,9 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
         response's mean, sd, ci), ``responses`` (range analysis of the replicate means, as the study's Table
         8), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against
         pure error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
-        recommended), ``recommended`` (levels, code, clearances, mean indexes, per-response intervals,
-        ``basis`` per factor, ``rule``, ``statement``), ``tolerance_check``, ``tradeoff`` (records of the
+        recommended and ``tiered_levels``, the tiered rule's), ``recommended`` (levels, code, clearances, mean
+        indexes, per-response intervals, ``basis`` per factor, ``rule``, ``statement``, ``check``: the
+        confirmation against the trade-off table, :func:`confirm_recommendation`), ``tolerance_check``, ``tradeoff`` (records of the
         trade-off table) and ``tradeoff_columns``.
     """
     from berryshaker.errors import ConfigError
@@ -233,42 +238,153 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
         statement = ("Harvest indexes that differ beyond the replicate noise: " + "; ".join(
             f"{n}: {', '.join(f) or 'none'}" for n, f in harvest_sig.items())
             + ". Other factors are decided on machine loads where those differ, else kept as configured.")
-    opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"])
-    an["optimum"] = opt
-    best_cl = {p: levels_m[p][rec_levels[p] - 1] for p in pairs}
-    row = next((i for i, rr in enumerate(runs) if all(abs(rr[p] - best_cl[p]) < 1e-12 for p in pairs)), None)
-    if row is not None:
-        rec_cells = run_cells[row]
-    else:
-        o = runner.values(replicate_run, jobs_for(best_cl, seeds), "virtual harvest at the recommendation")
-        rec_cells = cells(o, seeds, pops)
+    tiered_levels = dict(rec_levels)
+
+    def rec_cells_at(levels: dict[str, int]):
+        cl = {p: levels_m[p][levels[p] - 1] for p in pairs}
+        i = next((i for i, rr in enumerate(runs) if all(abs(rr[p] - cl[p]) < 1e-12 for p in pairs)), None)
+        if i is not None:
+            return i, cl, run_cells[i]
+        o = runner.values(replicate_run, jobs_for(cl, seeds), "virtual harvest at the recommendation")
+        return None, cl, cells(o, seeds, pops)
+
+    row, best_cl, rec_cells = rec_cells_at(rec_levels)
     rec_y = {n: np.array([c[n] for c in rec_cells]) for n in names}
+    check = confirm_recommendation([an["runs"][i]["levels"] for i in range(len(runs))], runs, y, rec_levels, best_cl,
+                                   None if row is not None else rec_y, pe, pairs)
+    an["tradeoff"], an["tradeoff_columns"] = check.pop("records"), check.pop("columns")
+    if check["moved"]:
+        row = check["l9_run"] - 1
+        rec_levels = dict(an["runs"][row]["levels"])
+        best_cl, rec_cells = runs[row], run_cells[row]
+        rec_y = {n: y[n][row] for n in names}
+        for p in pairs:
+            if rec_levels[p] != tiered_levels[p]:
+                basis[p] = (f"tested L9 run {row + 1} ({level_code(rec_levels)}) dominates the tiered choice "
+                            f"{check['tiered']['code']} beyond the noise: level {rec_levels[p]} (tiered rule: "
+                            f"level {tiered_levels[p]}; {basis[p]})")
+    statement = statement + " " + check["statement"]
+    opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"], tiered_levels=tiered_levels)
+    an["optimum"] = opt
     vh = {key: float(np.mean(rec_y[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items() if n in rec_y}
     an["recommended"] = {"levels": rec_levels, "code": level_code(rec_levels),
                          "clearance_mm": {p: best_cl[p] * 1e3 for p in pairs}, "l9_run": None if row is None else row + 1,
                          "study": {"code": CHOSEN_CODE}, "same_as_study": rec_levels == CHOSEN_LEVELS,
                          "virtual_harvest": vh, "replicates": {n: interval(rec_y[n], pe[n]) for n in names},
                          "basis": basis, "rule": rep["optimum"]["method"]
-                         + "; a factor with no significant difference keeps the configured clearance",
-                         "statement": statement}
+                         + "; a factor with no significant difference keeps the configured clearance; "
+                         + CONFIRMATION_RULE, "statement": statement, "check": check}
     an["tolerance_check"] = _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
                                              rep, names)
-    cands = [_candidate(f"run {i + 1} ({level_code(an['runs'][i]['levels'])})", runs[i], y, names, pairs, i, pe)
-             for i in range(len(runs))]
-    if row is None:
-        cands.append(_candidate(f"recommended ({an['recommended']['code']})", best_cl,
-                                {n: rec_y[n][None, :] for n in names}, names, pairs, 0, pe))
-    else:
-        cands[row]["name"] += ", recommended"
-    an["tradeoff"], an["tradeoff_columns"] = tradeoff_records(cands)
     return an
 
 
-def _candidate(name, cl, y, names, pairs, i, pe) -> dict:
-    """One trade-off candidate: harvest indexes and loads with their intervals (pooled replicate error)."""
+#: how the tiered choice is checked against the trade-off table (docs/harvest.md, "Trade-off table")
+CONFIRMATION_RULE = ("the tiered choice is confirmed against the trade-off table, judged with the ANOVA's own noise "
+                     "model: a candidate dominates another only if it is no worse in every judged response and better "
+                     "in at least one by more than the Tukey-Kramer margin q(0.95; candidates, pure-error dof) / "
+                     "sqrt(2) sqrt(MS_PE (1/n_a + 1/n_b)) (the pure error and simultaneous confidence of the level "
+                     "comparisons); if a tested L9 run dominates the tiered choice, the recommendation moves to that "
+                     "run (measured evidence outranks the additive main-effect prediction) and the report says so")
+
+
+def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y: dict[str, np.ndarray],
+                           rec_levels: dict[str, int], rec_clearance: dict[str, float],
+                           rec_y: dict[str, np.ndarray] | None, pe: dict[str, tuple[float, int]], pairs: list[str],
+                           confidence: float = CONFIDENCE) -> dict:
+    """The trade-off table of the L9 runs and the tiered choice, and the choice confirmed against it
+    (:data:`CONFIRMATION_RULE`).
+
+    Parameters
+    ----------
+    run_levels, run_clearance : list of dict
+        Per L9 run: levels (1-based) and clearances (m) per pair.
+    y : dict name -> ndarray (runs, replicates)
+        Every response's replicates.
+    rec_levels, rec_clearance : dict
+        The tiered choice.
+    rec_y : dict name -> ndarray (replicates,) or None
+        Its replicates if it is not an L9 run (None: it is one of them).
+    pe : dict name -> (MS_PE, dof)
+        Pure error of every response (the ANOVA's).
+    pairs : list of str
+    confidence : float
+        Simultaneous confidence of the comparisons (the ANOVA's).
+
+    Returns
+    -------
+    dict
+        ``records`` / ``columns`` (the final trade-off table: the recommended row's name ends in
+        ", recommended"; a tiered choice that is not an L9 run is the row "tiered choice (code)" or, if kept,
+        "recommended (code)"), ``levels`` (recommended), ``l9_run`` (1-based or None), ``moved``, ``tiered``
+        {code, levels, l9_run}, ``dominated_by`` (names of the candidates that dominate the tiered choice),
+        ``better_in`` (columns in which the new recommendation beats the tiered choice), ``statement``, ``rule``.
+    """
+    import pandas as pd
+
+    from berryshaker.experiment.tradeoff import better_columns, tradeoff_table
+
+    names = list(y)
+    nrun = len(run_levels)
+    row = next((i for i, lv in enumerate(run_levels) if dict(lv) == dict(rec_levels)), None)
+    if row is None and rec_y is None:
+        raise ValueError("confirm_recommendation: the tiered choice is not an L9 run, give its replicates rec_y")
+    k = nrun + (row is None)
+    run_names = [f"run {i + 1} ({level_code(run_levels[i])})" for i in range(nrun)]
+    cands = [_candidate(run_names[i], run_clearance[i], {n: y[n][i] for n in names}, names, pairs, pe, k, confidence)
+             for i in range(nrun)]
+    code = level_code(rec_levels)
+    if row is None:
+        cands.append(_candidate(f"tiered choice ({code})", rec_clearance, rec_y, names, pairs, pe, k, confidence))
+    start = nrun if row is None else row
+    df = pd.DataFrame(tradeoff_table(cands, senses=TRADEOFF_SENSES, rtol=0.01))
+    pos = {nm: i for i, nm in enumerate(df["name"])}
+    doms = {nm: [d for d in str(by).split(", ") if d] for nm, by in zip(df["name"], df["dominated_by"])}
+    tiered_name = cands[start]["name"]
+    cur, seen = tiered_name, {tiered_name}
+    while doms[cur]:  # follow the dominating tested runs (table order: non-dominated first) to an undominated one
+        nxt = next((d for d in df["name"] if d in doms[cur] and d not in seen and d in run_names), None)
+        if nxt is None:
+            break
+        cur = nxt
+        seen.add(cur)
+    moved = cur != tiered_name
+    final = run_names.index(cur) if moved else row
+    better = better_columns(df, pos[cur], pos[tiered_name], TRADEOFF_SENSES, 0.01) if moved else []
+    for i, c in enumerate(cands):
+        if i == final:
+            c["name"] += ", recommended"
+        elif i == nrun and not moved:
+            c["name"] = f"recommended ({code})"
+    records, columns = tradeoff_records(cands)
+    tiered = {"code": code, "levels": dict(rec_levels), "l9_run": None if row is None else row + 1}
+    if moved:
+        statement = (f"The tiered choice {code} is dominated beyond the noise by the tested "
+                     + ", ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
+                     f"response and better in {', '.join(better)} by more than the Tukey-Kramer margin on the pure "
+                     "error (the additive main-effect model does not hold there: an interaction the L9 cannot "
+                     "resolve).")
+    elif doms[tiered_name]:
+        statement = (f"The tiered choice {code} is dominated beyond the noise only by "
+                     + ", ".join(doms[tiered_name]) + "; no tested run is undominated among them, so it is kept.")
+    else:
+        statement = (f"No candidate dominates the tiered choice {code} beyond the noise (Tukey-Kramer margins on the "
+                     "pure error, as the ANOVA): it is confirmed.")
+    return {"records": records, "columns": columns, "levels": dict(run_levels[final]) if moved else dict(rec_levels),
+            "l9_run": None if final is None else final + 1, "moved": moved, "tiered": tiered,
+            "dominated_by": doms[tiered_name], "better_in": better, "statement": statement,
+            "rule": CONFIRMATION_RULE}
+
+
+def _candidate(name, cl, yc, names, pairs, pe, k, confidence=CONFIDENCE) -> dict:
+    """One trade-off candidate: harvest indexes and loads, each with its 95 % interval (pooled replicate error)
+    and its comparison half-width (Tukey-Kramer over the k candidates, :func:`comparison_half_width`)."""
+    from berryshaker.experiment.replicates import comparison_half_width
+
     def est(n):
-        s = interval(y[n][i], pe[n])
-        return {"mean": s["mean"], "ci": s["ci"]}
+        s = interval(yc[n], pe[n])
+        return {"mean": s["mean"], "ci": s["ci"],
+                "noise": comparison_half_width(pe[n][0], int(pe[n][1]), k, s["n"], confidence)}
 
     c = {"name": name, "clearance_mm": {p: cl[p] * 1e3 for p in pairs},
          "harvest": {n: est(n) for n in HARVEST_RESPONSES if n in names},
@@ -279,12 +395,16 @@ def _candidate(name, cl, y, names, pairs, i, pe) -> dict:
     return c
 
 
+#: senses of the trade-off table that differ from :data:`berryshaker.experiment.tradeoff.SENSE_PATTERNS`
+TRADEOFF_SENSES = {"ripe_removal": True}
+
+
 def tradeoff_records(candidates: list[dict]) -> tuple[list[dict], list[str]]:
     """The trade-off table (:func:`berryshaker.experiment.tradeoff.tradeoff_table`) as JSON records and its
     column order (ripe removal larger is better; efficiency larger, the rest smaller)."""
     from berryshaker.experiment.tradeoff import tradeoff_table
 
-    df = tradeoff_table(candidates, senses={"ripe_removal": True}, rtol=0.01)
+    df = tradeoff_table(candidates, senses=TRADEOFF_SENSES, rtol=0.01)
     return json.loads(df.to_json(orient="records")), list(df.columns)
 
 
