@@ -150,6 +150,22 @@ def test_energy_is_conserved_with_ideal_joints_and_no_damping(spec):
     assert abs(r.y[-1, 9 + 2]) > 100  # it kept running
 
 
+def test_generic_summary_counts_onsets_as_transitions_not_step_cuts(spec):
+    """MultibodyResult.summary(): ``contact_onsets`` are the separated -> in-contact transitions of the written
+    penetration over the statistics window, counted here by hand; ``event_cuts`` is the integrator's count of
+    steps cut back to an onset (info[2]), which counts every refinement, so it is the larger."""
+    free = _free_running(spec, ideal=False, law="hertz")
+    r = simulate_mechanism(free, duration=0.01, rtol=1e-8, output_step=1e-6)
+    s = r.summary()
+    k = r.compiled.frc_names.index("rod_slider")
+    sel = r.t >= r.stats_from - 1e-12
+    pen = r.elements[sel, k, 1]
+    by_hand = sum(1 for a, b in zip(pen[:-1], pen[1:]) if a <= 0.0 < b)
+    assert s["contact_onsets"] == {"rod_slider": by_hand} and by_hand >= 1
+    assert s["joints"]["rod_slider"]["contact_onsets"] == by_hand == s["contact_onsets_located"]
+    assert s["event_cuts"] == int(r.info[2]) and s["event_cuts"] > by_hand
+
+
 def test_energy_is_conserved_through_elastic_hertz_impacts(spec):
     """Hertz contact is conservative: kinetic + contact energy K delta^2.5/2.5 stays constant through
     the impacts (checks the force law, the contact-onset location and the integrator together)."""
@@ -188,6 +204,13 @@ def test_simulate_mechanism_cli_json(tmp_path):
     assert f["peak"] >= f["rms"] >= f["mean"] > 0
     assert s["steps"] > 100 and s["wall_time_s"] > 0
     assert s["joints"]["rod_slider"]["first_impact"]["impact_velocity_m_s"] > 1.0
+    # onset keys as in the harvester summaries: impacts (separated -> contact on the written series) per
+    # clearance joint and their total; the integrator's step cut-backs are event_cuts, a different count
+    on = s["contact_onsets"]
+    assert on and set(on) == {n for n, j in s["joints"].items() if j["type"].endswith("_clearance")}
+    assert s["contact_onsets_located"] == sum(on.values()) > 0
+    assert all(s["joints"][n]["contact_onsets"] == v for n, v in on.items())
+    assert s["event_cuts"] >= s["contact_onsets_located"]
     assert (tmp_path / "sc" / "timeseries.csv").exists()
     assert json.loads((tmp_path / "sc" / "summary.json").read_text())["provenance"]["version"]
 

@@ -75,24 +75,13 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
 
 def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
     """Contact onsets (impacts) per clearance pair over the statistics window: transitions of the written
-    penetration series from separated (<= 0) to in contact (> 0).
+    penetration series from separated (<= 0) to in contact (> 0) (:meth:`MultibodyResult.contact_onsets`).
 
     Counted on the written series (spacing ``output_step``): a contact episode that begins and ends between two
     samples is missed, so the count is a lower bound; it is not the engine's count of step cut-backs to an
     onset (``event_cuts``), which counts every refinement.  An ideal joint (zero clearance) has none.
     """
-    from berryshaker.multibody.kernel import EO_PEN
-
-    cm = result.compiled
-    sel = result.t >= result.stats_from - 1e-12
-    out = {}
-    for p in pairs:
-        if p not in cm.frc_names:
-            out[p] = 0
-            continue
-        touch = result.elements[sel, cm.frc_names.index(p), EO_PEN] > 0.0
-        out[p] = int(np.count_nonzero(touch[1:] & ~touch[:-1]))
-    return out
+    return result.contact_onsets(list(pairs))
 
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,

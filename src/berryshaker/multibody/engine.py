@@ -338,15 +338,48 @@ class MultibodyResult:
             return -lam[:, 0]  # torque applied by the driver on its body (N m)
         return np.sqrt(np.sum(lam**2, axis=1))
 
-    def summary(self) -> dict:
+    def contact_onsets(self, names=None) -> dict[str, int]:
+        """Contact onsets (impacts) per clearance element over the statistics window: transitions of the
+        written penetration series from separated (<= 0) to in contact (> 0).
+
+        Counted on the written series (spacing ``output_step``): an episode that begins and ends between two
+        samples is missed, so the count is a lower bound.  It is not the integrator's count of steps cut back
+        to an onset (``info[2]``, ``event_cuts`` in :meth:`summary`), which counts every refinement.  ``names``:
+        the elements to count (default every clearance element); a name that is no clearance element (e.g. a
+        pair closed to an ideal joint) has none.
+        """
         cm = self.compiled
+        if names is None:
+            names = [n for n, kind in zip(cm.frc_names, cm.frc_kinds) if kind.endswith("_clearance")]
+        sel = self.t >= self.stats_from - 1e-12
+        out = {}
+        for name in names:
+            if name not in cm.frc_names or not cm.frc_kinds[cm.frc_names.index(name)].endswith("_clearance"):
+                out[name] = 0
+                continue
+            touch = self.elements[sel, cm.frc_names.index(name), mb.EO_PEN] > 0.0
+            out[name] = int(np.count_nonzero(touch[1:] & ~touch[:-1]))
+        return out
+
+    def summary(self) -> dict:
+        """The JSON of ``simulate --mechanism``: per joint force statistics (clearance joints: contact
+        fraction, first impact, ``contact_onsets``), driver torques, integrator statistics.
+
+        The onset keys mean what they mean in the harvester summaries (``drives.simulation``):
+        ``contact_onsets`` impacts per clearance joint (:meth:`contact_onsets`, separated -> in contact over
+        the statistics window), ``contact_onsets_located`` their total, ``event_cuts`` the integrator steps cut
+        back to an onset over the whole run (every refinement counts).
+        """
+        cm = self.compiled
+        onsets = self.contact_onsets()
         sel = self.t >= self.stats_from - 1e-12
         out = {"model": "multibody", "mechanism": cm.spec.mechanism.name, "joints": {}, "drivers": {},
                "duration_s": float(self.t[-1]),
                "statistics_over": (f"t >= {self.stats_from:.6g} s (whole driver revolutions after the first)"
                                    if self.stats_from > 0 else "the whole run"),
                "steps": int(self.info[0]), "rejected_steps": int(self.info[1]),
-               "contact_onsets_located": int(self.info[2]),
+               "contact_onsets": onsets, "contact_onsets_located": int(sum(onsets.values())),
+               "event_cuts": int(self.info[2]),
                "max_constraint_residual": float(self.info[5]), "wall_time_s": self.wall_time_s}
         for k, (name, kind) in enumerate(zip(cm.frc_names, cm.frc_kinds)):
             if not kind.endswith("_clearance"):
@@ -354,7 +387,7 @@ class MultibodyResult:
             f = np.abs(self.elements[sel, k, mb.EO_FN])
             pen = self.elements[:, k, mb.EO_PEN]
             entry = {"type": kind, "force_N": _stats(f, self.peaks[k]),
-                     "contact_fraction": float(np.mean(pen[sel] > 0))}
+                     "contact_fraction": float(np.mean(pen[sel] > 0)), "contact_onsets": onsets[name]}
             if self.first[k, 3] > 0:
                 entry["first_impact"] = {"time_s": float(self.first[k, 0]),
                                          "impact_velocity_m_s": float(self.first[k, 1]),
