@@ -101,7 +101,7 @@ def test_plant_plot_prints_wrote(tmp_path):
 def test_doe_plan_html_out_writes_csv_and_html_from_the_stem(tmp_path):
     r = _run(["doe", "plan", *FACTORS, "--out", str(tmp_path / "plan.html")])
     assert r.exit_code == 0, r.output
-    assert (tmp_path / "plan.csv").read_text().startswith("run,order,")
+    assert (tmp_path / "plan.csv").read_text().startswith("run,replicate,order,")
     assert (tmp_path / "plan.html").read_text().lstrip().startswith("<!doctype html>")
     assert "wrote" in r.output and "plan.csv" in r.output
     r = _run(["doe", "plan", *FACTORS, "--out", str(tmp_path / "plan.csv")])
@@ -121,7 +121,7 @@ def test_doe_plan_refuses_folder_and_negative_seed(tmp_path):
 # ---- doe analyze ---------------------------------------------------------------------------------------
 @pytest.fixture()
 def filled(tmp_path):
-    r = _run(["doe", "plan", *FACTORS, "--out", str(tmp_path / "plan.csv")])
+    r = _run(["doe", "plan", *FACTORS, "--replicates", "1", "--out", str(tmp_path / "plan.csv")])
     assert r.exit_code == 0, r.output
     df = pd.read_csv(tmp_path / "plan.csv")
     df["efficiency_kg_min"] = 4.1 - 0.8 * df["A_mm"] - 0.3 * df["B_mm"] + [0.01, -0.02, 0, 0.03, 0, -0.01, 0.02,

@@ -90,11 +90,11 @@ def test_indexes_from_raw_masses():
     assert idx["damage_rate_pct"][0] == pytest.approx(2.8, rel=1e-3)
 
 
-def _plan(tmp_path):
+def _plan(tmp_path, *extra):
     out = tmp_path / "plan.csv"
     r = runner.invoke(app, ["doe", "plan", "--array", "L9", "--factor", "A=0.25,0.5,0.75mm", "--factor",
                             "B=0.2,0.4,0.6mm", "--factor", "C=0.1,0.15,0.2mm", "--factor", "F=0.1,0.15,0.2mm",
-                            "--randomize", "--seed", "7", "--out", str(out)])
+                            "--randomize", "--seed", "7", "--out", str(out), *(extra or ("--replicates", "1"))])
     assert r.exit_code == 0, r.output
     return out
 
@@ -105,7 +105,7 @@ def test_plan_fill_and_analyze_round_trip(tmp_path):
     out = _plan(tmp_path)
     assert (tmp_path / "plan.html").read_text().count("<tr>") == 10
     df = pd.read_csv(out)
-    assert list(df.columns[:4]) == ["run", "order", "A_level", "A_mm"]
+    assert list(df.columns[:5]) == ["run", "replicate", "order", "A_level", "A_mm"]
     assert sorted(df["order"]) == list(range(1, 10))
     # fill raw masses for some runs and ready indexes for the others
     eff = 4.1 - 0.8 * df["A_mm"] - 0.3 * df["B_mm"]
@@ -251,3 +251,32 @@ def test_published_l9_example_yang_el_haik():
     k = ra["factors"]
     y_hat = k["A"]["level_means"][2] + k["C"]["level_means"][1] - y.mean()
     assert y_hat == pytest.approx(21.67, abs=0.005)
+
+
+def test_plan_replicates_default_from_config_and_analyze_against_pure_error(tmp_path):
+    """`doe plan` writes runs x replicates rows: --replicates, else harvest.replicates of --config, else that
+    field's default (3); `doe analyze` of a replicated sheet is the pure-error analysis of the virtual L9."""
+    import pandas as pd
+
+    from berryshaker.config import reference_toml_text
+
+    assert len(pd.read_csv(_plan(tmp_path, "--force"))) == 27  # no --replicates, no --config: 3
+    cfg = tmp_path / "two.toml"
+    cfg.write_text(reference_toml_text().replace("replicates = 3 ", "replicates = 2 "))
+    df = pd.read_csv(_plan(tmp_path, "--config", str(cfg), "--force"))
+    assert len(df) == 18 and sorted(df["order"]) == list(range(1, 19))
+    rng = np.random.default_rng(2)
+    df["efficiency_kg_min"] = 4.1 - 0.8 * df["A_mm"] + rng.normal(0, 0.02, len(df))
+    df["damage_rate_pct"] = 2.5 + rng.normal(0, 0.05, len(df))
+    filled = tmp_path / "results.csv"
+    df.to_csv(filled, index=False)
+    r = runner.invoke(app, ["doe", "analyze", str(filled), "--maximize", "efficiency", "--minimize", "damage",
+                            "--json", "--plot", str(tmp_path / "p")])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["replicates"] == 2 and "pure (replicate) error" in s["significance_rule"]
+    assert s["responses"]["efficiency"]["anova"]["pure_error"]["df"] == 9
+    assert s["responses"]["efficiency"]["factors"]["A"]["significant"]
+    assert s["optimum"]["levels"]["A"] == 1 and (tmp_path / "p" / "main_effects.png").exists()
+    text = runner.invoke(app, ["doe", "analyze", str(filled), "--maximize", "efficiency", "--minimize", "damage"])
+    assert text.exit_code == 0 and "no meaningful difference" in text.output and "9 runs x 2 replicates" in text.output

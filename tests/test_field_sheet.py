@@ -218,4 +218,87 @@ def test_printable_sheet():
         assert by_run.loc[int(c[1]), "order"] == int(c[0])
     assert not any(re.search(r"\d\.0$", x) for c in cells for x in c)
     assert "0.25" in page
-    assert list(pd.read_csv(pd.io.common.StringIO(_csv(df))).columns[:4]) == ["run", "order", "A_level", "A_mm"]
+    assert list(pd.read_csv(pd.io.common.StringIO(_csv(df))).columns[:5]) == ["run", "replicate", "order", "A_level",
+                                                                             "A_mm"]
+
+
+def _replicated_sheet(r=3, seed=11, sigma=0.1):
+    """A randomised L9 sheet with r replicates, filled with efficiency = 4 - 0.8 A[mm] + noise (known SD)."""
+    df = plan_table("L9", [parse_factor(s) for s in SPECS], randomize=True, seed=seed, replicates=r)
+    noise = np.random.default_rng(5).normal(0.0, sigma, len(df))
+    df["efficiency_kg_min"] = 4.0 - 0.8 * df["A_mm"] + noise
+    df["unripe_rate_pct"] = 3.0 + noise
+    df["damage_rate_pct"] = 2.5
+    return df, noise
+
+
+def test_plan_has_a_replicate_column_and_a_seeded_order_of_all_rows():
+    """Rows = runs x replicates, each run with replicates 1..R; the randomised order is a seeded permutation of
+    all rows (reproducible; with one replicate the order earlier sheets drew); unrandomised = replicate blocks."""
+    factors = [parse_factor(s) for s in SPECS]
+    df = plan_table("L9", factors, randomize=True, seed=7, replicates=3)
+    assert len(df) == 27 and list(df.columns[:3]) == ["run", "replicate", "order"]
+    assert sorted(df["order"]) == list(range(1, 28))
+    for run, g in df.groupby("run"):
+        assert list(g["replicate"]) == [1, 2, 3]
+        assert (g[[f"{f}_level" for f in "ABCF"]].to_numpy() == L9[run - 1]).all()
+    again = plan_table("L9", factors, randomize=True, seed=7, replicates=3)
+    assert again["order"].tolist() == df["order"].tolist()
+    assert plan_table("L9", factors, randomize=True, seed=8, replicates=3)["order"].tolist() != df["order"].tolist()
+    one = plan_table("L9", factors, randomize=True, seed=7)
+    assert one["order"].tolist() == (np.random.default_rng(7).permutation(9) + 1).tolist()
+    blocks = plan_table("L9", factors, replicates=2)
+    assert blocks.sort_values("order")[["replicate", "run"]].to_numpy().tolist() == [
+        [k, i] for k in (1, 2) for i in range(1, 10)]
+    with pytest.raises(ConfigError, match="replicates=0"):
+        plan_table("L9", factors, replicates=0)
+    page = plan_html(df, "L9 x 3")
+    assert len(re.findall(r"<tr>", page)) == 28 and "cate" in page
+
+
+def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_anova():
+    """Read back in any row order: responses as (runs, replicates) in run order, their means per run, and the
+    pure-error ANOVA of the virtual L9 on them: MS_PE equals the hand-computed replicate variance, A (an effect
+    of 0.4 kg/min per level against sigma = 0.1) is significant, C (no effect) is not."""
+    from berryshaker.experiment.replicates import analyze_replicated, pure_error
+
+    df, _ = _replicated_sheet()
+    shuffled = df.sample(frac=1.0, random_state=3)
+    fr = read_results(_csv(shuffled), ["efficiency", "unripe"])
+    assert fr.replicates == 3 and np.array_equal(fr.levels, L9)
+    y = fr.responses_replicated["efficiency"]
+    want = df.sort_values(["run", "replicate"])["efficiency_kg_min"].to_numpy().reshape(9, 3)
+    np.testing.assert_allclose(y, want)
+    np.testing.assert_allclose(fr.responses["efficiency"], want.mean(axis=1))
+    assert fr.table[["run", "replicate"]].to_numpy().tolist() == [[i, k] for i in range(1, 10) for k in (1, 2, 3)]
+    res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated,
+                             {"efficiency": True, "unripe": False})
+    pe = res["responses"]["efficiency"]["anova"]["pure_error"]
+    ss = float(np.sum((want - want.mean(axis=1, keepdims=True)) ** 2))
+    assert pe["df"] == 18 and pe["ss"] == pytest.approx(ss) and pure_error(want)[0] == pytest.approx(ss)
+    eff = res["responses"]["efficiency"]
+    assert eff["factors"]["A"]["significant"] and not eff["factors"]["C"]["significant"]
+    assert res["optimum"]["levels"]["A"] == 1
+
+
+def test_replicated_sheets_are_checked():
+    df, _ = _replicated_sheet()
+    df = df.sort_values(["run", "replicate"]).reset_index(drop=True)
+    with pytest.raises(ConfigError, match=r"run 4 has replicate\(s\) \[1, 3\], other runs go up to 3.*missing \[2\]"):
+        read_results(_csv(df.drop(index=10)), ["efficiency"])
+    dup = df.copy()
+    dup.loc[10, "replicate"] = 1
+    with pytest.raises(ConfigError, match=r"run 4 appears 2 times \(rows 11, 12\) as replicate 1"):
+        read_results(_csv(dup), ["efficiency"])
+    moved = df.copy().astype(object)
+    moved.loc[10, "B_level"], moved.loc[10, "B_mm"] = 2, 0.4  # replicate 2 of run 4 set to another level of B
+    with pytest.raises(ConfigError, match=r"row 12 \(run 4, replicate 2\), column 'B_level': the levels differ from "
+                       "replicate 1 of run 4"):
+        read_results(_csv(moved), ["efficiency"])
+    bad = df.copy().astype(object)
+    bad.loc[0, "replicate"] = "x"
+    with pytest.raises(ConfigError, match=r"row 2 \(run 1\), column 'replicate': 'x' is not a number"):
+        read_results(_csv(bad), ["efficiency"])
+    bad.loc[0, "replicate"] = 0
+    with pytest.raises(ConfigError, match=r"row 2 \(run 1\), column 'replicate': '0' is not a replicate number"):
+        read_results(_csv(bad), ["efficiency"])

@@ -76,13 +76,21 @@ def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
     factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3\\[unit], e.g. A=0.25,0.5,0.75mm; "
                                      "repeat."),
-    randomize: bool = typer.Option(False, "--randomize", help="Randomise the run order (needs --seed)."),
+    randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of all runs x replicates "
+                                   "(needs --seed)."),
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=1, help="Times each run is tested (rows = runs "
+                                             "x replicates, numbered in a 'replicate' column; >= 2 lets `doe analyze` "
+                                             "judge effects against the replicate spread). Default: harvest.replicates "
+                                             "of --config, else that field's default (3)."),
+    config: Optional[Path] = typer.Option(None, "--config", "-c", help="Machine description whose "
+                                          "harvest.replicates is the default of --replicates."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the randomised order (an integer >= 0)."),
     out_file: Path = typer.Option(..., "--out", "-o", help="Field sheet: NAME.csv, and the printable NAME.html "
                                   "beside it (--out NAME.html gives the same two files)."),
     force: bool = typer.Option(False, "--force", help="Replace existing sheets of that name."),
 ):
-    """Write a field sheet: run, run order, factor levels (units in the header), empty response columns."""
+    """Write a field sheet: run, replicate, test order, factor levels (units in the header), empty response
+    columns; one row per run and replicate."""
     try:
         from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
         from berryshaker.outputs import check_output_file, write_text_atomic
@@ -96,13 +104,19 @@ def doe_plan(
             raise BerryshakerError("factor names must be distinct")
         check_output_file(csv_path, allowed_suffixes=(".csv",), overwrite=force)
         check_output_file(html_path, allowed_suffixes=(".html",), overwrite=force)
-        df = plan_table(array, factors, randomize, seed)
+        if replicates is None:
+            from berryshaker.harvest.spec import HarvestSpec
+
+            harvest = _load(config).harvest if config is not None else None
+            replicates = harvest.replicates if harvest is not None else HarvestSpec.model_fields["replicates"].default
+        df = plan_table(array, factors, randomize, seed, replicates=replicates)
         write_text_atomic(csv_path, df.to_csv(index=False))
         write_text_atomic(html_path, plan_html(df, f"berryshaker field sheet: {array} test of {', '.join(names)}"))
     except BerryshakerError as exc:
         _fail(exc)
         return
-    err.print(f"wrote {csv_path} and {html_path} ({len(df)} runs)", markup=False, highlight=False)
+    err.print(f"wrote {csv_path} and {html_path} ({df['run'].nunique()} runs x {replicates} replicate(s) = "
+              f"{len(df)} rows)", markup=False, highlight=False)
 
 
 @command(doe_app, "analyze")
@@ -120,9 +134,13 @@ def doe_analyze(
                                           "(printable report) or *.json."),
     force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
 ):
-    """Range analysis, weighted optimum, pooled ANOVA and the eq. 19 regression of a field test.
+    """Range analysis, weighted optimum, ANOVA and the eq. 19 regression of a field test.
 
-    Responses: efficiency, unripe, damage (from indexes or raw masses in the sheet) or any numeric column.
+    Responses: efficiency, unripe, damage (from indexes or raw masses in the sheet) or any numeric column.  A
+    sheet with a 'replicate' column (`doe plan --replicates`, >= 2 per run) is analysed against the replicate
+    spread, as the virtual L9: ANOVA on the pure error, 95 % intervals, and an optimum that leaves a factor at
+    "no meaningful difference" where no weighted response differs significantly (--json: replicated, text).
+    Without replicates the weakest factor is pooled into the error.
     """
     try:
         from berryshaker.experiment.analysis import analyze
@@ -141,19 +159,31 @@ def doe_analyze(
             prepare_output_dir(plot, kind="plots")
         senses = _senses(maximize, minimize)
         fr = read_results(results, list(senses))
-        res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, _parse_weights(weights),
-                      level_values=fr.level_values, units=fr.units)
+        if fr.replicates >= 2:
+            from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
+
+            res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses,
+                                     _parse_weights(weights), level_values=fr.level_values, units=fr.units)
+            res["text"] = describe_replicated(res)
+        else:
+            res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, _parse_weights(weights),
+                          level_values=fr.level_values, units=fr.units)
+        res["replicates"] = fr.replicates
         res["weights_given"] = weights is not None
         res["results_file"] = str(results)
         res["version"] = __version__
         if plot is not None:
             from berryshaker.experiment.analysis import quadratic_regression
             from berryshaker.outputs import staged_directory
-            from berryshaker.report.plots import plot_main_effects, plot_response_surfaces
+            from berryshaker.report.plots import plot_main_effects, plot_replicated_effects, plot_response_surfaces
 
             known = {f: v for f, v in fr.level_values.items() if v is not None}
             with staged_directory(plot, kind="plots") as stage:
-                plot_main_effects(res, stage / "main_effects.png", level_values=known or None, factor_unit="-")
+                if fr.replicates >= 2:  # error bars: 95 % intervals from the pure error
+                    plot_replicated_effects(res, list(res["responses"]), stage / "main_effects.png",
+                                            level_values=known or None)
+                else:
+                    plot_main_effects(res, stage / "main_effects.png", level_values=known or None, factor_unit="-")
                 write_provenance(stage, results_file=str(results))
                 if len(fr.factor_names) >= 2:
                     units = {u for f, u in fr.units.items() if fr.level_values.get(f) is not None}
@@ -241,11 +271,15 @@ def _print_doe(res: dict) -> None:
                   f"{reg['main_effects_quadratic']['residual_df']} residual df", markup=False)
     o = res["optimum"]
     settings = o.get("settings") or {}
-    lv = " ".join(f"{f}{n}" + (f" ({settings[f]})" if f in settings and not str(settings[f]).startswith("level")
-                               else "") for f, n in o["levels"].items())
+    lv = " ".join((f"{f}{n}" if n is not None else f"{f}: no meaningful difference")
+                  + (f" ({settings[f]})" if n is not None and settings.get(f) and not str(settings[f]).startswith(
+                      "level") else "") for f, n in o["levels"].items())
     pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k)}" for k, v in o["values"].items())
     out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
     out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
+    if res.get("significance_rule"):  # replicated sheet: effects judged against the replicate spread
+        out.print(f"{res['runs']} runs x {res['replicates']} replicates; {res['significance_rule']}", markup=False,
+                  highlight=False)
 
 
 @command(doe_app, "virtual")

@@ -347,7 +347,9 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
     return found, ignored
 
 
-def _check_runs(sheet: _Sheet) -> np.ndarray:
+def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
+    """Run numbers per row (1..n) and, if the sheet has a ``replicate`` column, replicate numbers per row: every
+    run then has the replicates 1..R once each, with the same R for every run (balanced pure error)."""
     if "run" not in sheet.df.columns:
         raise ConfigError("results CSV: no 'run' column (the field sheet from `berryshaker doe plan` has one)")
     runs, empty = sheet.numbers("run")
@@ -361,18 +363,45 @@ def _check_runs(sheet: _Sheet) -> np.ndarray:
                           "number (1, 2, 3, ...)")
     runs = runs.astype(np.int64)
     sheet.run_label = [str(r) for r in runs]
-    n = len(runs)
-    _, first, counts = np.unique(runs, return_index=True, return_counts=True)
+    reps = None
+    if "replicate" in sheet.df.columns:
+        reps, empty = sheet.numbers("replicate")
+        bad = empty | ~np.isfinite(reps) | (reps != np.round(reps)) | (reps < 1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(f"results CSV row {i + 2} (run {runs[i]}), column 'replicate': "
+                              f"{sheet.df['replicate'].iloc[i]!r} is not a replicate number (1, 2, 3, ...); fill it in")
+        reps = reps.astype(np.int64)
+        if reps.max() > 1:
+            sheet.run_label = [f"{r}, replicate {k}" for r, k in zip(runs, reps)]
+    key = runs if reps is None else runs * (int(reps.max()) + 1) + reps
+    _, counts = np.unique(key, return_counts=True)
     if (counts > 1).any():
-        dup = int(np.unique(runs)[np.argmax(counts > 1)])
-        rows = (np.flatnonzero(runs == dup) + 2).tolist()
-        raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
-                          "keep one row per run (a repeat of a run needs its own design)")
-    if runs.max() != n:
-        missing = sorted(set(range(1, n + 1)) - set(runs.tolist()))[:10]
+        dup = int(np.unique(key)[np.argmax(counts > 1)])
+        rows = (np.flatnonzero(key == dup) + 2).tolist()
+        if reps is None:
+            raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
+                              "keep one row per run, or number the repeats of a run in a 'replicate' column "
+                              "(`doe plan --replicates`)")
+        i = rows[0] - 2
+        raise ConfigError(f"results CSV: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
+                          f"as replicate {reps[i]}; keep one row per run and replicate")
+    n = int(runs.max())
+    present = set(runs.tolist())
+    if len(present) != n:
+        missing = sorted(set(range(1, n + 1)) - present)[:10]
         raise ConfigError(f"results CSV: runs must be numbered 1..{n} once each"
                           + (f"; missing run(s) {missing}" if missing else ""))
-    return runs
+    if reps is not None:
+        r = int(reps.max())
+        for run in range(1, n + 1):
+            have = sorted(reps[runs == run].tolist())
+            if have != list(range(1, r + 1)):
+                missing = sorted(set(range(1, r + 1)) - set(have))
+                raise ConfigError(f"results CSV: run {run} has replicate(s) {have}, other runs go up to {r}; every "
+                                  f"run needs replicates 1..{r} once each (missing {missing}) - fill in the missing "
+                                  "rows or delete the extra replicates of the other runs")
+    return runs, reps
 
 
 def _orthogonality_problem(levels: np.ndarray, names: list[str]) -> str:
@@ -422,7 +451,7 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     df = sheet.df
     if len(df) == 0:
         raise ConfigError("results CSV has a header but no rows; fill in the field sheet (one row per run)")
-    runs = _check_runs(sheet)
+    runs, reps = _check_runs(sheet)
     response_cols = {INDEX_NAMES.get(r, r) for r in responses} | set(responses)
     found, ignored = _find_factors(sheet, factors, response_cols)
     # responses named like a factor column
@@ -441,15 +470,27 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
         values.append(v if v is not None else c.astype(float))
     levels = np.column_stack(codes).astype(int)
     valuearr = np.column_stack(values).astype(float)
-    order = np.argsort(runs, kind="stable")
+    r = 1 if reps is None else int(reps.max())
+    order = np.lexsort((np.ones_like(runs) if reps is None else reps, runs))  # by run, then replicate
     levels, valuearr = levels[order], valuearr[order]
+    if r > 1:  # the replicates of a run are the same design point
+        lv3 = levels.reshape(-1, r, levels.shape[1])
+        off = np.argwhere((lv3 != lv3[:, :1, :]).any(axis=2))
+        if len(off):
+            run_i, k = (int(v) for v in off[0])
+            i = int(order[run_i * r + k])
+            name = names[int(np.argmax(lv3[run_i, k] != lv3[run_i, 0]))]
+            col = next(c for f in found if f[0] == name for c in (f[1], f[2]) if c)
+            raise ConfigError(f"{sheet.where(i, col)}: the levels differ from replicate 1 of run {run_i + 1}; the "
+                              "replicates of a run repeat the same settings - correct the level or the run number")
     from berryshaker.experiment.designs import is_orthogonal
 
     if levels.shape[1] > 1 and not is_orthogonal(levels):
         raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
                           + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")
-    out = {r: _response(sheet, r, factor_cols)[order] for r in responses}
-    # the table: sorted by run, numbers where the sheet's cells are numbers, level numbers normalised
+    out = {resp: _response(sheet, resp, factor_cols)[order] for resp in responses}
+    # the table: sorted by run (and replicate), numbers where the sheet's cells are numbers, level numbers
+    # normalised
     table = df.iloc[order].reset_index(drop=True).copy()
     for c in table.columns:
         if c.lower() in META_COLUMNS:
@@ -470,13 +511,19 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
                 table[f"{name}_{units[name] or 'value'}"] = valuearr[:, j]
             else:
                 table[vcol] = valuearr[:, j]
-    return FieldResults(table, level_cols, names, out, levels, valuearr, level_values, units, ignored)
+    if reps is not None:
+        table["replicate"] = reps[order]
+    per_run = slice(None, None, r)
+    replicated = {k: v.reshape(-1, r) for k, v in out.items()} if reps is not None else None
+    means = {k: v.mean(axis=1) for k, v in replicated.items()} if replicated is not None else out
+    return FieldResults(table, level_cols, names, means, levels[per_run], valuearr[per_run], level_values, units,
+                        ignored, replicates=r, responses_replicated=replicated)
 
 
 def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.ndarray:
     """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
     df = sheet.df
-    numeric_cols = [c for c in df.columns if c not in ("run", "order") and c.lower() not in META_COLUMNS
+    numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order") and c.lower() not in META_COLUMNS
                     and c not in factor_cols and c not in RAW_COLUMNS]
     col = INDEX_NAMES.get(r, r)
     if r not in INDEX_NAMES and col not in df.columns:

@@ -43,7 +43,7 @@ class Factor:
 
 
 def _reserved_columns() -> set[str]:
-    return {"run", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
+    return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
 
 
 def parse_factor(spec: str) -> Factor:
@@ -91,33 +91,46 @@ def _check_factor_name(f: Factor) -> None:
                               f"{f.name + '_x'!r}")
 
 
-def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed: int | None = None) -> pd.DataFrame:
-    """The field sheet: run, run order, one column per factor (level values with unit), empty responses.
+def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed: int | None = None,
+               replicates: int = 1) -> pd.DataFrame:
+    """The field sheet: run, replicate, test order, one column per factor (level values with unit), empty
+    responses.
 
-    Columns: ``run`` (the design's run number), ``order`` (the order to run it in), per factor
-    ``<name>_level`` (1-based level number) and ``<name>_<unit>`` (level value), then the raw
-    measurements and the ready indexes, left empty.  Rows are in run order; ``plan_html`` prints them in
-    the ``order`` column's order.
+    Columns: ``run`` (the design's run number), ``replicate`` (1 .. ``replicates``: each run is tested that
+    many times, so the analysis can judge the effects against the replicate spread, the pure error),
+    ``order`` (the order to test the row in), per factor ``<name>_level`` (1-based level number) and
+    ``<name>_<unit>`` (level value), then the raw measurements and the ready indexes, left empty.  Rows are
+    runs x replicates, sorted by run and replicate; ``plan_html`` prints them in the ``order`` column's
+    order.  Without ``randomize`` the order is replicate by replicate (every run once, then again); with it,
+    all runs x replicates rows in a random order drawn from ``numpy.random.default_rng(seed)`` (complete
+    randomisation, Montgomery 2013 sec. 1.3; with one replicate the order is the one earlier versions drew).
     """
     names = [f.name for f in factors]
     if len(set(names)) != len(names):
         raise ConfigError("factor names must be distinct")
     for f in factors:
         _check_factor_name(f)
+    if isinstance(replicates, bool) or not isinstance(replicates, (int, np.integer)) or replicates < 1:
+        raise ConfigError(f"replicates={replicates!r}: give the number of times each run is tested, an integer "
+                          ">= 1 (>= 2 for an analysis against the replicate spread)")
     a = orthogonal_array(array)
     cols = assign_factors(array, [len(f.levels) for f in factors])
-    n = a.shape[0]
-    df = pd.DataFrame({"run": np.arange(1, n + 1)})
+    n, r = a.shape[0], int(replicates)
+    run = np.repeat(np.arange(1, n + 1), r)
+    rep = np.tile(np.arange(1, r + 1), n)
+    df = pd.DataFrame({"run": run, "replicate": rep})
     if randomize:
         if seed is None:
             raise ConfigError("--randomize needs --seed N (so the order can be reproduced)")
-        order = np.random.default_rng(seed).permutation(n) + 1
-        df["order"] = order
+        perm = np.random.default_rng(seed).permutation(n * r) + 1
+        # row (run i, replicate k) is test perm[(k - 1) n + i - 1]: with one replicate, the earlier order
+        df["order"] = perm[(rep - 1) * n + run - 1]
     else:
-        df["order"] = df["run"]
+        df["order"] = (rep - 1) * n + run
+    rows = run - 1
     for f, c in zip(factors, cols):
-        df[f"{f.name}_level"] = a[:, c] + 1
-        df[f.column] = [f.levels[i] for i in a[:, c]]
+        df[f"{f.name}_level"] = a[rows, c] + 1
+        df[f.column] = [f.levels[i] for i in a[rows, c]]
     for c in RAW_COLUMNS + INDEX_COLUMNS:
         df[c] = np.nan
     return df
@@ -125,7 +138,7 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
 
 # ------------------------------------------------------------------------------------------ printing
 _LABELS = {
-    "order": "order", "run": "run",
+    "order": "order", "run": "run", "replicate": "repli-<br>cate",
     "duration_s": "duration<br>s", "picked_mass_kg": "picked mass<br>kg", "unripe_mass_kg": "unripe mass<br>kg",
     "damaged_mass_kg": "damaged mass<br>kg", "efficiency_kg_min": "efficiency<br>kg/min",
     "unripe_rate_pct": "unripe rate<br>%", "damage_rate_pct": "damage rate<br>%",
@@ -157,7 +170,8 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
     rows = df.sort_values("order" if "order" in df.columns else "run", kind="stable")
     cols = list(rows.columns)
     if "order" in cols and "run" in cols:  # the crew reads the sheet by order: put it first
-        cols = ["order", "run"] + [c for c in cols if c not in ("order", "run")]
+        first = ["order", "run"] + (["replicate"] if "replicate" in cols else [])
+        cols = first + [c for c in cols if c not in first]
     fill = [c for c in cols if c in RAW_COLUMNS or c in INDEX_COLUMNS]
     design = [c for c in cols if c not in fill]
     n_fill = len(fill) + 1  # + notes
@@ -201,7 +215,8 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
     return (f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
             f"<style>{css}</style></head><body>"
             f"<h2>{html.escape(title)}</h2><div class='metas'>{meta}</div>"
-            "<p>Run the tests top to bottom (the <b>order</b> column; <b>run</b> is the design's run number). "
+            "<p>Run the tests top to bottom (the <b>order</b> column; <b>run</b> is the design's run number, "
+            "<b>replicate</b> which repeat of it this row is). "
             "Fill in either the raw masses and duration or the ready indexes; use a decimal point.</p>"
             f"<table><colgroup>{colgroup}</colgroup><thead><tr>{head}</tr></thead>"
             f"<tbody>{''.join(body)}</tbody></table>"
@@ -214,11 +229,14 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
 class FieldResults:
     """A filled field sheet, read and checked.
 
-    ``table`` is the sheet sorted by run, with ``<factor>_level`` columns holding the 1-based level numbers
-    whatever coding the sheet used (added when the sheet had only value columns).  ``levels`` (runs x
-    factors, int) is the same as an array; ``values`` holds the level values (in ``units``) where the sheet
-    or the given factors state them and the level number otherwise; ``level_values[name]`` is the tuple of
-    level values (level 1, 2, ...) or None when the sheet gives only level numbers.
+    ``table`` is the sheet sorted by run (and replicate), with ``<factor>_level`` columns holding the 1-based
+    level numbers whatever coding the sheet used (added when the sheet had only value columns).  ``levels``
+    (runs x factors, int, one row per run) is the design as an array; ``values`` holds the level values (in
+    ``units``) where the sheet or the given factors state them and the level number otherwise;
+    ``level_values[name]`` is the tuple of level values (level 1, 2, ...) or None when the sheet gives only
+    level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
+    ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
+    and ``responses_replicated`` is None.
     """
 
     table: pd.DataFrame
@@ -230,6 +248,8 @@ class FieldResults:
     level_values: dict[str, tuple[float, ...] | None] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
     ignored_columns: list[str] = field(default_factory=list)
+    replicates: int = 1
+    responses_replicated: dict[str, np.ndarray] | None = None
 
 
 def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:

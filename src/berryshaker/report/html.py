@@ -470,8 +470,12 @@ def doe_report(res: dict, title: str) -> str:
     parts.append("<h2>Weighted optimum</h2>")
     parts.append(f"<p>Weights of the composite score: {html.escape(', '.join(f'{k} {v:.2f}' for k, v in w.items()))} "
                  f"({how}).  {html.escape(res.get('composite', {}).get('method', ''))}.</p>")
-    parts.append(_table(["factor", "level", "setting"], [[f, n, (o.get("settings") or {}).get(f, "")]
+    parts.append(_table(["factor", "level", "setting"], [[f, n if n is not None else "-",
+                                                          (o.get("settings") or {}).get(f) or "no meaningful difference"]
                                                          for f, n in o["levels"].items()], left=(0, 2)))
+    if res.get("significance_rule"):  # a replicated sheet: effects against the replicate spread
+        parts.append(f"<p class='small'>{res['runs']} runs x {res['replicates']} replicates.  "
+                     f"{html.escape(res['significance_rule'])}</p>")
     parts.append(_table(["response", "predicted at the optimum", "unit"],
                         [[r, _fixed([v])[0], RESPONSE_UNITS.get(r, "")] for r, v in o["values"].items()],
                         left=(0, 2)))
