@@ -4,7 +4,7 @@ Run:  .venv/bin/python benchmarks/bench_restitution_velocity.py [--sets 6] [--re
 
 "Before" is the published Lankarani-Nikravesh law (restitution velocity 0 on every pair: e at every impact speed,
 the engine's floor of 1e-6 m/s on v_imp), "after" the pairs' default (their materials' yield velocity,
-docs/contact.md sec. 7); both in this process, CPU time (``time.process_time``), best of ``--repeat`` after a
+docs/contact.md sec. 6.4); both in this process, CPU time (``time.process_time``), best of ``--repeat`` after a
 warm-up.  Each run: the reference machine, 2 cam revolutions, multibody, rtol 1e-6, output every 0.1 ms; the
 reference clearances and ``--sets`` sets drawn uniformly 0.8-1.25x around them (seed 2).
 
@@ -101,7 +101,7 @@ def main(argv=None) -> None:
     models = {"before (v_ref = 0)": with_restitution_velocity(m0, 0.0), "after (yield velocity)": m0}
     edges = bin_edges()
     limit = (edges[:-1] >= 5.6e-6) & (edges[1:] <= 6.8e-6)
-    print(f"pairs' restitution velocity (after): "
+    print("pairs' restitution velocity (after): "
           + ", ".join(f"{p} {m0.pair_contact(p).restitution_velocity * 1e3:.1f} mm/s" for p in m0.pair_names))
     totals = {name: [] for name in models}
     for i, c in enumerate(sets):

@@ -126,7 +126,7 @@ def test_onsets_count_impacts_not_refinements(machine):
     assert mb["contact_onsets_located"] == sum(mb["contact_onsets"].values())
     assert 0 < mb["contact_onsets_located"] < mb["event_cuts"]
     # the two models see the same number of impacts within a factor 2 at A, B and 3 at C, F.  Most re-impacts
-    # are slow (below the restitution velocity, docs/contact.md sec. 7) and nearly elastic, so the joints chatter,
+    # are slow (below the restitution velocity, docs/contact.md sec. 6.4) and nearly elastic, so the joints chatter,
     # and how often depends on the inertia each model gives the joint (multibody: the coupler's mass; MLSD: massless
     # links); measured over 3 revolutions, multibody / MLSD: A 98 / 67, B 134 / 76, C 429 / 165, F 635 / 278
     # (with the restitution at every speed, v_ref = 0: 56 / 43, 57 / 49, 193 / 118, 141 / 107)

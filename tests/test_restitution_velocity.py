@@ -1,4 +1,4 @@
-"""The restitution velocity v_ref of the hysteresis contact laws (docs/contact.md sec. 7).
+"""The restitution velocity v_ref of the hysteresis contact laws (docs/contact.md sec. 6.4).
 
 A single impact of a mass on the *compiled* law (the function the engine calls) is integrated to its rebound:
 

@@ -106,7 +106,7 @@ def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, expo
 
 
 def _hysteresis_velocity(impact_velocity, restitution_velocity):
-    """max(|v_imp|, v_ref) (m/s): the velocity the hysteresis factor divides by (docs/contact.md sec. 7)."""
+    """max(|v_imp|, v_ref) (m/s): the velocity the hysteresis factor divides by (docs/contact.md sec. 6.4)."""
     if not restitution_velocity >= 0:
         raise ValueError(f"restitution_velocity must be >= 0 m/s, got {restitution_velocity}")
     return np.maximum(np.abs(np.asarray(impact_velocity, float)), float(restitution_velocity))
@@ -139,7 +139,7 @@ def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, imp
         Flores); a simulation records it when contact starts.
     restitution_velocity : float
         v_ref (m/s): impacts slower than v_ref get the damping of an impact at v_ref (Hunt & Crossley's
-        material-constant hysteresis, e -> 1 as v -> 0; docs/contact.md sec. 7).  0: the published law.
+        material-constant hysteresis, e -> 1 as v -> 0; docs/contact.md sec. 6.4).  0: the published law.
 
     Returns
     -------

@@ -163,7 +163,7 @@ def hysteresis_velocity(v_imp, v_ref):
     Below the restitution velocity v_ref the damping is that of an impact at v_ref: the hysteresis
     coefficient alpha = f(e)/v_ref is then a material constant (Hunt & Crossley 1975), so an impact at
     v < v_ref has 1 - e(v)^2 = (1 - e^2) v / v_ref for small damping, and e -> 1 as v -> 0
-    (docs/contact.md sec. 7).  v_ref = 0: the published laws (f(e)/v_imp at every speed).
+    (docs/contact.md sec. 6.4).  v_ref = 0: the published laws (f(e)/v_imp at every speed).
     """
     v = abs(v_imp)
     return v if v > v_ref else v_ref
@@ -180,7 +180,7 @@ def lankarani_nikravesh_law(pen, pen_dot, v_imp, k, n, e, c, d):
     """Lankarani & Nikravesh (1990) with the factor 3(1-e^2)/4; slot c = restitution velocity v_ref (m/s).
 
     F = K delta^n [1 + 3 (1 - e^2) delta_dot / (4 max(v_imp, v_ref))] (N), >= 0: the configured e at impact
-    speeds >= v_ref, Hunt & Crossley's material-constant hysteresis below (docs/contact.md sec. 7).
+    speeds >= v_ref, Hunt & Crossley's material-constant hysteresis below (docs/contact.md sec. 6.4).
     """
     return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 0.75 * (1.0 - e * e), n)
 

@@ -13,7 +13,7 @@ engines use:
   pair's coefficient of restitution, so no viscous coefficient or damping ramp is needed.  The restitution
   applies at impact speeds from the pair's restitution velocity up (default: the materials' yield velocity,
   :func:`yield_velocity`); slower impacts get the damping of an impact at that speed (Hunt & Crossley's
-  material-constant hysteresis, restitution rising to 1 as the speed falls to 0; docs/contact.md sec. 7).
+  material-constant hysteresis, restitution rising to 1 as the speed falls to 0; docs/contact.md sec. 6.4).
 
 Every resolved value carries a provenance tag: ``derived`` (computed here), ``assumed`` (a documented
 default), or the tag of the description's own line (``study``, ``assumed``, ``default`` if untagged).
@@ -250,7 +250,7 @@ class PairContact:
 
 def yield_velocity(material_pair: str) -> float:
     """Impact speed at which the softer member of a material pair starts to yield (m/s): the restitution velocity
-    v_ref of the pair's hysteresis law when the description gives none (docs/contact.md sec. 7).
+    v_ref of the pair's hysteresis law when the description gives none (docs/contact.md sec. 6.4).
 
     Parameters
     ----------

@@ -186,7 +186,7 @@ def _pair_force(d, dd, p, k, cst):
         f = hertz_kernel(pen, kk, n)
     else:
         v0 = cst[4 + k] if cst[k] > 0.5 else pd
-        if v0 < cd:  # below the restitution velocity v_ref: the damping of an impact at v_ref (docs/contact.md 7)
+        if v0 < cd:  # below the restitution velocity v_ref: the damping of an impact at v_ref (docs/contact.md 6.4)
             v0 = cd
         f = hysteresis_kernel(pen, pd, v0, kk, p[b + 5], n)
     return sgn * f
