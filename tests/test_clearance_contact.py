@@ -125,12 +125,10 @@ def test_onsets_count_impacts_not_refinements(machine):
     _, mb = simulate_multibody(machine, revolutions=3)
     assert mb["contact_onsets_located"] == sum(mb["contact_onsets"].values())
     assert 0 < mb["contact_onsets_located"] < mb["event_cuts"]
-    # the two models see the same number of impacts within a factor 2 at A, B and 3 at C, F.  Most re-impacts
-    # are slow (below the restitution velocity, docs/contact.md sec. 6.4) and nearly elastic, so the joints chatter,
-    # and how often depends on the inertia each model gives the joint (multibody: the coupler's mass; MLSD: massless
-    # links); measured over 3 revolutions, multibody / MLSD: A 98 / 67, B 134 / 76, C 429 / 165, F 635 / 278
-    # (with the restitution at every speed, v_ref = 0: 56 / 43, 57 / 49, 193 / 118, 141 / 107)
-    for p, factor in (("A", 2.0), ("B", 2.0), ("C", 3.0), ("F", 3.0)):
+    # the two models see the same number of impacts within a factor 1.5 at the pins A, B; the chattering
+    # rollers C, F re-impact chaotically, and their counts move with the tolerance and the sampling
+    # (multibody C: 160-235 at rtol 1e-6..1e-7, output step 1e-4..1e-5 s; MLSD 115): within a factor 2
+    for p, factor in (("A", 1.5), ("B", 1.5), ("C", 2.0), ("F", 2.0)):
         a, b = mb["contact_onsets"][p], s["contact_onsets"][p]
         assert max(a, b) / min(a, b) < factor, (p, a, b)
 

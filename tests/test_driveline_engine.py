@@ -147,16 +147,14 @@ def test_cli_simulate_powered_json_keys():
 
 def test_sweep_runs_the_powered_drive_and_reports_ripple(tmp_path):
     res = CliRunner().invoke(app, ["sweep", "--param", "clearance.C.size=0.1mm,0.2mm", "--model", "multibody",
-                                   "--driveline", "powered", "--revolutions", "4", "--workers", "1", "--cache",
+                                   "--driveline", "powered", "--revolutions", "2", "--workers", "1", "--cache",
                                    str(tmp_path / "cache"), "--json"])
     assert res.exit_code == 0, res.output
     s = json.loads(res.stdout)
     assert s["failed"] == 0
     rows = [dict(zip(s["columns"], r)) for r in s["rows"]]
     assert all(r["speed_ripple_percent"] > 0 and r["input_power_W"] > 0 for r in rows)
-    # more clearance, more loss: over 3 revolutions (0.143 -> 0.170 J); one revolution scatters too much to order
-    # them (measured 0.148 -> 0.137 J with the restitution velocity, docs/contact.md sec. 6.4; 0.166 -> 0.194 without)
-    assert rows[1]["energy_lost_C_J_per_rev"] > rows[0]["energy_lost_C_J_per_rev"] > 0
+    assert rows[1]["energy_lost_C_J_per_rev"] > rows[0]["energy_lost_C_J_per_rev"] > 0  # more clearance, more loss
     bad = CliRunner().invoke(app, ["sweep", "--param", "clearance.C.size=0.1mm", "--driveline", "powered"])
     assert bad.exit_code == 2 and "multibody" in bad.output
 

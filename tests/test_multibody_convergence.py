@@ -9,16 +9,12 @@ the mean drive moment, must agree within the tolerances below.
 Why statistics and these tolerances (docs/multibody.md, "Integrator"): the impact sequence of the clearance
 joints is chaotic, so single impact peaks differ by 15 % per revolution between two tolerances and are not
 compared; the statistics over several revolutions converge in distribution.  Their scatter between two tight
-runs (rtol 1e-7 against 1e-8, measured with the pairs' restitution velocity, docs/contact.md sec. 6.4) is up to
-0.6 % on means, 1.5 % on RMS values and 5.6 % on 95th percentiles (before the restitution velocity: 0.7 / 4.2 /
-4.5 %); the tolerances sit above that scatter.  The mean drive moment is the mean power over the speed, an
-integral of the motion, and converges to 3e-4.
+runs (rtol 1e-7 against 1e-8, measured) is up to 0.7 % on means, 4.2 % on RMS values and 4.5 % on 95th
+percentiles; the tolerances sit above that scatter.  The mean drive moment is the mean power over the speed, an
+integral of the motion, and converges to 1e-5.
 
-Measured, rtol 1e-6 against 1e-7: means 0.3 %, RMS 3.0 %, 95th percentiles 7.7 % (pair B; 3.7 % against 1e-8),
-drive 2e-4.  rtol 1e-5 now passes too (against 1e-7: 0.2 / 1.7 / 2.8 %, drive 3e-4; against 1e-6: 0.1 / 1.3 /
-5.6 %); before the restitution velocity it failed (RMS of pair F 8 %, 95th percentile of pair A 9 %).  It is not
-cheaper: 6 revolutions take 1.41 s CPU at 1e-5 and 1.32 s at 1e-6 (the steps are set by the impacts, not the
-tolerance; benchmarks/README.md sec. 6), so 1e-6 stays the default (docs/multibody.md).
+rtol 1e-5 fails these tolerances (measured: RMS of pair F 8 % and 95th percentile of pair A 9 % from rtol 1e-7),
+so 1e-6 stays the default (docs/multibody.md).
 """
 
 from __future__ import annotations

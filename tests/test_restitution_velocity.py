@@ -95,10 +95,17 @@ def test_yield_velocity_of_the_material_pairs():
 
 
 def test_pair_resolution_and_the_compiled_slot():
+    from berryshaker.contact.wear import MATERIAL_PAIRS
+
+    # a dry pair: the yield velocity; a lubricated pair: the published law at every speed (squeeze film)
+    dry = resolve_pair_contact("lankarani_nikravesh", PairGeometry("pin-in-bore", 1e-4, 0.02, 0.02, "mild-steel-dry"))
+    assert dry.restitution_velocity == pytest.approx(yield_velocity("mild-steel-dry"))
+    assert dry.tags["restitution_velocity"] == "derived"
     geom = PairGeometry("pin-in-bore", 1e-4, 0.02, 0.02, "steel-on-bronze-greased")
     c = resolve_pair_contact("lankarani_nikravesh", geom)
-    assert c.restitution_velocity == pytest.approx(yield_velocity("steel-on-bronze-greased"))
-    assert c.tags["restitution_velocity"] == "derived"
+    assert c.restitution_velocity == 0.0 and c.tags["restitution_velocity"] == "derived"
+    for name, pair in MATERIAL_PAIRS.items():
+        assert pair.lubricated == (name.endswith("-lubricated") or name.endswith("-greased"))
     assert c.engine_contact()["restitution_velocity"] == c.restitution_velocity
     c = resolve_pair_contact("lankarani_nikravesh", geom, restitution_velocity=0.1, tags={"restitution_velocity": "study"})
     assert (c.restitution_velocity, c.tags["restitution_velocity"]) == (0.1, "study")

@@ -11,9 +11,10 @@ engines use:
   :data:`FIT_FORCE_RANGE` of the reference machine's joints;
 * the dissipation is a hysteresis law (default :data:`DEFAULT_LAW`, Lankarani & Nikravesh 1990) with the
   pair's coefficient of restitution, so no viscous coefficient or damping ramp is needed.  The restitution
-  applies at impact speeds from the pair's restitution velocity up (default: the materials' yield velocity,
-  :func:`yield_velocity`); slower impacts get the damping of an impact at that speed (Hunt & Crossley's
-  material-constant hysteresis, restitution rising to 1 as the speed falls to 0; docs/contact.md sec. 6.4).
+  applies at impact speeds from the pair's restitution velocity up; slower impacts get the damping of an impact
+  at that speed (Hunt & Crossley's material-constant hysteresis, restitution rising to 1 as the speed falls to 0;
+  docs/contact.md sec. 6.4).  Default (:func:`default_restitution_velocity`): the materials' yield velocity
+  (:func:`yield_velocity`) for a dry pair, 0 (the published law at every speed) for a lubricated one.
 
 Every resolved value carries a provenance tag: ``derived`` (computed here), ``assumed`` (a documented
 default), or the tag of the description's own line (``study``, ``assumed``, ``default`` if untagged).
@@ -292,6 +293,30 @@ def yield_velocity(material_pair: str) -> float:
     return math.sqrt(26.0 * y * (y / es) ** 4 / PIN_DENSITY)
 
 
+def default_restitution_velocity(material_pair: str) -> tuple[float, str]:
+    """Restitution velocity v_ref (m/s) of a pair whose description gives none, and its provenance tag.
+
+    * a lubricated pair (``MaterialPair.lubricated``: greased or oiled): 0, the published hysteresis law at every
+      speed.  A slow approach through a lubricant is damped by the squeeze film, and the restitution of such
+      "wet" impacts *falls* towards 0 as the speed falls (Davis, Serayssol & Hinch 1986, J. Fluid Mech. 163:479;
+      Gondret, Lance & Petit 2002, Phys. Fluids 14:643: no rebound below a Stokes number of about 10), so a
+      restitution rising to 1 below the yield velocity would be the wrong trend.  The published law's damping,
+      which grows as the impact speed falls, has the right trend (not the squeeze film's magnitude, which is not
+      modelled); tag ``derived``.
+    * a dry pair with elastic constants and hardness: :func:`yield_velocity`; tag ``derived``.
+    * any other pair: :data:`DEFAULT_RESTITUTION_VELOCITY`; tag ``assumed``.
+    """
+    from berryshaker.contact.wear import MATERIAL_PAIRS
+
+    pair = MATERIAL_PAIRS.get(material_pair)
+    if pair is not None and pair.lubricated:
+        return 0.0, "derived"
+    try:
+        return yield_velocity(material_pair), "derived"
+    except ConfigError:
+        return DEFAULT_RESTITUTION_VELOCITY, "assumed"
+
+
 def _at_load(k, n, load):
     """(tangent, secant) stiffness (N/m) of F = K delta^n at load F: delta = (F/K)^(1/n)."""
     d = (load / k) ** (1.0 / n)
@@ -370,12 +395,7 @@ def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None,
     out_tags["restitution"] = tags.get("restitution", "default")
     if "restitution_velocity" in spec.uses:
         if restitution_velocity is None:
-            try:
-                v_ref = yield_velocity(geom.material_pair)
-                out_tags["restitution_velocity"] = "derived"
-            except ConfigError:
-                v_ref = DEFAULT_RESTITUTION_VELOCITY
-                out_tags["restitution_velocity"] = "assumed"
+            v_ref, out_tags["restitution_velocity"] = default_restitution_velocity(geom.material_pair)
         else:
             v_ref = float(restitution_velocity)
             out_tags["restitution_velocity"] = tags.get("restitution_velocity", "default")
