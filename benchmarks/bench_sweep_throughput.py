@@ -32,8 +32,14 @@ def main(argv=None) -> None:
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--sets", type=int, default=16)
+    p.add_argument("--restitution-velocity", type=float, default=None,
+                   help="m/s on every clearance pair (default: the pairs' own; 0: before benchmarks/README.md sec. 6)")
     args = p.parse_args(argv)
     m = reference_machine()
+    if args.restitution_velocity is not None:
+        cl = {k: m.clearance[k].model_copy(update={"restitution_velocity": args.restitution_velocity})
+              for k in m.pair_names}
+        m = m.model_copy(update={"clearance": cl})
     ref = m.clearance_sizes()
     rng = np.random.default_rng(1)
     sets = [{k: float(v * rng.uniform(0.5, 1.5)) for k, v in ref.items()} for _ in range(args.sets)]

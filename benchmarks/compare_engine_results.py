@@ -17,6 +17,9 @@ Cases (each also records its CPU time, best of ``--repeat``):
 * ``coupled``: the harvester driven past the reference branch (``harvest.coupled.simulate_fruit_force``,
   the run the study repeats 30 times): fruit-force peaks and RMS, comb-branch contact peaks.
 
+``save --restitution-velocity 0`` runs the machine's pairs with that restitution velocity (m/s) instead of
+their default (0: the published hysteresis laws, as before benchmarks/README.md sec. 6).
+
 The comparison prints the relative difference of every number and the largest per case; the tolerances
 to hold it against are those of the validation tests (tests/test_multibody.py: peaks to 1-2 %, mean and
 RMS to 1 %).  The statistics over revolutions of the clearance joints are chaotic at the 1 % level (see
@@ -46,6 +49,20 @@ def _flat(prefix: str, obj, out: dict) -> None:
         out[prefix] = float(obj)
 
 
+#: restitution velocity (m/s) set on every pair of the reference machine; None: the pairs' default
+RESTITUTION_VELOCITY: float | None = None
+
+
+def _reference_machine():
+    from berryshaker.config import reference_machine
+
+    m = reference_machine()
+    if RESTITUTION_VELOCITY is None:
+        return m
+    cl = {p: m.clearance[p].model_copy(update={"restitution_velocity": RESTITUTION_VELOCITY}) for p in m.pair_names}
+    return m.model_copy(update={"clearance": cl})
+
+
 def _best(fn, repeat: int):
     out, cpu = None, math.inf
     fn()  # warm-up: compile or load the numba cache
@@ -57,10 +74,9 @@ def _best(fn, repeat: int):
 
 
 def harvester(repeat: int) -> dict:
-    from berryshaker.config import reference_machine
     from berryshaker.drives.simulation import simulate_multibody
 
-    m = reference_machine()
+    m = _reference_machine()
     (res, summ), cpu = _best(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
     vals: dict = {}
     for key in ("collision_force_N", "load_moment_Nm", "drive_moment_Nm"):
@@ -83,10 +99,9 @@ def slider_crank(repeat: int) -> dict:
 
 
 def coupled(repeat: int) -> dict:
-    from berryshaker.config import reference_machine
     from berryshaker.harvest.coupled import simulate_fruit_force
 
-    m = reference_machine()
+    m = _reference_machine()
     res, cpu = _best(lambda: simulate_fruit_force(m, None), repeat)
     vals: dict = {}
     for name, f in res.fruit_force.items():
@@ -132,11 +147,15 @@ def main(argv=None) -> None:
     s.add_argument("path")
     s.add_argument("--cases", default=",".join(CASES))
     s.add_argument("--repeat", type=int, default=3)
+    s.add_argument("--restitution-velocity", type=float, default=None,
+                   help="m/s on every pair of the reference machine (default: the pairs' own)")
     c = sub.add_parser("compare")
     c.add_argument("before")
     c.add_argument("after")
     args = p.parse_args(argv)
     if args.cmd == "save":
+        global RESTITUTION_VELOCITY
+        RESTITUTION_VELOCITY = args.restitution_velocity
         out = {}
         for name in args.cases.split(","):
             out[name] = CASES[name](args.repeat)

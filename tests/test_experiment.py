@@ -188,7 +188,13 @@ def test_virtual_harvest_is_deterministic_for_a_seed(fast_machine, envelopes):
 
 def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, envelopes):
     """Where the coupled model shakes the branch harder (pointwise), more fruit comes off and more of it
-    is damaged; between clearance sets the damage rate follows the mean shaking in the fruit zone."""
+    is damaged.
+
+    Between clearance sets the damage rate (damaged / picked mass) need not follow the mean shaking in the fruit
+    zone: the envelopes differ in shape, and more shaking also picks more sound fruit.  Measured, rows 16 against
+    14: with the restitution velocity of the contact laws (docs/contact.md sec. 6.4) mean square +10 %, picked
+    mass +20 %, damage rate 3.50 % against 3.74 %; without it the mean squares differed by 0.4 % and the damage
+    rates by 0.2 % (3.606 % against 3.613 %).  That comparison was dropped: it is not a property of the model."""
     from berryshaker.harvest.virtual import virtual_harvest
 
     base = virtual_harvest(fast_machine, seed=1, envelopes=envelopes[14])
@@ -196,10 +202,6 @@ def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, env
     assert harder["efficiency_kg_min"] > base["efficiency_kg_min"]
     assert harder["damage_rate_pct"] > base["damage_rate_pct"]
     assert harder["ripe_picked_fraction"] >= base["ripe_picked_fraction"]
-    r16 = virtual_harvest(fast_machine, seed=1, envelopes=envelopes[16])
-    zone = slice(4, 39)  # fruit zone 0.1 .. 0.95 of the length on the 41-point grid
-    more = np.mean(envelopes[16][0][zone] ** 2) > np.mean(envelopes[14][0][zone] ** 2)
-    assert (r16["damage_rate_pct"] > base["damage_rate_pct"]) == more
 
 
 def test_stored_harvest_calibration_reproduces_the_study_values(machine):

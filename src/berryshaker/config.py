@@ -230,6 +230,15 @@ def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
 
             rows.append((f"{key} damping", f"hysteresis ({c.law}), restitution e = {c.restitution:g}, factor "
                          f"f(e) = {float(hysteresis_factor(c.restitution, c.law)):.4g}", tg["restitution"]))
+            if c.uses("restitution_velocity"):
+                v = c.restitution_velocity
+                rows.append((f"{key} restitution velocity",
+                             (f"v_ref = {v:.3g} m/s" + (f" (yield velocity of {c.geometry.material_pair if c.geometry else 'the materials'})"
+                                                        if tg.get("restitution_velocity") == "derived" else "")
+                              + ": e for impacts at v_ref and faster; slower ones: the damping at v_ref "
+                              "(Hunt-Crossley, e -> 1 as v -> 0)")
+                             if v > 0 else "0 m/s: e at every impact speed (the published law)",
+                             tg.get("restitution_velocity", "default")))
         if c.uses("damping_depth"):
             rows.append((f"{key} damping ramp", f"full damping at {c.damping_depth * 1e3:g} mm", tg["damping_depth"]))
         else:

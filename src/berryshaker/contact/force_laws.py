@@ -105,6 +105,13 @@ def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, expo
     return f if f > 0.0 else 0.0
 
 
+def _hysteresis_velocity(impact_velocity, restitution_velocity):
+    """max(|v_imp|, v_ref) (m/s): the velocity the hysteresis factor divides by (docs/contact.md sec. 6.4)."""
+    if not restitution_velocity >= 0:
+        raise ValueError(f"restitution_velocity must be >= 0 m/s, got {restitution_velocity}")
+    return np.maximum(np.abs(np.asarray(impact_velocity, float)), float(restitution_velocity))
+
+
 def _check_e(restitution):
     e = np.asarray(restitution, float)
     if np.any((e <= 0) | (e > 1)):
@@ -112,7 +119,8 @@ def _check_e(restitution):
     return e
 
 
-def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, impact_velocity=None):
+def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, impact_velocity=None,
+                  restitution_velocity=0.0):
     """Hunt-Crossley dissipative contact force.
 
     Parameters
@@ -129,11 +137,14 @@ def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, imp
         Normal approach velocity at the onset of this impact, delta_dot(-) (m/s).  Required: the
         hysteresis factor that reproduces a given e depends on it (as for Lankarani-Nikravesh and
         Flores); a simulation records it when contact starts.
+    restitution_velocity : float
+        v_ref (m/s): impacts slower than v_ref get the damping of an impact at v_ref (Hunt & Crossley's
+        material-constant hysteresis, e -> 1 as v -> 0; docs/contact.md sec. 6.4).  0: the published law.
 
     Returns
     -------
     ndarray
-        F = K delta^n [1 + 3(1 - e)/2 * delta_dot / delta_dot(-)], >= 0 (N).
+        F = K delta^n [1 + 3(1 - e)/2 * delta_dot / max(delta_dot(-), v_ref)], >= 0 (N).
 
     Notes
     -----
@@ -151,11 +162,13 @@ def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, imp
     if impact_velocity is None:
         raise ValueError("hunt_crossley needs impact_velocity (the normal approach velocity when contact began)")
     e = _check_e(restitution)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+    v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 1.5 * (1.0 - e), float(exponent))
 
 
-def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5):
+def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5,
+                        restitution_velocity=0.0):
     """Lankarani-Nikravesh dissipative contact force.
 
     Parameters
@@ -170,11 +183,13 @@ def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitutio
         e, valid for e close to 1.
     exponent : float
         n.
+    restitution_velocity : float
+        v_ref (m/s), as in :func:`hunt_crossley`; 0: the published law.
 
     Returns
     -------
     ndarray
-        F = K delta^n [1 + 3(1 - e^2)/4 * delta_dot / delta_dot(-)], >= 0 (N).
+        F = K delta^n [1 + 3(1 - e^2)/4 * delta_dot / max(delta_dot(-), v_ref)], >= 0 (N).
 
     References
     ----------
@@ -182,24 +197,27 @@ def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitutio
     analysis of multibody systems", J. Mech. Des. 112 (1990) 369-376.
     """
     e = _check_e(restitution)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+    v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 0.75 * (1.0 - e * e), float(exponent))
 
 
-def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5):
+def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5, restitution_velocity=0.0):
     """Flores et al. (2011) dissipative contact force, valid over the whole range of restitution.
 
     Returns
     -------
     ndarray
-        F = K delta^n [1 + 8(1 - e)/(5 e) * delta_dot / delta_dot(-)], >= 0 (N).
+        F = K delta^n [1 + 8(1 - e)/(5 e) * delta_dot / max(delta_dot(-), v_ref)], >= 0 (N); v_ref =
+        ``restitution_velocity`` (m/s) as in :func:`hunt_crossley`.
 
     References
     ----------
     P. Flores, M. Machado, M. T. Silva, J. M. Martins, Multibody Syst. Dyn. 25 (2011) 357-375.
     """
     e = _check_e(restitution)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), np.asarray(impact_velocity, float),
+    v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
+    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 1.6 * (1.0 - e) / e, float(exponent))
 
 

@@ -21,7 +21,9 @@ v_imp     approach speed at the onset of this contact (for restitution laws)    
 k         stiffness                                                              N/m^n
 n         exponent                                                               1
 e         coefficient of restitution                                             1
-c         damping coefficient (viscous laws; cmax of IMPACT)                     N s/m
+c         damping coefficient (viscous laws; cmax of IMPACT), or, for the         N s/m,
+          hysteresis laws, the restitution velocity v_ref (they have no          or m/s
+          viscous coefficient; :func:`slot_c` fills the slot)
 d         penetration at which full damping is reached (IMPACT)                  m
 ========  =====================================================================  ==========
 
@@ -52,7 +54,10 @@ LAW_SIGNATURE = float64(float64, float64, float64, float64, float64, float64, fl
 #: the law parameters a contact description can set, with their units
 LAW_PARAMETERS = {
     "stiffness": "N/m^n", "exponent": "1", "restitution": "1", "damping": "N*s/m", "damping_depth": "m",
+    "restitution_velocity": "m/s",
 }
+#: parameters that share the compiled slot ``c`` (a law reads at most one of them)
+SLOT_C_PARAMETERS = ("damping", "restitution_velocity")
 
 
 @dataclass(frozen=True)
@@ -92,6 +97,9 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str) -> 
     unknown = [u for u in uses if u not in LAW_PARAMETERS]
     if unknown:
         raise ConfigError(f"contact law {name!r}: unknown parameters {unknown}; choose from {list(LAW_PARAMETERS)}")
+    if all(p in uses for p in SLOT_C_PARAMETERS):
+        raise ConfigError(f"contact law {name!r}: 'damping' and 'restitution_velocity' share the compiled slot c; "
+                          "a law reads one of them")
     sigs = getattr(kernel, "signatures", None)
     if not sigs or tuple(sigs[0]) != tuple(LAW_SIGNATURE.args):
         raise ConfigError(f"contact law {name!r}: compile the kernel with @njit(LAW_SIGNATURE) "
@@ -124,6 +132,12 @@ def law_names() -> tuple[str, ...]:
     return tuple(sorted(_LAWS, key=lambda n: _LAWS[n].code))
 
 
+def slot_c(name: str, damping: float, restitution_velocity: float) -> float:
+    """The value of the compiled slot ``c`` for law ``name``: ``restitution_velocity`` (m/s) if the law reads
+    it (the hysteresis laws), else ``damping`` (N s/m)."""
+    return float(restitution_velocity if "restitution_velocity" in get_law(name).uses else damping)
+
+
 def law_table() -> tuple:
     """The compiled kernels in code order, as the engine's core receives them."""
     return tuple(_LAWS[n].kernel for n in law_names())
@@ -142,22 +156,39 @@ def hertz_law(pen, pen_dot, v_imp, k, n, e, c, d):
     return k * pen**n
 
 
+@njit(cache=True)
+def hysteresis_velocity(v_imp, v_ref):
+    """The velocity the hysteresis factor divides by: max(|v_imp|, v_ref) (m/s).
+
+    Below the restitution velocity v_ref the damping is that of an impact at v_ref: the hysteresis
+    coefficient alpha = f(e)/v_ref is then a material constant (Hunt & Crossley 1975), so an impact at
+    v < v_ref has 1 - e(v)^2 = (1 - e^2) v / v_ref for small damping, and e -> 1 as v -> 0
+    (docs/contact.md sec. 6.4).  v_ref = 0: the published laws (f(e)/v_imp at every speed).
+    """
+    v = abs(v_imp)
+    return v if v > v_ref else v_ref
+
+
 @njit(LAW_SIGNATURE, cache=True)
 def hunt_crossley_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Hunt & Crossley (1975) with the factor 3(1-e)/2."""
-    return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.5 * (1.0 - e), n)
+    """Hunt & Crossley (1975) with the factor 3(1-e)/2; slot c = restitution velocity v_ref (m/s)."""
+    return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 1.5 * (1.0 - e), n)
 
 
 @njit(LAW_SIGNATURE, cache=True)
 def lankarani_nikravesh_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Lankarani & Nikravesh (1990) with the factor 3(1-e^2)/4."""
-    return hysteresis_kernel(pen, pen_dot, v_imp, k, 0.75 * (1.0 - e * e), n)
+    """Lankarani & Nikravesh (1990) with the factor 3(1-e^2)/4; slot c = restitution velocity v_ref (m/s).
+
+    F = K delta^n [1 + 3 (1 - e^2) delta_dot / (4 max(v_imp, v_ref))] (N), >= 0: the configured e at impact
+    speeds >= v_ref, Hunt & Crossley's material-constant hysteresis below (docs/contact.md sec. 6.4).
+    """
+    return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 0.75 * (1.0 - e * e), n)
 
 
 @njit(LAW_SIGNATURE, cache=True)
 def flores_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Flores et al. (2011) with the factor 8(1-e)/(5e)."""
-    return hysteresis_kernel(pen, pen_dot, v_imp, k, 1.6 * (1.0 - e) / e, n)
+    """Flores et al. (2011) with the factor 8(1-e)/(5e); slot c = restitution velocity v_ref (m/s)."""
+    return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 1.6 * (1.0 - e) / e, n)
 
 
 @njit(LAW_SIGNATURE, cache=True)
@@ -168,11 +199,12 @@ def impact_law(pen, pen_dot, v_imp, k, n, e, c, d):
 
 register_law("mlsd", mlsd_law, ("stiffness", "damping"), "linear spring-damper, study eq. 8 (consistent reading)")
 register_law("hertz", hertz_law, ("stiffness", "exponent"), "Hertz power law k delta^n, elastic")
-register_law("hunt_crossley", hunt_crossley_law, ("stiffness", "exponent", "restitution"),
-             "Hunt-Crossley hysteresis damping, 3(1-e)/2")
-register_law("lankarani_nikravesh", lankarani_nikravesh_law, ("stiffness", "exponent", "restitution"),
-             "Lankarani-Nikravesh hysteresis damping, 3(1-e^2)/4")
-register_law("flores", flores_law, ("stiffness", "exponent", "restitution"), "Flores hysteresis damping, 8(1-e)/(5e)")
+_HYSTERESIS_USES = ("stiffness", "exponent", "restitution", "restitution_velocity")
+register_law("hunt_crossley", hunt_crossley_law, _HYSTERESIS_USES,
+             "Hunt-Crossley hysteresis damping, 3(1-e)/2 / max(v_imp, v_ref)")
+register_law("lankarani_nikravesh", lankarani_nikravesh_law, _HYSTERESIS_USES,
+             "Lankarani-Nikravesh hysteresis damping, 3(1-e^2)/4 / max(v_imp, v_ref)")
+register_law("flores", flores_law, _HYSTERESIS_USES, "Flores hysteresis damping, 8(1-e)/(5e) / max(v_imp, v_ref)")
 register_law("impact", impact_law, ("stiffness", "exponent", "damping", "damping_depth"),
              "ADAMS IMPACT function: k delta^n with damping ramped to cmax over d")
 

@@ -10,7 +10,11 @@ engines use:
   for a pin, :func:`~berryshaker.contact.conformal.roller_on_wall_law` for a roller), over the load range
   :data:`FIT_FORCE_RANGE` of the reference machine's joints;
 * the dissipation is a hysteresis law (default :data:`DEFAULT_LAW`, Lankarani & Nikravesh 1990) with the
-  pair's coefficient of restitution, so no viscous coefficient or damping ramp is needed.
+  pair's coefficient of restitution, so no viscous coefficient or damping ramp is needed.  The restitution
+  applies at impact speeds from the pair's restitution velocity up; slower impacts get the damping of an impact
+  at that speed (Hunt & Crossley's material-constant hysteresis, restitution rising to 1 as the speed falls to 0;
+  docs/contact.md sec. 6.4).  Default (:func:`default_restitution_velocity`): the materials' yield velocity
+  (:func:`yield_velocity`) for a dry pair, 0 (the published law at every speed) for a lubricated one.
 
 Every resolved value carries a provenance tag: ``derived`` (computed here), ``assumed`` (a documented
 default), or the tag of the description's own line (``study``, ``assumed``, ``default`` if untagged).
@@ -38,6 +42,11 @@ DEFAULT_LAW = "lankarani_nikravesh"
 #: the law of a pair that gives its stiffness but no law (berryshaker 0.1.0 and 0.2 files): the ADAMS IMPACT
 #: function with exponent 1, as those versions used, so such files keep their results
 LEGACY_LAW = "impact"
+#: restitution velocity v_ref of the hysteresis laws (m/s) [assumed] for a pair whose materials have no
+#: :func:`yield_velocity` (no hardness in berryshaker.contact.wear): the yield velocity of mild steel, rounded
+DEFAULT_RESTITUTION_VELOCITY = 0.05
+#: density of the pin or roller (kg/m^3) in the yield velocity: steel [typical]
+PIN_DENSITY = 7850.0
 #: loads over which the power law is fitted to Johnson's relation (N) [assumed]: they span the collision
 #: forces of both reference machines with steel contact (docs/contact.md sec. 6)
 FIT_FORCE_RANGE = (100.0, 2.0e4)
@@ -208,6 +217,9 @@ class PairContact:
         Worst relative force error of the fit over that range.
     tangent_stiffness, secant_stiffness : float
         dF/d(delta) and F/delta of the law at :data:`OPERATING_LOAD` (N/m): the linear springs it compares with.
+    restitution_velocity : float
+        v_ref of the hysteresis laws (m/s): ``restitution`` holds from this impact speed up
+        (:func:`berryshaker.contact.laws.hysteresis_velocity`); 0 where the law does not use it.
     """
 
     law: str
@@ -222,17 +234,87 @@ class PairContact:
     fit_error: float | None = None
     tangent_stiffness: float = float("nan")
     secant_stiffness: float = float("nan")
+    restitution_velocity: float = 0.0
 
     def engine_contact(self) -> dict:
         """The ``contact`` table of a clearance joint of :mod:`berryshaker.multibody.spec` (SI)."""
         return dict(law=self.law, stiffness=self.stiffness, exponent=self.exponent, damping=self.damping,
-                    damping_depth=self.damping_depth, restitution=self.restitution)
+                    damping_depth=self.damping_depth, restitution=self.restitution,
+                    restitution_velocity=self.restitution_velocity)
 
     def uses(self, parameter: str) -> bool:
         """True if the law reads ``parameter`` (a key of :data:`berryshaker.contact.laws.LAW_PARAMETERS`)."""
         from berryshaker.contact.laws import get_law
 
         return parameter in get_law(self.law).uses
+
+
+def yield_velocity(material_pair: str) -> float:
+    """Impact speed at which the softer member of a material pair starts to yield (m/s): the restitution velocity
+    v_ref of the pair's hysteresis law when the description gives none (docs/contact.md sec. 6.4).
+
+    Parameters
+    ----------
+    material_pair : str
+        Key of :data:`ELASTIC_MATERIALS` that also has a hardness in
+        :data:`berryshaker.contact.wear.MATERIAL_PAIRS`.
+
+    Returns
+    -------
+    float
+        V_Y = sqrt(26 Y (Y/E*)^4 / rho) (m/s), Johnson's impact velocity at first yield of a sphere striking a
+        flat (K. L. Johnson, *Contact Mechanics*, 1985, sec. 11.4: rho V_Y^2 / Y = 26 (Y/E*)^4; 0.14 m/s for
+        steel with Y = 1 GPa), with Y = H/3 the yield stress of the softer member from its hardness (D. Tabor,
+        *The Hardness of Metals*, 1951), E* of the pair, rho = :data:`PIN_DENSITY`.  Steel in steel (H = 2 GPa):
+        0.051 m/s; steel in bearing bronze (H = 1 GPa): 0.018 m/s.
+
+    Notes
+    -----
+    Below V_Y an impact is elastic and loses only the material's hysteresis, which vanishes with the speed
+    (restitution -> 1); above it plastic work makes the restitution nearly constant, falling slowly with the
+    speed (Johnson sec. 11.4).  V_Y is therefore the lowest speed at which a constant restitution e can hold, and
+    the hysteresis laws use e from V_Y up (Hunt & Crossley's material-constant hysteresis below).  Departure: the
+    formula is that of a sphere, used here for cylinders in line contact, as the order of the speed at which
+    yield starts (the line contact's yield speed depends on the joint's effective mass as well).
+
+    Raises
+    ------
+    ConfigError
+        A material pair without elastic constants or hardness.
+    """
+    from berryshaker.contact.wear import MATERIAL_PAIRS
+
+    if material_pair not in ELASTIC_MATERIALS or material_pair not in MATERIAL_PAIRS:
+        raise ConfigError(f"material_pair {material_pair!r} has no yield velocity (needs elastic constants and a "
+                          "hardness); give restitution_velocity explicitly")
+    m1, m2 = (material_constants(m) for m in ELASTIC_MATERIALS[material_pair])
+    es = effective_modulus(*m1, *m2)
+    y = MATERIAL_PAIRS[material_pair].hardness / 3.0
+    return math.sqrt(26.0 * y * (y / es) ** 4 / PIN_DENSITY)
+
+
+def default_restitution_velocity(material_pair: str) -> tuple[float, str]:
+    """Restitution velocity v_ref (m/s) of a pair whose description gives none, and its provenance tag.
+
+    * a lubricated pair (``MaterialPair.lubricated``: greased or oiled): 0, the published hysteresis law at every
+      speed.  A slow approach through a lubricant is damped by the squeeze film, and the restitution of such
+      "wet" impacts *falls* towards 0 as the speed falls (Davis, Serayssol & Hinch 1986, J. Fluid Mech. 163:479;
+      Gondret, Lance & Petit 2002, Phys. Fluids 14:643: no rebound below a Stokes number of about 10), so a
+      restitution rising to 1 below the yield velocity would be the wrong trend.  The published law's damping,
+      which grows as the impact speed falls, has the right trend (not the squeeze film's magnitude, which is not
+      modelled); tag ``derived``.
+    * a dry pair with elastic constants and hardness: :func:`yield_velocity`; tag ``derived``.
+    * any other pair: :data:`DEFAULT_RESTITUTION_VELOCITY`; tag ``assumed``.
+    """
+    from berryshaker.contact.wear import MATERIAL_PAIRS
+
+    pair = MATERIAL_PAIRS.get(material_pair)
+    if pair is not None and pair.lubricated:
+        return 0.0, "derived"
+    try:
+        return yield_velocity(material_pair), "derived"
+    except ConfigError:
+        return DEFAULT_RESTITUTION_VELOCITY, "assumed"
 
 
 def _at_load(k, n, load):
@@ -242,7 +324,8 @@ def _at_load(k, n, load):
 
 
 def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None, damping=None,
-                         damping_depth=1e-5, restitution=0.9, tags=None, field_prefix="clearance") -> PairContact:
+                         damping_depth=1e-5, restitution=0.9, tags=None, field_prefix="clearance",
+                         restitution_velocity=None) -> PairContact:
     """Resolve the contact law of a clearance pair (docs/contact.md sec. 6).
 
     Parameters
@@ -262,6 +345,9 @@ def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None,
         Provenance of the description's own values, per parameter name.
     field_prefix : str
         ``clearance.<pair>`` for error messages.
+    restitution_velocity : float or None
+        v_ref of the hysteresis laws (m/s); None: the :func:`yield_velocity` of the pair's material pair
+        (``derived``), or :data:`DEFAULT_RESTITUTION_VELOCITY` (``assumed``) for materials without one.
 
     Returns
     -------
@@ -307,7 +393,19 @@ def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None,
         c = 0.0
     out_tags["damping_depth"] = tags.get("damping_depth", "default")
     out_tags["restitution"] = tags.get("restitution", "default")
+    if "restitution_velocity" in spec.uses:
+        if restitution_velocity is None:
+            v_ref, out_tags["restitution_velocity"] = default_restitution_velocity(geom.material_pair)
+        else:
+            v_ref = float(restitution_velocity)
+            out_tags["restitution_velocity"] = tags.get("restitution_velocity", "default")
+        if not v_ref >= 0.0:
+            raise ConfigError(f"{field_prefix}.restitution_velocity must be >= 0 m/s (0: the restitution at every "
+                              f"impact speed), got {v_ref}")
+    else:
+        v_ref = 0.0
+        out_tags["restitution_velocity"] = "not used"
     kt, ks = _at_load(k, n, OPERATING_LOAD)
     return PairContact(law=law, stiffness=k, exponent=n, damping=c, damping_depth=float(damping_depth),
                        restitution=float(restitution), tags=out_tags, geometry=geometry, fit_force_range=fit_rng,
-                       fit_error=fit_err, tangent_stiffness=kt, secant_stiffness=ks)
+                       fit_error=fit_err, tangent_stiffness=kt, secant_stiffness=ks, restitution_velocity=v_ref)

@@ -243,6 +243,9 @@ class MaterialPair:
         Where the numbers come from; "[assumed]" marks values that are engineering assumptions.
     assumed : bool
         True when k (or H) is not a cited measurement.
+    lubricated : bool
+        True for a greased or oil-lubricated pair: its slow impacts are damped by the squeeze film, so the contact
+        laws keep the published hysteresis law at every speed (no restitution velocity, docs/contact.md sec. 6.4).
     """
 
     name: str
@@ -252,6 +255,7 @@ class MaterialPair:
     wear_coefficient_range: tuple[float, float]
     source: str
     assumed: bool
+    lubricated: bool = False
 
     @property
     def wear_factor(self) -> float:
@@ -279,11 +283,11 @@ MATERIAL_PAIRS: dict[str, MaterialPair] = {
         MaterialPair("steel-steel-lubricated", "steel pin in steel eye, greased / boundary lubricated",
                      1e-7, 2.0e9, (1e-9, 1e-6),
                      "[assumed] order of magnitude: lubrication lowers k by several decades relative to dry "
-                     "contact (Rabinowicz 1995; Hutchings 1992); H of a through-hardened steel ~2 GPa", True),
+                     "contact (Rabinowicz 1995; Hutchings 1992); H of a through-hardened steel ~2 GPa", True, True),
         MaterialPair("steel-on-bronze-greased", "hardened steel pin in a greased bronze bush", 1e-6, 1.0e9,
                      (1e-7, 1e-5),
                      "[assumed] between the lubricated-steel and dry-brass values; H of a bearing bronze "
-                     "~1 GPa", True),
+                     "~1 GPa", True, True),
         MaterialPair("steel-on-nylon-dry", "steel pin in an unlubricated nylon (PA) bush", 1e-6, 1.0e8,
                      (1e-7, 1e-5),
                      "[assumed] of the order of the dry polymer values above; H of nylon ~0.1 GPa", True),

@@ -83,6 +83,9 @@ class ClearancePair(StrictModel):
     exponent: float | None = Field(None, gt=0, le=3)  # None: from geometry (or 1 with a given stiffness)
     damping_depth: Length = 1e-5
     restitution: float = Field(0.9, gt=0, le=1)  # [assumed] steel on steel (Flores & Ambrosio 2004 use 0.9)
+    # v_ref (m/s) of the hysteresis laws: ``restitution`` holds from this impact speed up, slower impacts get the
+    # damping of one at v_ref (restitution -> 1 as the speed -> 0); None: pair_law.DEFAULT_RESTITUTION_VELOCITY
+    restitution_velocity: Annotated[float, _q("speed"), Field(ge=0, json_schema_extra=_d("m/s"))] | None = None
     levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
     fit: str | None = None  # ISO 286 fit on the drawing, e.g. "H8/f7" (hole/shaft at ``diameter``)
     diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
@@ -116,7 +119,8 @@ class ClearancePair(StrictModel):
         from berryshaker.contact.pair_law import resolve_pair_contact
 
         return resolve_pair_contact(self.law, self.geometry(wall_radius), self.stiffness, self.exponent,
-                                    self.damping, self.damping_depth, self.restitution, tags, field_prefix)
+                                    self.damping, self.damping_depth, self.restitution, tags, field_prefix,
+                                    self.restitution_velocity)
 
 
 class Combs(StrictModel):

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from berryshaker.contact.laws import get_law, law_table
+from berryshaker.contact.laws import get_law, law_table, slot_c
 from berryshaker.contact.stiffness import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
@@ -133,7 +133,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
                     "groove_clearance": mb.FRC_GROOVE_CL}[typ]
             add_frc(j.name, typ, code, bi, bj, cam=cidx.get(j.cam, 0) if j.cam else 0,
                     law=get_law(c.law).code, gap=j.clearance, k=k, n=c.exponent, e=c.restitution,
-                    c=c.damping, d=c.damping_depth, mu=j.friction_coefficient, rpin=j.pin_radius, **common)
+                    c=slot_c(c.law, c.damping, c.restitution_velocity), d=c.damping_depth,
+                    mu=j.friction_coefficient, rpin=j.pin_radius, **common)
     period = None
     for d in spec.drivers:
         b = bidx[d.body]
@@ -183,7 +184,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
             cx, cy = (ax, ay) if c.axis is None else np.array(c.axis, float) / math.hypot(*c.axis)
             add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=get_law(cc.law).code,
                     six=c.finger_point[0], siy=c.finger_point[1], ux=cx, uy=cy, gap=c.engagement,
-                    k=float(cc.stiffness), n=cc.exponent, e=cc.restitution, c=cc.damping, d=cc.damping_depth,
+                    k=float(cc.stiffness), n=cc.exponent, e=cc.restitution,
+                    c=slot_c(cc.law, cc.damping, cc.restitution_velocity), d=cc.damping_depth,
                     rpin=float(c.side), phi0=c.mid_lateral, row=c.row_offset, react=c.reaction_weight)
             # fint[., 1] holds the phi_tab row of a branch contact
 

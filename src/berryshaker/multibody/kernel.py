@@ -48,6 +48,10 @@ N_CF = 12
 FF_RATIO, FF_ETA_F, FF_ETA_B, FF_CREEP, FF_SLIP, FF_NTAB = range(16, 22)
 MAX_TABLE = 64  # most points of a torque-speed table
 FF_TAB = 22
+#: entries of integrate's ``info``; a longer array gets the step-size histogram (STEP_* below)
+N_INFO = 6
+STEP_HIST_LOG10_MIN = -9.0
+STEP_BINS_PER_DECADE = 20.0
 N_FF = FF_TAB + 2 * MAX_TABLE
 # a modal-body contact (FRC_BRANCH) reuses two slots it has no other use for: the contact's own position along
 # the row (m, added to the body's start distance: a bush of branches at different places) and the multiple of the
@@ -847,7 +851,9 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     peaks[k]: max normal force of element k over accepted steps with t >= stats_from.
     first[k] = [onset time, impact velocity, peak force of the first contact episode, done flag].
     info = [accepted, rejected, event cuts, t_fail, status (0 ok, 1 step underflow, 2 non-finite,
-    3 projection failed), max constraint residual].
+    3 projection failed), max constraint residual]; an ``info`` longer than :data:`N_INFO` also receives the
+    histogram of accepted step sizes, bin b counting h in 10^(STEP_HIST_LOG10_MIN + b / STEP_BINS_PER_DECADE) .. the
+    next bin (the first and last bins take what falls outside).
     """
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
@@ -967,6 +973,9 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 acc5 += _D[mm] * k[mm, i]
             rc5[i] = h_try * acc5
         acc += 1
+        if info.shape[0] > N_INFO:  # optional histogram of accepted step sizes (benchmarks/README.md sec. 6)
+            hb = int(STEP_BINS_PER_DECADE * (math.log10(h_try) - STEP_HIST_LOG10_MIN))
+            info[N_INFO + min(max(hb, 0), info.shape[0] - N_INFO - 1)] += 1.0
         # constraint residuals at the new state are in the work arrays (last stage was at ytmp)
         res_p = 0.0
         res_v = 0.0

@@ -128,6 +128,10 @@ class ContactSpec(_Strict):
     restitution: float = Field(0.9, gt=0, le=1)
     damping: Real = 0.0  # N s/m: mlsd damping, or cmax of impact
     damping_depth: LengthPos = 1e-4  # d of impact: penetration of full damping
+    # v_ref of the hysteresis laws (m/s): restitution holds from this impact speed up, slower impacts get the
+    # damping of one at v_ref (docs/contact.md sec. 6.4).  0 (default here): the published laws, as the validation
+    # cases use them; machine descriptions default to berryshaker.contact.pair_law.DEFAULT_RESTITUTION_VELOCITY
+    restitution_velocity: Annotated[float, _q("speed"), Field(ge=0)] = 0.0
     elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0)] = 207e9
     poisson_ratio: float = Field(0.3, gt=-1, lt=0.5)
 

@@ -64,7 +64,7 @@ PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result
 
 # dynamic parameter vector
 P_M2, P_J3, P_M4, P_J5, P_MU2, P_V0, P_V1, P_XG, P_XH, P_KP, P_CP, P_TD0, P_TE0 = range(13)
-P_PAIR0 = 13  # then (c, K, C, n, law form, hysteresis factor) for A, B, C, F
+P_PAIR0 = 13  # then (c, K, C or v_ref of a hysteresis law, n, law form, hysteresis factor) for A, B, C, F
 N_PAIR = 6
 N_P = P_PAIR0 + 4 * N_PAIR
 #: how the MLSD model realises a pair's law (the ``law form`` parameter)
@@ -123,6 +123,7 @@ def parameter_vector(machine: Machine) -> np.ndarray:
             from berryshaker.contact.conformal import hysteresis_factor
 
             p[b + 5] = float(hysteresis_factor(law.restitution, law.law))
+            p[b + 2] = law.restitution_velocity  # the C slot of a hysteresis pair holds v_ref (m/s)
     return p
 
 
@@ -185,6 +186,8 @@ def _pair_force(d, dd, p, k, cst):
         f = hertz_kernel(pen, kk, n)
     else:
         v0 = cst[4 + k] if cst[k] > 0.5 else pd
+        if v0 < cd:  # below the restitution velocity v_ref: the damping of an impact at v_ref (docs/contact.md 6.4)
+            v0 = cd
         f = hysteresis_kernel(pen, pd, v0, kk, p[b + 5], n)
     return sgn * f
 
