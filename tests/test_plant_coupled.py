@@ -98,3 +98,14 @@ def test_removal_at_speed_refuses_bad_input(machine):
 
     with pytest.raises(ConfigError, match="cam speed must be > 0"):
         removal_at_speed(machine.model_dump(mode="json"), -10.0)
+
+
+def test_convergence_command_refuses_bad_mode_counts():
+    from typer.testing import CliRunner
+
+    from berryshaker.cli import app
+
+    res = CliRunner().invoke(app, ["plant", "--convergence", "--convergence-modes", "8"])
+    assert res.exit_code == 2 and "two or more mode counts" in res.output
+    res = CliRunner().invoke(app, ["plant", "--convergence", "--convergence-modes", "8,x"])
+    assert res.exit_code == 2 and "whole numbers" in res.output
