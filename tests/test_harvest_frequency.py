@@ -12,13 +12,26 @@ from berryshaker.cli import app
 runner = CliRunner()
 
 
+#: the test's machine: the reference with one branch class and two replicates (two coupled runs per speed instead
+#: of the description's nine: 3 classes x 3 replicates); every other value as described
+TEST_HARVEST = {"branch_classes = [0.85, 1.0, 1.15]": "branch_classes = [1.0]", "replicates = 3": "replicates = 2"}
+
+
 @pytest.fixture(scope="module")
 def frequency_sweep(tmp_path_factory):
-    """One sweep of the reference machine over 60-150 r/min (three speeds, three coupled runs each)."""
+    """One sweep over 60-150 r/min (three speeds; each point the replicate mean over two perturbed starts of one
+    branch class, the calibration's seeds)."""
+    from berryshaker.config import reference_toml_text
+
     d = tmp_path_factory.mktemp("freq")
+    text = reference_toml_text()
+    for old, new in TEST_HARVEST.items():
+        assert old in text, old
+        text = text.replace(old, new, 1)
+    (d / "machine.toml").write_text(text)
     res = runner.invoke(app, ["sweep", "--model", "harvest", "--param", "cam.speed=60..150rpm", "--points", "3",
-                              "--workers", "2", "--cache", str(d / "cache"), "--out", str(d / "removal.csv"),
-                              "--figure", str(d / "removal.png")])
+                              "--config", str(d / "machine.toml"), "--workers", "2", "--cache", str(d / "cache"),
+                              "--out", str(d / "removal.csv"), "--figure", str(d / "removal.png")])
     return d, res
 
 
@@ -45,6 +58,8 @@ def test_removal_rises_with_frequency(frequency_sweep):
     assert removal[-1] > 3 * removal[0]
     for r in rows:
         assert 0.0 <= float(r["unripe_shed_pct"]) <= 100.0 and float(r["damage_rate_pct"]) >= 0.0
+        # each point is a replicate mean over perturbed starts, with the SD over the replicates
+        assert int(float(r["replicates"])) == 2 and float(r["ripe_removal_pct_sd"]) >= 0.0
 
 
 def test_figure_needs_the_harvest_model_and_one_parameter(tmp_path):

@@ -40,8 +40,24 @@ def plant(
     as_json: bool = JsonOpt,
     n_modes: int = typer.Option(4, "--modes", min=1, max=20, help="Number of bending modes."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write the mode-shape figure (PNG) to DIR."),
+    convergence: bool = typer.Option(False, "--convergence", help="Instead: the peak stem forces against the "
+                                     "branch modes kept in the coupled run (replicate means, docs/plant.md)."),
+    convergence_modes: str = typer.Option("4,8,16,32", "--convergence-modes",
+                                          help="Mode counts for --convergence, e.g. 4,8,16,32 (the last the reference)."),
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=2,
+                                             help="Replicates for --convergence (default: harvest.replicates)."),
+    separate_runs: bool = typer.Option(False, "--separate-runs", help="--convergence: one run per mode count and "
+                                       "seed instead of every mode count as a probe of one run."),
 ):
-    """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements."""
+    """Bending modes of the tapered branch: the Bessel solution (eq. 15) checked against finite elements.
+
+    With --convergence: the replicate mean (with its standard error) of the peak stem force at the root, middle
+    and end fruit against the number of branch modes kept in the coupled drive-past, the difference from the
+    most modes with its noise, the verdict and the smallest converged mode count.
+    """
+    if convergence:
+        _convergence(config, as_json, convergence_modes, replicates, separate_runs)
+        return
     try:
         from berryshaker.plant.modes import analytic_modes, fe_modes
         from berryshaker.outputs import prepare_output_dir
@@ -84,6 +100,60 @@ def plant(
                   f"{abs(f['frequency_hz'] - a['frequency_hz']) / a['frequency_hz']:.1e}")
     out.print(t)
     _print_written(res)
+
+
+def _convergence(config, as_json: bool, modes_text: str, replicates, separate_runs: bool) -> None:
+    """``plant --convergence``: :func:`berryshaker.harvest.convergence.fruit_force_convergence` as a table."""
+    try:
+        from berryshaker.harvest.convergence import fruit_force_convergence, smallest_converged_modes
+
+        try:
+            modes = [int(v) for v in modes_text.split(",") if v.strip()]
+        except ValueError:
+            raise BerryshakerError(f"--convergence-modes {modes_text!r}: give whole numbers separated by commas, "
+                                   "e.g. 4,8,16,32") from None
+        if len(modes) < 2 or any(not 1 <= n <= 64 for n in modes):
+            raise BerryshakerError(f"--convergence-modes {modes_text!r}: give two or more mode counts in 1..64")
+        machine = _load(config)
+        if machine.plant is None:
+            raise BerryshakerError("the machine description has no [plant] block (see `berryshaker config init`)")
+        res = fruit_force_convergence(machine, modes=sorted(modes), replicates=replicates,
+                                      shared_run=not separate_runs)
+        try:
+            res["smallest_converged_modes"] = smallest_converged_modes(res)
+        except BerryshakerError:
+            res["smallest_converged_modes"] = None
+        res["configured_modes"] = machine.plant.contact.n_modes
+        res["version"] = __version__
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(res)
+        return
+    ref = max(r["n_modes"] for r in res["rows"])
+    names = [k[:-len("_stem_N")] for k in res["rows"][0] if k.endswith("_stem_N")]
+    t = Table(title=f"Peak stem force against branch modes: mean of {res['replicates']} replicates from perturbed "
+                    f"starts ({res['load_model']} load)", header_style="bold")
+    for col in ("modes", "top mode", "fruit", "mean ± SE (N)", f"vs {ref}", "SE diff.", "verdict"):
+        t.add_column(col, justify="right", no_wrap=col.startswith(("mean", "verdict")))
+    for r in res["rows"]:
+        for i, name in enumerate(names):
+            first = i == 0
+            rel = "reference" if r["n_modes"] == ref else f"{100 * r[name + '_stem_rel']:+.2f} %"
+            se_d = "" if r["n_modes"] == ref else f"{100 * r[name + '_stem_rel_se']:.2f} %"
+            verdict = "" if r["n_modes"] == ref else (
+                "no difference" if r[name + "_verdict"] == "converged" and r[name + "_no_difference"] else
+                r[name + "_verdict"] + (" (inside SE)" if r[name + "_no_difference"] else ""))
+            t.add_row(str(r["n_modes"]) if first else "", f"{r['highest_mode_hz']:.0f} Hz" if first else "", name,
+                      f"{r[name + '_stem_N']:.4f} ± {r[name + '_stem_se_N']:.4f}", rel, se_d, verdict)
+    out.print(t)
+    out.print(f"{res['method']}.  converged: |difference| + {res['t_factor']:.2f} SE(difference) <= "
+              f"{100 * res['tolerance']:g} % ({100 * res['confidence']:g} % t bound); no difference: converged, and "
+              "the difference is inside the replicate mean's standard error (the harvest statistic's own noise)")
+    small = res["smallest_converged_modes"]
+    out.print(f"smallest converged: {small if small is not None else 'none'}; configured plant.contact.n_modes = "
+              f"{res['configured_modes']}; {res['runs']} coupled runs, {res['cpu_s']:.0f} s CPU")
 
 
 def _print_written(res: dict) -> None:

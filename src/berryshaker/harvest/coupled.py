@@ -87,7 +87,8 @@ def bush_members(machine: Machine):
             if mb_.station is not None]
 
 
-def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15):
+def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15,
+                      probes: tuple = ()):
     """Harvester mechanism description with the machine's branch coupled to both combs.
 
     The run covers the instrumented branch's passage through the comb (its span plus ``margin`` either
@@ -101,6 +102,13 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     With ``"aggregate"`` the spring-dampers stay.  In both the instrumented fruit branch is a probe: driven
     by the combs without acting back (in the bush it is one of the branches the sample represents), so the
     combs' motion does not depend on its modal model and its fruit forces converge with its modes.
+
+    ``probes``: further machine descriptions whose instrumented fruit branch (``plant.contact.n_modes``,
+    ``plant.fruit``) is carried in the same run as one more probe each -- its own modal block after the
+    bush members, struck by both combs at the same stations, acting back on nothing.  Since no probe acts
+    back, the combs' motion is the same for all of them, so the probes differ only by their own modal
+    model: a comparison of modal models (convergence in modes, two-way against one-way fruit) free of the
+    clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").
     """
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
@@ -125,7 +133,8 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
                                    / pl.branch.length))
     modes, fb = plant_modes(machine)
     nm = len(modes.omega)
-    n_total = nm + sum(len(mm.omega) for _, mm in members)
+    probe_modes = [plant_modes(p) for p in probes]
+    n_total = nm + sum(len(mm.omega) for _, mm in members) + sum(len(pm.omega) for pm, _ in probe_modes)
     pad = [0.0] * (n_total - nm)
     contacts = [
         dict(name="comb_left", body="left_comb", finger_point=fingers["left"]["point"], station=ct.station_left,
@@ -159,14 +168,23 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
             mid_lateral=n[0] * f["mid"][0] + n[1] * f["mid"][1] - f["side"] * member.lateral_offset,
             axis=list(n), row_offset=member.row_offset, contact=dict(law, stiffness=k_m, exponent=n_m),
             reaction_weight=weight))
+    for i, (pm, pfb) in enumerate(probe_modes):
+        for c in contacts[:2]:  # the instrumented branch's two contacts, repeated on the probe's own block
+            row = [0.0] * n_total
+            row[col:col + len(pm.omega)] = np.atleast_1d(pm.shape_at(c["station"] * pl.branch.length)).tolist()
+            shapes.append(row)
+            contacts.append(dict(c, name=f"{c['name']}_probe{i + 1}"))
+        col += len(pm.omega)
+        omega += pm.omega.tolist()
+        zeta += (pfb.damping_ratios.tolist() if pfb is not None else [pl.branch.damping_ratio] * len(pm.omega))
     spec["plant"] = dict(
-        omega=omega, damping_ratio=zeta if (fb is not None or members) else pl.branch.damping_ratio,
+        omega=omega, damping_ratio=zeta if (fb is not None or members or probes) else pl.branch.damping_ratio,
         shapes=shapes, lateral_axis=[1.0, 0.0], walking_speed=v,
         start_distance=-(half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
         contact=law, contacts=contacts)
     spec["simulation"]["duration"] = duration
     spec["mechanism"]["name"] = f"{machine.machine.name} + branch (rigid-flexible coupling)"
-    if fb is not None and not members:
+    if fb is not None and not members and not probes:
         try:
             out = mechanism_from_dict(spec, "(harvester + branch)")
         except ConfigError as err:
@@ -239,6 +257,7 @@ class FruitForceResult:
     stem_axial: dict[str, np.ndarray] = field(default_factory=dict)  # axial stem force incl. weight (N)
     motion: "BranchMotion | None" = field(default=None, repr=False)  # modal solution, for post-processing
     load_moment: dict[str, np.ndarray] = field(default_factory=dict)  # bush on each comb about its shaft (N m)
+    probes: list = field(default_factory=list, repr=False)  # FruitForceResult of each probe of the same run
 
     def summary(self) -> dict:
         """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics."""
@@ -340,29 +359,32 @@ class BranchMotion:
         return u, v
 
 
-def branch_motion(res: MultibodyResult, modes) -> BranchMotion:
+def branch_motion(res: MultibodyResult, modes, offset: int = 0) -> BranchMotion:
     """Modal displacements, velocities and accelerations of the branch from a coupled multibody result
-    (``modes``: the :class:`~berryshaker.plant.modes.Modes` the run was built with)."""
+    (``modes``: the :class:`~berryshaker.plant.modes.Modes` the run was built with; ``offset``: index of its
+    first modal coordinate in the plant's block-diagonal modal body, 0 for the instrumented branch, another for
+    a probe of :func:`coupled_mechanism`)."""
     cm = res.compiled
     spec = cm.spec
     nb3 = 3 * len(spec.bodies)
     nm = len(modes.omega)
     n = cm.n
-    eta = res.y[:, nb3:nb3 + nm]
-    etad = res.y[:, n + nb3:n + nb3 + nm]
+    cols = slice(offset, offset + nm)
+    eta = res.y[:, nb3 + offset:nb3 + offset + nm]
+    etad = res.y[:, n + nb3 + offset:n + nb3 + offset + nm]
     w = modes.omega
     zeta = np.asarray(spec.plant.damping_ratio, float)  # one ratio, or one per mode
-    zeta = zeta[:nm] if zeta.ndim else zeta  # the bush members' modes follow the branch's (block-diagonal)
+    zeta = zeta[cols] if zeta.ndim else zeta  # the other blocks' modes follow (block-diagonal)
     etadd = -(w**2) * eta - 2 * zeta * w * etad
     phi_tab = cm.model[13]
     contact_force = {}
     for row, c in enumerate(spec.plant.contacts):
-        if not np.any(phi_tab[row, :nm]):
-            continue  # a bush member's contact: it does not load this branch
+        if not np.any(phi_tab[row, cols]):
+            continue  # another branch's contact (a bush member, a probe): it does not load this branch
         k = cm.frc_names.index(c.name)
         f = res.elements[:, k, mb.EO_FN]
         contact_force[c.name] = f
-        etadd = etadd + np.outer(c.side * f, phi_tab[row, :nm])
+        etadd = etadd + np.outer(c.side * f, phi_tab[row, cols])
     return BranchMotion(res.t, modes, eta, etad, etadd, contact_force)
 
 
@@ -391,7 +413,7 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
 
 
 def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = 1e-6,
-                         output_step: float = 2e-5, initial_perturbation=None) -> FruitForceResult:
+                         output_step: float = 2e-5, initial_perturbation=None, probes: tuple = ()) -> FruitForceResult:
     """Drive the harvester past one branch and record the fruit harvesting force.
 
     With the pedicel model (default) the force is the stem force of a fruit on a compliant stem
@@ -401,12 +423,37 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     eq. 16, m0 x branch acceleration at the fruit.  Both are returned (``rigid_force`` is always eq. 16).
     ``initial_perturbation`` (berryshaker.multibody.perturbation.InitialPerturbation or RandomInitialPerturbation):
     start the machine off centre in its clearances and at another drive phase (replicate runs).
+    ``probes``: machine descriptions differing from ``machine`` only in the instrumented branch's modal model
+    (``plant.contact.n_modes``) or its fruit (``plant.fruit``), carried in the same run as further probes
+    (:func:`coupled_mechanism`); their results, in order, are in the returned result's ``probes``.
     """
-    spec, machine = coupled_mechanism(machine, clearance)
+    for i, p in enumerate(probes):
+        same = p.model_dump()
+        ref = machine.model_dump()
+        same["plant"]["contact"]["n_modes"] = ref["plant"]["contact"]["n_modes"]
+        same["plant"]["fruit"] = ref["plant"]["fruit"]
+        if same != ref:
+            raise ConfigError(f"probe {i + 1}: a probe may differ from the machine only in plant.contact.n_modes and "
+                              "plant.fruit (the combs, the branch and its contact are shared)")
+    spec, machine = coupled_mechanism(machine, clearance, probes=tuple(probes))
     res = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)
+    out = _fruit_result(res, spec, machine, 0)
+    out.load_moment = comb_load_moment(res, machine)
+    offset = len(out.motion.modes.omega) + sum(len(mm.omega) for _, mm in bush_members(machine))
+    for p in probes:
+        p = p.with_clearances(clearance)
+        pr = _fruit_result(res, spec, p, offset)
+        offset += len(pr.motion.modes.omega)
+        out.probes.append(pr)
+    return out
+
+
+def _fruit_result(res: MultibodyResult, spec, machine: Machine, offset: int) -> FruitForceResult:
+    """Fruit forces of the branch whose modal block starts at ``offset`` (the instrumented branch: 0, a probe:
+    after the bush members) in a coupled run (:func:`simulate_fruit_force`)."""
     pl = machine.plant
     modes, fb = plant_modes(machine)
-    motion = branch_motion(res, modes)
+    motion = branch_motion(res, modes, offset)
     ped = pl.fruit.pedicel
     m0 = pl.fruit.mass
     fruit, rigid, zs, defl, lat, ax = {}, {}, {}, {}, {}, {}
@@ -429,5 +476,4 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     distance = spec.plant.start_distance + spec.plant.walking_speed * res.t
     out = FruitForceResult(distance, res.t, fruit, zs, motion.contact_force, defl, res, machine, rigid, lat, ax)
     out.motion = motion
-    out.load_moment = comb_load_moment(res, machine)
     return out

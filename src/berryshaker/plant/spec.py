@@ -101,7 +101,8 @@ class CombContactSpec(_Strict):
                              "linear (exponent 1); give both stiffness and exponent, or neither")
         return self
 
-    n_modes: int = Field(8, ge=1, le=64)  # branch modes (two-way fruit add one mode each)
+    # branch modes (two-way fruit add one mode each); 8: the smallest converged count (tests/test_plant_coupled.py)
+    n_modes: int = Field(8, ge=1, le=64)
 
     def impact_stiffness(self, branch_diameter: float | None = None) -> tuple[float, float]:
         """(K, exponent) of the IMPACT law: the explicit ``stiffness`` if given, else the finger's."""

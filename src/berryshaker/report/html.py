@@ -425,13 +425,21 @@ def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
     if not hr:
         parts.append("<p>Not available (see Failed runs).</p>")
         return parts
+    reps = next((r.get("replicates") for r in hr["rows"] if r.get("replicates")), None)
     parts.append("<p>Ripe removal (% of the ripe mass), unripe shedding (% of the unripe mass) and damage (% of the "
                  "picked mass) of the seeded virtual harvest against the drive-shaft speed, one comb cycle per "
-                 "revolution, at the configured clearances; every other value as described.</p>")
+                 "revolution, at the configured clearances; every other value as described."
+                 + (f" Each row is the mean over {reps} replicates from perturbed starts (the calibration's "
+                    "statistic and seeds) with the SD over the replicates." if reps else "") + "</p>")
+
+    def _sd(r, key):  # mean with the replicates' SD when the row has it (runs before replicates: the value)
+        return f"{r[key]:.3g} ± {r[key + '_sd']:.2g}" if key + "_sd" in r else r[key]
+
     parts.append(_table(["drive speed (r/min)", "frequency (Hz)", "ripe removal (%)", "unripe shedding (%)",
                          "damage (%)", "efficiency (kg/min)"],
-                        [[r["speed_rpm"], r["shaking_frequency_hz"], r["ripe_removal_pct"], r["unripe_shed_pct"],
-                          r["damage_rate_pct"], r["efficiency_kg_min"]] for r in hr["rows"]]))
+                        [[r["speed_rpm"], r["shaking_frequency_hz"], _sd(r, "ripe_removal_pct"),
+                          _sd(r, "unripe_shed_pct"), _sd(r, "damage_rate_pct"), _sd(r, "efficiency_kg_min")]
+                         for r in hr["rows"]]))
     _maybe_img(parts, figs / "harvest_vs_frequency.png", "Virtual harvest against shaking frequency")
     cal = hr.get("calibration") or {}
     if cal:

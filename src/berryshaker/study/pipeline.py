@@ -223,35 +223,41 @@ RESPONSE_SPEEDS_RPM = (60.0, 90.0, 120.0, 150.0, 180.0)
 
 
 def step_harvest_response(ctx: StudyContext) -> StepResult:
-    """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances (one
-    coupled run per branch class and speed), and the calibration (on the replicate mean over perturbed starts at
-    the configured clearances, the virtual L9's statistic): what is fitted, what is held out."""
+    """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances, and
+    the calibration: both on the statistic the virtual L9 reports, the replicate mean over perturbed starts
+    (``harvest.replicates`` replicates, the same seeds; at the configured speed the runs are the calibration's,
+    shared through the cache), with the SD over the replicates; what is fitted, what is held out."""
     import math
 
     from berryshaker.config import machine_from_dict
     from berryshaker.harvest.calibration import calibration_table
-    from berryshaker.harvest.virtual import calibrate_harvest, response_indexes, with_drive_speed
+    from berryshaker.harvest.virtual import calibrate_harvest, replicate_response, with_drive_speed
     from berryshaker.report import plots as P
     from berryshaker.study.l9 import replicate_envelopes, replicate_jobs, replicate_seeds
-    from berryshaker.study.runs import envelope_run, replicate_run
+    from berryshaker.study.runs import replicate_run
 
     ctx.say("harvest against shaking frequency, calibration")
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
     speeds = sorted(set(RESPONSE_SPEEDS_RPM) | {round(own, 6)})
-    classes = ctx.machine.harvest.branch_classes
     datas = [with_drive_speed(ctx.data, rpm * 2 * math.pi / 60) if not math.isclose(rpm, own) else ctx.data
              for rpm in speeds]
-    jobs = [dict(machine_data=d, clearance={}, scale=s) for d in datas for s in classes]
-    env = ctx.collect(envelope_run, jobs, "harvest vs frequency: coupled runs",
-                      lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
-                                f"r/min, branch class x{j['scale']:g}")
-    rows = []
-    for i, rpm in enumerate(speeds):
-        e = env[i * len(classes):(i + 1) * len(classes)]
-        if any(v is None for v in e):
-            continue
-        e = [np.array(v) for v in e]
-        rows.append({"speed_rpm": rpm, **response_indexes(machine_from_dict(datas[i]), e)})
+    seeds = replicate_seeds(ctx.machine)
+    cal_cl = ctx.machine.clearance_sizes()
+    machines = [machine_from_dict(d) for d in datas]
+    per_speed = [replicate_jobs(m, cal_cl, seeds, data=d) for m, d in zip(machines, datas)]
+    outs = ctx.collect(replicate_run, [j for jobs in per_speed for j in jobs],
+                       "harvest vs frequency: replicates (perturbed starts)",
+                       lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
+                                 f"r/min, branch class x{j['scale']:g}, seed {j['seed']}")
+    rows, cal_out, at = [], None, 0
+    for rpm, m, jobs in zip(speeds, machines, per_speed):
+        o = outs[at:at + len(jobs)]
+        at += len(jobs)
+        if math.isclose(rpm, own):
+            cal_out = o
+        reps = replicate_envelopes(m, o, seeds)
+        if reps:
+            rows.append({"speed_rpm": rpm, **replicate_response(m, reps)})
     data = {"rows": rows, "configured_rpm": own}
     figs = []
     if len(rows) > 1:
@@ -261,12 +267,7 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
                                 frequency_hz=[r["shaking_frequency_hz"] for r in rows])
         figs.append("harvest_vs_frequency.png")
     # the calibration is on the statistic the virtual L9 reports: the replicate mean over perturbed starts at the
-    # configured clearances (the same replicate_run jobs as the L9's, so identical runs come from the cache)
-    seeds = replicate_seeds(ctx.machine)
-    cal_cl = ctx.machine.clearance_sizes()
-    cal_out = ctx.collect(replicate_run, replicate_jobs(ctx.machine, cal_cl, seeds, data=ctx.data),
-                          "calibration: replicates at the configured clearances",
-                          lambda j: f"{_describe(j['clearance'])}, branch class x{j['scale']:g}, seed {j['seed']}")
+    # configured clearances (the configured speed's replicate_run jobs above, the L9's: identical runs are cached)
     reps = replicate_envelopes(ctx.machine, cal_out, seeds)
     fit = calibrate_harvest(ctx.machine, replicates=reps) if reps else None
     chosen = (ctx.results.get("fruit_force") or {}).get("chosen") or {}
