@@ -279,6 +279,45 @@ def test_harvest_response_draws_the_table_rows_sorted_with_a_frequency_axis(tmp_
     assert (tmp_path / "removal.svg").read_text().lstrip().startswith("<?xml")
 
 
+def test_harvest_response_draws_sd_bars_and_an_amplitude_axis(tmp_path):
+    """A drive-geometry sweep (e.g. cam.stroke) draws the replicate means with +- SD bars and the finger
+    amplitude as the top axis; a non-monotonic amplitude gets no axis (the map would not be a function)."""
+    rows = [{"ripe_removal_pct": m, "ripe_removal_pct_sd": 2.0, "unripe_shed_pct": 0.1, "damage_rate_pct": 1.0,
+             "damage_rate_pct_sd": 0.2, "finger_amplitude_mm": a} for m, a in ((20.0, 56.0), (36.0, 74.0), (60.0, 92.0))]
+    data = P.plot_harvest_response([30.0, 40.0, 50.0], rows, "cam.stroke [mm]", tmp_path / "amp.png", "amplitude",
+                                   amplitude_mm=[r["finger_amplitude_mm"] for r in rows], return_figure=True)
+    fig = data["figure"]
+    assert list(data["amplitude_mm"]) == [56.0, 74.0, 92.0]
+    assert list(data["series"]["ripe_removal_pct_sd"]) == [2.0, 2.0, 2.0]
+    assert [c.get_xlabel() for c in fig.axes[0].child_axes] == ["finger amplitude [mm]"]
+    assert not audit_figure(fig)
+    _close(data)
+    bent = P.plot_harvest_response([30.0, 40.0, 50.0], rows, "x [mm]", tmp_path / "bent.png",
+                                   amplitude_mm=[56.0, 92.0, 74.0], return_figure=True)
+    assert "amplitude_mm" not in bent
+    _close(bent)
+
+
+def test_shaking_amplitude_follows_the_drive_geometry(machine):
+    """The comb swing of the reference machine (+-9.5 deg, its TOML comment) and the finger amplitude at the
+    striking radius grow with the cam stroke; the swing is nearly proportional to the stroke for these small angles."""
+    import math
+
+    from berryshaker.config import machine_from_dict
+    from berryshaker.harvest.virtual import shaking_amplitude
+
+    ref = shaking_amplitude(machine)
+    assert ref["comb_swing_deg"] == pytest.approx(9.5, abs=0.1)
+    assert ref["finger_amplitude_mm"] == pytest.approx(math.radians(ref["comb_swing_deg"]) * 450.0, rel=1e-9)
+    amps = []
+    for stroke in (0.03, 0.05):
+        d = machine.model_dump()
+        d["cam"]["stroke"] = stroke
+        amps.append(shaking_amplitude(machine_from_dict(d))["comb_swing_deg"])
+    assert amps[0] < ref["comb_swing_deg"] < amps[1]
+    assert amps[1] / amps[0] == pytest.approx(5.0 / 3.0, rel=0.05)
+
+
 def _tradeoff_records():
     """Ten candidates in the layout of the reference study's trade-off (runs 1 and 2 and the recommended set
     crowded at low force and torque); the recommended set is not an L9 run."""

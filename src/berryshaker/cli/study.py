@@ -97,8 +97,9 @@ def _harvest_figure(param, points, results, path: Path) -> None:
         raise BerryshakerError("--figure: every sweep point failed, nothing to draw")
     label = f"{param.key} [{param.unit}]" if param.unit else f"{param.key} [1]"
     freq = [v["shaking_frequency_hz"] for _, v in ok] if param.key.endswith(".speed") else None
+    amp = [v.get("finger_amplitude_mm", float("nan")) for _, v in ok] if freq is None else None
     plot_harvest_response([x for x, _ in ok], [v for _, v in ok], label, path,
-                          "virtual harvest against " + param.key, frequency_hz=freq)
+                          "virtual harvest against " + param.key, frequency_hz=freq, amplitude_mm=amp)
 
 
 @command(app)

@@ -316,7 +316,8 @@ def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray]
     ``(envelopes, population seed)`` (:func:`replicate_envelopes_run`, or berryshaker.study.l9.replicate_envelopes):
     I = (1/R) sum_k I_k with I_k the indexes of envelopes_k on the population seeded seed_k (the statistic the
     calibration fits, :func:`calibrate_harvest`).  Keys: every index (mean), ``<index>_sd`` (sample SD over
-    the replicates, ddof 1; 0 for one replicate), ``replicates`` (R) and ``shaking_frequency_hz``."""
+    the replicates, ddof 1; 0 for one replicate), ``replicates`` (R), ``shaking_frequency_hz`` and the shaking
+    amplitude (:func:`shaking_amplitude`)."""
     from berryshaker.errors import ConfigError
 
     if not replicates:
@@ -330,6 +331,9 @@ def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray]
         out[f"{key}_sd"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
     out["replicates"] = len(each)
     out["shaking_frequency_hz"] = each[0]["shaking_frequency_hz"]
+    for key in ("comb_swing_deg", "finger_amplitude_mm"):
+        if key in each[0]:
+            out[key] = each[0][key]
     return out
 
 
@@ -359,10 +363,40 @@ def harvest_response(machine: Machine, clearance: dict | None = None, replicates
         fits) of ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct (unripe mass
         detached / unripe mass), damage_rate_pct and unripe_rate_pct (of the picked mass, the study's
         indexes), efficiency_kg_min; each with ``<index>_sd`` (SD over the replicates); ``replicates``;
-        shaking_frequency_hz (one comb cycle per drive-shaft revolution: drive speed / 2 pi).  R coupled runs
+        shaking_frequency_hz (one comb cycle per drive-shaft revolution: drive speed / 2 pi); the shaking
+        amplitude of :func:`shaking_amplitude` (comb_swing_deg, finger_amplitude_mm).  R coupled runs
         per branch class (:func:`replicate_envelopes_run`).
     """
     return replicate_response(machine, replicate_envelopes_run(machine, clearance, replicates))
+
+
+def shaking_amplitude(machine: Machine) -> dict:
+    """The combs' shaking amplitude set by the drive geometry (the harvester designer's second knob).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (any drive).
+
+    Returns
+    -------
+    dict
+        ``comb_swing_deg``: half the swing range (max - min) of the left and right comb angles over one
+        drive-shaft revolution of the ideal mechanism (deg; the drive's kinematics summary, docs/kinematics.md),
+        the larger of the two; ``finger_amplitude_mm``: the same swing times the striking finger radius
+        ``plant.contact.finger_radius`` (mm; the arc R theta -- the straight-line excursion R sin theta is
+        0.5 % smaller at 10 deg).  A geometric quantity: the clearances and the bush change
+        the real swing by well under a per cent (docs/plant.md), which is left out here.
+    """
+    from berryshaker.drives import drive_of
+
+    drive = drive_of(machine)
+    combs = drive.kinematics_summary(machine, drive.check(machine))["combs"]
+    half = max(0.5 * (c["swing_deg"]["max"] - c["swing_deg"]["min"]) for c in combs.values())
+    out = {"comb_swing_deg": float(half)}
+    if machine.plant is not None:
+        out["finger_amplitude_mm"] = float(math.radians(half) * machine.plant.contact.finger_radius * 1e3)
+    return out
 
 
 def response_indexes(machine: Machine, envelopes: list[np.ndarray], seed: int | None = None) -> dict:
@@ -372,7 +406,7 @@ def response_indexes(machine: Machine, envelopes: list[np.ndarray], seed: int | 
     return {"ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
             "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
             "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"],
-            "shaking_frequency_hz": machine.drive_speed / (2 * math.pi)}
+            "shaking_frequency_hz": machine.drive_speed / (2 * math.pi), **shaking_amplitude(machine)}
 
 
 def with_drive_speed(machine_data: dict, speed: float) -> dict:

@@ -685,7 +685,7 @@ HARVEST_RESPONSE_SERIES = {"ripe_removal_pct": ("ripe removal (% of ripe mass)",
 
 
 def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: str = "", *,
-                          frequency_hz=None, return_figure: bool = False) -> dict:
+                          frequency_hz=None, amplitude_mm=None, return_figure: bool = False) -> dict:
     """Ripe removal, unripe shedding and damage against one machine setting (e.g. the cam speed).
 
     Parameters
@@ -698,6 +698,11 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
         Axis label with unit, e.g. ``"cam speed [rpm]"``.
     frequency_hz : sequence of float, optional
         The shaking frequency of each point: drawn as a second x axis on top (drive speeds only).
+    amplitude_mm : sequence of float, optional
+        The finger amplitude of each point (:func:`berryshaker.harvest.virtual.shaking_amplitude`): drawn as a
+        second x axis on top when it is strictly monotonic in x and no frequency axis is drawn (drive geometry).
+
+    Each index is drawn as its replicate mean with +- one SD bars (the rows' ``<index>_sd``) where present.
 
     Returns
     -------
@@ -710,7 +715,13 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
     data = {"x": xs, "series": {}}
     for key, (label, colour, marker, ls) in HARVEST_RESPONSE_SERIES.items():
         ys = np.array([float(rows[i].get(key, float("nan"))) for i in order])
-        ax.plot(xs, ys, color=colour, marker=marker, linestyle=ls, label=label)
+        sd = np.array([float(rows[i].get(f"{key}_sd", 0.0) or 0.0) for i in order])
+        if np.any(sd > 0):
+            ax.errorbar(xs, ys, yerr=sd, color=colour, marker=marker, linestyle=ls, capsize=3,
+                        label=label + " (mean +- SD)")
+            data["series"][f"{key}_sd"] = sd
+        else:
+            ax.plot(xs, ys, color=colour, marker=marker, linestyle=ls, label=label)
         data["series"][key] = ys
     label_axes(ax, xlabel=xlabel, ylabel="share of the fruit mass [%]", strict=False)
     ax.grid(alpha=0.3)
@@ -724,9 +735,18 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
                                                    lambda f: (np.asarray(f) - icpt) / slope))
         top.set_xlabel("shaking frequency [Hz]")
         data["frequency_hz"] = fz
+    elif amplitude_mm is not None and len(xs) > 1:
+        am = np.asarray(amplitude_mm, float)[order]
+        d = np.diff(am)
+        if np.all(d > 0) or np.all(d < 0):  # a monotonic map between the swept value and the amplitude
+            xa, aa = (xs, am) if d[0] > 0 else (xs[::-1], am[::-1])
+            top = ax.secondary_xaxis("top", functions=(lambda v: np.interp(v, xs, am),
+                                                       lambda a: np.interp(a, aa, xa)))
+            top.set_xlabel("finger amplitude [mm]")
+            data["amplitude_mm"] = am
     legend_outside(ax)
     if title:
-        ax.set_title(title, pad=28 if frequency_hz is not None else 6)
+        ax.set_title(title, pad=28 if ("frequency_hz" in data or "amplitude_mm" in data) else 6)
     return _out(fig, path, data, return_figure)
 
 

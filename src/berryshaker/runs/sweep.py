@@ -287,7 +287,7 @@ model_run.batch = model_runs
 
 #: outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response)
 HARVEST_COLUMNS = ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct", "unripe_rate_pct",
-                   "efficiency_kg_min", "shaking_frequency_hz",
+                   "efficiency_kg_min", "shaking_frequency_hz", "comb_swing_deg", "finger_amplitude_mm",
                    # replicate SDs and count (harvest_response is a replicate mean over perturbed starts)
                    "ripe_removal_pct_sd", "unripe_shed_pct_sd", "damage_rate_pct_sd", "unripe_rate_pct_sd",
                    "efficiency_kg_min_sd", "replicates")
