@@ -286,8 +286,8 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
 def replicate_seeds(machine: Machine, replicates: int | None = None) -> list[int]:
     """Seeds of the replicates of a virtual test run (docs/harvest.md, "Replicates"): ``harvest.seed + 1000 k``,
     k = 0 .. R - 1, R = ``replicates`` or ``harvest.replicates``; replicate k's drive-past of branch class c
-    starts from the perturbation seeded (seed_k, c), its population is seeded seed_k (as
-    berryshaker.study.l9.replicate_seeds, the calibration's and the virtual L9's)."""
+    starts from the perturbation seeded (seed_k, c), its population is seeded seed_k (the calibration's and
+    the virtual L9's seeds: berryshaker.study.l9 uses this function)."""
     h = machine.harvest
     r = int(h.replicates if replicates is None else replicates)
     return [h.seed + 1000 * k for k in range(r)]

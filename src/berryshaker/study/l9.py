@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from berryshaker.harvest.virtual import replicate_seeds  # noqa: F401  (one home; re-exported here)
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.study.runs import replicate_run
@@ -93,14 +94,6 @@ def _configured_level(machine, p: str) -> int:
     size = machine.clearance_sizes()[p]
     lv = machine.clearance_levels()[p]
     return int(np.argmin([abs(v - size) for v in lv])) + 1
-
-
-def replicate_seeds(machine, replicates: int | None = None) -> list[int]:
-    """Seeds of the replicates (module docstring): ``harvest.seed + 1000 k``, k = 0 .. R - 1, R =
-    ``replicates`` or ``harvest.replicates``."""
-    h = machine.harvest
-    r = int(h.replicates if replicates is None else replicates)
-    return [h.seed + 1000 * k for k in range(r)]
 
 
 def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTOL_RUN, data: dict | None = None
