@@ -5,6 +5,9 @@ Every cell that is used is parsed and checked, and anything that cannot be read 
 saying how to fix it.  Level cells are matched by value or by level number whatever the coding; factor
 columns may be the planner's ``<name>_level`` / ``<name>_<unit>`` pair or plain value columns as
 statistics packages write them.
+
+long module: every check of a filled sheet (cells, units, levels, replicates, the run plan) is one reader; split,
+a check would sit away from the row and column bookkeeping its error messages need.
 """
 
 from __future__ import annotations
