@@ -837,6 +837,45 @@ def _onset_fraction(p0, d0, p1, d1, h):
             break
     return hi
 
+
+@njit(cache=True)
+def _crossing_rate(p0, d0, p1, d1, h):
+    """Penetration rate at the first zero of a contact's penetration inside a step of length h (the impact
+    velocity of the normal laws, docs/contact.md: the approach speed at first contact, penetration 0).
+
+    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0 < p1 and rates d0, d1
+    at the ends (as in :func:`_onset_fraction`); its first upward crossing of 0 is bracketed on 16
+    sub-intervals, refined by bisection, and the interpolant's derivative is returned there.  The step that
+    takes an onset ends at a penetration of up to EVENT_TOL (1 nm); for a slow approach that is decelerated
+    by the load (a graze, v^2 ~ 2 a EVENT_TOL) the rate there is well below the rate at first contact, and
+    the hysteresis laws, whose damping is ~ 1 / v_imp, would take a far too small impact velocity.
+    """
+    lo = 0.0
+    hi = 1.0
+    prev = p0
+    for s in range(1, 17):
+        u = s / 16.0
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1
+        if v > 0.0 and prev <= 0.0:
+            lo = u - 1.0 / 16.0
+            hi = u
+            break
+        prev = v
+    for _ in range(50):
+        u = 0.5 * (lo + hi)
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1
+        if v > 0.0:
+            hi = u
+        else:
+            lo = u
+        if (hi - lo) * h < 1e-16:
+            break
+    u = 0.5 * (lo + hi)
+    return ((6 * u**2 - 6 * u) * p0 + (6 * u**2 - 6 * u) * -p1) / h + (3 * u**2 - 4 * u + 1) * d0 \
+        + (3 * u**2 - 2 * u) * d1
+
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 SAFETY = 0.9  # step-size safety factor
 BETA = 0.04  # PI step-size control: weight of the previous step's error (Hairer & Wanner's DOPRI5 default)
@@ -1012,6 +1051,10 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                     onset = True
                     in_contact[j] = True
                     vi = eout[j, EO_PENDOT]
+                    if pen_start[j] <= 0.0 and fint_is_contact(model, j):
+                        # the approach rate at first contact (penetration 0), not at the step's end (up to
+                        # EVENT_TOL deep: for a slow approach decelerated by the load, far below it)
+                        vi = _crossing_rate(pen_start[j], pdot_start[j], pe, vi, h_try)
                     v_imp[j] = vi if vi > 1e-6 else 1e-6
                     if first[j, 3] == 0.0:
                         first[j, 0] = t
