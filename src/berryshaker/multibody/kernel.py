@@ -913,7 +913,6 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     bspl = np.empty(ny)
     rc5 = np.empty(ny)
     e_save = np.empty((nf, N_EO))
-    closed_before = np.zeros(nf, np.bool_)  # contact closed before the step (not an onset of this step)
     accelerations(t, y, model, state, work, k[0])
     for j in range(lam.shape[0]):
         lam_prev[j] = lam[j]
@@ -1047,7 +1046,6 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         for j in range(nf):
             pe = eout[j, EO_PEN]
             fn = eout[j, EO_FN]
-            closed_before[j] = in_contact[j]
             if pe > 0.0:
                 if not in_contact[j]:
                     onset = True
@@ -1117,40 +1115,11 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 accelerations(t, y, model, state, work, k_out)
             _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
             io += 1
-        if _raise_episode_velocity(model, in_contact, closed_before, v_imp, pen_start, pdot_start):
-            accelerations(t, y, model, state, work, k[0])  # the next step's first stage under the raised v_imp
     info[0] = acc
     info[1] = rej
     info[2] = cuts
     info[4] = 0
     info[5] = max_res
-
-
-@njit(cache=True)
-def _raise_episode_velocity(model, in_contact, closed_before, v_imp, pen, pen_dot):
-    """Raise each closed contact's impact velocity to the largest approach rate of its episode; True where the
-    force of a contact closed before the step changes with it (the caller re-evaluates the first stage).
-
-    The rule (docs/contact.md sec. 6.4, "Compressions faster than the strike"): within one contact episode,
-    from onset to separation, v_imp = max(v_imp, pen_dot at the end of every accepted step).  The hysteresis
-    laws were derived for a single free impact, in which |pen_dot| <= v_imp throughout; a contact compressed
-    faster than it was struck is a new impact at that rate.  For a free impact pen_dot is largest at first touch
-    and nothing changes.  v_imp is a history variable, constant within a step (the Runge-Kutta stages see one
-    law); ``pen`` and ``pen_dot`` are the step-end values (m, m/s).
-    """
-    fint, fflt, laws = model[8], model[9], model[15]
-    changed = False
-    for j in range(v_imp.shape[0]):
-        if in_contact[j] and pen_dot[j] > v_imp[j] and fint_is_contact(model, j):
-            if closed_before[j] and not changed:
-                lw = fint[j, 3]
-                f_old = _law(laws, lw, pen[j], pen_dot[j], v_imp[j], fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E],
-                             fflt[j, FF_C], fflt[j, FF_D])
-                f_new = _law(laws, lw, pen[j], pen_dot[j], pen_dot[j], fflt[j, FF_K], fflt[j, FF_N],
-                             fflt[j, FF_E], fflt[j, FF_C], fflt[j, FF_D])
-                changed = f_new != f_old  # laws that do not read v_imp (or below v_ref) keep their force
-            v_imp[j] = pen_dot[j]
-    return changed
 
 
 @njit(cache=True)

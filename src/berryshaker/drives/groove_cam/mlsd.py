@@ -332,7 +332,6 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
     ytmp = np.empty(n)
     ynew = np.empty(n)
     res = np.zeros(N_R)
-    res_raised = np.zeros(N_R)
     cst = np.zeros(8)  # in contact x 4, impact velocity x 4
     pen0 = np.zeros(4)
     y = y0.copy()
@@ -405,7 +404,6 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
                     info[2] = t
                     info[3] = 3
                     return
-                raised = False
                 for j in range(4):
                     pe, pd = _penetration(res, p, j)
                     if pe > 0.0:
@@ -414,16 +412,9 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
                             cst[4 + j] = pd if pd > 1e-6 else 1e-6
                             if t >= stats_from:
                                 onsets[j] += 1
-                        elif pd > cst[4 + j]:
-                            # the largest approach rate of the episode (docs/contact.md sec. 6.4, "Compressions
-                            # faster than the strike"): a closed pair compressed faster than it was struck
-                            cst[4 + j] = pd
-                            raised = raised or p[P_PAIR0 + N_PAIR * j + 4] == FORM_HYSTERESIS
                     else:
                         cst[j] = 0.0
                     pen0[j] = pe
-                if raised:  # the next step's first stage under the raised v_imp (res keeps the step-end output)
-                    _rhs(t, y, g, p, res_raised, k[0], cst)
                 if t >= stats_from:
                     for j in range(N_R):
                         if abs(res[j]) > peaks[j]:
