@@ -718,7 +718,7 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
         sd = np.array([float(rows[i].get(f"{key}_sd", 0.0) or 0.0) for i in order])
         if np.any(sd > 0):
             ax.errorbar(xs, ys, yerr=sd, color=colour, marker=marker, linestyle=ls, capsize=3,
-                        label=label + " (mean +- SD)")
+                        label=label + " (mean ± SD)")
             data["series"][f"{key}_sd"] = sd
         else:
             ax.plot(xs, ys, color=colour, marker=marker, linestyle=ls, label=label)
@@ -746,7 +746,8 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
             data["amplitude_mm"] = am
     legend_outside(ax)
     if title:
-        ax.set_title(title, pad=28 if ("frequency_hz" in data or "amplitude_mm" in data) else 6)
+        # left-aligned: a long title centred on the narrow axes (legend outside) would run off the figure
+        ax.set_title(title, pad=28 if ("frequency_hz" in data or "amplitude_mm" in data) else 6, loc="left")
     return _out(fig, path, data, return_figure)
 
 
