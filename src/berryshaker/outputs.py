@@ -199,14 +199,20 @@ def _host_tag() -> str:
     return hashlib.sha256(socket.gethostname().encode()).hexdigest()[:6]
 
 
-def _pid_alive(pid: int) -> bool:
+def pid_alive(pid: int) -> bool:
+    """True while process ``pid`` exists and is not a zombie (a killed process its parent has not reaped yet);
+    used for stale staging folders here and for the sweep runner's parent watch."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
         return True
-    return True
+    try:  # a killed parent not yet reaped is a zombie
+        with open(f"/proc/{pid}/stat", "rb") as fh:
+            return fh.read().rsplit(b")", 1)[1].split()[0] != b"Z"
+    except (OSError, IndexError):
+        return True
 
 
 def clean_stale_staging(parent: str | Path, max_age_hours: float = STALE_STAGING_HOURS) -> list[Path]:
@@ -234,7 +240,7 @@ def clean_stale_staging(parent: str | Path, max_age_hours: float = STALE_STAGING
             continue
         same_host, pid = m.group(1) == host, int(m.group(2))
         if same_host:
-            stale = (pid != os.getpid() and not _pid_alive(pid)) or age_h > max_age_hours
+            stale = (pid != os.getpid() and not pid_alive(pid)) or age_h > max_age_hours
         else:
             stale = age_h > STALE_FOREIGN_STAGING_HOURS
         if stale:

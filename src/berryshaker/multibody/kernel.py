@@ -802,17 +802,12 @@ def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
 
 
 @njit(cache=True)
-def _onset_fraction(p0, d0, p1, d1, h):
-    """Fraction of a step of length h at which a contact's penetration reaches EVENT_TOL / 2 (the onset).
-
-    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0, p1 > EVENT_TOL
-    and rates d0, d1 at the ends (error O(h^4), as in :func:`_interior_peak`); its first crossing of
-    EVENT_TOL / 2 is bracketed on 16 sub-intervals and refined by bisection.  A step that ends there
-    takes the onset with a penetration inside (0, EVENT_TOL], so the impact velocity is that at first
-    contact.  (A straight line through p0 and p1 lags the crossing of a converging contact, so the cut
-    step ends short of it and the next tries again: several wasted steps per impact.)
-    """
-    target = 0.5 * EVENT_TOL
+def _hermite_crossing(p0, d0, p1, d1, h, target, iterations):
+    """Bracket (lo, hi), as fractions of a step of length h, of the first upward crossing of ``target`` by the
+    cubic Hermite interpolant of a penetration with values p0, p1 and rates d0, d1 at the step's ends (error
+    O(h^4), as in :func:`_interior_peak`): bracketed on 16 sub-intervals, refined by at most ``iterations``
+    bisections (or until the bracket is shorter than 1e-16 s).  The one home of the onset search of
+    :func:`_onset_fraction` and :func:`_crossing_rate`."""
     lo = 0.0
     hi = 1.0
     prev = p0 - target
@@ -825,7 +820,7 @@ def _onset_fraction(p0, d0, p1, d1, h):
             hi = u
             break
         prev = v
-    for _ in range(40):
+    for _ in range(iterations):
         u = 0.5 * (lo + hi)
         v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
             + (u**3 - u**2) * h * d1 - target
@@ -835,7 +830,21 @@ def _onset_fraction(p0, d0, p1, d1, h):
             lo = u
         if (hi - lo) * h < 1e-16:
             break
-    return hi
+    return lo, hi
+
+
+@njit(cache=True)
+def _onset_fraction(p0, d0, p1, d1, h):
+    """Fraction of a step of length h at which a contact's penetration reaches EVENT_TOL / 2 (the onset).
+
+    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0, p1 > EVENT_TOL
+    and rates d0, d1 at the ends (:func:`_hermite_crossing`); the end of its bracket of the first crossing of
+    EVENT_TOL / 2.  A step that ends there takes the onset with a penetration inside (0, EVENT_TOL], so the
+    impact velocity is that at first contact.  (A straight line through p0 and p1 lags the crossing of a
+    converging contact, so the cut step ends short of it and the next tries again: several wasted steps per
+    impact.)
+    """
+    return _hermite_crossing(p0, d0, p1, d1, h, 0.5 * EVENT_TOL, 40)[1]
 
 
 @njit(cache=True)
@@ -844,37 +853,17 @@ def _crossing_rate(p0, d0, p1, d1, h):
     velocity of the normal laws, docs/contact.md: the approach speed at first contact, penetration 0).
 
     The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0 < p1 and rates d0, d1
-    at the ends (as in :func:`_onset_fraction`); its first upward crossing of 0 is bracketed on 16
-    sub-intervals, refined by bisection, and the interpolant's derivative is returned there.  The step that
-    takes an onset ends at a penetration of up to EVENT_TOL (1 nm); for a slow approach that is decelerated
-    by the load (a graze, v^2 ~ 2 a EVENT_TOL) the rate there is well below the rate at first contact, and
-    the hysteresis laws, whose damping is ~ 1 / v_imp, would take a far too small impact velocity.
+    at the ends; its first upward crossing of 0 (:func:`_hermite_crossing`) and the interpolant's derivative
+    there, dp/dt = [6(u^2 - u)(p0 - p1) / h + (3u^2 - 4u + 1) d0 + (3u^2 - 2u) d1].  The step that takes an
+    onset ends at a penetration of up to EVENT_TOL (1 nm); for a slow approach that is decelerated by the load
+    (a graze, v^2 ~ 2 a EVENT_TOL) the rate there is well below the rate at first contact, and the hysteresis
+    laws, whose damping is ~ 1 / v_imp, would take a far too small impact velocity.
     """
-    lo = 0.0
-    hi = 1.0
-    prev = p0
-    for s in range(1, 17):
-        u = s / 16.0
-        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
-            + (u**3 - u**2) * h * d1
-        if v > 0.0 and prev <= 0.0:
-            lo = u - 1.0 / 16.0
-            hi = u
-            break
-        prev = v
-    for _ in range(50):
-        u = 0.5 * (lo + hi)
-        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
-            + (u**3 - u**2) * h * d1
-        if v > 0.0:
-            hi = u
-        else:
-            lo = u
-        if (hi - lo) * h < 1e-16:
-            break
+    lo, hi = _hermite_crossing(p0, d0, p1, d1, h, 0.0, 50)
     u = 0.5 * (lo + hi)
     return ((6 * u**2 - 6 * u) * p0 + (6 * u**2 - 6 * u) * -p1) / h + (3 * u**2 - 4 * u + 1) * d0 \
         + (3 * u**2 - 2 * u) * d1
+
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 SAFETY = 0.9  # step-size safety factor

@@ -41,7 +41,7 @@ from typing import Any, Callable
 from urllib.parse import urlsplit
 
 from berryshaker import __version__
-from berryshaker.outputs import code_fingerprint
+from berryshaker.outputs import code_fingerprint, pid_alive
 
 #: Version of the cache-entry layout; part of every key.
 CACHE_SCHEMA = 2
@@ -329,25 +329,11 @@ def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, 
     return outs
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    try:  # a killed parent not yet reaped is a zombie
-        with open(f"/proc/{pid}/stat", "rb") as fh:
-            return fh.read().rsplit(b")", 1)[1].split()[0] != b"Z"
-    except (OSError, IndexError):
-        return True
-
-
 def _watch_parent(ppid: int, parent_pid: int, interval: float = 0.5) -> None:
     while True:
         # re-parented (the process that started this worker is gone), or, under a fork server, the main
         # process is gone (the fork server lives on while any of its children does)
-        if os.getppid() != ppid or (ppid != parent_pid and not _alive(parent_pid)):
+        if os.getppid() != ppid or (ppid != parent_pid and not pid_alive(parent_pid)):
             os._exit(1)
         time.sleep(interval)
 
