@@ -902,6 +902,12 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     bspl = np.empty(ny)
     rc5 = np.empty(ny)
     e_save = np.empty((nf, N_EO))
+    # the cam foot-point memories (Newton's starting guesses) as they stand after each accepted step: the
+    # evaluations for output samples and interior peaks start from them and leave them as they were, so the
+    # trajectory does not depend on the output grid (a guess moves the converged foot point by round-off,
+    # which the chaotic contact dynamics would amplify)
+    psi_c_keep = np.empty(psi_c.shape[0])
+    psi_f_keep = np.empty(psi_f.shape[0])
     accelerations(t, y, model, state, work, k[0])
     for j in range(lam.shape[0]):
         lam_prev[j] = lam[j]
@@ -1031,6 +1037,10 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 k[0, i] = k[6, i]
         for j in range(lam.shape[0]):
             lam_prev[j] = lam[j]
+        for i in range(psi_c.shape[0]):
+            psi_c_keep[i] = psi_c[i]
+        for i in range(psi_f.shape[0]):
+            psi_f_keep[i] = psi_f[i]
         onset = False
         for j in range(nf):
             pe = eout[j, EO_PEN]
@@ -1104,6 +1114,10 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 accelerations(t, y, model, state, work, k_out)
             _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
             io += 1
+        for i in range(psi_c.shape[0]):
+            psi_c[i] = psi_c_keep[i]
+        for i in range(psi_f.shape[0]):
+            psi_f[i] = psi_f_keep[i]
     info[0] = acc
     info[1] = rej
     info[2] = cuts
