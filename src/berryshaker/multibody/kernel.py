@@ -618,19 +618,36 @@ def _schur(cint, crow, jac, minv, W, m):
 
 @njit(cache=True, _nrt=False)
 def _add_jac_t(cint, crow, jac, x, scale, minv, out, off, m):
-    """out[off + c] += scale M^-1_c (Phi_q^T x)_c over the body columns of every row (sparse Phi_q^T x)."""
-    for k in range(crow.shape[0]):
-        bi, bj = cint[k, 0], cint[k, 1]
-        if bj == bi:
-            bj = -1
-        for a in range(crow[k], _block_end(crow, k, m)):
-            xa = scale * x[a]
-            if bi >= 0:
-                for c in range(3 * bi, 3 * bi + 3):
-                    out[off + c] += minv[c] * jac[a, c] * xa
-            if bj >= 0:
-                for c in range(3 * bj, 3 * bj + 3):
-                    out[off + c] += minv[c] * jac[a, c] * xa
+    """out[off + c] += scale M^-1_c (Phi_q^T x)_c over the body columns of every row (sparse Phi_q^T x).
+
+    Body by body: the three sums of a body are kept in registers while the rows of the blocks that touch it are
+    added in row order (the order of a row-by-row sweep, so the sums are bitwise those of one)."""
+    nc = crow.shape[0]
+    nb = 0
+    for k in range(nc):
+        if cint[k, 0] >= nb:
+            nb = cint[k, 0] + 1
+        if cint[k, 1] >= nb:
+            nb = cint[k, 1] + 1
+    for b in range(nb):
+        c = 3 * b
+        o0 = out[off + c]
+        o1 = out[off + c + 1]
+        o2 = out[off + c + 2]
+        m0 = minv[c]
+        m1 = minv[c + 1]
+        m2 = minv[c + 2]
+        for k in range(nc):
+            if cint[k, 0] != b and cint[k, 1] != b:
+                continue
+            for a in range(crow[k], _block_end(crow, k, m)):
+                xa = scale * x[a]
+                o0 += m0 * jac[a, c] * xa
+                o1 += m1 * jac[a, c + 1] * xa
+                o2 += m2 * jac[a, c + 2] * xa
+        out[off + c] = o0
+        out[off + c + 1] = o1
+        out[off + c + 2] = o2
 
 
 @njit(cache=True, _nrt=False)
@@ -910,6 +927,13 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     bspl = np.empty(ny)
     rc5 = np.empty(ny)
     e_save = np.empty((nf, N_EO))
+    # the interior-peak search only feeds peaks (t >= stats_from) and the first episode's peak; elsewhere it is
+    # skipped, unless a groove contact's closest-point memory (psi_f, the next Newton's start) would see the
+    # force evaluation inside the step: then skipping would change the trajectory in the last bits
+    peak_memory = False
+    for j in range(nf):
+        if ftype[j] == FRC_GROOVE_CL:
+            peak_memory = True
     accelerations(t, y, model, state, work, k[0])
     for j in range(lam.shape[0]):
         lam_prev[j] = lam[j]
@@ -1061,7 +1085,8 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 if in_contact[j] and first[j, 3] == 1.0:
                     first[j, 3] = 2.0  # first episode finished
                 in_contact[j] = False
-            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j):
+            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j) and (
+                    peak_memory or t >= stats_from or first[j, 3] == 1.0):
                 fi, u_pk = _interior_peak(model, j, v_imp[j], h_try, pen_start[j], pdot_start[j], pe,
                                           eout[j, EO_PENDOT])
                 if fi > abs(fn):
