@@ -20,7 +20,8 @@ Cases (each also records its CPU time, best of ``--repeat``):
 ``save --restitution-velocity 0`` runs the machine's pairs with that restitution velocity (m/s) instead of
 their default (0: the published hysteresis laws, as before benchmarks/README.md sec. 6).
 
-The comparison prints the relative difference of every number and the largest per case; the tolerances
+The comparison prints the relative difference of every number, the largest per case and whether every output
+sample (states, element outputs, multipliers; SHA-256 of their bytes) is bitwise the same; the tolerances
 to hold it against are those of the validation tests (tests/test_multibody.py: peaks to 1-2 %, mean and
 RMS to 1 %).  The statistics over revolutions of the clearance joints are chaotic at the 1 % level (see
 benchmarks/README.md), so differences of that size between two correct engines are expected there;
@@ -63,6 +64,16 @@ def _reference_machine():
     return m.model_copy(update={"clearance": cl})
 
 
+def _digest(*arrays) -> str:
+    """SHA-256 of the arrays' bytes: equal digests = bitwise equal outputs (every sample, not only statistics)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(a).tobytes())
+    return h.hexdigest()
+
+
 def _best(fn, repeat: int):
     out, cpu = None, math.inf
     fn()  # warm-up: compile or load the numba cache
@@ -81,7 +92,8 @@ def harvester(repeat: int) -> dict:
     vals: dict = {}
     for key in ("collision_force_N", "load_moment_Nm", "drive_moment_Nm"):
         _flat(key, summ[key], vals)
-    return {"values": vals, "steps": summ["steps"], "rejected": summ["rejected_steps"], "cpu_s": cpu}
+    return {"values": vals, "steps": summ["steps"], "rejected": summ["rejected_steps"], "cpu_s": cpu,
+            "digest": _digest(res.y, res.elements, res.multipliers, res.peaks, res.first)}
 
 
 def slider_crank(repeat: int) -> dict:
@@ -95,7 +107,8 @@ def slider_crank(repeat: int) -> dict:
     vals: dict = {}
     _flat("joints", s["joints"], vals)
     _flat("drivers", s["drivers"], vals)
-    return {"values": vals, "steps": s["steps"], "rejected": s["rejected_steps"], "cpu_s": cpu}
+    return {"values": vals, "steps": s["steps"], "rejected": s["rejected_steps"], "cpu_s": cpu,
+            "digest": _digest(res.y, res.elements, res.multipliers, res.peaks, res.first)}
 
 
 def coupled(repeat: int) -> dict:
@@ -113,7 +126,8 @@ def coupled(repeat: int) -> dict:
         vals[f"contact.{name}.peak"] = float(f.max())
         vals[f"contact.{name}.rms"] = float(np.sqrt(np.mean(f**2)))
     info = res.result.info
-    return {"values": vals, "steps": int(info[0]), "rejected": int(info[1]), "cpu_s": cpu}
+    return {"values": vals, "steps": int(info[0]), "rejected": int(info[1]), "cpu_s": cpu,
+            "digest": _digest(res.result.y, res.result.elements, res.result.multipliers)}
 
 
 CASES = {"harvester": harvester, "slider_crank": slider_crank, "coupled": coupled}
@@ -138,6 +152,9 @@ def compare(a: dict, b: dict) -> None:
                 worst = (rel, k)
             print(f"  {k:55s} {x:14.6g} {y:14.6g}  {rel:9.2e}")
         print(f"  largest relative difference: {worst[0]:.2e} ({worst[1]})")
+        if "digest" in a[case] and "digest" in b[case]:
+            same = a[case]["digest"] == b[case]["digest"]
+            print(f"  every output sample (states, element outputs, multipliers) bitwise equal: {'yes' if same else 'NO'}")
 
 
 def main(argv=None) -> None:

@@ -62,8 +62,16 @@ FF_ROW, FF_REACT = FF_SJX, FF_SJY
 EO_FN, EO_PEN, EO_PENDOT, EO_FT = range(4)
 N_EO = 4
 
+# Reference counting (benchmarks/README.md sec. 10).  Every function of this module but ``integrate`` is compiled
+# with ``_nrt=False``: none of them allocates, and without the numba runtime a call no longer increments and
+# decrements the reference count of every array it receives (an atomic operation each; ``accelerations`` takes
+# the 31 arrays of the model, state and work tuples and passes most of them on to ``constraints`` and
+# ``forces``): ~1/3 of the cost of a right-hand side.  Arrays stay owned by ``integrate`` (or the Python caller)
+# for the whole call, so nothing is freed early.  Such a function must not allocate (np.empty, copies, array
+# expressions) or return an array: numba refuses to compile it without the runtime.
 
-@njit(cache=True)
+
+@njit(cache=True, _nrt=False)
 def _point(q, qd, b, sx, sy):
     """Global position, velocity and rotated offset A s of body point s; ground if b < 0."""
     if b < 0:
@@ -76,14 +84,14 @@ def _point(q, qd, b, sx, sy):
     return q[3 * b] + ax, q[3 * b + 1] + ay, qd[3 * b] - w * ay, qd[3 * b + 1] + w * ax, ax, ay, w
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _body_origin(q, qd, b):
     if b < 0:
         return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     return q[3 * b], q[3 * b + 1], qd[3 * b], qd[3 * b + 1], q[3 * b + 2], qd[3 * b + 2]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def pitch_point(psi, cam):
     """Pitch curve P, P', P'' of a cam (cam = [law, h, rise, far, ret, s0, e]) at parameter psi."""
     s, s1, s2, s3 = _follower_svaj_scalar(psi, int(cam[0]), cam[1], cam[2], cam[3], cam[4])
@@ -98,7 +106,7 @@ def pitch_point(psi, cam):
     return px, py, p1x, p1y, p2x, p2y
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def pitch_foot(lx, ly, cam, guess):
     """Closest point of the pitch curve to (lx, ly) in the cam frame (Newton on the curve parameter).
 
@@ -133,7 +141,7 @@ def pitch_foot(lx, ly, cam, guess):
     return psi, px, py, nx, ny, dist, kappa
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, gam):
     """Fill Phi (phi), its Jacobian (jac), nu = -Phi_t and gamma for all constraints at (t, q, qd).
 
@@ -249,7 +257,7 @@ def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, 
             nu[r] = cflt[k, CF_SPEED]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _law(laws, law, pen, pen_dot, v_imp, k, n, e, c, d):
     """Normal force of registered law number ``law`` (berryshaker.contact.laws), 0 when open."""
     if pen <= 0.0:
@@ -257,7 +265,7 @@ def _law(laws, law, pen, pen_dot, v_imp, k, n, e, c, d):
     return laws[law](pen, pen_dot, v_imp, k, n, e, c, d)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _apply(Q, b, fx, fy, armx, army):
     if b >= 0:
         Q[3 * b] += fx
@@ -265,7 +273,7 @@ def _apply(Q, b, fx, fy, armx, army):
         Q[3 * b + 2] += armx * fy - army * fx
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def table_torque(fflt, k, w):
     """Torque of the torque-speed table of force element k at relative speed w: linear interpolation between
     the points (speeds increasing), end values held outside (as numpy.interp)."""
@@ -286,7 +294,7 @@ def table_torque(fflt, k, w):
     return y0 + (y1 - y0) * (w - x0) / (x1 - x0)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def accumulator_start(ftype, n_base, n_all):
     """First energy-accumulator coordinate, or -1 when the run has none.
 
@@ -305,7 +313,7 @@ def accumulator_start(ftype, n_base, n_all):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _power(Q, qd, n):
     """sum_i Q_i q'_i over the first n coordinates (rate of work of the forces accumulated in Q so far)."""
     p = 0.0
@@ -314,7 +322,7 @@ def _power(Q, qd, n):
     return p
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, psi_mem_f,
            ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p, Q, eout, laws):
     """Generalised applied forces Q: gravity, clearance contacts (normal + friction), spring-dampers,
@@ -537,13 +545,13 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
         Q[acc0 + ftype.shape[0]] = _power(Q, qd, n_phys) - p_before
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _block_end(crow, k, m):
     """One past the last row of constraint block k (blocks are numbered in row order)."""
     return crow[k + 1] if k + 1 < crow.shape[0] else m
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _row_dot(jac, a, bi, bj, v):
     """Phi_q[a] . v over the columns of bodies bi and bj (the only nonzero ones of row a)."""
     acc = 0.0
@@ -554,7 +562,7 @@ def _row_dot(jac, a, bi, bj, v):
     return acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _row_dot_at(jac, a, bi, bj, v, off):
     """Phi_q[a] . v[off:off + n] over the columns of bodies bi and bj (as :func:`_row_dot`, without a slice)."""
     acc = 0.0
@@ -567,7 +575,7 @@ def _row_dot_at(jac, a, bi, bj, v, off):
     return acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _body_term(jac, a, b, body, minv):
     """sum_c Phi_q[a, c] M^-1_c Phi_q[b, c] over the three coordinates c of one body."""
     i = 3 * body
@@ -575,7 +583,7 @@ def _body_term(jac, a, b, body, minv):
             + jac[a, i + 2] * minv[i + 2] * jac[b, i + 2])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _schur(cint, crow, jac, minv, W, m):
     """W = Phi_q M^-1 Phi_q^T (M diagonal), assembled block by block over the bodies two constraint blocks share.
 
@@ -608,24 +616,41 @@ def _schur(cint, crow, jac, minv, W, m):
                     W[b, a] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _add_jac_t(cint, crow, jac, x, scale, minv, out, off, m):
-    """out[off + c] += scale M^-1_c (Phi_q^T x)_c over the body columns of every row (sparse Phi_q^T x)."""
-    for k in range(crow.shape[0]):
-        bi, bj = cint[k, 0], cint[k, 1]
-        if bj == bi:
-            bj = -1
-        for a in range(crow[k], _block_end(crow, k, m)):
-            xa = scale * x[a]
-            if bi >= 0:
-                for c in range(3 * bi, 3 * bi + 3):
-                    out[off + c] += minv[c] * jac[a, c] * xa
-            if bj >= 0:
-                for c in range(3 * bj, 3 * bj + 3):
-                    out[off + c] += minv[c] * jac[a, c] * xa
+    """out[off + c] += scale M^-1_c (Phi_q^T x)_c over the body columns of every row (sparse Phi_q^T x).
+
+    Body by body: the three sums of a body are kept in registers while the rows of the blocks that touch it are
+    added in row order (the order of a row-by-row sweep, so the sums are bitwise those of one)."""
+    nc = crow.shape[0]
+    nb = 0
+    for k in range(nc):
+        if cint[k, 0] >= nb:
+            nb = cint[k, 0] + 1
+        if cint[k, 1] >= nb:
+            nb = cint[k, 1] + 1
+    for b in range(nb):
+        c = 3 * b
+        o0 = out[off + c]
+        o1 = out[off + c + 1]
+        o2 = out[off + c + 2]
+        m0 = minv[c]
+        m1 = minv[c + 1]
+        m2 = minv[c + 2]
+        for k in range(nc):
+            if cint[k, 0] != b and cint[k, 1] != b:
+                continue
+            for a in range(crow[k], _block_end(crow, k, m)):
+                xa = scale * x[a]
+                o0 += m0 * jac[a, c] * xa
+                o1 += m1 * jac[a, c + 1] * xa
+                o2 += m2 * jac[a, c + 2] * xa
+        out[off + c] = o0
+        out[off + c + 1] = o1
+        out[off + c + 2] = o2
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _spd_solve(W, b, m):
     """Solve W x = b in place (b <- x) for a symmetric positive definite W (Cholesky, W overwritten)."""
     # row by row (left-looking), skipping the leading zeros of each row of the lower triangle: the rows of W
@@ -662,7 +687,7 @@ def _spd_solve(W, b, m):
         b[i] = s / W[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def accelerations(t, y, model, state, work, dy):
     """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
@@ -692,7 +717,7 @@ def accelerations(t, y, model, state, work, dy):
         _add_jac_t(cint, crow, jac, lam, -1.0, minv, dy, n, m)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def project(t, y, model, state, work, iters):
     """Mass-weighted projection of positions (Newton) and velocities onto Phi = 0, Phi_q q' = nu."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
@@ -729,7 +754,7 @@ def project(t, y, model, state, work, iters):
     return res
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
     """Largest contact force inside a step from a cubic Hermite interpolation of the penetration
     (p0, d0) -> (p1, d1) over h (O(h^4) in the penetration, O(h^3) in its rate), sampled at 15 interior
@@ -778,7 +803,7 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
 _C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
     """Output sample io: state, element outputs, multipliers (element-wise loops: a slice assignment would
     compile numpy's broadcasting and its error messages into the integrator, seconds of cold start)."""
@@ -791,7 +816,7 @@ def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
         out_lam[io, a] = lam[a]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
     """State at t0 + th h inside an accepted DOPRI5 step y0 -> y1 (continuous extension of order 4;
     bspl = h k1 - (y1 - y0), rc5 = h sum_i D_i k_i; Hairer, Norsett & Wanner sec. II.6)."""
@@ -801,7 +826,7 @@ def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
         out[i] = y0[i] + th * (yd + th1 * (bspl[i] + th * (yd - h * k[6, i] - bspl[i] + th1 * rc5[i])))
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _hermite_crossing(p0, d0, p1, d1, h, target, iterations):
     """Bracket (lo, hi), as fractions of a step of length h, of the first upward crossing of ``target`` by the
     cubic Hermite interpolant of a penetration with values p0, p1 and rates d0, d1 at the step's ends (error
@@ -833,7 +858,7 @@ def _hermite_crossing(p0, d0, p1, d1, h, target, iterations):
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _onset_fraction(p0, d0, p1, d1, h):
     """Fraction of a step of length h at which a contact's penetration reaches EVENT_TOL / 2 (the onset).
 
@@ -847,7 +872,7 @@ def _onset_fraction(p0, d0, p1, d1, h):
     return _hermite_crossing(p0, d0, p1, d1, h, 0.5 * EVENT_TOL, 40)[1]
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def _crossing_rate(p0, d0, p1, d1, h):
     """Penetration rate at the first zero of a contact's penetration inside a step of length h (the impact
     velocity of the normal laws, docs/contact.md: the approach speed at first contact, penetration 0).
@@ -1063,7 +1088,10 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 if in_contact[j] and first[j, 3] == 1.0:
                     first[j, 3] = 2.0  # first episode finished
                 in_contact[j] = False
-            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j):
+            # the interior-peak search only feeds peaks (t >= stats_from) and the first episode's peak: skipped
+            # elsewhere (its force evaluation leaves the integration state and the output samples alone: psi restored)
+            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j) and (
+                    t >= stats_from or first[j, 3] == 1.0):
                 fi, u_pk = _interior_peak(model, j, v_imp[j], h_try, pen_start[j], pdot_start[j], pe,
                                           eout[j, EO_PENDOT])
                 if fi > abs(fn):
@@ -1080,6 +1108,8 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                     for jj in range(nf):
                         for c in range(N_EO):
                             eout[jj, c] = e_save[jj, c]
+                    for i in range(psi_f.shape[0]):
+                        psi_f[i] = psi_f_keep[i]
                     if f_in > abs(fn):
                         fn = f_in
             if first[j, 3] == 1.0 and abs(fn) > first[j, 2]:
@@ -1125,7 +1155,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     info[5] = max_res
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def fint_is_contact(model, j):
     """True where force element ``j`` is a contact (clearance joint or modal-body contact)."""
     ftype = model[7]

@@ -1,0 +1,113 @@
+"""Engine cost per accepted step against the hand-reduced slider-crank, and one harvester run, before / after.
+
+Figures (benchmarks/README.md sec. 10), all CPU time (``time.process_time``), best of ``--repeat`` after a warm-up
+call (numba compilation or cache load excluded):
+
+* slider-crank (examples/slider_crank_clearance.toml, 2 crank revolutions, output every 10 us) at rtol 1e-5, 1e-7,
+  1e-9: marginal us per accepted step = (CPU of the 24 ms run - CPU of a 0.1 ms run) / (difference in steps),
+  for the engine and for the hand-reduced model (``reduced_slider_crank.py``), and their ratio;
+* harvester (reference machine, clearances A B C F, 2 cam revolutions, ``drives.simulation.simulate_multibody``):
+  CPU per run and accepted steps.
+
+``--compare OLD_SRC`` runs the same figures with another source tree (a ``git archive`` of the starting commit's
+``src``) and this one in alternating child processes (``--rounds`` pairs), so that both share the machine's load,
+and prints the best of every figure over the rounds:
+
+    .venv/bin/python benchmarks/bench_step_cost.py --compare /tmp/lean_base/src --rounds 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+RTOLS = (1e-5, 1e-7, 1e-9)
+OUTPUT_STEP = 1e-5
+
+
+def _best(fn, repeat):
+    out, cpu = fn(), math.inf  # warm-up
+    for _ in range(repeat):
+        c0 = time.process_time()
+        out = fn()
+        cpu = min(cpu, time.process_time() - c0)
+    return out, cpu
+
+
+def figures(repeat: int) -> dict:
+    """The figures of the module docstring, measured in this process."""
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    from reduced_slider_crank import simulate_reduced_slider_crank
+
+    from berryshaker.config import reference_machine
+    from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.multibody.engine import simulate_mechanism
+    from berryshaker.multibody.spec import load_mechanism
+
+    spec = load_mechanism(ROOT / "examples" / "slider_crank_clearance.toml")
+    duration = 2 * 2 * math.pi / abs(spec.drivers[0].speed)
+    out: dict = {}
+    for rtol in RTOLS:
+        r, cpu = _best(lambda: simulate_mechanism(spec, duration=duration, rtol=rtol, output_step=OUTPUT_STEP), repeat)
+        r0, cpu0 = _best(lambda: simulate_mechanism(spec, duration=1e-4, rtol=rtol, output_step=OUTPUT_STEP), repeat)
+        q, cpu_q = _best(lambda: simulate_reduced_slider_crank(spec, duration, rtol, OUTPUT_STEP), repeat)
+        q0, cpu_q0 = _best(lambda: simulate_reduced_slider_crank(spec, 1e-4, rtol, OUTPUT_STEP), repeat)
+        n, n0 = int(r.info[0]), int(r0.info[0])
+        out[f"{rtol:.0e}"] = {"engine_steps": n, "engine_us": (cpu - cpu0) / (n - n0) * 1e6,
+                              "reduced_steps": q["steps"],
+                              "reduced_us": (cpu_q - cpu_q0) / (q["steps"] - q0["steps"]) * 1e6}
+    m = reference_machine()
+    (res, summ), cpu = _best(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
+    out["harvester"] = {"cpu_s": cpu, "steps": summ["steps"]}
+    return out
+
+
+def _print(label: str, f: dict) -> None:
+    print(f"{label}: harvester {f['harvester']['cpu_s'] * 1e3:.0f} ms CPU, {f['harvester']['steps']} steps")
+    for rtol in RTOLS:
+        g = f[f"{rtol:.0e}"]
+        print(f"  rtol {rtol:.0e}: engine {g['engine_steps']:5d} steps {g['engine_us']:6.2f} us/step | reduced "
+              f"{g['reduced_steps']:5d} steps {g['reduced_us']:5.2f} us/step | ratio {g['engine_us'] / g['reduced_us']:4.1f}x")
+
+
+def _min_over(runs: list[dict]) -> dict:
+    best = json.loads(json.dumps(runs[0]))
+    for f in runs[1:]:
+        best["harvester"]["cpu_s"] = min(best["harvester"]["cpu_s"], f["harvester"]["cpu_s"])
+        for rtol in RTOLS:
+            for key in ("engine_us", "reduced_us"):
+                best[f"{rtol:.0e}"][key] = min(best[f"{rtol:.0e}"][key], f[f"{rtol:.0e}"][key])
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--rounds", type=int, default=2)
+    ap.add_argument("--compare", default=None, help="src directory of the 'before' version")
+    ap.add_argument("--json", action="store_true", help="print the figures as JSON (child mode)")
+    a = ap.parse_args()
+    if a.compare is None:
+        f = figures(a.repeat)
+        print(json.dumps(f)) if a.json else _print("this tree", f)
+        return
+    runs: dict = {"before": [], "after": []}
+    for _ in range(a.rounds):
+        for label, src in (("before", a.compare), ("after", str(ROOT / "src"))):
+            env = dict(os.environ, PYTHONPATH=os.path.abspath(src))
+            cmd = [sys.executable, os.path.abspath(__file__), "--json", "--repeat", str(a.repeat)]
+            out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+            runs[label].append(json.loads(out.strip().splitlines()[-1]))
+    for label in ("before", "after"):
+        _print(f"{label} (best of {a.rounds} child processes x {a.repeat})", _min_over(runs[label]))
+
+
+if __name__ == "__main__":
+    main()
