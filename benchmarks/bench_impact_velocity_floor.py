@@ -25,7 +25,7 @@ Usage::
 
     .venv/bin/python benchmarks/bench_impact_velocity_floor.py run /tmp/floor.json [--part plain|coupled|both]
         [--floors 0 1e-5 3e-5 1e-4 3e-4 1e-3] [--sets 8] [--replicates 6]
-    .venv/bin/python benchmarks/bench_impact_velocity_floor.py table /tmp/floor.json
+    .venv/bin/python benchmarks/bench_impact_velocity_floor.py table /tmp/floor.json [/tmp/more_floors.json ...]
 
 (benchmarks/README.md sec. 9).
 """
@@ -188,8 +188,8 @@ def _table(title: str, per_floor: dict[str, dict[str, dict[str, float]]], keys: 
                 d0, se0, _ = paired(base, x)
                 prev = {u: v[k] for u, v in per_floor[floors[i - 1]].items() if k in v}
                 d1, se1, _ = paired(prev, x)
-                s0 = "" if abs(d0) < 2 * se0 else "*"
-                s1 = "" if abs(d1) < 2 * se1 else "†"
+                s0 = "" if abs(d0) < 2 * se0 or d0 == se0 == 0 else "*"
+                s1 = "" if abs(d1) < 2 * se1 or d1 == se1 == 0 else "†"
                 if s0:
                     flags[f].append(k)
                 cell += f"; Δ0 {d0:+.3g}±{se0:.2g}{s0}; Δprev {d1:+.3g}±{se1:.2g}{s1}"
@@ -211,7 +211,11 @@ def _cost(title: str, runs: dict) -> None:
 
 
 def table(args) -> None:
-    data = _load(Path(args.path))
+    data = {"plain": {}, "coupled": {}}
+    for path in args.paths:  # several measurements (e.g. further floors) merge: keys are floor|unit
+        d = _load(Path(path))
+        for part in data:
+            data[part].update(d.get(part, {}))
     for part in ("plain", "coupled"):
         if not data[part]:
             continue
@@ -232,8 +236,8 @@ def main(argv=None) -> None:
     r.add_argument("--floors", type=float, nargs="+", default=list(FLOORS))
     r.add_argument("--sets", type=int, default=8, help="drawn clearance sets besides the reference (plain)")
     r.add_argument("--replicates", type=int, default=6, help="L9 replicates (coupled)")
-    t = sub.add_parser("table", help="print the tables of a measurement")
-    t.add_argument("path")
+    t = sub.add_parser("table", help="print the tables of one or more measurements (merged)")
+    t.add_argument("paths", nargs="+")
     args = ap.parse_args(argv)
     run(args) if args.cmd == "run" else table(args)
 
