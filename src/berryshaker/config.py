@@ -194,6 +194,27 @@ def machine_table(machine) -> list[tuple[str, str, str]]:
     return rows
 
 
+def _restitution_velocity_text(machine, p: str, c) -> str:
+    """``config show`` value of pair p's restitution velocity: the value and where it comes from."""
+    from berryshaker.contact.pair_law import default_restitution_velocity
+
+    v = c.restitution_velocity
+    if not v > 0:
+        return "0 m/s: e at every impact speed (the published law)"
+    text = f"v_ref = {v:.3g} m/s"
+    if c.tags.get("restitution_velocity") == "derived":
+        mat = machine.clearance[p].geometry().material_pair
+        from berryshaker.contact.wear import MATERIAL_PAIRS
+
+        lubricated = mat in MATERIAL_PAIRS and MATERIAL_PAIRS[mat].lubricated
+        if lubricated and v == default_restitution_velocity(mat)[0]:
+            return (text + f" ({mat}, lubricated: numerical floor of the published law, results independent of it "
+                    "below; docs/contact.md sec. 6.4): e for impacts at v_ref and faster; slower ones: the damping "
+                    "at v_ref")
+        text += f" (yield velocity of {mat})"
+    return text + ": e for impacts at v_ref and faster; slower ones: the damping at v_ref (Hunt-Crossley, e -> 1 as v -> 0)"
+
+
 def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
     """(key, value, provenance tag) rows of every clearance pair's resolved contact law, for ``config show``.
 
@@ -231,13 +252,7 @@ def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
             rows.append((f"{key} damping", f"hysteresis ({c.law}), restitution e = {c.restitution:g}, factor "
                          f"f(e) = {float(hysteresis_factor(c.restitution, c.law)):.4g}", tg["restitution"]))
             if c.uses("restitution_velocity"):
-                v = c.restitution_velocity
-                rows.append((f"{key} restitution velocity",
-                             (f"v_ref = {v:.3g} m/s" + (f" (yield velocity of {c.geometry.material_pair if c.geometry else 'the materials'})"
-                                                        if tg.get("restitution_velocity") == "derived" else "")
-                              + ": e for impacts at v_ref and faster; slower ones: the damping at v_ref "
-                              "(Hunt-Crossley, e -> 1 as v -> 0)")
-                             if v > 0 else "0 m/s: e at every impact speed (the published law)",
+                rows.append((f"{key} restitution velocity", _restitution_velocity_text(machine, p, c),
                              tg.get("restitution_velocity", "default")))
         if c.uses("damping_depth"):
             rows.append((f"{key} damping ramp", f"full damping at {c.damping_depth * 1e3:g} mm", tg["damping_depth"]))

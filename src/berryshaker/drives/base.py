@@ -84,7 +84,8 @@ class ClearancePair(StrictModel):
     damping_depth: Length = 1e-5
     restitution: float = Field(0.9, gt=0, le=1)  # [assumed] steel on steel (Flores & Ambrosio 2004 use 0.9)
     # v_ref (m/s) of the hysteresis laws: ``restitution`` holds from this impact speed up, slower impacts get the
-    # damping of one at v_ref (restitution -> 1 as the speed -> 0); None: pair_law.DEFAULT_RESTITUTION_VELOCITY
+    # damping of one at v_ref (restitution -> 1 as the speed -> 0); None: pair_law.default_restitution_velocity
+    # (the yield velocity of a dry pair, the numerical floor LUBRICATED_RESTITUTION_VELOCITY of a lubricated one)
     restitution_velocity: Annotated[float, _q("speed"), Field(ge=0, json_schema_extra=_d("m/s"))] | None = None
     levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
     fit: str | None = None  # ISO 286 fit on the drawing, e.g. "H8/f7" (hole/shaft at ``diameter``)
