@@ -2,9 +2,10 @@
 
 The reference machine with steel-on-steel clearance contacts (clearances A, B, C, F at their reference sizes) is
 run for 6 cam revolutions at the default relative tolerance of harvester runs
-(``berryshaker.drives.simulation.simulate_multibody``) and at a 10x tighter one.  The statistics over revolutions
-2..6 that the summaries report, per clearance pair the mean, RMS and 95th percentile of the collision force, and
-the mean drive moment, must agree within the tolerances below.
+(``berryshaker.drives.simulation.simulate_multibody``) and at a 10x tighter one, each as the mean of three runs at
+0.9, 1 and 1.1x the tolerance (:data:`NEIGHBOURS`).  The statistics over revolutions 2..6 that the summaries
+report, per clearance pair the mean, RMS and 95th percentile of the collision force, and the mean drive moment,
+must agree within the tolerances below.
 
 Why statistics and these tolerances (docs/multibody.md, "Integrator"): the impact sequence of the clearance
 joints is chaotic, so single impact peaks differ by 15 % per revolution between two tolerances and are not
@@ -56,9 +57,21 @@ def default_rtol() -> float:
     return inspect.signature(simulate_multibody).parameters["rtol"].default
 
 
+#: each tolerance is run at these multiples and the statistics averaged (a small ensemble): a single run's
+#: statistics over 5 revolutions move by a few per cent with any round-off change (chaos), which made a
+#: one-run comparison a lottery (F.p95 at 1e-6 against 1e-7: 626 vs 682 N, 8.2 %, after a change that only
+#: moved the cam's Newton guesses; over 12 clearance sets the same comparison is -3.2 +- 2.6 %)
+NEIGHBOURS = (0.9, 1.0, 1.1)
+
+
+def _ensemble(rtol: float) -> dict[str, float]:
+    stats = [_statistics(rtol * f) for f in NEIGHBOURS]
+    return {k: float(np.mean([s[k] for s in stats])) for k in stats[0]}
+
+
 @pytest.fixture(scope="module")
 def runs(default_rtol):
-    return _statistics(default_rtol), _statistics(default_rtol / 10)
+    return _ensemble(default_rtol), _ensemble(default_rtol / 10)
 
 
 def test_default_rtol_is_the_checked_one(default_rtol):
@@ -77,3 +90,9 @@ def test_mean_drive_moment_converged(runs):
     loose, tight = runs
     assert loose["drive.mean"] == pytest.approx(tight["drive.mean"], rel=TOL_DRIVE)
     assert tight["drive.mean"] > 0.0
+
+
+if __name__ == "__main__":  # print the comparison
+    loose, tight = _ensemble(1e-6), _ensemble(1e-7)
+    for k in tight:
+        print(f"{k}: {loose[k]:.5g} vs {tight[k]:.5g}  {100 * (loose[k] / tight[k] - 1):+.2f} %")
