@@ -7,7 +7,12 @@ call (numba compilation or cache load excluded):
   1e-9: marginal us per accepted step = (CPU of the 24 ms run - CPU of a 0.1 ms run) / (difference in steps),
   for the engine and for the hand-reduced model (``reduced_slider_crank.py``), and their ratio;
 * harvester (reference machine, clearances A B C F, 2 cam revolutions, ``drives.simulation.simulate_multibody``):
-  CPU per run and accepted steps.
+  CPU per run and accepted steps;
+* coupled (the reference machine driven past its bush, ``harvest.coupled.coupled_mechanism``, rtol 1e-6, output
+  every 0.1 ms as the study's replicate runs): CPU of the compiled integration alone (no post-processing) and
+  accepted steps;
+* replicate (``study.runs.replicate_run``, the study's unit of work: the coupled run from a perturbed start, its
+  post-processing and the stem-force table of one branch class): CPU per call.
 
 ``--compare OLD_SRC`` runs the same figures with another source tree (a ``git archive`` of the starting commit's
 ``src``) and this one in alternating child processes (``--rounds`` pairs), so that both share the machine's load,
@@ -66,11 +71,50 @@ def figures(repeat: int) -> dict:
     m = reference_machine()
     (res, summ), cpu = _best(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
     out["harvester"] = {"cpu_s": cpu, "steps": summ["steps"]}
+    out["coupled"] = _coupled(repeat)
+    out["replicate"] = _replicate(repeat)
     return out
 
 
+def _replicate(repeat: int) -> dict:
+    """CPU of one replicate job of the study's virtual L9 (reference machine, middle branch class, seed (1, 0))."""
+    from berryshaker.config import reference_machine
+    from berryshaker.study.runs import replicate_run
+
+    m = reference_machine()
+    data, cl = m.model_dump(mode="json"), dict(m.clearance_sizes())
+    scale = m.harvest.branch_classes[len(m.harvest.branch_classes) // 2]
+    _, cpu = _best(lambda: replicate_run(data, cl, scale, [1, 0]), repeat)
+    return {"cpu_s": cpu}
+
+
+def _coupled(repeat: int) -> dict:
+    """CPU of the compiled integration of the study's coupled drive-past run (prepared arrays, no post-processing)."""
+
+    from berryshaker.config import reference_machine
+    from berryshaker.harvest.coupled import coupled_mechanism
+    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody.engine import prepare_run
+
+    spec, _ = coupled_mechanism(reference_machine())
+
+    def one():
+        r = prepare_run(spec, rtol=1e-6, output_step=1e-4)
+        r.info[0] = r.budget
+        c0 = time.process_time()
+        mb.integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from, r.out_y,
+                     r.out_e, r.out_lam, r.peaks, r.first, r.info)
+        return time.process_time() - c0, int(r.info[0])
+
+    one()  # warm-up
+    runs = [one() for _ in range(repeat)]
+    return {"cpu_s": min(c for c, _ in runs), "steps": runs[0][1]}
+
+
 def _print(label: str, f: dict) -> None:
-    print(f"{label}: harvester {f['harvester']['cpu_s'] * 1e3:.0f} ms CPU, {f['harvester']['steps']} steps")
+    print(f"{label}: harvester {f['harvester']['cpu_s'] * 1e3:.0f} ms CPU, {f['harvester']['steps']} steps; coupled "
+          f"drive-past (integration) {f['coupled']['cpu_s'] * 1e3:.0f} ms CPU, {f['coupled']['steps']} steps; "
+          f"replicate job {f['replicate']['cpu_s'] * 1e3:.0f} ms CPU")
     for rtol in RTOLS:
         g = f[f"{rtol:.0e}"]
         print(f"  rtol {rtol:.0e}: engine {g['engine_steps']:5d} steps {g['engine_us']:6.2f} us/step | reduced "
@@ -80,7 +124,8 @@ def _print(label: str, f: dict) -> None:
 def _min_over(runs: list[dict]) -> dict:
     best = json.loads(json.dumps(runs[0]))
     for f in runs[1:]:
-        best["harvester"]["cpu_s"] = min(best["harvester"]["cpu_s"], f["harvester"]["cpu_s"])
+        for case in ("harvester", "coupled", "replicate"):
+            best[case]["cpu_s"] = min(best[case]["cpu_s"], f[case]["cpu_s"])
         for rtol in RTOLS:
             for key in ("engine_us", "reduced_us"):
                 best[f"{rtol:.0e}"][key] = min(best[f"{rtol:.0e}"][key], f[f"{rtol:.0e}"][key])

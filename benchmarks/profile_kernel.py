@@ -5,7 +5,7 @@ state taken from a run (a sample with the most closed contacts), CPU time (``tim
 3 after a warm-up.  Pieces: the right-hand side (``accelerations``), its parts (``constraints``, ``forces``,
 Schur complement + Cholesky), and the interior-peak search of one closed contact (``_interior_peak``).
 
-    .venv/bin/python benchmarks/profile_kernel.py [--case slider_crank|harvester] [--calls 200000]
+    .venv/bin/python benchmarks/profile_kernel.py [--case slider_crank|harvester|coupled] [--calls 200000]
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ def _time(fn, *args):
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--case", default="slider_crank", choices=("slider_crank", "harvester"))
+    ap.add_argument("--case", default="slider_crank", choices=("slider_crank", "harvester", "coupled"))
     ap.add_argument("--calls", type=int, default=200_000)
     a = ap.parse_args()
     from berryshaker.multibody.engine import prepare_run, simulate_mechanism
@@ -94,6 +94,12 @@ def main() -> None:
         spec = load_mechanism(ROOT / "examples" / "slider_crank_clearance.toml")
         duration = 2 * 2 * math.pi / abs(spec.drivers[0].speed)
         kw = dict(duration=duration, rtol=1e-7, output_step=1e-5)
+    elif a.case == "coupled":  # the study's unit of work: the drive-past run with the bush (harvest.coupled)
+        from berryshaker.config import reference_machine
+        from berryshaker.harvest.coupled import coupled_mechanism
+
+        spec, _ = coupled_mechanism(reference_machine())
+        kw = dict(rtol=1e-6, output_step=1e-4)
     else:
         from berryshaker.config import reference_machine
         from berryshaker.drives import drive_of

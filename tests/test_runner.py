@@ -255,7 +255,7 @@ def _gone(pids, timeout):
 
 def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
     psutil = pytest.importorskip("psutil")
-    jobs = [dict(x=float(i), delay=0.25) for i in range(40)]
+    jobs = [dict(x=float(i), delay=0.5) for i in range(40)]  # 10 s of work on 2 workers: "promptly" is 4x less
     proc = _start(tmp_path, "slow_square", jobs)
     try:
         cache = tmp_path / "cache"
@@ -268,7 +268,7 @@ def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 130 and took < 2.5, (proc.returncode, took, err)
+    assert proc.returncode == 130 and took < 4.0, (proc.returncode, took, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "run the same command again" in lines[0], err
     entries = [read_cache_entry(p, p.stem)[0] for p in cache.rglob("*.json")]

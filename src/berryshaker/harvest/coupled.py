@@ -350,12 +350,14 @@ class BranchMotion:
         cum = _int.cumulative_trapezoid(prod, m.z, axis=-1, initial=0.0)
         j = np.clip(np.searchsorted(m.z, zs) - 1, 0, len(m.z) - 2)
         wgt = (zs - m.z[j]) / (m.z[j + 1] - m.z[j])
-        u, v = np.zeros((len(zs), len(self.t))), np.zeros((len(zs), len(self.t)))
-        for i in range(len(zs)):
-            g = (1 - wgt[i]) * cum[:, :, j[i]] + wgt[i] * cum[:, :, j[i] + 1]
-            eg = self.eta @ g
-            u[i] = -0.5 * np.sum(eg * self.eta, axis=1)
-            v[i] = -np.sum(eg * self.etad, axis=1)
+        g = (1 - wgt) * cum[:, :, j] + wgt * cum[:, :, j + 1]  # (n_modes, n_modes, n_z), symmetric in the modes
+        nm = g.shape[0]
+        gz = g.reshape(nm * nm, len(zs))
+        # eta^T G eta and eta^T G eta' for every time and position: two matrix products over the mode pairs
+        pair = (self.eta[:, :, None] * self.eta[:, None, :]).reshape(len(self.t), nm * nm)
+        u = -0.5 * (pair @ gz).T
+        pair = (self.eta[:, :, None] * self.etad[:, None, :]).reshape(len(self.t), nm * nm)
+        v = -(pair @ gz).T
         return u, v
 
 
@@ -405,8 +407,10 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
     else:
         y, v, _ = motion.lateral(z)
         ya, va = motion.axial(z)
-    _, f_lat = stem_response(motion.t, y, v, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
-    _, f_ax = stem_response(motion.t, ya, va, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping)
+    _, f_lat = stem_response(motion.t, y, v, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping,
+                             displacement=False)
+    _, f_ax = stem_response(motion.t, ya, va, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping,
+                            displacement=False)
     if pedicel.include_weight:
         f_ax = f_ax + mass * GRAVITY
     return f_lat, f_ax, np.hypot(f_lat, f_ax)

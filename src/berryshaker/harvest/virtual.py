@@ -85,10 +85,12 @@ def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None
 
     One coupled drive-past run for the branch class ``scale`` (diameters scaled); the fruit is one-way
     coupled, so every (position, mass) is a post-processing of the same branch motion
-    (berryshaker.harvest.coupled.stem_forces, berryshaker.plant.pedicel).  With ``pedicel.rigid`` the
+    (the magnitude of berryshaker.harvest.coupled.stem_forces, computed for the whole table at once by
+    berryshaker.plant.pedicel.peak_stem_force).  With ``pedicel.rigid`` the
     table is m x the peak branch acceleration (eq. 16).
     """
-    from berryshaker.harvest.coupled import simulate_fruit_force, stem_forces
+    from berryshaker.harvest.coupled import simulate_fruit_force
+    from berryshaker.plant.pedicel import peak_stem_force
 
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale
@@ -103,11 +105,10 @@ def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None
     if pl.fruit.pedicel.rigid:
         a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
         return np.outer(a, masses), res
-    table = np.zeros((len(z), len(masses)))
     y, v, _ = motion.lateral(z)
-    at = (y, v, *motion.axial(z))
-    for j, mj in enumerate(masses):
-        table[:, j] = np.max(stem_forces(motion, at, mj, pl.fruit.pedicel)[2], axis=1)
+    ped = pl.fruit.pedicel
+    # the peak over time of stem_forces' magnitude for every (position, mass), in one compiled pass
+    table = peak_stem_force(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping, ped.include_weight)
     return table, res
 
 

@@ -85,12 +85,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         con_rows.append((row, mb.CON_ROWS[typ]))
         row += mb.CON_ROWS[typ]
 
-    def add_frc(name, kind, typ, bi, bj, cam=0, law=0, **vals):
+    def add_frc(name, kind, typ, bi, bj, cam=0, law=0, end=0, **vals):
         f = np.zeros(mb.N_FF)
         for key, v in vals.items():
             f[getattr(mb, "FF_" + key.upper())] = v
         ftype.append(typ)
-        fint.append([bi, bj, cam, law])
+        fint.append([bi, bj, cam, law, end])
         fflt.append(f)
         frc_names.append(name)
         frc_kinds.append(kind)
@@ -182,12 +182,16 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
         for station_row, c in enumerate(pl.contacts):
             cc = pl.contact if c.contact is None else c.contact
             cx, cy = (ax, ay) if c.axis is None else np.array(c.axis, float) / math.hypot(*c.axis)
-            add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, law=get_law(cc.law).code,
+            # the modal columns its shape row touches (a bush member's own block): the kernel's sums skip the zeros
+            nz = np.flatnonzero(phi_tab[station_row])
+            first, end = (int(nz[0]), int(nz[-1]) + 1) if nz.size else (0, 0)
+            add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, cam=first, end=end,
+                    law=get_law(cc.law).code,
                     six=c.finger_point[0], siy=c.finger_point[1], ux=cx, uy=cy, gap=c.engagement,
                     k=float(cc.stiffness), n=cc.exponent, e=cc.restitution,
                     c=slot_c(cc.law, cc.damping, cc.restitution_velocity), d=cc.damping_depth,
                     rpin=float(c.side), phi0=c.mid_lateral, row=c.row_offset, react=c.reaction_weight)
-            # fint[., 1] holds the phi_tab row of a branch contact
+            # fint[., 1] holds the phi_tab row of a branch contact, fint[., 2:5:2] its nonzero columns
 
     def arr(x, shape, dtype):
         return np.array(x, dtype=dtype).reshape(shape) if len(x) else np.zeros(shape, dtype)
@@ -195,7 +199,7 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     model = (mass, inertia, np.array(spec.mechanism.gravity, float),
              arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), 3), np.int64),
              arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64),
-             arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 4), np.int64),
+             arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 5), np.int64),
              arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table())
     audit = spec.simulation.energy_audit
     if audit is None:

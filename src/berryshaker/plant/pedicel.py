@@ -49,6 +49,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from scipy import signal
 
 from berryshaker.errors import ConfigError
@@ -121,29 +122,31 @@ def _filter(a, b, c, d, h, u):
     return signal.sosfilt(sos, u, axis=-1)
 
 
-def _one(t_step, m, k, c, y, v, acc):
+def _one(t_step, m, k, c, y, v, acc, displacement=True):
     wn2, two_zw = k / m, c / m
     a = np.array([[0.0, 1.0], [-wn2, -two_zw]])
     if acc is not None:
         # relative coordinates, input y'': states (u, u'); u = x - y; F = -(k u + c u')
         b = np.array([[0.0], [-1.0]])
-        u = _filter(a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1)), t_step, acc)
+        u = _filter(a, b, np.array([[1.0, 0.0]]), np.zeros((1, 1)), t_step, acc) if displacement else None
         f = _filter(a, b, np.array([[-k, -c]]), np.zeros((1, 1)), t_step, acc)
         return u, f
     # absolute coordinates, inputs y and y': states (x, x'); F = k (y - x) + c (y' - x')
-    out_u = np.zeros(np.broadcast(y, v).shape)
-    out_f = np.zeros_like(out_u)
+    out_u = np.zeros(np.broadcast(y, v).shape) if displacement else None
+    out_f = np.zeros(np.broadcast(y, v).shape)
     for inp, col in ((y, 0), (v, 1)):
         b = np.zeros((2, 1))
         b[1, 0] = (k if col == 0 else c) / m
         # relative displacement u = x - y: feedthrough -1 on y
-        out_u = out_u + _filter(a, b, np.array([[1.0, 0.0]]), np.array([[-1.0 if col == 0 else 0.0]]), t_step, inp)
+        if displacement:
+            out_u = out_u + _filter(a, b, np.array([[1.0, 0.0]]), np.array([[-1.0 if col == 0 else 0.0]]), t_step,
+                                    inp)
         out_f = out_f + _filter(a, b, np.array([[-k, -c]]), np.array([[k if col == 0 else c]]), t_step, inp)
     return out_u, out_f
 
 
 def stem_response(t, base_displacement=None, base_velocity=None, base_acceleration=None, mass=1.8e-3,
-                  stiffness=10.0, damping=0.027):
+                  stiffness=10.0, damping=0.027, displacement=True):
     """Relative displacement and stem force of fruit on compliant pedicels under a given branch motion.
 
     Parameters
@@ -163,10 +166,12 @@ def stem_response(t, base_displacement=None, base_velocity=None, base_accelerati
         Pedicel stiffness k (N/m).
     damping : float or ndarray (n_rows,)
         Pedicel damping c (N s/m).
+    displacement : bool
+        Also compute the relative displacement (False: it is returned as None and costs nothing).
 
     Returns
     -------
-    relative_displacement : ndarray, like the input
+    relative_displacement : ndarray, like the input, or None
         u = x - y (m), the pedicel's deflection.
     stem_force : ndarray, like the input
         F = k (y - x) + c (y' - x') = m0 x'' (N), the force the pedicel exerts on the fruit in this
@@ -188,7 +193,7 @@ def stem_response(t, base_displacement=None, base_velocity=None, base_accelerati
     v = None if acc is not None else np.asarray(base_velocity, float)
     m, k, c = _check(mass, stiffness, damping)
     if m.ndim == k.ndim == c.ndim == 0:
-        return _one(h, float(m), float(k), float(c), y, v, acc)
+        return _one(h, float(m), float(k), float(c), y, v, acc, displacement)
     ref = acc if acc is not None else np.broadcast_to(y, np.broadcast(y, v).shape)
     ref2 = np.atleast_2d(ref)
     mb, kb, cb = np.broadcast_arrays(m, k, c)
@@ -198,8 +203,98 @@ def stem_response(t, base_displacement=None, base_velocity=None, base_accelerati
         ai = None if acc is None else np.atleast_2d(acc)[i]
         yi = None if acc is not None else np.atleast_2d(np.broadcast_to(y, ref.shape))[i]
         vi = None if acc is not None else np.atleast_2d(np.broadcast_to(v, ref.shape))[i]
-        us[i], fs[i] = _one(h, float(mb[i]), float(kb[i]), float(cb[i]), yi, vi, ai)
-    return us.reshape(ref.shape), fs.reshape(ref.shape)
+        ui, fs[i] = _one(h, float(mb[i]), float(kb[i]), float(cb[i]), yi, vi, ai, displacement)
+        if displacement:
+            us[i] = ui
+    return (us.reshape(ref.shape) if displacement else None), fs.reshape(ref.shape)
+
+
+def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True):
+    """Largest stem-force magnitude over time of fruit of several masses at several places on the branch.
+
+    The model of :func:`stem_response` in absolute coordinates, in both directions (the branch's lateral motion
+    and its axial foreshortening each drive the pedicel's oscillator), combined as in
+    ``berryshaker.harvest.coupled.stem_forces``: |F| = hypot(F_lateral, F_axial + m0 g).  Only the maximum over
+    time is kept, so a table of many positions x masses (the virtual harvest's envelope) costs one pass over the
+    motion with no force series stored.
+
+    Parameters
+    ----------
+    t : ndarray (n_t,)
+        Uniformly spaced times (s); the fruit starts at rest relative to the branch at t[0].
+    lateral, axial : tuple of ndarray (n_z, n_t)
+        Branch displacement (m) and velocity (m/s) at each fruit position, lateral and axial.
+    mass : array_like (n_mass,)
+        Fruit masses m0 (kg).
+    stiffness, damping : float
+        Pedicel stiffness k (N/m) and damping c (N s/m).
+    weight : bool
+        Add the fruit's weight m0 g to the axial force (upright branch, axis vertical).
+
+    Returns
+    -------
+    ndarray (n_z, n_mass)
+        max_t |F| (N).
+
+    Notes
+    -----
+    For each mass the two-input system (inputs y, y'; state x, x'; output F = k (y - x) + c (y' - x')) is
+    discretised exactly for a first-order hold (``scipy.signal.cont2discrete``, the discretisation of
+    :func:`stem_response`) and run as a state-space recursion from rest, x[i+1] = A_d x[i] + B_d u[i],
+    F[i] = C_d x[i] + D_d u[i], compiled (numba); the same zero-state response as :func:`stem_response`'s
+    second-order sections, equal to round-off (tested).
+    """
+    h = _uniform_step(t)
+    masses = np.atleast_1d(np.asarray(mass, float))
+    m, k, c = _check(masses, stiffness, damping)
+    k, c = float(k), float(c)
+    y, v = (np.ascontiguousarray(x, dtype=float) for x in lateral)
+    ya, va = (np.ascontiguousarray(x, dtype=float) for x in axial)
+    if not (y.shape == v.shape == ya.shape == va.shape and y.ndim == 2 and y.shape[1] == len(t)):
+        raise ConfigError("peak_stem_force needs lateral and axial (displacement, velocity) arrays of shape "
+                          "(positions, len(t))")
+    ad, bd = np.zeros((len(m), 2, 2)), np.zeros((len(m), 2, 2))
+    cd, dd = np.zeros((len(m), 2)), np.zeros((len(m), 2))
+    for j, mj in enumerate(m):
+        a = np.array([[0.0, 1.0], [-k / mj, -c / mj]])
+        b = np.array([[0.0, 0.0], [k / mj, c / mj]])
+        ad[j], bd[j], cdj, ddj, _ = signal.cont2discrete((a, b, np.array([[-k, -c]]), np.array([[k, c]])), h,
+                                                          method="foh")
+        cd[j], dd[j] = cdj[0], ddj[0]
+    out = np.zeros((y.shape[0], len(m)))
+    _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)), out)
+    return out
+
+
+@njit(cache=True)
+def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, out):
+    """out[i, j] = max over time of |(F_lat, F_ax + weight[j])| for the discretised oscillators of
+    :func:`peak_stem_force` (mass j at position i; lateral and axial oscillators of every mass run side by
+    side; the maximum is taken on the squared magnitude)."""
+    n_z, n_t = y.shape
+    n_m = ad.shape[0]
+    x0, x1, w0, w1, best = np.zeros(n_m), np.zeros(n_m), np.zeros(n_m), np.zeros(n_m), np.zeros(n_m)
+    for i in range(n_z):
+        x0[:] = 0.0
+        x1[:] = 0.0
+        w0[:] = 0.0
+        w1[:] = 0.0
+        best[:] = 0.0
+        for n in range(n_t):
+            u0, u1, s0, s1 = y[i, n], v[i, n], ya[i, n], va[i, n]
+            for j in range(n_m):  # the masses side by side: independent recursions, in flight together
+                f_lat = cd[j, 0] * x0[j] + cd[j, 1] * x1[j] + dd[j, 0] * u0 + dd[j, 1] * u1
+                f_ax = cd[j, 0] * w0[j] + cd[j, 1] * w1[j] + dd[j, 0] * s0 + dd[j, 1] * s1 + weight[j]
+                f2 = f_lat * f_lat + f_ax * f_ax
+                if f2 > best[j]:
+                    best[j] = f2
+                p0, p1, q0, q1 = x0[j], x1[j], w0[j], w1[j]
+                x0[j] = ad[j, 0, 0] * p0 + ad[j, 0, 1] * p1 + bd[j, 0, 0] * u0 + bd[j, 0, 1] * u1
+                x1[j] = ad[j, 1, 0] * p0 + ad[j, 1, 1] * p1 + bd[j, 1, 0] * u0 + bd[j, 1, 1] * u1
+                w0[j] = ad[j, 0, 0] * q0 + ad[j, 0, 1] * q1 + bd[j, 0, 0] * s0 + bd[j, 0, 1] * s1
+                w1[j] = ad[j, 1, 0] * q0 + ad[j, 1, 1] * q1 + bd[j, 1, 0] * s0 + bd[j, 1, 1] * s1
+        for j in range(n_m):
+            out[i, j] = math.sqrt(best[j])
 
 
 def modal_mass_ratio(modes, z, mass):
