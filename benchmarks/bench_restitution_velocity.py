@@ -17,12 +17,13 @@ reference run (onsets read on a 5 us output grid, v_imp interpolated to the zero
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+
+from cpu_timing import best_cpu_time  # benchmarks/ (the script's own folder) is on sys.path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))
@@ -61,13 +62,6 @@ def bin_edges():
     return 10.0 ** (mb.STEP_HIST_LOG10_MIN + np.arange(N_BINS + 1) / mb.STEP_BINS_PER_DECADE)
 
 
-def best(fn, repeat):
-    out, cpu = fn(), math.inf  # warm-up
-    for _ in range(repeat):
-        c0 = time.process_time()
-        out = fn()
-        cpu = min(cpu, time.process_time() - c0)
-    return out, cpu
 
 
 def impact_velocities(machine, output_step=5e-6):
@@ -108,7 +102,7 @@ def main(argv=None) -> None:
         print(f"set {i} ({'reference' if i == 0 else 'drawn'}): "
               + " ".join(f"{k} {v * 1e3:.3f} mm" for k, v in c.items()))
         for name, m in models.items():
-            (res, s, hist), cpu = best(lambda m=m, c=c: run(m, c, rtol=args.rtol), args.repeat)
+            (res, s, hist), cpu = best_cpu_time(lambda m=m, c=c: run(m, c, rtol=args.rtol), args.repeat)
             mode = edges[int(np.argmax(hist))]
             st = s["collision_force_N"]
             totals[name].append((cpu, s["steps"]))

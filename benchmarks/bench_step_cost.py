@@ -32,18 +32,13 @@ import sys
 import time
 from pathlib import Path
 
+from cpu_timing import best_cpu_time  # benchmarks/ (the script's own folder) is on sys.path
+
 ROOT = Path(__file__).resolve().parent.parent
 RTOLS = (1e-5, 1e-7, 1e-9)
 OUTPUT_STEP = 1e-5
 
 
-def _best(fn, repeat):
-    out, cpu = fn(), math.inf  # warm-up
-    for _ in range(repeat):
-        c0 = time.process_time()
-        out = fn()
-        cpu = min(cpu, time.process_time() - c0)
-    return out, cpu
 
 
 def figures(repeat: int) -> dict:
@@ -60,16 +55,16 @@ def figures(repeat: int) -> dict:
     duration = 2 * 2 * math.pi / abs(spec.drivers[0].speed)
     out: dict = {}
     for rtol in RTOLS:
-        r, cpu = _best(lambda: simulate_mechanism(spec, duration=duration, rtol=rtol, output_step=OUTPUT_STEP), repeat)
-        r0, cpu0 = _best(lambda: simulate_mechanism(spec, duration=1e-4, rtol=rtol, output_step=OUTPUT_STEP), repeat)
-        q, cpu_q = _best(lambda: simulate_reduced_slider_crank(spec, duration, rtol, OUTPUT_STEP), repeat)
-        q0, cpu_q0 = _best(lambda: simulate_reduced_slider_crank(spec, 1e-4, rtol, OUTPUT_STEP), repeat)
+        r, cpu = best_cpu_time(lambda: simulate_mechanism(spec, duration=duration, rtol=rtol, output_step=OUTPUT_STEP), repeat)
+        r0, cpu0 = best_cpu_time(lambda: simulate_mechanism(spec, duration=1e-4, rtol=rtol, output_step=OUTPUT_STEP), repeat)
+        q, cpu_q = best_cpu_time(lambda: simulate_reduced_slider_crank(spec, duration, rtol, OUTPUT_STEP), repeat)
+        q0, cpu_q0 = best_cpu_time(lambda: simulate_reduced_slider_crank(spec, 1e-4, rtol, OUTPUT_STEP), repeat)
         n, n0 = int(r.info[0]), int(r0.info[0])
         out[f"{rtol:.0e}"] = {"engine_steps": n, "engine_us": (cpu - cpu0) / (n - n0) * 1e6,
                               "reduced_steps": q["steps"],
                               "reduced_us": (cpu_q - cpu_q0) / (q["steps"] - q0["steps"]) * 1e6}
     m = reference_machine()
-    (res, summ), cpu = _best(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
+    (res, summ), cpu = best_cpu_time(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
     out["harvester"] = {"cpu_s": cpu, "steps": summ["steps"]}
     out["coupled"] = _coupled(repeat)
     out["replicate"] = _replicate(repeat)
@@ -84,7 +79,7 @@ def _replicate(repeat: int) -> dict:
     m = reference_machine()
     data, cl = m.model_dump(mode="json"), dict(m.clearance_sizes())
     scale = m.harvest.branch_classes[len(m.harvest.branch_classes) // 2]
-    _, cpu = _best(lambda: replicate_run(data, cl, scale, [1, 0]), repeat)
+    _, cpu = best_cpu_time(lambda: replicate_run(data, cl, scale, [1, 0]), repeat)
     return {"cpu_s": cpu}
 
 

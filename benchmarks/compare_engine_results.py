@@ -34,10 +34,11 @@ import argparse
 import json
 import math
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
+
+from cpu_timing import best_cpu_time  # benchmarks/ (the script's own folder) is on sys.path
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -74,21 +75,13 @@ def _digest(*arrays) -> str:
     return h.hexdigest()
 
 
-def _best(fn, repeat: int):
-    out, cpu = None, math.inf
-    fn()  # warm-up: compile or load the numba cache
-    for _ in range(repeat):
-        c0 = time.process_time()
-        out = fn()
-        cpu = min(cpu, time.process_time() - c0)
-    return out, cpu
 
 
 def harvester(repeat: int) -> dict:
     from berryshaker.drives.simulation import simulate_multibody
 
     m = _reference_machine()
-    (res, summ), cpu = _best(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
+    (res, summ), cpu = best_cpu_time(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
     vals: dict = {}
     for key in ("collision_force_N", "load_moment_Nm", "drive_moment_Nm"):
         _flat(key, summ[key], vals)
@@ -102,7 +95,7 @@ def slider_crank(repeat: int) -> dict:
 
     spec = load_mechanism(ROOT / "examples" / "slider_crank_clearance.toml")
     dur = 2 * 2 * math.pi / abs(spec.drivers[0].speed)
-    res, cpu = _best(lambda: simulate_mechanism(spec, duration=dur, rtol=1e-7, output_step=1e-5), repeat)
+    res, cpu = best_cpu_time(lambda: simulate_mechanism(spec, duration=dur, rtol=1e-7, output_step=1e-5), repeat)
     s = res.summary()
     vals: dict = {}
     _flat("joints", s["joints"], vals)
@@ -115,7 +108,7 @@ def coupled(repeat: int) -> dict:
     from berryshaker.harvest.coupled import simulate_fruit_force
 
     m = _reference_machine()
-    res, cpu = _best(lambda: simulate_fruit_force(m, None), repeat)
+    res, cpu = best_cpu_time(lambda: simulate_fruit_force(m, None), repeat)
     vals: dict = {}
     for name, f in res.fruit_force.items():
         f = np.abs(np.asarray(f))
