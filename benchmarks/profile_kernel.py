@@ -32,7 +32,7 @@ def _loop_rhs(n_calls, t, y, model, state, work, dy):
 @njit
 def _loop_constraints(n_calls, t, y, model, state, work):
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws) = model
+     plant_p, laws, plan) = model
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     n = y.shape[0] // 2
     for _ in range(n_calls):
@@ -42,7 +42,7 @@ def _loop_constraints(n_calls, t, y, model, state, work):
 @njit
 def _loop_forces(n_calls, t, y, model, state, work):
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws) = model
+     plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     n = y.shape[0] // 2
@@ -53,14 +53,14 @@ def _loop_forces(n_calls, t, y, model, state, work):
 
 @njit
 def _loop_solve(n_calls, model, work):
-    cint, crow = model[4], model[6]
+    plan = model[16]
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     m = phi.shape[0]
     for _ in range(n_calls):
         for a in range(m):
             rhs[a] = gam[a]
-        mb._schur(cint, crow, jac, minv, W, m)
-        mb._spd_solve(W, rhs, m)
+        mb._schur(plan, jac, minv, W, m)
+        mb._spd_solve(plan, W, rhs, m)
 
 
 @njit

@@ -29,20 +29,20 @@ from berryshaker.multibody.spec import MechanismSpec
 #: positions in the model tuple of the arrays that may differ between the sets of one batch (floats)
 _FLOAT_MODEL = (0, 1, 2, 5, 9, 10, 11, 12, 13, 14)
 #: positions of the integer arrays that define the structure (equal within a batch)
-_INT_MODEL = (3, 4, 6, 7, 8)
+_INT_MODEL = (3, 4, 6, 7, 8, 16)
 
 
 @njit(cache=True, parallel=True)
 def integrate_sets(y0, t_out, mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w,
-                   modal_z, phi_tab, plant_p, laws, in_contact, v_imp, psi_c, psi_f, lam_prev, phi, jac, nu, gam, q_f,
-                   eout, lam, minv, w_mat, rhs, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks, first,
-                   info):
+                   modal_z, phi_tab, plant_p, laws, solve_plan, in_contact, v_imp, psi_c, psi_f, lam_prev, phi, jac, nu,
+                   gam, q_f, eout, lam, minv, w_mat, rhs, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks,
+                   first, info):
     """:func:`berryshaker.multibody.kernel.integrate` for every set s (leading axis of each stacked array) in
-    parallel; the structure arrays (ctype, cint, crow, ftype, fint), t_out, rtol, h_max and the contact laws are
-    shared."""
+    parallel; the structure arrays (ctype, cint, crow, ftype, fint, solve_plan), t_out, rtol, h_max and the contact
+    laws are shared."""
     for s in prange(y0.shape[0]):
         model = (mass[s], inertia[s], gravity[s], ctype, cint, cflt[s], crow, ftype, fint, fflt[s], cams[s],
-                 modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws)
+                 modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws, solve_plan)
         state = (in_contact[s], v_imp[s], psi_c[s], psi_f[s], lam_prev[s])
         work = (phi[s], jac[s], nu[s], gam[s], q_f[s], eout[s], lam[s], minv[s], w_mat[s], rhs[s])
         mb.integrate(y0[s], t_out, model, state, work, rtol, atol[s], h_max, stats_from[s], out_y[s], out_e[s],
@@ -92,7 +92,8 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     info[:, 0] = [r.budget for r in runs]
     t0 = time.perf_counter()
     integrate_sets(_stack([r.y for r in runs]), first_run.t_out, fl[0], fl[1], fl[2], model[3], model[4], fl[5],
-                   model[6], model[7], model[8], fl[9], fl[10], fl[11], fl[12], fl[13], fl[14], model[15], *st, *wk,
+                   model[6], model[7], model[8], fl[9], fl[10], fl[11], fl[12], fl[13], fl[14], model[15], model[16],
+                   *st, *wk,
                    first_run.rtol, _stack([r.atol for r in runs]), first_run.max_step,
                    np.array([r.stats_from for r in runs]), out_y, out_e, out_lam, peaks, first, info)
     wall = time.perf_counter() - t0

@@ -19,6 +19,7 @@ from berryshaker.contact.stiffness import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
 from berryshaker.multibody import kernel as mb
+from berryshaker.multibody.sparsity import solve_plan
 from berryshaker.multibody.spec import MechanismSpec
 
 if TYPE_CHECKING:
@@ -196,11 +197,12 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     def arr(x, shape, dtype):
         return np.array(x, dtype=dtype).reshape(shape) if len(x) else np.zeros(shape, dtype)
 
-    model = (mass, inertia, np.array(spec.mechanism.gravity, float),
-             arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), 3), np.int64),
-             arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64),
+    con = (arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), 3), np.int64),
+           arr(cflt, (len(cflt), mb.N_CF), float), arr(crow, (len(crow),), np.int64))
+    model = (mass, inertia, np.array(spec.mechanism.gravity, float), *con,
              arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), 5), np.int64),
-             arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table())
+             arr(fflt, (len(fflt), mb.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table(),
+             solve_plan(*con, row, 3 * nb + len(modal_w)))
     audit = spec.simulation.energy_audit
     if audit is None:
         audit = any(d.type == "torque_speed" for d in spec.drivers)

@@ -585,36 +585,22 @@ def _body_term(jac, a, b, body, minv):
 
 
 @njit(cache=True, _nrt=False)
-def _schur(cint, crow, jac, minv, W, m):
-    """W = Phi_q M^-1 Phi_q^T (M diagonal), assembled block by block over the bodies two constraint blocks share.
+def _schur(plan, jac, minv, W, m):
+    """W = Phi_q M^-1 Phi_q^T (M diagonal): the structurally nonzero entries of its upper triangle (a <= b).
 
-    Each block touches at most two bodies, so an entry costs at most four 3-term sums instead of a sum over
-    all n coordinates (modal coordinates of a flexible body never enter a constraint); blocks without a common
-    body give exact zeros.
+    ``plan`` (:func:`berryshaker.multibody.sparsity.solve_plan`) lists them with the bodies they sum over; each
+    entry costs one or two 3-term sums (modal coordinates of a flexible body never enter a constraint).  The rest
+    of the upper triangle stays zero from its allocation; :func:`_spd_solve` reads its input there and writes the
+    factor into the lower triangle.
     """
-    nc = crow.shape[0]
-    for k1 in range(nc):
-        i1, j1 = cint[k1, 0], cint[k1, 1]
-        if j1 == i1:
-            j1 = -1
-        e1 = _block_end(crow, k1, m)
-        for k2 in range(k1, nc):
-            i2, j2 = cint[k2, 0], cint[k2, 1]
-            if j2 == i2:
-                j2 = -1
-            e2 = _block_end(crow, k2, m)
-            s_ii = i1 >= 0 and (i1 == i2 or i1 == j2)
-            s_jj = j1 >= 0 and (j1 == i2 or j1 == j2)
-            for a in range(crow[k1], e1):
-                b0 = a if k2 == k1 else crow[k2]
-                for b in range(b0, e2):
-                    acc = 0.0
-                    if s_ii:
-                        acc += _body_term(jac, a, b, i1, minv)
-                    if s_jj:
-                        acc += _body_term(jac, a, b, j1, minv)
-                    W[a, b] = acc
-                    W[b, a] = acc
+    for e in range(m, plan.shape[0]):
+        a, b, b1, b2 = plan[e, 0], plan[e, 1], plan[e, 2], plan[e, 3]
+        acc = 0.0
+        if b1 >= 0:
+            acc += _body_term(jac, a, b, b1, minv)
+        if b2 >= 0:
+            acc += _body_term(jac, a, b, b2, minv)
+        W[a, b] = acc
 
 
 @njit(cache=True, _nrt=False)
@@ -652,23 +638,22 @@ def _add_jac_t(cint, crow, jac, x, scale, minv, out, off, m):
 
 
 @njit(cache=True, _nrt=False)
-def _spd_solve(W, b, m):
-    """Solve W x = b in place (b <- x) for a symmetric positive definite W (Cholesky, W overwritten)."""
-    # row by row (left-looking), skipping the leading zeros of each row of the lower triangle: the rows of W
-    # are zero left of their first nonzero and so are those of the factor (the envelope; George & Liu, Computer
-    # Solution of Large Sparse Positive Definite Systems, 1981, ch. 4).  Constraint blocks share few bodies, so
-    # W is nearly block diagonal.  Only products with an exact zero factor are skipped and every sum runs in the
-    # same order as the dense algorithm: the result is bitwise the same.  The forward substitution goes with the
-    # rows; no scratch array (no allocation).
+def _spd_solve(plan, W, b, m):
+    """Solve W x = b in place (b <- x) for the symmetric positive definite W of :func:`_schur`.
+
+    Cholesky factorisation row by row (left-looking) over each row's envelope ``plan[i, 0]`` .. i (George & Liu,
+    Computer Solution of Large Sparse Positive Definite Systems, 1981, ch. 4), reading W from the upper triangle
+    and writing the factor L into the lower one (so the assembly never has to clear it); forward substitution with
+    the rows, back substitution over each column's extent i .. ``plan[i, 1]``.  Every sum runs in the order of the
+    dense algorithm and only products with an exact zero factor are skipped, so the result is bitwise the dense
+    one.  No scratch array (no allocation).
+    """
     for i in range(m):
-        lo = i
-        for k in range(i):
-            if W[i, k] != 0.0:
-                lo = k
-                break
+        lo = plan[i, 0]
         for j in range(lo, i):
-            s = W[i, j]
-            for k in range(lo, j):
+            s = W[j, i]
+            k0 = lo if lo > plan[j, 0] else plan[j, 0]  # L[j, k] = 0 left of row j's envelope
+            for k in range(k0, j):
                 s -= W[i, k] * W[j, k]
             W[i, j] = s / W[j, j]
         s = W[i, i]
@@ -683,8 +668,9 @@ def _spd_solve(W, b, m):
         b[i] = s / W[i, i]
     for i in range(m - 1, -1, -1):
         s = b[i]
-        for k in range(i + 1, m):
-            s -= W[k, i] * b[k]
+        for k in range(i + 1, plan[i, 1] + 1):
+            if plan[k, 0] <= i:  # inside row k's envelope (outside it L[k, i] = 0, never written)
+                s -= W[k, i] * b[k]
         b[i] = s / W[i, i]
 
 
@@ -692,7 +678,7 @@ def _spd_solve(W, b, m):
 def accelerations(t, y, model, state, work, dy):
     """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws) = model
+     plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     n = y.shape[0] // 2
@@ -711,8 +697,8 @@ def accelerations(t, y, model, state, work, dy):
             bi, bj = cint[k, 0], cint[k, 1]
             for a in range(crow[k], _block_end(crow, k, m)):
                 rhs[a] = _row_dot_at(jac, a, bi, bj, dy, n) - gam[a]
-        _schur(cint, crow, jac, minv, W, m)
-        _spd_solve(W, rhs, m)
+        _schur(plan, jac, minv, W, m)
+        _spd_solve(plan, W, rhs, m)
         for a in range(m):
             lam[a] = rhs[a]
         _add_jac_t(cint, crow, jac, lam, -1.0, minv, dy, n, m)
@@ -722,7 +708,7 @@ def accelerations(t, y, model, state, work, dy):
 def project(t, y, model, state, work, iters):
     """Mass-weighted projection of positions (Newton) and velocities onto Phi = 0, Phi_q q' = nu."""
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws) = model
+     plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     m = phi.shape[0]
@@ -739,18 +725,18 @@ def project(t, y, model, state, work, iters):
             res = max(res, abs(phi[a]))
         if it == iters or res < 1e-13:
             break
-        _schur(cint, crow, jac, minv, W, m)
+        _schur(plan, jac, minv, W, m)
         for a in range(m):
             rhs[a] = phi[a]
-        _spd_solve(W, rhs, m)
+        _spd_solve(plan, W, rhs, m)
         _add_jac_t(cint, crow, jac, rhs, -1.0, minv, q, 0, m)
     # velocities (jac and W from the final positions)
-    _schur(cint, crow, jac, minv, W, m)
+    _schur(plan, jac, minv, W, m)
     for k in range(ctype.shape[0]):
         bi, bj = cint[k, 0], cint[k, 1]
         for a in range(crow[k], _block_end(crow, k, m)):
             rhs[a] = _row_dot(jac, a, bi, bj, qd) - nu[a]
-    _spd_solve(W, rhs, m)
+    _spd_solve(plan, W, rhs, m)
     _add_jac_t(cint, crow, jac, rhs, -1.0, minv, qd, 0, m)
     return res
 
@@ -912,7 +898,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     (mass, inertia, gravity, ctype_m, cint_m, cflt, crow_m, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws) = model
+     plant_p, laws, plan) = model
     ny = y0.shape[0]
     n_q = ny // 2
     nf = eout.shape[0]

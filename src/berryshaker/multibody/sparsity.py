@@ -1,0 +1,142 @@
+"""The structure of the multiplier solve, found once per mechanism (symbolic factorisation).
+
+Every right-hand side of the engine solves (Phi_q M^-1 Phi_q^T) lambda = Phi_q M^-1 Q - gamma
+(docs/multibody.md, "Formulation").  Which entries of W = Phi_q M^-1 Phi_q^T can be nonzero, and therefore
+where its Cholesky factor L can be nonzero, depends only on which constraints act on which bodies and on a few
+geometric zeros (a revolute at a body's origin has no angle column), not on the state.  Finding that pattern
+once, when the mechanism is compiled, lets the kernel compute only those entries and run the factorisation over
+each row's envelope only: the "symbolic factorisation" of sparse direct solvers (George & Liu, Computer Solution
+of Large Sparse Positive Definite Systems, 1981, ch. 4-5; Davis, Direct Methods for Sparse Linear Systems,
+2006, ch. 4).  For the groove-cam harvester W is 9 x 9 with 11 of its 45 upper entries structurally nonzero (the
+ideal joints all hold a body to the ground).
+
+The pattern is a superset of the numerical nonzeros at every state: an entry is left out only if the kernel's
+``constraints`` writes an exact zero there whatever the state.  The kernel's solve then performs the same
+floating-point operations, in the same order, as the dense envelope Cholesky factorisation it replaced, apart from
+products with an exact zero factor; its results are bitwise those of the dense solve
+(tests/test_multibody_sparsity.py; ``benchmarks/compare_engine_results.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from berryshaker.multibody import kernel as mb
+
+
+def jacobian_pattern(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.ndarray, m: int,
+                     n: int) -> np.ndarray:
+    """Where the constraint Jacobian Phi_q can be nonzero, by constraint type (kernel ``constraints``).
+
+    Parameters
+    ----------
+    ctype, cint, cflt, crow : numpy.ndarray
+        The constraint arrays of a compiled mechanism (type, bodies, float parameters, first row of each block).
+    m, n : int
+        Constraint rows and coordinates.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (m, n)
+        True where some state gives a nonzero entry.  Structural zeros: a body's angle column where the kernel
+        multiplies it by a body-fixed point at the body's origin (revolute, the slider point of a prismatic
+        joint, the pin of a slot, the roller of a cam joint), and a coordinate column of a point on a line fixed
+        to the ground where the line's normal has no component along it.  Every other entry of a body a block acts
+        on counts as nonzero.
+    """
+    pat = np.zeros((m, n), dtype=bool)
+
+    def xyz(row, body, angle=True, x=True, y=True):
+        if body >= 0:
+            pat[row, 3 * body] = x
+            pat[row, 3 * body + 1] = y
+            pat[row, 3 * body + 2] = angle
+
+    def on_line(row, line_body, point_body, point_off_origin, ux, uy):
+        # n . (p - l) with n = rot90(A_l u): fixed if the line is on the ground, so a zero component stays zero
+        xyz(row, line_body)
+        fixed = line_body < 0
+        xyz(row, point_body, point_off_origin, x=not fixed or uy != 0.0, y=not fixed or ux != 0.0)
+
+    def off_origin(sx, sy):
+        return sx != 0.0 or sy != 0.0
+
+    for k in range(len(ctype)):
+        r = int(crow[k])
+        bi, bj = int(cint[k, 0]), int(cint[k, 1])
+        f = cflt[k]
+        typ = int(ctype[k])
+        if typ == mb.CON_REVOLUTE:
+            for row in (r, r + 1):
+                if bi >= 0:
+                    pat[row, 3 * bi + (row - r)] = True
+                    pat[row, 3 * bi + 2] = off_origin(f[mb.CF_SIX], f[mb.CF_SIY])
+                if bj >= 0:
+                    pat[row, 3 * bj + (row - r)] = True
+                    pat[row, 3 * bj + 2] = off_origin(f[mb.CF_SJX], f[mb.CF_SJY])
+        elif typ == mb.CON_PRISMATIC:
+            for b in (bi, bj):  # the relative-angle row
+                if b >= 0:
+                    pat[r, 3 * b + 2] = True
+            # slider j's point on the line of body i
+            on_line(r + 1, bi, bj, off_origin(f[mb.CF_SJX], f[mb.CF_SJY]), f[mb.CF_UX], f[mb.CF_UY])
+        elif typ == mb.CON_POINT_LINE:  # pin of body i in a slot of body j
+            on_line(r, bj, bi, off_origin(f[mb.CF_SIX], f[mb.CF_SIY]), f[mb.CF_UX], f[mb.CF_UY])
+        elif typ == mb.CON_CAM_ROLLER:
+            xyz(r, bi, off_origin(f[mb.CF_SIX], f[mb.CF_SIY]))
+            xyz(r, bj)
+        elif typ == mb.CON_DRIVER:
+            pat[r, 3 * bi + 2] = True
+        else:
+            raise ValueError(f"constraint type {typ} has no Jacobian pattern in multibody.sparsity")
+    return pat
+
+
+def solve_plan(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.ndarray, m: int,
+               n: int) -> np.ndarray:
+    """The kernel's plan of the multiplier solve: envelope of each factor row and the entries of W to compute.
+
+    Parameters
+    ----------
+    ctype, cint, cflt, crow : numpy.ndarray
+        The constraint arrays of a compiled mechanism.
+    m, n : int
+        Constraint rows and coordinates.
+
+    Returns
+    -------
+    numpy.ndarray of int64, shape (m + n_entries, 4)
+        Rows 0..m-1: ``[lo, hi, 0, 0]``, where L's row i is nonzero only in columns lo..i (its envelope:
+        the first structurally nonzero entry of W's row i; Cholesky fills nothing left of it) and L's column
+        i only in rows i..hi.  Rows m..: one per structurally nonzero entry W[a, b], a <= b, in row order:
+        ``[a, b, body_1, body_2]``, the bodies (or -1) whose coordinates the kernel sums over, in the order
+        the dense assembly summed them (the first body of a's block if b's block shares it, then its second).
+    """
+    jp = jacobian_pattern(ctype, cint, cflt, crow, m, n)
+    wp = (jp.astype(np.int64) @ jp.T.astype(np.int64)) > 0  # M is diagonal and positive: W's pattern
+    np.fill_diagonal(wp, True)
+    block = np.zeros(m, dtype=np.int64)
+    for k in range(len(crow)):
+        block[int(crow[k]):] = k
+    lo = np.array([int(np.argmax(wp[i, :i + 1])) for i in range(m)], dtype=np.int64)
+    hi = np.array([max(k for k in range(i, m) if lo[k] <= i) for i in range(m)], dtype=np.int64)
+    entries = []
+    for a in range(m):
+        i1, j1 = int(cint[block[a], 0]), int(cint[block[a], 1])
+        if j1 == i1:
+            j1 = -1
+        for b in range(a, m):
+            if not wp[a, b]:
+                continue
+            i2, j2 = int(cint[block[b], 0]), int(cint[block[b], 1])
+            if j2 == i2:
+                j2 = -1
+            b1 = i1 if i1 >= 0 and i1 in (i2, j2) else -1
+            b2 = j1 if j1 >= 0 and j1 in (i2, j2) else -1
+            entries.append((a, b, b1, b2))
+    plan = np.zeros((m + len(entries), 4), dtype=np.int64)
+    plan[:m, 0] = lo
+    plan[:m, 1] = hi
+    if entries:
+        plan[m:] = np.array(entries, dtype=np.int64)
+    return plan
