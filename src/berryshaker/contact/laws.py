@@ -69,12 +69,13 @@ class ContactLaw:
     uses: tuple[str, ...]  # which of LAW_PARAMETERS it reads
     description: str
     code: int
+    monotone: bool = False  # the force never decreases as pen or pen_dot grows (other inputs fixed)
 
 
 _LAWS: dict[str, ContactLaw] = {}
 
 
-def register_law(name: str, kernel, uses: tuple[str, ...], description: str) -> ContactLaw:
+def register_law(name: str, kernel, uses: tuple[str, ...], description: str, monotone: bool = False) -> ContactLaw:
     """Register a compiled force law under ``name`` (see the module docstring for the signature).
 
     Parameters
@@ -87,6 +88,12 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str) -> 
         The parameters of :data:`LAW_PARAMETERS` the law reads (validation requires them to be set).
     description : str
         One line shown by ``berryshaker config show`` and the docs.
+    monotone : bool
+        True if the force never decreases as the penetration or its rate grows (at fixed impact velocity and
+        parameters).  The engine then bounds the force inside a step by one evaluation at the step's largest
+        penetration and rate, and skips the interior-peak search of steps that cannot raise a recorded
+        maximum (docs/multibody.md).  A wrong True can hide a peak: tests/test_contact_laws_monotone.py checks
+        every law that claims it.  Default False (always search).
 
     Returns
     -------
@@ -105,7 +112,7 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str) -> 
         raise ConfigError(f"contact law {name!r}: compile the kernel with @njit(LAW_SIGNATURE) "
                           "(berryshaker.contact.laws.LAW_SIGNATURE)")
     code = _LAWS[name].code if name in _LAWS else len(_LAWS)
-    law = ContactLaw(name, kernel, tuple(uses), description, code)
+    law = ContactLaw(name, kernel, tuple(uses), description, code, bool(monotone))
     _LAWS[name] = law
     return law
 
@@ -116,7 +123,7 @@ def unregister_law(name: str) -> None:
         raise ConfigError(f"{name!r} is a built-in contact law")
     _LAWS.pop(name, None)
     for i, law in enumerate(sorted(_LAWS.values(), key=lambda x: x.code)):
-        _LAWS[law.name] = ContactLaw(law.name, law.kernel, law.uses, law.description, i)
+        _LAWS[law.name] = ContactLaw(law.name, law.kernel, law.uses, law.description, i, law.monotone)
 
 
 def get_law(name: str) -> ContactLaw:
@@ -197,14 +204,18 @@ def impact_law(pen, pen_dot, v_imp, k, n, e, c, d):
     return impact_kernel(-pen, -pen_dot, 0.0, k, n, c, d)
 
 
-register_law("mlsd", mlsd_law, ("stiffness", "damping"), "linear spring-damper, study eq. 8 (consistent reading)")
-register_law("hertz", hertz_law, ("stiffness", "exponent"), "Hertz power law k delta^n, elastic")
+# monotone: max(0, k pen + c pen_dot) and max(0, k pen^n (1 + f pen_dot / v)) never decrease as pen or pen_dot
+# grows (c, f >= 0); IMPACT's damping ramps in with pen, so at pen_dot < 0 the force can fall as pen grows
+register_law("mlsd", mlsd_law, ("stiffness", "damping"), "linear spring-damper, study eq. 8 (consistent reading)",
+             monotone=True)
+register_law("hertz", hertz_law, ("stiffness", "exponent"), "Hertz power law k delta^n, elastic", monotone=True)
 _HYSTERESIS_USES = ("stiffness", "exponent", "restitution", "restitution_velocity")
 register_law("hunt_crossley", hunt_crossley_law, _HYSTERESIS_USES,
-             "Hunt-Crossley hysteresis damping, 3(1-e)/2 / max(v_imp, v_ref)")
+             "Hunt-Crossley hysteresis damping, 3(1-e)/2 / max(v_imp, v_ref)", monotone=True)
 register_law("lankarani_nikravesh", lankarani_nikravesh_law, _HYSTERESIS_USES,
-             "Lankarani-Nikravesh hysteresis damping, 3(1-e^2)/4 / max(v_imp, v_ref)")
-register_law("flores", flores_law, _HYSTERESIS_USES, "Flores hysteresis damping, 8(1-e)/(5e) / max(v_imp, v_ref)")
+             "Lankarani-Nikravesh hysteresis damping, 3(1-e^2)/4 / max(v_imp, v_ref)", monotone=True)
+register_law("flores", flores_law, _HYSTERESIS_USES, "Flores hysteresis damping, 8(1-e)/(5e) / max(v_imp, v_ref)",
+             monotone=True)
 register_law("impact", impact_law, ("stiffness", "exponent", "damping", "damping_depth"),
              "ADAMS IMPACT function: k delta^n with damping ramped to cmax over d")
 

@@ -133,7 +133,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
             code = {"revolute_clearance": mb.FRC_REV_CL, "slot_clearance": mb.FRC_SLOT_CL,
                     "groove_clearance": mb.FRC_GROOVE_CL}[typ]
             add_frc(j.name, typ, code, bi, bj, cam=cidx.get(j.cam, 0) if j.cam else 0,
-                    law=get_law(c.law).code, gap=j.clearance, k=k, n=c.exponent, e=c.restitution,
+                    law=get_law(c.law).code, monotone=float(get_law(c.law).monotone), gap=j.clearance, k=k,
+                    n=c.exponent, e=c.restitution,
                     c=slot_c(c.law, c.damping, c.restitution_velocity), d=c.damping_depth,
                     mu=j.friction_coefficient, rpin=j.pin_radius, **common)
     period = None
@@ -187,7 +188,7 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
             nz = np.flatnonzero(phi_tab[station_row])
             first, end = (int(nz[0]), int(nz[-1]) + 1) if nz.size else (0, 0)
             add_frc(c.name, "branch_contact", mb.FRC_BRANCH, bidx[c.body], station_row, cam=first, end=end,
-                    law=get_law(cc.law).code,
+                    law=get_law(cc.law).code, monotone=float(get_law(cc.law).monotone),
                     six=c.finger_point[0], siy=c.finger_point[1], ux=cx, uy=cy, gap=c.engagement,
                     k=float(cc.stiffness), n=cc.exponent, e=cc.restitution,
                     c=slot_c(cc.law, cc.damping, cc.restitution_velocity), d=cc.damping_depth,

@@ -58,6 +58,11 @@ N_FF = FF_TAB + 2 * MAX_TABLE
 # contact force that acts back on the striking body (1: two-way; 0: the body is driven, the mechanism feels
 # nothing; w: the contact stands for w like branches of a sampled population)
 FF_ROW, FF_REACT = FF_SJX, FF_SJY
+# a contact's law does not decrease as the penetration or its rate grows (1.0; registry flag ``monotone``): the
+# slot of FRC_TORQUE, which no contact uses
+FF_MONOTONE = FF_TORQUE
+# relative margin of the interior-peak skip (integrate: a monotone law's step bound below every maximum it feeds)
+PEAK_BOUND_MARGIN = 0.01
 # element outputs
 EO_FN, EO_PEN, EO_PENDOT, EO_FT = range(4)
 N_EO = 4
@@ -787,6 +792,50 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
     return best, u_best
 
 
+@njit(cache=True, _nrt=False)
+def _step_force_bound(model, j, v_imp, h, p0, d0, p1, d1):
+    """Upper bound (N) of a monotone law's force over a step: the law at the largest penetration and the largest
+    rate that the cubic Hermite interpolation of :func:`_interior_peak` reaches inside the step.
+
+    p(u) = a u^3 + b u^2 + c u + p0 on u in [0, 1] with c = h d0, b = 3 (p1 - p0) - h (2 d0 + d1),
+    a = 2 (p0 - p1) + h (d0 + d1); its largest value is at an end or at a root of p'(u) = 3 a u^2 + 2 b u + c,
+    and the largest rate p'(u) / h at an end or, where a < 0, at the vertex u = -b / (3 a).  Valid only where
+    the force does not decrease with the penetration or its rate (registry flag ``monotone``)."""
+    p_max = p0 if p0 > p1 else p1
+    d_max = d0 if d0 > d1 else d1
+    # the cubic's coefficients in units of its largest term (no underflow of b^2 for tiny penetrations)
+    sc = max(abs(p0), abs(p1), h * abs(d0), h * abs(d1))
+    if sc > 0.0:
+        q0 = p0 / sc
+        c = h * d0 / sc
+        b = (3.0 * (p1 - p0) - h * (2.0 * d0 + d1)) / sc
+        a = (2.0 * (p0 - p1) + h * (d0 + d1)) / sc
+        if a != 0.0:
+            disc = b * b - 3.0 * a * c
+            if disc >= 0.0:
+                r = math.sqrt(disc)
+                for u in ((-b + r) / (3.0 * a), (-b - r) / (3.0 * a)):
+                    if 0.0 < u < 1.0:
+                        pu = sc * (((a * u + b) * u + c) * u + q0)
+                        if pu > p_max:
+                            p_max = pu
+            if a < 0.0:
+                u = -b / (3.0 * a)
+                if 0.0 < u < 1.0:
+                    du = sc * ((3.0 * a * u + 2.0 * b) * u + c) / h
+                    if du > d_max:
+                        d_max = du
+        elif b != 0.0:
+            u = -c / (2.0 * b)
+            if 0.0 < u < 1.0:
+                pu = sc * ((b * u + c) * u + q0)
+                if pu > p_max:
+                    p_max = pu
+    fint, fflt = model[8], model[9]
+    return _law(model[15], fint[j, 3], p_max, d_max, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E],
+                fflt[j, FF_C], fflt[j, FF_D])
+
+
 _C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
 
 
@@ -1079,8 +1128,21 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
                 in_contact[j] = False
             # the interior-peak search only feeds peaks (t >= stats_from) and the first episode's peak: skipped
             # elsewhere (its force evaluation leaves the integration state and the output samples alone: psi restored)
-            if in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j) and (
-                    t >= stats_from or first[j, 3] == 1.0):
+            search = in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j) and (
+                t >= stats_from or first[j, 3] == 1.0)
+            if search and fflt[j, FF_MONOTONE] > 0.0:
+                # nothing inside the step can raise a maximum it feeds when even the bound of a monotone law
+                # stays a margin below them (the margin covers the gap between the interpolated penetration and
+                # the dense-output state the search evaluates the force at)
+                low = np.inf
+                if first[j, 3] == 1.0:
+                    low = first[j, 2]
+                if t >= stats_from and peaks[j] < low:
+                    low = peaks[j]
+                if (1.0 + PEAK_BOUND_MARGIN) * _step_force_bound(model, j, v_imp[j], h_try, pen_start[j],
+                                                                 pdot_start[j], pe, eout[j, EO_PENDOT]) <= low:
+                    search = False
+            if search:
                 fi, u_pk = _interior_peak(model, j, v_imp[j], h_try, pen_start[j], pdot_start[j], pe,
                                           eout[j, EO_PENDOT])
                 # worth the force evaluation only above both ends of the step: the start's force is already in
