@@ -27,11 +27,10 @@ STUDY_FRUIT_FORCE_N = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 
 
 @functools.lru_cache(maxsize=32)
 def _fruit_branch(branch_key: tuple, n_modes: int, z: tuple, mass: float, stiffness: float, damping: float):
-    from berryshaker.plant.branch import Branch
-    from berryshaker.plant.modes import analytic_modes
+    from berryshaker.plant.modes import cached_analytic_modes
     from berryshaker.plant.pedicel import fruit_branch_modes
 
-    return fruit_branch_modes(analytic_modes(Branch(*branch_key), n_modes), np.array(z), mass, stiffness, damping)
+    return fruit_branch_modes(cached_analytic_modes(branch_key, n_modes), np.array(z), mass, stiffness, damping)
 
 
 def plant_modes(machine: Machine):

@@ -20,14 +20,13 @@ same seed gives the same bush.
 
 from __future__ import annotations
 
-import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from berryshaker.plant.branch import Branch
-from berryshaker.plant.modes import Modes, analytic_modes
+from berryshaker.plant.modes import Modes, cached_analytic_modes
 
 
 @dataclass(frozen=True)
@@ -102,16 +101,11 @@ def member_weight(bush_spec) -> float:
     return bush_spec.branches / bush_spec.members if bush_spec.members else 0.0
 
 
-@functools.lru_cache(maxsize=256)
-def _member_modes(key: tuple, n_modes: int) -> Modes:
-    return analytic_modes(Branch(*key), n_modes)
-
-
 def member_modes(member: BushBranch, n_modes: int) -> Modes:
     """Analytic modes (study eq. 15) of one member, cached per process (the same seed repeats them)."""
     b = member.branch
     key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
-    return _member_modes(key, n_modes)
+    return cached_analytic_modes(key, n_modes)
 
 
 def bush_table(members: list[BushBranch]) -> list[dict]:
