@@ -34,12 +34,9 @@ def machine_for(n_modes: int, load_model: str | None):
     return machine_from_dict(d)
 
 
-def windowed_run(machine, k: int, rtol: float, output_step: float, window: float):
-    """Integrate the coupled run window by window; yield (t0, t1, info, element outputs of the window)."""
-    h = machine.harvest
-    pert = RandomInitialPerturbation((h.seed + 1000 * k, 1), h.initial_eccentricity, h.start_phase_spread)
-    spec, _ = coupled_mechanism(machine, None)
-    run = prepare_run(spec, rtol=rtol, output_step=output_step, initial_perturbation=pert)
+def integrate_windows(run, output_step: float, window: float, n_bins: int = N_BINS):
+    """Integrate a prepared run (``engine.prepare_run``) window by window, its element state carried over; yield
+    (output times of the window, info with a step histogram of ``n_bins`` bins, outputs y, element outputs)."""
     cm = run.cm
     per = max(1, int(round(window / output_step)))
     y = run.y.copy()
@@ -50,15 +47,25 @@ def windowed_run(machine, k: int, rtol: float, output_step: float, window: float
         t_w = run.t_out[i0:i1 + 1]
         m = t_w.shape[0]
         oy, oe, ol = np.zeros((m, 2 * cm.n)), np.zeros((m, len(cm.frc_names), mb.N_EO)), np.zeros((m, cm.m))
-        info = np.zeros(mb.N_INFO + N_BINS)
+        info = np.zeros(mb.N_INFO + n_bins)
         info[0] = run.budget
         mb.integrate(y, t_w, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step, run.stats_from,
                      oy, oe, ol, run.peaks, run.first, info)
         if int(info[4]) != 0:
             raise RuntimeError(f"integrator status {int(info[4])} at t = {info[3]}")
         y = oy[-1].copy()
-        yield t_w[0], t_w[-1], info, oe, cm, (run.state[0], run.state[1])
+        yield t_w, info, oy, oe
         i0 = i1
+
+
+def windowed_run(machine, k: int, rtol: float, output_step: float, window: float):
+    """Integrate the coupled run window by window; yield (t0, t1, info, element outputs of the window)."""
+    h = machine.harvest
+    pert = RandomInitialPerturbation((h.seed + 1000 * k, 1), h.initial_eccentricity, h.start_phase_spread)
+    spec, _ = coupled_mechanism(machine, None)
+    run = prepare_run(spec, rtol=rtol, output_step=output_step, initial_perturbation=pert)
+    for t_w, info, _oy, oe in integrate_windows(run, output_step, window):
+        yield t_w[0], t_w[-1], info, oe, run.cm, (run.state[0], run.state[1])
 
 
 def main():

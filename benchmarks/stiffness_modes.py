@@ -24,6 +24,7 @@ from berryshaker.config import reference_machine
 from berryshaker.drives import drive_of
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import prepare_run, simulate_mechanism
+from diagnose_step_blowup import integrate_windows  # benchmarks/ (the script's own folder) is on sys.path
 
 DOPRI5_R = np.array([1.0, 1.0, 1 / 2, 1 / 6, 1 / 24, 1 / 120, 1 / 600])
 
@@ -69,26 +70,12 @@ def main(argv=None) -> None:
     run = prepare_run(spec, rtol=a.rtol, output_step=1e-4)
     cm = run.cm
     bodies = [b.name for b in spec.bodies]
-    per = max(1, int(round(a.window / 1e-4)))
-    y = run.y.copy()
-    n_out = run.t_out.shape[0]
-    i0 = 0
     total = 0
     limited = 0
     print(f"harvester, 2 cam revolutions, rtol {a.rtol:g}, windows of {a.window * 1e3:g} ms")
     print(f"{'t (ms)':>14} {'steps':>6} {'mean h (us)':>11} | {'lambda (1/s)':>22} {'h_stab (us)':>11} "
           f"{'h/h_stab':>8}  mode mostly in")
-    while i0 < n_out - 1:
-        i1 = min(n_out - 1, i0 + per)
-        t_w = run.t_out[i0:i1 + 1]
-        m = t_w.shape[0]
-        oy, oe, ol = np.zeros((m, 2 * cm.n)), np.zeros((m, len(cm.frc_names), mb.N_EO)), np.zeros((m, cm.m))
-        info = np.zeros(mb.N_INFO)
-        info[0] = run.budget
-        mb.integrate(y, t_w, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step, run.stats_from,
-                     oy, oe, ol, run.peaks, run.first, info)
-        if int(info[4]) != 0:
-            raise RuntimeError(f"integrator status {int(info[4])} at t = {info[3]}")
+    for t_w, info, oy, _oe in integrate_windows(run, 1e-4, a.window, n_bins=0):
         y = oy[-1].copy()
         steps = int(info[0])
         total += steps
@@ -103,7 +90,6 @@ def main(argv=None) -> None:
             limited += steps
         print(f"{t_w[0] * 1e3:6.0f}..{t_w[-1] * 1e3:<6.0f} {steps:6d} {h_mean * 1e6:11.1f} | "
               f"{lam[k].real:10.0f} {lam[k].imag:+10.0f}j {h_stab * 1e6:11.1f} {h_mean / h_stab:8.2f}  {who}")
-        i0 = i1
     print(f"{total} accepted steps; {limited} ({100 * limited / total:.0f} %) in windows whose mean step exceeds "
           "half the stability limit")
     print("accepted steps by rtol (the same run whole):")

@@ -68,13 +68,17 @@ def _columns(x, k, xi, order_shift):
                          sign_jyk * special.kve(n, x)])
 
 
+def _bessel_arguments(beta_l, br: Branch):
+    """k, the Bessel arguments x0 (root) and x1 (tip), and xi0, xi1 of the frequency parameter beta_l (a number
+    or an array): xi0 = l / alpha, xi1 = xi0 - l, k = (beta_l / l) sqrt(xi0), x = 2 k sqrt(xi)."""
+    xi0 = br.length / br.alpha
+    xi1 = xi0 - br.length
+    k = beta_l / br.length * math.sqrt(xi0)
+    return k, 2 * k * math.sqrt(xi0), 2 * k * math.sqrt(xi1), xi0, xi1
+
+
 def _matrix(beta_l, br: Branch):
-    a = br.alpha
-    l = br.length
-    xi0 = l / a
-    xi1 = xi0 - l
-    k = beta_l / l * math.sqrt(xi0)
-    x0, x1 = 2 * k * math.sqrt(xi0), 2 * k * math.sqrt(xi1)
+    k, x0, x1, xi0, xi1 = _bessel_arguments(beta_l, br)
     rows = [_columns(x0, k, xi0, 0), _columns(x0, k, xi0, 1), _columns(x1, k, xi1, 2), _columns(x1, k, xi1, 3)]
     m = np.array(rows)
     # undo the scaling of ive/kve consistently per column: I column ~ e^x, K column ~ e^-x
@@ -97,12 +101,7 @@ def _dets(beta_l: np.ndarray, br: Branch) -> np.ndarray:
     """:func:`_det` at every frequency parameter of ``beta_l`` in one vectorised pass (the root scan of
     :func:`analytic_modes`: ~12 000 points, 0.6 s one by one).  The same operations element by element
     (scipy's Bessel ufuncs, a stacked LAPACK determinant); the roots are refined with the scalar :func:`_det`."""
-    a = br.alpha
-    l = br.length
-    xi0 = l / a
-    xi1 = xi0 - l
-    k = beta_l / l * math.sqrt(xi0)
-    x0, x1 = 2 * k * math.sqrt(xi0), 2 * k * math.sqrt(xi1)
+    k, x0, x1, xi0, xi1 = _bessel_arguments(beta_l, br)
     m = np.empty((beta_l.shape[0], 4, 4))
     for r, (x, xi, shift) in enumerate(((x0, xi0, 0), (x0, xi0, 1), (x1, xi1, 2), (x1, xi1, 3))):
         m[:, r, :] = _columns(x, k, xi, shift).T
