@@ -86,7 +86,7 @@ def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
                        rtol: float = 1e-6, output_step: float = 1e-4,
-                       driveline: str | None = None) -> tuple[MultibodyResult, dict]:
+                       driveline: str | None = None, initial_perturbation=None) -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
     Parameters
@@ -105,6 +105,9 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
         Override of ``[driveline] mode``: "powered" turns the drive shaft through the driveline
         (drives/powered.py; the summary then has cam speed, ripple, input power and energy lost per revolution
         in each joint); default: as the machine description says (imposed speed without a ``[driveline]``).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start the mechanism off its centred, unturned state (berryshaker.multibody.perturbation): the
+        replicates whose spread measures how much of a difference is impact-sequence noise.
 
     Returns
     -------
@@ -117,7 +120,7 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
 
     machine = with_driveline_mode(machine.with_clearances(clearance), driveline)
     spec = drive_of(machine).mechanism(machine, revolutions=revolutions)
-    result = simulate_mechanism(spec, rtol=rtol, output_step=output_step)
+    result = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)
     return result, multibody_summary(machine, result)
 
 

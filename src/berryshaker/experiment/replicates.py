@@ -433,4 +433,48 @@ def describe_replicated(res: dict) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["analyze_replicated", "comparison_half_width", "describe_replicated", "pure_error", "replicated_anova"]
+#: significance level of level-to-level comparisons (Welch's t-test over the replicates, :func:`replicate_trend`)
+TREND_ALPHA = 0.05
+
+
+def replicate_trend(samples: list[list[float]], alpha: float = TREND_ALPHA) -> dict:
+    """Is a response growing from one level to the next, beyond the spread of its replicates?
+
+    Parameters
+    ----------
+    samples : list of lists
+        Replicate values of the response at each level, in level order (at least 2 per level).
+    alpha : float
+        Significance level of each two-sided Welch t-test (scipy.stats.ttest_ind, unequal variances) between
+        consecutive levels.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``sd`` (ddof 1) per level; ``steps``: per consecutive pair the difference, its p-value and
+        ``"up"``, ``"down"`` or ``"no difference"`` (p >= alpha: within the replicate noise); ``grows``: every
+        step is a significant rise.
+
+    References
+    ----------
+    Welch, B. L. (1947). The generalization of "Student's" problem when several different population variances
+    are involved. Biometrika 34, 28-35.
+    """
+    from scipy import stats
+
+    x = [np.asarray(v, float) for v in samples]
+    if len(x) < 2 or any(v.size < 2 or not np.all(np.isfinite(v)) for v in x):
+        raise ConfigError("replicate_trend: give at least two levels, each with at least two finite replicate "
+                          f"values (got {[v.size for v in x]} values per level)")
+    steps = []
+    for a, b in zip(x, x[1:]):
+        p = float(stats.ttest_ind(b, a, equal_var=False).pvalue) if (np.ptp(a) > 0 or np.ptp(b) > 0) else (
+            0.0 if b.mean() != a.mean() else 1.0)
+        d = float(b.mean() - a.mean())
+        steps.append({"difference": d, "p": p, "verdict": ("up" if d > 0 else "down") if p < alpha else "no difference"})
+    return {"mean": [float(v.mean()) for v in x], "sd": [float(v.std(ddof=1)) for v in x], "steps": steps,
+            "grows": all(s["verdict"] == "up" for s in steps), "alpha": alpha}
+
+
+__all__ = ["analyze_replicated", "comparison_half_width", "describe_replicated", "pure_error", "replicated_anova",
+           "replicate_trend"]

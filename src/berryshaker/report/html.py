@@ -321,16 +321,24 @@ def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
     rows = []
     for lv, d in pw["levels"].items():
         e, sp = d["energy_per_revolution_J"], d["cam_speed_rpm"]
+        ripple = d["speed_ripple_percent"]
+        if "speed_ripple_sd_percent" in d:
+            ripple = f"{ripple:.3g} +- {d['speed_ripple_sd_percent']:.2g}"
         rows.append([lv, ", ".join(f"{p} {d['clearance_mm'][p]:g}" for p in pairs),
-                     f"{sp['min']:.1f} .. {sp['max']:.1f} ({sp['mean']:.2f})", d["speed_ripple_percent"],
+                     f"{sp['min']:.1f} .. {sp['max']:.1f} ({sp['mean']:.2f})", ripple,
                      d["input_power_W"], *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
                      d["audit_relative_residual"]])
     parts.append(_table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min", "ripple (%)",
                          "input power (W)", *[f"lost in {p} (J/rev)" for p in pairs], "belt (J/rev)",
-                         "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2)))
+                         "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2, 3)))
+    reps = pw.get("replicates")
+    rep_text = (f" Every level is the mean of {reps} runs from seeded perturbed starts (clearance joints off centre, "
+                "seeds in summary.json); ripple is shown as mean +- SD, and a trend is stated only where Welch's "
+                "t-test between consecutive levels finds it beyond that spread." if reps else "")
     parts.append(f"<p>{html.escape(pw['finding'])} Energy lost per revolution is the work of each joint's contact "
-                 "damping and friction, integrated with the motion; the audit residual is |motor work - kinetic, "
-                 "stored and dissipated energy| / motor work over revolutions 2-3.</p>")
+                 "damping and friction, integrated with the motion; the audit residual is the largest over the "
+                 "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
+                 f"2-3.{rep_text}</p>")
 
 
 def _ci_text(est: dict | None, digits: int = 4) -> str:

@@ -38,13 +38,19 @@ def multibody_rows(kwargs_list: list[dict]) -> list:
 multibody_row.batch = multibody_rows
 
 
-def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
+def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
     """Multibody summary of one clearance set with the powered driveline turning the drive shaft
-    (drives/powered.py: cam speed, ripple, input power, energy lost per revolution in each joint)."""
+    (drives/powered.py: cam speed, ripple, input power, energy lost per revolution in each joint).  ``seed``:
+    start from the seeded perturbation (clearance eccentricities uniform over ``harvest.initial_eccentricity`` of
+    each free radius, berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate."""
     from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
-    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions,
-                              driveline="powered")[1]
+    machine = machine_from_dict(machine_data)
+    pert = None if seed is None else RandomInitialPerturbation(
+        tuple(int(x) for x in seed), eccentricity_fraction=machine.harvest.initial_eccentricity)
+    return simulate_multibody(machine, clearance, revolutions=revolutions, driveline="powered",
+                              initial_perturbation=pert)[1]
 
 
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
