@@ -1,10 +1,11 @@
 """The groove cam's pitch curve and foot point in the compiled engine (multibody/kernel.py).
 
-* ``pitch_point``'s derivatives P', P'' agree with central differences of P, P' on every follower law and on
-  the rise, dwell and return of the cycle;
+* ``pitch_point``'s derivatives P', P'' (and the third, ``_pitch_jet``) agree with central differences on every
+  follower law and on the rise, dwell and return of the cycle;
 * ``pitch_foot`` (Newton on the curve parameter) finds the closest point of the curve: the
   same parameter as a bounded minimisation of the distance (scipy), a foot whose normal is perpendicular to the
-  tangent, and the same foot from near and far starting guesses.
+  tangent, a foot and curvature equal to the curve's at the returned parameter (its Taylor finish is exact to
+  round-off), and the same foot from near and far starting guesses.
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ def test_pitch_point_derivatives_agree_with_differences(law):
             exact = v[2 * k + 2:2 * k + 4]
             scale = max(1.0, float(np.abs(exact).max()))
             assert np.allclose(fd[2 * k:2 * k + 2], exact, rtol=0, atol=1e-6 * scale), (law, psi, k)
+        # the third derivative, which pitch_foot's Taylor finish uses
+        j = np.array(mb._pitch_jet(psi, cam))
+        fd3 = (np.array(mb._pitch_jet(psi + d, cam))[4:6] - np.array(mb._pitch_jet(psi - d, cam))[4:6]) / (2 * d)
+        assert np.allclose(j[:6], v) and np.allclose(fd3, j[6:8], rtol=0, atol=1e-6 * max(1.0, np.abs(j[6:8]).max()))
 
 
 def _closest(lx, ly, cam, psi0):
@@ -76,5 +81,8 @@ def test_pitch_foot_is_the_closest_point(law):
             t = mb.pitch_point(f_psi, cam)
             assert abs(fnx * t[2] + fny * t[3]) < 1e-12 * math.hypot(t[2], t[3])  # normal _|_ tangent
             assert math.hypot(fx - t[0], fy - t[1]) < 1e-15  # the foot is the curve's point at f_psi
+            tn = math.hypot(t[2], t[3])
+            k_at = (t[2] * t[5] - t[3] * t[4]) / tn**3  # curvature evaluated at f_psi, not Taylor-expanded
+            assert abs(kappa - k_at) < 1e-9 * max(1.0, abs(k_at)), (law, psi, guess)
         for f in feet[1:]:
             assert abs(f[0] - feet[0][0]) < 1e-13 and abs(f[3] - feet[0][3]) < 1e-15

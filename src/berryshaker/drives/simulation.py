@@ -8,6 +8,7 @@ import math
 import numpy as np
 
 from berryshaker.drives import drive_of
+from berryshaker.drives.base import HARVESTER_RTOL
 from berryshaker.errors import ConfigError
 from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 
@@ -85,7 +86,7 @@ def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
 
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
-                       rtol: float = 1e-6, output_step: float = 1e-4,
+                       rtol: float = HARVESTER_RTOL, output_step: float = 1e-4,
                        driveline: str | None = None, initial_perturbation=None) -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
@@ -98,7 +99,8 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     revolutions : int
         Drive-shaft revolutions (>= 2; statistics exclude the first).
     rtol : float
-        Relative tolerance of the integrator.
+        Relative tolerance of the integrator (default :data:`berryshaker.drives.base.HARVESTER_RTOL`, chosen by
+        convergence of the summary's statistics).
     output_step : float
         Spacing of the written series (s); peaks are taken over every step.
     driveline : {"imposed", "powered"}, optional
@@ -125,7 +127,7 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
 
 
 def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] | None], revolutions: int = 2,
-                             rtol: float = 1e-6, output_step: float = 1e-4, driveline: str | None = None) -> list:
+                             rtol: float = HARVESTER_RTOL, output_step: float = 1e-4, driveline: str | None = None) -> list:
     """:func:`simulate_multibody` for many (machine, clearance) pairs in batched compiled calls
     (:func:`berryshaker.multibody.batch.simulate_mechanisms`: runs of one mechanism structure share a call).
 

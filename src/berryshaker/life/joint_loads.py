@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from berryshaker.drives.base import HARVESTER_RTOL
 from berryshaker.errors import ConfigError
 from berryshaker.life.wear import JointWear
 
@@ -255,7 +256,7 @@ def flat_outputs(summary: dict) -> dict[str, float]:
 
 
 def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int = 2, slip: float = DEFAULT_SLIP,
-                rtol: float = 1e-6) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, float]]:
+                rtol: float = HARVESTER_RTOL) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, float]]:
     """Loads of every clearance pair and the scalar outputs of one multibody run (the ``simulate`` callable of
     :func:`berryshaker.life.wear.wear_life`).
 
@@ -271,7 +272,7 @@ def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int
     slip : float
         Roller slip ratio [assumed default 5 %].
     rtol : float
-        Integrator tolerance.
+        Integrator tolerance (default: the harvester runs', :data:`berryshaker.drives.base.HARVESTER_RTOL`).
 
     Returns
     -------
