@@ -328,7 +328,7 @@ def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
                      f"{sp['min']:.1f} .. {sp['max']:.1f} ({sp['mean']:.2f})", ripple,
                      d["input_power_W"], *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
                      d["audit_relative_residual"]])
-    parts.append(_table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min", "ripple (%)",
+    parts.append(_table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min, replicate means", "ripple (%)",
                          "input power (W)", *[f"lost in {p} (J/rev)" for p in pairs], "belt (J/rev)",
                          "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2, 3)))
     reps = pw.get("replicates")

@@ -294,6 +294,8 @@ def step_clearance_life(ctx: StudyContext) -> StepResult:
 #: between starts (reference machine, 6 starts per level, measured); 4 replicates resolve the level-to-level steps
 #: (13.0 -> 17.2 -> 22.5 %, 0.42 -> 0.81 -> 1.23 J/rev) many times over their standard error.
 POWERED_REPLICATES = 4
+
+
 def _replicate_mean(values: list):
     """Mean of each numeric leaf over replicate summaries of the same shape (dicts of numbers)."""
     first = values[0]
