@@ -75,12 +75,10 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
 
 
 def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
-    """Contact onsets (impacts) per clearance pair over the statistics window: transitions of the written
-    penetration series from separated (<= 0) to in contact (> 0) (:meth:`MultibodyResult.contact_onsets`).
-
-    Counted on the written series (spacing ``output_step``): a contact episode that begins and ends between two
-    samples is missed, so the count is a lower bound; it is not the engine's count of step cut-backs to an
-    onset (``event_cuts``), which counts every refinement.  An ideal joint (zero clearance) has none.
+    """Impacts per clearance pair over the statistics window (:meth:`MultibodyResult.contact_onsets`): the
+    integrator's located contact onsets closing at 1 mm/s or faster, counted on every accepted step, so
+    independent of ``output_step``; not the engine's count of step cut-backs to an onset (``event_cuts``), which
+    counts every refinement.  An ideal joint (zero clearance) has none.
     """
     return result.contact_onsets(list(pairs))
 

@@ -150,6 +150,13 @@ def _significant(l9, name, p) -> bool:
     return True if rep is None else bool(rep["factors"][p]["significant"])
 
 
+def _p_value(l9, name, p) -> float | None:
+    """ANOVA p of factor p's effect on a response against the replicate error (None without a replicated analysis)."""
+    rep = (l9.get("replicated") or {}).get("responses", {}).get(name)
+    v = None if rep is None else rep["factors"][p].get("p")
+    return None if v is None else float(v)
+
+
 def _claim7(res):
     l9 = res["l9"]
     trend = {}
@@ -181,8 +188,11 @@ def _claim8(res):
     verdict = ("reproduced" if same and a_first
                else ("partly reproduced" if same or a_first else "not reproduced"))
     basis = l9["recommended"].get("statement", "")
+    # the p itself, so that a verdict resting on p just below 0.05 in a few-replicate design reads as such
+    p_a = _p_value(l9, "efficiency", "A")
     return (verdict, f"ours: ranking for efficiency {' > '.join(rank_eff)}"
             + ("" if a_first or rank_eff[0] != "A" else " (A's effect on efficiency is within the noise)")
+            + ("" if p_a is None else f" (A's effect on efficiency: ANOVA p = {p_a:.3g}, significant below 0.05)")
             + "; best (- = no meaningful difference) "
             + ", ".join(f"{n} {c} (study {BEST_PER_INDEX[n]})" for n, c in ours.items())
             + (f"; {basis}" if basis else "")

@@ -467,7 +467,8 @@ class MLSDResult:
 
     def series_onsets(self) -> dict[str, int]:
         """Contact onsets per pair over revolutions 2..N: transitions of the written series from |d_i| <= c_i
-        (open) to |d_i| > c_i (in contact), as :func:`berryshaker.drives.simulation.contact_onsets` counts them."""
+        (open) to |d_i| > c_i (in contact); a lower bound (an episode between two samples is missed).  The multibody
+        summary counts impacts in its integrator instead (:func:`berryshaker.drives.simulation.contact_onsets`)."""
         sel = self.t >= self.stats_from - 1e-12
         out = {}
         for k, name in enumerate(PAIR_NAMES):
@@ -515,7 +516,7 @@ class MLSDResult:
         out["drive_moment_Nm"] = {"peak": s["peak"], "rms": s["rms"], "mean": float(np.mean(m_series)),
                                   "mean_abs": s["mean"]}
         out["drive_moment_Nm"]["mean_power_W"] = float(np.mean(m_series) * self.machine.cam.speed)
-        # impacts per pair counted as in the multibody summary: transitions of the written series from open to
+        # impacts per pair on the written series: transitions from open to
         # in contact over revolutions 2..N (a lower bound: an episode between two samples is missed) ...
         out["contact_onsets"] = self.series_onsets()
         out["contact_onsets_located"] = int(sum(out["contact_onsets"].values()))
