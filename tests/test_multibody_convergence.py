@@ -57,10 +57,8 @@ SUMMARY_GROUPS = ("collision_force_N", "load_moment_Nm", "drive_moment_Nm")
 DRIVES = ("groove_cam", "crank_rocker")  # the default serves every drive, so every drive is checked
 
 
-def _statistics(rtol: float, seed: int, drive: str = "groove_cam") -> dict[str, float]:
-    machine = reference_machine(drive)
-    _result, summary = simulate_multibody(machine, dict(machine.clearance_sizes()), revolutions=REVOLUTIONS,
-                                          rtol=rtol, initial_perturbation=RandomInitialPerturbation(seed))
+def summary_statistics(summary: dict) -> dict[str, float]:
+    """Every statistic of a harvester run's summary in :data:`SUMMARY_GROUPS`, as ``group.name.kind``."""
     out = {}
     for group in SUMMARY_GROUPS:
         block = summary[group]
@@ -69,6 +67,13 @@ def _statistics(rtol: float, seed: int, drive: str = "groove_cam") -> dict[str, 
             for kind, v in stats.items():
                 out[".".join(x for x in (group, name, kind) if x)] = float(v)
     return out
+
+
+def _statistics(rtol: float, seed: int, drive: str = "groove_cam") -> dict[str, float]:
+    machine = reference_machine(drive)
+    _result, summary = simulate_multibody(machine, dict(machine.clearance_sizes()), revolutions=REVOLUTIONS,
+                                          rtol=rtol, initial_perturbation=RandomInitialPerturbation(seed))
+    return summary_statistics(summary)
 
 
 def _ensemble(rtol: float, starts: int = STARTS, drive: str = "groove_cam") -> dict[str, np.ndarray]:

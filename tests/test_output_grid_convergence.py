@@ -36,7 +36,7 @@ import inspect
 
 import numpy as np
 import pytest
-from test_multibody_convergence import SUMMARY_GROUPS, TOL_DRIVE_MEAN, TOLERANCE
+from test_multibody_convergence import TOL_DRIVE_MEAN, TOLERANCE, summary_statistics
 
 from berryshaker.config import reference_machine
 from berryshaker.drives.simulation import simulate_multibody
@@ -51,14 +51,7 @@ def _run(drive: str, output_step: float, seed: int) -> tuple[dict[str, float], d
     machine = reference_machine(drive)
     _r, summary = simulate_multibody(machine, dict(machine.clearance_sizes()), revolutions=REVOLUTIONS,
                                      output_step=output_step, initial_perturbation=RandomInitialPerturbation(seed))
-    stats = {}
-    for group in SUMMARY_GROUPS:
-        block = summary[group]
-        items = block.items() if all(isinstance(v, dict) for v in block.values()) else [("", block)]
-        for name, st in items:
-            for kind, v in st.items():
-                stats[".".join(x for x in (group, name, kind) if x)] = float(v)
-    return stats, summary["contact_onsets"], summary["steps"]
+    return summary_statistics(summary), summary["contact_onsets"], summary["steps"]
 
 
 def compare_grids(drive: str, coarse: float, fine: float, starts: int = STARTS) -> dict:

@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from berryshaker.contact.friction import coulomb_friction_kernel
+from berryshaker.contact.pair_law import LUBRICATED_RESTITUTION_VELOCITY
 from berryshaker.kinematics.cam import _follower_svaj_scalar
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
 
@@ -57,7 +58,7 @@ N_FIRST = 5
 #: pairs' impact-velocity floor (contact.pair_law.LUBRICATED_RESTITUTION_VELOCITY).  Slower closings are a pin
 #: settling into its bore (down to 1 um/s): their number depends on the tolerance and on how the chatter of a
 #: loaded roller is resolved, the faster ones' does not (benchmarks/README.md sec. 16)
-IMPACT_COUNT_SPEED = 1.0e-3
+IMPACT_COUNT_SPEED = LUBRICATED_RESTITUTION_VELOCITY
 STEP_HIST_LOG10_MIN = -9.0
 STEP_BINS_PER_DECADE = 20.0
 N_FF = FF_TAB + 2 * MAX_TABLE
