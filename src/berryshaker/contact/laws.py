@@ -30,7 +30,10 @@ d         penetration at which full damping is reached (IMPACT)                 
 and returns the magnitude of the repulsive normal force (N), never negative.  The engine calls it only for
 ``pen > 0``.  The engine passes the registered functions to its compiled core as a tuple of first-class
 functions (numba), so a law registered at run time is dispatched like the built-in ones (the core is
-compiled once per number of registered laws; the built-in set is cached on disk).
+compiled once per number of registered laws; the built-in set is cached on disk).  The tuple holds each law's
+:class:`LawEntryPoint` (its compiled entry point, typed by the signature alone), not the dispatcher: numba
+re-derives a dispatcher's function type from its compiled overloads at every call of the core, which cost
+0.3 ms of each call (benchmarks/README.md sec. 17).
 
 The physics and references of each built-in law are in :mod:`berryshaker.contact.force_laws`.
 """
@@ -40,8 +43,9 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
-from numba import float64, njit
+from numba import float64, njit, types
 from numba.core.errors import NumbaExperimentalFeatureWarning
+from numba.experimental.function_type import _get_wrapper_address
 
 from berryshaker.contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
 from berryshaker.errors import ConfigError
@@ -73,6 +77,35 @@ class ContactLaw:
 
 
 _LAWS: dict[str, ContactLaw] = {}
+
+
+class LawEntryPoint(types.WrapperAddressProtocol):
+    """A registered law's compiled entry point, as the engine's core receives it.
+
+    numba types it from :data:`LAW_SIGNATURE` alone and unboxes it by its stored address, so passing a tuple
+    of them costs nothing per call (a tuple of dispatchers is unified into the same function type at every
+    call, by inspecting each dispatcher's overloads).  Inside compiled code the call is the same indirect call
+    through the same address; from Python it calls the law's dispatcher.
+    """
+
+    def __init__(self, kernel):
+        self.kernel = kernel
+        self._address = None
+
+    def __wrapper_address__(self) -> int:
+        if self._address is None:
+            self._address = _get_wrapper_address(self.kernel, LAW_SIGNATURE)
+        return self._address
+
+    def signature(self):
+        return LAW_SIGNATURE
+
+    def __call__(self, *args):
+        return self.kernel(*args)
+
+
+#: one entry point per law kernel, so the engine's law tuple keeps its identity between runs
+_ENTRY_POINTS: dict[int, LawEntryPoint] = {}
 
 
 def register_law(name: str, kernel, uses: tuple[str, ...], description: str, monotone: bool = False) -> ContactLaw:
@@ -146,8 +179,16 @@ def slot_c(name: str, damping: float, restitution_velocity: float) -> float:
 
 
 def law_table() -> tuple:
-    """The compiled kernels in code order, as the engine's core receives them."""
-    return tuple(_LAWS[n].kernel for n in law_names())
+    """The compiled kernels' entry points (:class:`LawEntryPoint`) in code order, as the engine's core receives
+    them."""
+    out = []
+    for n in law_names():
+        kernel = _LAWS[n].kernel
+        entry = _ENTRY_POINTS.get(id(kernel))
+        if entry is None or entry.kernel is not kernel:
+            entry = _ENTRY_POINTS[id(kernel)] = LawEntryPoint(kernel)
+        out.append(entry)
+    return tuple(out)
 
 
 # ---- built-in laws ---------------------------------------------------------------------------------

@@ -14,9 +14,17 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 
 
 def _stats(series: np.ndarray, sel: np.ndarray, peak: float = 0.0) -> dict:
-    y = np.abs(series[sel])
-    return {"peak": float(max(peak, y.max())), "mean": float(y.mean()), "rms": float(np.sqrt(np.mean(y**2))),
-            "p95": float(np.percentile(y, 95))}
+    return _stats_rows([series], sel, [peak])[0]
+
+
+def _stats_rows(series: list[np.ndarray], sel: np.ndarray, peaks: list[float]) -> list[dict]:
+    """Peak (at least ``peaks``), mean, RMS and 95th percentile of |series| over ``sel``, for several series in
+    one pass (one row each: every reduction runs along a contiguous row, so the values are those of one series
+    at a time, bit for bit)."""
+    y = np.abs(np.stack([s[sel] for s in series]))
+    top, mean, rms, p95 = y.max(axis=1), y.mean(axis=1), np.sqrt(np.mean(y**2, axis=1)), np.percentile(y, 95, axis=1)
+    return [{"peak": float(max(pk, top[i])), "mean": float(mean[i]), "rms": float(rms[i]), "p95": float(p95[i])}
+            for i, pk in enumerate(peaks)]
 
 
 def drive_moment(result: MultibodyResult) -> np.ndarray:
@@ -44,21 +52,34 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     out = {"model": "multibody", "drive": machine.DRIVE,
            "clearance_mm": {p: v * 1e3 for p, v in machine.clearance_sizes().items()},
            "collision_force_N": {}, "pair_state": {}, "load_moment_Nm": {}, "drive_moment_Nm": {}}
+    rows, peaks, where = [], [], []  # every series' statistics in one pass
     for p in machine.pair_names:
         if p in cm.frc_names:
             k = cm.frc_names.index(p)
-            out["collision_force_N"][p] = _stats(result.elements[:, k, 0], sel, result.peaks[k])
+            rows.append(result.elements[:, k, 0])
+            peaks.append(result.peaks[k])
             out["pair_state"][p] = "clearance"
         else:
-            out["collision_force_N"][p] = _stats(result.reaction(p), sel)
+            rows.append(result.reaction(p))
+            peaks.append(0.0)
             out["pair_state"][p] = "ideal joint (reaction force)"
+        where.append(("collision_force_N", p))
     for side, name in (("left", "bush_left"), ("right", "bush_right")):
         if name in cm.frc_names:
-            out["load_moment_Nm"][side] = _stats(result.elements[:, cm.frc_names.index(name), 0], sel)
+            rows.append(result.elements[:, cm.frc_names.index(name), 0])
+            peaks.append(0.0)
+            where.append(("load_moment_Nm", side))
+    torque = drive_moment(result)
+    rows.append(torque)
+    peaks.append(0.0)
+    where.append(("drive_moment_Nm", None))
+    for (group, name), st in zip(where, _stats_rows(rows, sel, peaks)):
+        if name is None:
+            out[group] = st
+        else:
+            out[group][name] = st
     if out["load_moment_Nm"]:  # a run without a plant: the comb's load is the aggregate model (docs/plant.md)
         out["load_model"] = "aggregate (no plant in this run)"
-    torque = drive_moment(result)
-    out["drive_moment_Nm"] = _stats(torque, sel)
     out["drive_moment_Nm"]["mean_abs"] = out["drive_moment_Nm"]["mean"]
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
     onsets = contact_onsets(result, machine.pair_names)
@@ -85,7 +106,8 @@ def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
 
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
                        rtol: float = HARVESTER_RTOL, output_step: float = 1e-4,
-                       driveline: str | None = None, initial_perturbation=None) -> tuple[MultibodyResult, dict]:
+                       driveline: str | None = None, initial_perturbation=None,
+                       series: str = "whole") -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
     Parameters
@@ -108,6 +130,10 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
         Start the mechanism off its centred, unturned state (berryshaker.multibody.perturbation): the
         replicates whose spread measures how much of a difference is impact-sequence noise.
+    series : {"whole", "statistics"}
+        What the result's written series cover (:func:`berryshaker.multibody.engine.simulate_mechanism`):
+        "statistics" skips the first revolution's samples, which no statistic reads; the summary is the same
+        bitwise.  Sweeps and the study's runs, which keep only the summary, use it.
 
     Returns
     -------
@@ -120,12 +146,14 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
 
     machine = with_driveline_mode(machine.with_clearances(clearance), driveline)
     spec = drive_of(machine).mechanism(machine, revolutions=revolutions)
-    result = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)
+    result = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation,
+                                series=series)
     return result, multibody_summary(machine, result)
 
 
 def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] | None], revolutions: int = 2,
-                             rtol: float = HARVESTER_RTOL, output_step: float = 1e-4, driveline: str | None = None) -> list:
+                             rtol: float = HARVESTER_RTOL, output_step: float = 1e-4, driveline: str | None = None,
+                             series: str = "whole") -> list:
     """:func:`simulate_multibody` for many (machine, clearance) pairs in batched compiled calls
     (:func:`berryshaker.multibody.batch.simulate_mechanisms`: runs of one mechanism structure share a call).
 
@@ -149,6 +177,6 @@ def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] |
             continue
         where.append(i)
         used.append(m)
-    for i, m, r in zip(where, used, simulate_mechanisms(specs, rtol=rtol, output_step=output_step)):
+    for i, m, r in zip(where, used, simulate_mechanisms(specs, rtol=rtol, output_step=output_step, series=series)):
         out[i] = r if isinstance(r, BaseException) else (r, multibody_summary(m, r))
     return out

@@ -105,14 +105,14 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
 
 def simulate_mechanisms(specs: list[MechanismSpec], duration: float | None = None, rtol: float | None = None,
                         output_step: float | None = None, max_step: float | None = None,
-                        max_steps: int | None = None) -> list[MultibodyResult | BerryshakerError]:
+                        max_steps: int | None = None, series: str = "whole") -> list[MultibodyResult | BerryshakerError]:
     """Simulate many descriptions, batching those of one structure into one compiled call.
 
     Parameters
     ----------
     specs : list of MechanismSpec
         The mechanisms (typically one description with different parameters).
-    duration, rtol, output_step, max_step, max_steps
+    duration, rtol, output_step, max_step, max_steps, series
         As in :func:`berryshaker.multibody.engine.simulate_mechanism` (each description's own
         ``simulation`` block gives the defaults).
 
@@ -129,7 +129,7 @@ def simulate_mechanisms(specs: list[MechanismSpec], duration: float | None = Non
     prepared: dict[int, PreparedRun] = {}
     for i, spec in enumerate(specs):
         try:
-            prepared[i] = prepare_run(spec, duration, rtol, output_step, max_step, None, max_steps)
+            prepared[i] = prepare_run(spec, duration, rtol, output_step, max_step, None, max_steps, series=series)
         except BerryshakerError as exc:
             out[i] = exc
             continue

@@ -250,7 +250,8 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
         return drive.reduced_model(machine, {}, revolutions=revolutions).summary()
     from berryshaker.drives.simulation import simulate_multibody
 
-    return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline)[1]
+    # only the summary is kept: the start-up revolution's samples are not written (the summary is the same)
+    return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline, series="statistics")[1]
 
 
 def model_runs(kwargs_list: list[dict]) -> list:
@@ -276,7 +277,8 @@ def model_runs(kwargs_list: list[dict]) -> list:
             continue
         groups.setdefault((rev, kw.get("driveline")), []).append((i, machine))
     for (rev, driveline), items in groups.items():
-        res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline)
+        res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline,
+                                       series="statistics")
         for (i, _), r in zip(items, res):
             out[i] = r if isinstance(r, BaseException) else r[1]
     return out

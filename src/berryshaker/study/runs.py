@@ -13,7 +13,8 @@ def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> 
     """Multibody summary of one clearance set."""
     from berryshaker.drives.simulation import simulate_multibody
 
-    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions)[1]
+    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions,
+                              series="statistics")[1]
 
 
 def multibody_rows(kwargs_list: list[dict]) -> list:
@@ -30,7 +31,8 @@ def multibody_rows(kwargs_list: list[dict]) -> list:
         for i in idx:
             machines.append(machine_from_dict(kwargs_list[i]["machine_data"]))
             clearances.append(kwargs_list[i]["clearance"])
-        for i, r in zip(idx, simulate_multibody_batch(machines, clearances, revolutions=rev)):
+        for i, r in zip(idx, simulate_multibody_batch(machines, clearances, revolutions=rev,
+                                                             series="statistics")):
             out[i] = r if isinstance(r, BaseException) else r[1]
     return out
 
@@ -50,7 +52,7 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
     pert = None if seed is None else RandomInitialPerturbation(
         tuple(int(x) for x in seed), eccentricity_fraction=machine.harvest.initial_eccentricity)
     return simulate_multibody(machine, clearance, revolutions=revolutions, driveline="powered",
-                              initial_perturbation=pert)[1]
+                              initial_perturbation=pert, series="statistics")[1]
 
 
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
