@@ -86,3 +86,28 @@ def test_pitch_foot_is_the_closest_point(law):
             assert abs(kappa - k_at) < 1e-9 * max(1.0, abs(k_at)), (law, psi, guess)
         for f in feet[1:]:
             assert abs(f[0] - feet[0][0]) < 1e-13 and abs(f[3] - feet[0][3]) < 1e-15
+
+
+@pytest.mark.parametrize("law", sorted(FOLLOWER_LAWS))
+def test_foot_rate_is_the_feet_derivative_along_a_motion(law):
+    """``_foot_rate`` (the engine's prediction of Newton's start, psi' = t . dL/dt / (|P'| (1 + kappa dist)))
+    equals the central difference of the foot along a moving point, off the curve by up to 5 mm so that the
+    curvature term (kappa dist ~ 5 %) is tested; a wrong sign of that term fails by ~10 %."""
+    cam = cam_row(law)
+    rng = np.random.default_rng(11)
+    d = 1e-7  # s
+    for psi in ANGLES:
+        px, py, p1x, p1y = mb.pitch_point(psi, cam)[:4]
+        norm = math.hypot(p1x, p1y)
+        nx, ny = p1y / norm, -p1x / norm
+        off = float(rng.uniform(-5e-3, 5e-3))
+        lx, ly = px + off * nx, py + off * ny
+        dlx, dly = rng.uniform(-0.5, 0.5, 2)  # m/s
+        f = mb.pitch_foot_speed(lx, ly, cam, psi)
+        rate = mb._foot_rate(f[3], f[4], f[5], f[6], f[7], dlx, dly)
+        ahead = mb.pitch_foot(lx + dlx * d, ly + dly * d, cam, psi)[0]
+        behind = mb.pitch_foot(lx - dlx * d, ly - dly * d, cam, psi)[0]
+        fd = (ahead - behind) / (2 * d)
+        assert abs(rate - fd) <= 1e-5 * max(1.0, abs(fd)), (law, psi, rate, fd)
+        t = mb.pitch_point(f[0], cam)
+        assert abs(f[7] - math.hypot(t[2], t[3])) < 1e-12 * f[7]  # |P'| at the foot

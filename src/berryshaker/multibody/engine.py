@@ -220,7 +220,8 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
 def _state_and_work(cm: CompiledMechanism):
     nf = len(cm.frc_names)
     nc = len(cm.con_names)
-    state = (np.zeros(max(nf, 1), np.bool_)[:nf], np.zeros(nf), np.full(nc, np.nan), np.full(nf, np.nan),
+    state = (np.zeros(max(nf, 1), np.bool_)[:nf], np.zeros(nf), np.full(nc, np.nan),
+             np.concatenate([np.full(nf, np.nan), np.zeros((mb.FOOT_MEMORY - 1) * nf)]),
              np.zeros(cm.m))
     mass, inertia = cm.model[0], cm.model[1]
     minv = np.ones(cm.n)  # modal coordinates are mass-normalised

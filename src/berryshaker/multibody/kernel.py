@@ -141,6 +141,15 @@ FOOT_TAYLOR_STEP = 1e-7
 
 @njit(cache=True, _nrt=False)
 def pitch_foot(lx, ly, cam, guess):
+    """Closest point of the pitch curve to (lx, ly) in the cam frame (:func:`pitch_foot_speed` without |P'|).
+
+    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature."""
+    psi, px, py, nx, ny, dist, kappa, speed = pitch_foot_speed(lx, ly, cam, guess)
+    return psi, px, py, nx, ny, dist, kappa
+
+
+@njit(cache=True, _nrt=False)
+def pitch_foot_speed(lx, ly, cam, guess):
     """Closest point of the pitch curve to (lx, ly) in the cam frame (Newton on the curve parameter).
 
     Newton on g(psi) = (P - L) . dP = 0, g' = |dP|^2 + (P - L) . d2P.  Once a step h is below
@@ -148,7 +157,7 @@ def pitch_foot(lx, ly, cam, guess):
     evaluation (P, dP, d2P with errors O(h^4), O(h^3), O(h^2) of the curve's scale: round-off for
     h < 1e-7) instead of a new evaluation.
 
-    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature."""
+    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature, |P'| (m/rad)."""
     if math.isnan(guess):
         psi = math.atan2(ly, lx)
         for _ in range(3):
@@ -182,7 +191,32 @@ def pitch_foot(lx, ly, cam, guess):
     nx, ny = p1y / norm, -p1x / norm
     dist = nx * (lx - px) + ny * (ly - py)
     kappa = (p1x * p2y - p1y * p2x) / norm**3
-    return psi, px, py, nx, ny, dist, kappa
+    return psi, px, py, nx, ny, dist, kappa, norm
+
+
+#: the groove contacts' foot memory (state ``psi_f``, 3 nf long): per force element k the last foot parameter
+#: psi (rad; NaN: none yet) at [k], its rate psi' (rad/s) at [nf + k] and the time it was found (s) at [2 nf + k].
+#: Newton starts from psi + psi' (t - t_found): one curve evaluation instead of two to three from psi alone
+#: (benchmarks/README.md sec. 17)
+FOOT_MEMORY = 3
+#: largest predicted move of the foot (rad) taken as Newton's start; a larger one (a foot near the pitch curve's
+#: centre of curvature, where psi' is ill-conditioned) starts from the last foot itself, as without prediction
+FOOT_PREDICTION_MAX = 1e-2
+
+
+@njit(cache=True, _nrt=False)
+def _foot_rate(nx, ny, dist, kappa, speed, dlx, dly):
+    """Rate of the closest pitch-curve parameter psi (rad/s) of a point L moving at dL/dt (cam frame), from the
+    foot's outward normal n, signed distance, curvature and |P'| (:func:`pitch_foot_speed`).
+
+    The foot satisfies g(psi, L) = (P(psi) - L) . P'(psi) = 0; along the motion dg/dt = 0 gives
+    psi' = (P' . dL/dt) / (|P'|^2 + (P - L) . P'').  With P - L = -dist n, P' = |P'| (-n_y, n_x) and
+    n . P'' = -kappa |P'|^2: psi' = ((-n_y, n_x) . dL/dt) / (|P'| (1 + kappa dist)).  Used only to predict
+    Newton's starting guess (0 where the foot is not unique, 1 + kappa dist <= 0)."""
+    den = speed * (1.0 + kappa * dist)
+    if den <= 0.0:
+        return 0.0
+    return (-ny * dlx + nx * dly) / den
 
 
 @njit(cache=True, _nrt=False)
@@ -429,8 +463,19 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
                     c, s = (math.cos(phj), math.sin(phj)) if bj >= 0 else (1.0, 0.0)
                     wx, wy = pix - ojx, piy - ojy
                     lx, ly = c * wx + s * wy, -s * wx + c * wy
-                    psi, fx, fy, nlx, nly, d, kap = pitch_foot(lx, ly, cams[fint[k, 2]], psi_mem_f[k])
+                    # Newton starts from the last foot carried to this time by its rate (FOOT_MEMORY)
+                    nfm = ftype.shape[0]
+                    guess = psi_mem_f[k]
+                    move = psi_mem_f[nfm + k] * (t - psi_mem_f[2 * nfm + k])
+                    if abs(move) < FOOT_PREDICTION_MAX:  # (NaN guess: stays NaN, the first-call start)
+                        guess += move
+                    psi, fx, fy, nlx, nly, d, kap, speed = pitch_foot_speed(lx, ly, cams[fint[k, 2]], guess)
+                    # the pin's velocity in the cam frame: R(-phi) (v_pin - v_cam) + phi' (ly, -lx)
+                    dlx = c * (vix - vjx) + s * (viy - vjy) + wj * ly
+                    dly = -s * (vix - vjx) + c * (viy - vjy) - wj * lx
                     psi_mem_f[k] = psi
+                    psi_mem_f[nfm + k] = _foot_rate(nlx, nly, d, kap, speed, dlx, dly)
+                    psi_mem_f[2 * nfm + k] = t
                     n0x, n0y = c * nlx - s * nly, s * nlx + c * nly
                 side = 1.0 if d >= 0.0 else -1.0
                 nx, ny = side * n0x, side * n0y
