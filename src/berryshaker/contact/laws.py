@@ -45,10 +45,14 @@ from dataclasses import dataclass
 
 from numba import float64, njit, types
 from numba.core.errors import NumbaExperimentalFeatureWarning
-from numba.experimental.function_type import _get_wrapper_address
 
 from berryshaker.contact.force_laws import hysteresis_kernel, impact_kernel, mlsd_kernel
 from berryshaker.errors import ConfigError
+
+try:  # numba's helper for a dispatcher's wrapper address (private: without it the core gets the dispatchers)
+    from numba.experimental.function_type import _get_wrapper_address
+except ImportError:  # pragma: no cover - a numba that moved it
+    _get_wrapper_address = None
 
 warnings.filterwarnings("ignore", category=NumbaExperimentalFeatureWarning)
 
@@ -180,7 +184,10 @@ def slot_c(name: str, damping: float, restitution_velocity: float) -> float:
 
 def law_table() -> tuple:
     """The compiled kernels' entry points (:class:`LawEntryPoint`) in code order, as the engine's core receives
-    them."""
+    them (the dispatchers themselves if this numba has no ``_get_wrapper_address``: the same results, typed at
+    every call)."""
+    if _get_wrapper_address is None:  # pragma: no cover
+        return tuple(_LAWS[n].kernel for n in law_names())
     out = []
     for n in law_names():
         kernel = _LAWS[n].kernel

@@ -13,10 +13,6 @@ from berryshaker.errors import ConfigError
 from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 
 
-def _stats(series: np.ndarray, sel: np.ndarray, peak: float = 0.0) -> dict:
-    return _stats_rows([series], sel, [peak])[0]
-
-
 def _stats_rows(series: list[np.ndarray], sel: np.ndarray, peaks: list[float]) -> list[dict]:
     """Peak (at least ``peaks``), mean, RMS and 95th percentile of |series| over ``sel``, for several series in
     one pass (one row each: every reduction runs along a contiguous row, so the values are those of one series

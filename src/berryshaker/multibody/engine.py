@@ -543,7 +543,7 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
         initial state, then the samples of the whole grid from ``stats_from`` on; the first revolution's
         start-up is not written).  The trajectory, peaks, impact counts and every sample in the window are
         bitwise those of a "whole" run (the steps do not depend on the output grid), so the statistics are too;
-        a sweep that keeps only the summary saves the start-up's samples (about 6 % of a harvester run).
+        a sweep that keeps only the summary saves the start-up's samples (about 4 % of a harvester run).
 
     Raises
     ------

@@ -31,8 +31,8 @@ def multibody_rows(kwargs_list: list[dict]) -> list:
         for i in idx:
             machines.append(machine_from_dict(kwargs_list[i]["machine_data"]))
             clearances.append(kwargs_list[i]["clearance"])
-        for i, r in zip(idx, simulate_multibody_batch(machines, clearances, revolutions=rev,
-                                                             series="statistics")):
+        res = simulate_multibody_batch(machines, clearances, revolutions=rev, series="statistics")
+        for i, r in zip(idx, res):
             out[i] = r if isinstance(r, BaseException) else r[1]
     return out
 
