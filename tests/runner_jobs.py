@@ -37,3 +37,14 @@ def touch_and_sleep(x: float, folder: str, delay: float = 30.0) -> dict:
     open(os.path.join(folder, f"started-{os.getpid()}-{x}"), "w").close()
     time.sleep(delay)
     return {"y": x * x}
+
+
+def blas_threads(x: float) -> dict:
+    """The thread count of every BLAS / OpenMP library loaded in this process (threadpoolctl), after loading
+    numpy's and scipy's; ``x`` only makes the job distinct."""
+    import numpy  # noqa: F401
+    import scipy.linalg  # noqa: F401
+    from threadpoolctl import threadpool_info
+
+    return {"threads": sorted({int(i["num_threads"]) for i in threadpool_info()}),
+            "libraries": len(threadpool_info()), "x": x}

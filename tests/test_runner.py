@@ -322,3 +322,38 @@ def test_dask_cluster_runs_are_cached_by_the_client(tmp_path):
         again = SweepRunner(scheduler=cluster.scheduler_address, cache_dir=tmp_path / "cache", progress=False)
         again.map(J.fail_on_negative, jobs)
         assert again.stats["cached"] == 6 and again.stats["computed"] == 1
+
+
+def _blas_probe(env: dict) -> dict:
+    """In a fresh interpreter with ``env``: the BLAS libraries' threads before and after one_blas_thread()."""
+    code = textwrap.dedent("""
+        import json
+        import numpy, scipy.linalg
+        from threadpoolctl import threadpool_info
+        from berryshaker.runs.runner import one_blas_thread
+        before = one_blas_thread()
+        print(json.dumps({"before": before, "after": sorted({i["num_threads"] for i in threadpool_info()}),
+                          "n": len(threadpool_info())}))
+    """)
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120,
+                         check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_pool_workers_run_one_blas_thread(tmp_path):
+    """Each worker is a process per core: its BLAS must not fan out over the cores (benchmarks/README.md sec. 18)."""
+    env = {k: v for k, v in os.environ.items() if k not in R.BLAS_THREAD_VARIABLES}
+    probe = _blas_probe(env)
+    assert probe["n"] >= 1 and probe["after"] == [1]
+    if (os.cpu_count() or 1) > 1:  # the limit is not vacuous: OpenBLAS would have used every core
+        assert max(probe["before"].values()) > 1
+    out = _runner(tmp_path, workers=2, use_cache=False).map(J.blas_threads, [dict(x=0.0), dict(x=1.0)])
+    assert all(o.error is None and o.value["libraries"] >= 1 and o.value["threads"] == [1] for o in out)
+
+
+def test_a_user_set_blas_thread_count_is_kept():
+    env = {k: v for k, v in os.environ.items() if k not in R.BLAS_THREAD_VARIABLES}
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    probe = _blas_probe(env)
+    assert probe["before"] == {}
+    assert (os.cpu_count() or 1) < 2 or 2 in probe["after"]

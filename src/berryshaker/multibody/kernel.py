@@ -1050,6 +1050,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     k_out = np.empty(ny)
     bspl = np.empty(ny)
     rc5 = np.empty(ny)
+    e_vec = np.empty(ny)  # error estimate, then the dense output's fifth coefficient, per state
     e_save = np.empty((nf, N_EO))
     # the cam foot-point memories (Newton's starting guesses) as they stand after each accepted step: the
     # evaluations for output samples and interior peaks start from them and leave them as they were, so the
@@ -1093,19 +1094,25 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
             info[4] = 4
             return
         h_try = h if h < t_end - t else t_end - t
+        # the stages' states, state index innermost (contiguous rows of k: the loops vectorise); each element
+        # sums its terms in stage order, as a loop over stages per element would
         for s in range(1, 7):
             for i in range(ny):
-                a_i = y[i]
-                for mm in range(s):
-                    a_i += h_try * _A[s, mm] * k[mm, i]
-                ytmp[i] = a_i
+                ytmp[i] = y[i]
+            for mm in range(s):
+                a_h = h_try * _A[s, mm]
+                for i in range(ny):
+                    ytmp[i] += a_h * k[mm, i]
             accelerations(t + _C[s] * h_try, ytmp, model, state, work, k[s])
+        for i in range(ny):
+            e_vec[i] = 0.0
+        for mm in range(7):
+            e_m = _E[mm]
+            for i in range(ny):
+                e_vec[i] += e_m * k[mm, i]
         err = 0.0
         for i in range(ny):
-            ei = 0.0
-            for mm in range(7):
-                ei += _E[mm] * k[mm, i]
-            ei *= h_try
+            ei = e_vec[i] * h_try
             sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
             err += (ei / sc) ** 2
         err = math.sqrt(err / ny)
@@ -1152,10 +1159,13 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         # k[0] is overwritten: output samples and interior force peaks inside the step
         for i in range(ny):
             bspl[i] = h_try * k[0, i] - (ytmp[i] - y_old[i])
-            acc5 = 0.0
-            for mm in range(7):
-                acc5 += _D[mm] * k[mm, i]
-            rc5[i] = h_try * acc5
+            e_vec[i] = 0.0
+        for mm in range(7):
+            d_m = _D[mm]
+            for i in range(ny):
+                e_vec[i] += d_m * k[mm, i]
+        for i in range(ny):
+            rc5[i] = h_try * e_vec[i]
         acc += 1
         if info.shape[0] > N_INFO:  # optional histogram of accepted step sizes (benchmarks/README.md sec. 6)
             hb = int(STEP_BINS_PER_DECADE * (math.log10(h_try) - STEP_HIST_LOG10_MIN))

@@ -338,15 +338,46 @@ def _watch_parent(ppid: int, parent_pid: int, interval: float = 0.5) -> None:
         time.sleep(interval)
 
 
+#: Environment variables that set the thread count of the BLAS / OpenMP libraries numpy and scipy load.
+BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def one_blas_thread() -> dict[str, int]:
+    """Limit this process's BLAS and OpenMP libraries to one thread each; return ``{library: threads before}``.
+
+    A pool worker is one process per core, so a BLAS call that fans out over every core (OpenBLAS's default)
+    oversubscribes the machine, and OpenBLAS's idle threads busy-wait after each call, taking CPU from the
+    other workers' runs.  Measured on the 2-core machine: the study's runs took 153 s of CPU with two BLAS
+    threads per worker and 113 s with one (benchmarks/README.md sec. 18).  Dask's nanny does the same for its
+    workers (``distributed.nanny.pre-spawn-environ``).  A thread count the user set in the environment
+    (:data:`BLAS_THREAD_VARIABLES`) is kept.
+
+    The variables are set first, so a library loaded later in the worker starts with one thread; scipy's own
+    OpenBLAS is loaded here (``scipy.linalg``) and every loaded library is then limited at run time
+    (threadpoolctl), numpy's included, which the fork server may have loaded before the variables were set.
+    """
+    if any(v in os.environ for v in BLAS_THREAD_VARIABLES):
+        return {}
+    for v in BLAS_THREAD_VARIABLES:
+        os.environ[v] = "1"
+    import scipy.linalg  # noqa: F401  (loads scipy's BLAS now, so that the limit below reaches it)
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    before = {f"{i['internal_api']} {i['filepath']}": int(i["num_threads"]) for i in threadpool_info()}
+    threadpool_limits(limits=1)
+    return before
+
+
 def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) -> None:
-    """Pool-worker initializer: report progress through ``progress``, leave Ctrl-C to the parent (it cancels
-    and terminates the pool), and exit when the parent is gone (Linux: a kernel death signal; everywhere: a
-    thread polling the parent pid).  With ``forkserver`` the parent is the fork server, which exits when the
-    main process dies."""
+    """Pool-worker initializer: report progress through ``progress``, one BLAS thread (:func:`one_blas_thread`),
+    leave Ctrl-C to the parent (it cancels and terminates the pool), and exit when the parent is gone (Linux: a
+    kernel death signal; everywhere: a thread polling the parent pid).  With ``forkserver`` the parent is the
+    fork server, which exits when the main process dies."""
     global _PROGRESS
     import signal
 
     _PROGRESS = progress
+    one_blas_thread()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if pdeathsig and sys.platform.startswith("linux"):
         try:
