@@ -109,3 +109,30 @@ def test_convergence_command_refuses_bad_mode_counts():
     assert res.exit_code == 2 and "two or more mode counts" in res.output
     res = CliRunner().invoke(app, ["plant", "--convergence", "--convergence-modes", "8,x"])
     assert res.exit_code == 2 and "whole numbers" in res.output
+
+
+def test_axial_foreshortening_is_the_double_sum_over_mode_pairs(machine):
+    """BranchMotion.axial sums the mode pairs i <= j of the symmetric G (half the products): it must equal
+    u = -1/2 eta^T G(z) eta and u' = -eta^T G(z) eta' summed over every pair, G from its definition
+    G_ij(z) = int_0^z phi_i' phi_j' ds."""
+    from scipy import integrate
+
+    from berryshaker.harvest.coupled import BranchMotion, plant_modes
+
+    modes, _ = plant_modes(machine)
+    nm = len(modes.omega)
+    rng = np.random.default_rng(3)
+    t = np.linspace(0.0, 0.1, 501)
+    eta, etad = rng.normal(size=(len(t), nm)) * 1e-3, rng.normal(size=(len(t), nm)) * 1e-2
+    motion = BranchMotion(t, modes, eta, etad, np.zeros_like(eta), {})
+    z = np.array([0.0, 0.13, 0.5, 0.77, 1.0]) * modes.branch.length
+    slope = np.array([np.gradient(s, modes.z) for s in modes.shapes])
+    g = np.empty((nm, nm, len(z)))
+    for i in range(nm):
+        for j in range(nm):
+            g[i, j] = np.interp(z, modes.z, integrate.cumulative_trapezoid(slope[i] * slope[j], modes.z, initial=0.0))
+    u, v = motion.axial(z)
+    u_ref = -0.5 * np.einsum("ti,ijz,tj->zt", eta, g, eta)
+    v_ref = -np.einsum("ti,ijz,tj->zt", eta, g, etad)
+    assert np.allclose(u, u_ref, rtol=1e-12, atol=1e-12 * np.abs(u_ref).max())
+    assert np.allclose(v, v_ref, rtol=1e-12, atol=1e-12 * np.abs(v_ref).max())

@@ -169,3 +169,22 @@ def test_fruit_branch_modes_reproduce_the_exact_two_way_response():
     eta[1, 0] = 1.0
     fs = fruit_branch_modes(modes, z, M0, K, 0.05).stem_force(eta, np.zeros_like(eta))
     np.testing.assert_allclose(fs[:, 1], K * (fb.modes.shape_at(z)[0] - fb.fruit[0]))
+
+
+def test_remembered_discretisation_is_scipys_and_cannot_be_corrupted():
+    """discretise_foh returns cont2discrete's matrices, fresh arrays on every call (a caller that writes into
+    them must not change what the next replicate run gets)."""
+    from scipy import signal
+
+    from berryshaker.plant.pedicel import discretise_foh
+
+    a = np.array([[0.0, 1.0], [-K / M0, -C / M0]])
+    b = np.array([[0.0, 0.0], [K / M0, C / M0]])
+    c, d = np.array([[-K, -C]]), np.array([[K, C]])
+    ref = signal.cont2discrete((a, b, c, d), 1e-4, method="foh")[:4]
+    first = discretise_foh(a, b, c, d, 1e-4)
+    for x, r in zip(first, ref):
+        assert np.array_equal(x, r)
+        x[...] = 0.0
+    assert all(np.array_equal(x, r) for x, r in zip(discretise_foh(a, b, c, d, 1e-4), ref))
+    assert not np.array_equal(discretise_foh(a, b, c, d, 2e-4)[0], ref[0])  # the step is part of the key

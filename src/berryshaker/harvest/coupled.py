@@ -329,10 +329,16 @@ class BranchMotion:
         return BranchMotion(self.t[::n], self.modes, self.eta[::n], self.etad[::n], self.etadd[::n],
                             {k: v[::n] for k, v in self.contact_force.items()})
 
+    @functools.cached_property
+    def _rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """eta, eta', eta'' as contiguous rows per mode, (n_modes, n_t) each (the series are strided columns of the
+        run's state array; per-mode rows make the products below contiguous)."""
+        return tuple(np.ascontiguousarray(x.T) for x in (self.eta, self.etad, self.etadd))
+
     def lateral(self, z):
         """Lateral displacement (m), velocity (m/s), acceleration (m/s^2) at positions z, each (n_z, n_t)."""
-        phi = self.modes.shape_at(np.atleast_1d(z))  # (n_modes, n_z)
-        return (self.eta @ phi).T, (self.etad @ phi).T, (self.etadd @ phi).T
+        phi_t = self.modes.shape_at(np.atleast_1d(z)).T  # (n_z, n_modes)
+        return tuple(phi_t @ x for x in self._rows)
 
     def axial(self, z):
         """Axial (along-branch) displacement and velocity at z from the bending's foreshortening (m, m/s).
@@ -350,13 +356,17 @@ class BranchMotion:
         j = np.clip(np.searchsorted(m.z, zs) - 1, 0, len(m.z) - 2)
         wgt = (zs - m.z[j]) / (m.z[j + 1] - m.z[j])
         g = (1 - wgt) * cum[:, :, j] + wgt * cum[:, :, j + 1]  # (n_modes, n_modes, n_z), symmetric in the modes
-        nm = g.shape[0]
-        gz = g.reshape(nm * nm, len(zs))
-        # eta^T G eta and eta^T G eta' for every time and position: two matrix products over the mode pairs
-        pair = (self.eta[:, :, None] * self.eta[:, None, :]).reshape(len(self.t), nm * nm)
-        u = -0.5 * (pair @ gz).T
-        pair = (self.eta[:, :, None] * self.etad[:, None, :]).reshape(len(self.t), nm * nm)
-        v = -(pair @ gz).T
+        # eta^T G eta and eta^T G eta' for every time and position: two matrix products over the mode pairs i <= j
+        # (G is symmetric: the products slope_i slope_j and their running integral are the same numbers for (j, i)),
+        # eta^T G eta = sum_{i<=j} (2 - delta_ij) G_ij eta_i eta_j,
+        # eta^T G eta' = sum_{i<=j} G_ij (eta_i eta'_j + eta_j eta'_i) (1 - delta_ij / 2)
+        # (the modal series as contiguous rows per mode: the pair products are then row gathers)
+        iu, ju = np.triu_indices(g.shape[0])
+        diag = iu == ju
+        gp = g[iu, ju, :].T  # (n_z, pairs)
+        e, ed, _ = self._rows
+        u = -0.5 * ((gp * np.where(diag, 1.0, 2.0)) @ (e[iu] * e[ju]))
+        v = -((gp * np.where(diag, 0.5, 1.0)) @ (e[iu] * ed[ju] + e[ju] * ed[iu]))
         return u, v
 
 

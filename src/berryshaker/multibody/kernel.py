@@ -50,6 +50,9 @@ FF_RATIO, FF_ETA_F, FF_ETA_B, FF_CREEP, FF_SLIP, FF_NTAB = range(16, 22)
 MAX_TABLE = 64  # most points of a torque-speed table
 FF_TAB = 22
 #: entries of integrate's ``info``; a longer array gets the step-size histogram (STEP_* below)
+# Integer arguments between compiled functions are passed as np.int64 (not literals such as 3): numba compiles a
+# separate specialisation for every literal value (project was compiled twice, _write_sample three times), time the
+# first run on a fresh install pays.
 N_INFO = 6
 #: columns of integrate's ``first``: first onset time, its impact velocity, the first episode's peak force, done
 #: flag (0 not yet, 1 in the first episode, 2 after it), impacts counted over the statistics window
@@ -818,7 +821,7 @@ def project(t, y, model, state, work, iters):
         for a in range(m):
             rhs[a] = phi[a]
         _spd_solve(plan, W, rhs, m)
-        _add_jac_t(cint, crow, jac, rhs, -1.0, minv, q, 0, m)
+        _add_jac_t(cint, crow, jac, rhs, -1.0, minv, q, np.int64(0), m)
     # velocities (jac and W from the final positions)
     _schur(plan, jac, minv, W, m)
     for k in range(ctype.shape[0]):
@@ -826,7 +829,7 @@ def project(t, y, model, state, work, iters):
         for a in range(crow[k], _block_end(crow, k, m)):
             rhs[a] = _row_dot(jac, a, bi, bj, qd) - nu[a]
     _spd_solve(plan, W, rhs, m)
-    _add_jac_t(cint, crow, jac, rhs, -1.0, minv, qd, 0, m)
+    _add_jac_t(cint, crow, jac, rhs, -1.0, minv, qd, np.int64(0), m)
     return res
 
 
@@ -989,7 +992,7 @@ def _onset_fraction(p0, d0, p1, d1, h):
     converging contact, so the cut step ends short of it and the next tries again: several wasted steps per
     impact.)
     """
-    return _hermite_crossing(p0, d0, p1, d1, h, 0.5 * EVENT_TOL, 40)[1]
+    return _hermite_crossing(p0, d0, p1, d1, h, 0.5 * EVENT_TOL, np.int64(40))[1]
 
 
 @njit(cache=True, _nrt=False)
@@ -1004,7 +1007,7 @@ def _crossing_rate(p0, d0, p1, d1, h):
     (a graze, v^2 ~ 2 a EVENT_TOL) the rate there is well below the rate at first contact, and the hysteresis
     laws, whose damping is ~ 1 / v_imp, would take a far too small impact velocity.
     """
-    lo, hi = _hermite_crossing(p0, d0, p1, d1, h, 0.0, 50)
+    lo, hi = _hermite_crossing(p0, d0, p1, d1, h, 0.0, np.int64(50))
     u = 0.5 * (lo + hi)
     return ((6 * u**2 - 6 * u) * p0 + (6 * u**2 - 6 * u) * -p1) / h + (3 * u**2 - 4 * u + 1) * d0 \
         + (3 * u**2 - 2 * u) * d1
@@ -1065,7 +1068,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         pen_start[j] = eout[j, EO_PEN]
         f_start[j] = abs(eout[j, EO_FN])
         pdot_start[j] = eout[j, EO_PENDOT]
-    _write_sample(0, y, eout, lam, out_y, out_e, out_lam)
+    _write_sample(np.int64(0), y, eout, lam, out_y, out_e, out_lam)
     h = min(h_max, 1e-6)
     budget = info[0]  # on entry: the step budget (accepted + rejected steps; <= 0: none)
     acc = 0
@@ -1077,7 +1080,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     last_rejected = False
     n_out = t_out.shape[0]
     t_end = t_out[n_out - 1]
-    io = 1
+    io = np.int64(1)
     while io < n_out:
         if t >= t_end - 1e-15:  # only reached with t_end within 1e-15 s: the remaining samples are the state
             for i in range(ny):
@@ -1185,7 +1188,7 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
         if res_p > max_res:
             max_res = res_p
         if res_p > 1e-11 or res_v > 1e-9:
-            res = project(t, y, model, state, work, 3)
+            res = project(t, y, model, state, work, np.int64(3))
             if not math.isfinite(res) or res > 1e-6:
                 info[3] = t
                 info[4] = 3

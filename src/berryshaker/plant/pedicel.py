@@ -45,6 +45,7 @@ one-way stem force with the two-way coupled frequency response.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -113,12 +114,46 @@ def _uniform_step(t):
     return h
 
 
+def _frozen(x) -> tuple:
+    """A hashable copy of a float array (shape and bytes)."""
+    x = np.ascontiguousarray(x, dtype=float)
+    return x.shape, x.tobytes()
+
+
+def _thawed(frozen) -> np.ndarray:
+    """A fresh (writable) array from :func:`_frozen`."""
+    shape, data = frozen
+    return np.frombuffer(data, dtype=float).reshape(shape).copy()
+
+
+@functools.lru_cache(maxsize=512)
+def _foh_frozen(a, b, c, d, h: float) -> tuple:
+    out = signal.cont2discrete(tuple(_thawed(x) for x in (a, b, c, d)), h, method="foh")[:4]
+    return tuple(_frozen(x) for x in out)
+
+
+def discretise_foh(a, b, c, d, h: float) -> tuple[np.ndarray, ...]:
+    """(A_d, B_d, C_d, D_d): ``scipy.signal.cont2discrete((a, b, c, d), h, method="foh")``, remembered.
+
+    The same oscillators (fruit masses, pedicel stiffness and damping, output step) are discretised again in every
+    replicate run of a virtual test, each a matrix exponential (~1 ms); the memory returns the same numbers
+    (fresh arrays) without recomputing them.
+    """
+    return tuple(_thawed(x) for x in _foh_frozen(*(_frozen(x) for x in (a, b, c, d)), float(h)))
+
+
+@functools.lru_cache(maxsize=512)
+def _sos_frozen(a, b, c, d, h: float) -> tuple:
+    ad, bd, cd, dd = discretise_foh(*(_thawed(x) for x in (a, b, c, d)), h)
+    z, p, g = signal.ss2zpk(ad, bd, cd, dd)
+    return _frozen(signal.zpk2sos(z, p, g))
+
+
 def _filter(a, b, c, d, h, u):
     """Exact (first-order-hold) discretisation of a SISO state-space system, run along the last axis
-    of ``u`` from rest (second-order sections, scipy.signal.sosfilt)."""
-    ad, bd, cd, dd, _ = signal.cont2discrete((a, b, c, d), h, method="foh")
-    z, p, g = signal.ss2zpk(ad, bd, cd, dd)
-    sos = signal.zpk2sos(z, p, g)
+    of ``u`` from rest (second-order sections, scipy.signal.sosfilt; the sections are remembered per system and
+    step, :func:`discretise_foh`)."""
+    sos = _thawed(_sos_frozen(*(_frozen(x) for x in (a, b, c, d)), float(h)))
     return signal.sosfilt(sos, u, axis=-1)
 
 
@@ -258,8 +293,7 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     for j, mj in enumerate(m):
         a = np.array([[0.0, 1.0], [-k / mj, -c / mj]])
         b = np.array([[0.0, 0.0], [k / mj, c / mj]])
-        ad[j], bd[j], cdj, ddj, _ = signal.cont2discrete((a, b, np.array([[-k, -c]]), np.array([[k, c]])), h,
-                                                          method="foh")
+        ad[j], bd[j], cdj, ddj = discretise_foh(a, b, np.array([[-k, -c]]), np.array([[k, c]]), h)
         cd[j], dd[j] = cdj[0], ddj[0]
     out = np.zeros((y.shape[0], len(m)))
     _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)), out)
@@ -269,32 +303,39 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
 @njit(cache=True)
 def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, out):
     """out[i, j] = max over time of |(F_lat, F_ax + weight[j])| for the discretised oscillators of
-    :func:`peak_stem_force` (mass j at position i; lateral and axial oscillators of every mass run side by
-    side; the maximum is taken on the squared magnitude)."""
+    :func:`peak_stem_force` (mass j at position i; the maximum is taken on the squared magnitude).
+
+    Time outermost, positions innermost: at each time the positions' inputs are gathered into contiguous rows and
+    every (mass, position) oscillator advances one step, the positions side by side (the loop vectorises; each
+    oscillator's arithmetic is that of its own recursion, so the numbers do not depend on the order)."""
     n_z, n_t = y.shape
     n_m = ad.shape[0]
-    x0, x1, w0, w1, best = np.zeros(n_m), np.zeros(n_m), np.zeros(n_m), np.zeros(n_m), np.zeros(n_m)
-    for i in range(n_z):
-        x0[:] = 0.0
-        x1[:] = 0.0
-        w0[:] = 0.0
-        w1[:] = 0.0
-        best[:] = 0.0
-        for n in range(n_t):
-            u0, u1, s0, s1 = y[i, n], v[i, n], ya[i, n], va[i, n]
-            for j in range(n_m):  # the masses side by side: independent recursions, in flight together
-                f_lat = cd[j, 0] * x0[j] + cd[j, 1] * x1[j] + dd[j, 0] * u0 + dd[j, 1] * u1
-                f_ax = cd[j, 0] * w0[j] + cd[j, 1] * w1[j] + dd[j, 0] * s0 + dd[j, 1] * s1 + weight[j]
-                f2 = f_lat * f_lat + f_ax * f_ax
-                if f2 > best[j]:
-                    best[j] = f2
-                p0, p1, q0, q1 = x0[j], x1[j], w0[j], w1[j]
-                x0[j] = ad[j, 0, 0] * p0 + ad[j, 0, 1] * p1 + bd[j, 0, 0] * u0 + bd[j, 0, 1] * u1
-                x1[j] = ad[j, 1, 0] * p0 + ad[j, 1, 1] * p1 + bd[j, 1, 0] * u0 + bd[j, 1, 1] * u1
-                w0[j] = ad[j, 0, 0] * q0 + ad[j, 0, 1] * q1 + bd[j, 0, 0] * s0 + bd[j, 0, 1] * s1
-                w1[j] = ad[j, 1, 0] * q0 + ad[j, 1, 1] * q1 + bd[j, 1, 0] * s0 + bd[j, 1, 1] * s1
+    x0, x1, w0, w1 = np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z))
+    best = np.zeros((n_m, n_z))
+    u0r, u1r, s0r, s1r = np.empty(n_z), np.empty(n_z), np.empty(n_z), np.empty(n_z)
+    for n in range(n_t):
+        for i in range(n_z):
+            u0r[i], u1r[i], s0r[i], s1r[i] = y[i, n], v[i, n], ya[i, n], va[i, n]
         for j in range(n_m):
-            out[i, j] = math.sqrt(best[j])
+            c0, c1, d0, d1 = cd[j, 0], cd[j, 1], dd[j, 0], dd[j, 1]
+            a00, a01, a10, a11 = ad[j, 0, 0], ad[j, 0, 1], ad[j, 1, 0], ad[j, 1, 1]
+            b00, b01, b10, b11 = bd[j, 0, 0], bd[j, 0, 1], bd[j, 1, 0], bd[j, 1, 1]
+            wt = weight[j]
+            for i in range(n_z):
+                u0, u1, s0, s1 = u0r[i], u1r[i], s0r[i], s1r[i]
+                p0, p1, q0, q1 = x0[j, i], x1[j, i], w0[j, i], w1[j, i]
+                f_lat = c0 * p0 + c1 * p1 + d0 * u0 + d1 * u1
+                f_ax = c0 * q0 + c1 * q1 + d0 * s0 + d1 * s1 + wt
+                f2 = f_lat * f_lat + f_ax * f_ax
+                b = best[j, i]
+                best[j, i] = f2 if f2 > b else b
+                x0[j, i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
+                x1[j, i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
+                w0[j, i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
+                w1[j, i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
+    for j in range(n_m):
+        for i in range(n_z):
+            out[i, j] = math.sqrt(best[j, i])
 
 
 def modal_mass_ratio(modes, z, mass):

@@ -167,7 +167,8 @@ def _backlash(d, dd, c, k, cdamp):
 @njit(cache=True)
 def _pair_force(d, dd, p, k, cst):
     """Signed restoring force of pair k (0..3) with the law form of its parameters; ``cst`` holds the contact
-    state [in contact (1/0) x 4, impact velocity (m/s) x 4] the hysteresis laws read."""
+    state [in contact (1/0) x 4, impact velocity (m/s) x 4] the hysteresis laws read.  Callers pass ``k`` as
+    np.int64: a literal 0..3 would make numba compile four specialisations (0.5 s of a fresh install's first run)."""
     b = P_PAIR0 + N_PAIR * k
     c, kk, cd, n, form = p[b], p[b + 1], p[b + 2], p[b + 3], p[b + 4]
     if d > c:
@@ -214,7 +215,7 @@ def evaluate(t, y, g, p, res, cst):
     dxa = x - s
     d_a = dxa * ca
     dd_a = (xd - v) * ca - dxa * sa * dal
-    f_a = _pair_force(d_a, dd_a, p, 0, cst)
+    f_a = _pair_force(d_a, dd_a, p, np.int64(0), cst)
     # ---- pair B: roller B in the slot through D; normal n_B = (-sin thD, cos thD)
     xb = s0 + x + lab
     yb = e
@@ -223,7 +224,7 @@ def evaluate(t, y, g, p, res, cst):
     d_b = cd * ry - sd * rx
     along = cd * rx + sd * ry
     dd_b = -sd * xd - thdd * along
-    f_b = _pair_force(d_b, dd_b, p, 1, cst)
+    f_b = _pair_force(d_b, dd_b, p, np.int64(1), cst)
     # ---- pairs C and F: pins on the combs, bores in the connecting rod (axial line e4)
     c4, s4 = math.cos(th4), math.sin(th4)
     lcd, gam, lfe = g[G_LCD], g[G_GAMMA], g[G_LFE]
@@ -236,7 +237,7 @@ def evaluate(t, y, g, p, res, cst):
     vccx, vccy = -lcd * thdd * math.sin(thc), lcd * thdd * math.cos(thc)
     d_c = u + c4 * (cix - ccx) + s4 * (ciy - ccy)
     dd_c = ud + c4 * (vcix - vccx) + s4 * (vciy - vccy) + w4 * (-s4 * (cix - ccx) + c4 * (ciy - ccy))
-    f_c = _pair_force(d_c, dd_c, p, 2, cst)
+    f_c = _pair_force(d_c, dd_c, p, np.int64(2), cst)
     dd_c_dthd = -(c4 * (-lcd * math.sin(thc)) + s4 * (lcd * math.cos(thc)))
     # ideal and actual pin F
     fix, fiy = g[G_XE] + lfe * math.cos(the_i), g[G_YE] + lfe * math.sin(the_i)
@@ -245,7 +246,7 @@ def evaluate(t, y, g, p, res, cst):
     vfcx, vfcy = -lfe * thed * math.sin(the), lfe * thed * math.cos(the)
     d_f = u + c4 * (fix - fcx) + s4 * (fiy - fcy)
     dd_f = ud + c4 * (vfix - vfcx) + s4 * (vfiy - vfcy) + w4 * (-s4 * (fix - fcx) + c4 * (fiy - fcy))
-    f_f = _pair_force(d_f, dd_f, p, 3, cst)
+    f_f = _pair_force(d_f, dd_f, p, np.int64(3), cst)
     dd_f_dthe = -(c4 * (-lfe * math.sin(the)) + s4 * (lfe * math.cos(the)))
     # ---- push rod: guide reactions (eq. 10) and friction
     fay = -f_a * sa
