@@ -46,5 +46,7 @@ def blas_threads(x: float) -> dict:
     import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_info
 
+    from berryshaker.runs.runner import _BLAS_BEFORE
+
     return {"threads": sorted({int(i["num_threads"]) for i in threadpool_info()}),
-            "libraries": len(threadpool_info()), "x": x}
+            "libraries": len(threadpool_info()), "before": dict(_BLAS_BEFORE), "x": x}

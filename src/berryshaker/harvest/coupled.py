@@ -313,9 +313,12 @@ class FruitForceResult:
         return out
 
 
-@dataclass
+@dataclass(frozen=True)
 class BranchMotion:
-    """Modal solution of a coupled run, ready for evaluation anywhere on the branch."""
+    """Modal solution of a coupled run, ready for evaluation anywhere on the branch.
+
+    Frozen: :attr:`_rows` keeps per-mode copies of the series, so the series must not change after construction
+    (``eta`` and ``etad`` are views of the run's state array: do not write into ``res.y`` either)."""
 
     t: np.ndarray
     modes: object  # berryshaker.plant.modes.Modes

@@ -49,10 +49,10 @@ N_CF = 12
 FF_RATIO, FF_ETA_F, FF_ETA_B, FF_CREEP, FF_SLIP, FF_NTAB = range(16, 22)
 MAX_TABLE = 64  # most points of a torque-speed table
 FF_TAB = 22
-#: entries of integrate's ``info``; a longer array gets the step-size histogram (STEP_* below)
 # Integer arguments between compiled functions are passed as np.int64 (not literals such as 3): numba compiles a
 # separate specialisation for every literal value (project was compiled twice, _write_sample three times), time the
 # first run on a fresh install pays.
+#: entries of integrate's ``info``; a longer array gets the step-size histogram (STEP_* below)
 N_INFO = 6
 #: columns of integrate's ``first``: first onset time, its impact velocity, the first episode's peak force, done
 #: flag (0 not yet, 1 in the first episode, 2 after it), impacts counted over the statistics window

@@ -115,7 +115,9 @@ def _uniform_step(t):
 
 
 def _frozen(x) -> tuple:
-    """A hashable copy of a float array (shape and bytes)."""
+    """A hashable copy of a real array (shape and float64 bytes)."""
+    if np.iscomplexobj(x):
+        raise ValueError("discretise_foh: the state-space matrices must be real")
     x = np.ascontiguousarray(x, dtype=float)
     return x.shape, x.tobytes()
 

@@ -340,6 +340,8 @@ def _watch_parent(ppid: int, parent_pid: int, interval: float = 0.5) -> None:
 
 #: Environment variables that set the thread count of the BLAS / OpenMP libraries numpy and scipy load.
 BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+#: In a pool worker: the BLAS / OpenMP libraries' thread counts before :func:`one_blas_thread` limited them.
+_BLAS_BEFORE: dict[str, int] = {}
 
 
 def one_blas_thread() -> dict[str, int]:
@@ -350,21 +352,25 @@ def one_blas_thread() -> dict[str, int]:
     other workers' runs.  Measured on the 2-core machine: the study's runs took 153 s of CPU with two BLAS
     threads per worker and 113 s with one (benchmarks/README.md sec. 18).  Dask's nanny does the same for its
     workers (``distributed.nanny.pre-spawn-environ``).  A thread count the user set in the environment
-    (:data:`BLAS_THREAD_VARIABLES`) is kept.
+    (:data:`BLAS_THREAD_VARIABLES`) is kept: ``OPENBLAS_NUM_THREADS`` or ``MKL_NUM_THREADS`` leaves the BLAS
+    libraries alone, ``OMP_NUM_THREADS`` the OpenMP ones.
 
-    The variables are set first, so a library loaded later in the worker starts with one thread; scipy's own
-    OpenBLAS is loaded here (``scipy.linalg``) and every loaded library is then limited at run time
-    (threadpoolctl), numpy's included, which the fork server may have loaded before the variables were set.
+    The unset variables are set first (they stay set for any subprocess a job starts), so a library loaded later in
+    the worker starts with one thread; scipy's own OpenBLAS is loaded here (``scipy.linalg``) and the loaded
+    libraries are then limited at run time (threadpoolctl), numpy's included, which the fork server may have loaded
+    before the variables were set.  Returns the thread counts before the limit (for tests and diagnostics).
     """
-    if any(v in os.environ for v in BLAS_THREAD_VARIABLES):
-        return {}
+    user = {v for v in BLAS_THREAD_VARIABLES if v in os.environ}
     for v in BLAS_THREAD_VARIABLES:
-        os.environ[v] = "1"
+        os.environ.setdefault(v, "1")
     import scipy.linalg  # noqa: F401  (loads scipy's BLAS now, so that the limit below reaches it)
     from threadpoolctl import threadpool_info, threadpool_limits
 
     before = {f"{i['internal_api']} {i['filepath']}": int(i["num_threads"]) for i in threadpool_info()}
-    threadpool_limits(limits=1)
+    if not user & {"OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"}:
+        threadpool_limits(limits=1, user_api="blas")
+    if "OMP_NUM_THREADS" not in user:
+        threadpool_limits(limits=1, user_api="openmp")
     return before
 
 
@@ -377,7 +383,7 @@ def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) 
     import signal
 
     _PROGRESS = progress
-    one_blas_thread()
+    _BLAS_BEFORE.update(one_blas_thread())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if pdeathsig and sys.platform.startswith("linux"):
         try:
