@@ -130,6 +130,7 @@ def _thawed(frozen) -> np.ndarray:
 
 @functools.lru_cache(maxsize=512)
 def _foh_frozen(a, b, c, d, h: float) -> tuple:
+    """:func:`discretise_foh` on frozen matrices (the remembered form)."""
     out = signal.cont2discrete(tuple(_thawed(x) for x in (a, b, c, d)), h, method="foh")[:4]
     return tuple(_frozen(x) for x in out)
 
@@ -146,6 +147,7 @@ def discretise_foh(a, b, c, d, h: float) -> tuple[np.ndarray, ...]:
 
 @functools.lru_cache(maxsize=512)
 def _sos_frozen(a, b, c, d, h: float) -> tuple:
+    """Second-order sections of the discretised system, frozen (:func:`_filter`'s remembered form)."""
     ad, bd, cd, dd = discretise_foh(*(_thawed(x) for x in (a, b, c, d)), h)
     z, p, g = signal.ss2zpk(ad, bd, cd, dd)
     return _frozen(signal.zpk2sos(z, p, g))
