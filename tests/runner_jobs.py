@@ -50,3 +50,12 @@ def blas_threads(x: float) -> dict:
 
     return {"threads": sorted({int(i["num_threads"]) for i in threadpool_info()}),
             "libraries": len(threadpool_info()), "before": dict(_BLAS_BEFORE), "x": x}
+
+
+def logged(x: float, log: str, tag: str, delay: float = 0.0) -> dict:
+    """``{"y": x**2}`` after ``delay`` seconds, appending ``tag`` to the file ``log`` when it ends (the order in
+    which runs finished)."""
+    time.sleep(delay)
+    with open(log, "a") as fh:
+        fh.write(f"{tag}\n")
+    return {"y": x * x}

@@ -1,5 +1,5 @@
 """The sweep runner: code-aware cache keys, validated cache entries, shared-cache reuse, cold-cost stats,
-chunked local pools, Ctrl-C and a killed parent, clear errors for bad --workers / --scheduler."""
+chunked local pools, runs started ahead (prefetch), Ctrl-C and a killed parent, clear errors for bad --workers / --scheduler."""
 
 import io
 import json
@@ -175,6 +175,57 @@ def test_chunked_pool_keeps_order_and_per_run_progress(tmp_path):
     assert [o.index for o in out] == list(range(60)) and [o.value["y"] for o in out] == [i * i for i in range(60)]
     assert "60/60" in buf.getvalue() and r.stats["computed"] == 60
     assert all(_entry(tmp_path, J.square, kw).is_file() for kw in jobs)  # workers wrote each entry
+
+
+@pytest.mark.parametrize("use_cache", [True, False], ids=["cache", "no-cache"])
+def test_prefetched_runs_are_taken_by_the_map_not_run_again(tmp_path, use_cache):
+    log = tmp_path / "calls.log"
+    jobs = [dict(x=float(i), log=str(log), tag=f"p{i}", delay=0.02) for i in range(12)]
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False, use_cache=use_cache) as r:
+        assert r.prefetch(J.logged, jobs) == 12
+        assert r.prefetch(J.logged, jobs[:5]) == 0  # queued or started already
+        out = r.map(J.logged, jobs)
+        assert [o.value["y"] for o in out] == [float(i * i) for i in range(12)] and not any(o.error for o in out)
+        assert r.stats["computed"] == 12 and r.stats["cached"] == 0  # this sweep's runs, not cached ones
+        assert sorted(log.read_text().split()) == sorted(f"p{i}" for i in range(12))  # each ran once
+        assert r.prefetch(J.logged, jobs) == (0 if use_cache else 12)  # finished runs are in the cache
+
+
+def test_a_maps_own_runs_go_before_queued_prefetched_ones(tmp_path):
+    log = tmp_path / "order.log"
+    ahead = [dict(x=float(i), log=str(log), tag=f"ahead{i}", delay=0.1) for i in range(40)]
+    own = [dict(x=float(i), log=str(log), tag=f"own{i}") for i in range(4)]
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        r.prefetch(J.logged, ahead)  # chunks of 5: at most one chunk per worker in flight
+        assert [o.value["y"] for o in r.map(J.logged, own)] == [0.0, 1.0, 4.0, 9.0]
+        done = log.read_text().split()
+        last_own = max(done.index(f"own{i}") for i in range(4))
+        assert last_own < 4 + 2 * 5, done  # only the chunks already in flight finished first
+        # the rest is still queued or running; a map asking for some of it takes it over
+        out = r.map(J.logged, ahead[-3:])
+        assert [o.value["y"] for o in out] == [37.0 ** 2, 38.0 ** 2, 39.0 ** 2]
+        assert r.stats["computed"] == 7
+    # close dropped what was still queued: nothing ran twice, not everything ran
+    names = log.read_text().split()
+    assert len(names) == len(set(names)) and len(names) < 44
+
+
+def test_abort_ends_runs_started_ahead_at_once(tmp_path):
+    log = tmp_path / "order.log"
+    ahead = [dict(x=float(i), log=str(log), tag=f"ahead{i}", delay=0.3) for i in range(40)]
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        r.prefetch(J.logged, ahead)
+        assert _wait_for(lambda: _calls(log) >= 1, 30), "no prefetched run started"
+        r.abort()
+        n = _calls(log)
+        time.sleep(1.0)
+        assert _calls(log) == n < 40  # nothing runs on after the abort
+        assert r.map(J.logged, ahead[:2])[1].value == {"y": 1.0}  # a new pool serves the next map
+
+
+def test_prefetch_does_nothing_with_one_worker(tmp_path):
+    r = _runner(tmp_path)
+    assert r.prefetch(J.square, [dict(x=1.0)]) == 0 and r.map(J.square, [dict(x=1.0)])[0].value == {"y": 1.0}
 
 
 @pytest.mark.parametrize("bad", [0, -2, 1.5, "two"])

@@ -160,6 +160,8 @@ def test_study_outputs(study_out):
         assert saved["optimum"][k] > 0
     assert saved["optimum"]["unripe_rate_pct"] >= 0
     assert saved["timings_s"]["total"] > 0 and saved["version"]
+    # the runs the study started ahead (pipeline.PLANS) are the ones its steps asked for: none ran unused
+    assert len(list(cache.rglob("*.json"))) == saved["runs"]["computed"] > 0
     assert saved["machine_si"]["cam"]["base_radius"] == 0.08
     for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "fruit_force.csv",
               "l9_runs.csv", "claims.csv"):

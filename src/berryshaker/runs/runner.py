@@ -34,7 +34,7 @@ import sys
 import threading
 import time
 import weakref
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -210,6 +210,16 @@ def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dic
 
 # ---- executing (in this process, in pool workers, on Dask workers) -----------------------------------
 @dataclass
+class _Chunk:
+    """Runs of one function that go to one pool worker together (queued by :meth:`SweepRunner.prefetch`)."""
+
+    fn: Callable
+    jobs: list  # (key, kwargs)
+    cache: str | None
+    fingerprint: str
+
+
+@dataclass
 class RunResult:
     """One run of a sweep: its position, cache key, value or error, whether it came from the cache, and the
     seconds of compute it took (for a cached run: when it was computed)."""
@@ -278,6 +288,13 @@ def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
         except Exception as exc:  # noqa: BLE001 - as in execute_job
             outs.append({"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": wall})
     return outs
+
+
+def _chunk_size(fn: Callable, n: int, workers: int) -> int:
+    """Runs per chunk of a local sweep of ``n`` runs: about :data:`CHUNKS_PER_WORKER` chunks per worker, at most
+    :data:`BATCH_SIZE` for a batchable run function."""
+    size = max(1, math.ceil(n / (CHUNKS_PER_WORKER * max(1, workers))))
+    return min(size, BATCH_SIZE) if batchable(fn) else size
 
 
 def batchable(fn: Callable) -> bool:
@@ -478,6 +495,15 @@ class SweepRunner:
         self.warnings: list[str] = []
         self._warned: set[str] = set()
         self._executor = self._progress_queue = self._finalizer = None
+        # runs started ahead of the map that needs them (:meth:`prefetch`): chunks waiting for an idle worker,
+        # the future of every submitted run's chunk, the futures in flight (the feeder keeps at most one chunk
+        # per worker in flight, so a map's own runs go first), and runs the workers reported finished
+        self._lock = threading.RLock()
+        self._queued: list[_Chunk] = []
+        self._ahead: dict[str, Future] = {}
+        self._live: list[Future] = []
+        self._reported: set[str] = set()
+        self._feeder: threading.Thread | None = None
 
     # ---- messages ----------------------------------------------------------------------------------
     def _say(self, msg: str) -> None:
@@ -549,12 +575,13 @@ class SweepRunner:
         cache = str(self.cache_dir) if self.use_cache else None
         todo: dict[str, list[int]] = {}
         jobs: dict[str, dict] = {}
+        ahead = self._ahead_keys()
         for i, kw in enumerate(kwargs_list):
             key = run_key(fn, kw)
             if key in todo:
                 todo[key].append(i)
                 continue
-            if cache:
+            if cache and key not in ahead:  # a run started ahead is this sweep's own, not a cached one
                 entry, problem = read_cache_entry(cache_entry_path(cache, key), key, fp)
                 self._entry_problem(key, problem)
                 if entry is not None:
@@ -573,7 +600,7 @@ class SweepRunner:
             if todo:
                 if self.scheduler:
                     self._run_dask(ctx)
-                elif self.workers <= 1 or len(todo) == 1:
+                elif self.workers <= 1 or (len(todo) == 1 and not ahead.intersection(todo)):
                     keys = list(jobs)
                     size = BATCH_SIZE if batchable(fn) else 1
                     for k0 in range(0, len(keys), size):
@@ -589,6 +616,9 @@ class SweepRunner:
                 len(ctx["todo"][k]) for k in ctx["ok_elsewhere"] - ctx["done"])
             where = f"; they are cached in {self.cache_dir}, run the same command again to resume" if cache else ""
             self._say(f"interrupted: {finished} of {n} runs had finished{where}")
+            raise
+        except BaseException:
+            self._forget_ahead()
             raise
         finally:
             if bar is not None:
@@ -614,6 +644,9 @@ class SweepRunner:
         if key in ctx["done"]:
             return
         ctx["done"].add(key)
+        with self._lock:
+            self._ahead.pop(key, None)
+            self._reported.discard(key)
         self._entry_problem(key, out.get("problem"))
         if out.get("store_error"):
             self._warn(f"could not write the cache entry of a run ({out['store_error']})")
@@ -642,9 +675,13 @@ class SweepRunner:
     def _pool(self):
         """The local process pool, started on first use and kept for later :meth:`map` calls (workers keep
         their imports and compiled kernels); ended by :meth:`close`, on garbage collection or at exit."""
+        with self._lock:
+            return self._pool_locked()
+
+    def _pool_locked(self):
         if self._executor is not None and not getattr(self._executor, "_broken", False):
             return self._executor, self._progress_queue
-        self.close()
+        self._close_pool_only()
         mp = multiprocessing.get_context(self.start_method)
         progress = mp.Queue()
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp, initializer=_worker_init,
@@ -654,10 +691,122 @@ class SweepRunner:
         return pool, progress
 
     def close(self) -> None:
-        """End the local worker processes (a later :meth:`map` starts new ones)."""
+        """End the local worker processes (a later :meth:`map` starts new ones); runs started ahead
+        (:meth:`prefetch`) that are not finished are dropped."""
+        self._forget_ahead()
+        self._close_pool_only()
+
+    def abort(self, close_queue: bool = True) -> None:
+        """End the local workers now: queued runs are dropped, running ones cancelled (finished runs stay in the
+        cache).  For Ctrl-C or an error while runs started ahead (:meth:`prefetch`) may still be running; a
+        later :meth:`map` starts new workers."""
+        self._forget_ahead()
+        pool, progress = self._executor, self._progress_queue
+        self._executor = self._progress_queue = None
+        if self._finalizer is not None:
+            self._finalizer.detach()
+            self._finalizer = None
+        if pool is not None:
+            _abort_pool(pool)
+            if close_queue and progress is not None:
+                _close_queue(progress)
+
+    def _close_pool_only(self) -> None:
         if self._finalizer is not None:
             self._finalizer()
         self._executor = self._progress_queue = self._finalizer = None
+
+    # ---- runs started ahead ------------------------------------------------------------------------------
+    def prefetch(self, fn: Callable, kwargs_list: list[dict], chunks: int | None = None) -> int:
+        """Start runs in idle pool workers ahead of the :meth:`map` that will ask for them.
+
+        The runs wait in a queue and go to a worker whenever fewer chunks than workers are in flight, so the
+        runs a :meth:`map` sends itself always go first, and this process is free meanwhile (to compile, plot,
+        analyse).  A later :meth:`map` of the same function and arguments takes their results instead of
+        running them again (queued runs it needs are sent at once); a run is counted (computed, failed) when a
+        map takes it.  Runs already in the cache, queued or started are skipped.  Does nothing with one worker
+        or a Dask scheduler (their maps run as before).
+
+        Parameters
+        ----------
+        fn, kwargs_list
+            As for :meth:`map`.
+        chunks : int, optional
+            Send the runs in this many chunks (default: as :meth:`map` does).  ``1`` keeps them in one worker,
+            e.g. while this process compiles on another core.
+
+        Returns
+        -------
+        int
+            The number of runs queued.
+        """
+        if self.scheduler or self.workers <= 1:
+            return 0
+        fp = code_fingerprint()
+        cache = str(self.cache_dir) if self.use_cache else None
+        jobs: dict[str, dict] = {}
+        with self._lock:
+            known = self._ahead_keys()
+            for kw in kwargs_list:
+                key = run_key(fn, kw)
+                if key in jobs or key in known:
+                    continue
+                if cache and read_cache_entry(cache_entry_path(cache, key), key, fp)[0] is not None:
+                    continue
+                jobs[key] = kw
+            keys = list(jobs)
+            if not keys:
+                return 0
+            size = (_chunk_size(fn, len(keys), min(self.workers, len(keys))) if chunks is None
+                    else max(1, math.ceil(len(keys) / max(1, int(chunks)))))
+            if batchable(fn):
+                size = min(size, BATCH_SIZE)
+            self._queued += [_Chunk(fn, [(k, jobs[k]) for k in keys[k0:k0 + size]], cache, fp)
+                             for k0 in range(0, len(keys), size)]
+            if self._feeder is None or not self._feeder.is_alive():
+                self._feeder = threading.Thread(target=self._feed, name="berryshaker-prefetch", daemon=True)
+                self._feeder.start()
+        return len(keys)
+
+    def _ahead_keys(self) -> set[str]:
+        """Keys of the runs started or queued ahead."""
+        with self._lock:
+            return set(self._ahead).union(k for c in self._queued for k, _ in c.jobs)
+
+    def _submit_chunk(self, chunk: _Chunk) -> Future | None:
+        """Send a queued chunk to the pool (under the lock); None when the pool cannot take work."""
+        try:
+            pool, _ = self._pool_locked()
+            fut = pool.submit(run_jobs, chunk.fn, chunk.jobs, chunk.cache, chunk.fingerprint, True)
+        except RuntimeError:  # the pool was shut down or broke: the map that needs these runs sends them again
+            return None
+        fut.berryshaker_keys = [k for k, _ in chunk.jobs]
+        self._live.append(fut)
+        for k, _ in chunk.jobs:
+            self._ahead[k] = fut
+        return fut
+
+    def _feed(self) -> None:
+        """Background thread: send queued chunks while fewer chunks than workers are in flight."""
+        while True:
+            with self._lock:
+                self._live = [f for f in self._live if not f.done()]
+                while self._queued and len(self._live) < self.workers:
+                    if self._submit_chunk(self._queued.pop(0)) is None:
+                        self._queued.clear()
+                if not self._queued:
+                    self._feeder = None
+                    return
+                live = list(self._live)
+            wait(live, timeout=0.5, return_when=FIRST_COMPLETED)
+
+    def _forget_ahead(self) -> None:
+        """Drop the queued runs and forget the started ones (the pool is being ended)."""
+        with self._lock:
+            self._queued.clear()
+            self._ahead.clear()
+            self._live.clear()
+            self._reported.clear()
 
     def __enter__(self) -> SweepRunner:
         return self
@@ -667,13 +816,25 @@ class SweepRunner:
 
     def _run_local(self, ctx) -> None:
         keys = list(ctx["jobs"])
-        nw = min(self.workers, len(keys))
-        size = max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * nw)))
-        if batchable(ctx["fn"]):
-            size = min(size, BATCH_SIZE)
-        chunks = [keys[k:k + size] for k in range(0, len(keys), size)]
+        with self._lock:
+            # queued runs (prefetch) this map needs are sent now, ahead of the rest of the queue
+            need = set(keys)
+            take = [c for c in self._queued if any(k in need for k, _ in c.jobs)]
+            self._queued = [c for c in self._queued if all(k not in need for k, _ in c.jobs)]
+            for c in take:
+                self._submit_chunk(c)
+            ahead = {k: self._ahead[k] for k in keys if k in self._ahead}
+            reported = {k for k in keys if k in self._reported}
+        own = [k for k in keys if k not in ahead]
+        size = _chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
+        chunks = [own[k:k + size] for k in range(0, len(own), size)]
         pool, progress = self._pool()
         advanced: set[str] = set()
+        for key in reported:  # finished in a worker before this map began (its chunk may still be running)
+            if key not in ctx["done"]:
+                advanced.add(key)
+                if ctx["bar"] is not None:
+                    ctx["bar"][0].advance(ctx["bar"][1], len(ctx["todo"][key]))
 
         def drain():
             while True:
@@ -681,9 +842,13 @@ class SweepRunner:
                     key, ok = progress.get_nowait()
                 except (queue_mod.Empty, OSError, ValueError, EOFError, TypeError):
                     return
+                if key not in ctx["todo"]:  # a run started ahead for a later map
+                    with self._lock:
+                        self._reported.add(key)
+                    continue
                 if ok:
                     ctx["ok_elsewhere"].add(key)
-                if key in ctx["todo"] and key not in advanced and key not in ctx["done"]:
+                if key not in advanced and key not in ctx["done"]:
                     advanced.add(key)
                     if ctx["bar"] is not None:
                         ctx["bar"][0].advance(ctx["bar"][1], len(ctx["todo"][key]))
@@ -692,6 +857,10 @@ class SweepRunner:
         try:
             futs = {pool.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
                                 True): chunk for chunk in chunks}
+            with self._lock:
+                self._live += list(futs)
+            for fut in set(ahead.values()):
+                futs[fut] = [k for k in fut.berryshaker_keys if k in ctx["todo"]]
             pending = set(futs)
             while pending:
                 done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
@@ -709,15 +878,12 @@ class SweepRunner:
                             outs.append({"key": k, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
                                          "cached": False, "stored": True} if entry else self._failed(k, err))
                     for out in outs:
-                        self._finish(ctx, out, advance=out["key"] not in advanced)
+                        if out["key"] in ctx["todo"]:  # a chunk started ahead may hold runs of later maps
+                            self._finish(ctx, out, advance=out["key"] not in advanced)
             clean = True
         finally:
             if not clean:  # Ctrl-C or an error in this process: cancel, end the workers now
-                self._executor = self._progress_queue = None
-                if self._finalizer is not None:
-                    self._finalizer.detach()
-                    self._finalizer = None
-                _abort_pool(pool)
+                self.abort(close_queue=False)
                 drain()  # runs that finished before the interruption (for the message)
                 _close_queue(progress)
             elif getattr(pool, "_broken", False):

@@ -120,6 +120,22 @@ def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[lis
     return out
 
 
+def l9_jobs(machine, replicates: int | None = None, data: dict | None = None) -> tuple[list[dict], str]:
+    """The replicated L9's coupled drive-pasts: keyword arguments of
+    :func:`berryshaker.study.runs.replicate_run` (run-major, then :func:`replicate_jobs`' order) and the label
+    of their sweep; what :func:`virtual_l9` runs first (the study starts them ahead, ``SweepRunner.prefetch``)."""
+    from berryshaker.errors import ConfigError
+
+    runs, _codes = l9_runs(machine)
+    r = int(machine.harvest.replicates if replicates is None else replicates)
+    if r < 2:
+        raise ConfigError(f"replicates={r}: the replicated L9 needs at least 2 replicates per run")
+    seeds = replicate_seeds(machine, r)
+    data = machine.model_dump(mode="json") if data is None else data
+    jobs = [j for cl in runs for j in replicate_jobs(machine, cl, seeds, RTOL_RUN, data)]
+    return jobs, f"virtual L9: {len(runs)} runs x {r} replicates, coupled runs"
+
+
 def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     """The L9 over the machine's clearance pairs through the virtual harvest, replicated (module docstring).
 
@@ -144,7 +160,6 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
         confirmation against the trade-off table, :func:`confirm_recommendation`), ``tolerance_check``, ``tradeoff`` (records of the
         trade-off table) and ``tradeoff_columns``.
     """
-    from berryshaker.errors import ConfigError
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.designs import orthogonal_array
     from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
@@ -154,12 +169,11 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     runs, _codes = l9_runs(machine)
     levels_m = machine.clearance_levels()
     h = machine.harvest
+    data = machine.model_dump(mode="json")
+    jobs, label = l9_jobs(machine, replicates, data)
     r = int(h.replicates if replicates is None else replicates)
-    if r < 2:
-        raise ConfigError(f"replicates={r}: the replicated L9 needs at least 2 replicates per run")
     seeds = replicate_seeds(machine, r)
     classes = h.branch_classes
-    data = machine.model_dump(mode="json")
 
     def jobs_for(cl, seeds_, rtol=RTOL_RUN):
         return replicate_jobs(machine, cl, seeds_, rtol, data)
@@ -168,8 +182,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
         nc = len(classes)
         return [_cell(machine, outs[k * nc:(k + 1) * nc], pops_[k]) for k in range(len(seeds_))]
 
-    jobs = [j for cl in runs for j in jobs_for(cl, seeds)]
-    outs = runner.values(replicate_run, jobs, f"virtual L9: {len(runs)} runs x {r} replicates, coupled runs")
+    outs = runner.values(replicate_run, jobs, label)
     pops = [sample_population(machine, seed=s) for s in seeds]
     per = len(seeds) * len(classes)
     run_cells = [cells(outs[i * per:(i + 1) * per], seeds, pops) for i in range(len(runs))]

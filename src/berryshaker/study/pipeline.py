@@ -4,7 +4,12 @@ tables) that the report renders as its own section; :func:`run_study` runs the s
 atomically into a checked destination and returns the summary.
 
 Every multi-run step goes through :class:`berryshaker.runs.runner.SweepRunner` (cached, resumable, local
-processes or a Dask cluster); the run functions are in :mod:`berryshaker.study.runs`.
+processes or a Dask cluster); the run functions are in :mod:`berryshaker.study.runs`.  A step whose runs are
+known before it starts has a plan (``plan_<step>``, :data:`PLANS`) from which it builds them; :func:`run_steps`
+starts the planned runs ahead in idle workers, so they run while this process compiles, plots and analyses.
+
+long module: each step sits beside its plan and its figures, so what a step asks the runner for and what was
+started ahead for it cannot drift apart (tests/test_study.py checks that no planned run goes unused).
 """
 
 from __future__ import annotations
@@ -69,6 +74,18 @@ class StudyContext:
         return [o.value for o in outs]
 
 
+@dataclass
+class PlannedRuns:
+    """Runs a step will ask the runner for, known before it starts: the study starts them ahead in idle workers
+    (``SweepRunner.prefetch``) and the step's own map takes their results.  ``engine``: they need the compiled
+    multibody engine (started only once this process has compiled it, so workers do not compile it too)."""
+
+    fn: Callable
+    jobs: list[dict]
+    label: str
+    engine: bool = True
+
+
 def _describe(clearance: dict) -> str:
     return ", ".join(f"{p} {v * 1e3:g} mm" for p, v in clearance.items()) or "as configured"
 
@@ -108,23 +125,36 @@ def step_agreement(ctx: StudyContext) -> StepResult:
                       figs)
 
 
+def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
+    """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions)."""
+    last = n_rows(ctx.machine)
+    jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3)
+            for r in range(1, last + 1)]
+    plans = [PlannedRuns(multibody_row, jobs, f"rows 1-{last}, multibody")]
+    if ctx.drive.reduced_model is not None:
+        plans.append(PlannedRuns(reduced_row, jobs, f"rows 1-{last}, {ctx.drive.reduced_model_name.upper()}",
+                                 engine=False))
+    return plans
+
+
 def step_rows(ctx: StudyContext) -> StepResult:
     """Every clearance row (single-factor sweeps and level sets) in the multibody and the reduced model."""
     last = n_rows(ctx.machine)
     ctx.say(f"clearance rows 1-{last} (single-factor sweeps and level sets)")
     rows = list(range(1, last + 1))
-    jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3) for r in rows]
+    plans = plan_rows(ctx)
+    jobs = plans[0].jobs
     row_of = {id(j): r for j, r in zip(jobs, rows)}
 
     def describe(j):
         return f"row {row_of[id(j)]}: " + _describe(j["clearance"])
 
     out = {"multibody": {}, "mlsd": {}}
-    mb_rows = ctx.collect(multibody_row, jobs, f"rows 1-{last}, multibody", describe)
+    mb_rows = ctx.collect(multibody_row, jobs, plans[0].label, describe)
     out["multibody"] = {str(r): v for r, v in zip(rows, mb_rows) if v is not None}
     note = ""
-    if ctx.drive.reduced_model is not None:
-        ml_rows = ctx.collect(reduced_row, jobs, f"rows 1-{last}, MLSD", describe)
+    if len(plans) > 1:
+        ml_rows = ctx.collect(reduced_row, jobs, plans[1].label, describe)
         out["mlsd"] = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
         # model agreement on every row, not only at the model-check level (the same statistics criterion)
         from berryshaker.experiment.agreement import summary_statistics_agreement
@@ -140,6 +170,14 @@ def step_rows(ctx: StudyContext) -> StepResult:
     return StepResult("rows", out, figs, note)
 
 
+def plan_fruit_force(ctx: StudyContext) -> list[PlannedRuns]:
+    """Drive-pasts at the configured clearances and at the three level sets (the last three clearance rows)."""
+    last = n_rows(ctx.machine)
+    jobs = [dict(machine_data=ctx.data, clearance={})] + [
+        dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r)) for r in (last - 2, last - 1, last)]
+    return [PlannedRuns(fruit_force_run, jobs, "fruit force runs")]
+
+
 def step_fruit_force(ctx: StudyContext) -> StepResult:
     """The machine drives past a branch (rigid-flexible coupling): fruit force at the configured clearances and
     at the level sets."""
@@ -148,9 +186,8 @@ def step_fruit_force(ctx: StudyContext) -> StepResult:
     ctx.say("fruit force (rigid-flexible coupling)")
     last = n_rows(ctx.machine)
     level_rows = (last - 2, last - 1, last)
-    jobs = [dict(machine_data=ctx.data, clearance={})] + [
-        dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r)) for r in level_rows]
-    ff = ctx.collect(fruit_force_run, jobs, "fruit force runs", lambda j: "clearances " + _describe(j["clearance"]))
+    (plan,) = plan_fruit_force(ctx)
+    ff = ctx.collect(fruit_force_run, plan.jobs, plan.label, lambda j: "clearances " + _describe(j["clearance"]))
     data = {"chosen": ff[0], "rows": {str(r): v for r, v in zip(level_rows, ff[1:]) if v is not None},
             "level_rows": list(level_rows)}
     figs = []
@@ -196,6 +233,15 @@ def step_l9(ctx: StudyContext) -> StepResult:
     return StepResult("l9", l9, figs)
 
 
+def plan_l9(ctx: StudyContext) -> list[PlannedRuns]:
+    """The replicated L9's coupled drive-pasts (not the runs at the recommendation: they depend on the analysis)."""
+    from berryshaker.study.l9 import l9_jobs
+    from berryshaker.study.runs import replicate_run
+
+    jobs, label = l9_jobs(ctx.machine, data=ctx.data)
+    return [PlannedRuns(replicate_run, jobs, label)]
+
+
 def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
     """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9."""
     from berryshaker.report import plots as P
@@ -223,6 +269,36 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
 RESPONSE_SPEEDS_RPM = (60.0, 90.0, 120.0, 150.0, 180.0)
 
 
+RESPONSE_LABEL = "harvest vs frequency: replicates (perturbed starts)"
+
+
+def _response_runs(ctx: StudyContext) -> tuple[list[float], list, list[list[dict]]]:
+    """Drive speeds (r/min, the configured one included), the machine at each, and its replicate jobs
+    (:func:`berryshaker.study.l9.replicate_jobs` at the configured clearances)."""
+    import math
+
+    from berryshaker.config import machine_from_dict
+    from berryshaker.harvest.virtual import with_drive_speed
+    from berryshaker.study.l9 import replicate_jobs, replicate_seeds
+
+    own = ctx.machine.drive_speed * 60 / (2 * math.pi)
+    speeds = sorted(set(RESPONSE_SPEEDS_RPM) | {round(own, 6)})
+    datas = [with_drive_speed(ctx.data, rpm * 2 * math.pi / 60) if not math.isclose(rpm, own) else ctx.data
+             for rpm in speeds]
+    seeds = replicate_seeds(ctx.machine)
+    cal_cl = ctx.machine.clearance_sizes()
+    machines = [machine_from_dict(d) for d in datas]
+    return speeds, machines, [replicate_jobs(m, cal_cl, seeds, data=d) for m, d in zip(machines, datas)]
+
+
+def plan_harvest_response(ctx: StudyContext) -> list[PlannedRuns]:
+    """The replicated drive-pasts at every drive speed of the harvest-response step."""
+    from berryshaker.study.runs import replicate_run
+
+    _, _, per_speed = _response_runs(ctx)
+    return [PlannedRuns(replicate_run, [j for jobs in per_speed for j in jobs], RESPONSE_LABEL)]
+
+
 def step_harvest_response(ctx: StudyContext) -> StepResult:
     """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances, and
     the calibration: both on the statistic the virtual L9 reports, the replicate mean over perturbed starts
@@ -232,22 +308,16 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
 
     from berryshaker.config import machine_from_dict
     from berryshaker.harvest.calibration import calibration_table
-    from berryshaker.harvest.virtual import calibrate_harvest, replicate_response, with_drive_speed
+    from berryshaker.harvest.virtual import calibrate_harvest, replicate_response
     from berryshaker.report import plots as P
-    from berryshaker.study.l9 import replicate_envelopes, replicate_jobs, replicate_seeds
+    from berryshaker.study.l9 import replicate_envelopes, replicate_seeds
     from berryshaker.study.runs import replicate_run
 
     ctx.say("harvest against shaking frequency, calibration")
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
-    speeds = sorted(set(RESPONSE_SPEEDS_RPM) | {round(own, 6)})
-    datas = [with_drive_speed(ctx.data, rpm * 2 * math.pi / 60) if not math.isclose(rpm, own) else ctx.data
-             for rpm in speeds]
+    speeds, machines, per_speed = _response_runs(ctx)
     seeds = replicate_seeds(ctx.machine)
-    cal_cl = ctx.machine.clearance_sizes()
-    machines = [machine_from_dict(d) for d in datas]
-    per_speed = [replicate_jobs(m, cal_cl, seeds, data=d) for m, d in zip(machines, datas)]
-    outs = ctx.collect(replicate_run, [j for jobs in per_speed for j in jobs],
-                       "harvest vs frequency: replicates (perturbed starts)",
+    outs = ctx.collect(replicate_run, [j for jobs in per_speed for j in jobs], RESPONSE_LABEL,
                        lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
                                  f"r/min, branch class x{j['scale']:g}, seed {j['seed']}")
     rows, cal_out, at = [], None, 0
@@ -313,6 +383,19 @@ def _trend_text(name: str, unit: str, tr: dict, levels: list[str]) -> str:
             f"{', '.join(flat)}, Welch p >= {tr['alpha']:g} or a fall)")
 
 
+POWERED_LEVELS = (1, 2, 3)
+
+
+def plan_powered_drive(ctx: StudyContext) -> list[PlannedRuns]:
+    """Powered-drive runs: levels 1-3, :data:`POWERED_REPLICATES` seeded perturbed starts each (3 revolutions)."""
+    from berryshaker.harvest.virtual import replicate_seeds
+
+    seeds = replicate_seeds(ctx.machine, POWERED_REPLICATES)
+    jobs = [dict(machine_data=ctx.data, clearance=level_set(ctx.machine, lv), revolutions=3, seed=[sd, lv])
+            for lv in POWERED_LEVELS for sd in seeds]
+    return [PlannedRuns(powered_row, jobs, f"powered drive, levels 1-3 x {len(seeds)} replicates")]
+
+
 def step_powered_drive(ctx: StudyContext) -> StepResult:
     """Powered drive: speed ripple, input power and energy lost per joint against clearance (levels 1-3), the
     driveline of ``[driveline]`` (or its defaults) turning the drive shaft (docs/driveline.md sec. 5).  Each
@@ -321,11 +404,10 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
     from berryshaker.harvest.virtual import replicate_seeds
 
     ctx.say(f"powered drive at clearance levels 1-3, {POWERED_REPLICATES} perturbed starts each")
-    levels = (1, 2, 3)
+    levels = POWERED_LEVELS
     seeds = replicate_seeds(ctx.machine, POWERED_REPLICATES)
-    jobs = [dict(machine_data=ctx.data, clearance=level_set(ctx.machine, lv), revolutions=3, seed=[sd, lv])
-            for lv in levels for sd in seeds]
-    outs = ctx.collect(powered_row, jobs, f"powered drive, levels 1-3 x {len(seeds)} replicates",
+    (plan,) = plan_powered_drive(ctx)
+    outs = ctx.collect(powered_row, plan.jobs, plan.label,
                        lambda j: f"{_describe(j['clearance'])}, start seed {j['seed']}")
     data, ripples, losts = {}, {}, {}
     pairs = ctx.machine.pair_names
@@ -365,8 +447,36 @@ STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), (
          ("clearance_life", step_clearance_life), ("powered_drive", step_powered_drive))
 
 
+#: the runs each step will ask for, known before it starts (:class:`PlannedRuns`), by step name
+PLANS = {"clearance_rows": plan_rows, "fruit_force": plan_fruit_force, "virtual_l9": plan_l9,
+         "harvest_response": plan_harvest_response, "powered_drive": plan_powered_drive}
+#: the step that compiles the multibody engine in this process (its first multibody run)
+ENGINE_STEP = "model_agreement"
+
+
+def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
+    """Every step's :data:`PLANS`, in step order; a step whose plan fails is left out (the step itself reports
+    the error when it runs)."""
+    out = []
+    for key, _ in STEPS:
+        if key in PLANS:
+            try:
+                out += PLANS[key](ctx)
+            except Exception:  # noqa: BLE001 - the step will meet (and report) the same error
+                continue
+    return out
+
+
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
-    """Run every step; return (results by step name, StepResults, failures, timings in s)."""
+    """Run every step; return (results by step name, StepResults, failures, timings in s).
+
+    The steps run in order in this process, but their runs need not wait for them: the runs every step will ask
+    for (:data:`PLANS`) start ahead in the runner's idle workers (``SweepRunner.prefetch``; local pool only).
+    Those of the reduced model at once, in one worker, while this process compiles the multibody engine in
+    :data:`ENGINE_STEP`; the multibody ones right after that step, so the workers load the compiled engine
+    instead of compiling it as well.  While this process plots and analyses a step, the workers are already
+    running the next steps' runs.  Results are the same as without it (each step's map takes the same runs).
+    """
 
     def say(msg):
         if console is not None:
@@ -377,13 +487,27 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     steps: dict[str, StepResult] = {}
     timings: dict[str, float] = {}
     t_all = time.perf_counter()
-    for key, fn in STEPS:
-        t0 = time.perf_counter()
-        r = fn(ctx)
-        r.seconds = time.perf_counter() - t0
-        steps[r.name] = r
-        results[r.name] = r.data
-        timings[key] = r.seconds
+    plans = planned_runs(ctx)
+    try:
+        for p in plans:
+            if not p.engine:
+                runner.prefetch(p.fn, p.jobs, chunks=1)
+        engine_ready = not any(key == ENGINE_STEP for key, _ in STEPS)
+        for key, fn in STEPS:
+            if engine_ready and plans:
+                for p in plans:
+                    runner.prefetch(p.fn, p.jobs)
+                plans = []
+            t0 = time.perf_counter()
+            r = fn(ctx)
+            engine_ready = engine_ready or key == ENGINE_STEP
+            r.seconds = time.perf_counter() - t0
+            steps[r.name] = r
+            results[r.name] = r.data
+            timings[key] = r.seconds
+    except BaseException:  # Ctrl-C or an error between maps: runs started ahead stop now (finished ones are cached)
+        runner.abort()
+        raise
     results["claims"] = check_claims(results, machine.pair_names)
     results["failures"] = ctx.failures
     timings["total"] = time.perf_counter() - t_all
