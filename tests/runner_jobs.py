@@ -59,3 +59,8 @@ def logged(x: float, log: str, tag: str, delay: float = 0.0) -> dict:
     with open(log, "a") as fh:
         fh.write(f"{tag}\n")
     return {"y": x * x}
+
+
+def crash(x: float) -> dict:
+    """End the worker process at once (a segfault or an out-of-memory kill, as the pool sees it)."""
+    os._exit(3)

@@ -223,6 +223,15 @@ def test_abort_ends_runs_started_ahead_at_once(tmp_path):
         assert r.map(J.logged, ahead[:2])[1].value == {"y": 1.0}  # a new pool serves the next map
 
 
+def test_a_crash_among_runs_started_ahead_does_not_fail_other_runs(tmp_path):
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        r.prefetch(J.slow_square, [dict(x=3.0, delay=1.0)], chunks=1)
+        r.prefetch(J.crash, [dict(x=0.0)])  # breaks the pool, and with it the other worker's run
+        assert _wait_for(lambda: getattr(r._executor, "_broken", False), 30), "the pool did not break"
+        out = r.map(J.slow_square, [dict(x=3.0, delay=1.0)])  # run again on a new pool, not failed
+        assert out[0].error is None and out[0].value["y"] == 9.0
+
+
 def test_prefetch_does_nothing_with_one_worker(tmp_path):
     r = _runner(tmp_path)
     assert r.prefetch(J.square, [dict(x=1.0)]) == 0 and r.map(J.square, [dict(x=1.0)])[0].value == {"y": 1.0}

@@ -35,6 +35,7 @@ import threading
 import time
 import weakref
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -575,6 +576,7 @@ class SweepRunner:
         cache = str(self.cache_dir) if self.use_cache else None
         todo: dict[str, list[int]] = {}
         jobs: dict[str, dict] = {}
+        self._drop_broken_ahead()
         ahead = self._ahead_keys()
         for i, kw in enumerate(kwargs_list):
             key = run_key(fn, kw)
@@ -616,9 +618,6 @@ class SweepRunner:
                 len(ctx["todo"][k]) for k in ctx["ok_elsewhere"] - ctx["done"])
             where = f"; they are cached in {self.cache_dir}, run the same command again to resume" if cache else ""
             self._say(f"interrupted: {finished} of {n} runs had finished{where}")
-            raise
-        except BaseException:
-            self._forget_ahead()
             raise
         finally:
             if bar is not None:
@@ -682,6 +681,7 @@ class SweepRunner:
         if self._executor is not None and not getattr(self._executor, "_broken", False):
             return self._executor, self._progress_queue
         self._close_pool_only()
+        self._drop_broken_ahead()
         mp = multiprocessing.get_context(self.start_method)
         progress = mp.Queue()
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp, initializer=_worker_init,
@@ -768,6 +768,15 @@ class SweepRunner:
                 self._feeder.start()
         return len(keys)
 
+    def _drop_broken_ahead(self) -> None:
+        """Forget runs started ahead whose chunk a crashed or ended pool took down (a worker crash breaks every
+        chunk in flight, also other steps' runs): the map that needs them runs them again (or finds them in the
+        cache if they finished before the crash)."""
+        with self._lock:
+            for k, f in list(self._ahead.items()):
+                if f.done() and (f.cancelled() or isinstance(f.exception(), BrokenProcessPool)):
+                    del self._ahead[k]
+
     def _ahead_keys(self) -> set[str]:
         """Keys of the runs started or queued ahead."""
         with self._lock:
@@ -842,9 +851,10 @@ class SweepRunner:
                     key, ok = progress.get_nowait()
                 except (queue_mod.Empty, OSError, ValueError, EOFError, TypeError):
                     return
-                if key not in ctx["todo"]:  # a run started ahead for a later map
+                if key not in ctx["todo"]:  # a run started ahead for a later map (or a late message: ignored)
                     with self._lock:
-                        self._reported.add(key)
+                        if key in self._ahead:
+                            self._reported.add(key)
                     continue
                 if ok:
                     ctx["ok_elsewhere"].add(key)
@@ -858,12 +868,14 @@ class SweepRunner:
             futs = {pool.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
                                 True): chunk for chunk in chunks}
             with self._lock:
-                self._live += list(futs)
+                self._live = [f for f in self._live if not f.done()] + list(futs)
             for fut in set(ahead.values()):
                 futs[fut] = [k for k in fut.berryshaker_keys if k in ctx["todo"]]
             pending = set(futs)
             while pending:
                 done, pending = wait(pending, timeout=0.1, return_when=FIRST_COMPLETED)
+                gone = {f for f in pending if f.cancelled()}  # wait() never reports a cancelled future as done
+                done, pending = done | gone, pending - gone
                 drain()
                 for fut in done:
                     chunk = futs[fut]
@@ -886,8 +898,8 @@ class SweepRunner:
                 self.abort(close_queue=False)
                 drain()  # runs that finished before the interruption (for the message)
                 _close_queue(progress)
-            elif getattr(pool, "_broken", False):
-                self.close()
+            elif getattr(pool, "_broken", False) and self._executor is pool:
+                self._close_pool_only()
 
     def _run_dask(self, ctx) -> None:
         from distributed import as_completed
