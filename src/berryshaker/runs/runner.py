@@ -757,10 +757,10 @@ class SweepRunner:
             keys = list(jobs)
             if not keys:
                 return 0
-            size = (_chunk_size(fn, len(keys), min(self.workers, len(keys))) if chunks is None
-                    else max(1, math.ceil(len(keys) / max(1, int(chunks)))))
-            if batchable(fn):
-                size = min(size, BATCH_SIZE)
+            size = _chunk_size(fn, len(keys), min(self.workers, len(keys)))
+            if chunks is not None:
+                size = max(1, math.ceil(len(keys) / max(1, int(chunks))))
+                size = min(size, BATCH_SIZE) if batchable(fn) else size
             self._queued += [_Chunk(fn, [(k, jobs[k]) for k in keys[k0:k0 + size]], cache, fp)
                              for k0 in range(0, len(keys), size)]
             if self._feeder is None or not self._feeder.is_alive():
