@@ -515,6 +515,67 @@ def _argument_types(run: "PreparedRun") -> tuple:
                 run.first, run.info))
 
 
+#: the parts of the compiled core :func:`compile_engine` compiles, each independent of the other
+ENGINE_PARTS = ("projection", "right_hand_side")
+
+
+def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -> dict[str, float]:
+    """Compile (or load from numba's on-disk cache) parts of the compiled core for the argument types of
+    ``spec``'s runs, without running anything.
+
+    The integrator (``kernel.integrate``) calls a chain of ~30 compiled functions, compiled one after the other
+    on first use: about 16 s of one core on a fresh install (benchmarks/README.md sec. 19-20).  Two halves of that
+    chain do not depend on each other, so two processes can compile them side by side and each loads what the
+    other wrote to the cache; a run then compiles only the integrator itself.
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        Any mechanism: the argument types (not the values) decide what is compiled, and every mechanism the
+        engine builds (harvester, slider-crank, harvester with a modal plant, powered drive) has the same ones.
+    parts : tuple of str
+        Any of :data:`ENGINE_PARTS`: ``"projection"`` (``kernel.project``: the constraint equations, their
+        Jacobian and the multiplier solve), ``"right_hand_side"`` (``kernel.forces`` and
+        ``kernel.accelerations``: every force element and contact law).
+
+    Returns
+    -------
+    dict
+        CPU seconds per part (about 0.01 s when it was in the cache).
+
+    Raises
+    ------
+    ConfigError
+        An unknown part.
+    """
+    from numba import typeof
+
+    bad = [p for p in parts if p not in ENGINE_PARTS]
+    if bad:
+        raise ConfigError(f"compile_engine: unknown part(s) {', '.join(map(repr, bad))}; the parts are "
+                          f"{', '.join(map(repr, ENGINE_PARTS))}")
+    cm = compile_mechanism(spec)
+    state, work = _state_and_work(cm)
+    y = np.zeros(2 * cm.n)
+    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p, laws, plan) = cm.model
+    (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
+    q_arg = y[:cm.n]  # kernel.accelerations passes views of y: C-contiguous 1-D arrays, as these
+    calls = {"projection": [(mb.project, (0.0, y, cm.model, state, work, np.int64(3)))],
+             "right_hand_side": [
+                 (mb.forces, (0.0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp,
+                              psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p,
+                              work[4], work[5], laws)),
+                 (mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))]}
+    out = {}
+    for part in parts:
+        c0 = time.process_time()
+        for fn, args in calls[part]:
+            fn.compile(tuple(typeof(a) for a in args))
+        out[part] = time.process_time() - c0
+    return out
+
+
 def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol: float | None = None,
                        output_step: float | None = None, max_step: float | None = None,
                        y0: np.ndarray | None = None, max_steps: int | None = None,

@@ -304,6 +304,13 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     return out
 
 
+def compile_peak_stem_force() -> None:
+    """Compile (or load from numba's on-disk cache) the kernel of :func:`peak_stem_force`: one call on four
+    samples of a branch at rest.  Lets an idle process compile it before the runs that need it."""
+    rest = np.zeros((1, 4))
+    peak_stem_force(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3])
+
+
 @njit(cache=True)
 def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, out):
     """out[i, j] = max over time of |(F_lat, F_ax + weight[j])| for the discretised oscillators of

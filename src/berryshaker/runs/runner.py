@@ -768,6 +768,38 @@ class SweepRunner:
                 self._feeder.start()
         return len(keys)
 
+    def all_cached(self, fn: Callable, kwargs_list: list[dict]) -> bool:
+        """True when every run of ``fn`` with these arguments is in the cache (for this code): a :meth:`map` of
+        them would start no worker."""
+        if not self.use_cache:
+            return not kwargs_list
+        fp = code_fingerprint()
+        cache = str(self.cache_dir)
+        for kw in kwargs_list:
+            key = run_key(fn, kw)
+            if read_cache_entry(cache_entry_path(cache, key), key, fp)[0] is None:
+                return False
+        return True
+
+    def warm_up(self, fn: Callable, kwargs: dict | None = None) -> Future | None:
+        """Call ``fn(**kwargs)`` in a pool worker now, for its side effects (e.g. compiling kernels into numba's
+        on-disk cache while this process compiles others); nothing is cached or counted.
+
+        It takes a worker like a chunk of runs started ahead (:meth:`prefetch`), so queued runs wait for another
+        worker.  Returns the call's future (its exception, if any, is the caller's to look at), or None with one
+        worker or a Dask scheduler (nothing to run beside this process).
+        """
+        if self.scheduler or self.workers <= 1:
+            return None
+        with self._lock:
+            try:
+                pool, _ = self._pool_locked()
+                fut = pool.submit(fn, **(kwargs or {}))
+            except RuntimeError:  # the pool broke: a warm-up is only ever an optimisation
+                return None
+            self._live.append(fut)
+        return fut
+
     def _drop_broken_ahead(self) -> None:
         """Forget runs started ahead whose chunk a crashed or ended pool took down (a worker crash breaks every
         chunk in flight, also other steps' runs): the map that needs them runs them again (or finds them in the

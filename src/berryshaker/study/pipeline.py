@@ -25,10 +25,11 @@ from berryshaker import __version__
 from berryshaker.drives import drive_of
 from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_rows
 from berryshaker.experiment.replicates import replicate_trend
+from berryshaker.multibody.engine import compile_engine
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
 from berryshaker.study.claims import check_claims
 from berryshaker.study.l9 import virtual_l9
-from berryshaker.study.runs import fruit_force_run, multibody_row, powered_row, reduced_row
+from berryshaker.study.runs import fruit_force_run, multibody_row, powered_row, reduced_row, warm_worker
 
 
 @dataclass
@@ -467,6 +468,21 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
     return out
 
 
+def compile_engine_beside(machine, warm, timeout: float = 300.0) -> None:
+    """Compile the multibody engine's projection here while a worker compiles its right-hand side
+    (``study.runs.warm_worker``, started as ``warm``), then wait for the worker: the integrator this process
+    compiles next loads both halves from numba's cache instead of compiling the whole chain on one core.
+    A worker that failed or is late changes nothing but the time (the integrator compiles what is missing); when
+    the projection was in the cache already there is nothing to wait for."""
+    seconds = compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("projection",))
+    if seconds["projection"] < 1.0:
+        return  # it was in numba's cache: so is the rest, most likely; waiting would only add the worker's start
+    try:
+        warm.result(timeout=timeout)
+    except Exception:  # noqa: BLE001 - an optimisation only: the engine step compiles what is missing
+        pass
+
+
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
     """Run every step; return (results by step name, StepResults, failures, timings in s).
 
@@ -489,6 +505,11 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     t_all = time.perf_counter()
     plans = planned_runs(ctx)
     try:
+        # the engine compiled on two cores when runs need it: a worker its right-hand side, this process its
+        # projection (compile_engine_beside)
+        warm = None
+        if any(p.engine and not runner.all_cached(p.fn, p.jobs) for p in plans):
+            warm = runner.warm_up(warm_worker, dict(machine_data=ctx.data))
         for p in plans:
             if not p.engine:
                 runner.prefetch(p.fn, p.jobs, chunks=1)
@@ -499,6 +520,8 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
                     runner.prefetch(p.fn, p.jobs)
                 plans = []
             t0 = time.perf_counter()
+            if key == ENGINE_STEP and warm is not None:
+                compile_engine_beside(machine, warm)
             r = fn(ctx)
             engine_ready = engine_ready or key == ENGINE_STEP
             r.seconds = time.perf_counter() - t0
