@@ -516,7 +516,7 @@ def _argument_types(run: "PreparedRun") -> tuple:
 
 
 #: the parts of the compiled core :func:`compile_engine` compiles, each independent of the other
-ENGINE_PARTS = ("projection", "right_hand_side")
+ENGINE_PARTS = ("projection", "right_hand_side", "step")
 
 
 def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -> dict[str, float]:
@@ -536,7 +536,8 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     parts : tuple of str
         Any of :data:`ENGINE_PARTS`: ``"projection"`` (``kernel.project``: the constraint equations, their
         Jacobian and the multiplier solve), ``"right_hand_side"`` (``kernel.forces`` and
-        ``kernel.accelerations``: every force element and contact law).
+        ``kernel.accelerations``: every force element and contact law), ``"step"`` (the integrator's helpers:
+        contact-onset location, interior force peaks, dense output, output samples).
 
     Returns
     -------
@@ -566,7 +567,15 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
                  (mb.forces, (0.0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp,
                               psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p,
                               work[4], work[5], laws)),
-                 (mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))]}
+                 (mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))],
+             # the types kernel.integrate passes: a contact index from range() (int64), floats, C arrays
+             "step": [(mb.fint_is_contact, (cm.model, np.int64(0))),
+                      (mb._onset_fraction, (0.0,) * 5), (mb._crossing_rate, (0.0,) * 5),
+                      (mb._step_force_bound, (cm.model, np.int64(0)) + (0.0,) * 6),
+                      (mb._interior_peak, (cm.model, np.int64(0)) + (0.0,) * 6),
+                      (mb._dense_state, (0.0, 0.0, np.zeros((7, y.shape[0])), y, y, y, y, y)),
+                      (mb._write_sample, (np.int64(0), y, work[5], work[6], np.zeros((2, y.shape[0])),
+                                          np.zeros((2,) + work[5].shape), np.zeros((2, cm.m))))]}
     out = {}
     for part in parts:
         c0 = time.process_time()

@@ -469,12 +469,12 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
 
 
 def compile_engine_beside(machine, warm, timeout: float = 300.0) -> None:
-    """Compile the multibody engine's projection here while a worker compiles its right-hand side
+    """Compile the multibody engine's projection and step helpers here while a worker compiles its right-hand side
     (``study.runs.warm_worker``, started as ``warm``), then wait for the worker: the integrator this process
     compiles next loads both halves from numba's cache instead of compiling the whole chain on one core.
     A worker that failed or is late changes nothing but the time (the integrator compiles what is missing); when
     the projection was in the cache already there is nothing to wait for."""
-    seconds = compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("projection",))
+    seconds = compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("projection", "step"))
     if seconds["projection"] < 1.0:
         return  # it was in numba's cache: so is the rest, most likely; waiting would only add the worker's start
     try:
