@@ -232,6 +232,34 @@ def test_a_crash_among_runs_started_ahead_does_not_fail_other_runs(tmp_path):
         assert out[0].error is None and out[0].value["y"] == 9.0
 
 
+def test_warm_up_runs_in_a_worker_uncached_and_holds_back_queued_runs(tmp_path):
+    log = tmp_path / "order.log"
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        w1 = r.warm_up(J.logged, dict(x=1.0, log=str(log), tag="warm1", delay=1.0))
+        w2 = r.warm_up(J.logged, dict(x=2.0, log=str(log), tag="warm2", delay=1.0))
+        r.prefetch(J.logged, [dict(x=3.0, log=str(log), tag="ahead")], chunks=1)
+        assert w1.result(timeout=60) == {"y": 1.0} and w2.result(timeout=60) == {"y": 4.0}
+        assert r.map(J.logged, [dict(x=3.0, log=str(log), tag="ahead")])[0].value == {"y": 9.0}
+        assert r.stats["computed"] == 1  # a warm-up is not a run: not counted ...
+    assert sorted(log.read_text().split()[:2]) == ["warm1", "warm2"]  # ... and the queued run waited for a worker
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 1  # the run's entry only
+
+
+def test_warm_up_does_nothing_with_one_worker(tmp_path):
+    assert _runner(tmp_path).warm_up(J.square, dict(x=1.0)) is None
+
+
+@pytest.mark.parametrize("use_cache", [True, False])
+def test_all_cached_tells_whether_a_map_would_start_workers(tmp_path, use_cache):
+    r = _runner(tmp_path, use_cache=use_cache)
+    jobs = [dict(x=1.0), dict(x=2.0)]
+    assert r.all_cached(J.square, []) and not r.all_cached(J.square, jobs)
+    r.map(J.square, jobs[:1])
+    assert not r.all_cached(J.square, jobs)
+    r.map(J.square, jobs)
+    assert r.all_cached(J.square, jobs) == use_cache and r.all_cached(J.square, jobs[:1]) == use_cache
+
+
 def test_prefetch_does_nothing_with_one_worker(tmp_path):
     r = _runner(tmp_path)
     assert r.prefetch(J.square, [dict(x=1.0)]) == 0 and r.map(J.square, [dict(x=1.0)])[0].value == {"y": 1.0}

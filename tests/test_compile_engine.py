@@ -1,0 +1,65 @@
+"""engine.compile_engine: the parts it compiles are the specialisations a run uses (else a cold study would compile
+them twice, in parallel for nothing), for every kind of mechanism; an unknown part is an error."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from berryshaker.errors import ConfigError
+from berryshaker.multibody.engine import ENGINE_PARTS, compile_engine
+
+# in a fresh process (a test process holds whatever specialisations earlier tests made) with an empty numba cache
+# (an integrator loaded from the cache brings its callees' code along and types none of them): compile the parts
+# for the harvester, count every compiled function's specialisations, then run a harvester, a harvester with the
+# bush's modes and the powered drive, and count again
+SCRIPT = textwrap.dedent("""
+    import json
+    import numba
+    from berryshaker.config import reference_machine
+    from berryshaker.drives import drive_of
+    from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.harvest.coupled import coupled_mechanism
+    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody.engine import ENGINE_PARTS, compile_engine, simulate_mechanism
+
+    m = reference_machine()
+    seconds = compile_engine(drive_of(m).mechanism(m, revolutions=2), ENGINE_PARTS)
+    fns = {name: f for name, f in vars(mb).items() if isinstance(f, numba.core.registry.CPUDispatcher)}
+    before = {name: len(f.signatures) for name, f in fns.items()}
+    simulate_multibody(m, revolutions=2)
+    simulate_mechanism(coupled_mechanism(m)[0], duration=0.01)
+    simulate_multibody(m, revolutions=2, driveline="powered")
+    after = {name: len(f.signatures) for name, f in fns.items()}
+    print(json.dumps({"seconds": seconds, "before": before, "after": after}))
+""")
+
+
+@pytest.fixture(scope="module")
+def counts(tmp_path_factory):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path_factory.mktemp("numba_cache")))
+    out = subprocess.run([sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=900, env=env)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_compiled_parts_are_what_runs_use(counts):
+    parts = {"project", "forces", "accelerations", "fint_is_contact", "_onset_fraction", "_crossing_rate",
+             "_step_force_bound", "_interior_peak", "_dense_state", "_write_sample"}
+    assert all(counts["before"][f] == 1 for f in parts), counts["before"]
+    # every run (harvester, with modal plant, powered) used those same specialisations: none was added
+    assert {f: counts["after"][f] for f in parts} == {f: 1 for f in parts}, counts["after"]
+    assert counts["after"]["integrate"] == 1
+    assert set(counts["seconds"]) == set(ENGINE_PARTS)
+
+
+def test_unknown_part_is_a_config_error():
+    from berryshaker.config import reference_machine
+    from berryshaker.drives import drive_of
+
+    m = reference_machine()
+    with pytest.raises(ConfigError, match="unknown part.*'integrator'.*projection"):
+        compile_engine(drive_of(m).mechanism(m), ("integrator",))
