@@ -6,6 +6,7 @@ import os
 import subprocess
 import sys
 import textwrap
+from concurrent.futures import Future
 
 import pytest
 
@@ -15,7 +16,7 @@ from berryshaker.multibody.engine import ENGINE_PARTS, compile_engine
 # in a fresh process (a test process holds whatever specialisations earlier tests made) with an empty numba cache
 # (an integrator loaded from the cache brings its callees' code along and types none of them): compile the parts
 # for the harvester, count every compiled function's specialisations, then run a harvester, a harvester with the
-# bush's modes and the powered drive, and count again
+# bush's modes, the powered drive and both on the crank-rocker drive, and count again
 SCRIPT = textwrap.dedent("""
     import json
     import numba
@@ -33,6 +34,9 @@ SCRIPT = textwrap.dedent("""
     simulate_multibody(m, revolutions=2)
     simulate_mechanism(coupled_mechanism(m)[0], duration=0.01)
     simulate_multibody(m, revolutions=2, driveline="powered")
+    crank = reference_machine("crank_rocker")
+    simulate_multibody(crank, revolutions=2)
+    simulate_multibody(crank, revolutions=2, driveline="powered")
     after = {name: len(f.signatures) for name, f in fns.items()}
     print(json.dumps({"seconds": seconds, "before": before, "after": after}))
 """)
@@ -63,3 +67,36 @@ def test_unknown_part_is_a_config_error():
     m = reference_machine()
     with pytest.raises(ConfigError, match="unknown part.*'integrator'.*projection"):
         compile_engine(drive_of(m).mechanism(m), ("integrator",))
+
+
+class _Spy(Future):
+    """A worker's future that records whether anyone waited for it."""
+
+    waited = False
+
+    def result(self, timeout=None):
+        self.waited = True
+        raise RuntimeError("the worker died")
+
+
+def test_compile_beside_waits_only_for_a_cold_cache_and_never_fails_the_study(monkeypatch):
+    from berryshaker.config import reference_machine
+    from berryshaker.drives import drive_of
+    from berryshaker.study import pipeline
+
+    m = reference_machine()
+    compile_engine(drive_of(m).mechanism(m, revolutions=2))  # every part compiled (or loaded) in this process
+    spy = _Spy()
+    assert pipeline.compile_engine_beside(m, spy) is None and not spy.waited  # in the cache: no wait
+
+    real = pipeline.compile_engine
+    monkeypatch.setattr(pipeline, "compile_engine",
+                        lambda spec, parts: {**real(spec, parts), "projection": 5.0})  # as if it had compiled
+    spy = _Spy()
+    assert pipeline.compile_engine_beside(m, spy) == "RuntimeError: the worker died" and spy.waited
+
+    def broken(machine):
+        raise ConfigError("no mechanism for this drive")
+
+    monkeypatch.setattr(pipeline, "drive_of", broken)
+    assert "no mechanism" in pipeline.compile_engine_beside(m, _Spy())

@@ -515,8 +515,8 @@ def _argument_types(run: "PreparedRun") -> tuple:
                 run.first, run.info))
 
 
-#: the parts of the compiled core :func:`compile_engine` compiles, each independent of the other
-ENGINE_PARTS = ("projection", "right_hand_side", "step")
+#: the parts of the compiled core :func:`compile_engine` compiles (in the order kernel.integrate needs them)
+ENGINE_PARTS = ("projection", "forces", "right_hand_side", "step")
 
 
 def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -> dict[str, float]:
@@ -524,20 +524,24 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     ``spec``'s runs, without running anything.
 
     The integrator (``kernel.integrate``) calls a chain of ~30 compiled functions, compiled one after the other
-    on first use: about 16 s of one core on a fresh install (benchmarks/README.md sec. 19-20).  Two halves of that
-    chain do not depend on each other, so two processes can compile them side by side and each loads what the
-    other wrote to the cache; a run then compiles only the integrator itself.
+    on first use: about 16 s of one core on a fresh install (benchmarks/README.md sec. 19-20).  Compiling a part
+    compiles the callees it needs that are not compiled yet and writes everything to the cache, so two processes
+    can share the work: one compiles ``"forces"`` (which shares only small geometry helpers with the rest) while
+    the other compiles ``"projection"`` and ``"step"``, then ``"right_hand_side"`` once the first is done; a run
+    then compiles only the integrator itself and loads the rest.
 
     Parameters
     ----------
     spec : MechanismSpec
         Any mechanism: the argument types (not the values) decide what is compiled, and every mechanism the
-        engine builds (harvester, slider-crank, harvester with a modal plant, powered drive) has the same ones.
+        engine builds (the groove-cam and crank-rocker drives, with a modal plant, with the powered driveline;
+        the slider-crank of the validation cases) has the same ones.
     parts : tuple of str
         Any of :data:`ENGINE_PARTS`: ``"projection"`` (``kernel.project``: the constraint equations, their
-        Jacobian and the multiplier solve), ``"right_hand_side"`` (``kernel.forces`` and
-        ``kernel.accelerations``: every force element and contact law), ``"step"`` (the integrator's helpers:
-        contact-onset location, interior force peaks, dense output, output samples).
+        Jacobian and the multiplier solve), ``"forces"`` (``kernel.forces``: every force element and contact
+        law), ``"right_hand_side"`` (``kernel.accelerations``: the forces, the constraints and the multiplier
+        solve of one right-hand side; compiles the other two first if they are not), ``"step"`` (the
+        integrator's helpers: contact-onset location, interior force peaks, dense output, output samples).
 
     Returns
     -------
@@ -563,11 +567,10 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     q_arg = y[:cm.n]  # kernel.accelerations passes views of y: C-contiguous 1-D arrays, as these
     calls = {"projection": [(mb.project, (0.0, y, cm.model, state, work, np.int64(3)))],
-             "right_hand_side": [
-                 (mb.forces, (0.0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp,
-                              psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab, plant_p,
-                              work[4], work[5], laws)),
-                 (mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))],
+             "forces": [(mb.forces, (0.0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact,
+                                     v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab,
+                                     plant_p, work[4], work[5], laws))],
+             "right_hand_side": [(mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))],
              # the types kernel.integrate passes: a contact index from range() (int64), floats, C arrays
              "step": [(mb.fint_is_contact, (cm.model, np.int64(0))),
                       (mb._onset_fraction, (0.0,) * 5), (mb._crossing_rate, (0.0,) * 5),

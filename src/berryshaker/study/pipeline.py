@@ -14,6 +14,7 @@ started ahead for it cannot drift apart (tests/test_study.py checks that no plan
 
 from __future__ import annotations
 
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +27,7 @@ from berryshaker.drives import drive_of
 from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_rows
 from berryshaker.experiment.replicates import replicate_trend
 from berryshaker.multibody.engine import compile_engine
+from berryshaker.plant.pedicel import compile_peak_stem_force
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
 from berryshaker.study.claims import check_claims
 from berryshaker.study.l9 import virtual_l9
@@ -468,19 +470,26 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
     return out
 
 
-def compile_engine_beside(machine, warm, timeout: float = 300.0) -> None:
-    """Compile the multibody engine's projection and step helpers here while a worker compiles its right-hand side
-    (``study.runs.warm_worker``, started as ``warm``), then wait for the worker: the integrator this process
-    compiles next loads both halves from numba's cache instead of compiling the whole chain on one core.
-    A worker that failed or is late changes nothing but the time (the integrator compiles what is missing); when
-    the projection was in the cache already there is nothing to wait for."""
-    seconds = compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("projection", "step"))
-    if seconds["projection"] < 1.0:
-        return  # it was in numba's cache: so is the rest, most likely; waiting would only add the worker's start
+def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
+    """Compile the multibody engine's projection and step helpers here while a worker compiles its force
+    evaluation (``study.runs.warm_worker``, started as the future ``warm``), wait for the worker (at most
+    ``timeout`` s), then compile the right-hand side on top of both: the engine's first run (here or in a worker)
+    then compiles only the integrator itself and loads the rest from numba's cache.
+
+    An optimisation only: when it fails (a worker that crashed or is late, a machine whose mechanism cannot be
+    built) the first run compiles what is missing and meets any real error itself; the reason is returned for
+    the log (None when all went well).  When the projection was in the cache already, so is the rest (one source
+    file), and nothing is waited for.
+    """
     try:
-        warm.result(timeout=timeout)
-    except Exception:  # noqa: BLE001 - an optimisation only: the engine step compiles what is missing
-        pass
+        spec = drive_of(machine).mechanism(machine, revolutions=2)
+        seconds = compile_engine(spec, ("projection", "step"))
+        if seconds["projection"] >= 1.0:
+            warm.result(timeout=timeout)
+        compile_engine(spec, ("right_hand_side",))
+    except Exception as exc:  # noqa: BLE001 - see the docstring
+        return f"{type(exc).__name__}: {exc}"
+    return None
 
 
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
@@ -488,10 +497,13 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
 
     The steps run in order in this process, but their runs need not wait for them: the runs every step will ask
     for (:data:`PLANS`) start ahead in the runner's idle workers (``SweepRunner.prefetch``; local pool only).
-    Those of the reduced model at once, in one worker, while this process compiles the multibody engine in
-    :data:`ENGINE_STEP`; the multibody ones right after that step, so the workers load the compiled engine
-    instead of compiling it as well.  While this process plots and analyses a step, the workers are already
-    running the next steps' runs.  Results are the same as without it (each step's map takes the same runs).
+    When multibody runs are to be computed, a worker compiles the engine's force evaluation while this process
+    compiles the rest of it (:func:`compile_engine_beside`, before :data:`ENGINE_STEP`, whose first multibody
+    run then compiles only the integrator).  The reduced model's runs start at once in one worker (on a machine
+    with fewer than three cores, once the engine's parts are compiled); the multibody ones right after
+    :data:`ENGINE_STEP`, so the workers load the compiled engine instead of compiling it as well.  While this
+    process plots and analyses a step, the workers are already running the next steps' runs.  Results are the
+    same as without it (each step's map takes the same runs).
     """
 
     def say(msg):
@@ -505,14 +517,18 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     t_all = time.perf_counter()
     plans = planned_runs(ctx)
     try:
-        # the engine compiled on two cores when runs need it: a worker its right-hand side, this process its
-        # projection (compile_engine_beside)
+        # the engine compiled on two cores when runs need it: a worker its forces, this process the rest
+        # (compile_engine_beside); on two cores the reduced model's runs wait for that (a third process would
+        # slow both down, and they are not what the study waits for)
         warm = None
-        if any(p.engine and not runner.all_cached(p.fn, p.jobs) for p in plans):
+        if runner.workers > 1 and not runner.scheduler and any(p.engine and not runner.all_cached(p.fn, p.jobs)
+                                                               for p in plans):
             warm = runner.warm_up(warm_worker, dict(machine_data=ctx.data))
-        for p in plans:
-            if not p.engine:
-                runner.prefetch(p.fn, p.jobs, chunks=1)
+        defer = warm is not None and (os.cpu_count() or 1) < 3
+        if not defer:
+            for p in plans:
+                if not p.engine:
+                    runner.prefetch(p.fn, p.jobs, chunks=1)
         engine_ready = not any(key == ENGINE_STEP for key, _ in STEPS)
         for key, fn in STEPS:
             if engine_ready and plans:
@@ -521,7 +537,14 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
                 plans = []
             t0 = time.perf_counter()
             if key == ENGINE_STEP and warm is not None:
-                compile_engine_beside(machine, warm)
+                why = compile_engine_beside(machine, warm)
+                if why:
+                    say(f"compiling the engine beside a worker did not work ({why}); its first run compiles it")
+                if defer:
+                    for p in plans:
+                        if not p.engine:
+                            runner.prefetch(p.fn, p.jobs, chunks=1)
+                runner.warm_up(compile_peak_stem_force)  # the replicate runs' stem-force kernel, in an idle worker
             r = fn(ctx)
             engine_ready = engine_ready or key == ENGINE_STEP
             r.seconds = time.perf_counter() - t0

@@ -112,20 +112,12 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
 
 def warm_worker(machine_data: dict) -> dict:
-    """Compile, in a pool worker at the start of a study, what its runs will need and this process is not
-    compiling meanwhile: the multibody engine's right-hand side (every force element and contact law;
-    :func:`berryshaker.multibody.engine.compile_engine`) and the stem-force kernel of the replicate runs.  The
-    study's process compiles the engine's projection at the same time; both land in numba's on-disk cache, so
-    the integrator, compiled next, loads them.  Returns CPU seconds per part."""
-    import time
-
+    """Compile, in a pool worker at the start of a study, the multibody engine's force evaluation (every force
+    element and contact law; :func:`berryshaker.multibody.engine.compile_engine`, part ``"forces"``) while the
+    study's process compiles the projection and the step helpers: both land in numba's on-disk cache, and the
+    study's process then compiles the right-hand side and the integrator on top of them.  Returns CPU seconds."""
     from berryshaker.drives import drive_of
     from berryshaker.multibody.engine import compile_engine
-    from berryshaker.plant.pedicel import compile_peak_stem_force
 
     machine = machine_from_dict(machine_data)
-    out = compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("right_hand_side",))
-    c0 = time.process_time()
-    compile_peak_stem_force()
-    out["stem_force"] = time.process_time() - c0
-    return out
+    return compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("forces",))
