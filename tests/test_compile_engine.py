@@ -54,7 +54,7 @@ def test_compiled_parts_are_what_runs_use(counts):
     parts = {"project", "forces", "accelerations", "fint_is_contact", "_onset_fraction", "_crossing_rate",
              "_step_force_bound", "_interior_peak", "_dense_state", "_write_sample"}
     assert all(counts["before"][f] == 1 for f in parts), counts["before"]
-    # every run (harvester, with modal plant, powered) used those same specialisations: none was added
+    # every run (harvester, with modal plant, powered, crank-rocker) used those same specialisations: none was added
     assert {f: counts["after"][f] for f in parts} == {f: 1 for f in parts}, counts["after"]
     assert counts["after"]["integrate"] == 1
     assert set(counts["seconds"]) == set(ENGINE_PARTS)

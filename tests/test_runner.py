@@ -234,15 +234,30 @@ def test_a_crash_among_runs_started_ahead_does_not_fail_other_runs(tmp_path):
 
 def test_warm_up_runs_in_a_worker_uncached_and_holds_back_queued_runs(tmp_path):
     log = tmp_path / "order.log"
+    ahead = [dict(x=3.0, log=str(log), tag="ahead")]
     with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
         w1 = r.warm_up(J.logged, dict(x=1.0, log=str(log), tag="warm1", delay=1.0))
         w2 = r.warm_up(J.logged, dict(x=2.0, log=str(log), tag="warm2", delay=1.0))
-        r.prefetch(J.logged, [dict(x=3.0, log=str(log), tag="ahead")], chunks=1)
+        r.prefetch(J.logged, ahead, chunks=1)  # both workers are warming up: it stays queued ...
+        time.sleep(0.3)  # (time for the prefetch thread to act: it would have sent it by now)
+        own = [dict(x=4.0, log=str(log), tag="own1"), dict(x=5.0, log=str(log), tag="own2")]  # two: to the pool
+        assert [o.value["y"] for o in r.map(J.logged, own)] == [16.0, 25.0]
         assert w1.result(timeout=60) == {"y": 1.0} and w2.result(timeout=60) == {"y": 4.0}
-        assert r.map(J.logged, [dict(x=3.0, log=str(log), tag="ahead")])[0].value == {"y": 9.0}
-        assert r.stats["computed"] == 1  # a warm-up is not a run: not counted ...
-    assert sorted(log.read_text().split()[:2]) == ["warm1", "warm2"]  # ... and the queued run waited for a worker
-    assert len(list((tmp_path / "cache").rglob("*.json"))) == 1  # the run's entry only
+        assert r.map(J.logged, ahead)[0].value == {"y": 9.0}
+        assert r.stats["computed"] == 3  # a warm-up is not a run: not counted ...
+    done = log.read_text().split()
+    # ... the map's own runs went first (had the warm-ups not held workers, the queued run would have been sent to
+    # the pool at once and run before them)
+    assert max(done.index("own1"), done.index("own2")) < done.index("ahead"), done
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 3  # the runs' entries only
+
+
+def test_default_workers_are_the_cores_this_process_may_use(tmp_path):
+    n = R.usable_cores()
+    assert 1 <= n <= (os.cpu_count() or 1)
+    if hasattr(os, "sched_getaffinity"):
+        assert n == len(os.sched_getaffinity(0))  # a container pinned to some cores: those, not the host's
+    assert SweepRunner(cache_dir=tmp_path, progress=False).workers == n
 
 
 def test_warm_up_does_nothing_with_one_worker(tmp_path):

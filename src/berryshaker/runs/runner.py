@@ -62,6 +62,15 @@ _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
 # ---- keys ------------------------------------------------------------------------------------------
+def usable_cores() -> int:
+    """The CPU cores this process may run on (its affinity mask where the OS has one, e.g. a container pinned to
+    some of the host's cores; else every core): the default number of local workers."""
+    try:
+        return len(os.sched_getaffinity(0)) or 1
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
+
+
 def default_cache_dir() -> Path:
     """``$BERRYSHAKER_CACHE/runs``, else ``$XDG_CACHE_HOME/berryshaker/runs`` (``~/.cache/berryshaker/runs``)."""
     base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
@@ -472,7 +481,7 @@ class SweepRunner:
         from berryshaker.errors import ConfigError
 
         if workers is None:
-            self.workers = os.cpu_count() or 1
+            self.workers = usable_cores()
         else:
             try:
                 ok = not isinstance(workers, bool) and int(workers) == workers

@@ -14,7 +14,6 @@ started ahead for it cannot drift apart (tests/test_study.py checks that no plan
 
 from __future__ import annotations
 
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,6 +28,7 @@ from berryshaker.experiment.replicates import replicate_trend
 from berryshaker.multibody.engine import compile_engine
 from berryshaker.plant.pedicel import compile_peak_stem_force
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
+from berryshaker.runs.runner import usable_cores
 from berryshaker.study.claims import check_claims
 from berryshaker.study.l9 import virtual_l9
 from berryshaker.study.runs import fruit_force_run, multibody_row, powered_row, reduced_row, warm_worker
@@ -524,7 +524,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
         if runner.workers > 1 and not runner.scheduler and any(p.engine and not runner.all_cached(p.fn, p.jobs)
                                                                for p in plans):
             warm = runner.warm_up(warm_worker, dict(machine_data=ctx.data))
-        defer = warm is not None and (os.cpu_count() or 1) < 3
+        defer = warm is not None and usable_cores() < 3
         if not defer:
             for p in plans:
                 if not p.engine:
