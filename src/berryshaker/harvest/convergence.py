@@ -28,6 +28,7 @@ import numpy as np
 from scipy import stats
 
 from berryshaker.config import Machine, machine_from_dict
+from berryshaker.harvest.spec import COUPLED_RTOL
 
 #: fruit-force quantities compared (FruitForceResult attribute -> row key suffix)
 _QUANTITIES = {"fruit_force": "stem", "rigid_force": "rigid"}
@@ -46,7 +47,7 @@ def _peaks(res) -> dict:
 
 
 def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: dict | None = None,
-                            rtol: float = 1e-6, replicates: int | None = None, shared_run: bool = True,
+                            rtol: float = COUPLED_RTOL, replicates: int | None = None, shared_run: bool = True,
                             tolerance: float = 0.03, confidence: float = 0.95) -> dict:
     """Replicate means of the peak stem force (and eq. 16) at each fruit position against the modes kept.
 

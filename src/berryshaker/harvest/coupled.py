@@ -17,6 +17,7 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError
 from berryshaker.drives import drive_of
+from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.plant.bush import member_weight
 from berryshaker.plant.modes import branch_modes
 from berryshaker.plant.response import harvest_verdict
@@ -428,7 +429,7 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
     return f_lat, f_ax, np.hypot(f_lat, f_ax)
 
 
-def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = 1e-6,
+def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = COUPLED_RTOL,
                          output_step: float = 2e-5, initial_perturbation=None, probes: tuple = ()) -> FruitForceResult:
     """Drive the harvester past one branch and record the fruit harvesting force.
 

@@ -34,6 +34,7 @@ import numpy as np
 from scipy import optimize
 
 from berryshaker.config import Machine, machine_from_dict
+from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.plant.response import RIPE_BOND_N, UNRIPE_BOND_N
 
 STUDY_TARGETS = {"efficiency_kg_min": 3.93, "unripe_rate_pct": 3.1, "damage_rate_pct": 2.8}
@@ -75,7 +76,7 @@ ENVELOPE_OUTPUT_STEP = 1e-4
 
 
 def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None, scale: float,
-                            initial_perturbation=None, rtol: float = 1e-6):
+                            initial_perturbation=None, rtol: float = COUPLED_RTOL):
     """Peak stem-force table of one branch class and the coupled run it came from: ``(table, FruitForceResult)``.
 
     Table: peak stem force (N) of fruit on compliant pedicels over Z_GRID (rows) x MASS_FACTORS * m0.

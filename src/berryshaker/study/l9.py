@@ -28,6 +28,7 @@ import numpy as np
 from berryshaker.harvest.virtual import replicate_seeds  # noqa: F401  (one home; re-exported here)
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
+from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.study.runs import replicate_run
 
 #: harvest responses: name -> (key of harvest_indexes, factor to the reported unit, unit, larger is better)
@@ -38,8 +39,8 @@ HARVEST_RESPONSES = {
     "unripe_shed": ("unripe_shed_fraction", 100.0, "%", False),
     "damage": ("damage_rate_pct", 1.0, "%", False),
 }
-#: tolerances of the solver-tolerance check (the runs' own, and the tighter one)
-RTOL_RUN, RTOL_CHECK = 1e-6, 1e-7
+#: tolerances of the solver-tolerance check: the runs' own (the coupled runs' default) and the tighter one
+RTOL_RUN, RTOL_CHECK = COUPLED_RTOL, 1e-7
 CONFIDENCE = 0.95
 
 
@@ -416,13 +417,13 @@ def tradeoff_records(candidates: list[dict]) -> tuple[list[dict], list[str]]:
 
 
 def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, rep, names) -> dict:
-    """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at rtol 1e-7: the largest
+    """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at :data:`RTOL_CHECK`: the largest
     change of each response against the pooled replicate standard deviation sqrt(MS_PE) of the L9."""
     k = min(machine.harvest.tolerance_replicates, len(seeds))
     if k == 0:
         return {"done": False, "reason": "harvest.tolerance_replicates = 0"}
     s = seeds[:k]
-    o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol 1e-7")
+    o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {RTOL_CHECK:g}")
     tight = cells(o, s, pops[:k])
     out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "replicates": k, "responses": {}}
     for n in names:
@@ -433,7 +434,8 @@ def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec
                                "within_replicate_spread": bool(worst <= sd)}
     bad = [n for n, v in out["responses"].items() if not v["within_replicate_spread"]]
     out["all_within"] = not bad
-    out["statement"] = ("the change from rtol 1e-6 to 1e-7 is within the replicate standard deviation for every "
-                        "response" if not bad else "the change from rtol 1e-6 to 1e-7 is NOT within the replicate "
-                        "standard deviation for: " + ", ".join(bad) + " (solver error comparable to the noise there)")
+    change = f"the change from rtol {RTOL_RUN:g} to {RTOL_CHECK:g}"
+    out["statement"] = (f"{change} is within the replicate standard deviation for every response" if not bad else
+                        f"{change} is NOT within the replicate standard deviation for: " + ", ".join(bad)
+                        + " (solver error comparable to the noise there)")
     return out

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from berryshaker.config import machine_from_dict
+from berryshaker.harvest.spec import COUPLED_RTOL
 
 
 def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
@@ -84,7 +85,7 @@ def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
     return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
 
 
-def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list, rtol: float = 1e-6) -> dict:
+def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list, rtol: float = COUPLED_RTOL) -> dict:
     """One replicate of a virtual test run for one branch class: the coupled drive-past from a perturbed start.
 
     The machine starts off centre in every clearance and at a random drive phase
