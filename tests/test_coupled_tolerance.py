@@ -14,7 +14,7 @@ Why in units of the replicate SD: the coupled run is chaotic (impacts in four cl
 replicate's peak forces decorrelate completely between tolerances (two draws differ by up to ~3 SD), while the
 harvest indexes, set by the combs' kinematics and the bush population, barely move.  What the L9's analysis can
 resolve is a difference against that replicate noise, and its own solver-tolerance check asks the same
-(``study.l9._tolerance_check``: a change within one replicate SD).  Why pooled: the peaks are heavy-tailed, and
+(``study.l9.tolerance_verdict``: the mean change of its replicates against their noise).  Why pooled: the peaks are heavy-tailed, and
 one ensemble's SD alone moves by ~30 % with the draw (with the tight ensemble's SD as the unit, a re-drawn 1e-6
 ensemble -- rtol 1e-5 / 10 differs from 1e-6 in the last bit -- put the comparison's SE at 0.6 SD).  For
 decorrelated replicates the SE of the mean difference is then sqrt(2 / n) = 0.35 SD at n = 16, whatever the tails.

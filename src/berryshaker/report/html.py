@@ -382,8 +382,10 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         parts.append("<h3>Solver-tolerance check</h3>")
         parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
                      f"re-run at rtol {rt[1]:g}).</p>")
-        parts.append(_table(["response", f"largest change {rt[0]:g} -> {rt[1]:g}", "replicate SD", "within"],
-                            [[n, v["max_abs_change"], v["replicate_sd"], v["within_replicate_spread"]]
+        parts.append(_table(["response", f"mean change {rt[0]:g} -> {rt[1]:g}", "largest change", "replicate SD",
+                             "noise of the mean (SD)", "within 2 x noise"],
+                            [[n, v.get("mean_change", float("nan")), v["max_abs_change"], v["replicate_sd"],
+                              v.get("noise_sd", float("nan")), v["within_replicate_spread"]]
                              for n, v in tc["responses"].items()]))
     elif tc:
         parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.get('reason', ''))}.</p>")
