@@ -8,6 +8,12 @@ edges (config files, CLI).
 
 from importlib.metadata import PackageNotFoundError, version
 
+from berryshaker.compiled_cache import point_numba_cache
+
+# before any kernel is decorated: numba's cache folder is named by the compiled sources' digest (a stale entry of a
+# kernel whose callee in another file changed would run the old code; berryshaker.compiled_cache)
+point_numba_cache()
+
 try:
     __version__ = version("berryshaker")
 except PackageNotFoundError:  # running from a source tree without installation
