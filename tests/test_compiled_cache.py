@@ -2,9 +2,10 @@
 
 numba checks only a cached function's own file, so an entry whose kernel calls a compiled function of another file
 runs the callee's old code after that file changes.  The package therefore names numba's cache folder by a digest
-of every source that mentions numba.  Checked here: the digest moves with a compiled source and not with the rest,
-every cached kernel that calls across files has both files in the digest, a child process keeps its parent's folder,
-and old folders are pruned.
+of every source that mentions numba.  Checked here: the digest moves with every callee file a cached kernel calls
+across files (found by a scan of the package) and not with the rest; a child process keeps its parent's folder
+while a new ``NUMBA_CACHE_DIR`` gets its own; old digest folders are pruned and nothing else is; an unwritable base
+falls back to the temp folder.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import types
 from pathlib import Path
 
 import berryshaker
-from berryshaker.compiled_cache import FOLDER_PREFIX, KEEP_FOLDERS, compiled_sources_digest
+from berryshaker.compiled_cache import FOLDER_PREFIX, KEEP_FOLDERS, MARKER, compiled_sources_digest
 
 ROOT = Path(berryshaker.__file__).resolve().parent
 
@@ -31,21 +32,22 @@ def _copy_package(tmp_path: Path) -> Path:
     return dst
 
 
-def test_digest_follows_compiled_sources_only(tmp_path):
-    pkg = _copy_package(tmp_path)
-    d0 = compiled_sources_digest(pkg)
-    cli = pkg / "cli" / "app.py"
-    assert b"numba" not in cli.read_bytes()
-    cli.write_text(cli.read_text() + "\n# an edit that compiles nothing\n")
-    assert compiled_sources_digest(pkg) == d0
-    cam = pkg / "kinematics" / "cam.py"  # called from multibody.kernel's cached integrator
-    cam.write_text(cam.read_text() + "\n# an edit of a compiled callee\n")
-    assert compiled_sources_digest(pkg) != d0
+def _edit(path: Path) -> None:
+    path.write_text(path.read_text() + "\n# an edit\n")
 
 
 def _cross_file_cached_calls() -> set[tuple[str, str]]:
-    """(caller module, callee module) of every cached dispatcher calling a dispatcher of another module."""
+    """(caller module, callee module) of every cached dispatcher that names a compiled function (dispatcher or
+    numba ufunc) of another module."""
     from numba.core.registry import CPUDispatcher
+    from numba.np.ufunc.dufunc import DUFunc
+
+    def home(obj):
+        if isinstance(obj, CPUDispatcher):
+            return obj.py_func.__module__
+        if isinstance(obj, DUFunc):
+            return obj._dispatcher.py_func.__module__
+        return None
 
     mods = [importlib.import_module(m.name) for m in pkgutil.walk_packages(berryshaker.__path__, "berryshaker.")
             if not m.name.startswith("berryshaker.cli")]
@@ -59,45 +61,82 @@ def _cross_file_cached_calls() -> set[tuple[str, str]]:
             names = set(code.co_names).union(*(c.co_names for c in code.co_consts if isinstance(c, types.CodeType)))
             for n in names:
                 target = obj.py_func.__globals__.get(n)
-                found = [target] if isinstance(target, CPUDispatcher) else (
+                found = [target] if home(target) else (
                     [getattr(target, a, None) for a in names] if isinstance(target, types.ModuleType) else [])
                 for d in found:
-                    if isinstance(d, CPUDispatcher) and d.py_func.__module__ != mod.__name__:
-                        out.add((mod.__name__, d.py_func.__module__))
+                    where = home(d)
+                    if where and where != mod.__name__:
+                        out.add((mod.__name__, where))
     return out
 
 
-def test_every_cross_file_cached_call_is_in_the_digest():
+def test_digest_follows_every_compiled_callee_and_nothing_else(tmp_path):
     calls = _cross_file_cached_calls()
-    # the calls that make the digest necessary (module docstring); the scan must see them, or it checks nothing
-    assert ("berryshaker.multibody.batch", "berryshaker.multibody.kernel") in calls
-    assert ("berryshaker.multibody.kernel", "berryshaker.kinematics.cam") in calls
-    for caller, callee in calls:
-        for name in (caller, callee):
-            src = Path(sys.modules[name].__file__).read_bytes()
-            assert b"numba" in src or b"njit" in src, name
+    # the calls that make the digest necessary (module docstring of berryshaker.compiled_cache): the scan must see
+    # them, or it checks nothing
+    assert {("berryshaker.multibody.batch", "berryshaker.multibody.kernel"),
+            ("berryshaker.multibody.kernel", "berryshaker.kinematics.cam"),
+            ("berryshaker.multibody.kernel", "berryshaker.contact.friction")} <= calls
+    pkg = _copy_package(tmp_path)
+    d0 = compiled_sources_digest(pkg)
+    cli = pkg / "cli" / "app.py"
+    assert b"numba" not in cli.read_bytes()
+    _edit(cli)
+    assert compiled_sources_digest(pkg) == d0  # an edit that compiles nothing keeps the kernels
+    for callee in sorted({c for _, c in calls}):
+        copy = pkg / Path(*callee.split(".")[1:]).with_suffix(".py")
+        before = compiled_sources_digest(pkg)
+        _edit(copy)
+        assert compiled_sources_digest(pkg) != before, callee
 
 
 def _folder_in_child(env: dict) -> str:
     code = "import os, berryshaker, numba; print(os.environ['NUMBA_CACHE_DIR'] + '|' + numba.config.CACHE_DIR)"
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True)
-    a, b = out.stdout.strip().split("|")
+    a, b = out.stdout.strip().splitlines()[-1].split("|")
     assert a == b
     return a
 
 
-def test_child_processes_keep_the_folder_and_old_folders_are_pruned(tmp_path):
-    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+def _env(**kw) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "BERRYSHAKER_NUMBA_BASE")}
+    env.update(kw)
+    return env
+
+
+def test_child_processes_keep_the_folder_and_only_old_digest_folders_are_pruned(tmp_path):
+    base = tmp_path / "berryshaker"  # a given NUMBA_CACHE_DIR holds the digest folders in a subfolder
+    base.mkdir()
     stale = []
     for k in range(KEEP_FOLDERS + 2):
-        p = tmp_path / f"{FOLDER_PREFIX}{k:016d}"
+        p = base / f"{FOLDER_PREFIX}{k:016x}"
         p.mkdir()
+        (p / MARKER).touch()
         t = time.time() - 1000 * (k + 1)
-        os.utime(p, (t, t))
+        os.utime(p / MARKER, (t, t))
         stale.append(p)
-    folder = _folder_in_child(env)
-    assert Path(folder).parent == tmp_path and Path(folder).name == FOLDER_PREFIX + compiled_sources_digest(ROOT)
-    # a worker started with the parent's environment uses the same folder (no folder inside the folder)
-    assert _folder_in_child({**os.environ, "NUMBA_CACHE_DIR": folder}) == folder
-    kept = [p for p in stale if p.exists()]
-    assert kept == stale[:KEEP_FOLDERS - 1]  # the newest ones, with the current folder KEEP_FOLDERS in all
+    # what is not a digest folder of ours survives: a user's study output, a look-alike without the marker
+    mine = [tmp_path / "berryshaker-study", base / "berryshaker-study", base / f"{FOLDER_PREFIX}{'f' * 16}"]
+    for p in mine:
+        p.mkdir()
+        (p / "report.html").write_text("the user's")
+        os.utime(p, (0, 0))
+    folder = Path(_folder_in_child(_env(NUMBA_CACHE_DIR=str(tmp_path))))
+    assert folder.parent == base and folder.name == FOLDER_PREFIX + compiled_sources_digest(ROOT)
+    assert [p for p in stale if p.exists()] == stale[:KEEP_FOLDERS - 1]  # the newest, KEEP_FOLDERS with the current
+    assert all((p / "report.html").read_text() == "the user's" for p in mine)
+    # a worker started with the parent's environment uses the same folder (no folder inside the folder) ...
+    inherited = _env(NUMBA_CACHE_DIR=str(folder), BERRYSHAKER_NUMBA_BASE=str(base))
+    assert _folder_in_child(inherited) == str(folder)
+    # ... and a process given another NUMBA_CACHE_DIR (an empty cache for a cold compile) gets its own
+    other = tmp_path / "cold"
+    assert Path(_folder_in_child({**inherited, "NUMBA_CACHE_DIR": str(other)})).parent == other / "berryshaker"
+
+
+def test_an_unwritable_base_falls_back_to_the_temp_folder(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    folder = Path(_folder_in_child(_env(NUMBA_CACHE_DIR=str(blocker / "cache"), TMPDIR=str(temp))))
+    assert temp in folder.parents and (folder / MARKER).is_file()

@@ -315,20 +315,20 @@ def test_tolerance_verdict_is_noise_aware():
     """The study's solver-tolerance check flags a solver bias, not the noise of re-drawn chaotic replicates.
 
     Each re-run replicate at the tighter tolerance is modelled as an independent draw (what the peak forces of the
-    coupled runs are, tests/test_coupled_tolerance.py): the check must pass ~95 % of such pairs (2-sigma band of
-    the mean change), while the first form (every single change within one SD) passed ~27 % of them; a bias of 4
-    replicate SD must be flagged almost always; equal constants (the unripe indexes, SD 0) are within."""
+    coupled runs are, tests/test_coupled_tolerance.py): the check must pass ~95 % of such draws (2-sigma band of the
+    mean change: 4.6 % flagged) for k = 2 and for k = 8 (the band narrows as sqrt(2 / k); the first form, every
+    single change within one SD, flagged 73 % at k = 2), and flag a bias of 4 replicate SD (k = 2) or 2 SD (k = 8)
+    almost always; equal constants (the unripe indexes, SD 0) are within."""
     from berryshaker.study.l9 import tolerance_verdict
 
     rng = np.random.default_rng(7)
-    k, sd, n = 2, 3.0, 4000
-    run, tight = rng.normal(10.0, sd, (n, k)), rng.normal(10.0, sd, (n, k))
-    flagged = np.mean([not tolerance_verdict(tight[i] - run[i], sd)["within_replicate_spread"] for i in range(n)])
-    assert 0.03 < flagged < 0.07  # the 2-sigma band: 4.6 %
-    old_form = np.mean(np.max(np.abs(tight - run), axis=1) > sd)
-    assert old_form > 0.6  # 1 - P(|Z| < 1/sqrt 2)^2 = 73 %: the old check failed on noise
-    biased = np.mean([not tolerance_verdict(tight[i] + 4 * sd - run[i], sd)["within_replicate_spread"]
-                      for i in range(n)])
-    assert biased > 0.95
+    sd, n = 3.0, 4000
+    for k, bias in ((2, 4.0), (8, 2.0)):
+        run, tight = rng.normal(10.0, sd, (n, k)), rng.normal(10.0, sd, (n, k))
+        flagged = np.mean([not tolerance_verdict(tight[i] - run[i], sd)["within_replicate_spread"] for i in range(n)])
+        assert 0.03 < flagged < 0.07, (k, flagged)
+        biased = np.mean([not tolerance_verdict(tight[i] + bias * sd - run[i], sd)["within_replicate_spread"]
+                          for i in range(n)])
+        assert biased > 0.95, (k, biased)
     v = tolerance_verdict([0.0, 0.0], 0.0)
     assert v["within_replicate_spread"] and v["noise_sd"] == 0.0

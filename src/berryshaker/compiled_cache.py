@@ -2,32 +2,48 @@
 
 numba's on-disk cache (``@njit(cache=True)``) checks only the source file of the function it loads: a kernel that
 calls a compiled function of *another* file carries that callee's machine code in its own cache entry and keeps
-using it after the callee's file changes (numba issue #6845).  The package has such calls
-(``multibody.kernel`` -> ``kinematics.cam``, ``multibody.batch.integrate_sets`` -> ``multibody.kernel.integrate``,
+using it after the callee's file changes (numba issue #6845).  The package has such calls (``multibody.kernel`` ->
+``kinematics.cam`` and ``contact.friction``, ``multibody.batch.integrate_sets`` -> ``multibody.kernel.integrate``,
 ``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``, ``drives.groove_cam.mlsd`` ->
-``drives.groove_cam.kinematics``; tests/test_compiled_cache.py lists them), and a stale entry silently runs the old
-code: after the contact-onset step of ``kernel.integrate`` changed, the batched sweep path still ran the old one
-from ``integrate_sets``' entry (benchmarks/README.md sec. 21).
+``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...; tests/test_compiled_cache.py finds them), and a
+stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path still ran
+the old one from ``integrate_sets``' entry (benchmarks/README.md sec. 21).
 
-So the package points numba at a folder named by a digest of every source file that defines or imports compiled
-code (:func:`compiled_sources_digest`): a change to any of them starts an empty folder, and an unchanged package
-finds its kernels again.  Base folder: ``$NUMBA_CACHE_DIR`` if set, else ``$BERRYSHAKER_CACHE/numba``, else
-``$XDG_CACHE_HOME/berryshaker/numba`` (``~/.cache/berryshaker/numba``); the four most recently used digest folders
-are kept, older ones removed when a new one is started.  Stdlib only: it runs when ``berryshaker`` is imported,
-before any kernel is decorated.
+So the package points numba at a folder named by a digest of every source file that mentions numba
+(:func:`compiled_sources_digest`): a change to any of them starts an empty folder, and an unchanged package finds
+its kernels again.  Where:
+
+* base folder: ``$NUMBA_CACHE_DIR/berryshaker`` if the user set ``NUMBA_CACHE_DIR``, else
+  ``$BERRYSHAKER_CACHE/numba``, else ``$XDG_CACHE_HOME/berryshaker/numba`` (``~/.cache/berryshaker/numba``);
+  if it cannot be created, ``<temp dir>/berryshaker-<uid>/numba``;
+* inside it, ``berryshaker-numba-<digest>`` with a marker file; the :data:`KEEP_FOLDERS` most recently used such
+  folders are kept and older ones removed when a new one is started.  Only folders with that exact name pattern
+  *and* the marker are ever removed, so nothing else in the base folder is touched.
+
+Side effects of ``import berryshaker`` (stdlib only, before any kernel is decorated): the environment variables
+``NUMBA_CACHE_DIR`` (the digest folder; child processes and Dask workers started from this one inherit it) and
+``BERRYSHAKER_NUMBA_BASE`` (the base, so that a child keeps it), and numba's live ``config.CACHE_DIR`` if numba is
+imported already.  Other numba code in the same process then caches into the same folder.  When no folder can be
+written, a warning says so and numba falls back to its own locations (where stale entries are possible again).
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import sys
+import tempfile
+import warnings
 from pathlib import Path
 
-#: prefix of the digest folders inside the base folder
-FOLDER_PREFIX = "berryshaker-"
-#: digest folders kept (most recently used first); older ones are removed when a new one is started
+#: name of a digest folder: the prefix and 16 hex digits of the digest
+FOLDER_PREFIX = "berryshaker-numba-"
+FOLDER_PATTERN = re.compile(r"berryshaker-numba-[0-9a-f]{16}")
+#: file written into every digest folder at its creation; a folder without it is never removed
+MARKER = "BERRYSHAKER_NUMBA_CACHE"
+#: digest folders kept (most recently used first, the current one included)
 KEEP_FOLDERS = 4
 
 
@@ -45,28 +61,48 @@ def compiled_sources_digest(root: Path) -> str:
 
 
 def numba_cache_base() -> Path:
-    """The folder holding the digest folders (see the module docstring)."""
+    """The folder holding the digest folders (see the module docstring); absolute."""
+    inherited = os.environ.get("BERRYSHAKER_NUMBA_BASE")
     given = os.environ.get("NUMBA_CACHE_DIR")
     if given:
-        p = Path(given)
-        return p.parent if p.name.startswith(FOLDER_PREFIX) else p  # a parent process pointed it already
-    base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "berryshaker")
-    return Path(base) / "numba"
+        g = Path(given).expanduser().resolve()
+        if inherited and FOLDER_PATTERN.fullmatch(g.name) and g.parent == Path(inherited):
+            return g.parent  # pointed by a parent process: keep its base
+        return g / "berryshaker"  # the user's (or a test's) own folder
+    cache_home = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
+    base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(cache_home, "berryshaker")
+    return Path(base).expanduser().resolve() / "numba"
 
 
-def point_numba_cache() -> Path:
-    """Point numba's cache at this package version's digest folder (environment variable for numba imported later
-    and for child processes; numba's live setting if it is imported already); returns the folder."""
-    folder = numba_cache_base() / (FOLDER_PREFIX + compiled_sources_digest(Path(__file__).resolve().parent))
+def _prepare(folder: Path) -> bool:
+    """Create ``folder`` (with its marker) or mark it used; prune old siblings when it is new.  False if not
+    writable."""
     try:
-        new = not folder.exists()
+        new = not (folder / MARKER).exists()
         folder.mkdir(parents=True, exist_ok=True)
-        os.utime(folder)  # most recently used
+        (folder / MARKER).touch()  # most recently used
         if new:
             _prune(folder)
+        return True
     except OSError:
-        pass  # not writable: numba falls back to its own locations
+        return False
+
+
+def point_numba_cache() -> Path | None:
+    """Point numba's cache at this package version's digest folder; returns it (None when nothing is
+    writable)."""
+    name = FOLDER_PREFIX + compiled_sources_digest(Path(__file__).resolve().parent)
+    base = numba_cache_base()
+    folder = base / name
+    if not _prepare(folder):
+        base = Path(tempfile.gettempdir()) / f"berryshaker-{os.getuid() if hasattr(os, 'getuid') else 'user'}" / "numba"
+        folder = base / name
+        if not _prepare(folder):
+            warnings.warn(f"berryshaker: no writable folder for numba's cache ({numba_cache_base()}, {base}); numba "
+                          "falls back to its own, where a kernel can keep stale code after an update "
+                          "(berryshaker.compiled_cache)", RuntimeWarning, stacklevel=2)
+            return None
+    os.environ["BERRYSHAKER_NUMBA_BASE"] = str(base)
     os.environ["NUMBA_CACHE_DIR"] = str(folder)
     if "numba" in sys.modules:
         from numba.core import config
@@ -76,8 +112,12 @@ def point_numba_cache() -> Path:
 
 
 def _prune(current: Path) -> None:
-    """Remove all but the :data:`KEEP_FOLDERS` most recently used digest folders beside ``current``."""
-    others = [p for p in current.parent.glob(FOLDER_PREFIX + "*") if p.is_dir() and p != current]
-    others.sort(key=lambda p: p.stat().st_mtime, reverse=True)
-    for p in others[KEEP_FOLDERS - 1:]:
+    """Remove all but the :data:`KEEP_FOLDERS` most recently used digest folders beside ``current`` (only folders
+    named like one and holding the marker)."""
+    others = []
+    for p in current.parent.iterdir():
+        if p != current and p.is_dir() and FOLDER_PATTERN.fullmatch(p.name) and (p / MARKER).is_file():
+            others.append(((p / MARKER).stat().st_mtime, p))
+    others.sort(reverse=True)
+    for _, p in others[KEEP_FOLDERS - 1:]:
         shutil.rmtree(p, ignore_errors=True)

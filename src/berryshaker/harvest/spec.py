@@ -14,7 +14,8 @@ from berryshaker.quantity_fields import StrictModel as _Strict
 #: virtual harvest's replicates), chosen by the ensemble study in tests/test_coupled_tolerance.py: over 16
 #: replicates (3 branch classes each) at the recommended clearances, the loosest rtol at which no harvest
 #: index or machine load of a replicate differs from rtol 1e-7 beyond 2 standard errors of the paired
-#: difference (docs/harvest.md, "Solver tolerance of the coupled runs"); it was 1e-6
+#: difference (docs/harvest.md, "Solver tolerance of the coupled runs"); it was 1e-6.  The test keeps it by its own
+#: rule: against 10x tighter, every response's mean paired difference within one replicate SD, SE <= 0.5 SD
 COUPLED_RTOL = 1e-5
 
 

@@ -108,7 +108,7 @@ def sobol_analyze(problem: dict, y, seed: int | None = 0, second_order: bool = F
     y : array_like
         Model outputs at :func:`sobol_sample`'s rows, in order.
     seed : int
-        Bootstrap seed.
+        Bootstrap seed (0 included: the same intervals whatever numpy's global state).
     second_order : bool
         As sampled.
     conf_level : float
@@ -134,8 +134,11 @@ def sobol_analyze(problem: dict, y, seed: int | None = 0, second_order: bool = F
     names = problem["names"]
     if np.ptp(y) == 0.0:
         return {n: {"S1": None, "S1_conf": None, "ST": None, "ST_conf": None} for n in names}
+    # SALib seeds its bootstrap only for a truthy seed (``if seed:``): seed 0, this function's default, left the
+    # intervals to numpy's global state, so they changed with whatever ran before; a Generator is always truthy
+    rng = None if seed is None else np.random.default_rng(seed)
     res = sobol_analyzer.analyze(problem, y, calc_second_order=second_order, num_resamples=num_resamples,
-                                 conf_level=conf_level, print_to_console=False, seed=seed)
+                                 conf_level=conf_level, print_to_console=False, seed=rng)
 
     def num(x):
         return float(x) if math.isfinite(float(x)) else None

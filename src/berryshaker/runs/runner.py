@@ -74,8 +74,8 @@ def usable_cores() -> int:
 def default_cache_dir() -> Path:
     """``$BERRYSHAKER_CACHE/runs``, else ``$XDG_CACHE_HOME/berryshaker/runs`` (``~/.cache/berryshaker/runs``)."""
     base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME", os.path.expanduser("~/.cache")), "berryshaker")
-    return Path(base) / "runs"
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "berryshaker")  # "" counts as unset
+    return Path(base).expanduser().resolve() / "runs"
 
 
 def _jsonable(obj):
