@@ -282,3 +282,9 @@ def test_millimetre_round_trip_is_exact(x):
     si = parse_quantity(text, "length")
     back = si / ENGINEERING_FACTORS["mm"]
     assert back == pytest.approx(x, rel=1e-12, abs=0.0)
+
+
+def test_format_tolerance_writes_tolerances_as_people_do():
+    from berryshaker.units import format_tolerance
+
+    assert [format_tolerance(x) for x in (1e-5, 1e-7, 1e-10, 3e-3)] == ["1e-5", "1e-7", "1e-10", "3e-3"]

@@ -625,3 +625,8 @@ ENGINEERING_FACTORS: dict[str, float] = {
     "%": 1e-2,
     "1": 1.0,
 }
+
+
+def format_tolerance(rtol: float) -> str:
+    """A relative tolerance as people write it: ``1e-5``, not ``1e-05``."""
+    return f"{rtol:.0e}".replace("e-0", "e-").replace("e+0", "e+")

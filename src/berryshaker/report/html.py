@@ -10,6 +10,7 @@ from pathlib import Path
 
 from berryshaker.config import machine_table
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, EQ18_F, FIELD_RESULT
+from berryshaker.units import format_tolerance
 
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
@@ -381,8 +382,8 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         rt = tc.get("rtol", [1e-6, 1e-7])  # a summary written before the tolerances were recorded: 1e-6, 1e-7
         parts.append("<h3>Solver-tolerance check</h3>")
         parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
-                     f"re-run at rtol {rt[1]:.0e}).</p>".replace("e-0", "e-"))
-        fmt = [f"{x:.0e}".replace("e-0", "e-") for x in rt]
+                     f"re-run at rtol {format_tolerance(rt[1])}).</p>")
+        fmt = [format_tolerance(x) for x in rt]
         rule = "within 2 x noise" if all("mean_change" in v for v in tc["responses"].values()) else \
             "within 1 SD (a summary from before 2026-11-23)"
         parts.append(_table(["response", f"mean change {fmt[0]} -> {fmt[1]}", "largest change", "replicate SD",

@@ -29,6 +29,7 @@ from berryshaker.harvest.virtual import replicate_seeds  # noqa: F401  (one home
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.harvest.spec import COUPLED_RTOL
+from berryshaker.units import format_tolerance
 from berryshaker.study.runs import replicate_run
 
 #: harvest responses: name -> (key of harvest_indexes, factor to the reported unit, unit, larger is better)
@@ -416,11 +417,6 @@ def tradeoff_records(candidates: list[dict]) -> tuple[list[dict], list[str]]:
     return json.loads(df.to_json(orient="records")), list(df.columns)
 
 
-def rtol_text(rtol: float) -> str:
-    """A tolerance as people write it: 1e-5, not 1e-05."""
-    return f"{rtol:.0e}".replace("e-0", "e-").replace("e+0", "e+")
-
-
 def tolerance_verdict(changes, replicate_sd: float) -> dict:
     """Whether a response's change between two solver tolerances is within the replicate noise.
 
@@ -428,8 +424,8 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
     ``replicate_sd``: its replicate standard deviation (the L9's pooled sqrt(MS_PE)).  The coupled runs are
     chaotic, so a replicate re-run at another tolerance is another draw of the same noise: the change of one
     replicate is then ~sqrt(2) SD at random, and comparing single changes with one SD (this check's first form)
-    failed on noise for 48 % of single changes, 73 % of responses with k = 2.  The mean change of the k replicates has standard deviation
-    sqrt(2 / k) SD when the two tolerances' replicates are independent draws (less when they stay correlated, as
+    failed on noise for 48 % of single changes, 73 % of responses with k = 2.  The mean change of the k
+    replicates has standard deviation sqrt(2 / k) SD when the two tolerances' replicates are independent draws (less when they stay correlated, as
     the harvest indexes do), so "within" is |mean change| <= 2 sqrt(2 / k) SD: a solver bias that large is
     flagged, noise is not (:func:`tests.test_replicated_l9.test_tolerance_verdict_is_noise_aware`).  With k = 2
     that resolves a bias of ~2 SD only; the tolerance itself is validated on 16 replicates by
@@ -451,7 +447,7 @@ def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec
     if k == 0:
         return {"done": False, "reason": "harvest.tolerance_replicates = 0"}
     s = seeds[:k]
-    o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {rtol_text(RTOL_CHECK)}")
+    o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {format_tolerance(RTOL_CHECK)}")
     tight = cells(o, s, pops[:k])
     out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "replicates": k, "responses": {}}
     for n in names:
@@ -459,7 +455,7 @@ def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec
         out["responses"][n] = tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sd)
     bad = [n for n, v in out["responses"].items() if not v["within_replicate_spread"]]
     out["all_within"] = not bad
-    change = f"the change from rtol {rtol_text(RTOL_RUN)} to {rtol_text(RTOL_CHECK)}"
+    change = f"the change from rtol {format_tolerance(RTOL_RUN)} to {format_tolerance(RTOL_CHECK)}"
     band = f"mean change of {k} replicate(s) within 2 x sqrt(2/{k}) replicate SD"
     out["statement"] = (f"{change} is within the replicate noise for every response ({band})" if not bad else
                         f"{change} is NOT within the replicate noise ({band}) for: " + ", ".join(bad)
