@@ -9,8 +9,8 @@ reference machine runs with ``restitution_velocity = v_floor`` on all four pairs
   mean / RMS / p95 / peak collision force of each pair over revolution 2, mean drive moment, steps, CPU;
 * ``coupled``: the drive-pasts of the virtual L9's replicates (``harvest.virtual.replicate_seeds``, replicate k
   of branch class c from ``RandomInitialPerturbation((seed_k, c), ...)``, exactly as ``study.l9.replicate_jobs``;
-  ``harvest.coupled.simulate_fruit_force`` through ``harvest.virtual.stem_force_envelope_run``, rtol 1e-6,
-  output step 2e-5 s, at the configured clearances): fruit-force peaks root / middle / end, comb-branch contact
+  ``harvest.coupled.simulate_fruit_force`` and ``harvest.virtual.stem_force_table``, rtol 1e-6,
+  output step ``harvest.virtual.ENVELOPE_OUTPUT_STEP``, at the configured clearances): fruit-force peaks root / middle / end, comb-branch contact
   peaks, steps, CPU, and per replicate the harvest indexes (efficiency kg/min, damage %, unripe %) of
   ``harvest_indexes`` on the replicate's population, as the calibration and the L9 compute them.
 
@@ -76,13 +76,16 @@ def plain_run(machine, clearance: dict) -> dict:
 
 def coupled_run(machine, seed: int, cls: int) -> dict:
     """Replicate ``seed``'s drive-past of branch class ``cls``: peaks, envelope, steps, CPU."""
-    from berryshaker.harvest.virtual import stem_force_envelope_run
+    from berryshaker.harvest.coupled import simulate_fruit_force
+    from berryshaker.harvest.virtual import ENVELOPE_OUTPUT_STEP, branch_class_machine, stem_force_table
     from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
     h = machine.harvest
     pert = RandomInitialPerturbation((int(seed), int(cls)), h.initial_eccentricity, h.start_phase_spread)
     c0 = time.process_time()
-    table, r = stem_force_envelope_run(machine, None, h.branch_classes[cls], pert, 1e-6)
+    m = branch_class_machine(machine, h.branch_classes[cls])
+    r = simulate_fruit_force(m, None, rtol=1e-6, initial_perturbation=pert, output_step=ENVELOPE_OUTPUT_STEP)
+    table = stem_force_table(m, r.motion)
     cpu = time.process_time() - c0
     vals = {f"fruit.{n}.peak": float(np.max(np.abs(f))) for n, f in r.fruit_force.items()}
     vals.update({f"contact.{n}.peak": float(np.max(np.abs(f))) for n, f in r.contact_force.items()})

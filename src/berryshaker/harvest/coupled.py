@@ -352,11 +352,7 @@ class BranchMotion:
         """
         zs = np.atleast_1d(np.asarray(z, float))
         m = self.modes
-        slope = np.array([np.gradient(s, m.z) for s in m.shapes])  # (n_modes, n_s)
-        prod = slope[:, None, :] * slope[None, :, :]
-        from scipy import integrate as _int
-
-        cum = _int.cumulative_trapezoid(prod, m.z, axis=-1, initial=0.0)
+        cum = m.slope_product_integral  # (n_modes, n_modes, n_s), cached with the modes
         j = np.clip(np.searchsorted(m.z, zs) - 1, 0, len(m.z) - 2)
         wgt = (zs - m.z[j]) / (m.z[j + 1] - m.z[j])
         g = (1 - wgt) * cum[:, :, j] + wgt * cum[:, :, j + 1]  # (n_modes, n_modes, n_z), symmetric in the modes
@@ -364,13 +360,24 @@ class BranchMotion:
         # (G is symmetric: the products slope_i slope_j and their running integral are the same numbers for (j, i)),
         # eta^T G eta = sum_{i<=j} (2 - delta_ij) G_ij eta_i eta_j,
         # eta^T G eta' = sum_{i<=j} G_ij (eta_i eta'_j + eta_j eta'_i) (1 - delta_ij / 2)
-        # (the modal series as contiguous rows per mode: the pair products are then row gathers)
-        iu, ju = np.triu_indices(g.shape[0])
+        # (the modal series as contiguous rows per mode; the pair products row block by row block, i fixed and
+        # j = i ... n - 1, in the order of numpy.triu_indices: no gathered copies)
+        nm = g.shape[0]
+        iu, ju = np.triu_indices(nm)
         diag = iu == ju
         gp = g[iu, ju, :].T  # (n_z, pairs)
         e, ed, _ = self._rows
-        u = -0.5 * ((gp * np.where(diag, 1.0, 2.0)) @ (e[iu] * e[ju]))
-        v = -((gp * np.where(diag, 0.5, 1.0)) @ (e[iu] * ed[ju] + e[ju] * ed[iu]))
+        ee = np.empty((len(iu), e.shape[1]))
+        eed = np.empty_like(ee)
+        k = 0
+        for i in range(nm):
+            rows = slice(k, k + nm - i)
+            np.multiply(e[i], e[i:], out=ee[rows])
+            np.multiply(e[i], ed[i:], out=eed[rows])
+            eed[rows] += e[i:] * ed[i]
+            k += nm - i
+        u = -0.5 * ((gp * np.where(diag, 1.0, 2.0)) @ ee)
+        v = -((gp * np.where(diag, 0.5, 1.0)) @ eed)
         return u, v
 
 
@@ -463,6 +470,21 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
         offset += len(pr.motion.modes.omega)
         out.probes.append(pr)
     return out
+
+
+def drive_past(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = COUPLED_RTOL,
+               output_step: float = 2e-5, initial_perturbation=None) -> tuple[MultibodyResult, BranchMotion]:
+    """The coupled drive-past of :func:`simulate_fruit_force` without its post-processing at the named fruit
+    positions: ``(result, motion)``, the multibody result and the instrumented branch's modal solution
+    (:class:`BranchMotion`), for callers that evaluate the branch elsewhere (the stem-force envelopes over
+    the whole fruit zone, berryshaker.harvest.virtual.stem_force_envelope_run).  The same run, step for
+    step, as :func:`simulate_fruit_force` with the same arguments (no probes): the fruit forces, the comb load
+    moments and their summary are left out (~30 ms of a replicate's ~0.5 s, benchmarks/README.md sec. 22).
+    """
+    spec, machine = coupled_mechanism(machine, clearance)
+    res = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)
+    modes, _ = plant_modes(machine)
+    return res, branch_motion(res, modes, 0)
 
 
 def _fruit_result(res: MultibodyResult, spec, machine: Machine, offset: int) -> FruitForceResult:

@@ -44,15 +44,12 @@ FRUIT_SAMPLES_PER_BUSH = 200  # sampled fruit per bush; each stands for yield/(2
 
 def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
     """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class."""
-    from berryshaker.harvest.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import drive_past
 
-    d = machine.model_dump()
-    d["plant"]["branch"]["root_diameter"] *= scale
-    d["plant"]["branch"]["tip_diameter"] *= scale
-    m = machine_from_dict(d)
-    res = simulate_fruit_force(m, clearance)
+    m = branch_class_machine(machine, scale)
+    _, motion = drive_past(m, clearance)
     # fruit forces are m0 * acceleration; recover accelerations on the grid from the modal solution
-    acc = res.motion.lateral(Z_GRID * m.plant.branch.length)[2]  # (nz, n_t)
+    acc = motion.lateral(Z_GRID * m.plant.branch.length)[2]  # (nz, n_t)
     return np.max(np.abs(acc), axis=1)
 
 
@@ -77,40 +74,52 @@ ENVELOPE_OUTPUT_STEP = 1e-4
 
 def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None, scale: float,
                             initial_perturbation=None, rtol: float = COUPLED_RTOL):
-    """Peak stem-force table of one branch class and the coupled run it came from: ``(table, FruitForceResult)``.
+    """Peak stem-force table of one branch class and the coupled run it came from: ``(table, result)``.
 
-    Table: peak stem force (N) of fruit on compliant pedicels over Z_GRID (rows) x MASS_FACTORS * m0.
+    Table: :func:`stem_force_table` of the branch class ``scale`` (diameters scaled); ``result``: the
+    run's :class:`~berryshaker.multibody.engine.MultibodyResult` (collision forces, drive torque).
     ``initial_perturbation`` and ``rtol`` go to the coupled run
-    (:func:`berryshaker.harvest.coupled.simulate_fruit_force`): a replicate starts the machine off centre in
-    its clearances and at another drive phase.
-
-    One coupled drive-past run for the branch class ``scale`` (diameters scaled); the fruit is one-way
-    coupled, so every (position, mass) is a post-processing of the same branch motion
-    (the magnitude of berryshaker.harvest.coupled.stem_forces, computed for the whole table at once by
-    berryshaker.plant.pedicel.peak_stem_force).  With ``pedicel.rigid`` the
-    table is m x the peak branch acceleration (eq. 16).
+    (:func:`berryshaker.harvest.coupled.drive_past`, the run of
+    :func:`berryshaker.harvest.coupled.simulate_fruit_force` without its named fruit): a replicate starts the
+    machine off centre in its clearances and at another drive phase.
     """
-    from berryshaker.harvest.coupled import simulate_fruit_force
-    from berryshaker.plant.pedicel import peak_stem_force
+    from berryshaker.harvest.coupled import drive_past
 
+    m = branch_class_machine(machine, scale)
+    res, motion = drive_past(m, clearance, rtol=rtol, initial_perturbation=initial_perturbation,
+                             output_step=ENVELOPE_OUTPUT_STEP)
+    return stem_force_table(m, motion), res
+
+
+def branch_class_machine(machine: Machine, scale: float) -> Machine:
+    """The machine with its branch's root and tip diameters scaled by ``scale`` (one branch class)."""
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale
     d["plant"]["branch"]["tip_diameter"] *= scale
-    m = machine_from_dict(d)
-    res = simulate_fruit_force(m, clearance, rtol=rtol, initial_perturbation=initial_perturbation,
-                               output_step=ENVELOPE_OUTPUT_STEP)
-    pl = m.plant
-    motion = res.motion
+    return machine_from_dict(d)
+
+
+def stem_force_table(machine: Machine, motion) -> np.ndarray:
+    """Peak stem force (N) of fruit on compliant pedicels over Z_GRID (rows) x MASS_FACTORS * m0 (columns).
+
+    ``motion``: the branch's :class:`~berryshaker.harvest.coupled.BranchMotion` of a drive-past.  The fruit
+    is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (the
+    magnitude of berryshaker.harvest.coupled.stem_forces, computed for the whole table at once by
+    berryshaker.plant.pedicel.peak_stem_force).  With ``pedicel.rigid`` the table is m x the peak branch
+    acceleration (study eq. 16).
+    """
+    from berryshaker.plant.pedicel import peak_stem_force
+
+    pl = machine.plant
     z = Z_GRID * pl.branch.length
     masses = MASS_FACTORS * pl.fruit.mass
     if pl.fruit.pedicel.rigid:
         a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
-        return np.outer(a, masses), res
+        return np.outer(a, masses)
     y, v, _ = motion.lateral(z)
     ped = pl.fruit.pedicel
     # the peak over time of stem_forces' magnitude for every (position, mass), in one compiled pass
-    table = peak_stem_force(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping, ped.include_weight)
-    return table, res
+    return peak_stem_force(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping, ped.include_weight)
 
 
 def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:

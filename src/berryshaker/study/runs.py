@@ -103,7 +103,7 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     h = machine.harvest
     pert = RandomInitialPerturbation(tuple(int(s) for s in seed), h.initial_eccentricity, h.start_phase_spread)
     table, res = stem_force_envelope_run(machine, clearance, scale, pert, rtol)
-    s = res.result.summary()
+    s = res.summary()
     out = {"envelope": table.tolist(),
            "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
     if s["drivers"]:
