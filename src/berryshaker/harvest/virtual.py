@@ -116,7 +116,7 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
     if pl.fruit.pedicel.rigid:
         a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
         return np.outer(a, masses)
-    y, v, _ = motion.lateral(z)
+    y, v, _ = motion.lateral(z, acceleration=False)
     ped = pl.fruit.pedicel
     # the peak over time of stem_forces' magnitude for every (position, mass), in one compiled pass
     return peak_stem_force(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping, ped.include_weight)

@@ -88,15 +88,14 @@ class InitialPerturbation:
             if j["name"] in self.joint_offsets:
                 dx, dy = self.joint_offsets[j["name"]]
                 j["point_i"] = [j["point_i"][0] - float(dx), j["point_i"][1] - float(dy)]
-        target = {d["name"]: d["angle0"] for d in data["drivers"]}
+        offset = mechanism_from_dict(data, "(perturbed assembly)")  # validated once; the steps only turn drivers
         turn = max((abs(float(v)) for v in self.driver_phases.values()), default=0.0)
         n = max(1, int(math.ceil(turn / PHASE_CONTINUATION_STEP)))
         q = None
         for k in range(n + 1) if turn > 0 else (n,):
-            for d in data["drivers"]:
-                if d["name"] in self.driver_phases:
-                    d["angle0"] = target[d["name"]] - float(self.driver_phases[d["name"]]) * (1 - k / n)
-            y = initial_state(mechanism_from_dict(data, "(perturbed assembly)"), q)
+            drivers = [d.model_copy(update={"angle0": d.angle0 - float(self.driver_phases[d.name]) * (1 - k / n)})
+                       if d.name in self.driver_phases else d for d in offset.drivers]
+            y = initial_state(offset.model_copy(update={"drivers": drivers}), q)
             q = y[:len(y) // 2]
         return y
 
