@@ -1,6 +1,6 @@
 """Contact physics: normal force laws, friction, Hertz stiffness helpers, clearance-joint geometry.
 
-The ``*_kernel`` functions are numba ufuncs, callable from compiled code with scalars.
+The ``*_kernel`` functions are scalar numba kernels for compiled code; their Python wrappers broadcast.
 """
 
 from berryshaker.contact.force_laws import (

@@ -1,7 +1,10 @@
 """Normal contact force laws for clearance joints.
 
-Each law is a numba ufunc kernel (``*_kernel``: broadcasts over numpy arrays *and* can be called with
-scalars from numba-compiled code) plus a Python wrapper with keyword defaults and the documentation.
+Each law is a scalar compiled kernel (``*_kernel``, numba ``njit``: called with scalars from compiled code, the
+engine's and the reduced model's) plus a Python wrapper with keyword defaults and the documentation, which
+broadcasts over numpy arrays through a ufunc built from the kernel at its first call (:func:`broadcasting`).
+(The kernels were eager numba ufuncs until 0.2: building their six ufunc wrappers cost ~0.35 s of every
+process's import, the study's and each worker's, for arrays only tests and users pass.)
 Sign convention: ``delta`` is the penetration (m, > 0 in contact), ``delta_dot`` its rate (m/s, > 0 while
 the bodies approach).  Every law returns the magnitude of the repulsive normal force (N): zero for
 ``delta <= 0``, and never negative (a dissipative law that would pull during restitution gives 0).
@@ -10,12 +13,22 @@ the bodies approach).  Every law returns the magnitude of the repulsive normal f
 from __future__ import annotations
 
 
+import functools
+
 import numpy as np
-from numba import float64, vectorize
+from numba import float64, njit, vectorize
+
+
+@functools.cache
+def broadcasting(kernel, n_args: int):
+    """The numpy ufunc of scalar kernel ``kernel`` (an ``njit`` function of ``n_args`` float64 arguments
+    returning float64): broadcasts its arguments like any ufunc.  Built (compiled) at the first call per kernel
+    and process, not cached on disk (its cache entry would share the kernel's own)."""
+    return vectorize([float64(*([float64] * n_args))])(kernel.py_func)
 
 
 # --------------------------------------------------------------------------------------------
-@vectorize([float64(float64, float64, float64, float64)], cache=True)
+@njit(cache=True)
 def mlsd_kernel(r, r_dot, stiffness, damping):
     """Kernel of :func:`mlsd`."""
     if r <= 0.0:
@@ -56,11 +69,11 @@ def mlsd(r, r_dot, stiffness, damping):
     S. Dubowsky, F. Freudenstein, "Dynamic analysis of mechanical systems with clearances, Part 1",
     J. Eng. Ind. 93 (1971) 305-309.
     """
-    return mlsd_kernel(np.asarray(r, float), np.asarray(r_dot, float), float(stiffness), float(damping))
+    return broadcasting(mlsd_kernel, 4)(np.asarray(r, float), np.asarray(r_dot, float), float(stiffness), float(damping))
 
 
 # --------------------------------------------------------------------------------------------
-@vectorize([float64(float64, float64, float64)], cache=True)
+@njit(cache=True)
 def hertz_kernel(delta, stiffness, exponent):
     """Kernel of :func:`hertz`."""
     if delta <= 0.0:
@@ -89,11 +102,11 @@ def hertz(delta, stiffness, exponent=1.5):
     ----------
     K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, ch. 4.
     """
-    return hertz_kernel(np.asarray(delta, float), float(stiffness), float(exponent))
+    return broadcasting(hertz_kernel, 3)(np.asarray(delta, float), float(stiffness), float(exponent))
 
 
 # --------------------------------------------------------------------------------------------
-@vectorize([float64(float64, float64, float64, float64, float64, float64)], cache=True)
+@njit(cache=True)
 def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, exponent):
     """F = K delta^n (1 + factor * delta_dot / impact_velocity), clamped >= 0 (shared by HC, LN, Flores)."""
     if delta <= 0.0:
@@ -163,7 +176,7 @@ def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, imp
         raise ValueError("hunt_crossley needs impact_velocity (the normal approach velocity when contact began)")
     e = _check_e(restitution)
     v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
+    return broadcasting(hysteresis_kernel, 6)(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 1.5 * (1.0 - e), float(exponent))
 
 
@@ -198,7 +211,7 @@ def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitutio
     """
     e = _check_e(restitution)
     v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
+    return broadcasting(hysteresis_kernel, 6)(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 0.75 * (1.0 - e * e), float(exponent))
 
 
@@ -217,12 +230,12 @@ def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1
     """
     e = _check_e(restitution)
     v0 = _hysteresis_velocity(impact_velocity, restitution_velocity)
-    return hysteresis_kernel(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
+    return broadcasting(hysteresis_kernel, 6)(np.asarray(delta, float), np.asarray(delta_dot, float), v0,
                              float(stiffness), 1.6 * (1.0 - e) / e, float(exponent))
 
 
 # --------------------------------------------------------------------------------------------
-@vectorize([float64(float64, float64, float64, float64, float64)], cache=True)
+@njit(cache=True)
 def adams_step_kernel(x, x0, h0, x1, h1):
     """Kernel of :func:`adams_step`."""
     if x <= x0:
@@ -241,10 +254,10 @@ def adams_step(x, x0, h0, x1, h1):
     ----------
     MSC Software, *Adams Solver: Function reference*, "STEP".
     """
-    return adams_step_kernel(np.asarray(x, float), float(x0), float(h0), float(x1), float(h1))
+    return broadcasting(adams_step_kernel, 5)(np.asarray(x, float), float(x0), float(h0), float(x1), float(h1))
 
 
-@vectorize([float64(float64, float64, float64, float64, float64, float64, float64)], cache=True)
+@njit(cache=True)
 def impact_kernel(x, x_dot, x1, k, e, cmax, d):
     """Kernel of :func:`impact`."""
     if x >= x1:
@@ -287,5 +300,5 @@ def impact(x, x_dot, x1, k, e, cmax, d):
     ----------
     MSC Software, *Adams Solver: Function reference*, "IMPACT".
     """
-    return impact_kernel(np.asarray(x, float), np.asarray(x_dot, float), float(x1), float(k), float(e),
+    return broadcasting(impact_kernel, 7)(np.asarray(x, float), np.asarray(x_dot, float), float(x1), float(k), float(e),
                          float(cmax), float(d))

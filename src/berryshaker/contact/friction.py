@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import float64, vectorize
+from numba import njit
+
+from berryshaker.contact.force_laws import broadcasting
 
 
-@vectorize([float64(float64, float64, float64, float64, float64)], cache=True)
+@njit(cache=True)
 def coulomb_friction_kernel(v_t, normal_force, mu, v0, v1):
-    """Kernel of :func:`coulomb_friction`."""
+    """Kernel of :func:`coulomb_friction` (scalar, for compiled code; arrays go through the wrapper)."""
     av = abs(v_t)
     if av <= v0:
         return 0.0
@@ -47,7 +49,7 @@ def coulomb_friction(v_t, normal_force, mu, v0=1e-4, v1=1e-3):
     """
     if not (0 <= v0 < v1):
         raise ValueError(f"need 0 <= v0 < v1, got v0={v0}, v1={v1}")
-    return coulomb_friction_kernel(np.asarray(v_t, float), np.asarray(normal_force, float), float(mu),
+    return broadcasting(coulomb_friction_kernel, 5)(np.asarray(v_t, float), np.asarray(normal_force, float), float(mu),
                                    float(v0), float(v1))
 
 
