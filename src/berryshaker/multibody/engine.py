@@ -516,7 +516,7 @@ def _argument_types(run: "PreparedRun") -> tuple:
 
 
 #: the parts of the compiled core :func:`compile_engine` compiles (in the order kernel.integrate needs them)
-ENGINE_PARTS = ("projection", "forces", "right_hand_side", "step")
+ENGINE_PARTS = ("projection", "forces", "right_hand_side", "step_events", "step_forces")
 
 
 def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -> dict[str, float]:
@@ -526,9 +526,11 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     The integrator (``kernel.integrate``) calls a chain of ~30 compiled functions, compiled one after the other
     on first use: about 16 s of one core on a fresh install (benchmarks/README.md sec. 19-20).  Compiling a part
     compiles the callees it needs that are not compiled yet and writes everything to the cache, so two processes
-    can share the work: one compiles ``"forces"`` (which shares only small geometry helpers with the rest) while
-    the other compiles ``"projection"`` and ``"step"``, then ``"right_hand_side"`` once the first is done; a run
-    then compiles only the integrator itself and loads the rest.
+    can share the work: one compiles ``"forces"`` and ``"step_forces"`` (which share the contact laws' calls and
+    only small geometry helpers with the rest) while the other compiles ``"projection"`` and ``"step_events"``,
+    then ``"right_hand_side"`` once the first is done; a run then compiles only the integrator itself and loads
+    the rest.  (About 3.5 + 0.7 s against 2.8 + 0.9 s of one core; with ``"step"`` whole on the projection's side
+    the forces' process idled ~3 s, benchmarks/README.md sec. 22.)
 
     Parameters
     ----------
@@ -540,8 +542,9 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
         Any of :data:`ENGINE_PARTS`: ``"projection"`` (``kernel.project``: the constraint equations, their
         Jacobian and the multiplier solve), ``"forces"`` (``kernel.forces``: every force element and contact
         law), ``"right_hand_side"`` (``kernel.accelerations``: the forces, the constraints and the multiplier
-        solve of one right-hand side; compiles the other two first if they are not), ``"step"`` (the
-        integrator's helpers: contact-onset location, interior force peaks, dense output, output samples).
+        solve of one right-hand side; compiles the other two first if they are not), ``"step_events"`` (the
+        integrator's helpers for contact onsets, dense output and output samples), ``"step_forces"`` (its
+        helpers that evaluate the contact laws inside a step: the force bound and the interior force peak).
 
     Returns
     -------
@@ -572,13 +575,13 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
                                      plant_p, work[4], work[5], laws))],
              "right_hand_side": [(mb.accelerations, (0.0, y, cm.model, state, work, np.zeros_like(y)))],
              # the types kernel.integrate passes: a contact index from range() (int64), floats, C arrays
-             "step": [(mb.fint_is_contact, (cm.model, np.int64(0))),
-                      (mb._onset_fraction, (0.0,) * 5), (mb._crossing_rate, (0.0,) * 5),
-                      (mb._step_force_bound, (cm.model, np.int64(0)) + (0.0,) * 6),
-                      (mb._interior_peak, (cm.model, np.int64(0)) + (0.0,) * 6),
-                      (mb._dense_state, (0.0, 0.0, np.zeros((7, y.shape[0])), y, y, y, y, y)),
-                      (mb._write_sample, (np.int64(0), y, work[5], work[6], np.zeros((2, y.shape[0])),
-                                          np.zeros((2,) + work[5].shape), np.zeros((2, cm.m))))]}
+             "step_events": [(mb.fint_is_contact, (cm.model, np.int64(0))),
+                             (mb._onset_fraction, (0.0,) * 5), (mb._crossing_rate, (0.0,) * 5),
+                             (mb._dense_state, (0.0, 0.0, np.zeros((7, y.shape[0])), y, y, y, y, y)),
+                             (mb._write_sample, (np.int64(0), y, work[5], work[6], np.zeros((2, y.shape[0])),
+                                                 np.zeros((2,) + work[5].shape), np.zeros((2, cm.m))))],
+             "step_forces": [(mb._step_force_bound, (cm.model, np.int64(0)) + (0.0,) * 6),
+                             (mb._interior_peak, (cm.model, np.int64(0)) + (0.0,) * 6)]}
     out = {}
     for part in parts:
         c0 = time.process_time()

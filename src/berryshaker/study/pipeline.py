@@ -471,8 +471,9 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
 
 
 def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
-    """Compile the multibody engine's projection and step helpers here while a worker compiles its force
-    evaluation (``study.runs.warm_worker``, started as the future ``warm``), wait for the worker (at most
+    """Compile the multibody engine's projection and event helpers here while a worker compiles its force
+    evaluation and the step helpers that call it (``study.runs.warm_worker``, started as the future ``warm``), wait
+    for the worker (at most
     ``timeout`` s), then compile the right-hand side on top of both: the engine's first run (here or in a worker)
     then compiles only the integrator itself and loads the rest from numba's cache.
 
@@ -483,7 +484,7 @@ def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
     """
     try:
         spec = drive_of(machine).mechanism(machine, revolutions=2)
-        seconds = compile_engine(spec, ("projection", "step"))
+        seconds = compile_engine(spec, ("projection", "step_events"))
         if seconds["projection"] >= 1.0:
             warm.result(timeout=timeout)
         compile_engine(spec, ("right_hand_side",))

@@ -114,11 +114,12 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
 def warm_worker(machine_data: dict) -> dict:
     """Compile, in a pool worker at the start of a study, the multibody engine's force evaluation (every force
-    element and contact law; :func:`berryshaker.multibody.engine.compile_engine`, part ``"forces"``) while the
-    study's process compiles the projection and the step helpers: both land in numba's on-disk cache, and the
+    element and contact law) and the step helpers that evaluate the laws
+    (:func:`berryshaker.multibody.engine.compile_engine`, parts ``"forces"`` and ``"step_forces"``) while the
+    study's process compiles the projection and the event helpers: both land in numba's on-disk cache, and the
     study's process then compiles the right-hand side and the integrator on top of them.  Returns CPU seconds."""
     from berryshaker.drives import drive_of
     from berryshaker.multibody.engine import compile_engine
 
     machine = machine_from_dict(machine_data)
-    return compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("forces",))
+    return compile_engine(drive_of(machine).mechanism(machine, revolutions=2), ("forces", "step_forces"))
