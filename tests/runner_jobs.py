@@ -64,3 +64,14 @@ def logged(x: float, log: str, tag: str, delay: float = 0.0) -> dict:
 def crash(x: float) -> dict:
     """End the worker process at once (a segfault or an out-of-memory kill, as the pool sees it)."""
     os._exit(3)
+
+
+def write_marker(path: str, text: str, fail_outside: int | None = None) -> None:
+    """Write ``text`` to ``path`` (a figure's stand-in); raise when run in another process than ``fail_outside``
+    (a worker that fails) or when ``text`` is "bad" (a figure function with a real error)."""
+    if text == "bad":
+        raise ValueError("a real error of the figure function")
+    if fail_outside is not None and os.getpid() != fail_outside:
+        raise RuntimeError("failed in the worker")
+    with open(path, "w") as fh:
+        fh.write(f"{text} {os.getpid()}")

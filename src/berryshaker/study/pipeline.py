@@ -56,6 +56,7 @@ class StudyContext:
     failures: list = field(default_factory=list)
     say: Callable[[str], None] = lambda msg: None
     results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
+    drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
 
     @property
     def drive(self):
@@ -67,6 +68,32 @@ class StudyContext:
         """The machine as a JSON-compatible dict (what the run functions take)."""
         return self.machine.model_dump(mode="json")
 
+    def draw(self, fn, *args, **kwargs) -> None:
+        """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
+        a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
+        virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
+        benchmarks/README.md sec. 22.)"""
+        import pickle
+
+        # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
+        # change meanwhile (the next steps and the claims add to the results)
+        payload = pickle.dumps((fn, args, kwargs))
+        fut = self.runner.warm_up(draw_figure, dict(payload=payload))
+        if fut is None:
+            fn(*args, **kwargs)
+        else:
+            self.drawing.append((fut, payload))
+
+    def finish_drawing(self) -> None:
+        """Wait for the figures drawn in workers (:meth:`draw`).  One whose worker failed or died is drawn here
+        again: a real error of the figure function is then raised here, as it would have been without the pool."""
+        pending, self.drawing = self.drawing, []
+        for fut, payload in pending:
+            try:
+                fut.result()
+            except Exception:  # noqa: BLE001 - see the docstring
+                draw_figure(payload)
+
     def collect(self, fn, jobs, label, describe):
         """Run jobs through the sweep runner; failed runs are logged and come back as None."""
         outs = self.runner.map(fn, jobs, label)
@@ -75,6 +102,15 @@ class StudyContext:
                 self.failures.append({"step": label, "run": o.index + 1, "inputs": describe(jobs[o.index]),
                                       "error": o.error})
         return [o.value for o in outs]
+
+
+def draw_figure(payload: bytes) -> None:
+    """Draw a figure of :meth:`StudyContext.draw` in a pool worker: ``payload`` is the pickled call
+    ``(fn, args, kwargs)``."""
+    import pickle
+
+    fn, args, kwargs = pickle.loads(payload)
+    fn(*args, **kwargs)
 
 
 @dataclass
@@ -224,15 +260,16 @@ def step_l9(ctx: StudyContext) -> StepResult:
     pairs = list(ctx.machine.pair_names)
     values = np.array([[r["clearance_mm"][p] for p in pairs] for r in l9["runs"]])
     levels_mm = {p: [v * 1e3 for v in ctx.machine.clearance_levels()[p]] for p in pairs}
-    P.plot_main_effects(l9, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)",
-                        level_values=levels_mm, factor_unit="mm")
+    # the figures are drawn in idle workers while the next steps run (StudyContext.draw)
+    ctx.draw(P.plot_main_effects, l9, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)",
+             level_values=levels_mm, factor_unit="mm")
     figs = ["l9_main_effects.png"]
     for k, name in enumerate(("efficiency", "unripe", "damage")):
         y = np.array([r[name] for r in l9["runs"]])
-        P.plot_response_surfaces(values, y, pairs, quadratic_regression(values, y, pairs), name,
-                                 ctx.figs / f"fig{27 + k}_surface_{name}.png")
+        ctx.draw(P.plot_response_surfaces, values, y, pairs, quadratic_regression(values, y, pairs), name,
+                 ctx.figs / f"fig{27 + k}_surface_{name}.png")
         figs.append(f"fig{27 + k}_surface_{name}.png")
-    figs += l9_replicate_figures(l9, levels_mm, ctx.figs)
+    figs += l9_replicate_figures(l9, levels_mm, ctx.figs, ctx.draw)
     return StepResult("l9", l9, figs)
 
 
@@ -245,15 +282,20 @@ def plan_l9(ctx: StudyContext) -> list[PlannedRuns]:
     return [PlannedRuns(replicate_run, jobs, label)]
 
 
-def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
-    """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9."""
+def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable | None = None) -> list[str]:
+    """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9.
+
+    ``draw(fn, *args, **kwargs)`` draws each (:meth:`StudyContext.draw`); default: here, at once."""
     from berryshaker.report import plots as P
     from berryshaker.study.l9 import HARVEST_RESPONSES
 
+    if draw is None:
+        def draw(fn, *args, **kwargs):
+            fn(*args, **kwargs)
     rep = l9.get("replicated") or {}
     out = []
     if l9.get("tradeoff"):
-        P.plot_tradeoff(l9["tradeoff"], figs / "l9_tradeoff.png")
+        draw(P.plot_tradeoff, l9["tradeoff"], figs / "l9_tradeoff.png")
         out.append("l9_tradeoff.png")
     units = l9.get("response_units") or {}
     for name, rows, title in (("l9_effects_harvest.png", [n for n in HARVEST_RESPONSES if n != "unripe_shed"],
@@ -263,7 +305,7 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path) -> list[str]:
                                "Virtual L9: machine loads")):
         rows = [n for n in rows if n in rep.get("responses", {})]
         if rows:
-            P.plot_replicated_effects(rep, rows, figs / name, title, level_values=levels_mm, units=units)
+            draw(P.plot_replicated_effects, rep, rows, figs / name, title, level_values=levels_mm, units=units)
             out.append(name)
     return out
 
@@ -552,6 +594,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
             steps[r.name] = r
             results[r.name] = r.data
             timings[key] = r.seconds
+        ctx.finish_drawing()
     except BaseException:  # Ctrl-C or an error between maps: runs started ahead stop now (finished ones are cached)
         runner.abort()
         raise
