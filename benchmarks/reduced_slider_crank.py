@@ -73,7 +73,7 @@ def _contact(t, y, p, v_imp, in_contact):
     fn = 0.0
     if pen > 0.0 and in_contact:
         # hysteresis law F = K delta^n (1 + factor delta'/delta'(-)) >= 0, as
-        # berryshaker.contact.force_laws.hysteresis_kernel (inlined: a ufunc call costs more than the law)
+        # berryshaker.contact.force_laws.hysteresis_kernel (written out here: the floor model stands alone)
         v0 = abs(v_imp)
         if v0 < 1e-12:
             v0 = 1e-12

@@ -66,12 +66,12 @@ def crash(x: float) -> dict:
     os._exit(3)
 
 
-def write_marker(path: str, text: str, fail_outside: int | None = None) -> None:
-    """Write ``text`` to ``path`` (a figure's stand-in); raise when run in another process than ``fail_outside``
-    (a worker that fails) or when ``text`` is "bad" (a figure function with a real error)."""
+def write_marker(path: str, text, die_outside: int | None = None) -> None:
+    """Write ``text`` to ``path`` (a figure's stand-in); end the process at once when run in another process than
+    ``die_outside`` (a worker that dies), raise when ``text`` is "bad" (a figure function with a real error)."""
     if text == "bad":
         raise ValueError("a real error of the figure function")
-    if fail_outside is not None and os.getpid() != fail_outside:
-        raise RuntimeError("failed in the worker")
+    if die_outside is not None and os.getpid() != die_outside:
+        os._exit(3)
     with open(path, "w") as fh:
         fh.write(f"{text} {os.getpid()}")

@@ -121,10 +121,11 @@ def test_coupled_runs_default_to_the_chosen_tolerance():
     import inspect
 
     from berryshaker.harvest.convergence import fruit_force_convergence
-    from berryshaker.harvest.coupled import simulate_fruit_force
+    from berryshaker.harvest.coupled import drive_past, simulate_fruit_force
     from berryshaker.harvest.virtual import stem_force_envelope_run
     from berryshaker.study.l9 import RTOL_RUN
 
-    for fn in (simulate_fruit_force, stem_force_envelope_run, replicate_run, fruit_force_convergence, replicate_jobs):
+    for fn in (simulate_fruit_force, drive_past, stem_force_envelope_run, replicate_run, fruit_force_convergence,
+               replicate_jobs):
         assert inspect.signature(fn).parameters["rtol"].default == COUPLED_RTOL, fn.__name__
     assert RTOL_RUN == COUPLED_RTOL

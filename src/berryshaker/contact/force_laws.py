@@ -3,8 +3,9 @@
 Each law is a scalar compiled kernel (``*_kernel``, numba ``njit``: called with scalars from compiled code, the
 engine's and the reduced model's) plus a Python wrapper with keyword defaults and the documentation, which
 broadcasts over numpy arrays through a ufunc built from the kernel at its first call (:func:`broadcasting`).
-(The kernels were eager numba ufuncs until 0.2: building their six ufunc wrappers cost ~0.35 s of every
-process's import, the study's and each worker's, for arrays only tests and users pass.)
+(The kernels were eager numba ufuncs before: building their six ufunc wrappers cost ~0.15 s of every
+process's import, the study's and each worker's, for arrays only tests and users pass.  The kernels keep the
+ufuncs' numpy error model: a division by zero gives inf or nan, as before, instead of raising inside the engine.)
 Sign convention: ``delta`` is the penetration (m, > 0 in contact), ``delta_dot`` its rate (m/s, > 0 while
 the bodies approach).  Every law returns the magnitude of the repulsive normal force (N): zero for
 ``delta <= 0``, and never negative (a dissipative law that would pull during restitution gives 0).
@@ -28,7 +29,7 @@ def broadcasting(kernel, n_args: int):
 
 
 # --------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def mlsd_kernel(r, r_dot, stiffness, damping):
     """Kernel of :func:`mlsd`."""
     if r <= 0.0:
@@ -73,7 +74,7 @@ def mlsd(r, r_dot, stiffness, damping):
 
 
 # --------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def hertz_kernel(delta, stiffness, exponent):
     """Kernel of :func:`hertz`."""
     if delta <= 0.0:
@@ -106,7 +107,7 @@ def hertz(delta, stiffness, exponent=1.5):
 
 
 # --------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, exponent):
     """F = K delta^n (1 + factor * delta_dot / impact_velocity), clamped >= 0 (shared by HC, LN, Flores)."""
     if delta <= 0.0:
@@ -235,7 +236,7 @@ def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1
 
 
 # --------------------------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def adams_step_kernel(x, x0, h0, x1, h1):
     """Kernel of :func:`adams_step`."""
     if x <= x0:
@@ -257,7 +258,7 @@ def adams_step(x, x0, h0, x1, h1):
     return broadcasting(adams_step_kernel, 5)(np.asarray(x, float), float(x0), float(h0), float(x1), float(h1))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def impact_kernel(x, x_dot, x1, k, e, cmax, d):
     """Kernel of :func:`impact`."""
     if x >= x1:

@@ -8,7 +8,7 @@ from numba import njit
 from berryshaker.contact.force_laws import broadcasting
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def coulomb_friction_kernel(v_t, normal_force, mu, v0, v1):
     """Kernel of :func:`coulomb_friction` (scalar, for compiled code; arrays go through the wrapper)."""
     av = abs(v_t)

@@ -388,10 +388,13 @@ class BranchMotion:
         # in blocks of AXIAL_BLOCK samples: the pair products (66 rows for 11 modes) stay in cache and their
         # buffers are reused (one pass over the whole series wrote ~23 MB of fresh memory per call; the matrix
         # products give each column the same sums either way)
-        ee = np.empty((len(iu), min(AXIAL_BLOCK, nt)))
+        ee = np.empty((len(iu), min(AXIAL_BLOCK + 1, nt)))
         eed = np.empty_like(ee)
-        for s0 in range(0, nt, AXIAL_BLOCK):
+        s0 = 0
+        while s0 < nt:
             s1 = min(s0 + AXIAL_BLOCK, nt)
+            if nt - s1 == 1:
+                s1 = nt  # no one-sample block: numpy would hand it to a matrix-vector product, summing in another order
             w = s1 - s0
             k = 0
             for i in range(nm):
@@ -402,6 +405,7 @@ class BranchMotion:
                 k += nm - i
             np.matmul(wu, ee[:, :w], out=u[:, s0:s1])
             np.matmul(wv, eed[:, :w], out=v[:, s0:s1])
+            s0 = s1
         return u, v
 
 

@@ -60,18 +60,20 @@ class Modes:
 
     @functools.cached_property
     def slope_product_integral(self) -> np.ndarray:
-        """G_ij(z) = int_0^z phi_i'(s) phi_j'(s) ds at the sample points z, (n_modes, n_modes, n_z), 1/kg.
+        """G_ij(z) = int_0^z phi_i'(s) phi_j'(s) ds at the sample points z, (n_modes, n_modes, n_z), 1/(kg m).
 
         The kernel of the branch's axial foreshortening u(z) = -1/2 eta^T G(z) eta (second order in the
         deflection, berryshaker.harvest.coupled.BranchMotion.axial); slopes by central differences, the integral
         by the cumulative trapezoidal rule.  Computed once per modes object (the modes are cached per process,
-        so every replicate of a branch class shares it).
+        so every replicate of a branch class shares it; ~1.9 MB for 11 modes at 2001 points, read-only).
         """
         from scipy.integrate import cumulative_trapezoid
 
         slope = np.array([np.gradient(s, self.z) for s in self.shapes])  # (n_modes, n_z)
         prod = slope[:, None, :] * slope[None, :, :]
-        return cumulative_trapezoid(prod, self.z, axis=-1, initial=0.0)
+        g = cumulative_trapezoid(prod, self.z, axis=-1, initial=0.0)
+        g.setflags(write=False)
+        return g
 
 
 def _columns(x, k, xi, order_shift):

@@ -72,7 +72,9 @@ class StudyContext:
         """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
         a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
         virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
-        benchmarks/README.md sec. 22.)"""
+        benchmarks/README.md sec. 22.)  The figure functions set their whole style themselves
+        (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
+        by a program that calls :func:`run_study` does not reach the workers."""
         import pickle
 
         # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
@@ -85,13 +87,17 @@ class StudyContext:
             self.drawing.append((fut, payload))
 
     def finish_drawing(self) -> None:
-        """Wait for the figures drawn in workers (:meth:`draw`).  One whose worker failed or died is drawn here
-        again: a real error of the figure function is then raised here, as it would have been without the pool."""
+        """Wait for the figures drawn in workers (:meth:`draw`).  A figure whose worker died (the pool broke) or was
+        cancelled is drawn here; an error of the figure function itself is raised here, as without the pool."""
+        from concurrent.futures import CancelledError
+        from concurrent.futures.process import BrokenProcessPool
+
         pending, self.drawing = self.drawing, []
         for fut, payload in pending:
             try:
                 fut.result()
-            except Exception:  # noqa: BLE001 - see the docstring
+            except (BrokenProcessPool, CancelledError):
+                self.say("a worker drawing a figure stopped; drawing it here")
                 draw_figure(payload)
 
     def collect(self, fn, jobs, label, describe):
