@@ -288,16 +288,12 @@ def plan_l9(ctx: StudyContext) -> list[PlannedRuns]:
     return [PlannedRuns(replicate_run, jobs, label)]
 
 
-def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable | None = None) -> list[str]:
-    """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9.
-
-    ``draw(fn, *args, **kwargs)`` draws each (:meth:`StudyContext.draw`); default: here, at once."""
+def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable) -> list[str]:
+    """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9,
+    each drawn by ``draw(fn, *args, **kwargs)`` (:meth:`StudyContext.draw`)."""
     from berryshaker.report import plots as P
     from berryshaker.study.l9 import HARVEST_RESPONSES
 
-    if draw is None:
-        def draw(fn, *args, **kwargs):
-            fn(*args, **kwargs)
     rep = l9.get("replicated") or {}
     out = []
     if l9.get("tradeoff"):
