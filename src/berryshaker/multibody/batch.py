@@ -23,7 +23,7 @@ from numba import njit, prange
 
 from berryshaker.errors import BerryshakerError
 from berryshaker.multibody import kernel as mb
-from berryshaker.multibody.engine import MultibodyResult, PreparedRun, finish_run, prepare_run
+from berryshaker.multibody.engine import MultibodyResult, PreparedRun, call_compiled, finish_run, prepare_run
 from berryshaker.multibody.spec import MechanismSpec
 
 #: positions in the model tuple of the arrays that may differ between the sets of one batch (floats)
@@ -77,8 +77,8 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
         t0 = time.perf_counter()
         for r in runs:
             r.info[0] = r.budget
-            mb.integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from,
-                         r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
+            call_compiled(mb.integrate, r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
+                          r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
         return time.perf_counter() - t0
     first_run = runs[0]
     model = first_run.cm.model

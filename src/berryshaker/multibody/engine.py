@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from berryshaker.contact.laws import get_law, law_table, slot_c
+from berryshaker.contact.laws import LawEntryPoint, get_law, law_table, slot_c
 from berryshaker.contact.stiffness import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
@@ -256,7 +256,7 @@ def initial_state(spec: MechanismSpec, q_start: np.ndarray | None = None) -> np.
     y = np.concatenate([ideal.q0 if q_start is None else np.array(q_start, float), np.zeros(ideal.n)])
     res = 0.0
     if ideal.m:
-        res = mb.project(0.0, y, ideal.model, state, work, 60)
+        res = call_compiled(mb.project, 0.0, y, ideal.model, state, work, 60)
         if not (res < 1e-9):
             mb.constraints(0.0, y[:ideal.n], y[ideal.n:], *ideal.model[3:7], ideal.model[10], state[2],
                            work[0], work[1], work[2], work[3])
@@ -499,20 +499,64 @@ def default_step_budget(duration: float) -> int:
 _WARM: set = set()
 
 
-def _argument_types(run: "PreparedRun") -> tuple:
-    """What decides which compiled specialisation of ``kernel.integrate`` a run calls: every array's dtype,
-    dimensions and layout, and the number of contact laws (their entry points are typed by the one law
-    signature).  A run whose key is in :data:`_WARM` needs no warm-up call to keep compilation out of its
-    ``wall_time_s``."""
-    def key(x):
-        if isinstance(x, np.ndarray):
-            return (x.dtype.str, x.ndim, x.flags.c_contiguous, x.flags.writeable)
-        if isinstance(x, tuple):
-            return tuple(key(e) for e in x)
-        return type(x).__name__
+def _type_key(x):
+    """What numba's ``typeof`` makes of ``x``, as a hashable key, or None where this function does not know.
 
-    return key((run.y, run.cm.model, run.state, run.work, run.atol, run.out_y, run.out_e, run.out_lam, run.peaks,
-                run.first, run.info))
+    An array: dtype, dimensions, layout (C, F or any), read-only and aligned flags (numba's ``Array`` type); a
+    tuple: its elements' keys; Python and numpy scalars: their type (an int beyond int64 is typed uint64); a
+    contact law's entry point: typed by the one law signature (:class:`~berryshaker.contact.laws.LawEntryPoint`).
+    """
+    if isinstance(x, np.ndarray):
+        f = x.flags
+        layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
+        return ("array", x.dtype.str, x.ndim, layout, f.writeable, f.aligned)
+    if isinstance(x, tuple):
+        keys = tuple(_type_key(e) for e in x)
+        return None if any(k is None for k in keys) else keys
+    if isinstance(x, (bool, float, np.bool_, np.floating, np.integer)) or isinstance(x, LawEntryPoint):
+        return type(x)
+    if isinstance(x, int):
+        return (int, -2**63 <= x < 2**63)
+    return None
+
+
+def _argument_types(run: "PreparedRun") -> tuple:
+    """What decides which compiled specialisation of ``kernel.integrate`` a run calls (:func:`_type_key` of its
+    arguments).  A run whose key is in :data:`_WARM` needs no warm-up call to keep compilation out of its
+    ``wall_time_s``."""
+    return _type_key((run.y, run.cm.model, run.state, run.work, run.atol, run.out_y, run.out_e, run.out_lam,
+                      run.peaks, run.first, run.info))
+
+
+#: compiled entry points of kernel functions by (function, :func:`_type_key` of the arguments), see
+#: :func:`call_compiled`
+_ENTRY_POINTS: dict = {}
+
+
+def call_compiled(fn, *args):
+    """``fn(*args)`` for a numba-compiled kernel function, without numba's typing of the arguments after the
+    first call with the same argument types in this process.
+
+    numba's dispatcher types every argument at every call, in Python for tuples: the kernel's model, state and
+    work tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/README.md
+    sec. 23); a harvester run made two such calls, a perturbed start one per continuation step.  The first call
+    goes through the dispatcher (which compiles or loads the specialisation); the specialisation it used is then
+    called directly for arguments of the same :func:`_type_key`, which follows numba's own typing rules, so the
+    same compiled code runs on the same arguments.  Arguments whose types the key does not cover always go
+    through the dispatcher.
+    """
+    key = _type_key(args)
+    entry = _ENTRY_POINTS.get((fn, key)) if key is not None else None
+    if entry is not None:
+        return entry(*args)
+    out = fn(*args)
+    if key is not None:
+        from numba import typeof
+
+        compiled = fn.overloads.get(tuple(typeof(a) for a in args))
+        if compiled is not None:  # an exact match (a call converted to another signature is not remembered)
+            _ENTRY_POINTS[(fn, key)] = compiled.entry_point
+    return out
 
 
 #: the parts of the compiled core :func:`compile_engine` compiles (in the order kernel.integrate needs them)
@@ -635,14 +679,14 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     if key not in _WARM:
         # compile (or load from the numba cache) outside the timed region: once per process and argument types
         s2, w2 = _state_and_work(cm)
-        mb.integrate(run.y.copy(), run.t_out[:2] * 1e-9, cm.model, s2, w2, run.rtol, run.atol, run.max_step, 0.0,
-                     np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)), np.zeros(nf),
-                     np.zeros((nf, mb.N_FIRST)), np.zeros(6))
+        call_compiled(mb.integrate, run.y.copy(), run.t_out[:2] * 1e-9, cm.model, s2, w2, run.rtol, run.atol,
+                      run.max_step, 0.0, np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)),
+                      np.zeros(nf), np.zeros((nf, mb.N_FIRST)), np.zeros(6))
         _WARM.add(key)
     t0 = time.perf_counter()
     run.info[0] = run.budget  # the kernel stops with status 4 when accepted + rejected steps reach it
-    mb.integrate(run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step, run.stats_from,
-                 run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info)
+    call_compiled(mb.integrate, run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step,
+                  run.stats_from, run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info)
     wall = time.perf_counter() - t0
     return finish_run(run, wall)
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.drives.groove_cam.kinematics import check_machine, geometry_vector, ideal_state, mid_stroke_angles
+from berryshaker.drives.groove_cam.kinematics import geometry_vector, ideal_state, mid_stroke_angles, require_buildable
 from berryshaker.drives.base import HARVESTER_RTOL
 from berryshaker.drives.powered import is_powered, powered_mechanism
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
@@ -28,7 +28,7 @@ def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec
     Each clearance pair's contact law and parameters are resolved from the machine description
     (``[clearance.<pair>]``; :meth:`~berryshaker.drives.base.MachineBase.pair_contact`).
     """
-    check_machine(machine)
+    require_buildable(machine)
     g = geometry_vector(machine)
     c = machine.cam
     ok, s, v, a, thd, wd, ad, th4, w4, a4, the, we, ae = ideal_state(0.0, g)

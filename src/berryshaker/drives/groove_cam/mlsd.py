@@ -54,10 +54,10 @@ from berryshaker.drives.groove_cam.kinematics import (
     G_XE,
     G_YD,
     G_YE,
-    check_machine,
     geometry_vector,
     ideal_state,
     mid_stroke_angles,
+    require_buildable,
 )
 
 PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result layout
@@ -554,7 +554,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
         raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
     machine = machine.with_clearances(clearance)
     sizes = machine.clearance_sizes()
-    check_machine(machine)
+    require_buildable(machine)
     g = geometry_vector(machine)
     p = parameter_vector(machine)
     period = 2 * math.pi / machine.cam.speed
