@@ -111,3 +111,16 @@ def test_geometric_contact_law_is_shared_and_equal_to_a_fresh_fit():
     assert _geometric_contact_law.__wrapped__(g, (100.0, 2.0e4)) == law  # what a fresh fit gives
     other = geometric_contact_law(pair_geometry("pin-in-bore", 3e-4))
     assert other.fit.stiffness != law.fit.stiffness
+
+
+def test_call_compiled_passes_plain_functions_through():
+    """A function that is not a numba dispatcher (NUMBA_DISABLE_JIT, a timing wrapper) is simply called."""
+    calls = []
+
+    def plain(a, b):
+        calls.append((a, b))
+        return a + b
+
+    for _ in range(2):
+        assert call_compiled(plain, 1.0, 2.0) == 3.0
+    assert len(calls) == 2 and not any(k[0] is plain for k in engine._ENTRY_POINTS)

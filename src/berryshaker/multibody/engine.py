@@ -543,17 +543,18 @@ def call_compiled(fn, *args):
     goes through the dispatcher (which compiles or loads the specialisation); the specialisation it used is then
     called directly for arguments of the same :func:`_type_key`, which follows numba's own typing rules, so the
     same compiled code runs on the same arguments.  Arguments whose types the key does not cover always go
-    through the dispatcher.
+    through the dispatcher, and so does everything when ``fn`` is not a dispatcher (``NUMBA_DISABLE_JIT``).
     """
     key = _type_key(args)
     entry = _ENTRY_POINTS.get((fn, key)) if key is not None else None
     if entry is not None:
         return entry(*args)
     out = fn(*args)
-    if key is not None:
+    overloads = getattr(fn, "overloads", None)  # None: not a dispatcher (NUMBA_DISABLE_JIT, a wrapper)
+    if key is not None and overloads is not None:
         from numba import typeof
 
-        compiled = fn.overloads.get(tuple(typeof(a) for a in args))
+        compiled = overloads.get(tuple(typeof(a) for a in args))
         if compiled is not None:  # an exact match (a call converted to another signature is not remembered)
             _ENTRY_POINTS[(fn, key)] = compiled.entry_point
     return out
