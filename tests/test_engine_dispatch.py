@@ -3,6 +3,8 @@ memos of the sweep path (groove-cam geometry check, geometric contact laws): sam
 
 from __future__ import annotations
 
+import collections
+import enum
 import itertools
 
 import numpy as np
@@ -30,7 +32,7 @@ def _strided_sum(a):
 @njit
 def _row_sums(t, scale):
     a, b = t
-    return a.sum() * scale + b[0, 0]
+    return a.sum() * scale + b[1, 0]
 
 
 def test_call_compiled_keeps_layouts_apart():
@@ -48,10 +50,15 @@ def test_call_compiled_keeps_layouts_apart():
 
 
 def test_call_compiled_tuples_and_scalars():
-    a, b = np.ones(3), np.full((2, 2), 5.0)
-    for scale in (2.0, 2, np.float64(2.0), 2.0, 2):
-        assert call_compiled(_row_sums, (a, b), scale) == 11.0
-    assert call_compiled(_row_sums, (a, np.asfortranarray(np.full((2, 2), 7.0))), 1.0) == 10.0
+    a = np.ones(3)
+    b = np.arange(4.0).reshape(2, 2)  # b[1, 0] = 2
+    for _ in range(2):
+        # an int scale compiles an int64 specialisation: a key that mixed ints and floats would truncate 2.5
+        assert call_compiled(_row_sums, (a, b), 2) == 8.0
+        assert call_compiled(_row_sums, (a, b), 2.5) == 9.5
+        assert call_compiled(_row_sums, (a, b), np.float32(2.5)) == 9.5
+        # a Fortran-ordered b: its [1, 0] element is at another offset than a C array's of the same shape
+        assert call_compiled(_row_sums, (a, np.asfortranarray(b)), 1.0) == 5.0
 
 
 def test_type_key_follows_numbas_typing():
@@ -65,29 +72,45 @@ def test_type_key_follows_numbas_typing():
     ro.flags.writeable = False
     values.append(ro)
     values += [law, (law, law), (law, law_table()[1])]
+    # what numba types apart by more than dtype size or class: structured dtypes of one itemsize, units,
+    # named tuples, enum members, array subclasses
+    p_t = collections.namedtuple("P", "u v")
+    q_t = collections.namedtuple("Q", "u v")
+
+    class Level(enum.IntEnum):
+        LOW = 1
+
+    values += [np.zeros(2, [("a", "f8"), ("b", "f8")]), np.zeros(2, [("x", "i8"), ("y", "f8")]),
+               np.timedelta64(3, "ms"), np.timedelta64(3, "s"), np.datetime64(3, "D"), p_t(1.0, 2.0),
+               q_t(1.0, 2.0), (1.0, 2.0), Level.LOW, np.ma.masked_array([1.0, 2.0], [True, False]),
+               np.zeros(2, np.dtype(">f8")), np.zeros((0,)), ()]
     for u, v in itertools.combinations(values, 2):
         ku, kv = _type_key(u), _type_key(v)
         if ku is not None and ku == kv:
             assert typeof(u) == typeof(v), (u, v)
-    assert _type_key(object()) is None and _type_key((1.0, object())) is None
+    for unknown in (object(), (1.0, object()), p_t(1.0, 2.0), Level.LOW, np.ma.masked_array([1.0])):
+        assert _type_key(unknown) is None
 
 
 def test_harvester_run_through_entry_points_is_the_dispatchers():
     spec = harvester_mechanism(reference_machine())
     runs = []
-    for _ in range(2):
+    for _ in range(3):
         run = engine.prepare_run(spec, duration=0.02, output_step=1e-3)
         run.info[0] = run.budget
         runs.append(run)
-    kernel.integrate(runs[0].y, runs[0].t_out, runs[0].cm.model, runs[0].state, runs[0].work, runs[0].rtol,
-                     runs[0].atol, runs[0].max_step, runs[0].stats_from, runs[0].out_y, runs[0].out_e,
-                     runs[0].out_lam, runs[0].peaks, runs[0].first, runs[0].info)
-    r = runs[1]
-    for _ in range(2):
-        call_compiled(kernel.integrate, r.y.copy(), r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
-                      r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
-    np.testing.assert_array_equal(runs[0].out_y, r.out_y)
-    np.testing.assert_array_equal(runs[0].out_e, r.out_e)
+
+    def args(r):
+        return (r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from, r.out_y,
+                r.out_e, r.out_lam, r.peaks, r.first, r.info)
+
+    kernel.integrate(*args(runs[0]))
+    call_compiled(kernel.integrate, *args(runs[1]))  # the dispatcher, or the entry point if a run came first
+    assert (kernel.integrate, _type_key(args(runs[2]))) in engine._ENTRY_POINTS
+    call_compiled(kernel.integrate, *args(runs[2]))  # the entry point
+    for r in runs[1:]:
+        for name in ("out_y", "out_e", "out_lam", "peaks", "first", "info"):
+            np.testing.assert_array_equal(getattr(runs[0], name), getattr(r, name))
 
 
 def test_geometry_check_is_remembered_per_geometry_and_fails_every_time():
@@ -95,6 +118,7 @@ def test_geometry_check_is_remembered_per_geometry_and_fails_every_time():
     require_buildable(m)  # passes (and is remembered)
     # the same geometry vector with a roller too large for the pitch curve: part of the key, so it is checked
     fat = m.model_copy(update={"cam": m.cam.model_copy(update={"roller_radius": 0.2})})
+    require_buildable(fat, allow_undercut=True)  # passes, and must not let the undercut through below
     for _ in range(2):
         with pytest.raises(GeometryError, match="undercuts"):
             require_buildable(fat)

@@ -502,21 +502,30 @@ _WARM: set = set()
 def _type_key(x):
     """What numba's ``typeof`` makes of ``x``, as a hashable key, or None where this function does not know.
 
-    An array: dtype, dimensions, layout (C, F or any), read-only and aligned flags (numba's ``Array`` type); a
-    tuple: its elements' keys; Python and numpy scalars: their type (an int beyond int64 is typed uint64); a
-    contact law's entry point: typed by the one law signature (:class:`~berryshaker.contact.laws.LawEntryPoint`).
+    Exact types only (a subclass, a named tuple or an enum member gets None): a plain ``ndarray`` by its dtype
+    (fields and units included), dimensions, layout (C, F or any, numba's ``map_layout``), read-only and aligned
+    flags; a plain tuple by its elements' keys; a Python or numpy scalar by its type and numba's own type of it
+    (cheap for a scalar; ints by value range, datetimes by unit); a contact law's entry point by its class (typed
+    by the one law signature, :class:`~berryshaker.contact.laws.LawEntryPoint`).  Equal keys give equal numba
+    types (tests/test_engine_dispatch.py), which is what makes :func:`call_compiled`'s direct call safe.
     """
-    if isinstance(x, np.ndarray):
+    t = type(x)
+    if t is np.ndarray:
         f = x.flags
         layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
-        return ("array", x.dtype.str, x.ndim, layout, f.writeable, f.aligned)
-    if isinstance(x, tuple):
+        return ("array", x.dtype, x.ndim, layout, f.writeable, f.aligned)
+    if t is tuple:
         keys = tuple(_type_key(e) for e in x)
-        return None if any(k is None for k in keys) else keys
-    if isinstance(x, (bool, float, np.bool_, np.floating, np.integer)) or isinstance(x, LawEntryPoint):
-        return type(x)
-    if isinstance(x, int):
-        return (int, -2**63 <= x < 2**63)
+        return None if any(k is None for k in keys) else ("tuple", keys)
+    if t in (bool, int, float) or isinstance(x, np.generic):
+        from numba import typeof
+
+        try:
+            return ("scalar", t, typeof(x))
+        except (TypeError, ValueError):  # numba cannot type it: leave it to the dispatcher's error
+            return None
+    if t is LawEntryPoint:
+        return t
     return None
 
 
@@ -544,6 +553,8 @@ def call_compiled(fn, *args):
     called directly for arguments of the same :func:`_type_key`, which follows numba's own typing rules, so the
     same compiled code runs on the same arguments.  Arguments whose types the key does not cover always go
     through the dispatcher, and so does everything when ``fn`` is not a dispatcher (``NUMBA_DISABLE_JIT``).
+    A function recompiled after its first call (``fn.recompile()``, nothing in berryshaker does) keeps its old
+    entry point here.
     """
     key = _type_key(args)
     entry = _ENTRY_POINTS.get((fn, key)) if key is not None else None
@@ -677,13 +688,14 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     run = prepare_run(spec, duration, rtol, output_step, max_step, y0, max_steps, initial_perturbation, series)
     cm, nf = run.cm, len(run.cm.frc_names)
     key = _argument_types(run)
-    if key not in _WARM:
+    if key is None or key not in _WARM:  # None: types this process cannot key; warm up every time
         # compile (or load from the numba cache) outside the timed region: once per process and argument types
         s2, w2 = _state_and_work(cm)
         call_compiled(mb.integrate, run.y.copy(), run.t_out[:2] * 1e-9, cm.model, s2, w2, run.rtol, run.atol,
                       run.max_step, 0.0, np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)),
                       np.zeros(nf), np.zeros((nf, mb.N_FIRST)), np.zeros(6))
-        _WARM.add(key)
+        if key is not None:
+            _WARM.add(key)
     t0 = time.perf_counter()
     run.info[0] = run.budget  # the kernel stops with status 4 when accepted + rejected steps reach it
     call_compiled(mb.integrate, run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step,
