@@ -92,9 +92,42 @@ def jacobian_pattern(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow
     return pat
 
 
+def driven_bodies(ctype: np.ndarray, cint: np.ndarray, crow: np.ndarray) -> list[tuple[int, int, int]]:
+    """Bodies whose three coordinates their own constraints fix: pinned to the ground and driven in angle.
+
+    A body with a revolute joint to the ground (rows r, r + 1) and an angle driver (row d), and no other
+    constraint to the ground, has J_bb x_b = g_b with J_bb = [[s, 0, j], [0, s, j'], [0, 0, 1]], s = +-1, always
+    invertible: its accelerations (and projection corrections) follow from its own rows, and the kernel
+    eliminates those rows before the multiplier solve (:func:`berryshaker.multibody.kernel._constrained_solve`).
+    The crank of the slider-crank and of the crank-rocker drive and the groove cam are such bodies.
+
+    Returns
+    -------
+    list of (body, r, d)
+    """
+    out = []
+    blocks: dict[int, list[int]] = {}
+    for k in range(len(ctype)):
+        bi, bj = int(cint[k, 0]), int(cint[k, 1])
+        if int(ctype[k]) == mb.CON_DRIVER:
+            blocks.setdefault(bi, []).append(k)
+        elif (bi < 0) != (bj < 0):  # a joint between a body and the ground
+            blocks.setdefault(max(bi, bj), []).append(k)
+    for b, ks in sorted(blocks.items()):
+        types = sorted(int(ctype[k]) for k in ks)
+        if types != sorted((mb.CON_REVOLUTE, mb.CON_DRIVER)):
+            continue
+        if not any(b in (int(cint[k, 0]), int(cint[k, 1])) for k in range(len(ctype)) if k not in ks):
+            continue  # no other joint holds it: its rows are a block of W of their own already
+        kr = next(k for k in ks if int(ctype[k]) == mb.CON_REVOLUTE)
+        kd = next(k for k in ks if int(ctype[k]) == mb.CON_DRIVER)
+        out.append((b, int(crow[kr]), int(crow[kd])))
+    return out
+
+
 def solve_plan(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.ndarray, m: int,
                n: int) -> np.ndarray:
-    """The kernel's plan of the multiplier solve: envelope of each factor row and the entries of W to compute.
+    """The kernel's plan of the multiplier solve: driven bodies, envelope of each factor row, entries of W.
 
     Parameters
     ----------
@@ -105,14 +138,23 @@ def solve_plan(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.n
 
     Returns
     -------
-    numpy.ndarray of int64, shape (m + n_entries, 4)
-        Rows 0..m-1: ``[lo, hi, 0, 0]``, where L's row i is nonzero only in columns lo..i (its envelope:
-        the first structurally nonzero entry of W's row i; Cholesky fills nothing left of it) and L's column
-        i only in rows i..hi.  Rows m..: one per structurally nonzero entry W[a, b], a <= b, in row order:
-        ``[a, b, body_1, body_2]``, the bodies (or -1) whose coordinates the kernel sums over, in the order
-        the dense assembly summed them (the first body of a's block if b's block shares it, then its second).
+    numpy.ndarray of int64, shape (m + n_entries + n_driven, 4)
+        Rows 0..m-1: ``[lo, hi, eliminated, 0]`` (row 0's last column: n_entries), where L's row i is nonzero
+        only in columns lo..i (its envelope: the first structurally nonzero entry of W's row i; the
+        factorisation fills nothing left of it), L's column i only in rows i..hi, and ``eliminated`` is 1 for a
+        driven body's own rows (:func:`driven_bodies`).  Rows m..m + n_entries - 1: one per structurally nonzero
+        entry W[a, b], a <= b, in row order: ``[a, b, body_1, body_2]``, the bodies (or -1) whose coordinates
+        the kernel sums over, in the order the dense assembly summed them (the first body of a's block if b's
+        block shares it, then its second), driven bodies left out; ``[a, a, -2, -2]`` for an eliminated row (a
+        unit diagonal).  Last rows: ``[body, r, d, 0]`` per driven body.
     """
     jp = jacobian_pattern(ctype, cint, cflt, crow, m, n)
+    driven = driven_bodies(ctype, cint, crow)
+    gone = np.zeros(m, dtype=bool)
+    for b, r, d in driven:
+        gone[[r, r + 1, d]] = True
+        jp[:, 3 * b:3 * b + 3] = False  # known accelerations: their columns leave W
+    jp[gone] = False
     wp = (jp.astype(np.int64) @ jp.T.astype(np.int64)) > 0  # M is diagonal and positive: W's pattern
     np.fill_diagonal(wp, True)
     block = np.zeros(m, dtype=np.int64)
@@ -120,23 +162,32 @@ def solve_plan(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.n
         block[int(crow[k]):] = k
     lo = np.array([int(np.argmax(wp[i, :i + 1])) for i in range(m)], dtype=np.int64)
     hi = np.array([max(k for k in range(i, m) if lo[k] <= i) for i in range(m)], dtype=np.int64)
+    skip = {b for b, _, _ in driven}
     entries = []
     for a in range(m):
+        if gone[a]:
+            entries.append((a, a, -2, -2))
+            continue
         i1, j1 = int(cint[block[a], 0]), int(cint[block[a], 1])
         if j1 == i1:
             j1 = -1
         for b in range(a, m):
-            if not wp[a, b]:
+            if not wp[a, b] or gone[b]:
                 continue
             i2, j2 = int(cint[block[b], 0]), int(cint[block[b], 1])
             if j2 == i2:
                 j2 = -1
-            b1 = i1 if i1 >= 0 and i1 in (i2, j2) else -1
-            b2 = j1 if j1 >= 0 and j1 in (i2, j2) else -1
+            b1 = i1 if i1 >= 0 and i1 not in skip and i1 in (i2, j2) else -1
+            b2 = j1 if j1 >= 0 and j1 not in skip and j1 in (i2, j2) else -1
             entries.append((a, b, b1, b2))
-    plan = np.zeros((m + len(entries), 4), dtype=np.int64)
+    plan = np.zeros((m + len(entries) + len(driven), 4), dtype=np.int64)
     plan[:m, 0] = lo
     plan[:m, 1] = hi
+    plan[:m, 2] = gone
+    if m:
+        plan[0, 3] = len(entries)
     if entries:
-        plan[m:] = np.array(entries, dtype=np.int64)
+        plan[m:m + len(entries)] = np.array(entries, dtype=np.int64)
+    for i, (b, r, d) in enumerate(driven):
+        plan[m + len(entries) + i, :3] = (b, r, d)
     return plan
