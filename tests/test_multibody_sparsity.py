@@ -145,3 +145,17 @@ def test_cases_cover_every_constraint_type():
     for _, spec, ideal in CASES:
         types |= {int(t) for t in compile_mechanism(spec, ideal_clearances=ideal).model[3]}
     assert types == set(mb.CON_ROWS)
+
+
+def test_remembered_plan_is_a_copy_per_call():
+    """solve_plan is remembered per constraint set; a caller that writes into its plan must not change the next
+    caller's (the kernel only reads it, but the model tuple is the caller's)."""
+    cm = compile_mechanism(load_mechanism(EXAMPLES / "slider_crank_clearance.toml"))
+    ctype, cint, cflt, crow = cm.model[3:7]
+    first = solve_plan(ctype, cint, cflt, crow, cm.m, cm.n)
+    expected = first.copy()
+    first[:] = -7
+    np.testing.assert_array_equal(solve_plan(ctype, cint, cflt, crow, cm.m, cm.n), expected)
+    moved = cflt.copy()
+    moved[1, mb.CF_SJX] = 0.0  # the rod's pin at its origin: its angle column, and W[2, 3], leave the pattern
+    assert not np.array_equal(solve_plan(ctype, cint, moved, crow, cm.m, cm.n), expected)
