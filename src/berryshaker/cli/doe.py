@@ -286,7 +286,7 @@ def _print_doe(res: dict) -> None:
 def doe_virtual(
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
-    workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: all cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),

@@ -15,7 +15,7 @@ from berryshaker import __version__
 from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out
 from berryshaker.errors import ConfigError
 
-WorkersOpt = typer.Option(None, "--workers", help="Local processes (default: all cores).")
+WorkersOpt = typer.Option(None, "--workers", help="Local processes (default: every core this process may run on, its CPU affinity).")
 SchedulerOpt = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
 CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs).")
 PlotOpt = typer.Option(None, "--plot", help="Folder for PNG figures.")

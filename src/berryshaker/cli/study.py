@@ -32,7 +32,7 @@ CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cach
 def study(
     config: Optional[Path] = ConfigOpt,
     out_dir: Path = typer.Option(Path("berryshaker-study"), "--out", help="Output folder: new, empty, or an earlier study's output (then replaced atomically); any other folder is refused."),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: all cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler, e.g. tcp://10.0.0.5:8786."),
     cache: Optional[Path] = CacheOpt,
     no_cache: bool = typer.Option(False, "--no-cache", help="Recompute every run."),
@@ -122,7 +122,7 @@ def sweep(
     out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
     figure: Optional[Path] = typer.Option(None, "--figure", help="With --model harvest and one --param: ripe removal, "
                                           "unripe shedding and damage against it (PNG or SVG)."),
-    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: all cores)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = CacheOpt,
     as_json: bool = JsonOpt,
