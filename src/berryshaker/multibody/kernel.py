@@ -784,7 +784,8 @@ def _constrained_solve(plan, mass, inertia, cint, crow, jac, minv, W, rhs, u, of
     terms J_ob M_b^-1 J_ob^T cancel identically, George & Liu's block elimination), where x' is u with the driven
     bodies' x_b in place; the driven rows' multipliers then follow from the driven body's equations of motion,
     J_bb^T lambda_b = M_b (u_b - x_b) - J_ob^T lambda_o.  For the slider-crank (crank pinned and driven) W's dense
-    5 x 5 block becomes the rod's 2 x 2 block (the slider's two rows stay 1 x 1 blocks).  ``rhs`` and ``W`` are work arrays.
+    5 x 5 block becomes the rod's 2 x 2 block (the slider's two rows stay 1 x 1 blocks).  ``rhs`` and ``W`` are
+    work arrays.
     """
     ne = plan[0, 3]
     for e in range(m + ne, plan.shape[0]):

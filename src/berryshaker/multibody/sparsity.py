@@ -2,7 +2,7 @@
 
 Every right-hand side of the engine solves (Phi_q M^-1 Phi_q^T) lambda = Phi_q M^-1 Q - gamma
 (docs/multibody.md, "Formulation").  Which entries of W = Phi_q M^-1 Phi_q^T can be nonzero, and therefore
-where its Cholesky factor L can be nonzero, depends only on which constraints act on which bodies and on a few
+where its factor L can be nonzero, depends only on which constraints act on which bodies and on a few
 geometric zeros (a revolute at a body's origin has no angle column), not on the state.  Finding that pattern
 once, when the mechanism is compiled, lets the kernel compute only those entries and run the factorisation over
 each row's envelope only: the "symbolic factorisation" of sparse direct solvers (George & Liu, Computer Solution
@@ -11,10 +11,11 @@ of Large Sparse Positive Definite Systems, 1981, ch. 4-5; Davis, Direct Methods 
 ideal joints all hold a body to the ground).
 
 The pattern is a superset of the numerical nonzeros at every state: an entry is left out only if the kernel's
-``constraints`` writes an exact zero there whatever the state.  The kernel's solve then performs the same
-floating-point operations, in the same order, as the dense envelope Cholesky factorisation it replaced, apart from
-products with an exact zero factor; its results are bitwise those of the dense solve
-(tests/test_multibody_sparsity.py; ``benchmarks/compare_engine_results.py``).
+``constraints`` writes an exact zero there whatever the state.  A body pinned to the ground and driven in angle that
+another joint also holds (:func:`driven_bodies`) leaves W altogether: its accelerations follow from its own rows,
+and the plan gives them a unit diagonal (docs/multibody.md, "Driven bodies are eliminated").  The kernel factors
+W as L D L^T over the envelopes; tests/test_multibody_sparsity.py checks the pattern against the kernel's Jacobian,
+and the solve against the dense KKT system.
 """
 
 from __future__ import annotations
@@ -101,7 +102,10 @@ def driven_bodies(ctype: np.ndarray, cint: np.ndarray, crow: np.ndarray) -> list
     constraint to the ground, has J_bb x_b = g_b with J_bb = [[s, 0, j], [0, s, j'], [0, 0, 1]], s = +-1, always
     invertible: its accelerations (and projection corrections) follow from its own rows, and the kernel
     eliminates those rows before the multiplier solve (:func:`berryshaker.multibody.kernel._constrained_solve`).
-    The crank of the slider-crank and of the crank-rocker drive and the groove cam are such bodies.
+    Only a body that some other joint also holds is returned: otherwise its rows are a block of W of their own
+    already and eliminating them would only add work (the groove cam, whose groove is a contact).  The crank of
+    the slider-crank, the crank of the crank-rocker drive with ideal pins and the cam with an ideal groove are
+    such bodies.
 
     Returns
     -------
