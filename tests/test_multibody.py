@@ -197,6 +197,24 @@ def test_bad_mechanisms_are_named(spec):
         simulate_mechanism(_modify(spec, lock), duration=1e-3)
 
 
+def test_velocity_scale_sets_the_velocity_tolerance_in_any_speed_unit(spec):
+    """``simulation.velocity_scale`` is a speed (checked dimension, any speed unit) and sets the velocities'
+    absolute tolerance rtol x scale; the positions' stays rtol x 1 mm; the engine's default is 0.1 m/s."""
+    from berryshaker.multibody.engine import POSITION_SCALE, prepare_run
+
+    assert spec.simulation.velocity_scale == 0.1
+    fast = _modify(spec, lambda d: d["simulation"].__setitem__("velocity_scale", "36 km/h"))
+    assert fast.simulation.velocity_scale == pytest.approx(10.0)
+    run = prepare_run(fast, duration=1e-4, rtol=1e-6)
+    n = run.cm.n
+    assert np.all(run.atol[:n] == POSITION_SCALE * 1e-6)
+    assert np.all(run.atol[n:] == pytest.approx(10.0 * 1e-6))
+    with pytest.raises(ConfigError, match="velocity_scale"):
+        _modify(spec, lambda d: d["simulation"].__setitem__("velocity_scale", "2 mm"))
+    with pytest.raises(ConfigError, match="velocity_scale"):
+        _modify(spec, lambda d: d["simulation"].__setitem__("velocity_scale", 0.0))
+
+
 def test_simulate_mechanism_cli_json(tmp_path):
     r = CliRunner().invoke(app, ["simulate", "--mechanism", str(EXAMPLE), "--duration", "0.03", "--json",
                                  "--out", str(tmp_path / "sc")])

@@ -436,6 +436,9 @@ SERIES = {"whole": "every output sample of the run",
           "statistics": "the initial state and the samples of the statistics window (driver revolutions 2..N) "
                         "with the one before it"}
 
+#: length (m) below which a position's error is held absolutely: atol = rtol x POSITION_SCALE for the
+#: positions (the velocities' scale is the spec's ``simulation.velocity_scale``)
+POSITION_SCALE = 1e-3
 #: most output samples one run may write (the series are held in memory: about 0.7 kB per sample for the
 #: harvester drives, so 1.4 GB at the cap); a longer run must use a coarser ``output_step`` or be shorter
 MAX_OUTPUT_SAMPLES = 2_000_000
@@ -758,7 +761,8 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
         y = initial_state(spec) if pert is None else pert.assemble(spec)
     t_out = np.linspace(0.0, duration, n_out)
     nf = len(cm.frc_names)
-    atol = np.concatenate([np.full(cm.n, 1e-3 * rtol), np.full(cm.n, 1e-1 * rtol)])
+    # absolute tolerances: positions rtol x 1 mm, velocities rtol x the spec's velocity scale (SimulationSpec)
+    atol = np.concatenate([np.full(cm.n, POSITION_SCALE * rtol), np.full(cm.n, sim.velocity_scale * rtol)])
     if cm.n > cm.n_base:
         rtol, atol = _auxiliary_tolerances(cm, rtol, atol)
     stats_from = 0.0

@@ -242,9 +242,18 @@ class ForceSpec(_Strict):
 
 
 class SimulationSpec(_Strict):
-    """Integration settings: duration (s), relative tolerance, output step and largest step (s)."""
+    """Integration settings: duration (s), relative tolerance, output step and largest step (s), and the
+    velocity scale of the error control (m/s).
+
+    The integrator holds each state's local error below ``atol + rtol |y|``, with ``atol = rtol x 1 mm`` for
+    positions (m, rad) and ``atol = rtol x velocity_scale`` for velocities (m/s, rad/s): below
+    ``velocity_scale`` a velocity's error is held absolutely, as if it moved at that speed.  The engine's default
+    (0.1 m/s) suits small test mechanisms; the harvester drives use the scale their convergence study chose
+    (:data:`berryshaker.drives.base.HARVESTER_VELOCITY_SCALE`, docs/multibody.md "Error control").
+    """
     duration: Annotated[float, _q("time"), Field(gt=0)] = 0.05
     rtol: float = Field(1e-7, gt=0, lt=1)
+    velocity_scale: Annotated[float, _q("speed"), Field(gt=0)] = 0.1
     output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
     max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
     energy_audit: bool | None = None  # work of every force element; None: on when a torque_speed driver exists

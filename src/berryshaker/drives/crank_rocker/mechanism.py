@@ -12,7 +12,7 @@ import math
 
 from berryshaker.drives.crank_rocker.kinematics import check_machine, mid_stroke_angles, rocker_position
 from berryshaker.kinematics.linkage import four_bar_position
-from berryshaker.drives.base import HARVESTER_RTOL
+from berryshaker.drives.base import HARVESTER_RTOL, HARVESTER_VELOCITY_SCALE
 from berryshaker.drives.powered import is_powered, powered_mechanism
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
@@ -76,7 +76,8 @@ def crank_rocker_mechanism(machine, revolutions: int = 2) -> MechanismSpec:
         mechanism=dict(name=f"{machine.machine.name} (multibody)", gravity=[0.0, 0.0]),
         bodies=bodies, joints=joints, forces=forces,
         drivers=[dict(name="drive", type="angle", body="crank", speed=-cr.speed, angle0=phi0)],
-        simulation=dict(duration=revolutions * period, rtol=HARVESTER_RTOL, output_step=1e-4, max_step=2e-4),
+        simulation=dict(duration=revolutions * period, rtol=HARVESTER_RTOL, output_step=1e-4, max_step=2e-4,
+                        velocity_scale=HARVESTER_VELOCITY_SCALE),
     )
     if is_powered(machine):  # the driveline turns the crank instead of the imposed speed (drives/powered.py)
         spec = powered_mechanism(spec, machine, "crank")

@@ -15,7 +15,7 @@ import math
 
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.drives.groove_cam.kinematics import geometry_vector, ideal_state, mid_stroke_angles, require_buildable
-from berryshaker.drives.base import HARVESTER_RTOL
+from berryshaker.drives.base import HARVESTER_RTOL, HARVESTER_VELOCITY_SCALE
 from berryshaker.drives.powered import is_powered, powered_mechanism
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
@@ -94,7 +94,8 @@ def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec
         drivers=[dict(name="drive", type="angle", body="cam", speed=-c.speed, angle0=0.0)],
         cams=[dict(name="groove", law=c.law, base_radius=c.base_radius, offset=c.offset, stroke=c.stroke,
                    rise_angle=c.rise_angle, far_dwell_angle=c.far_dwell_angle, return_angle=c.return_angle)],
-        simulation=dict(duration=revolutions * period, rtol=HARVESTER_RTOL, output_step=1e-4, max_step=2e-4),
+        simulation=dict(duration=revolutions * period, rtol=HARVESTER_RTOL, output_step=1e-4, max_step=2e-4,
+                        velocity_scale=HARVESTER_VELOCITY_SCALE),
     )
     if is_powered(machine):  # the driveline turns the cam instead of the imposed speed (drives/powered.py)
         spec = powered_mechanism(spec, machine, "cam")
