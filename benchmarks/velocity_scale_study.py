@@ -1,0 +1,66 @@
+"""The convergence study behind ``drives.base.HARVESTER_VELOCITY_SCALE`` (benchmarks/README.md sec. 25).
+
+For one drive, ensembles of 8 seeded perturbed starts x 6 cam revolutions at rtol 1e-5 and several velocity
+scales (``simulation.velocity_scale``: the velocities' absolute tolerance is rtol x scale) are compared, statistic
+by statistic, with the reference ensemble at rtol 1e-7 and the engine's 0.1 m/s, by the criterion of
+tests/test_multibody_convergence.py (``compare``); printed per scale: step attempts, CPU per run, the statistics
+failing that criterion, and those whose difference exceeds twice its standard error (a systematic shift).
+
+    .venv/bin/python benchmarks/velocity_scale_study.py groove_cam      # ~3 min
+    .venv/bin/python benchmarks/velocity_scale_study.py crank_rocker
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT / "tests"))
+
+from test_multibody_convergence import compare, summary_statistics  # noqa: E402
+
+from berryshaker.config import reference_machine  # noqa: E402
+from berryshaker.drives import drive_of  # noqa: E402
+from berryshaker.multibody.engine import simulate_mechanism  # noqa: E402
+from berryshaker.drives.simulation import multibody_summary  # noqa: E402
+from berryshaker.multibody.perturbation import RandomInitialPerturbation  # noqa: E402
+
+STARTS = 8
+REVOLUTIONS = 6
+SCALES = (0.1, 1.0, 3.0, 10.0)  # m/s
+
+
+def ensemble(drive: str, rtol: float, scale: float):
+    """Summary statistics of every start, mean step attempts and CPU per run."""
+    machine = reference_machine(drive)
+    spec = drive_of(machine).mechanism(machine, revolutions=REVOLUTIONS)
+    spec = spec.model_copy(update={"simulation": spec.simulation.model_copy(update={"velocity_scale": scale})})
+    runs, attempts, cpu = [], [], 0.0
+    for seed in range(STARTS):
+        c0 = time.process_time()
+        res = simulate_mechanism(spec, rtol=rtol, initial_perturbation=RandomInitialPerturbation(seed))
+        cpu += time.process_time() - c0
+        runs.append(summary_statistics(multibody_summary(machine, res)))
+        attempts.append(res.info[0] + res.info[1] + res.info[2])
+    return {k: np.array([r[k] for r in runs]) for k in runs[0]}, float(np.mean(attempts)), cpu / STARTS
+
+
+def main(drive: str) -> None:
+    ref, n_ref, c_ref = ensemble(drive, 1e-7, 0.1)
+    print(f"{drive}: reference rtol 1e-7, 0.1 m/s: {n_ref:.0f} step attempts, {c_ref:.3f} s per run")
+    for scale in SCALES:
+        e, n, c = ensemble(drive, 1e-5, scale)
+        res = compare(e, ref)
+        fails = [k for k, v in res.items() if not v["ok"]]
+        shifts = {k: f"{100 * v['difference']:+.2f} +- {100 * v['se']:.2f} %" for k, v in res.items()
+                  if abs(v["difference"]) > 2 * v["se"]}
+        print(f"rtol 1e-5, {scale:g} m/s: {n:.0f} attempts, {c:.3f} s per run; failing {fails or 'none'}; "
+              f"shifts beyond 2 SE ({len(shifts)}): {shifts}", flush=True)
+
+
+if __name__ == "__main__":
+    main(sys.argv[1] if len(sys.argv) > 1 else "groove_cam")
