@@ -1,7 +1,7 @@
 """Claim verdicts that could pass by construction: model agreement judged on every row, and a recommendation
 that only matches the study because a factor was left at the configured (the study's) clearance."""
 
-from berryshaker.experiment.agreement import summary_statistics_agreement
+from berryshaker.experiment.agreement import ensemble_agreement, judged_difference, summary_statistics_agreement
 from berryshaker.study import claims as C
 
 
@@ -10,21 +10,65 @@ def _pair(agree=True):
             "peak_ratio": 1.0}
 
 
-def _rows(agree_everywhere: bool):
+def _runs(scale, spread, n=8):
+    """n runs' statistics around mean 500, rms 1000, p95 3000 N x scale, with relative spread +-spread."""
+    return [{k: v * scale * (1 + spread * (2 * i / max(n - 1, 1) - 1)) for k, v in
+             {"mean": 500.0, "rms": 1000.0, "p95": 3000.0}.items()} for i in range(n)]
+
+
+def _check(scale_c=1.0, spread=0.01):
+    return {"level": 2, "starts": {"multibody": 8, "reduced": 8},
+            "pairs": {p: ensemble_agreement(_runs(scale_c if p == "C" else 1.0, spread), _runs(1.0, spread))
+                      for p in "ABCF"}}
+
+
+def _rows(agree_everywhere: bool, noise=None):
     same = {"mean": 500.0, "rms": 1000.0, "p95": 3000.0}
     ring = {"mean": 800.0, "rms": 1000.0, "p95": 3000.0}  # a stiff MLSD link ringing: mean 60 % off
     per = {}
     for r in ("1", "2", "15"):
-        per[r] = {p: summary_statistics_agreement(same, same if agree_everywhere or r != "2" else ring)
+        per[r] = {p: summary_statistics_agreement(same, same if agree_everywhere or r != "2" else ring, noise=noise)
                   for p in "ABCF"}
-    return {"agreement": per}
+    return {"agreement": per, "model_check": _check()}
 
 
 def test_summary_agreement_uses_the_stated_tolerances():
     a = {"mean": 100.0, "rms": 200.0, "p95": 400.0}
     assert summary_statistics_agreement(a, {"mean": 109.0, "rms": 228.0, "p95": 490.0})["agree"]
     c = summary_statistics_agreement(a, {"mean": 112.0, "rms": 200.0, "p95": 400.0})
-    assert not c["agree"] and c["worst"] == "mean"
+    assert not c["agree"] and c["worst"] == "mean" and c["verdict"] == "differ"
+
+
+def test_a_difference_counts_only_beyond_its_noise():
+    """The verdict on a difference of 15 % against a tolerance of 20 %: agree without noise, undecided with a
+    noise band of 10 %, and 26 % differs only while the band stays below 6 %."""
+    assert judged_difference(0.15, 0.0, 0.20) == "agree"
+    assert judged_difference(0.15, 0.10, 0.20) == "within noise"
+    assert judged_difference(0.26, 0.05, 0.20) == "differ"
+    assert judged_difference(0.26, 0.07, 0.20) == "within noise"
+    a = {"mean": 100.0, "rms": 200.0, "p95": 400.0}
+    b = {"mean": 100.0, "rms": 200.0, "p95": 460.0}  # p95 13 % off
+    assert summary_statistics_agreement(a, b)["verdict"] == "agree"
+    c = summary_statistics_agreement(a, b, noise={"mean": 0.01, "rms": 0.02, "p95": 0.12})
+    assert c["verdict"] == "within noise" and not c["agree"] and c["verdicts"]["mean"] == "agree"
+
+
+def test_ensemble_agreement_judges_means_with_their_standard_errors():
+    same = ensemble_agreement(_runs(1.0, 0.05), _runs(1.0, 0.05))
+    assert same["verdict"] == "agree" and same["relative_difference"]["mean"] == 0.0
+    # 8 runs spread +-5 % (SD 3.2 %): SE 1.1 %, noise band 2 x sqrt(2) x 1.1 = 3.2 %
+    assert abs(same["noise"]["mean"] - 2 * (2 ** 0.5) * same["a"]["mean"]["se"] / 500.0) < 1e-12
+    off = ensemble_agreement(_runs(1.3, 0.05), _runs(1.0, 0.05))  # 23 % apart: beyond 10 % + noise
+    assert off["verdict"] == "differ" and off["verdicts"]["mean"] == "differ"
+    near = ensemble_agreement(_runs(1.12, 0.3), _runs(1.0, 0.3))  # 11 % apart, noise ~15 %: cannot tell
+    assert near["verdicts"]["mean"] == "within noise" and near["verdict"] == "within noise"
+    assert near["single_run_noise"]["mean"] > near["noise"]["mean"] * 2.5  # one run resolves sqrt(8) x less
+    try:
+        ensemble_agreement(_runs(1.0, 0.1, n=1), _runs(1.0, 0.1))
+    except ValueError as exc:
+        assert "at least two runs" in str(exc)
+    else:
+        raise AssertionError("one run has no spread: refused")
 
 
 def test_claim1_is_partly_when_only_the_model_check_level_agrees():
@@ -32,9 +76,23 @@ def test_claim1_is_partly_when_only_the_model_check_level_agrees():
     assert C._claim1(res)[0] == "reproduced"
     res["rows"] = _rows(False)
     verdict, detail = C._claim1(res)
-    assert verdict == "partly reproduced" and "8 of 12 row-pairs agree" in detail
+    assert verdict == "partly reproduced" and "8 of 12 row-pairs agree" in detail and "differ: 2A" in detail
+    # the centred run's own verdict does not decide the claim (one draw of a chaotic sequence)
     res["agreement"]["pairs"]["C"] = _pair(False)
+    assert C._claim1(res)[0] == "partly reproduced"
+    res["rows"]["model_check"] = _check(scale_c=1.3)
     assert C._claim1(res)[0] == "not reproduced"
+
+
+def test_claim1_says_undecided_where_the_noise_decides():
+    res = {"agreement": {"pairs": {p: _pair() for p in "ABCF"}}, "rows": _rows(True)}
+    res["rows"]["model_check"] = _check(scale_c=1.12, spread=0.3)
+    verdict, detail = C._claim1(res)
+    assert verdict == "undecided" and "C within noise" in detail
+    # rows within single-run noise: not evidence of agreement
+    res["rows"] = _rows(True, noise={"mean": 0.0, "rms": 0.0, "p95": 0.25})
+    verdict, detail = C._claim1(res)
+    assert verdict == "partly reproduced" and "within noise: 1A" in detail
 
 
 def test_claim8_does_not_count_a_factor_kept_at_the_studys_clearance():

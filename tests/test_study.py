@@ -154,7 +154,8 @@ def test_study_outputs(study_out):
     saved = json.loads((out / "summary.json").read_text())
     assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
     for c in saved["claims"]:
-        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "not comparable") and c["detail"]
+        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "undecided",
+                                "not comparable") and c["detail"]
     assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")
     for k in ("efficiency_kg_min", "damage_rate_pct"):
         assert saved["optimum"][k] > 0
@@ -163,8 +164,8 @@ def test_study_outputs(study_out):
     # the runs the study started ahead (pipeline.PLANS) are the ones its steps asked for: none ran unused
     assert len(list(cache.rglob("*.json"))) == saved["runs"]["computed"] > 0
     assert saved["machine_si"]["cam"]["base_radius"] == 0.08
-    for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "fruit_force.csv",
-              "l9_runs.csv", "claims.csv"):
+    for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "model_check.csv",
+              "fruit_force.csv", "l9_runs.csv", "claims.csv"):
         assert (out / "tables" / t).stat().st_size > 50
     assert len(list((out / "figures").glob("*.png"))) >= 19
     html = (out / "report.html").read_text()
@@ -239,10 +240,10 @@ def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tm
 
     real = st.multibody_row
 
-    def flaky(machine_data, clearance, revolutions=3):
+    def flaky(machine_data, clearance, revolutions=3, seed=None):
         if clearance.get("B", 0.0) == pytest.approx(0.6e-3) and clearance.get("A", 0.0) == 0.0:
             raise RuntimeError("solver exploded on purpose")
-        return real(machine_data, clearance, revolutions)
+        return real(machine_data, clearance, revolutions, seed)
 
     flaky.__module__, flaky.__qualname__ = real.__module__, "flaky_multibody_row_for_test"
     monkeypatch.setattr(st, "multibody_row", flaky)
@@ -257,3 +258,25 @@ def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tm
     assert verdicts[1] != "not comparable" and s["optimum"] is not None
     html = (tmp_path / "o" / "report.html").read_text()
     assert "Failed runs" in html and "exploded on purpose" in html
+
+
+def test_model_check_replicates_are_seeded_and_the_batch_keeps_them():
+    """The model check's perturbed starts (claim 1): a seed gives the same summary alone and inside a batch of
+    centred rows, and differs from the centred start; the MLSD's turned starts likewise."""
+    from berryshaker.config import reference_machine
+    from berryshaker.experiment.clearance_sets import level_set
+    from berryshaker.study.runs import multibody_row, multibody_rows, reduced_row
+
+    m = reference_machine()
+    data, lvl = m.model_dump(mode="json"), level_set(m, 2)
+    def numbers(summary):  # (the run's wall time differs)
+        return {k: v for k, v in summary.items() if k != "wall_time_s"}
+
+    seeded = multibody_row(data, lvl, 2, [7, 2])
+    batch = multibody_rows([dict(machine_data=data, clearance=lvl, revolutions=2, seed=[7, 2]),
+                            dict(machine_data=data, clearance=lvl, revolutions=2)])
+    assert numbers(batch[0]) == numbers(seeded) and numbers(batch[1]) == numbers(multibody_row(data, lvl, 2))
+    assert seeded["collision_force_N"]["C"] != batch[1]["collision_force_N"]["C"]
+    turned = reduced_row(data, lvl, 2, [7, 2])
+    assert numbers(turned) == numbers(reduced_row(data, lvl, 2, [7, 2]))
+    assert turned["collision_force_N"]["C"] != reduced_row(data, lvl, 2)["collision_force_N"]["C"]

@@ -16,8 +16,9 @@ A drive sub-package (``berryshaker.drives.<name>``) provides a :class:`Drive` in
 - ``mechanism(machine, revolutions)``: the :class:`~berryshaker.multibody.spec.MechanismSpec` handed to the
   generic multibody engine (bodies ``left_comb`` and ``right_comb`` and the driver ``drive`` are required names);
 - ``mid_stroke_angles(machine)``: the combs' reference angles (rad);
-- optionally ``reduced_model(machine, clearance, revolutions)``: a faster model of the same drive returning an
-  object with ``summary()`` (the groove cam's MLSD model); ``None`` where the drive has none.
+- optionally ``reduced_model(machine, clearance, revolutions, start_angle=0.0)``: a faster model of the same
+  drive returning an object with ``summary()`` (the groove cam's MLSD model), started at drive-shaft angle
+  ``start_angle`` (rad: the replicates of the study's model check); ``None`` where the drive has none.
 """
 
 from __future__ import annotations

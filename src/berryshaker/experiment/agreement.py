@@ -71,19 +71,108 @@ def statistics_agreement(t, a, b, period: float | None = None, tolerance: dict |
             "agree": bool(all(diff[k] <= tol[k] for k in tol))}
 
 
-def summary_statistics_agreement(a: dict, b: dict, tolerance: dict | None = None) -> dict:
+#: statistics of a run summary's collision force that model agreement judges (the impulse per revolution is the
+#: mean times the period: it agrees exactly when the mean does and is not judged twice)
+SUMMARY_STATISTICS = ("mean", "rms", "p95")
+#: standard errors a difference must clear to count (about 95 % two-sided)
+NOISE_SE = 2.0
+
+
+def judged_difference(difference: float, noise: float, tolerance: float) -> str:
+    """Verdict on one relative difference against its tolerance, given its noise (``NOISE_SE`` standard errors of
+    the difference, relative): "agree" when even difference + noise is within the tolerance, "differ" when even
+    difference - noise exceeds it, else "within noise" (the tolerance lies inside the difference's noise band:
+    the runs cannot tell; guide: a difference smaller than the replicates' spread is no difference)."""
+    if difference + noise <= tolerance:
+        return "agree"
+    if difference - noise > tolerance:
+        return "differ"
+    return "within noise"
+
+
+def _overall(verdicts) -> str:
+    verdicts = list(verdicts)
+    return "differ" if "differ" in verdicts else "agree" if all(v == "agree" for v in verdicts) else "within noise"
+
+
+def summary_statistics_agreement(a: dict, b: dict, tolerance: dict | None = None, noise: dict | None = None) -> dict:
     """Agreement of two run summaries' statistics of one collision force.
 
     ``a`` and ``b`` hold ``mean``, ``rms`` and ``p95`` (N) over the same revolutions, as the multibody and reduced
     summaries give them.  Each relative difference |a - b| / max(|a|, |b|) must be within
-    :data:`STATISTICS_TOLERANCE` (10 / 15 / 20 %); the impulse per revolution is the mean times the period, so it
-    agrees exactly when the mean does and is not judged twice.  Returns ``relative_difference``, ``worst`` (the
-    statistic furthest outside or closest to its tolerance) and ``agree``.
+    :data:`STATISTICS_TOLERANCE` (10 / 15 / 20 %).  ``noise`` (optional, per statistic): the relative noise band
+    of a difference between two single runs (:data:`NOISE_SE` standard deviations, e.g. from
+    :func:`ensemble_agreement`'s ``single_run_noise``); with it each statistic gets a :func:`judged_difference`
+    verdict.  Returns ``relative_difference``, ``worst`` (the statistic furthest outside or closest to its
+    tolerance), ``verdict`` ("agree", "differ" or "within noise"; without noise "agree" or "differ") and
+    ``agree`` (the verdict is "agree").
     """
-    tol = {k: v for k, v in dict(STATISTICS_TOLERANCE, **(tolerance or {})).items() if k in ("mean", "rms", "p95")}
+    tol = {k: v for k, v in dict(STATISTICS_TOLERANCE, **(tolerance or {})).items() if k in SUMMARY_STATISTICS}
     diff = {k: abs(a[k] - b[k]) / max(abs(a[k]), abs(b[k]), 1e-300) for k in tol}
     worst = max(tol, key=lambda k: diff[k] / tol[k])
-    return {"relative_difference": diff, "worst": worst, "agree": bool(all(diff[k] <= tol[k] for k in tol))}
+    band = {k: float((noise or {}).get(k, 0.0)) for k in tol}
+    verdicts = {k: judged_difference(diff[k], band[k], tol[k]) for k in tol}
+    verdict = _overall(verdicts.values())
+    out = {"relative_difference": diff, "worst": worst, "verdict": verdict, "agree": verdict == "agree"}
+    if noise is not None:
+        out["noise"] = band
+        out["verdicts"] = verdicts
+    return out
+
+
+def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict | None = None) -> dict:
+    """Agreement of two models' collision-force statistics over replicates (e.g. perturbed starts of each).
+
+    Each statistic (mean, RMS, p95, N) is averaged over each model's runs; the relative difference of the two
+    means, d = |m_a - m_b| / max(m_a, m_b), is judged against :data:`STATISTICS_TOLERANCE` with its noise,
+    :data:`NOISE_SE` standard errors sqrt(SE_a^2 + SE_b^2) / max(m_a, m_b) (:func:`judged_difference`).  One run
+    of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw (benchmarks/README.md
+    sec. 25), a verdict on these means only when the difference is within its noise, and then it says so.
+
+    Parameters
+    ----------
+    a_runs, b_runs : list of dict
+        Per run, ``mean``, ``rms`` and ``p95`` of the same force (N); at least two runs each.
+    tolerance : dict, optional
+        Overrides of :data:`STATISTICS_TOLERANCE`.
+
+    Returns
+    -------
+    dict
+        ``a`` / ``b``: per statistic the runs' ``mean``, standard error ``se`` and standard deviation ``sd`` (N)
+        and ``n``; ``relative_difference``, ``noise`` (the band, relative), ``tolerance``, ``verdicts`` per
+        statistic, ``verdict`` ("differ" if any differs, "agree" if all agree, else "within noise"), ``agree``;
+        ``single_run_noise``: the band of a difference between two single runs (NOISE_SE x sqrt(SD_a^2 + SD_b^2)
+        / max mean), what one run per model can resolve (for :func:`summary_statistics_agreement`).
+
+    Raises
+    ------
+    ValueError
+        Fewer than two runs of a model (no spread to measure).
+    """
+    if len(a_runs) < 2 or len(b_runs) < 2:
+        raise ValueError(f"ensemble_agreement needs at least two runs of each model, got {len(a_runs)} and "
+                         f"{len(b_runs)}")
+    tol = {k: v for k, v in dict(STATISTICS_TOLERANCE, **(tolerance or {})).items() if k in SUMMARY_STATISTICS}
+    out: dict = {"a": {}, "b": {}, "relative_difference": {}, "noise": {}, "single_run_noise": {}, "tolerance": tol,
+                 "verdicts": {}}
+    for k in tol:
+        stats_k = []
+        for side, runs in (("a", a_runs), ("b", b_runs)):
+            v = np.array([float(r[k]) for r in runs])
+            sd = float(v.std(ddof=1))
+            out[side][k] = {"mean": float(v.mean()), "se": sd / np.sqrt(v.size), "sd": sd, "n": int(v.size)}
+            stats_k.append(out[side][k])
+        sa, sb = stats_k
+        scale = max(abs(sa["mean"]), abs(sb["mean"]), 1e-300)
+        d = abs(sa["mean"] - sb["mean"]) / scale
+        out["relative_difference"][k] = d
+        out["noise"][k] = NOISE_SE * float(np.hypot(sa["se"], sb["se"])) / scale
+        out["single_run_noise"][k] = NOISE_SE * float(np.hypot(sa["sd"], sb["sd"])) / scale
+        out["verdicts"][k] = judged_difference(d, out["noise"][k], tol[k])
+    out["verdict"] = _overall(out["verdicts"].values())
+    out["agree"] = out["verdict"] == "agree"
+    return out
 
 
 def eq18_passes_on_noise(points: int = 10, alpha: float = 0.05, seed: int = 0) -> dict:

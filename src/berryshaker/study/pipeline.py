@@ -170,16 +170,51 @@ def step_agreement(ctx: StudyContext) -> StepResult:
                       figs)
 
 
+#: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
+#: comparisons allow for (benchmarks/README.md sec. 26)
+MODEL_CHECK_STARTS = 8
+
+
+def _model_check_jobs(ctx: StudyContext) -> list[dict]:
+    """The model-check level's replicates: seeds (seed_k, level) of :func:`replicate_seeds`, 3 revolutions."""
+    from berryshaker.harvest.virtual import replicate_seeds
+
+    lvl = level_set(ctx.machine, MODEL_CHECK_LEVEL)
+    return [dict(machine_data=ctx.data, clearance=lvl, revolutions=3, seed=[sd, MODEL_CHECK_LEVEL])
+            for sd in replicate_seeds(ctx.machine, MODEL_CHECK_STARTS)]
+
+
 def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
-    """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions)."""
+    """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions);
+    with a reduced model also :data:`MODEL_CHECK_STARTS` perturbed starts of each at the model-check level."""
     last = n_rows(ctx.machine)
     jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3)
             for r in range(1, last + 1)]
     plans = [PlannedRuns(multibody_row, jobs, f"rows 1-{last}, multibody")]
     if ctx.drive.reduced_model is not None:
-        plans.append(PlannedRuns(reduced_row, jobs, f"rows 1-{last}, {ctx.drive.reduced_model_name.upper()}",
+        name = ctx.drive.reduced_model_name.upper()
+        plans.append(PlannedRuns(reduced_row, jobs, f"rows 1-{last}, {name}", engine=False))
+        check = _model_check_jobs(ctx)
+        plans.append(PlannedRuns(multibody_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} perturbed starts, "
+                                                       "multibody"))
+        plans.append(PlannedRuns(reduced_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} turned starts, {name}",
                                  engine=False))
     return plans
+
+
+def model_check(mb_runs: list, reduced_runs: list, pairs) -> dict | None:
+    """Claim 1's comparison at the model-check level: per pair, :func:`ensemble_agreement` of the two models'
+    collision-force statistics over their replicates (runs that failed are left out; None with fewer than two of
+    either model)."""
+    from berryshaker.experiment.agreement import ensemble_agreement
+
+    a = [r for r in mb_runs if r is not None]
+    b = [r for r in reduced_runs if r is not None]
+    if len(a) < 2 or len(b) < 2:
+        return None
+    return {"level": MODEL_CHECK_LEVEL, "starts": {"multibody": len(a), "reduced": len(b)},
+            "pairs": {p: ensemble_agreement([r["collision_force_N"][p] for r in a],
+                                            [r["collision_force_N"][p] for r in b]) for p in pairs}}
 
 
 def step_rows(ctx: StudyContext) -> StepResult:
@@ -201,12 +236,22 @@ def step_rows(ctx: StudyContext) -> StepResult:
     if len(plans) > 1:
         ml_rows = ctx.collect(reduced_row, jobs, plans[1].label, describe)
         out["mlsd"] = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
-        # model agreement on every row, not only at the model-check level (the same statistics criterion)
+
+        def start(j):
+            return f"level {MODEL_CHECK_LEVEL}, seed {j['seed'][0]}"
+
+        check = model_check(ctx.collect(multibody_row, plans[2].jobs, plans[2].label, start),
+                            ctx.collect(reduced_row, plans[3].jobs, plans[3].label, start), ctx.machine.pair_names)
+        out["model_check"] = check
+        # model agreement on every row, not only at the model-check level (the same statistics criterion); one
+        # run per model and row, so a difference counts only beyond the noise of single runs measured at the
+        # model-check level
         from berryshaker.experiment.agreement import summary_statistics_agreement
 
+        noise = {p: check["pairs"][p]["single_run_noise"] for p in ctx.machine.pair_names} if check else {}
         out["agreement"] = {
             r: {p: summary_statistics_agreement(out["multibody"][r]["collision_force_N"][p],
-                                                out["mlsd"][r]["collision_force_N"][p])
+                                                out["mlsd"][r]["collision_force_N"][p], noise=noise.get(p))
                 for p in ctx.machine.pair_names}
             for r in out["multibody"] if r in out["mlsd"]}
     else:

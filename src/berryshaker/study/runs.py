@@ -10,11 +10,18 @@ from berryshaker.config import machine_from_dict
 from berryshaker.harvest.spec import COUPLED_RTOL
 
 
-def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
-    """Multibody summary of one clearance set."""
+def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
+    """Multibody summary of one clearance set.  ``seed``: start from the seeded perturbation (clearance
+    eccentricities uniform over ``harvest.initial_eccentricity`` of each free radius, drive turned by up to
+    ``harvest.start_phase_spread``: berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate."""
     from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
-    return simulate_multibody(machine_from_dict(machine_data), clearance, revolutions=revolutions,
+    machine = machine_from_dict(machine_data)
+    h = machine.harvest
+    pert = None if seed is None else RandomInitialPerturbation(tuple(int(x) for x in seed), h.initial_eccentricity,
+                                                               h.start_phase_spread)
+    return simulate_multibody(machine, clearance, revolutions=revolutions, initial_perturbation=pert,
                               series="statistics")[1]
 
 
@@ -26,6 +33,14 @@ def multibody_rows(kwargs_list: list[dict]) -> list:
     out: list = [None] * len(kwargs_list)
     groups: dict[int, list[int]] = {}
     for i, kw in enumerate(kwargs_list):
+        if kw.get("seed") is not None:  # a perturbed start: one by one (the batch starts every set centred)
+            from berryshaker.errors import BerryshakerError
+
+            try:
+                out[i] = multibody_row(**kw)
+            except BerryshakerError as exc:  # as the batch: the error is this run's result
+                out[i] = exc
+            continue
         groups.setdefault(int(kw.get("revolutions", 3)), []).append(i)
     for rev, idx in groups.items():
         machines, clearances = [], []
@@ -56,12 +71,18 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
                               initial_perturbation=pert, series="statistics")[1]
 
 
-def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3) -> dict:
-    """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set."""
+def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
+    """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set.  ``seed``: a replicate,
+    started at a cam angle drawn uniform in +-``harvest.start_phase_spread`` (numpy's generator seeded with it; the
+    reduced model's joints start centred)."""
     from berryshaker.drives import drive_of
 
     machine = machine_from_dict(machine_data)
-    return drive_of(machine).reduced_model(machine, clearance, revolutions=revolutions).summary()
+    kw = {}
+    if seed is not None:
+        spread = machine.harvest.start_phase_spread
+        kw["start_angle"] = float(np.random.default_rng(tuple(int(x) for x in seed)).uniform(-spread, spread))
+    return drive_of(machine).reduced_model(machine, clearance, revolutions=revolutions, **kw).summary()
 
 
 def fruit_force_run(machine_data: dict, clearance: dict) -> dict:

@@ -45,6 +45,14 @@ def write_tables(machine, res: dict, tables: Path) -> None:
               [[p, d["f_statistic"], d["f_critical"], d.get("eq18_agree"), d["agree"], d["nrmse"], d["correlation"],
                 d["peak_ratio"]]
                for p, d in res["agreement"]["pairs"].items()])
+    check = (res.get("rows") or {}).get("model_check")
+    if check:
+        write("model_check.csv", ["pair", "statistic", "multibody_mean_N", "multibody_se_N", "multibody_starts",
+                                  "reduced_mean_N", "reduced_se_N", "reduced_starts", "relative_difference",
+                                  "noise_2se", "tolerance", "verdict"],
+              [[p, k, c["a"][k]["mean"], c["a"][k]["se"], c["a"][k]["n"], c["b"][k]["mean"], c["b"][k]["se"],
+                c["b"][k]["n"], c["relative_difference"][k], c["noise"][k], c["tolerance"][k], c["verdicts"][k]]
+               for p, c in check["pairs"].items() for k in c["tolerance"]])
     if (res.get("fruit_force") or {}).get("chosen"):
         pos = res["fruit_force"]["chosen"]["summary"]["positions"]
         write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],

@@ -528,7 +528,8 @@ class MLSDResult:
 
 
 def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, revolutions: int = 3,
-                  output_step: float = 1e-4, rtol: float = 1e-7, h_max: float = 2e-4) -> MLSDResult:
+                  output_step: float = 1e-4, rtol: float = 1e-7, h_max: float = 2e-4,
+                  start_angle: float = 0.0) -> MLSDResult:
     """Simulate the MLSD clearance model of the harvester drive.
 
     Parameters
@@ -545,11 +546,18 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
         Relative tolerance of the adaptive integrator.
     h_max : float
         Largest integrator step (s).
+    start_angle : float
+        Cam angle at the start (rad; the mechanism starts there in its ideal state, joints centred): a turned
+        start, the MLSD's replicate (the impact sequence is chaotic, so its statistics are one draw).  The run
+        covers ``revolutions`` whole revolutions from there (times from start_angle / omega, taken mod one
+        revolution), the statistics the last ``revolutions - 1``.
 
     Returns
     -------
     MLSDResult
     """
+    if not math.isfinite(start_angle):
+        raise ConfigError(f"start_angle={start_angle!r}: give a finite cam angle (rad)")
     if revolutions < 2:
         raise ConfigError("--revolutions must be >= 2 (statistics exclude the first revolution)")
     machine = machine.with_clearances(clearance)
@@ -560,9 +568,11 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     period = 2 * math.pi / machine.cam.speed
     t_end = revolutions * period
     n_out = int(round(t_end / output_step)) + 1
-    t_out = np.linspace(0.0, t_end, n_out)
-    # start at cam angle 0 on the ideal mechanism, joints centred, ideal velocities
-    ok, s, v, a, thd, wd, ad, th4, w4, a4, the, we, ae = ideal_state(0.0, g)
+    phi0 = start_angle % (2 * math.pi)
+    t_start = phi0 / machine.cam.speed  # the kernels take the cam angle as omega t
+    t_out = t_start + np.linspace(0.0, t_end, n_out)
+    # start at cam angle phi0 on the ideal mechanism, joints centred, ideal velocities
+    ok, s, v, a, thd, wd, ad, th4, w4, a4, the, we, ae = ideal_state(phi0, g)
     y0 = np.array([s, thd, 0.0, the, v, wd, 0.0, we])
     atol = np.array([1e-10, 1e-9, 1e-10, 1e-9, 1e-6, 1e-5, 1e-6, 1e-5])
     out_y = np.zeros((n_out, 8))
@@ -574,7 +584,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     integrate(y0, t_out[:2], g, p, rtol, atol, h_max, 0.0, np.zeros((2, 8)), np.zeros((2, N_R)), np.zeros(N_R),
               np.zeros(5), np.zeros(4))
     t0 = time.perf_counter()
-    integrate(y0, t_out, g, p, rtol, atol, h_max, period, out_y, out_r, peaks, info, onsets)
+    integrate(y0, t_out, g, p, rtol, atol, h_max, t_start + period, out_y, out_r, peaks, info, onsets)
     wall = time.perf_counter() - t0
     status = int(info[3])
     if status != 0:
@@ -584,5 +594,5 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
         raise SimulationError(f"MLSD simulation gave up at t = {info[2]:.6g} s: {why}")
     return MLSDResult(t=t_out, state=out_y, results=out_r, peaks=peaks, clearance=sizes,
                       revolutions=revolutions, steps=int(info[0]), rejected=int(info[1]),
-                      wall_time_s=wall, stats_from=period, machine=machine,
+                      wall_time_s=wall, stats_from=t_start + period, machine=machine,
                       onsets={n: int(v) for n, v in zip(PAIR_NAMES, onsets)}, event_cuts=int(info[4]))
