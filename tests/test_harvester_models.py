@@ -38,9 +38,19 @@ def test_eq18_hand_value():
 
 
 def test_compare_cli_reports_agreement_per_pair(tmp_path):
-    r = CliRunner().invoke(app, ["compare", "--clearance", "level2", "--json", "--plot", str(tmp_path / "cmp")])
+    r = CliRunner().invoke(app, ["compare", "--clearance", "level2", "--json", "--plot", str(tmp_path / "cmp"),
+                                 "--starts", "3", "--workers", "1", "--cache", str(tmp_path / "cache")])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
+    # the verdict: means over replicate starts of each model, judged with their noise
+    check = s["model_check"]
+    assert check["starts"] == {"multibody": 3, "reduced": 3}
+    for p in "ABCF":
+        assert check["pairs"][p]["verdict"] in ("agree", "differ", "within noise")
+        assert check["pairs"][p]["a"]["p95"]["n"] == 3 and check["pairs"][p]["noise"]["p95"] > 0
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 6
+    one = CliRunner().invoke(app, ["compare", "--starts", "1"])
+    assert one.exit_code != 0 and "no spread" in one.output
     for p in "ABCF":
         pair = s["pairs"][p]
         assert set(pair) >= {"f_statistic", "f_critical", "agree", "nrmse", "correlation"}

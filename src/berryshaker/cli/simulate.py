@@ -21,6 +21,7 @@ from berryshaker.cli.app import (
     _fail,
     _load,
     _print_json,
+    err,
 )
 
 
@@ -253,21 +254,46 @@ def compare(
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     plot: Optional[Path] = typer.Option(None, "--plot", help="Write overlay plots (PNG) of both models per pair."),
+    starts: int = typer.Option(8, "--starts", min=0,
+                               help="Replicate starts of each model for the verdict (multibody: clearances eccentric, "
+                                    "drive turned; MLSD: cam turned); 0: only the centred runs (one draw of a "
+                                    "chaotic impact sequence, no verdict on the statistics)."),
+    workers: Optional[int] = typer.Option(None, "--workers", help="Local processes for the replicate starts "
+                                          "(default: every core this process may run on)."),
+    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder of the replicate starts "
+                                         "(default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE)."),
 ):
     """Run the MLSD and multibody models on the same machine and clearances; compare per pair (eq. 18).
 
-    Reports the study's F statistic with the critical F value of scipy.stats at the stated significance
-    and (points-1, points-1) degrees of freedom, and plainer measures: NRMSE, correlation, peak ratio.
+    The curves: one run of each model from the centred start, the study's F statistic with the critical F value
+    of scipy.stats at the stated significance and (points-1, points-1) degrees of freedom, and plainer measures
+    (NRMSE, correlation, peak ratio).  The verdict: the mean, RMS and p95 of each pair's force averaged over
+    --starts replicate starts of each model, their difference within 10 / 15 / 20 % beyond two standard errors
+    ('agree'), beyond them outside ('differ'), or 'within noise' (these starts cannot tell).  The replicate runs
+    are cached as the study's (berryshaker cache).
     """
     try:
-        from berryshaker.experiment.agreement import model_agreement
+        from berryshaker.experiment.agreement import model_agreement, model_check
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
 
         _check_folders(plot, kind="plots")
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)
+        if starts == 1:
+            raise BerryshakerError("--starts 1 has no spread to measure: give 0 (centred runs only) or >= 2")
         res = model_agreement(machine, sizes, revolutions=revolutions, points=points, alpha=alpha)
         series, t = res.pop("series"), res.pop("t")
+        if starts:
+            from berryshaker.runs.runner import SweepRunner
+            from berryshaker.study.runs import model_check_jobs, multibody_row, reduced_row
+
+            jobs = model_check_jobs(machine, sizes, starts, revolutions)
+            with SweepRunner(workers=workers, cache_dir=cache, progress=not as_json, console=err) as runner:
+                mb = [o.value for o in runner.map(multibody_row, jobs, f"{starts} perturbed starts, multibody")]
+                ml = [o.value for o in runner.map(reduced_row, jobs, f"{starts} turned starts, MLSD")]
+            res["model_check"] = model_check(mb, ml, machine.pair_names)
+            if res["model_check"] is None:
+                raise BerryshakerError("fewer than two replicate starts of a model ran: no spread to judge by")
         res["version"] = __version__
         if plot is not None:
             from berryshaker.outputs import staged_directory
@@ -286,12 +312,29 @@ def compare(
     if as_json:
         _print_json(res)
         return
-    tb = Table(title="MLSD vs multibody (study eq. 18)", header_style="bold")
-    for col in ("pair", "F", "F crit", "agree", "NRMSE", "corr", "peak ratio"):
+    tb = Table(title="MLSD vs multibody, centred runs (study eq. 18)", header_style="bold")
+    for col in ("pair", "F", "F crit", "eq. 18 agrees", "NRMSE", "corr", "peak ratio"):
         tb.add_column(col, justify="right")
     for p, r in res["pairs"].items():
-        tb.add_row(p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["agree"] else "no",
+        tb.add_row(p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["eq18_agree"] else "no",
                    f"{r['nrmse']:.3f}", f"{r['correlation']:.3f}", f"{r['peak_ratio']:.3f}")
+    out.print(tb)
+    check = res.get("model_check")
+    if check is None:
+        out.print("no verdict on the statistics: one run per model is one draw of a chaotic impact sequence "
+                  "(give --starts >= 2)")
+        return
+    st = check["starts"]
+    tb = Table(title=f"Verdict: means over {st['multibody']} multibody / {st['reduced']} MLSD starts (+- SE), "
+                     "difference +- 2 SE against the tolerance", header_style="bold")
+    for col in ("pair", "statistic", "multibody [N]", "MLSD [N]", "difference", "tolerance", "verdict"):
+        tb.add_column(col, justify="right")
+    for p, c in check["pairs"].items():
+        for k in c["tolerance"]:
+            tb.add_row(p, k, f"{c['a'][k]['mean']:.1f} +- {c['a'][k]['se']:.1f}",
+                       f"{c['b'][k]['mean']:.1f} +- {c['b'][k]['se']:.1f}",
+                       f"{100 * c['relative_difference'][k]:.1f} +- {100 * c['noise'][k]:.1f} %",
+                       f"{100 * c['tolerance'][k]:.0f} %", c["verdicts"][k])
     out.print(tb)
 
 

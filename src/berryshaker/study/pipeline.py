@@ -31,7 +31,14 @@ from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N
 from berryshaker.runs.runner import usable_cores
 from berryshaker.study.claims import check_claims
 from berryshaker.study.l9 import virtual_l9
-from berryshaker.study.runs import fruit_force_run, multibody_row, powered_row, reduced_row, warm_worker
+from berryshaker.study.runs import (
+    fruit_force_run,
+    model_check_jobs,
+    multibody_row,
+    powered_row,
+    reduced_row,
+    warm_worker,
+)
 
 
 @dataclass
@@ -176,12 +183,7 @@ MODEL_CHECK_STARTS = 8
 
 
 def _model_check_jobs(ctx: StudyContext) -> list[dict]:
-    """The model-check level's replicates: seeds (seed_k, level) of :func:`replicate_seeds`, 3 revolutions."""
-    from berryshaker.harvest.virtual import replicate_seeds
-
-    lvl = level_set(ctx.machine, MODEL_CHECK_LEVEL)
-    return [dict(machine_data=ctx.data, clearance=lvl, revolutions=3, seed=[sd, MODEL_CHECK_LEVEL])
-            for sd in replicate_seeds(ctx.machine, MODEL_CHECK_STARTS)]
+    return model_check_jobs(ctx.machine, level_set(ctx.machine, MODEL_CHECK_LEVEL), MODEL_CHECK_STARTS)
 
 
 def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
@@ -201,21 +203,6 @@ def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
         # they slowed it by more than they took, benchmarks/README.md sec. 26)
         plans.append(PlannedRuns(reduced_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} turned starts, {name}"))
     return plans
-
-
-def model_check(mb_runs: list, reduced_runs: list, pairs) -> dict | None:
-    """Claim 1's comparison at the model-check level: per pair, :func:`ensemble_agreement` of the two models'
-    collision-force statistics over their replicates (runs that failed are left out; None with fewer than two of
-    either model)."""
-    from berryshaker.experiment.agreement import ensemble_agreement
-
-    a = [r for r in mb_runs if r is not None]
-    b = [r for r in reduced_runs if r is not None]
-    if len(a) < 2 or len(b) < 2:
-        return None
-    return {"level": MODEL_CHECK_LEVEL, "starts": {"multibody": len(a), "reduced": len(b)},
-            "pairs": {p: ensemble_agreement([r["collision_force_N"][p] for r in a],
-                                            [r["collision_force_N"][p] for r in b]) for p in pairs}}
 
 
 def step_rows(ctx: StudyContext) -> StepResult:
@@ -241,8 +228,12 @@ def step_rows(ctx: StudyContext) -> StepResult:
         def start(j):
             return f"level {MODEL_CHECK_LEVEL}, seed {j['seed'][0]}"
 
+        from berryshaker.experiment.agreement import model_check
+
         check = model_check(ctx.collect(multibody_row, plans[2].jobs, plans[2].label, start),
                             ctx.collect(reduced_row, plans[3].jobs, plans[3].label, start), ctx.machine.pair_names)
+        if check is not None:
+            check = {"level": MODEL_CHECK_LEVEL, **check}
         out["model_check"] = check
         # model agreement on every row, not only at the model-check level (the same statistics criterion); one
         # run per model and row, so a difference counts only beyond the noise of single runs measured at the

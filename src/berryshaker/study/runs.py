@@ -71,6 +71,18 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
                               initial_perturbation=pert, series="statistics")[1]
 
 
+def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3) -> list[dict]:
+    """Arguments of :func:`multibody_row` and :func:`reduced_row` for the model check's replicate starts (claim 1;
+    ``berryshaker compare``): seeds (seed_k, MODEL_CHECK_LEVEL) with seed_k of
+    :func:`berryshaker.harvest.virtual.replicate_seeds`, at ``clearance``."""
+    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.reference_study import MODEL_CHECK_LEVEL
+
+    data = machine.model_dump(mode="json")
+    return [dict(machine_data=data, clearance=dict(clearance), revolutions=revolutions, seed=[sd, MODEL_CHECK_LEVEL])
+            for sd in replicate_seeds(machine, starts)]
+
+
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
     """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set.  ``seed``: a replicate,
     started at a cam angle drawn uniform in +-``harvest.start_phase_spread`` (numpy's generator seeded with it; the

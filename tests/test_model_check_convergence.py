@@ -1,0 +1,39 @@
+"""The model check's replicate count (claim 1, study.pipeline.MODEL_CHECK_STARTS) against twice as many starts.
+
+Claim 1 judges the means of each model's collision-force statistics over perturbed (multibody) and turned (MLSD)
+starts at level 2 (benchmarks/README.md sec. 26).  The count is converged when doubling it leaves every pair's
+verdict unchanged and moves no mean by more than its noise: here the 8-start means of the study against the 16
+starts whose first 8 they are (the seeds of harvest.virtual.replicate_seeds).
+"""
+
+import numpy as np
+
+from berryshaker.config import reference_machine
+from berryshaker.experiment.agreement import NOISE_SE
+from berryshaker.experiment.clearance_sets import level_set
+from berryshaker.harvest.virtual import replicate_seeds
+from berryshaker.reference_study import MODEL_CHECK_LEVEL
+from berryshaker.experiment.agreement import model_check
+from berryshaker.study.pipeline import MODEL_CHECK_STARTS
+from berryshaker.study.runs import multibody_row, reduced_row
+
+
+def test_model_check_verdicts_are_stable_when_the_starts_double():
+    m = reference_machine()
+    data, lvl = m.model_dump(mode="json"), level_set(m, MODEL_CHECK_LEVEL)
+    seeds = replicate_seeds(m, 2 * MODEL_CHECK_STARTS)
+    assert seeds[:MODEL_CHECK_STARTS] == replicate_seeds(m, MODEL_CHECK_STARTS)
+    mb = [multibody_row(data, lvl, 3, [s, MODEL_CHECK_LEVEL]) for s in seeds]
+    ml = [reduced_row(data, lvl, 3, [s, MODEL_CHECK_LEVEL]) for s in seeds]
+    study = model_check(mb[:MODEL_CHECK_STARTS], ml[:MODEL_CHECK_STARTS], m.pair_names)
+    double = model_check(mb, ml, m.pair_names)
+    for p in m.pair_names:
+        a, b = study["pairs"][p], double["pairs"][p]
+        assert a["verdict"] == b["verdict"] == "agree", (p, a["verdicts"], b["verdicts"])
+        for k in a["tolerance"]:
+            for side in ("a", "b"):
+                # the 8-start mean against the 16-start one: within NOISE_SE of the 8-start standard error
+                assert abs(a[side][k]["mean"] - b[side][k]["mean"]) <= NOISE_SE * a[side][k]["se"] + 1e-9, (p, k, side)
+            # and the judged difference with its noise stays inside the tolerance with room to spare
+            assert a["relative_difference"][k] + a["noise"][k] <= 0.9 * a["tolerance"][k], (p, k)
+    assert np.isfinite([double["pairs"][p]["noise"][k] for p in m.pair_names for k in ("mean", "rms", "p95")]).all()
