@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 
 from berryshaker.config import machine_table
+from berryshaker.report.headline import report_title, runs_text, verdict_class, verdict_counts
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, EQ18_F, FIELD_RESULT
 from berryshaker.units import format_tolerance
 
@@ -76,48 +77,6 @@ def _plain(text: str) -> str:
     return re.sub(r"\bFalse\b", "no", re.sub(r"\bTrue\b", "yes", str(text)))
 
 
-def report_title(claims: list[dict]) -> str:
-    """Title of the study report: "reproduced" only when every claim is; otherwise "checked"."""
-    verdicts = [c.get("verdict") for c in claims]
-    if verdicts and all(v == "reproduced" for v in verdicts):
-        return "Blueberry harvester with transmission clearance: the reference study, reproduced"
-    return "Blueberry harvester with transmission clearance: the reference study, checked"
-
-
-def verdict_counts(claims: list[dict]) -> str:
-    """E.g. "5 of 8 claims reproduced, 2 partly reproduced, 1 not reproduced"."""
-    order = ("reproduced", "partly reproduced", "not reproduced", "undecided", "not comparable")
-    counts = {v: sum(1 for c in claims if c.get("verdict") == v) for v in order}
-    others = sum(1 for c in claims if c.get("verdict") not in order)
-    parts = [f"{counts[order[0]]} of {len(claims)} claims reproduced"]
-    parts += [f"{counts[v]} {v}" for v in order[1:] if counts[v]]
-    if others:
-        parts.append(f"{others} other")
-    return ", ".join(parts)
-
-
-def runs_text(runs: dict) -> str:
-    """The run count for the report header: "N runs (M from the cache; cold compute X s)".  The cold cost
-    (:class:`berryshaker.runs.runner.SweepRunner` ``stats["cold_compute_s"]``: compute seconds now plus the
-    stored seconds of the cached runs) stays the same after a cached rerun."""
-    n = runs.get("runs", 0)
-    cached = runs.get("cached", 0)
-    cold = runs.get("cold_compute_s")
-    if cold is None and "compute_s" in runs:
-        cold = runs["compute_s"] + runs.get("cached_compute_s", 0.0)
-    text = f"{n} runs ({cached} from the cache"
-    if cold is not None:
-        text += f"; cold compute {cold:.1f} s"
-    if runs.get("failed"):
-        text += f"; {runs['failed']} failed"
-    return text + ")"
-
-
-def _vclass(verdict: str) -> str:
-    return {"reproduced": "v-reproduced", "not reproduced": "v-not", "partly reproduced": "v-partly",
-            "undecided": "v-partly"}.get(verdict, "v-nc")
-
-
 def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | None = None) -> str:
     """The self-contained HTML report of a study: claims with verdicts, failures, recommendation, one section
     per step (a step that did not run says why), configuration with provenance tags."""
@@ -140,7 +99,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     # claims
     parts.append("<h2>Claims of the study and what our models give</h2>")
     with_criterion = any(c.get("criterion") for c in res["claims"])
-    rows = [[c["id"], c["claim"], _Raw(f'<span class="{_vclass(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
+    rows = [[c["id"], c["claim"], _Raw(f'<span class="{verdict_class(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
              *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
             for c in res["claims"]]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
