@@ -75,3 +75,11 @@ def write_marker(path: str, text, die_outside: int | None = None) -> None:
         os._exit(3)
     with open(path, "w") as fh:
         fh.write(f"{text} {os.getpid()}")
+
+
+def crash_at(x: float, bad: float, delay: float = 0.0) -> dict:
+    """``{"y": x**2}`` after ``delay`` seconds; at ``x == bad`` end the worker process at once instead."""
+    time.sleep(delay)
+    if x == bad:
+        os._exit(3)
+    return {"y": x * x}

@@ -232,6 +232,20 @@ def test_a_crash_among_runs_started_ahead_does_not_fail_other_runs(tmp_path):
         assert out[0].error is None and out[0].value["y"] == 9.0
 
 
+def test_a_worker_that_dies_takes_only_its_own_run_down(tmp_path):
+    """A run that kills its worker breaks the pool and every run in flight with it: those run again (a new pool,
+    then one at a time), and only the run that dies on its own is recorded as failed, with what to do."""
+    jobs = [dict(x=float(i), bad=3.0, delay=0.2) for i in range(6)]
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        out = r.map(J.crash_at, jobs)
+        assert [o.error is None for o in out] == [True, True, True, False, True, True]
+        assert out[3].error == R.WORKER_DEATH and "ran alone" in out[3].error
+        assert [o.value["y"] for o in out if o.error is None] == [0.0, 1.0, 4.0, 16.0, 25.0]
+        assert r.stats["failed"] == 1
+        assert r.map(J.slow_square, [dict(x=2.0, delay=0.0)])[0].value["y"] == 4.0  # the pool serves on
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 6  # five runs and the last map's
+
+
 def test_warm_up_runs_in_a_worker_uncached_and_holds_back_queued_runs(tmp_path):
     log = tmp_path / "order.log"
     ahead = [dict(x=3.0, log=str(log), tag="ahead")]

@@ -58,6 +58,10 @@ DEFAULT_START_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_s
 #: Local jobs are sent to the pool in about this many chunks per worker (fewer round trips for short runs,
 #: still balanced across workers when run times differ).
 CHUNKS_PER_WORKER = 4
+#: the error of a run that ended its worker process when it ran alone (a segfault, an out-of-memory kill): the
+#: runs in flight with it when a worker dies run again (SweepRunner._run_local_retrying)
+WORKER_DEATH = ("the worker process died while running it, also when it ran alone (a crash of compiled code or an "
+                "out-of-memory kill); run it alone, outside the pool, to see the crash's message")
 _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
@@ -618,7 +622,7 @@ class SweepRunner:
                         for out in run_jobs(fn, [(k, jobs[k]) for k in keys[k0:k0 + size]], cache, fp, True):
                             self._finish(ctx, out)
                 else:
-                    self._run_local(ctx)
+                    self._run_local_retrying(ctx)
         except KeyboardInterrupt:
             if bar is not None:
                 bar[0].stop()
@@ -864,8 +868,29 @@ class SweepRunner:
     def __exit__(self, *exc) -> None:
         self.close()
 
-    def _run_local(self, ctx) -> None:
-        keys = list(ctx["jobs"])
+    def _run_local_retrying(self, ctx) -> None:
+        """:meth:`_run_local`, and again for the runs a dying worker took down.
+
+        A worker process that dies (a segfault, an out-of-memory kill) breaks the whole pool, and every run in
+        flight in it fails with it, not only the one that killed it.  Those runs (not already in the cache) run
+        again on a new pool, one per chunk; those lost a second time run one at a time, so that a run that
+        kills its worker on its own is the only one recorded as failed (:data:`WORKER_DEATH`)."""
+        lost = self._run_local(ctx)
+        for attempt in (1, 2):
+            if not lost:
+                return
+            how = "one by one" if attempt == 2 else "on a new pool"
+            self._say(f"a worker process died; {len(lost)} run(s) in flight with it run again {how}")
+            lost = self._run_local(ctx, lost, one_at_a_time=attempt == 2)
+        for key in lost:
+            self._finish(ctx, self._failed(key, WORKER_DEATH))
+
+    def _run_local(self, ctx, keys: list[str] | None = None, one_at_a_time: bool = False) -> list[str]:
+        """Run ``keys`` (default: every run of the map) in the local pool, with the chunks of them started ahead;
+        returns the keys a broken pool took down before they finished (not in the cache; not yet recorded).
+        ``keys`` given: one run per chunk (a retry); ``one_at_a_time``: each waits for the one before."""
+        retry = keys is not None
+        keys = list(ctx["jobs"]) if keys is None else list(keys)
         with self._lock:
             # queued runs (prefetch) this map needs are sent now, ahead of the rest of the queue
             need = set(keys)
@@ -876,9 +901,20 @@ class SweepRunner:
             ahead = {k: self._ahead[k] for k in keys if k in self._ahead}
             reported = {k for k in keys if k in self._reported}
         own = [k for k in keys if k not in ahead]
-        size = _chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
+        size = 1 if retry else _chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
         chunks = [own[k:k + size] for k in range(0, len(own), size)]
+        if one_at_a_time:
+            lost = []
+            for chunk in chunks:
+                lost += self._run_chunks(ctx, [chunk], {}, set())
+            return lost
+        return self._run_chunks(ctx, chunks, ahead, reported)
+
+    def _run_chunks(self, ctx, chunks: list[list[str]], ahead: dict, reported: set) -> list[str]:
+        """Submit ``chunks`` to the pool, collect them and the runs started ahead (``ahead``: key -> future);
+        returns the keys lost to a broken pool (:meth:`_run_local`)."""
         pool, progress = self._pool()
+        lost: list[str] = []
         advanced: set[str] = set()
         for key in reported:  # finished in a worker before this map began (its chunk may still be running)
             if key not in ctx["done"]:
@@ -928,8 +964,13 @@ class SweepRunner:
                         for k in chunk:  # runs of the chunk that finished before the crash are in the cache
                             entry, _ = read_cache_entry(cache_entry_path(ctx["cache"], k), k, ctx["fp"]) \
                                 if ctx["cache"] else (None, None)
-                            outs.append({"key": k, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
-                                         "cached": False, "stored": True} if entry else self._failed(k, err))
+                            if entry:
+                                outs.append({"key": k, "value": entry["value"], "error": None,
+                                             "wall_s": entry["wall_s"], "cached": False, "stored": True})
+                            elif isinstance(exc, BrokenProcessPool) and k in ctx["todo"] and k not in ctx["done"]:
+                                lost.append(k)  # the pool broke under it: run again (_run_local_retrying)
+                            else:
+                                outs.append(self._failed(k, err))
                     for out in outs:
                         if out["key"] in ctx["todo"]:  # a chunk started ahead may hold runs of later maps
                             self._finish(ctx, out, advance=out["key"] not in advanced)
@@ -941,6 +982,7 @@ class SweepRunner:
                 _close_queue(progress)
             elif getattr(pool, "_broken", False) and self._executor is pool:
                 self._close_pool_only()
+        return lost
 
     def _run_dask(self, ctx) -> None:
         from distributed import as_completed
