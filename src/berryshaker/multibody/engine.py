@@ -569,8 +569,9 @@ def call_compiled(fn, *args):
         from numba import typeof
 
         compiled = overloads.get(tuple(typeof(a) for a in args))
-        if compiled is not None:  # an exact match (a call converted to another signature is not remembered)
-            _ENTRY_POINTS[(fn, key)] = compiled.entry_point
+        entry = getattr(compiled, "entry_point", None)  # (numba internals: without them, the dispatcher every time)
+        if entry is not None:  # an exact match (a call converted to another signature is not remembered)
+            _ENTRY_POINTS[(fn, key)] = entry
     return out
 
 
