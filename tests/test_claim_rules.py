@@ -56,8 +56,12 @@ def test_a_difference_counts_only_beyond_its_noise():
 def test_ensemble_agreement_judges_means_with_their_standard_errors():
     same = ensemble_agreement(_runs(1.0, 0.05), _runs(1.0, 0.05))
     assert same["verdict"] == "agree" and same["relative_difference"]["mean"] == 0.0
-    # 8 runs spread +-5 % (SD 3.2 %): SE 1.1 %, noise band 2 x sqrt(2) x 1.1 = 3.2 %
-    assert abs(same["noise"]["mean"] - 2 * (2 ** 0.5) * same["a"]["mean"]["se"] / 500.0) < 1e-12
+    # 8 runs spread +-5 % of each (SD 3.2 %, SE 1.1 %): equal spreads give Welch's 2 (n - 1) = 14 degrees of
+    # freedom, the band t_0.975(14) x sqrt(2) x SE = 2.145 x 1.41 x 1.1 % = 3.4 %
+    from scipy import stats
+
+    band = stats.t.ppf(0.975, 14) * (2 ** 0.5) * same["a"]["mean"]["se"] / 500.0
+    assert abs(same["noise"]["mean"] - band) < 1e-12 and abs(stats.t.ppf(0.975, 14) - 2.1448) < 1e-4
     off = ensemble_agreement(_runs(1.3, 0.05), _runs(1.0, 0.05))  # 23 % apart: beyond 10 % + noise
     assert off["verdict"] == "differ" and off["verdicts"]["mean"] == "differ"
     near = ensemble_agreement(_runs(1.12, 0.3), _runs(1.0, 0.3))  # 11 % apart, noise ~15 %: cannot tell
@@ -126,3 +130,26 @@ def test_claim8_states_the_p_value_its_verdict_rests_on():
     rep["efficiency"]["factors"]["A"].update(significant=False, p=0.06)
     verdict, detail = C._claim8({"l9": {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}})
     assert verdict == "partly reproduced" and "within the noise" in detail and "p = 0.06" in detail
+
+
+def test_claim1_needs_no_centred_run_and_says_when_starts_failed():
+    res = {"agreement": None, "rows": _rows(True)}
+    verdict, detail = C._claim1(res)
+    assert verdict == "reproduced" and "eq. 18 (centred runs): not run" in detail
+    res["rows"]["model_check"]["planned"] = {"multibody": 10, "reduced": 8}
+    assert "of 10 / 8 planned" in C._claim1(res)[1]
+
+
+def test_model_check_refuses_replicates_that_would_be_copies():
+    import pytest
+
+    from berryshaker.config import machine_from_dict, reference_machine
+    from berryshaker.errors import ConfigError
+    from berryshaker.study.runs import model_check_jobs
+
+    d = reference_machine().model_dump()
+    assert len(model_check_jobs(machine_from_dict(d), {}, 3)) == 3
+    d["harvest"]["initial_eccentricity"] = 0.0
+    d["harvest"]["start_phase_spread"] = 0.0
+    with pytest.raises(ConfigError, match="copies"):
+        model_check_jobs(machine_from_dict(d), {}, 8)

@@ -3,13 +3,13 @@
 Claim 1 judges the means of each model's collision-force statistics over perturbed (multibody) and turned (MLSD)
 starts at level 2 (benchmarks/README.md sec. 26).  The count is converged when doubling it leaves every pair's
 verdict unchanged and moves no mean by more than its noise: here the 8-start means of the study against the 16
-starts whose first 8 they are (the seeds of harvest.virtual.replicate_seeds).
+starts whose first 8 they are (the seeds of harvest.virtual.replicate_seeds).  (With 8, the closest case, F's
+p95, is 10.9 +- 6.4 % against 20 %.)
 """
 
 import numpy as np
 
 from berryshaker.config import reference_machine
-from berryshaker.experiment.agreement import NOISE_SE
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.harvest.virtual import replicate_seeds
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
@@ -32,8 +32,6 @@ def test_model_check_verdicts_are_stable_when_the_starts_double():
         assert a["verdict"] == b["verdict"] == "agree", (p, a["verdicts"], b["verdicts"])
         for k in a["tolerance"]:
             for side in ("a", "b"):
-                # the 8-start mean against the 16-start one: within NOISE_SE of the 8-start standard error
-                assert abs(a[side][k]["mean"] - b[side][k]["mean"]) <= NOISE_SE * a[side][k]["se"] + 1e-9, (p, k, side)
-            # and the judged difference with its noise stays inside the tolerance with room to spare
-            assert a["relative_difference"][k] + a["noise"][k] <= 0.9 * a["tolerance"][k], (p, k)
+                # the 8-start mean against the 16-start one: within two standard errors of the 8-start mean
+                assert abs(a[side][k]["mean"] - b[side][k]["mean"]) <= 2.0 * a[side][k]["se"] + 1e-9, (p, k, side)
     assert np.isfinite([double["pairs"][p]["noise"][k] for p in m.pair_names for k in ("mean", "rms", "p95")]).all()

@@ -239,11 +239,24 @@ def test_a_worker_that_dies_takes_only_its_own_run_down(tmp_path):
     with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
         out = r.map(J.crash_at, jobs)
         assert [o.error is None for o in out] == [True, True, True, False, True, True]
-        assert out[3].error == R.WORKER_DEATH and "ran alone" in out[3].error
+        assert out[3].error.startswith(R.WORKER_DEATH) and "ran alone" in out[3].error
         assert [o.value["y"] for o in out if o.error is None] == [0.0, 1.0, 4.0, 16.0, 25.0]
         assert r.stats["failed"] == 1
         assert r.map(J.slow_square, [dict(x=2.0, delay=0.0)])[0].value["y"] == 4.0  # the pool serves on
     assert len(list((tmp_path / "cache").rglob("*.json"))) == 6  # five runs and the last map's
+
+
+def test_workers_that_die_whatever_they_run_end_the_retries(tmp_path):
+    """Every run kills its worker (as an environment that cannot run them would): after three deaths alone in a
+    row the rest fail at once, each with the pool's error, instead of a pool per run."""
+    jobs = [dict(x=float(i), bad=float(i)) for i in range(6)]
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        t0 = time.perf_counter()
+        out = r.map(J.crash_at, jobs)
+        assert all(o.error and o.error.startswith(R.WORKER_DEATH) for o in out)
+        assert sum("may not start at all" in o.error for o in out) == 3 and r.stats["failed"] == 6
+        assert time.perf_counter() - t0 < 60
+        assert r.map(J.slow_square, [dict(x=2.0, delay=0.0)])[0].value["y"] == 4.0  # a new pool serves on
 
 
 def test_warm_up_runs_in_a_worker_uncached_and_holds_back_queued_runs(tmp_path):

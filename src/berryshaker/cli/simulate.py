@@ -268,7 +268,7 @@ def compare(
     The curves: one run of each model from the centred start, the study's F statistic with the critical F value
     of scipy.stats at the stated significance and (points-1, points-1) degrees of freedom, and plainer measures
     (NRMSE, correlation, peak ratio).  The verdict: the mean, RMS and p95 of each pair's force averaged over
-    --starts replicate starts of each model, their difference within 10 / 15 / 20 % beyond two standard errors
+    --starts replicate starts of each model, their difference within 10 / 15 / 20 % beyond its 95 % noise band
     ('agree'), beyond them outside ('differ'), or 'within noise' (these starts cannot tell).  The replicate runs
     are cached as the study's (berryshaker cache).
     """
@@ -326,7 +326,7 @@ def compare(
         return
     st = check["starts"]
     tb = Table(title=f"Verdict: means over {st['multibody']} multibody / {st['reduced']} MLSD starts (+- SE), "
-                     "difference +- 2 SE against the tolerance", header_style="bold")
+                     "difference +- its 95 % band against the tolerance", header_style="bold")
     for col in ("pair", "statistic", "multibody [N]", "MLSD [N]", "difference", "tolerance", "verdict"):
         tb.add_column(col, justify="right")
     for p, c in check["pairs"].items():

@@ -74,13 +74,26 @@ def statistics_agreement(t, a, b, period: float | None = None, tolerance: dict |
 #: statistics of a run summary's collision force that model agreement judges (the impulse per revolution is the
 #: mean times the period: it agrees exactly when the mean does and is not judged twice)
 SUMMARY_STATISTICS = ("mean", "rms", "p95")
-#: standard errors a difference must clear to count (about 95 % two-sided)
-NOISE_SE = 2.0
+#: two-sided confidence of the noise band of a difference (Student's t with Welch's degrees of freedom: with 8
+#: replicates of each model about 2.3 standard errors, 2.0 for many)
+NOISE_CONFIDENCE = 0.95
+
+
+def noise_quantile(sd_a: float, n_a: int, sd_b: float, n_b: int) -> float:
+    """Student's t quantile of :data:`NOISE_CONFIDENCE` (two-sided) with the Welch-Satterthwaite degrees of
+    freedom of the difference of two means of n_a and n_b runs with standard deviations sd_a and sd_b
+    (B. L. Welch, Biometrika 34 (1947) 28-35; scipy.stats.t).  2.0 where neither model spreads (the band is
+    zero then anyway)."""
+    va, vb = sd_a * sd_a / n_a, sd_b * sd_b / n_b
+    if va + vb <= 0.0:
+        return 2.0
+    dof = (va + vb) ** 2 / (va * va / (n_a - 1) + vb * vb / (n_b - 1))
+    return float(stats.t.ppf(0.5 + NOISE_CONFIDENCE / 2.0, dof))
 
 
 def judged_difference(difference: float, noise: float, tolerance: float) -> str:
-    """Verdict on one relative difference against its tolerance, given its noise (``NOISE_SE`` standard errors of
-    the difference, relative): "agree" when even difference + noise is within the tolerance, "differ" when even
+    """Verdict on one relative difference against its tolerance, given its noise (the half-width of its
+    :data:`NOISE_CONFIDENCE` band, relative): "agree" when even difference + noise is within the tolerance, "differ" when even
     difference - noise exceeds it, else "within noise" (the tolerance lies inside the difference's noise band:
     the runs cannot tell; guide: a difference smaller than the replicates' spread is no difference)."""
     if difference + noise <= tolerance:
@@ -101,9 +114,8 @@ def summary_statistics_agreement(a: dict, b: dict, tolerance: dict | None = None
     ``a`` and ``b`` hold ``mean``, ``rms`` and ``p95`` (N) over the same revolutions, as the multibody and reduced
     summaries give them.  Each relative difference |a - b| / max(|a|, |b|) must be within
     :data:`STATISTICS_TOLERANCE` (10 / 15 / 20 %).  ``noise`` (optional, per statistic): the relative noise band
-    of a difference between two single runs (:data:`NOISE_SE` standard deviations, e.g. from
-    :func:`ensemble_agreement`'s ``single_run_noise``); with it each statistic gets a :func:`judged_difference`
-    verdict.  Returns ``relative_difference``, ``worst`` (the statistic furthest outside or closest to its
+    of a difference between two single runs (e.g. :func:`ensemble_agreement`'s ``single_run_noise``); with it each
+    statistic gets a :func:`judged_difference` verdict.  Returns ``relative_difference``, ``worst`` (the statistic furthest outside or closest to its
     tolerance), ``verdict`` ("agree", "differ" or "within noise"; without noise "agree" or "differ") and
     ``agree`` (the verdict is "agree").
     """
@@ -125,7 +137,8 @@ def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict |
 
     Each statistic (mean, RMS, p95, N) is averaged over each model's runs; the relative difference of the two
     means, d = |m_a - m_b| / max(m_a, m_b), is judged against :data:`STATISTICS_TOLERANCE` with its noise,
-    :data:`NOISE_SE` standard errors sqrt(SE_a^2 + SE_b^2) / max(m_a, m_b) (:func:`judged_difference`).  One run
+    t sqrt(SE_a^2 + SE_b^2) / max(m_a, m_b) with t of :func:`noise_quantile` (:func:`judged_difference`; the
+    relative difference's own standard error is at most that fraction to first order).  One run
     of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw (benchmarks/README.md
     sec. 25), a verdict on these means only when the difference is within its noise, and then it says so.
 
@@ -142,8 +155,9 @@ def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict |
         ``a`` / ``b``: per statistic the runs' ``mean``, standard error ``se`` and standard deviation ``sd`` (N)
         and ``n``; ``relative_difference``, ``noise`` (the band, relative), ``tolerance``, ``verdicts`` per
         statistic, ``verdict`` ("differ" if any differs, "agree" if all agree, else "within noise"), ``agree``;
-        ``single_run_noise``: the band of a difference between two single runs (NOISE_SE x sqrt(SD_a^2 + SD_b^2)
-        / max mean), what one run per model can resolve (for :func:`summary_statistics_agreement`).
+        ``single_run_noise``: the band of a difference between two single runs (t sqrt(SD_a^2 + SD_b^2) / max
+        mean), what one run per model can resolve (for :func:`summary_statistics_agreement`; it assumes the runs
+        it is applied to spread as these, relative to their level).
 
     Raises
     ------
@@ -166,9 +180,10 @@ def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict |
         sa, sb = stats_k
         scale = max(abs(sa["mean"]), abs(sb["mean"]), 1e-300)
         d = abs(sa["mean"] - sb["mean"]) / scale
+        q = noise_quantile(sa["sd"], sa["n"], sb["sd"], sb["n"])
         out["relative_difference"][k] = d
-        out["noise"][k] = NOISE_SE * float(np.hypot(sa["se"], sb["se"])) / scale
-        out["single_run_noise"][k] = NOISE_SE * float(np.hypot(sa["sd"], sb["sd"])) / scale
+        out["noise"][k] = q * float(np.hypot(sa["se"], sb["se"])) / scale
+        out["single_run_noise"][k] = q * float(np.hypot(sa["sd"], sb["sd"])) / scale
         out["verdicts"][k] = judged_difference(d, out["noise"][k], tol[k])
     out["verdict"] = _overall(out["verdicts"].values())
     out["agree"] = out["verdict"] == "agree"
@@ -190,14 +205,15 @@ def model_check(mb_runs: list, reduced_runs: list, pairs) -> dict | None:
     Returns
     -------
     dict or None
-        ``starts`` (runs per model) and ``pairs`` (per pair :func:`ensemble_agreement`); None with fewer than two
-        runs of either model.
+        ``starts`` (runs per model that ran), ``planned`` (runs per model asked for) and ``pairs`` (per pair
+        :func:`ensemble_agreement`); None with fewer than two runs of either model.
     """
     a = [r for r in mb_runs if r is not None]
     b = [r for r in reduced_runs if r is not None]
     if len(a) < 2 or len(b) < 2:
         return None
     return {"starts": {"multibody": len(a), "reduced": len(b)},
+            "planned": {"multibody": len(mb_runs), "reduced": len(reduced_runs)},
             "pairs": {p: ensemble_agreement([r["collision_force_N"][p] for r in a],
                                             [r["collision_force_N"][p] for r in b]) for p in pairs}}
 

@@ -171,7 +171,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
         st = check["starts"]
         parts.append(f"<p>The model check (claim 1): level {check['level']}, each statistic's mean over "
                      f"{st['multibody']} perturbed starts of the multibody model and {st['reduced']} turned starts of "
-                     "the MLSD (+- one standard error), their relative difference +- its noise (two standard errors) "
+                     "the MLSD (+- one standard error), their relative difference +- its noise (95 % Student-t band) "
                      "and the tolerance.  'within noise': the tolerance lies inside the noise band, so these runs "
                      "cannot tell.</p>")
         parts.append(_table(["pair", "statistic", "multibody (N)", "MLSD (N)", "difference", "tolerance", "verdict"],

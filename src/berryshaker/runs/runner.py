@@ -60,8 +60,8 @@ DEFAULT_START_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_s
 CHUNKS_PER_WORKER = 4
 #: the error of a run that ended its worker process when it ran alone (a segfault, an out-of-memory kill): the
 #: runs in flight with it when a worker dies run again (SweepRunner._run_local_retrying)
-WORKER_DEATH = ("the worker process died while running it, also when it ran alone (a crash of compiled code or an "
-                "out-of-memory kill); run it alone, outside the pool, to see the crash's message")
+WORKER_DEATH = ("the worker process died while running it, also when it ran alone in a pool of its own (a crash of "
+                "compiled code or an out-of-memory kill); run it alone, outside the pool, to see the crash's message")
 _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
@@ -873,24 +873,54 @@ class SweepRunner:
 
         A worker process that dies (a segfault, an out-of-memory kill) breaks the whole pool, and every run in
         flight in it fails with it, not only the one that killed it.  Those runs (not already in the cache) run
-        again on a new pool, one per chunk; those lost a second time run one at a time, so that a run that
-        kills its worker on its own is the only one recorded as failed (:data:`WORKER_DEATH`)."""
+        again on a new pool, one per chunk; those lost a second time run one at a time, each in a pool of its own
+        (runs started ahead for later maps keep the shared pool busy meanwhile, and one of them dying must not be
+        blamed on the lone run), so that only a run that kills its worker on its own is recorded as failed
+        (:data:`WORKER_DEATH`, with the pool's error).  After three such deaths in a row with nothing finishing,
+        the workers die whatever they run (an environment that cannot start them): the rest fail at once."""
         lost = self._run_local(ctx)
         for attempt in (1, 2):
             if not lost:
                 return
-            how = "one by one" if attempt == 2 else "on a new pool"
+            with self._lock:  # their futures broke with the pool: not started ahead any more
+                for key in lost:
+                    self._ahead.pop(key, None)
+                    self._reported.discard(key)
+            how = "one at a time" if attempt == 2 else "on a new pool"
             self._say(f"a worker process died; {len(lost)} run(s) in flight with it run again {how}")
-            lost = self._run_local(ctx, lost, one_at_a_time=attempt == 2)
-        for key in lost:
-            self._finish(ctx, self._failed(key, WORKER_DEATH))
+            if attempt == 1:
+                lost = self._run_chunks(ctx, [[k] for k in lost], {}, set())
+                continue
+            deaths = 0
+            for i, key in enumerate(lost):
+                if deaths >= 3:
+                    for rest in lost[i:]:
+                        self._finish(ctx, self._failed(rest, f"{WORKER_DEATH} (and the {deaths} runs before it "
+                                                             f"too: the workers may not start at all; "
+                                                             f"{ctx['death'].get(rest, '')})"))
+                    break
+                if self._run_alone(ctx, key):
+                    deaths += 1
+                    self._finish(ctx, self._failed(key, f"{WORKER_DEATH} ({ctx['death'].get(key, '')})"))
+                else:
+                    deaths = 0
+            lost = []
 
-    def _run_local(self, ctx, keys: list[str] | None = None, one_at_a_time: bool = False) -> list[str]:
-        """Run ``keys`` (default: every run of the map) in the local pool, with the chunks of them started ahead;
-        returns the keys a broken pool took down before they finished (not in the cache; not yet recorded).
-        ``keys`` given: one run per chunk (a retry); ``one_at_a_time``: each waits for the one before."""
-        retry = keys is not None
-        keys = list(ctx["jobs"]) if keys is None else list(keys)
+    def _run_alone(self, ctx, key: str) -> bool:
+        """Run one run in a pool of its own (one worker); True if its worker died."""
+        mp = multiprocessing.get_context(self.start_method)
+        progress = mp.Queue()
+        pool = ProcessPoolExecutor(max_workers=1, mp_context=mp, initializer=_worker_init,
+                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG))
+        try:
+            return bool(self._run_chunks(ctx, [[key]], {}, set(), (pool, progress)))
+        finally:
+            _close_pool(pool, progress)
+
+    def _run_local(self, ctx) -> list[str]:
+        """Run every run of the map in the local pool, with the chunks of them started ahead; returns the keys a
+        broken pool took down before they finished (not in the cache; not recorded yet)."""
+        keys = list(ctx["jobs"])
         with self._lock:
             # queued runs (prefetch) this map needs are sent now, ahead of the rest of the queue
             need = set(keys)
@@ -901,21 +931,18 @@ class SweepRunner:
             ahead = {k: self._ahead[k] for k in keys if k in self._ahead}
             reported = {k for k in keys if k in self._reported}
         own = [k for k in keys if k not in ahead]
-        size = 1 if retry else _chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
-        chunks = [own[k:k + size] for k in range(0, len(own), size)]
-        if one_at_a_time:
-            lost = []
-            for chunk in chunks:
-                lost += self._run_chunks(ctx, [chunk], {}, set())
-            return lost
-        return self._run_chunks(ctx, chunks, ahead, reported)
+        size = _chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
+        return self._run_chunks(ctx, [own[k:k + size] for k in range(0, len(own), size)], ahead, reported)
 
-    def _run_chunks(self, ctx, chunks: list[list[str]], ahead: dict, reported: set) -> list[str]:
-        """Submit ``chunks`` to the pool, collect them and the runs started ahead (``ahead``: key -> future);
-        returns the keys lost to a broken pool (:meth:`_run_local`)."""
-        pool, progress = self._pool()
+    def _run_chunks(self, ctx, chunks: list[list[str]], ahead: dict, reported: set, own_pool=None) -> list[str]:
+        """Submit ``chunks`` to the pool (``own_pool``: (pool, progress queue) of :meth:`_run_alone`, else the
+        shared one), collect them and the runs started ahead (``ahead``: key -> future); returns the keys lost to a
+        broken pool (:meth:`_run_local`), their pool's error in ``ctx["death"]``."""
+        shared = own_pool is None
+        pool, progress = self._pool() if shared else own_pool
         lost: list[str] = []
-        advanced: set[str] = set()
+        ctx.setdefault("death", {})
+        advanced: set[str] = ctx.setdefault("advanced", set())  # runs the bar counted (across retries)
         for key in reported:  # finished in a worker before this map began (its chunk may still be running)
             if key not in ctx["done"]:
                 advanced.add(key)
@@ -942,10 +969,20 @@ class SweepRunner:
 
         clean = False
         try:
-            futs = {pool.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
-                                True): chunk for chunk in chunks}
-            with self._lock:
-                self._live = [f for f in self._live if not f.done()] + list(futs)
+            futs = {}
+            for chunk in chunks:
+                try:
+                    fut = pool.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"],
+                                      ctx["fp"], True)
+                except BrokenProcessPool as exc:  # it broke under runs sent before (or started ahead)
+                    for k in chunk:
+                        ctx["death"][k] = f"{type(exc).__name__}: {exc}"
+                    lost += chunk
+                    continue
+                futs[fut] = chunk
+            if shared:
+                with self._lock:
+                    self._live = [f for f in self._live if not f.done()] + list(futs)
             for fut in set(ahead.values()):
                 futs[fut] = [k for k in fut.berryshaker_keys if k in ctx["todo"]]
             pending = set(futs)
@@ -969,6 +1006,7 @@ class SweepRunner:
                                              "wall_s": entry["wall_s"], "cached": False, "stored": True})
                             elif isinstance(exc, BrokenProcessPool) and k in ctx["todo"] and k not in ctx["done"]:
                                 lost.append(k)  # the pool broke under it: run again (_run_local_retrying)
+                                ctx["death"][k] = err
                             else:
                                 outs.append(self._failed(k, err))
                     for out in outs:
@@ -977,10 +1015,13 @@ class SweepRunner:
             clean = True
         finally:
             if not clean:  # Ctrl-C or an error in this process: cancel, end the workers now
+                if not shared:
+                    _abort_pool(pool)
                 self.abort(close_queue=False)
                 drain()  # runs that finished before the interruption (for the message)
-                _close_queue(progress)
-            elif getattr(pool, "_broken", False) and self._executor is pool:
+                if shared:
+                    _close_queue(progress)
+            elif shared and getattr(pool, "_broken", False) and self._executor is pool:
                 self._close_pool_only()
         return lost
 

@@ -75,9 +75,15 @@ def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3
     """Arguments of :func:`multibody_row` and :func:`reduced_row` for the model check's replicate starts (claim 1;
     ``berryshaker compare``): seeds (seed_k, MODEL_CHECK_LEVEL) with seed_k of
     :func:`berryshaker.harvest.virtual.replicate_seeds`, at ``clearance``."""
+    from berryshaker.errors import ConfigError
     from berryshaker.harvest.virtual import replicate_seeds
     from berryshaker.reference_study import MODEL_CHECK_LEVEL
 
+    h = machine.harvest
+    if h.initial_eccentricity == 0 and h.start_phase_spread == 0:
+        raise ConfigError("harvest.initial_eccentricity and harvest.start_phase_spread are both 0: every replicate "
+                          "start would be the centred one, and copies show no noise; give either > 0 (the "
+                          "reference: 1 and 180 deg)")
     data = machine.model_dump(mode="json")
     return [dict(machine_data=data, clearance=dict(clearance), revolutions=revolutions, seed=[sd, MODEL_CHECK_LEVEL])
             for sd in replicate_seeds(machine, starts)]
