@@ -65,6 +65,9 @@ class StudyContext:
     say: Callable[[str], None] = lambda msg: None
     results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
     drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
+    # called by the step that compiles the multibody engine once it has (run_steps then starts the planned runs
+    # that need it, while that step still plots)
+    engine_compiled: Callable[[], None] = lambda: None
 
     @property
     def drive(self):
@@ -167,6 +170,7 @@ def step_agreement(ctx: StudyContext) -> StepResult:
             "on the first run)")
     lvl = level_set(ctx.machine, MODEL_CHECK_LEVEL)
     ag = model_agreement(ctx.machine, lvl, revolutions=3)
+    ctx.engine_compiled()  # the workers can start the multibody runs while the figures are drawn here
     figs = []
     for k, (p, (a, b)) in enumerate(ag["series"].items()):
         name = f"fig{14 + k}_agreement_{p}.png"
@@ -594,7 +598,8 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     compiles the rest of it (:func:`compile_engine_beside`, before :data:`ENGINE_STEP`, whose first multibody
     run then compiles only the integrator).  The reduced model's runs start at once in one worker (on a machine
     with fewer than three cores, once the engine's parts are compiled); the multibody ones right after
-    :data:`ENGINE_STEP`, so the workers load the compiled engine instead of compiling it as well.  While this
+    :data:`ENGINE_STEP` has compiled the engine (``StudyContext.engine_compiled``, called before that step draws its
+figures), so the workers load the compiled engine instead of compiling it as well.  While this
     process plots and analyses a step, the workers are already running the next steps' runs.  Results are the
     same as without it (each step's map takes the same runs).
     """
@@ -623,11 +628,17 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
                 if not p.engine:
                     runner.prefetch(p.fn, p.jobs, chunks=1)
         engine_ready = not any(key == ENGINE_STEP for key, _ in STEPS)
+
+        def start_planned():
+            nonlocal plans
+            for p in plans:
+                runner.prefetch(p.fn, p.jobs)
+            plans = []
+
+        ctx.engine_compiled = start_planned
         for key, fn in STEPS:
             if engine_ready and plans:
-                for p in plans:
-                    runner.prefetch(p.fn, p.jobs)
-                plans = []
+                start_planned()
             t0 = time.perf_counter()
             if key == ENGINE_STEP and warm is not None:
                 why = compile_engine_beside(machine, warm)
