@@ -599,7 +599,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     run then compiles only the integrator).  The reduced model's runs start at once in one worker (on a machine
     with fewer than three cores, once the engine's parts are compiled); the multibody ones right after
     :data:`ENGINE_STEP` has compiled the engine (``StudyContext.engine_compiled``, called before that step draws its
-figures), so the workers load the compiled engine instead of compiling it as well.  While this
+    figures), so the workers load the compiled engine instead of compiling it as well.  While this
     process plots and analyses a step, the workers are already running the next steps' runs.  Results are the
     same as without it (each step's map takes the same runs).
     """
