@@ -246,6 +246,26 @@ def test_a_worker_that_dies_takes_only_its_own_run_down(tmp_path):
     assert len(list((tmp_path / "cache").rglob("*.json"))) == 6  # five runs and the last map's
 
 
+def test_a_pool_that_breaks_while_runs_are_sent_does_not_end_the_map(tmp_path, monkeypatch):
+    """The pool breaks between two submissions (a run started ahead died): the runs not sent are run again,
+    not the whole map ended with the error."""
+    from concurrent.futures.process import BrokenProcessPool
+
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        pool, _ = r._pool()
+        real, calls = pool.submit, []
+
+        def breaks_once(*args, **kwargs):
+            calls.append(1)
+            if len(calls) == 2:
+                raise BrokenProcessPool("broke while the runs were sent")
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(pool, "submit", breaks_once)
+        out = r.map(J.slow_square, [dict(x=float(i), delay=0.0) for i in range(4)])
+        assert [o.value["y"] for o in out] == [0.0, 1.0, 4.0, 9.0] and len(calls) > 2
+
+
 def test_workers_that_die_whatever_they_run_end_the_retries(tmp_path):
     """Every run kills its worker (as an environment that cannot run them would): after three deaths alone in a
     row the rest fail at once, each with the pool's error, instead of a pool per run."""
