@@ -149,7 +149,6 @@ def test_model_check_refuses_replicates_that_would_be_copies():
 
     d = reference_machine().model_dump()
     assert len(model_check_jobs(machine_from_dict(d), {}, 3)) == 3
-    d["harvest"]["initial_eccentricity"] = 0.0
     d["harvest"]["start_phase_spread"] = 0.0
-    with pytest.raises(ConfigError, match="copies"):
+    with pytest.raises(ConfigError, match="start_phase_spread is 0"):
         model_check_jobs(machine_from_dict(d), {}, 8)

@@ -48,7 +48,7 @@ def test_compare_cli_reports_agreement_per_pair(tmp_path):
     for p in "ABCF":
         assert check["pairs"][p]["verdict"] in ("agree", "differ", "within noise")
         assert check["pairs"][p]["a"]["p95"]["n"] == 3 and check["pairs"][p]["noise"]["p95"] > 0
-    assert len(list((tmp_path / "cache").rglob("*.json"))) == 6
+    assert len(list((tmp_path / "cache").rglob("*.json"))) == 6 and s["failed_starts"] == []
     one = CliRunner().invoke(app, ["compare", "--starts", "1"])
     assert one.exit_code != 0 and "no spread" in one.output
     for p in "ABCF":

@@ -289,9 +289,13 @@ def compare(
 
             jobs = model_check_jobs(machine, sizes, starts, revolutions)
             with SweepRunner(workers=workers, cache_dir=cache, progress=not as_json, console=err) as runner:
-                mb = [o.value for o in runner.map(multibody_row, jobs, f"{starts} perturbed starts, multibody")]
-                ml = [o.value for o in runner.map(reduced_row, jobs, f"{starts} turned starts, MLSD")]
-            res["model_check"] = model_check(mb, ml, machine.pair_names)
+                mb = runner.map(multibody_row, jobs, f"{starts} perturbed starts, multibody")
+                ml = runner.map(reduced_row, jobs, f"{starts} turned starts, MLSD")
+            res["model_check"] = model_check([o.value for o in mb], [o.value for o in ml], machine.pair_names)
+            res["failed_starts"] = [{"model": model, "start": o.index + 1, "error": o.error}
+                                    for model, outs in (("multibody", mb), ("MLSD", ml)) for o in outs if o.error]
+            for f in res["failed_starts"]:
+                err.print(f"[yellow]{f['model']} start {f['start']} failed[/]: {f['error']}")
             if res["model_check"] is None:
                 raise BerryshakerError("fewer than two replicate starts of a model ran: no spread to judge by")
         res["version"] = __version__

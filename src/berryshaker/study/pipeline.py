@@ -193,7 +193,7 @@ def _model_check_jobs(ctx: StudyContext) -> list[dict]:
 
 def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
     """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions);
-    with a reduced model also :data:`MODEL_CHECK_STARTS` perturbed starts of each at the model-check level."""
+    with a reduced model also :data:`MODEL_CHECK_STARTS` replicate starts of each at the model-check level."""
     last = n_rows(ctx.machine)
     jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3)
             for r in range(1, last + 1)]

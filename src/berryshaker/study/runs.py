@@ -79,11 +79,10 @@ def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3
     from berryshaker.harvest.virtual import replicate_seeds
     from berryshaker.reference_study import MODEL_CHECK_LEVEL
 
-    h = machine.harvest
-    if h.initial_eccentricity == 0 and h.start_phase_spread == 0:
-        raise ConfigError("harvest.initial_eccentricity and harvest.start_phase_spread are both 0: every replicate "
-                          "start would be the centred one, and copies show no noise; give either > 0 (the "
-                          "reference: 1 and 180 deg)")
+    if machine.harvest.start_phase_spread == 0:
+        raise ConfigError("harvest.start_phase_spread is 0: the reduced model's replicate starts (turned by up to "
+                          "it; its joints start centred) would all be the same run, and copies show no noise; give "
+                          "an angle > 0 (the reference: 180 deg)")
     data = machine.model_dump(mode="json")
     return [dict(machine_data=data, clearance=dict(clearance), revolutions=revolutions, seed=[sd, MODEL_CHECK_LEVEL])
             for sd in replicate_seeds(machine, starts)]
