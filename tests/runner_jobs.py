@@ -83,3 +83,14 @@ def crash_at(x: float, bad: float, delay: float = 0.0) -> dict:
     if x == bad:
         os._exit(3)
     return {"y": x * x}
+
+
+def prime_log(log: str) -> None:
+    """A worker prime: append this process's pid to the file ``log``."""
+    with open(log, "a") as fh:
+        fh.write(f"{os.getpid()}\n")
+
+
+def prime_fails() -> None:
+    """A worker prime that raises."""
+    raise RuntimeError("a prime that fails")

@@ -1,6 +1,7 @@
 """The sweep runner: code-aware cache keys, validated cache entries, shared-cache reuse, cold-cost stats,
 chunked local pools, runs started ahead (prefetch), Ctrl-C and a killed parent, clear errors for bad --workers / --scheduler."""
 
+import functools
 import io
 import json
 import os
@@ -297,6 +298,37 @@ def test_warm_up_runs_in_a_worker_uncached_and_holds_back_queued_runs(tmp_path):
     # the pool at once and run before them)
     assert max(done.index("own1"), done.index("own2")) < done.index("ahead"), done
     assert len(list((tmp_path / "cache").rglob("*.json"))) == 3  # the runs' entries only
+
+
+def _wait_for_lines(path, n, timeout=60.0):
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        if path.exists() and len(path.read_text().split()) >= n:
+            return path.read_text().split()
+        time.sleep(0.05)
+    raise AssertionError(f"{path}: fewer than {n} lines after {timeout} s")
+
+
+def test_start_workers_starts_every_worker_with_its_prime_and_the_runs_use_them(tmp_path):
+    log = tmp_path / "primed.log"
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        assert r.start_workers(functools.partial(J.prime_log, str(log))) == 2
+        pids = set(_wait_for_lines(log, 2))  # before any run: both processes started and primed, once each
+        assert len(pids) == 2 and os.getpid() not in {int(p) for p in pids}
+        assert r.start_workers() == 0  # the pool is running
+        outs = r.map(J.slow_square, [dict(x=float(i), delay=0.2) for i in range(4)])
+        assert [o.value["y"] for o in outs] == [0.0, 1.0, 4.0, 9.0]
+        assert {str(o.value["pid"]) for o in outs} <= pids  # the runs went to the started workers
+        assert r.stats["computed"] == 4  # a prime is not a run
+    assert len(log.read_text().split()) == 2
+
+
+def test_a_failing_prime_is_ignored_and_one_worker_starts_nothing(tmp_path):
+    with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        assert r.start_workers(J.prime_fails) == 2
+        assert [o.value["y"] for o in r.map(J.square, [dict(x=2.0), dict(x=3.0)])] == [4.0, 9.0]
+    one = _runner(tmp_path)
+    assert one.start_workers(J.prime_fails) == 0 and one._executor is None
 
 
 def test_default_workers_are_the_cores_this_process_may_use(tmp_path):

@@ -209,6 +209,34 @@ def test_invalid_config_stops_before_any_simulation(tmp_path):
     assert not (tmp_path / "o").exists()
 
 
+def test_workers_started_before_the_geometry_check_are_ended_when_it_fails(fast_config, tmp_path, monkeypatch):
+    """The study starts its workers before the description's geometry check (they import while it runs); a check
+    that fails ends them and reports the check's error, and nothing is written."""
+    import dataclasses
+
+    import berryshaker.drives as drives
+    from berryshaker.errors import ConfigError
+    from berryshaker.runs.runner import SweepRunner
+
+    real_drive_of, real_abort = drives.drive_of, SweepRunner.abort
+    aborted = []
+
+    def boom(machine):
+        raise ConfigError("cam.stroke: the follower leaves the groove (a check that fails on purpose)")
+
+    def abort(self, *a, **k):
+        aborted.append(self._executor is not None)  # a pool was running
+        return real_abort(self, *a, **k)
+
+    monkeypatch.setattr(drives, "drive_of", lambda m: dataclasses.replace(real_drive_of(m), check=boom))
+    monkeypatch.setattr(SweepRunner, "abort", abort)
+    r = runner_cli.invoke(app, ["study", "--config", str(fast_config), "--out", str(tmp_path / "o"), "--cache",
+                                str(tmp_path / "c"), "--workers", "2"])
+    assert r.exit_code == 2 and "on purpose" in r.stderr
+    assert aborted == [True]
+    assert not (tmp_path / "o").exists() and not list((tmp_path).glob("*staging*"))
+
+
 def test_report_renders_in_headless_chromium(study_out):
     out, _, _ = study_out
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")

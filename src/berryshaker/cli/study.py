@@ -47,14 +47,12 @@ def study(
     the virtual L9 field test with range analysis and regression; a claims table with verdicts.
     Interrupted? Run it again: finished runs come from the cache.
     """
+    runner = None
     try:
-        from berryshaker.drives import drive_of
         from berryshaker.outputs import prepare_output_dir
         from berryshaker.runs.runner import SweepRunner
-        from berryshaker.study.pipeline import run_study
 
         machine = _load(config)  # a config that fails validation stops here, before any simulation
-        drive_of(machine).check(machine)
         prepare_output_dir(out_dir, kind="study")  # refuse a folder with the user's files before any work
         if machine.plant is None:
             raise BerryshakerError("the study needs a [plant] block in the machine description")
@@ -62,8 +60,20 @@ def study(
                              progress=not as_json, console=err)
         if scheduler:
             runner.check_scheduler()
+        else:
+            from berryshaker.study.runs import import_run_modules
+
+            # the workers start and import what their runs need while this process checks the description's
+            # geometry (its kernels compiled on a fresh install) and imports the pipeline
+            runner.start_workers(import_run_modules)
+        from berryshaker.drives import drive_of
+        from berryshaker.study.pipeline import run_study
+
+        drive_of(machine).check(machine)
         summary = run_study(machine, out_dir, runner, console=None if as_json else err)
     except BerryshakerError as exc:
+        if runner is not None:
+            runner.abort()
         _fail(exc)
         return
     if as_json:

@@ -405,11 +405,12 @@ def one_blas_thread() -> dict[str, int]:
     return before
 
 
-def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) -> None:
+def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool, prime=None) -> None:
     """Pool-worker initializer: report progress through ``progress``, one BLAS thread (:func:`one_blas_thread`),
     leave Ctrl-C to the parent (it cancels and terminates the pool), and exit when the parent is gone (Linux: a
     kernel death signal; everywhere: a thread polling the parent pid).  With ``forkserver`` the parent is the
-    fork server, which exits when the main process dies."""
+    fork server, which exits when the main process dies.  Then ``prime()``, if given
+    (:meth:`SweepRunner.start_workers`; an error in it is ignored: the runs meet it themselves)."""
     global _PROGRESS
     import signal
 
@@ -429,6 +430,15 @@ def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool) 
         os._exit(1)
     threading.Thread(target=_watch_parent, args=(ppid, parent_pid), name="berryshaker-parent-watch",
                      daemon=True).start()
+    if prime is not None:
+        try:
+            prime()
+        except Exception:  # noqa: BLE001 - an optimisation only: a failing initializer would break the pool
+            pass
+
+
+def _no_prime() -> None:
+    """Nothing: a call that makes :meth:`SweepRunner.start_workers`'s pool start a process."""
 
 
 # ---- the runner ----------------------------------------------------------------------------------------
@@ -518,6 +528,7 @@ class SweepRunner:
         self._live: list[Future] = []
         self._reported: set[str] = set()
         self._feeder: threading.Thread | None = None
+        self._prime: Callable | None = None  # what every worker calls once it has started (start_workers)
 
     # ---- messages ----------------------------------------------------------------------------------
     def _say(self, msg: str) -> None:
@@ -698,7 +709,7 @@ class SweepRunner:
         mp = multiprocessing.get_context(self.start_method)
         progress = mp.Queue()
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp, initializer=_worker_init,
-                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG))
+                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG, self._prime))
         self._executor, self._progress_queue = pool, progress
         self._finalizer = weakref.finalize(self, _close_pool, pool, progress)
         return pool, progress
@@ -813,6 +824,27 @@ class SweepRunner:
             self._live.append(fut)
         return fut
 
+    def start_workers(self, prime: Callable | None = None) -> int:
+        """Start every local worker process now (they are otherwise started with the first runs that need them),
+        each calling ``prime()`` once it has started, e.g. to import the modules its runs will need while this
+        process is still busy on its own.  Workers started later (a pool started again after a crash) call it
+        too.  Returns the workers started: 0 with one worker (its runs run in this process), a Dask scheduler or
+        a pool running already.
+
+        A start-up optimisation only: a prime that fails is ignored (the runs meet the same error themselves)."""
+        if self.scheduler or self.workers <= 1 or self._executor is not None:
+            return 0
+        with self._lock:
+            self._prime = prime
+            try:
+                pool, _ = self._pool_locked()
+                # one call per worker, all submitted at once: none is idle yet, so each submit starts a process
+                futs = [pool.submit(_no_prime) for _ in range(self.workers)]
+            except RuntimeError:
+                return 0
+            self._live.extend(futs)
+        return self.workers
+
     def _drop_broken_ahead(self) -> None:
         """Forget runs started ahead whose chunk a crashed or ended pool took down (a worker crash breaks every
         chunk in flight, also other steps' runs): the map that needs them runs them again (or finds them in the
@@ -911,7 +943,7 @@ class SweepRunner:
         mp = multiprocessing.get_context(self.start_method)
         progress = mp.Queue()
         pool = ProcessPoolExecutor(max_workers=1, mp_context=mp, initializer=_worker_init,
-                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG))
+                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG, self._prime))
         try:
             return bool(self._run_chunks(ctx, [[key]], {}, set(), (pool, progress)))
         finally:

@@ -150,6 +150,17 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     return out
 
 
+def import_run_modules() -> None:
+    """Import the modules the study's runs need (a worker prime, :meth:`SweepRunner.start_workers`: a started
+    worker imports them while the study's process loads and checks the description, not when its first run
+    comes)."""
+    import berryshaker.drives.simulation  # noqa: F401 - imported for its side effect, the module cache
+    import berryshaker.harvest.coupled  # noqa: F401
+    import berryshaker.harvest.virtual  # noqa: F401
+    import berryshaker.multibody.engine  # noqa: F401
+    import berryshaker.multibody.perturbation  # noqa: F401
+
+
 def warm_worker(machine_data: dict) -> dict:
     """Compile, in a pool worker at the start of a study, the multibody engine's force evaluation (every force
     element and contact law) and the step helpers that evaluate the laws
