@@ -73,9 +73,13 @@ def study(
         summary = run_study(machine, out_dir, runner, console=None if as_json else err)
     except BerryshakerError as exc:
         if runner is not None:
-            runner.abort()
+            runner.abort()  # the workers started for the study (a check that failed after they started)
         _fail(exc)
         return
+    except BaseException:  # Ctrl-C or a bug: the workers end now, not after their imports
+        if runner is not None:
+            runner.abort()
+        raise
     if as_json:
         _print_json(summary)
         return
