@@ -129,3 +129,18 @@ def test_coupled_runs_default_to_the_chosen_tolerance():
                replicate_jobs):
         assert inspect.signature(fn).parameters["rtol"].default == COUPLED_RTOL, fn.__name__
     assert RTOL_RUN == COUPLED_RTOL
+
+
+def test_coupled_runs_carry_the_studied_velocity_scale():
+    """The coupled mechanism holds its velocities' error at rtol x COUPLED_VELOCITY_SCALE (the scale chosen with
+    COUPLED_RTOL by benchmarks/coupled_velocity_scale_study.py), not at the harvester's or the engine's default,
+    and the engine turns it into that absolute tolerance."""
+    from berryshaker.harvest.coupled import coupled_mechanism
+    from berryshaker.harvest.spec import COUPLED_VELOCITY_SCALE
+    from berryshaker.multibody.engine import POSITION_SCALE, prepare_run
+
+    spec, _ = coupled_mechanism(reference_machine(), CLEARANCE)
+    assert spec.simulation.velocity_scale == COUPLED_VELOCITY_SCALE == 1.0
+    run = prepare_run(spec, rtol=COUPLED_RTOL)
+    n = run.cm.n
+    assert run.atol[n] / run.atol[0] == pytest.approx(COUPLED_VELOCITY_SCALE / POSITION_SCALE)

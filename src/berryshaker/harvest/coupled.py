@@ -17,7 +17,7 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError
 from berryshaker.drives import drive_of
-from berryshaker.harvest.spec import COUPLED_RTOL
+from berryshaker.harvest.spec import COUPLED_RTOL, COUPLED_VELOCITY_SCALE
 from berryshaker.plant.bush import member_weight
 from berryshaker.plant.modes import branch_modes
 from berryshaker.plant.response import harvest_verdict
@@ -183,9 +183,8 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         start_distance=-(half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
         contact=law, contacts=contacts)
     spec["simulation"]["duration"] = duration
-    # the coupled runs' tolerance (COUPLED_RTOL and the L9's replicated tolerance check) was chosen with the
-    # engine's default velocity scale, not the harvester's (benchmarks/README.md sec. 21, 25)
-    spec["simulation"].pop("velocity_scale", None)
+    # the coupled runs' velocity scale is their own, studied with their tolerance (COUPLED_VELOCITY_SCALE)
+    spec["simulation"]["velocity_scale"] = COUPLED_VELOCITY_SCALE
     spec["mechanism"]["name"] = f"{machine.machine.name} + branch (rigid-flexible coupling)"
     if fb is not None and not members and not probes:
         try:

@@ -18,6 +18,13 @@ from berryshaker.quantity_fields import StrictModel as _Strict
 #: rule: against 10x tighter, every response's mean paired difference within one replicate SD, SE <= 0.5 SD
 COUPLED_RTOL = 1e-5
 
+#: velocity scale (m/s) of every coupled run's error control (``simulation.velocity_scale``: a velocity's error
+#: is held absolutely below rtol x this speed; the machine's velocities and the branch's modal ones alike).
+#: [studied] benchmarks/coupled_velocity_scale_study.py: the loosest scale at which no response of 16
+#: replicates differs from rtol 1e-7 at the engine's 0.1 m/s beyond 2 standard errors (docs/harvest.md,
+#: "Solver tolerance of the coupled runs"); it was the engine's 0.1 m/s
+COUPLED_VELOCITY_SCALE = 1.0
+
 
 class HarvestSpec(_Strict):
     """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md)."""

@@ -248,8 +248,9 @@ class SimulationSpec(_Strict):
     The integrator holds each state's local error below ``atol + rtol |y|``, with ``atol = rtol x 1 mm`` for
     positions (m, rad) and ``atol = rtol x velocity_scale`` for velocities (m/s, rad/s): below
     ``velocity_scale`` a velocity's error is held absolutely, as if it moved at that speed.  The engine's default
-    (0.1 m/s) suits small test mechanisms; the harvester drives use the scale their convergence study chose
-    (:data:`berryshaker.drives.base.HARVESTER_VELOCITY_SCALE`, docs/multibody.md "Error control").
+    (0.1 m/s) suits small test mechanisms; the harvester drives and the coupled machine-plant runs use the scales
+    their convergence studies chose (:data:`berryshaker.drives.base.HARVESTER_VELOCITY_SCALE`,
+    :data:`berryshaker.harvest.spec.COUPLED_VELOCITY_SCALE`; docs/multibody.md "Error control").
     """
     duration: Annotated[float, _q("time"), Field(gt=0)] = 0.05
     rtol: float = Field(1e-7, gt=0, lt=1)
