@@ -365,7 +365,9 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         rt = tc.get("rtol", [1e-6, 1e-7])  # a summary written before the tolerances were recorded: 1e-6, 1e-7
         parts.append("<h3>Solver-tolerance check</h3>")
         parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
-                     f"re-run at rtol {format_tolerance(rt[1])}).</p>")
+                     f"re-run at rtol {format_tolerance(rt[1])}"
+                     + (f"; velocities held absolutely below rtol x {tc['velocity_scale_m_s']:g} m/s at both"
+                        if "velocity_scale_m_s" in tc else "") + ").</p>")
         fmt = [format_tolerance(x) for x in rt]
         rule = "within 2 x noise" if all("mean_change" in v for v in tc["responses"].values()) else \
             "within 1 SD (a summary from before 2026-11-23)"

@@ -28,7 +28,7 @@ import numpy as np
 from berryshaker.harvest.virtual import replicate_seeds  # noqa: F401  (one home; re-exported here)
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
-from berryshaker.harvest.spec import COUPLED_RTOL
+from berryshaker.harvest.spec import COUPLED_RTOL, COUPLED_VELOCITY_SCALE
 from berryshaker.units import format_tolerance
 from berryshaker.study.runs import replicate_run
 
@@ -449,7 +449,8 @@ def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec
     s = seeds[:k]
     o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {format_tolerance(RTOL_CHECK)}")
     tight = cells(o, s, pops[:k])
-    out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "replicates": k, "responses": {}}
+    out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "velocity_scale_m_s": COUPLED_VELOCITY_SCALE,
+           "replicates": k, "responses": {}}
     for n in names:
         sd = math.sqrt(rep["responses"][n]["anova"]["pure_error"]["ms"])
         out["responses"][n] = tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sd)
