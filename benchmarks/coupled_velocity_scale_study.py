@@ -27,6 +27,7 @@ from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.harvest.virtual import replicate_seeds, sample_population, stem_force_envelope_run
 from berryshaker.multibody.perturbation import RandomInitialPerturbation
 from berryshaker.study.l9 import _cell, replicate_jobs
+from berryshaker.study.runs import replicate_record
 
 CLEARANCE = {"A": 0.25e-3, "B": 0.2e-3, "C": 0.1e-3, "F": 0.2e-3}  # A1B1C1F3, m
 REFERENCE = (1e-7, 0.1)  # rtol, velocity scale (m/s)
@@ -44,13 +45,7 @@ def _job(args):
     c0 = time.process_time()
     table, res = stem_force_envelope_run(machine, job["clearance"], job["scale"], pert, rtol)
     cpu = time.process_time() - c0
-    s = res.summary()
-    out = {"envelope": table.tolist(),
-           "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
-    if s["drivers"]:
-        tq = next(iter(s["drivers"].values()))["torque_Nm"]
-        out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"]}
-    return out, float(np.mean(table)), float(res.info[0] + res.info[1] + res.info[2]), cpu
+    return replicate_record(machine, table, res), float(np.mean(table)), float(res.info[0] + res.info[1] + res.info[2]), cpu
 
 
 def responses(pool, rtol: float, scale: float, replicates: int):

@@ -113,8 +113,8 @@ def test_default_tolerance_converged(tight):
 def test_a_loose_tolerance_fails(tight):
     """The criterion is not vacuous: at rtol 1e-3 the clearance joints' impacts blow up (measured against 1e-7 at
     0.1 m/s: drive torque RMS +4.2 SD, peak force of A +1.8 SD; it still fails at 1 m/s), and the 16 replicates
-    resolve it -- a response misses on
-    its mean with the comparison's SE inside the bound, not merely on an SE too large to tell."""
+    resolve it -- a response misses on its mean with the comparison's SE inside the bound, not merely on an SE
+    too large to tell."""
     v = _verdicts(_cells(1e-3, REPLICATES), tight)
     assert any(abs(m) > TOL_SD and se <= TOL_SD / 2 for m, se, _ in v.values()), v
 

@@ -141,6 +141,12 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     h = machine.harvest
     pert = RandomInitialPerturbation(tuple(int(s) for s in seed), h.initial_eccentricity, h.start_phase_spread)
     table, res = stem_force_envelope_run(machine, clearance, scale, pert, rtol)
+    return replicate_record(machine, table, res)
+
+
+def replicate_record(machine, table, res) -> dict:
+    """What :func:`replicate_run` keeps of one drive-past: the peak stem-force table ``table`` and, from the
+    run ``res``, the peak force of every clearance pair and the drive torque's peak and RMS."""
     s = res.summary()
     out = {"envelope": table.tolist(),
            "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
