@@ -156,6 +156,8 @@ def main(argv=None) -> None:
     """Run the ladders and print the reference check, the ladders and the matched-accuracy tables."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="shorter ladders, one repeat (a smoke run)")
+    ap.add_argument("--specialised", action="store_true",
+                    help="ours with the kernel specialised to the slider-crank's structure (multibody.specialised)")
     args = ap.parse_args(argv)
     try:
         import exudyn
@@ -164,6 +166,8 @@ def main(argv=None) -> None:
         return
     repeats = 1 if args.quick else 3
     spec = hunt_crossley_slider_crank()
+    if args.specialised:
+        spec = spec.model_copy(update={"simulation": spec.simulation.model_copy(update={"specialised": True})})
     y0 = initial_state(spec)
     period = 2 * math.pi / abs(spec.drivers[0].speed)
     rtols = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8) if args.quick else \
@@ -174,7 +178,7 @@ def main(argv=None) -> None:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else math.nan
     print(f"Exudyn {exudyn.__version__}, {os.cpu_count()} cores (load average {load:.1f} at start), "
           f"{time.strftime('%Y-%m-%d')}; slider-crank (Hunt-Crossley e = 0.9), two crank revolutions = "
-          f"{2 * period * 1e3:.1f} ms simulated")
+          f"{2 * period * 1e3:.1f} ms simulated" + ("; ours specialised" if args.specialised else ""))
 
     simulate_mechanism(spec, duration=1e-3, rtol=1e-6)  # warm-up: numba compile / cache load
     from exudyn_models import run_exudyn

@@ -21,6 +21,9 @@ call (numba compilation or cache load excluded):
 and prints the best of every figure over the rounds:
 
     .venv/bin/python benchmarks/bench_step_cost.py --compare /tmp/lean_base/src --rounds 3
+
+``--kernels`` does the same with this tree's generic kernel and the kernel specialised to each mechanism's
+structure (``--specialised`` alone measures only the latter; benchmarks/README.md sec. 29).
 """
 
 from __future__ import annotations
@@ -43,8 +46,10 @@ OUTPUT_STEP = 1e-5
 
 
 
-def figures(repeat: int) -> dict:
-    """The figures of the module docstring, measured in this process."""
+def figures(repeat: int, specialised: bool = False) -> dict:
+    """The figures of the module docstring, measured in this process (``specialised``: the engine's runs with the
+    kernel specialised to each mechanism's structure, multibody.specialised; the replicate job stays generic)."""
+    sk = {"specialised": True} if specialised else {}
     sys.path.insert(0, str(ROOT / "benchmarks"))
     from reduced_slider_crank import simulate_reduced_slider_crank
 
@@ -57,8 +62,10 @@ def figures(repeat: int) -> dict:
     duration = 2 * 2 * math.pi / abs(spec.drivers[0].speed)
     out: dict = {}
     for rtol in RTOLS:
-        r, cpu = best_cpu_time(lambda: simulate_mechanism(spec, duration=duration, rtol=rtol, output_step=OUTPUT_STEP), repeat)
-        r0, cpu0 = best_cpu_time(lambda: simulate_mechanism(spec, duration=1e-4, rtol=rtol, output_step=OUTPUT_STEP), repeat)
+        r, cpu = best_cpu_time(lambda: simulate_mechanism(spec, duration=duration, rtol=rtol, output_step=OUTPUT_STEP,
+                                                                 **sk), repeat)
+        r0, cpu0 = best_cpu_time(lambda: simulate_mechanism(spec, duration=1e-4, rtol=rtol, output_step=OUTPUT_STEP,
+                                                            **sk), repeat)
         q, cpu_q = best_cpu_time(lambda: simulate_reduced_slider_crank(spec, duration, rtol, OUTPUT_STEP), repeat)
         q0, cpu_q0 = best_cpu_time(lambda: simulate_reduced_slider_crank(spec, 1e-4, rtol, OUTPUT_STEP), repeat)
         n, n0 = int(r.info[0]), int(r0.info[0])
@@ -67,9 +74,10 @@ def figures(repeat: int) -> dict:
                               "reduced_us": (cpu_q - cpu_q0) / (q["steps"] - q0["steps"]) * 1e6,
                               "engine_run_ms": cpu * 1e3, "reduced_run_ms": cpu_q * 1e3}
     m = reference_machine()
-    (res, summ), cpu = best_cpu_time(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2), repeat)
+    (res, summ), cpu = best_cpu_time(lambda: simulate_multibody(m, dict(m.clearance_sizes()), revolutions=2, **sk),
+                                    repeat)
     out["harvester"] = {"cpu_s": cpu, "steps": summ["steps"]}
-    out["coupled"] = _coupled(repeat)
+    out["coupled"] = _coupled(repeat, specialised)
     out["replicate"] = _replicate(repeat)
     return out
 
@@ -86,7 +94,7 @@ def _replicate(repeat: int) -> dict:
     return {"cpu_s": cpu}
 
 
-def _coupled(repeat: int) -> dict:
+def _coupled(repeat: int, specialised: bool = False) -> dict:
     """CPU of the compiled integration of the study's coupled drive-past run (prepared arrays, no post-processing)."""
 
     from berryshaker.config import reference_machine
@@ -95,12 +103,17 @@ def _coupled(repeat: int) -> dict:
     from berryshaker.multibody.engine import prepare_run
 
     spec, _ = coupled_mechanism(reference_machine())
+    integrate = mb.integrate
+    if specialised:
+        from berryshaker.multibody.engine import integrator
+
+        integrate = integrator(prepare_run(spec, duration=1e-3).cm, True)
 
     def one():
         r = prepare_run(spec, rtol=1e-5, output_step=1e-4)  # harvest.spec.COUPLED_RTOL (a literal: --compare runs older trees)
         r.info[0] = r.budget
         c0 = time.process_time()
-        mb.integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from, r.out_y,
+        integrate(r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step, r.stats_from, r.out_y,
                      r.out_e, r.out_lam, r.peaks, r.first, r.info)
         return time.process_time() - c0, int(r.info[0])
 
@@ -142,19 +155,26 @@ def main() -> None:
     ap.add_argument("--rounds", type=int, default=2)
     ap.add_argument("--compare", default=None, help="src directory of the 'before' version")
     ap.add_argument("--json", action="store_true", help="print the figures as JSON (child mode)")
+    ap.add_argument("--specialised", action="store_true",
+                    help="measure the engine with the kernel specialised to each structure (multibody.specialised)")
+    ap.add_argument("--kernels", action="store_true",
+                    help="this tree's generic and specialised kernels side by side in alternating child processes")
     a = ap.parse_args()
-    if a.compare is None:
-        f = figures(a.repeat)
-        print(json.dumps(f)) if a.json else _print("this tree", f)
+    if a.compare is None and not a.kernels:
+        f = figures(a.repeat, a.specialised)
+        print(json.dumps(f)) if a.json else _print("this tree" + (", specialised" if a.specialised else ""), f)
         return
-    runs: dict = {"before": [], "after": []}
+    here = str(ROOT / "src")
+    sides = ((("generic", here, []), ("specialised", here, ["--specialised"])) if a.kernels else
+             (("before", a.compare, []), ("after", here, [])))
+    runs: dict = {label: [] for label, _, _ in sides}
     for _ in range(a.rounds):
-        for label, src in (("before", a.compare), ("after", str(ROOT / "src"))):
+        for label, src, extra in sides:
             env = dict(os.environ, PYTHONPATH=os.path.abspath(src))
-            cmd = [sys.executable, os.path.abspath(__file__), "--json", "--repeat", str(a.repeat)]
+            cmd = [sys.executable, os.path.abspath(__file__), "--json", "--repeat", str(a.repeat)] + extra
             out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
             runs[label].append(json.loads(out.strip().splitlines()[-1]))
-    for label in ("before", "after"):
+    for label in runs:
         _print(f"{label} (best of {a.rounds} child processes x {a.repeat})", _min_over(runs[label]))
 
 

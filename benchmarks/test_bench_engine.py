@@ -10,6 +10,8 @@ rounds; ``extra_info`` carries the accepted steps, so that us per step = time / 
   the engine's cost per accepted step;
 * the same slider-crank reduced by hand to its two free coordinates (benchmarks/reduced_slider_crank.py),
   same DOPRI5, tolerances and onset location: the floor per step an engine could approach;
+* the engine's generic kernel and the kernel written for the mechanism's structure
+  (``multibody/specialised.py``) side by side (``kernel`` parameter; bitwise the same results);
 * the harvester (reference machine, all four clearances A, B, C, F at their reference sizes, 2 cam
   revolutions) in the multibody engine and in the MLSD model: runs per second on one core = 1 / time.
 """
@@ -39,7 +41,7 @@ def slider_crank():
     return spec, 2 * 2 * math.pi / abs(spec.drivers[0].speed)
 
 
-def harvester_runner():
+def harvester_runner(specialised: bool = False):
     """(run(), machine): one multibody harvester run of 2 revolutions with the four reference clearances.
 
     Uses ``berryshaker.drives.simulation.simulate_multibody`` (or the older
@@ -53,6 +55,8 @@ def harvester_runner():
         from berryshaker.drives.simulation import simulate_multibody
     except ImportError:  # older layout
         from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody as simulate_multibody
+    if specialised:
+        return (lambda: simulate_multibody(machine, dict(sizes), revolutions=2, specialised=True)), machine
     return (lambda: simulate_multibody(machine, dict(sizes), revolutions=2)), machine
 
 
@@ -74,13 +78,19 @@ def sc():
     return slider_crank()
 
 
-def test_engine_slider_crank_per_step(benchmark, sc):
+KERNELS = pytest.mark.parametrize("kernel", ["generic", "specialised"])
+
+
+@KERNELS
+def test_engine_slider_crank_per_step(benchmark, sc, kernel):
     from berryshaker.multibody.engine import simulate_mechanism
 
     spec, duration = sc
-    run = lambda: simulate_mechanism(spec, duration=duration, rtol=RTOL, output_step=OUTPUT_STEP)  # noqa: E731
-    r = run()  # warm-up (compile)
-    benchmark.extra_info.update(steps=_steps_engine(r), simulated_s=duration, rtol=RTOL)
+    specialised = kernel == "specialised"
+    run = lambda: simulate_mechanism(spec, duration=duration, rtol=RTOL, output_step=OUTPUT_STEP,  # noqa: E731
+                                     specialised=specialised)
+    r = run()  # warm-up (compile; the specialised kernel of this structure once per machine)
+    benchmark.extra_info.update(steps=_steps_engine(r), simulated_s=duration, rtol=RTOL, kernel=kernel)
     result = benchmark.pedantic(run, rounds=ROUNDS, iterations=1)
     benchmark.extra_info["us_per_step_integrator_only"] = result.wall_time_s / _steps_engine(result) * 1e6
     assert _steps_engine(result) > 0
@@ -98,10 +108,11 @@ def test_reduced_slider_crank_per_step(benchmark, sc):
     assert result["steps"] > 0
 
 
-def test_harvester_multibody_run(benchmark):
-    run, _ = harvester_runner()
+@KERNELS
+def test_harvester_multibody_run(benchmark, kernel):
+    run, _ = harvester_runner(specialised=kernel == "specialised")
     res, summary = run()
-    benchmark.extra_info.update(steps=_steps_engine(res), revolutions=2)
+    benchmark.extra_info.update(steps=_steps_engine(res), revolutions=2, kernel=kernel)
     benchmark.pedantic(run, rounds=3, iterations=1)
 
 

@@ -248,6 +248,9 @@ def test_sweep_refuses_a_key_twice_and_zero_workers():
     assert r.exit_code == 2 and "--workers" in r.output
     r = runner.invoke(app, ["sweep", "--param", "cam.speed=100,120kg"])
     assert r.exit_code == 2 and "cam.speed" in r.output
+    for kernel in ("--specialised", "--generic"):  # default --model mlsd
+        r = runner.invoke(app, ["sweep", "--param", "cam.speed=100,120rpm", kernel])
+        assert r.exit_code == 2 and "--model multibody" in r.output
 
 
 def test_sweep_validates_every_point_before_running(monkeypatch):

@@ -56,7 +56,7 @@ def structure_key(run: PreparedRun) -> tuple:
     ints = tuple(model[i].tobytes() for i in _INT_MODEL)
     shapes = tuple(np.shape(model[i]) for i in _FLOAT_MODEL) + tuple(np.shape(a) for a in run.state + run.work)
     return (ints, shapes, run.t_out.tobytes(), run.rtol, run.max_step, run.budget,
-            tuple(id(f) for f in model[15]))
+            tuple(id(f) for f in model[15]), run.specialised)
 
 
 def _stack(arrays: list[np.ndarray]) -> np.ndarray:
@@ -67,19 +67,29 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     """Integrate prepared runs of one structure, writing into each run's own arrays; returns the wall time.
 
     On more than one numba thread: one compiled call, ``prange`` over the sets (:func:`integrate_sets`).  On
-    one thread the sets go one after the other through the same compiled ``kernel.integrate`` as single runs:
-    the result is the same and no second specialisation of the integrator is compiled (the parallel one costs
-    some 25 s of cold start, which one thread cannot win back).
+    one thread the sets go one after the other through the same compiled integrator as single runs
+    (``kernel.integrate``, or the structure's own with ``simulation.specialised``,
+    :func:`berryshaker.multibody.engine.integrator`): the result is the same and no second specialisation of the
+    integrator is compiled (the parallel one costs some 25 s of cold start, which one thread cannot win back).
+    The parallel call runs the generic kernel.
     """
     import numba
+
+    from berryshaker.multibody.engine import integrator
 
     if numba.get_num_threads() == 1 or len(runs) == 1:
         t0 = time.perf_counter()
         for r in runs:
             r.info[0] = r.budget
-            call_compiled(mb.integrate, r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
+            call_compiled(integrator(r.cm, r.specialised), r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
                           r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
         return time.perf_counter() - t0
+    if any(r.specialised for r in runs):
+        import warnings
+
+        warnings.warn(f"berryshaker: {numba.get_num_threads()} batch threads run the generic kernel, not the "
+                      "specialised one (simulation.specialised; BERRYSHAKER_BATCH_THREADS=1 runs it)", RuntimeWarning,
+                      stacklevel=2)
     first_run = runs[0]
     model = first_run.cm.model
     fl = {i: _stack([r.cm.model[i] for r in runs]) for i in _FLOAT_MODEL}

@@ -258,6 +258,10 @@ class SimulationSpec(_Strict):
     output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
     max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
     energy_audit: bool | None = None  # work of every force element; None: on when a torque_speed driver exists
+    # integrate with the kernel specialised to this mechanism's structure (multibody.specialised): the same
+    # results, ~1/3 less time per step (~1/4 per harvester run), 10-20 s of compilation once per structure and
+    # machine
+    specialised: bool = False
 
 
 class BranchContactSpec(_Strict):

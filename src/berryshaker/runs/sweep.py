@@ -231,10 +231,12 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
 
 
 def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3,
-              driveline: str | None = None) -> dict:
+              driveline: str | None = None, specialised: bool = False) -> dict:
     """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise.
 
-    ``driveline`` ("imposed" or "powered") overrides the machine's ``[driveline] mode`` (multibody model only)."""
+    ``driveline`` ("imposed" or "powered") overrides the machine's ``[driveline] mode`` (multibody model only);
+    ``specialised`` integrates the multibody model with the kernel specialised to its structure (the same
+    summary, bitwise; :mod:`berryshaker.multibody.specialised`)."""
     from berryshaker.drives import drive_of
     from berryshaker.errors import ConfigError
 
@@ -254,7 +256,35 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
     from berryshaker.drives.simulation import simulate_multibody
 
     # only the summary is kept: the start-up revolution's samples are not written (the summary is the same)
-    return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline, series="statistics")[1]
+    return simulate_multibody(machine, {}, revolutions=revolutions, driveline=driveline, series="statistics",
+                              specialised=specialised)[1]
+
+
+#: runs per worker from which ``berryshaker sweep`` picks the specialised kernel for a structure it has not compiled
+#: yet: its 10-20 s of compilation against ~24 ms saved per harvester run (benchmarks/README.md sec. 29)
+SPECIALISE_FROM_RUNS_PER_WORKER = 600
+
+
+def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, driveline: str | None, runs: int,
+                       workers: int) -> tuple[bool, str]:
+    """The multibody kernel for a sweep left to choose (``berryshaker sweep`` without ``--specialised`` or
+    ``--generic``): the specialised one when this machine has compiled it for the sweep's structure (the first
+    point's), or when the sweep has at least :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the
+    generic one.  Returns the choice and why, for the user."""
+    from berryshaker.drives import drive_of
+    from berryshaker.drives.powered import with_driveline_mode
+    from berryshaker.multibody.engine import compile_mechanism
+    from berryshaker.multibody.specialised import is_compiled
+
+    machine = with_driveline_mode(point_machine(machine_data, overrides, revolutions, check=False), driveline)
+    cm = compile_mechanism(drive_of(machine).mechanism(machine, revolutions=revolutions))
+    if is_compiled(cm.model, cm.n):
+        return True, "compiled on this machine for this structure"
+    per_worker = runs / max(workers, 1)
+    if per_worker >= SPECIALISE_FROM_RUNS_PER_WORKER:
+        return True, f"{per_worker:.0f} runs per worker pay for its compilation"
+    return False, (f"{per_worker:.0f} runs per worker, fewer than the {SPECIALISE_FROM_RUNS_PER_WORKER} that pay for "
+                   "compiling the specialised kernel (--specialised forces it)")
 
 
 def model_runs(kwargs_list: list[dict]) -> list:
@@ -278,10 +308,10 @@ def model_runs(kwargs_list: list[dict]) -> list:
         except BerryshakerError as exc:
             out[i] = exc
             continue
-        groups.setdefault((rev, kw.get("driveline")), []).append((i, machine))
-    for (rev, driveline), items in groups.items():
+        groups.setdefault((rev, kw.get("driveline"), bool(kw.get("specialised", False))), []).append((i, machine))
+    for (rev, driveline, specialised), items in groups.items():
         res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline,
-                                       series="statistics")
+                                       series="statistics", specialised=specialised)
         for (i, _), r in zip(items, res):
             out[i] = r if isinstance(r, BaseException) else r[1]
     return out

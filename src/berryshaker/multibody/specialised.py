@@ -1,0 +1,306 @@
+"""Mechanism-specialised integrators: the constraint equations and the multiplier solve written out for one
+mechanism's structure, compiled once per structure and cached on disk.
+
+The generic kernel (:mod:`berryshaker.multibody.kernel`) serves every mechanism with one compiled integrator: its
+constraint loop and multiplier solve follow index arrays (``ctype``, ``cint``, ``crow`` and the solve plan of
+:func:`berryshaker.multibody.sparsity.solve_plan`).  In a right-hand side those index loads sit on the chain of
+dependent operations that bounds each stage (benchmarks/README.md sec. 24, 27): a hand-written slider-crank
+right-hand side with the same arithmetic ran the step 38 % faster (sec. 29).  This module writes that code for any
+mechanism, from the structure alone:
+
+* ``constraints``: per constraint block, :func:`~berryshaker.multibody.kernel.block_start` and the block type's
+  ``kernel.*_rows`` function with its rows and bodies as literals (the generic loop of ``kernel.constraints``
+  calls the same functions: one home for the formulas);
+* ``_constrained_solve``: the driven bodies' substitution, the Schur complement's structurally nonzero entries,
+  its L D L^T factorisation over each row's envelope, the driven rows' multipliers and Phi_q^T lambda, in the
+  same operations and order as the generic :func:`~berryshaker.multibody.kernel._constrained_solve` (so the
+  results are bitwise those of the generic kernel; tests/test_multibody_specialised.py), with every index a
+  literal and every entry of W a local variable;
+* ``accelerations`` and ``integrate``: the generic kernel's own source, compiled in the generated module so that
+  they call the two functions above (the constraint projection after a step stays generic; sec. 29).
+
+Every sum of the solve is emitted as a sequence of statements, one term each, in the generic loops' order (no
+expression nests deeper than one term, whatever the structure's size).
+
+The values (masses, lengths, stiffnesses, speeds) stay arguments: every mechanism of one structure (a clearance
+sweep, a tolerance study, perturbed starts) shares one compiled integrator.  The source is written to
+``<numba cache>/specialised/`` (the package's digest folder, :mod:`berryshaker.compiled_cache`, so an update of
+the package starts afresh) and numba caches its compiled code beside the package's; a structure costs about
+10-20 s of compilation once per machine (benchmarks/README.md sec. 29) and about 0.1 s to load after that.  Opt in
+with ``[simulation] specialised = true`` or ``simulate_mechanism(..., specialised=True)``: worth it for the
+hundreds of runs of one structure a sweep makes, not for a single run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import inspect
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from berryshaker.multibody import kernel as mb
+
+#: the generated module's format; part of every structure key, so a change of the generator starts new files
+GENERATOR_VERSION = 2
+
+_LOADED: dict[str, object] = {}
+
+
+def structure_key(model: tuple, n: int) -> str:
+    """Digest (hex, 16 digits) of what the generated code depends on: the constraint types, bodies and rows, the
+    solve plan, the number of coordinates and the generator's version (not any value)."""
+    ctype, cint, crow, plan = model[3], model[4], model[6], model[16]
+    h = hashlib.sha256(f"v{GENERATOR_VERSION};n{int(n)};".encode())
+    for a in (ctype, cint, crow, plan):
+        a = np.ascontiguousarray(a, dtype=np.int64)
+        h.update(repr(a.shape).encode() + a.tobytes())
+    return h.hexdigest()[:16]
+
+
+def _constraints_source(ctype, cint, crow, m: int) -> list[str]:
+    lines = ["@njit(cache=True, _nrt=False, inline=\"always\")",
+             "def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, gam):",
+             "    \"\"\"kernel.constraints with this structure's blocks as literals.\"\"\""]
+    nc = len(ctype)
+    for k in range(nc):
+        r, r_end = int(crow[k]), (int(crow[k + 1]) if k + 1 < nc else m)
+        bi, bj, typ = int(cint[k, 0]), int(cint[k, 1]), int(ctype[k])
+        i64 = "np.int64"
+        lines.append(f"    block_start({i64}({r}), {i64}({r_end}), {i64}({bi}), {i64}({bj}), jac, nu, gam)")
+        if typ == mb.CON_REVOLUTE:
+            call = f"revolute_rows({i64}({k}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cflt, phi, jac, nu, gam)"
+        elif typ in (mb.CON_PRISMATIC, mb.CON_POINT_LINE):
+            call = (f"line_rows({i64}({k}), {i64}({typ}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cflt, phi, "
+                    "jac, nu, gam)")
+        elif typ == mb.CON_CAM_ROLLER:
+            call = (f"cam_roller_rows({i64}({k}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cint, cflt, cams, "
+                    "psi_mem, phi, jac, nu, gam)")
+        elif typ == mb.CON_DRIVER:
+            call = f"driver_rows({i64}({k}), {i64}({r}), {i64}({bi}), t, q, cflt, phi, jac, nu)"
+        else:
+            raise ValueError(f"constraint block {k}: unknown constraint type {typ}")
+        lines.append("    " + call)
+    if nc == 0:
+        lines.append("    pass")
+    return lines
+
+
+def _solve_source(cint, crow, plan, m: int) -> list[str]:
+    """The generic ``kernel._constrained_solve`` (with ``_row_dot_at``, ``_schur``, ``_spd_solve`` and
+    ``_add_jac_t``) unrolled for one plan: the same floating-point operations in the same order."""
+    nc = len(crow)
+    ne = int(plan[0, 3]) if m > 0 else 0
+    driven = [tuple(int(v) for v in plan[e, :3]) for e in range(m + ne, plan.shape[0])]
+    blocks = [(int(crow[k]), int(crow[k + 1]) if k + 1 < nc else m, int(cint[k, 0]), int(cint[k, 1]))
+              for k in range(nc)]
+    L = ["@njit(cache=True, _nrt=False, inline=\"always\")",
+         "def _constrained_solve(plan, mass, inertia, cint, crow, jac, minv, W, rhs, u, off, g, lam, m):",
+         "    \"\"\"kernel._constrained_solve unrolled for this structure (same operations, same order).\"\"\""]
+    if m == 0:
+        return L + ["    return"]
+    # driven bodies: accelerations by substitution; the residuals u - x kept for their multipliers
+    for b, r, d in driven:
+        cj = 3 * b
+        L += [f"    x2_{b} = g[{d}]",
+              f"    x0_{b} = (g[{r}] - jac[{r}, {cj + 2}] * x2_{b}) * jac[{r}, {cj}]",
+              f"    x1_{b} = (g[{r + 1}] - jac[{r + 1}, {cj + 2}] * x2_{b}) * jac[{r + 1}, {cj + 1}]",
+              f"    e0_{b} = u[off + {cj}] - x0_{b}",
+              f"    e1_{b} = u[off + {cj + 1}] - x1_{b}",
+              f"    e2_{b} = u[off + {cj + 2}] - x2_{b}",
+              f"    u[off + {cj}] = x0_{b}",
+              f"    u[off + {cj + 1}] = x1_{b}",
+              f"    u[off + {cj + 2}] = x2_{b}"]
+
+    # every sum is a sequence of statements (x = x + term), as the generic loops accumulate: the same operations
+    # in the same order, and no expression nests deeper than one term (Python's parser limits nesting)
+    for r0, r1, bi, bj in blocks:
+        bodies = ([bi] if bi >= 0 else []) + ([bj] if bj >= 0 and bj != bi else [])  # as kernel._row_dot_at
+        for a in range(r0, r1):
+            L.append(f"    b_{a} = 0.0")
+            for body in bodies:
+                c = 3 * body
+                L.append(f"    b_{a} = b_{a} + (jac[{a}, {c}] * u[off + {c}] + jac[{a}, {c + 1}] * u[off + {c + 1}] "
+                         f"+ jac[{a}, {c + 2}] * u[off + {c + 2}])")
+            L.append(f"    b_{a} = b_{a} - g[{a}]")
+    # Schur complement: structurally nonzero entries of the upper triangle (kernel._schur)
+    wnz = set()
+    for e in range(m, m + ne):
+        a, b, b1, b2 = (int(v) for v in plan[e])
+        wnz.add((a, b))
+        if b1 == -2:
+            L.append(f"    W_{a}_{b} = 1.0")
+            continue
+        L.append(f"    W_{a}_{b} = 0.0")
+        for body in (b1, b2):
+            if body >= 0:
+                i = 3 * body
+                L.append(f"    W_{a}_{b} = W_{a}_{b} + (jac[{a}, {i}] * minv[{i}] * jac[{b}, {i}] + jac[{a}, {i + 1}] "
+                         f"* minv[{i + 1}] * jac[{b}, {i + 1}] + jac[{a}, {i + 2}] * minv[{i + 2}] * jac[{b}, {i + 2}])")
+
+    def w_upper(j, i):
+        return f"W_{j}_{i}" if (j, i) in wnz else "0.0"
+
+    # L D L^T row by row over the envelopes, forward substitution per row, then back substitution
+    # (kernel._spd_solve; L_i_k holds c_ik, then L_ik; D_i = 1 / d_i)
+    for i in range(m):
+        lo = int(plan[i, 0])
+        for j in range(lo, i):
+            L.append(f"    L_{i}_{j} = {w_upper(j, i)}")
+            for k in range(max(lo, int(plan[j, 0])), j):
+                L.append(f"    L_{i}_{j} = L_{i}_{j} - L_{i}_{k} * L_{j}_{k}")
+        L.append(f"    d_{i} = {w_upper(i, i)}")
+        for k in range(lo, i):
+            L += [f"    c_{i}_{k} = L_{i}_{k}",
+                  f"    L_{i}_{k} = c_{i}_{k} * D_{k}",
+                  f"    d_{i} = d_{i} - c_{i}_{k} * L_{i}_{k}"]
+        L += [f"    if d_{i} <= 0.0:", f"        d_{i} = 1e-300", f"    D_{i} = 1.0 / d_{i}"]
+        L += [f"    b_{i} = b_{i} - L_{i}_{k} * b_{k}" for k in range(lo, i)]
+    for i in range(m - 1, -1, -1):
+        L.append(f"    b_{i} = b_{i} * D_{i}")
+        L += [f"    b_{i} = b_{i} - L_{k}_{i} * b_{k}" for k in range(i + 1, int(plan[i, 1]) + 1)
+              if int(plan[k, 0]) <= i]
+    # the driven rows' multipliers from the driven bodies' equations of motion
+    for b, r, d in driven:
+        cj = 3 * b
+        L += [f"    t0_{b} = mass[{b}] * e0_{b}", f"    t1_{b} = mass[{b}] * e1_{b}",
+              f"    t2_{b} = inertia[{b}] * e2_{b}"]
+        for r0, r1, bi, bj in blocks:
+            if bi != b and bj != b:
+                continue
+            for a in range(r0, r1):
+                if int(plan[a, 2]) == 0:
+                    L += [f"    t{i}_{b} = t{i}_{b} - jac[{a}, {cj + i}] * b_{a}" for i in range(3)]
+        L += [f"    b_{r} = t0_{b} * jac[{r}, {cj}]",
+              f"    b_{r + 1} = t1_{b} * jac[{r + 1}, {cj + 1}]",
+              f"    b_{d} = t2_{b} - jac[{r}, {cj + 2}] * b_{r} - jac[{r + 1}, {cj + 2}] * b_{r + 1}"]
+    # x = u - M^-1 Phi_q^T lambda over the other bodies (kernel._add_jac_t; a driven body keeps its x from the
+    # substitution, which the generic code writes back over its update)
+    gone = {b for b, _, _ in driven}
+    nb = 0
+    for _, _, bi, bj in blocks:
+        nb = max(nb, bi + 1, bj + 1)
+    for b in range(nb):
+        rows = [a for r0, r1, bi, bj in blocks if b in (bi, bj) for a in range(r0, r1)]
+        if b in gone or not rows:
+            continue
+        c = 3 * b
+        L += [f"    o_{c + i} = u[off + {c + i}]" for i in range(3)]
+        for a in rows:
+            L += [f"    o_{c + i} = o_{c + i} + minv[{c + i}] * jac[{a}, {c + i}] * (-1.0 * b_{a})" for i in range(3)]
+        L += [f"    u[off + {c + i}] = o_{c + i}" for i in range(3)]
+    L += [f"    lam[{a}] = b_{a}" for a in range(m)]
+    return L
+
+
+def specialised_integrator(model: tuple, n: int, m: int):
+    """The integrator (``kernel.integrate``'s signature and results) specialised to ``model``'s structure:
+    generated and imported on first use in a process, loaded from the disk cache after the first compilation
+    on this machine.
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple (:attr:`berryshaker.multibody.engine.CompiledMechanism.model`).
+    n, m : int
+        Its coordinates and constraint rows.
+
+    Returns
+    -------
+    numba dispatcher
+        Called exactly like :func:`berryshaker.multibody.kernel.integrate`.
+    """
+    return specialised_module(model, n, m).integrate
+
+
+def specialised_module(model: tuple, n: int, m: int):
+    """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve``,
+    ``accelerations`` and ``integrate``), written to :func:`source_folder` if missing or different and imported
+    once per process."""
+    key = structure_key(model, n)
+    mod = _LOADED.get(key)
+    if mod is None:
+        path = write_source(source_folder() / f"bs_specialised_{key}.py", specialised_source(model, n, m))
+        name = f"berryshaker_specialised_{key}"
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        sys.modules[name] = mod
+        try:
+            spec.loader.exec_module(mod)
+        except BaseException:
+            del sys.modules[name]  # no half-built module left behind
+            raise
+        _LOADED[key] = mod
+    return mod
+
+
+def is_compiled(model: tuple, n: int) -> bool:
+    """True when this machine has run the structure's specialised kernel with this package version: its
+    generated source is in :func:`source_folder` (written just before the first compilation, whose machine code
+    numba caches beside it), so running it costs a load (~0.1 s), not a compilation."""
+    return (source_folder() / f"bs_specialised_{structure_key(model, n)}.py").is_file()
+
+
+def source_folder() -> Path:
+    """Where the generated sources go: ``specialised-<digest>/`` in numba's cache folder, the digest that of the
+    package's compiled sources (:func:`berryshaker.compiled_cache.compiled_sources_digest`): the generated code
+    calls the kernel's functions, so a changed kernel must not find an old module's machine code (numba checks
+    only the generated file).  Without a numba cache folder, a per-user temporary one."""
+    from berryshaker.compiled_cache import compiled_sources_digest
+
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    user = os.getuid() if hasattr(os, "getuid") else "user"
+    root = Path(base) if base else Path(tempfile.gettempdir()) / f"berryshaker-{user}"
+    return root / f"specialised-{_package_digest(compiled_sources_digest)}"
+
+
+_DIGEST: list[str] = []
+
+
+def _package_digest(digest_of) -> str:
+    if not _DIGEST:
+        _DIGEST.append(digest_of(Path(mb.__file__).resolve().parents[1]))
+    return _DIGEST[0]
+
+
+def write_source(path: Path, source: str) -> Path:
+    """Write ``source`` to ``path`` unless it already holds exactly that (a file left half-written or changed by
+    hand is replaced); atomically, so that a process importing it concurrently reads all of it or none."""
+    try:
+        if path.read_text() == source:
+            return path
+    except (OSError, UnicodeDecodeError):
+        pass
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)  # unique per thread too
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(source)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def specialised_source(model: tuple, n: int, m: int) -> str:
+    """The Python source of the specialised module for ``model`` (a compiled mechanism's model tuple) with ``n``
+    coordinates and ``m`` constraint rows."""
+    ctype, cint, crow, plan = (np.asarray(model[i]) for i in (3, 4, 6, 16))
+    head = [f'"""Generated by berryshaker.multibody.specialised (structure {structure_key(model, n)}, generator '
+            f'{GENERATOR_VERSION}); do not edit: it is rewritten when it differs."""',
+            "import math  # noqa: F401",
+            "import numpy as np",
+            "from numba import njit",
+            "from berryshaker.multibody import kernel as _kernel",
+            "globals().update({k: v for k, v in vars(_kernel).items() if not k.startswith('__')})",
+            "", ""]
+    body = _constraints_source(ctype, cint, crow, m) + ["", ""] + _solve_source(cint, crow, plan, m)
+    generic = []
+    for fn in (mb.accelerations, mb.integrate):
+        generic += ["", ""] + inspect.getsource(fn.py_func).rstrip("\n").split("\n")
+    return "\n".join(head + body + generic) + "\n"

@@ -1,0 +1,179 @@
+"""The engine's kernels specialised to one mechanism structure (berryshaker.multibody.specialised).
+
+Checks that can fail: the generated constraint equations and multiplier solve must give bitwise what the generic
+compiled kernel gives (every entry of Phi, Phi_q, nu, gamma, the solved state and the multipliers) at random states
+of every mechanism the package builds, with clearance joints and with their ideal counterparts (all five constraint
+types), and of synthetic mechanisms with several driven bodies, driver rows anywhere and coordinates beyond the
+bodies; whole runs (the slider-crank, the harvester) must be bitwise those of the generic integrator.  The
+generated functions are run as Python here (``py_func``: IEEE double arithmetic, as the compiled code without
+fast-math), so a generator that reorders one sum fails.
+"""
+
+import math
+from unittest.mock import patch
+
+import numba
+import numpy as np
+import pytest
+from test_multibody_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
+
+from berryshaker.config import reference_machine
+from berryshaker.drives.simulation import simulate_multibody
+from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import specialised as sp
+from berryshaker.multibody.engine import _state_and_work, compile_mechanism, integrator, simulate_mechanism
+from berryshaker.multibody.sparsity import solve_plan
+
+
+def _model(ctype, cint, crow, plan):
+    model = [None] * 17
+    model[3], model[4], model[6], model[16] = ctype, cint, crow, plan
+    return tuple(model)
+
+
+def _check(mod, ctype, cint, cflt, crow, cams, plan, mass, inertia, minv, m, n, q_of, rng, states=15):
+    """Generic compiled kernel against the generated functions run as Python, bitwise."""
+    gen_c, gen_s = mod.constraints.py_func, mod._constrained_solve.py_func
+    for _ in range(states):
+        q, qd = q_of(rng)
+        outs = []
+        for fn in (mb.constraints, gen_c):
+            arrs = (np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m))
+            psi = np.full(len(ctype), np.nan)
+            fn(0.3, q, qd, ctype, cint, cflt, crow, cams, psi, *arrs)
+            outs.append(arrs + (psi,))
+        for a, b in zip(*outs):
+            np.testing.assert_array_equal(a, b)
+        jac = outs[0][1]
+        u, g = rng.normal(size=n), rng.normal(size=m)
+        sol = []
+        for fn in (mb._constrained_solve, gen_s):
+            x, lam = u.copy(), np.zeros(m)
+            fn(plan, mass, inertia, cint, crow, jac, minv, np.zeros((m, m)), np.zeros(m), x, np.int64(0), g, lam,
+               np.int64(m))
+            sol.append((x, lam))
+        np.testing.assert_array_equal(sol[0][0], sol[1][0])
+        np.testing.assert_array_equal(sol[0][1], sol[1][1])
+
+
+@pytest.mark.parametrize("name, spec, ideal", CASES, ids=[f"{c[0]}{'-ideal' if c[2] else ''}" for c in CASES])
+def test_generated_kernel_is_bitwise_the_generic_one_on_every_mechanism(name, spec, ideal):
+    cm = compile_mechanism(spec, ideal_clearances=ideal)
+    (mass, inertia, _g, ctype, cint, cflt, crow, *_rest) = cm.model
+    if cm.m == 0:
+        pytest.skip("no ideal constraints")
+    _state, work = _state_and_work(cm)
+    mod = sp.specialised_module(cm.model, cm.n, cm.m)
+    _check(mod, ctype, cint, cflt, crow, cm.model[10], cm.model[16], mass, inertia, work[7], cm.m, cm.n,
+           lambda rng: _random_state(cm, rng), np.random.default_rng(3))
+
+
+@pytest.mark.parametrize("name", list(_SYNTHETIC))
+def test_generated_kernel_is_bitwise_the_generic_one_on_synthetic_mechanisms(name):
+    cons, nb, n_extra, _ = _SYNTHETIC[name]
+    ctype, cint, cflt, crow, m, n = _synthetic(cons, nb, n_extra)
+    plan = solve_plan(ctype, cint, cflt, crow, m, n)
+    rng = np.random.default_rng(5)
+    mass, inertia = rng.uniform(0.1, 2.0, nb), rng.uniform(1e-4, 1e-2, nb)
+    minv = np.ones(n)
+    minv[0:3 * nb:3], minv[1:3 * nb:3], minv[2:3 * nb:3] = 1 / mass, 1 / mass, 1 / inertia
+    mod = sp.specialised_module(_model(ctype, cint, crow, plan), n, m)
+    _check(mod, ctype, cint, cflt, crow, np.zeros((1, 8)), plan, mass, inertia, minv, m, n,
+           lambda r: (r.normal(0, 0.3, n), r.normal(0, 1, n)), rng)
+
+
+def test_structure_key_follows_the_structure_not_the_values():
+    cons, nb, n_extra, _ = _SYNTHETIC["crank body_j"]
+    ctype, cint, cflt, crow, m, n = _synthetic(cons, nb, n_extra)
+    plan = solve_plan(ctype, cint, cflt, crow, m, n)
+    key = sp.structure_key(_model(ctype, cint, crow, plan), n)
+    assert sp.structure_key(_model(ctype.copy(), cint.copy(), crow.copy(), plan.copy()), n) == key
+    other = cint.copy()
+    other[1, 1] = 2  # the rod's revolute now on the slider
+    assert sp.structure_key(_model(ctype, other, crow, plan), n) != key
+    assert sp.structure_key(_model(ctype, cint, crow, plan), n + 1) != key
+
+
+def test_source_is_rewritten_when_it_differs(tmp_path):
+    path = tmp_path / "bs_specialised_x.py"
+    sp.write_source(path, "a = 1\n")
+    stamp = path.stat().st_mtime_ns
+    sp.write_source(path, "a = 1\n")
+    assert path.stat().st_mtime_ns == stamp  # unchanged: numba's cache entry for it stays valid
+    path.write_text("a = 1\nb = ")  # half-written or edited by hand
+    sp.write_source(path, "a = 1\n")
+    assert path.read_text() == "a = 1\n"
+    assert [p.name for p in tmp_path.iterdir()] == [path.name]  # no temporary file left
+
+
+def test_specialised_slider_crank_run_is_bitwise_the_generic_run():
+    from pathlib import Path
+
+    from berryshaker.multibody.spec import load_mechanism
+
+    spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
+    duration = 2 * math.pi / abs(spec.drivers[0].speed)
+    a = simulate_mechanism(spec, duration=duration, rtol=1e-7)
+    b = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=True)
+    assert integrator(compile_mechanism(spec), True) is not mb.integrate
+    assert integrator(compile_mechanism(spec), False) is mb.integrate
+    for x, y in ((a.y, b.y), (a.elements, b.elements), (a.multipliers, b.multipliers), (a.peaks, b.peaks), (a.first, b.first), (a.info, b.info)):
+        np.testing.assert_array_equal(x, y)
+
+
+def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones():
+    from berryshaker.runs.sweep import model_runs
+
+    m = reference_machine()
+    (ra, sa), (rb, sb) = (simulate_multibody(m, revolutions=2, specialised=s) for s in (False, True))
+    np.testing.assert_array_equal(ra.y, rb.y)
+    np.testing.assert_array_equal(ra.elements, rb.elements)
+    untimed = lambda d: {k: v for k, v in d.items() if k != "wall_time_s"}  # noqa: E731
+    assert untimed(sa) == untimed(sb)
+    data = m.model_dump(mode="json")
+    kw = [dict(machine_data=data, overrides={"clearance.C.size": c}, model="multibody", revolutions=2)
+          for c in (1.2e-4, 1.8e-4)]
+    used = []
+
+    def spy(cm, specialised=False):
+        used.append(specialised)
+        return integrator(cm, specialised)
+
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # as the sweep runner's workers run their chunks (BERRYSHAKER_BATCH_THREADS=1)
+    try:
+        with patch("berryshaker.multibody.engine.integrator", spy):
+            generic = model_runs(kw)
+            special = model_runs([dict(k, specialised=True) for k in kw])
+    finally:
+        numba.set_num_threads(threads)
+    assert used == [False, False, True, True]  # the sweep's batch path ran the specialised integrator
+    assert [untimed(d) for d in generic] == [untimed(d) for d in special]  # equal floats, not close
+
+
+def test_generated_row_product_counts_a_body_once_when_a_block_joins_it_to_itself():
+    # kernel._row_dot_at adds body j's columns only when it differs from body i (solve_plan allows the case)
+    src = "\n".join(sp._solve_source(np.array([[0, 0, 0]]), np.array([0]), np.array([[0, 0, 0, 1], [0, 0, 0, -1]]),
+                                      1))
+    assert src.count("jac[0, 0] * u[off + 0]") == 1
+
+
+def test_sweep_picks_the_specialised_kernel_when_compiled_or_when_it_pays(tmp_path, monkeypatch):
+    from berryshaker.runs.sweep import SPECIALISE_FROM_RUNS_PER_WORKER, choose_specialised
+
+    monkeypatch.setattr(sp, "source_folder", lambda: tmp_path)  # a machine that has compiled nothing
+    data = reference_machine().model_dump(mode="json")
+    over = {"clearance.A.size": 3e-4}
+    few, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
+    assert few is False and "20 runs per worker" in why and "--specialised" in why
+    many, why = choose_specialised(data, over, 2, None, runs=2 * SPECIALISE_FROM_RUNS_PER_WORKER, workers=2)
+    assert many is True and "pay" in why
+    m = reference_machine()
+    from berryshaker.drives import drive_of
+
+    cm = compile_mechanism(drive_of(m).mechanism(m, revolutions=2))
+    (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# compiled before\n")
+    ready, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
+    assert ready is True and "compiled" in why
+    powered, _ = choose_specialised(data, over, 2, "powered", runs=40, workers=2)
+    assert powered is False  # another structure (the driveline's coordinates): not compiled
