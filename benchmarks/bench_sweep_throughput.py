@@ -12,6 +12,7 @@ more cores, on all of them (wall).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -34,6 +35,9 @@ def main(argv=None) -> None:
     p.add_argument("--restitution-velocity", type=float, default=None,
                    help="m/s on every clearance pair (default: the pairs' own; 0: before benchmarks/README.md sec. 6)")
     args = p.parse_args(argv)
+    # the generic kernel for every run not marked specialised below (the default "auto" would take the specialised
+    # one when compiled on this machine); the in-process sweep runner and its runs read it
+    os.environ["BERRYSHAKER_KERNEL"] = "generic"
     m = reference_machine()
     if args.restitution_velocity is not None:
         cl = {k: m.clearance[k].model_copy(update={"restitution_velocity": args.restitution_velocity})

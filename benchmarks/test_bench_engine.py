@@ -55,9 +55,8 @@ def harvester_runner(specialised: bool = False):
         from berryshaker.drives.simulation import simulate_multibody
     except ImportError:  # older layout
         from berryshaker.drives.groove_cam.mechanism import simulate_harvester_multibody as simulate_multibody
-    if specialised:
-        return (lambda: simulate_multibody(machine, dict(sizes), revolutions=2, specialised=True)), machine
-    return (lambda: simulate_multibody(machine, dict(sizes), revolutions=2)), machine
+    # explicit either way: a run left to choose takes the specialised kernel once it is compiled on this machine
+    return (lambda: simulate_multibody(machine, dict(sizes), revolutions=2, specialised=specialised)), machine
 
 
 def mlsd_runner():

@@ -113,7 +113,7 @@ def test_specialised_slider_crank_run_is_bitwise_the_generic_run():
 
     spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
     duration = 2 * math.pi / abs(spec.drivers[0].speed)
-    a = simulate_mechanism(spec, duration=duration, rtol=1e-7)
+    a = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=False)  # not "auto": it may be compiled
     b = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=True)
     assert integrator(compile_mechanism(spec), True) is not mb.integrate
     assert integrator(compile_mechanism(spec), False) is mb.integrate
@@ -136,19 +136,23 @@ def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(
     used = []
 
     def spy(cm, specialised=False):
-        used.append(specialised)
-        return integrator(cm, specialised)
+        fn = integrator(cm, specialised)
+        used.append((specialised, fn is not mb.integrate))
+        return fn
 
     threads = numba.get_num_threads()
     numba.set_num_threads(1)  # as the sweep runner's workers run their chunks (BERRYSHAKER_BATCH_THREADS=1)
     try:
         with patch("berryshaker.multibody.engine.integrator", spy):
-            generic = model_runs(kw)
+            generic = model_runs([dict(k, specialised=False) for k in kw])
             special = model_runs([dict(k, specialised=True) for k in kw])
+            auto = model_runs(kw)  # left to choose: compiled above, so the specialised kernel
     finally:
         numba.set_num_threads(threads)
-    assert used == [False, False, True, True]  # the sweep's batch path ran the specialised integrator
+    # the sweep's batch path ran the integrator asked for
+    assert used == [(False, False)] * 2 + [(True, True)] * 2 + [(None, True)] * 2
     assert [untimed(d) for d in generic] == [untimed(d) for d in special]  # equal floats, not close
+    assert [untimed(d) for d in auto] == [untimed(d) for d in special]
 
 
 def test_generated_row_product_counts_a_body_once_when_a_block_joins_it_to_itself():
@@ -162,6 +166,7 @@ def test_sweep_picks_the_specialised_kernel_when_compiled_or_when_it_pays(tmp_pa
     from berryshaker.runs.sweep import SPECIALISE_FROM_RUNS_PER_WORKER, choose_specialised
 
     monkeypatch.setattr(sp, "source_folder", lambda: tmp_path)  # a machine that has compiled nothing
+    monkeypatch.delenv("BERRYSHAKER_KERNEL", raising=False)
     data = reference_machine().model_dump(mode="json")
     over = {"clearance.A.size": 3e-4}
     few, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
@@ -172,8 +177,60 @@ def test_sweep_picks_the_specialised_kernel_when_compiled_or_when_it_pays(tmp_pa
     from berryshaker.drives import drive_of
 
     cm = compile_mechanism(drive_of(m).mechanism(m, revolutions=2))
-    (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# compiled before\n")
+    (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# being compiled\n")
+    assert choose_specialised(data, over, 2, None, runs=40, workers=2)[0] is False  # a source alone is not compiled
+    sp.mark_compiled(cm.model, cm.n)
     ready, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
     assert ready is True and "compiled" in why
     powered, _ = choose_specialised(data, over, 2, "powered", runs=40, workers=2)
     assert powered is False  # another structure (the driveline's coordinates): not compiled
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "generic")
+    assert choose_specialised(data, over, 2, None, runs=40, workers=2) == (False, "BERRYSHAKER_KERNEL=generic")
+
+
+def test_a_run_left_to_choose_takes_the_specialised_kernel_once_this_machine_compiled_it(tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from berryshaker.errors import ConfigError
+    from berryshaker.multibody.engine import KERNEL_ENV
+    from berryshaker.multibody.spec import load_mechanism
+
+    spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
+    cm = compile_mechanism(spec)
+    assert spec.simulation.specialised is None  # the default: left to choose
+    monkeypatch.delenv(KERNEL_ENV, raising=False)
+    with monkeypatch.context() as mp:
+        mp.setattr(sp, "source_folder", lambda: tmp_path)  # a machine that has compiled nothing
+        assert integrator(cm, None) is mb.integrate
+        (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# a compilation starting\n")
+        assert not sp.is_compiled(cm.model, cm.n) and integrator(cm, None) is mb.integrate
+        mp.setattr(sp, "source_folder", lambda: tmp_path / "not made yet")
+        sp.mark_compiled(cm.model, cm.n)
+        assert sp.is_compiled(cm.model, cm.n)  # the folder is made (the module may have been loaded from elsewhere)
+    sp._compiled_marker(cm.model, cm.n).unlink(missing_ok=True)
+    assert integrator(cm, None) is mb.integrate
+    simulate_mechanism(spec, duration=1e-4, specialised=True)  # compiled (or loaded): marked for later runs
+    assert sp.is_compiled(cm.model, cm.n)
+    assert integrator(cm, None) is integrator(cm, True) is not mb.integrate
+    assert integrator(cm, False) is mb.integrate  # asked for explicitly: always the generic one
+    monkeypatch.setenv(KERNEL_ENV, "generic")
+    assert integrator(cm, None) is mb.integrate
+    sp._compiled_marker(cm.model, cm.n).unlink()
+    monkeypatch.setenv(KERNEL_ENV, "specialised")  # whether compiled or not
+    assert integrator(cm, None) is not mb.integrate
+    sp.mark_compiled(cm.model, cm.n)
+    monkeypatch.setenv(KERNEL_ENV, "Generic ")
+    assert integrator(cm, None) is mb.integrate
+    monkeypatch.setenv(KERNEL_ENV, "fast")
+    with pytest.raises(ConfigError, match="BERRYSHAKER_KERNEL='fast'.*auto, generic, specialised.*unset it"):
+        integrator(cm, None)
+
+
+def test_the_run_cache_finds_a_sweep_point_whichever_kernel_computed_it():
+    from berryshaker.runs.runner import run_key
+    from berryshaker.runs.sweep import model_run
+
+    kw = dict(machine_data={"a": 1}, overrides={"clearance.C.size": 1e-4}, model="multibody", revolutions=2)
+    keys = {run_key(model_run, dict(kw, **extra)) for extra in ({}, {"specialised": True}, {"specialised": False})}
+    assert len(keys) == 1  # the kernel does not change the value (bitwise), so not the key
+    assert run_key(model_run, dict(kw, revolutions=3)) not in keys  # what does change it still does

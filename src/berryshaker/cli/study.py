@@ -137,7 +137,8 @@ def sweep(
         help="With --model multibody: integrate with the engine's kernel written for the mechanism's structure "
              "(the same results bit for bit, about a quarter less time per harvester run, 10-20 s of compilation "
              "the first time on this machine, cached after that), or with the generic one. Default: specialised "
-             "when it is compiled already or the sweep has at least 600 runs per worker. Each worker runs its "
+             "when it is compiled already or the sweep has at least 600 runs per worker (the environment variable "
+             "BERRYSHAKER_KERNEL=generic or specialised decides instead). Each worker runs its "
              "chunks on one thread (the default); with BERRYSHAKER_BATCH_THREADS > 1 the parallel batch runs the "
              "generic kernel."),
     config: Optional[Path] = ConfigOpt,
@@ -201,7 +202,7 @@ def sweep(
         validate_points(machine, params, pts, revolutions)  # every point, before any run
         data = machine.model_dump(mode="json")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
-        kernel_why = None
+        kernel_why, kernel_arg = None, {}
         if model == "multibody":
             if specialised is None:
                 from berryshaker.runs.sweep import choose_specialised
@@ -210,11 +211,12 @@ def sweep(
                                                              driveline, len(pts), runner.workers)
             else:
                 kernel_why = "--specialised" if specialised else "--generic"
+            kernel_arg = {"specialised": specialised}
             if not as_json:
                 err.print(f"multibody kernel: {'specialised' if specialised else 'generic'} ({kernel_why})")
         jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions,
                      **({"driveline": driveline} if driveline else {}),
-                     **({"specialised": True} if specialised else {})) for pt in pts]
+                     **kernel_arg) for pt in pts]
         results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
         header, rows = tidy_rows(params, pts, results)
         if out_file is not None:

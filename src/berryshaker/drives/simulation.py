@@ -103,7 +103,7 @@ def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
 def simulate_multibody(machine, clearance: dict[str, float] | None = None, revolutions: int = 2,
                        rtol: float = HARVESTER_RTOL, output_step: float = 1e-4,
                        driveline: str | None = None, initial_perturbation=None,
-                       series: str = "whole", specialised: bool = False) -> tuple[MultibodyResult, dict]:
+                       series: str = "whole", specialised: bool | None = None) -> tuple[MultibodyResult, dict]:
     """Simulate a machine's drive in the multibody engine.
 
     Parameters
@@ -130,10 +130,11 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
         What the result's written series cover (:func:`berryshaker.multibody.engine.simulate_mechanism`):
         "statistics" skips the first revolution's samples, which no statistic reads; the summary is the same
         bitwise.  Sweeps and the study's runs, which keep only the summary, use it.
-    specialised : bool
+    specialised : bool, optional
         Integrate with the kernel specialised to the mechanism's structure (bitwise the same results, ~1/4 less
         time per harvester run, ~10-20 s of compilation once per structure and machine;
-        :mod:`berryshaker.multibody.specialised`).
+        :mod:`berryshaker.multibody.specialised`); False: the generic kernel; None (default): the specialised
+        one when this machine has compiled it for the structure already.
 
     Returns
     -------
@@ -153,7 +154,7 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
 
 def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] | None], revolutions: int = 2,
                              rtol: float = HARVESTER_RTOL, output_step: float = 1e-4, driveline: str | None = None,
-                             series: str = "whole", specialised: bool = False) -> list:
+                             series: str = "whole", specialised: bool | None = None) -> list:
     """:func:`simulate_multibody` for many (machine, clearance) pairs in batched compiled calls
     (:func:`berryshaker.multibody.batch.simulate_mechanisms`: runs of one mechanism structure share a call).
 
@@ -172,8 +173,9 @@ def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] |
         try:
             m = with_driveline_mode(machine.with_clearances(clearance), driveline)
             spec = drive_of(m).mechanism(m, revolutions=revolutions)
-            if specialised:
-                spec = spec.model_copy(update={"simulation": spec.simulation.model_copy(update={"specialised": True})})
+            if specialised is not None:  # else the description's (None: specialised when compiled already)
+                spec = spec.model_copy(update={"simulation": spec.simulation.model_copy(
+                    update={"specialised": bool(specialised)})})
             specs.append(spec)
         except BerryshakerError as exc:
             out[i] = exc

@@ -25,6 +25,7 @@ from berryshaker.errors import BerryshakerError
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import MultibodyResult, PreparedRun, call_compiled, finish_run, prepare_run
 from berryshaker.multibody.spec import MechanismSpec
+from berryshaker.multibody.specialised import mark_compiled
 
 #: positions in the model tuple of the arrays that may differ between the sets of one batch (floats)
 _FLOAT_MODEL = (0, 1, 2, 5, 9, 10, 11, 12, 13, 14)
@@ -71,7 +72,7 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     (``kernel.integrate``, or the structure's own with ``simulation.specialised``,
     :func:`berryshaker.multibody.engine.integrator`): the result is the same and no second specialisation of the
     integrator is compiled (the parallel one costs some 25 s of cold start, which one thread cannot win back).
-    The parallel call runs the generic kernel.
+    The parallel call runs the generic kernel (so does a run left to choose, ``simulation.specialised`` None).
     """
     import numba
 
@@ -81,8 +82,11 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
         t0 = time.perf_counter()
         for r in runs:
             r.info[0] = r.budget
-            call_compiled(integrator(r.cm, r.specialised), r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
+            integrate = integrator(r.cm, r.specialised)
+            call_compiled(integrate, r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
                           r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
+            if integrate is not mb.integrate:
+                mark_compiled(r.cm.model, r.cm.n)  # later runs of the structure take it by default
         return time.perf_counter() - t0
     if any(r.specialised for r in runs):
         import warnings

@@ -8,6 +8,7 @@ states); perturbed starts live in berryshaker.multibody.perturbation.
 from __future__ import annotations
 
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -684,7 +685,9 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
         Integrate with the kernel specialised to this mechanism's structure
         (:func:`berryshaker.multibody.specialised.specialised_integrator`): bitwise the same results, about a
         third less time per step (a quarter per harvester run), and 10-20 s of compilation the first time a
-        structure is run on a machine (cached on disk after that).  Default: ``spec.simulation.specialised``.
+        structure is run on a machine (cached on disk after that); False: the generic kernel.  Default:
+        ``spec.simulation.specialised``, whose default (None) takes the specialised kernel when this machine has
+        compiled it for the structure already (:func:`integrator`).
 
     Raises
     ------
@@ -713,16 +716,50 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     call_compiled(integrate, run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step,
                   run.stats_from, run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info)
     wall = time.perf_counter() - t0
+    if integrate is not mb.integrate:
+        from berryshaker.multibody.specialised import mark_compiled
+
+        mark_compiled(cm.model, cm.n)  # compiled and cached: later runs of this structure take it by default
     return finish_run(run, wall)
 
 
-def integrator(cm: CompiledMechanism, specialised: bool = False):
+#: environment variable choosing the multibody kernel of runs left to choose (``simulation.specialised`` unset):
+#: "auto" (default: the structure's specialised kernel when this machine has compiled it, else the generic one),
+#: "generic" (e.g. to time the generic kernel) or "specialised" (compile every structure run)
+KERNEL_ENV = "BERRYSHAKER_KERNEL"
+KERNEL_CHOICES = ("auto", "generic", "specialised")
+
+
+def kernel_choice() -> str:
+    """The multibody kernel of runs left to choose, from :data:`KERNEL_ENV`: "auto" (unset or empty), "generic" or
+    "specialised" (any case, spaces ignored).
+
+    Raises
+    ------
+    ConfigError
+        Another value, naming the variable and the fix.
+    """
+    choice = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
+    if choice not in KERNEL_CHOICES:
+        raise ConfigError(f"environment variable {KERNEL_ENV}={os.environ[KERNEL_ENV]!r}: expected one of "
+                          f"{', '.join(KERNEL_CHOICES)} (the multibody kernel of runs left to choose); unset it for "
+                          "auto")
+    return choice
+
+
+def integrator(cm: CompiledMechanism, specialised: bool | None = False):
     """The compiled integrator of ``cm``'s runs: the generic ``kernel.integrate``, or with ``specialised`` the one
     written for its structure (:mod:`berryshaker.multibody.specialised`; same signature, bitwise the same
-    results)."""
+    results).  ``specialised=None`` (a run left to choose): as the environment variable :data:`KERNEL_ENV` says,
+    by default ("auto") the structure's own when this machine has compiled it already
+    (:func:`berryshaker.multibody.specialised.is_compiled`; a load, not a compilation), else the generic one."""
+    from berryshaker.multibody.specialised import is_compiled, specialised_integrator
+
+    if specialised is None:
+        choice = kernel_choice()
+        specialised = is_compiled(cm.model, cm.n) if choice == "auto" else choice == "specialised"
     if not specialised:
         return mb.integrate
-    from berryshaker.multibody.specialised import specialised_integrator
 
     try:
         return specialised_integrator(cm.model, cm.n, cm.m)
@@ -755,7 +792,7 @@ class PreparedRun:
     peaks: np.ndarray
     first: np.ndarray
     info: np.ndarray
-    specialised: bool = False  # spec.simulation.specialised: integrate with the structure's own kernel
+    specialised: bool | None = None  # spec.simulation.specialised: the structure's own kernel (None: if compiled)
 
 
 def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float | None = None,
@@ -806,7 +843,7 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
     return PreparedRun(cm, state, work, y, t_out, float(rtol), atol, float(max_step), stats_from, budget,
                        float(duration), np.zeros((n_out, 2 * cm.n)), np.zeros((n_out, nf, mb.N_EO)),
                        np.zeros((n_out, cm.m)), np.zeros(nf), np.zeros((nf, mb.N_FIRST)), np.zeros(6),
-                       bool(sim.specialised))
+                       sim.specialised)
 
 
 def finish_run(run: PreparedRun, wall: float) -> MultibodyResult:

@@ -260,8 +260,8 @@ class SimulationSpec(_Strict):
     energy_audit: bool | None = None  # work of every force element; None: on when a torque_speed driver exists
     # integrate with the kernel specialised to this mechanism's structure (multibody.specialised): the same
     # results, ~1/3 less time per step (~1/4 per harvester run), 10-20 s of compilation once per structure and
-    # machine
-    specialised: bool = False
+    # machine; None (default): when this machine has compiled it already, else the generic kernel; false: generic
+    specialised: bool | None = None
 
 
 class BranchContactSpec(_Strict):

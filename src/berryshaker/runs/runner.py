@@ -151,7 +151,14 @@ def _module_file_sha256(path: str) -> str:
 
 def run_key(fn: Callable, kwargs: dict) -> str:
     """sha256 of the function's dotted name, its resolved arguments and the code that computes the run
-    (:func:`code_fingerprint`, plus the module file of a function outside the package)."""
+    (:func:`code_fingerprint`, plus the module file of a function outside the package).
+
+    Arguments a run function names in its ``cache_key_ignores`` attribute (a tuple of names) are left out: they
+    choose how the value is computed, not the value (the multibody kernel of ``runs.sweep.model_run``, bitwise
+    the same either way), so a run computed one way is found in the cache when asked for the other way."""
+    ignored = getattr(fn, "cache_key_ignores", ())
+    if ignored:
+        kwargs = {k: v for k, v in kwargs.items() if k not in ignored}
     payload = {"fn": function_name(fn), "kwargs": kwargs, "code": code_fingerprint(),
                "module": _outside_source(fn), "schema": CACHE_SCHEMA}
     return _sha256(_canonical(payload))

@@ -231,12 +231,13 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
 
 
 def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revolutions: int = 3,
-              driveline: str | None = None, specialised: bool = False) -> dict:
+              driveline: str | None = None, specialised: bool | None = None) -> dict:
     """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise.
 
     ``driveline`` ("imposed" or "powered") overrides the machine's ``[driveline] mode`` (multibody model only);
     ``specialised`` integrates the multibody model with the kernel specialised to its structure (the same
-    summary, bitwise; :mod:`berryshaker.multibody.specialised`)."""
+    summary, bitwise; :mod:`berryshaker.multibody.specialised`); False: the generic kernel; None: the specialised
+    one when this machine has compiled it already."""
     from berryshaker.drives import drive_of
     from berryshaker.errors import ConfigError
 
@@ -270,12 +271,16 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
     """The multibody kernel for a sweep left to choose (``berryshaker sweep`` without ``--specialised`` or
     ``--generic``): the specialised one when this machine has compiled it for the sweep's structure (the first
     point's), or when the sweep has at least :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the
-    generic one.  Returns the choice and why, for the user."""
+    generic one; the environment variable ``BERRYSHAKER_KERNEL`` (:func:`berryshaker.multibody.engine.kernel_choice`)
+    set to generic or specialised decides instead.  Returns the choice and why, for the user."""
     from berryshaker.drives import drive_of
     from berryshaker.drives.powered import with_driveline_mode
-    from berryshaker.multibody.engine import compile_mechanism
+    from berryshaker.multibody.engine import KERNEL_ENV, compile_mechanism, kernel_choice
     from berryshaker.multibody.specialised import is_compiled
 
+    choice = kernel_choice()
+    if choice != "auto":
+        return choice == "specialised", f"{KERNEL_ENV}={choice}"
     machine = with_driveline_mode(point_machine(machine_data, overrides, revolutions, check=False), driveline)
     cm = compile_mechanism(drive_of(machine).mechanism(machine, revolutions=revolutions))
     if is_compiled(cm.model, cm.n):
@@ -294,7 +299,7 @@ def model_runs(kwargs_list: list[dict]) -> list:
     from berryshaker.errors import BerryshakerError
 
     out: list = [None] * len(kwargs_list)
-    groups: dict[tuple[int, str | None], list[tuple[int, object]]] = {}
+    groups: dict[tuple[int, str | None, bool | None], list[tuple[int, object]]] = {}
     for i, kw in enumerate(kwargs_list):
         if kw.get("model", "mlsd") != "multibody":
             try:
@@ -308,7 +313,7 @@ def model_runs(kwargs_list: list[dict]) -> list:
         except BerryshakerError as exc:
             out[i] = exc
             continue
-        groups.setdefault((rev, kw.get("driveline"), bool(kw.get("specialised", False))), []).append((i, machine))
+        groups.setdefault((rev, kw.get("driveline"), kw.get("specialised")), []).append((i, machine))
     for (rev, driveline, specialised), items in groups.items():
         res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline,
                                        series="statistics", specialised=specialised)
@@ -318,6 +323,7 @@ def model_runs(kwargs_list: list[dict]) -> list:
 
 
 model_run.batch = model_runs
+model_run.cache_key_ignores = ("specialised",)  # the kernel: bitwise the same summary (multibody.specialised)
 
 
 #: outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response)
