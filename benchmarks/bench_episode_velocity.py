@@ -19,6 +19,10 @@ import time
 
 import numpy as np
 
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
+
 
 def run_sets(n_sets: int) -> list[dict]:
     """Warm up, then run the reference clearances and ``n_sets`` drawn sets in this process."""

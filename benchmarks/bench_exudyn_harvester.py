@@ -21,6 +21,8 @@ start-up from centred joints), forces sampled on the 0.1 ms output grid; peaks o
 
 from __future__ import annotations
 
+import os
+
 import argparse
 import math
 import sys
@@ -28,6 +30,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))

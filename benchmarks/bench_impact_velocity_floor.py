@@ -32,6 +32,8 @@ Usage::
 
 from __future__ import annotations
 
+import os
+
 import argparse
 import json
 import math
@@ -40,6 +42,10 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))

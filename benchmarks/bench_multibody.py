@@ -32,6 +32,10 @@ except ImportError:  # older layout
 from berryshaker.multibody.spec import load_mechanism  # noqa: E402
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd  # noqa: E402
 
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
+
 TARGET = 2e-4  # relative error of the first-impact peak
 DURATION = 0.05
 

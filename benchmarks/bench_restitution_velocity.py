@@ -16,6 +16,8 @@ reference run (onsets read on a 5 us output grid, v_imp interpolated to the zero
 
 from __future__ import annotations
 
+import os
+
 import argparse
 import sys
 import time
@@ -24,6 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from cpu_timing import best_cpu_time  # benchmarks/ (the script's own folder) is on sys.path
+
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "src"))

@@ -19,6 +19,10 @@ import time
 
 import numpy as np
 
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
+
 
 def coupled_case(n_modes: int, k: int, rtol: float) -> dict:
     """Coupled drive-past run of the reference machine from replicate k's perturbed start."""

@@ -15,6 +15,8 @@ class's peak stem-force table.  Printed per scale: step attempts and CPU per rep
 
 from __future__ import annotations
 
+import os
+
 import argparse
 import multiprocessing
 import time
@@ -28,6 +30,10 @@ from berryshaker.harvest.virtual import replicate_seeds, sample_population, stem
 from berryshaker.multibody.perturbation import RandomInitialPerturbation
 from berryshaker.study.l9 import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_record
+
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
 CLEARANCE = {"A": 0.25e-3, "B": 0.2e-3, "C": 0.1e-3, "F": 0.2e-3}  # A1B1C1F3, m
 REFERENCE = (1e-7, 0.1)  # rtol, velocity scale (m/s)

@@ -148,7 +148,7 @@ def main() -> None:
           f"{'marginal':>8s}   marginal ratio")
     for rtol in (1e-5, 1e-7, 1e-9):
         def eng(d, rtol=rtol):
-            return simulate_mechanism(spec, duration=d, rtol=rtol, output_step=OUTPUT_STEP)
+            return simulate_mechanism(spec, duration=d, rtol=rtol, output_step=OUTPUT_STEP, specialised=False)
 
         def red(d, rtol=rtol):
             return simulate_reduced_slider_crank(spec, d, rtol, OUTPUT_STEP)
@@ -162,7 +162,7 @@ def main() -> None:
         marg_q = (cpu_q - cpu_q0) / (nq - q0["steps"]) * 1e6
         print(f"  {rtol:6.0e} {n:12d} {cpu / n * 1e6:6.2f} {marg:8.2f}   {nq:13d} {cpu_q / nq * 1e6:6.2f} "
               f"{marg_q:8.2f}   {marg / marg_q:5.1f}x")
-    run, _ = harvester_runner()
+    run, _ = harvester_runner(specialised=False)
     (res, _s), wall, cpu, _ = best(run, 3)
     print(f"harvester multibody, 2 cam revolutions, clearances A B C F: {wall * 1e3:.0f} ms wall "
           f"({cpu * 1e3:.0f} ms CPU), {_steps_engine(res)} steps = {1 / cpu:.1f} runs/s per core (CPU)")

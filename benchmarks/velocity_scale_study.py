@@ -12,6 +12,8 @@ failing that criterion, and those whose difference exceeds twice its standard er
 
 from __future__ import annotations
 
+import os
+
 import sys
 import time
 from pathlib import Path
@@ -28,6 +30,10 @@ from berryshaker.drives import drive_of  # noqa: E402
 from berryshaker.multibody.engine import simulate_mechanism  # noqa: E402
 from berryshaker.drives.simulation import multibody_summary  # noqa: E402
 from berryshaker.multibody.perturbation import RandomInitialPerturbation  # noqa: E402
+
+# the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
+# one once compiled on this machine: multibody.specialised)
+os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
 STARTS = 8
 REVOLUTIONS = 6

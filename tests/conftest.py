@@ -3,6 +3,9 @@ import os
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+# runs left to choose take the generic kernel here whatever this machine has compiled (multibody.specialised), so the
+# suite exercises the same kernel everywhere; the tests of that choice remove it (tests/test_multibody_specialised.py)
+os.environ["BERRYSHAKER_KERNEL"] = "generic"
 
 
 @pytest.fixture(scope="session")

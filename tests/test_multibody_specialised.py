@@ -121,8 +121,17 @@ def test_specialised_slider_crank_run_is_bitwise_the_generic_run():
         np.testing.assert_array_equal(x, y)
 
 
-def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones():
+def _markers_in(folder, monkeypatch):
+    """This machine's record of compiled structures moved to ``folder`` (empty: nothing compiled), and runs left to
+    choose by the default rule (conftest.py sets generic for the suite)."""
+    monkeypatch.setattr(sp, "_compiled_marker", lambda model, n: folder / f"{sp.structure_key(model, n)}.compiled")
+    monkeypatch.delenv("BERRYSHAKER_KERNEL", raising=False)
+
+
+def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(tmp_path, monkeypatch):
     from berryshaker.runs.sweep import model_runs
+
+    _markers_in(tmp_path, monkeypatch)
 
     m = reference_machine()
     (ra, sa), (rb, sb) = (simulate_multibody(m, revolutions=2, specialised=s) for s in (False, True))
@@ -145,8 +154,9 @@ def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(
     try:
         with patch("berryshaker.multibody.engine.integrator", spy):
             generic = model_runs([dict(k, specialised=False) for k in kw])
+            _markers_in(tmp_path / "batch", monkeypatch)  # forget the mark of the single run above
             special = model_runs([dict(k, specialised=True) for k in kw])
-            auto = model_runs(kw)  # left to choose: compiled above, so the specialised kernel
+            auto = model_runs(kw)  # left to choose: marked by the batch path just now, so the specialised kernel
     finally:
         numba.set_num_threads(threads)
     # the sweep's batch path ran the integrator asked for
@@ -165,8 +175,7 @@ def test_generated_row_product_counts_a_body_once_when_a_block_joins_it_to_itsel
 def test_sweep_picks_the_specialised_kernel_when_compiled_or_when_it_pays(tmp_path, monkeypatch):
     from berryshaker.runs.sweep import SPECIALISE_FROM_RUNS_PER_WORKER, choose_specialised
 
-    monkeypatch.setattr(sp, "source_folder", lambda: tmp_path)  # a machine that has compiled nothing
-    monkeypatch.delenv("BERRYSHAKER_KERNEL", raising=False)
+    _markers_in(tmp_path, monkeypatch)  # a machine that has compiled nothing
     data = reference_machine().model_dump(mode="json")
     over = {"clearance.A.size": 3e-4}
     few, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
@@ -177,8 +186,6 @@ def test_sweep_picks_the_specialised_kernel_when_compiled_or_when_it_pays(tmp_pa
     from berryshaker.drives import drive_of
 
     cm = compile_mechanism(drive_of(m).mechanism(m, revolutions=2))
-    (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# being compiled\n")
-    assert choose_specialised(data, over, 2, None, runs=40, workers=2)[0] is False  # a source alone is not compiled
     sp.mark_compiled(cm.model, cm.n)
     ready, why = choose_specialised(data, over, 2, None, runs=40, workers=2)
     assert ready is True and "compiled" in why
@@ -192,38 +199,44 @@ def test_a_run_left_to_choose_takes_the_specialised_kernel_once_this_machine_com
     from pathlib import Path
 
     from berryshaker.errors import ConfigError
-    from berryshaker.multibody.engine import KERNEL_ENV
     from berryshaker.multibody.spec import load_mechanism
 
     spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
     cm = compile_mechanism(spec)
     assert spec.simulation.specialised is None  # the default: left to choose
-    monkeypatch.delenv(KERNEL_ENV, raising=False)
-    with monkeypatch.context() as mp:
-        mp.setattr(sp, "source_folder", lambda: tmp_path)  # a machine that has compiled nothing
-        assert integrator(cm, None) is mb.integrate
-        (tmp_path / f"bs_specialised_{sp.structure_key(cm.model, cm.n)}.py").write_text("# a compilation starting\n")
-        assert not sp.is_compiled(cm.model, cm.n) and integrator(cm, None) is mb.integrate
-        mp.setattr(sp, "source_folder", lambda: tmp_path / "not made yet")
-        sp.mark_compiled(cm.model, cm.n)
-        assert sp.is_compiled(cm.model, cm.n)  # the folder is made (the module may have been loaded from elsewhere)
-    sp._compiled_marker(cm.model, cm.n).unlink(missing_ok=True)
-    assert integrator(cm, None) is mb.integrate
-    simulate_mechanism(spec, duration=1e-4, specialised=True)  # compiled (or loaded): marked for later runs
+    _markers_in(tmp_path, monkeypatch)  # a machine that has compiled nothing
+    assert integrator(cm, None) is integrator(cm) is mb.integrate
+    simulate_mechanism(spec, duration=1e-4, specialised=False)
+    assert not sp.is_compiled(cm.model, cm.n)  # a generic run marks nothing
+    simulate_mechanism(spec, duration=1e-4, specialised=True)  # compiled (or loaded), then marked for later runs
     assert sp.is_compiled(cm.model, cm.n)
     assert integrator(cm, None) is integrator(cm, True) is not mb.integrate
     assert integrator(cm, False) is mb.integrate  # asked for explicitly: always the generic one
-    monkeypatch.setenv(KERNEL_ENV, "generic")
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "Generic ")
     assert integrator(cm, None) is mb.integrate
-    sp._compiled_marker(cm.model, cm.n).unlink()
-    monkeypatch.setenv(KERNEL_ENV, "specialised")  # whether compiled or not
+    _markers_in(tmp_path / "none", monkeypatch)
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "specialised")  # whether compiled or not
     assert integrator(cm, None) is not mb.integrate
-    sp.mark_compiled(cm.model, cm.n)
-    monkeypatch.setenv(KERNEL_ENV, "Generic ")
-    assert integrator(cm, None) is mb.integrate
-    monkeypatch.setenv(KERNEL_ENV, "fast")
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "fast")
     with pytest.raises(ConfigError, match="BERRYSHAKER_KERNEL='fast'.*auto, generic, specialised.*unset it"):
         integrator(cm, None)
+
+
+def test_the_compiled_marker_needs_numba_to_have_saved_the_kernel_and_names_the_target(tmp_path, monkeypatch):
+    from types import SimpleNamespace
+
+    monkeypatch.setattr(sp, "source_folder", lambda: tmp_path / "not made yet")
+    model, n = _model(np.array([0]), np.array([[0, 0, 0]]), np.array([0]), np.zeros((0, 4), np.int64)), 3
+    unsaved = SimpleNamespace(_cache=SimpleNamespace(_cache_file=SimpleNamespace(_index_path=str(tmp_path / "x.nbi"))))
+    sp.mark_compiled(model, n, unsaved)
+    assert not sp.is_compiled(model, n)  # numba's index is missing: it did not save the machine code
+    (tmp_path / "x.nbi").write_text("")
+    sp.mark_compiled(model, n, unsaved)
+    assert sp.is_compiled(model, n)  # the folder is made (the module may have been loaded from elsewhere)
+    marker = sp._compiled_marker(model, n).name
+    assert marker.startswith(f"bs_specialised_{sp.structure_key(model, n)}.") and marker.endswith(".compiled")
+    monkeypatch.setattr(sp, "_TARGET", ["another-numba-or-cpu"])
+    assert not sp.is_compiled(model, n)  # numba's cache entries would not fit: not taken for compiled
 
 
 def test_the_run_cache_finds_a_sweep_point_whichever_kernel_computed_it():

@@ -253,6 +253,15 @@ def test_sweep_refuses_a_key_twice_and_zero_workers():
         assert r.exit_code == 2 and "--model multibody" in r.output
 
 
+def test_a_bad_kernel_choice_in_the_environment_is_named_before_any_work(monkeypatch):
+    import berryshaker.runs.runner as rr
+
+    monkeypatch.setattr(rr.SweepRunner, "map", lambda *a, **k: pytest.fail("the runner must not start"))
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "fastest")
+    r = runner.invoke(app, ["sweep", "--param", "cam.speed=100,120rpm"])
+    assert r.exit_code == 2 and "BERRYSHAKER_KERNEL='fastest'" in r.output and "unset it" in r.output
+
+
 def test_sweep_validates_every_point_before_running(monkeypatch):
     import berryshaker.runs.runner as rr
 

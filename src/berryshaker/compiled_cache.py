@@ -121,3 +121,29 @@ def _prune(current: Path) -> None:
     others.sort(reverse=True)
     for _, p in others[KEEP_FOLDERS - 1:]:
         shutil.rmtree(p, ignore_errors=True)
+
+
+#: environment variable choosing the multibody kernel of runs left to choose (``simulation.specialised`` unset):
+#: "auto" (default: the structure's specialised kernel when this machine has compiled it, else the generic one),
+#: "generic" (e.g. to time the generic kernel) or "specialised" (compile every structure run)
+KERNEL_ENV = "BERRYSHAKER_KERNEL"
+KERNEL_CHOICES = ("auto", "generic", "specialised")
+
+
+def kernel_choice() -> str:
+    """The multibody kernel of runs left to choose, from :data:`KERNEL_ENV`: "auto" (unset or empty), "generic" or
+    "specialised" (any case, spaces ignored).
+
+    Raises
+    ------
+    ConfigError
+        Another value, naming the variable and the fix.
+    """
+    choice = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
+    if choice not in KERNEL_CHOICES:
+        from berryshaker.errors import ConfigError
+
+        raise ConfigError(f"environment variable {KERNEL_ENV}={os.environ[KERNEL_ENV]!r}: expected one of "
+                          f"{', '.join(KERNEL_CHOICES)} (the multibody kernel of runs left to choose); unset it for "
+                          "auto")
+    return choice

@@ -68,6 +68,13 @@ def _version_cb(value: bool):
 def main(version: bool = typer.Option(False, "--version", callback=_version_cb, is_eager=True,
                                       help="Print the version and exit.")):
     """berryshaker: harvester drive kinematics, clearance dynamics, plant response and field tests."""
+    from berryshaker.compiled_cache import kernel_choice
+    from berryshaker.errors import BerryshakerError
+
+    try:
+        kernel_choice()  # a bad BERRYSHAKER_KERNEL is named before any work, not in every run
+    except BerryshakerError as exc:
+        _fail(exc)
 
 
 def _print_json(obj) -> None:

@@ -211,7 +211,10 @@ def sweep(
                                                              driveline, len(pts), runner.workers)
             else:
                 kernel_why = "--specialised" if specialised else "--generic"
-            kernel_arg = {"specialised": specialised}
+            # compiled already: each run left to choose (a point of another structure does not compile its own)
+            from berryshaker.runs.sweep import COMPILED_ALREADY
+
+            kernel_arg = {"specialised": None if kernel_why == COMPILED_ALREADY else specialised}
             if not as_json:
                 err.print(f"multibody kernel: {'specialised' if specialised else 'generic'} ({kernel_why})")
         jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions,

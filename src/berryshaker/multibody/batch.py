@@ -21,6 +21,7 @@ import time
 import numpy as np
 from numba import njit, prange
 
+from berryshaker.compiled_cache import kernel_choice
 from berryshaker.errors import BerryshakerError
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import MultibodyResult, PreparedRun, call_compiled, finish_run, prepare_run
@@ -86,13 +87,13 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
             call_compiled(integrate, r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
                           r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
             if integrate is not mb.integrate:
-                mark_compiled(r.cm.model, r.cm.n)  # later runs of the structure take it by default
+                mark_compiled(r.cm.model, r.cm.n, integrate)  # later runs of the structure take it by default
         return time.perf_counter() - t0
-    if any(r.specialised for r in runs):
+    if any(r.specialised or (r.specialised is None and kernel_choice() == "specialised") for r in runs):
         import warnings
 
         warnings.warn(f"berryshaker: {numba.get_num_threads()} batch threads run the generic kernel, not the "
-                      "specialised one (simulation.specialised; BERRYSHAKER_BATCH_THREADS=1 runs it)", RuntimeWarning,
+                      "specialised one (simulation.specialised or BERRYSHAKER_KERNEL; BERRYSHAKER_BATCH_THREADS=1 runs it)", RuntimeWarning,
                       stacklevel=2)
     first_run = runs[0]
     model = first_run.cm.model

@@ -8,13 +8,13 @@ states); perturbed starts live in berryshaker.multibody.perturbation.
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from berryshaker.compiled_cache import kernel_choice
 from berryshaker.contact.laws import LawEntryPoint, get_law, law_table, slot_c
 from berryshaker.contact.stiffness import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
@@ -719,38 +719,15 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     if integrate is not mb.integrate:
         from berryshaker.multibody.specialised import mark_compiled
 
-        mark_compiled(cm.model, cm.n)  # compiled and cached: later runs of this structure take it by default
+        mark_compiled(cm.model, cm.n, integrate)  # compiled and cached: later runs of the structure take it
     return finish_run(run, wall)
 
 
-#: environment variable choosing the multibody kernel of runs left to choose (``simulation.specialised`` unset):
-#: "auto" (default: the structure's specialised kernel when this machine has compiled it, else the generic one),
-#: "generic" (e.g. to time the generic kernel) or "specialised" (compile every structure run)
-KERNEL_ENV = "BERRYSHAKER_KERNEL"
-KERNEL_CHOICES = ("auto", "generic", "specialised")
-
-
-def kernel_choice() -> str:
-    """The multibody kernel of runs left to choose, from :data:`KERNEL_ENV`: "auto" (unset or empty), "generic" or
-    "specialised" (any case, spaces ignored).
-
-    Raises
-    ------
-    ConfigError
-        Another value, naming the variable and the fix.
-    """
-    choice = os.environ.get(KERNEL_ENV, "").strip().lower() or "auto"
-    if choice not in KERNEL_CHOICES:
-        raise ConfigError(f"environment variable {KERNEL_ENV}={os.environ[KERNEL_ENV]!r}: expected one of "
-                          f"{', '.join(KERNEL_CHOICES)} (the multibody kernel of runs left to choose); unset it for "
-                          "auto")
-    return choice
-
-
-def integrator(cm: CompiledMechanism, specialised: bool | None = False):
+def integrator(cm: CompiledMechanism, specialised: bool | None = None):
     """The compiled integrator of ``cm``'s runs: the generic ``kernel.integrate``, or with ``specialised`` the one
     written for its structure (:mod:`berryshaker.multibody.specialised`; same signature, bitwise the same
-    results).  ``specialised=None`` (a run left to choose): as the environment variable :data:`KERNEL_ENV` says,
+    results).  ``specialised=None`` (a run left to choose): as the environment variable ``BERRYSHAKER_KERNEL`` says
+    (:func:`berryshaker.compiled_cache.kernel_choice`),
     by default ("auto") the structure's own when this machine has compiled it already
     (:func:`berryshaker.multibody.specialised.is_compiled`; a load, not a compilation), else the generic one."""
     from berryshaker.multibody.specialised import is_compiled, specialised_integrator

@@ -26,9 +26,11 @@ The values (masses, lengths, stiffnesses, speeds) stay arguments: every mechanis
 sweep, a tolerance study, perturbed starts) shares one compiled integrator.  The source is written to
 ``<numba cache>/specialised/`` (the package's digest folder, :mod:`berryshaker.compiled_cache`, so an update of
 the package starts afresh) and numba caches its compiled code beside the package's; a structure costs about
-10-20 s of compilation once per machine (benchmarks/README.md sec. 29) and about 0.1 s to load after that.  Opt in
-with ``[simulation] specialised = true`` or ``simulate_mechanism(..., specialised=True)``: worth it for the
-hundreds of runs of one structure a sweep makes, not for a single run.
+10-20 s of compilation once per machine (benchmarks/README.md sec. 29) and about 0.1 s to load after that.  Asked
+for with ``[simulation] specialised = true``, ``simulate_mechanism(..., specialised=True)`` or by ``berryshaker
+sweep`` when a sweep has the runs to pay for it; a run left to choose (the default) takes it once this machine has
+compiled it (:func:`is_compiled`, :func:`berryshaker.multibody.engine.integrator`), so no run waits for a
+compilation it did not ask for.
 """
 
 from __future__ import annotations
@@ -239,28 +241,52 @@ def specialised_module(model: tuple, n: int, m: int):
 
 
 def is_compiled(model: tuple, n: int) -> bool:
-    """True when this machine has compiled the structure's specialised kernel with this package version (a run
-    with it finished its first call: :func:`mark_compiled`), so running it costs a load from numba's cache
-    (~0.1 s), not a compilation.  ~13 us (the structure's digest and a file's existence)."""
+    """True when this machine has compiled the structure's specialised kernel with this package version, numba
+    version and CPU (a run with it finished its first call and numba saved it: :func:`mark_compiled`), so running
+    it costs a load from numba's cache (~0.1 s), not a compilation.  ~15 us (the structure's digest and a file's
+    existence)."""
     return _compiled_marker(model, n).is_file()
 
 
-def mark_compiled(model: tuple, n: int) -> None:
-    """Record that the structure's specialised kernel compiled (and numba cached it) on this machine: an empty
-    ``bs_specialised_<key>.compiled`` beside the generated source.  Written after the first call returned, not
-    with the source, so that a process starting while another one compiles does not take it for compiled.  A
-    folder that cannot be written is no error: the kernel is then just not picked by default."""
+def mark_compiled(model: tuple, n: int, integrate=None) -> None:
+    """Record that the structure's specialised kernel compiled and numba cached it on this machine: an empty
+    ``bs_specialised_<key>.<target>.compiled`` beside the generated source, ``<target>`` a digest of numba's
+    version and the CPU's name and features (numba's cache entries depend on both, so a numba update or a cache
+    folder shared by other CPUs finds no marker rather than a wrong one).  Written after the first call returned,
+    not with the source, so that a process starting while another one compiles does not take it for compiled;
+    and, given the ``integrate`` dispatcher, only when numba's index file for it exists (numba may fail to save).
+    A folder that cannot be written is no error: the kernel is then just not picked by default."""
     path = _compiled_marker(model, n)
-    if not path.is_file():
-        try:
-            path.parent.mkdir(parents=True, exist_ok=True)  # the module may have been written elsewhere
-            path.touch()
-        except OSError:
-            pass
+    if path.is_file():
+        return
+    cache_file = getattr(getattr(integrate, "_cache", None), "_cache_file", None)
+    index = getattr(cache_file, "_index_path", None)  # numba's internals: when absent, trust the finished call
+    if index is not None and not Path(index).is_file():
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)  # the module may have been written elsewhere
+        path.touch()
+    except OSError:
+        pass
 
 
 def _compiled_marker(model: tuple, n: int) -> Path:
-    return source_folder() / f"bs_specialised_{structure_key(model, n)}.compiled"
+    return source_folder() / f"bs_specialised_{structure_key(model, n)}.{_target_digest()}.compiled"
+
+
+_TARGET: list[str] = []
+
+
+def _target_digest() -> str:
+    """Digest of what numba's cache entries depend on beyond the source: numba's version, the CPU's name and
+    features (llvmlite; ~1 ms once per process)."""
+    if not _TARGET:
+        import llvmlite.binding as llvm
+        import numba
+
+        text = f"{numba.__version__}|{llvm.get_host_cpu_name()}|{llvm.get_host_cpu_features().flatten()}"
+        _TARGET.append(hashlib.sha256(text.encode()).hexdigest()[:12])
+    return _TARGET[0]
 
 
 def source_folder() -> Path:

@@ -264,6 +264,9 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
 #: runs per worker from which ``berryshaker sweep`` picks the specialised kernel for a structure it has not compiled
 #: yet: its 10-20 s of compilation against ~24 ms saved per harvester run (benchmarks/README.md sec. 29)
 SPECIALISE_FROM_RUNS_PER_WORKER = 600
+#: :func:`choose_specialised`'s reason when the first point's structure is compiled: then every run is left to choose
+#: (each takes the specialised kernel if its own structure is compiled), not forced to compile its structure
+COMPILED_ALREADY = "compiled on this machine for this structure"
 
 
 def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, driveline: str | None, runs: int,
@@ -271,11 +274,12 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
     """The multibody kernel for a sweep left to choose (``berryshaker sweep`` without ``--specialised`` or
     ``--generic``): the specialised one when this machine has compiled it for the sweep's structure (the first
     point's), or when the sweep has at least :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the
-    generic one; the environment variable ``BERRYSHAKER_KERNEL`` (:func:`berryshaker.multibody.engine.kernel_choice`)
+    generic one; the environment variable ``BERRYSHAKER_KERNEL`` (:func:`berryshaker.compiled_cache.kernel_choice`)
     set to generic or specialised decides instead.  Returns the choice and why, for the user."""
     from berryshaker.drives import drive_of
     from berryshaker.drives.powered import with_driveline_mode
-    from berryshaker.multibody.engine import KERNEL_ENV, compile_mechanism, kernel_choice
+    from berryshaker.compiled_cache import KERNEL_ENV, kernel_choice
+    from berryshaker.multibody.engine import compile_mechanism
     from berryshaker.multibody.specialised import is_compiled
 
     choice = kernel_choice()
@@ -284,7 +288,7 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
     machine = with_driveline_mode(point_machine(machine_data, overrides, revolutions, check=False), driveline)
     cm = compile_mechanism(drive_of(machine).mechanism(machine, revolutions=revolutions))
     if is_compiled(cm.model, cm.n):
-        return True, "compiled on this machine for this structure"
+        return True, COMPILED_ALREADY
     per_worker = runs / max(workers, 1)
     if per_worker >= SPECIALISE_FROM_RUNS_PER_WORKER:
         return True, f"{per_worker:.0f} runs per worker pay for its compilation"
