@@ -1,6 +1,8 @@
 """Claim verdicts that could pass by construction: model agreement judged on every row, and a recommendation
 that only matches the study because a factor was left at the configured (the study's) clearance."""
 
+import numpy as np
+
 from berryshaker.experiment.agreement import ensemble_agreement, judged_difference, summary_statistics_agreement
 from berryshaker.study import claims as C
 
@@ -152,3 +154,36 @@ def test_model_check_refuses_replicates_that_would_be_copies():
     d["harvest"]["start_phase_spread"] = 0.0
     with pytest.raises(ConfigError, match="start_phase_spread is 0"):
         model_check_jobs(machine_from_dict(d), {}, 8)
+
+
+def test_trend_claims_count_only_steps_beyond_the_noise():
+    """Claims 2, 3 and 5 judge means over perturbed starts step by step (paired t): a step inside the noise is no
+    rise; a rise beyond it is; the same numbers from one start each could not be judged at all."""
+    from berryshaker.study.claims import _claim3, paired_steps
+
+    rng = np.random.default_rng(2)
+    start = rng.normal(0, 300, 8)  # the start-to-start spread, shared by every row (common random numbers)
+    up = [list(1000.0 * k + start + rng.normal(0, 30, 8)) for k in range(4)]
+    flat = [list(5000.0 + start + rng.normal(0, 30, 8)) for _ in range(4)]
+    assert [s["verdict"] for s in paired_steps(up)] == ["up"] * 3
+    assert all(s["verdict"] == "within noise" for s in paired_steps(flat))
+
+    def rows_for(series):
+        st = {}
+        for k, p in enumerate("ABCF"):
+            for i, r in enumerate([1] + [2 + 3 * k + j for j in range(3)]):
+                st.setdefault(str(r), {"pairs": {}, "starts": 8})["pairs"][p] = {
+                    "peak": {"mean": float(np.mean(series[i])), "values": series[i]}}
+        return {"rows": {"starts": st}}
+
+    assert _claim3(rows_for(up))[0] == "reproduced"
+    verdict, detail = _claim3(rows_for(flat))
+    assert verdict == "partly reproduced" and "within noise" in detail
+
+
+def test_a_claim_that_holds_by_construction_is_not_tested():
+    from berryshaker.study.claims import _claim4
+
+    lm = {"left": {"rms": 16.0}, "right": {"rms": 15.0}}
+    res = {"rows": {"multibody": {str(r): {"load_moment_Nm": lm} for r in (1, 14, 15, 16)}}}
+    assert _claim4(res)[0] == "not tested"

@@ -266,7 +266,8 @@ def test_plan_replicates_default_from_config_and_analyze_against_pure_error(tmp_
 
     assert len(pd.read_csv(_plan(tmp_path, "--force"))) == 27  # no --replicates, no --config: 3
     cfg = tmp_path / "two.toml"
-    cfg.write_text(reference_toml_text().replace("replicates = 3 ", "replicates = 2 "))
+    cfg.write_text(reference_toml_text().replace("replicates = 8 ", "replicates = 2 ").replace(
+        "max_replicates = 32 ", "max_replicates = 2 "))
     df = pd.read_csv(_plan(tmp_path, "--config", str(cfg), "--force"))
     assert len(df) == 18 and sorted(df["order"]) == list(range(1, 19))
     rng = np.random.default_rng(2)

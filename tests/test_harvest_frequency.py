@@ -14,7 +14,7 @@ runner = CliRunner()
 
 #: the test's machine: the reference with one branch class and two replicates (two coupled runs per speed instead
 #: of the description's nine: 3 classes x 3 replicates); every other value as described
-TEST_HARVEST = {"branch_classes = [0.85, 1.0, 1.15]": "branch_classes = [1.0]", "replicates = 3": "replicates = 2"}
+TEST_HARVEST = {"branch_classes = [0.85, 1.0, 1.15]": "branch_classes = [1.0]", "replicates = 8": "replicates = 2", "max_replicates = 32": "max_replicates = 2"}
 
 
 @pytest.fixture(scope="module")

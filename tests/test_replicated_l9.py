@@ -151,7 +151,8 @@ def virtual_json(tmp_path_factory):
     replicate (9 x 2 + 1 coupled runs, plus 2 if the recommendation is not an L9 run)."""
     text = (linear_spring_toml_text(reference_toml_text()).replace("branch_classes = [0.85, 1.0, 1.15]",
                                                                    "branch_classes = [1.0]")
-            .replace("bushes = 40 ", "bushes = 15 ").replace("tolerance_replicates = 2 ", "tolerance_replicates = 1 "))
+            .replace("bushes = 40 ", "bushes = 15 ").replace("tolerance_replicates = 2 ", "tolerance_replicates = 1 ")
+            .replace("replicates = 8 ", "replicates = 2 ").replace("max_replicates = 32 ", "max_replicates = 4 "))
     base = tmp_path_factory.mktemp("virtual")
     cfg = base / "fast.toml"
     cfg.write_text(text)
@@ -179,6 +180,15 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
         assert set(fac) == set("ABCF") and all("significant" in fac[f] and "level_ci" in fac[f] for f in fac)
     rec = s["recommended"]
     assert rec["statement"] and set(rec["basis"]) == set("ABCF") and rec["rule"]
+    # blocked analysis (the starts are shared by every run) and the paired extreme-level differences with their SE
+    assert s["replicated"]["blocks"] is True
+    assert s["replicated"]["responses"]["efficiency"]["anova"]["error"]["df"] == 8 * (2 - 1)
+    pa = s["paired"]["efficiency"]["A"]
+    assert pa["levels"] == [1, 3] and pa["se"] >= 0 and pa["ci"][0] <= pa["difference"] <= pa["ci"][1]
+    # the recommended set's starts were extended sequentially (2 -> at most 4) and its SDs come from all of them
+    assert rec["starts"] in (2, 4) and rec["sequential"]["stopped"] in ("target met", "max_replicates reached")
+    assert rec["replicates"]["efficiency"]["n"] == rec["starts"]
+    assert set(rec["fitted"]) <= {"efficiency", "damage", "unripe"}
     assert set(s["optimum"]["levels"]) == set("ABCF") and all(isinstance(v, int) for v in s["optimum"]["levels"].values())
     tc = s["tolerance_check"]
     assert tc["done"] and tc["rtol"] == [COUPLED_RTOL, 1e-7] and "statement" in tc

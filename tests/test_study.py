@@ -29,7 +29,8 @@ def fast_config(tmp_path_factory):
     # the pipeline on a cheaper machine: one branch class, two replicates, linear clearance springs
     text = linear_spring_toml_text(reference_toml_text()).replace(
         "branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
-        "bushes = 40 ", "bushes = 15 ").replace("replicates = 3 ", "replicates = 2 ").replace(
+        "bushes = 40 ", "bushes = 15 ").replace("replicates = 8 ", "replicates = 2 ").replace(
+        "max_replicates = 32 ", "max_replicates = 2 ").replace(
         "tolerance_replicates = 2 ", "tolerance_replicates = 1 ")
     p = tmp_path_factory.mktemp("cfg") / "fast.toml"
     p.write_text(text)
@@ -154,8 +155,9 @@ def test_study_outputs(study_out):
     saved = json.loads((out / "summary.json").read_text())
     assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
     for c in saved["claims"]:
-        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "undecided",
+        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "undecided", "not tested",
                                 "not comparable") and c["detail"]
+    assert saved["claims"][3]["verdict"] == "not tested"  # claim 4 holds by construction of the aggregate load
     assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")
     for k in ("efficiency_kg_min", "damage_rate_pct"):
         assert saved["optimum"][k] > 0

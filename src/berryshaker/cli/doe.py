@@ -71,6 +71,11 @@ def _plan_paths(out_file: Path) -> tuple[Path, Path]:
     return stem.with_name(stem.name + ".csv"), stem.with_name(stem.name + ".html")
 
 
+#: replicates of a field sheet when neither --replicates nor --config says: three repeats of every run give the
+#: blocked analysis 2 (runs - 1) error degrees of freedom (16 for an L9)
+FIELD_REPLICATES = 3
+
+
 @command(doe_app, "plan")
 def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
@@ -81,7 +86,7 @@ def doe_plan(
     replicates: Optional[int] = typer.Option(None, "--replicates", min=1, help="Times each run is tested (rows = runs "
                                              "x replicates, numbered in a 'replicate' column; >= 2 lets `doe analyze` "
                                              "judge effects against the replicate spread). Default: harvest.replicates "
-                                             "of --config, else that field's default (3)."),
+                                             "of --config (the virtual harvest's starts), else 3."),
     config: Optional[Path] = typer.Option(None, "--config", "-c", help="Machine description whose "
                                           "harvest.replicates is the default of --replicates."),
     seed: Optional[int] = typer.Option(None, "--seed", help="Seed of the randomised order (an integer >= 0)."),
@@ -105,10 +110,8 @@ def doe_plan(
         check_output_file(csv_path, allowed_suffixes=(".csv",), overwrite=force)
         check_output_file(html_path, allowed_suffixes=(".html",), overwrite=force)
         if replicates is None:
-            from berryshaker.harvest.spec import HarvestSpec
-
             harvest = _load(config).harvest if config is not None else None
-            replicates = harvest.replicates if harvest is not None else HarvestSpec.model_fields["replicates"].default
+            replicates = harvest.replicates if harvest is not None else FIELD_REPLICATES
         df = plan_table(array, factors, randomize, seed, replicates=replicates)
         write_text_atomic(csv_path, df.to_csv(index=False))
         write_text_atomic(html_path, plan_html(df, f"berryshaker field sheet: {array} test of {', '.join(names)}"))
@@ -137,9 +140,12 @@ def doe_analyze(
     """Range analysis, weighted optimum, ANOVA and the eq. 19 regression of a field test.
 
     Responses: efficiency, unripe, damage (from indexes or raw masses in the sheet) or any numeric column.  A
-    sheet with a 'replicate' column (`doe plan --replicates`, >= 2 per run) is analysed against the replicate
-    spread, as the virtual L9: ANOVA on the pure error, 95 % intervals, and an optimum that leaves a factor at
-    "no meaningful difference" where no weighted response differs significantly (--json: replicated, text).
+    sheet with a 'block' column (a field day or row shared by every run) or a 'replicate' column (`doe plan
+    --replicates`, >= 2 per run) is analysed as randomised complete blocks, as the virtual L9: effects tested
+    against the run x block interaction, paired differences between levels with their standard errors, 95 %
+    intervals, and an optimum that leaves a factor at "no meaningful difference" where no weighted response
+    differs significantly (--json: replicated, text, block_column).  Replicate numbers that are not real blocks
+    cost the analysis r - 1 error degrees of freedom and nothing else.
     Without replicates the weakest factor is pooled into the error.
     """
     try:
@@ -163,7 +169,9 @@ def doe_analyze(
             from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
 
             res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses,
-                                     _parse_weights(weights), level_values=fr.level_values, units=fr.units)
+                                     _parse_weights(weights), level_values=fr.level_values, units=fr.units,
+                                     blocks=True)
+            res["block_column"] = fr.block_column
             res["text"] = describe_replicated(res)
         else:
             res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, _parse_weights(weights),
@@ -290,21 +298,38 @@ def doe_virtual(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
-    replicates: Optional[int] = typer.Option(None, "--replicates", min=2, help="Replicates per run (>= 2; default "
-                                             "harvest.replicates in the description)."),
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=2, max=1000,
+                                             help="Starts per run (>= 2; default harvest.replicates in the "
+                                             "description, chosen by --convergence)."),
+    convergence: bool = typer.Option(False, "--convergence", help="Instead of the L9: mean and SD of every harvest "
+                                     "response at the configured clearances against the number of starts, with the "
+                                     "SD's own sampling error, and the smallest count where both are stable."),
+    starts: str = typer.Option("4,8,16,32", "--starts", help="With --convergence: the start counts of the table "
+                               "(comma-separated, nested: the first n of the largest)."),
 ):
     """The study's L9 clearance test run through the virtual harvest, replicated, and analysed against its noise.
 
-    Each of the 9 runs is replicated (harvest.replicates, or --replicates): replicate k uses seed + 1000 k for
-    the bushes and for the machine's initial state (eccentricity in every clearance, drive phase at the bush);
-    one coupled run per branch class and replicate goes through the cached sweep runner (a repeat is instant).
+    Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates): start k uses
+    seed + 1000 k for the bushes and for the machine's initial state (eccentricity in every clearance, drive phase
+    at the bush), the same starts for every run, and the analysis treats start k as block k (randomised complete
+    blocks: paired differences between levels, F tests against the run x start interaction).  The recommended set's
+    starts are then extended until every harvest response's mean is known to harvest.se_target of itself (at most
+    harvest.max_replicates); its intervals and per-start SDs come from all of them.  One coupled run per branch
+    class and start goes through the cached sweep runner (a repeat is instant).
+
+    --convergence prints how the mean and the SD of each harvest response settle with the number of starts (the
+    study that chose harvest.replicates); --json keys: table (response -> rows -> n -> mean, se, sd, sd_se,
+    sd_relative_error, stable), chosen, configured, rule, seeds, values.
 
     --json keys: runs (levels, clearance_mm, replicate means of efficiency/unripe/damage, replicates: per
     response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the pure
     error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
     optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
-    rule in method, tiered_levels); recommended (levels, code, clearance_mm, virtual_harvest, replicates, basis
-    per factor, rule, statement, check: the tiered choice confirmed against the trade-off table - moved,
+    rule in method, tiered_levels); paired (response -> factor -> the paired difference of the extreme levels,
+    e.g. A3 - A1: difference, se, ci, p, beyond_noise); recommended (levels, code, clearance_mm, virtual_harvest,
+    starts, sequential (reached, stopped), fitted (responses whose value there is a calibration target),
+    replicates (per response mean, sd per start, ci, n), basis per factor, rule, statement, check: the tiered
+    choice confirmed against the trade-off table - moved,
     tiered, dominated_by, better_in, statement); tolerance_check (rtol: the runs' and the check's, 1e-5 and 1e-7; per response changes, mean_change,
     max_abs_change, replicate_sd, noise_sd, within_replicate_spread: |mean_change| <= 2 noise_sd; statement); tradeoff (one row per candidate: name, clearance_mm:<pair>, efficiency,
     ripe_removal, unripe, unripe_shed, damage, peak_force_N:<pair>, drive_torque_peak_Nm, drive_torque_rms_Nm,
@@ -324,6 +349,19 @@ def doe_virtual(
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
+        if convergence:
+            from berryshaker.experiment.noise import describe_convergence
+            from berryshaker.study.l9 import start_convergence
+
+            counts = _start_counts(starts)
+            res = start_convergence(machine, runner, counts=counts)
+            res["version"] = __version__
+            if as_json:
+                _print_json(res)
+            else:
+                out.print(describe_convergence(res, res["units"]), markup=False, highlight=False)
+                out.print(f"harvest.replicates in the description: {res['configured']}", markup=False)
+            return
         res = virtual_l9(machine, runner, replicates)
         res["version"] = __version__
         if plot is not None:
@@ -363,10 +401,32 @@ def doe_virtual(
     rec = res["recommended"]
     out.print(f"recommended {rec['code']} ({', '.join(f'{k} {v} mm' for k, v in rec['clearance_mm'].items())}); "
               f"study: {rec['study']['code']}")
+    units = res.get("response_units", {})
+    fitted = set(rec.get("fitted") or [])
+    out.print(f"at the recommendation, over {rec.get('starts', '?')} starts (mean [95 % interval], SD per start): "
+              + "; ".join(f"{n} {v['mean']:.3g} [{v['ci'][0]:.3g}, {v['ci'][1]:.3g}] {units.get(n, '')}, SD "
+                          f"{v['sd']:.2g}" + (" (fitted)" if n in fitted else "")
+                          for n, v in rec["replicates"].items() if n in ("efficiency", "ripe_removal", "damage",
+                                                                          "unripe")),
+              markup=False, highlight=False)
+    if rec.get("sequential"):
+        out.print(rec["sequential"]["statement"], markup=False, highlight=False)
     out.print(rec.get("statement", ""), markup=False, highlight=False)
     tc = res.get("tolerance_check") or {}
     if tc.get("done"):
         out.print(f"solver tolerance: {tc['statement']}", markup=False, highlight=False)
+
+
+def _start_counts(text: str) -> tuple[int, ...]:
+    """``--starts 4,8,16,32`` as counts (each 2..1000)."""
+    try:
+        counts = tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        counts = ()
+    if not counts or any(not 2 <= c <= 1000 for c in counts):
+        raise BerryshakerError(f"--starts {text!r}: give comma-separated start counts between 2 and 1000, e.g. "
+                               "4,8,16,32")
+    return counts
 
 
 def _print_tradeoff(res: dict) -> None:

@@ -93,10 +93,21 @@ def study(
     out.print(t)
     o = summary["optimum"]
     if o is not None:
+        fitted = set(o.get("fitted") or [])
+        iv = o.get("intervals") or {}
+
+        def val(name, value, unit):
+            est = iv.get(name)
+            text = f"{value:.2f} {unit}" + (f" (SD {est['sd']:.2g})" if est else "")
+            return text + (" [fitted]" if name in fitted else "")
+
         out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
-                  + f" -> {o['efficiency_kg_min']:.2f} kg/min, {o['unripe_rate_pct']:.2f} % unripe, "
-                    f"{o['damage_rate_pct']:.2f} % damage (study {CHOSEN_CODE}: {FIELD_RESULT['efficiency_kg_min']} "
-                    f"kg/min, {FIELD_RESULT['unripe_rate_pct']} %, {FIELD_RESULT['damage_rate_pct']} %)")
+                  + f" -> {val('efficiency', o['efficiency_kg_min'], 'kg/min')}, "
+                    f"{val('unripe', o['unripe_rate_pct'], '%')} unripe, {val('damage', o['damage_rate_pct'], '%')} "
+                    f"damage over {o.get('starts') or '?'} starts (study {CHOSEN_CODE}: "
+                    f"{FIELD_RESULT['efficiency_kg_min']} kg/min, {FIELD_RESULT['unripe_rate_pct']} %, "
+                    f"{FIELD_RESULT['damage_rate_pct']} %" + ("; [fitted]: calibrated to that value here" if fitted
+                                                              else "") + ")", markup=False, highlight=False)
     for f in summary.get("failures", []):
         out.print(f"[red]failed[/] {f['step']} run {f['run']} ({f['inputs']}): {f['error']}")
     out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")

@@ -303,7 +303,7 @@ def _resolve_factor(sheet: _Sheet, name: str, code_col: str | None, value_col: s
 def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: set[str]):
     """(name, code column, value column, unit, given Factor) per factor, and the columns ignored."""
     cols = list(sheet.df.columns)
-    reserved = _reserved_columns() | response_cols
+    reserved = _reserved_columns() | response_cols | ({block_column(sheet.df)} - {None})
     meta = {c for c in cols if c.lower() in META_COLUMNS}
     found = []
     if factors is not None:
@@ -350,9 +350,19 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
     return found, ignored
 
 
+def block_column(df: pd.DataFrame) -> str | None:
+    """The column that numbers a run's repeats: ``block`` (or ``blocks``, any case: a field day, a row of bushes
+    shared by every run) if the sheet has one, else ``replicate`` (`doe plan --replicates`), else None."""
+    for c in df.columns:
+        if str(c).strip().lower() in ("block", "blocks"):
+            return c
+    return "replicate" if "replicate" in df.columns else None
+
+
 def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
-    """Run numbers per row (1..n) and, if the sheet has a ``replicate`` column, replicate numbers per row: every
-    run then has the replicates 1..R once each, with the same R for every run (balanced pure error)."""
+    """Run numbers per row (1..n) and, if the sheet has a ``block`` or ``replicate`` column
+    (:func:`block_column`), repeat numbers per row: every run then has the repeats 1..R once each, with the same R
+    for every run (complete blocks, balanced)."""
     if "run" not in sheet.df.columns:
         raise ConfigError("results CSV: no 'run' column (the field sheet from `berryshaker doe plan` has one)")
     runs, empty = sheet.numbers("run")
@@ -367,16 +377,18 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
     runs = runs.astype(np.int64)
     sheet.run_label = [str(r) for r in runs]
     reps = None
-    if "replicate" in sheet.df.columns:
-        reps, empty = sheet.numbers("replicate")
+    col = block_column(sheet.df)
+    what = "block" if col != "replicate" else "replicate"
+    if col is not None:
+        reps, empty = sheet.numbers(col)
         bad = empty | ~np.isfinite(reps) | (reps != np.round(reps)) | (reps < 1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise ConfigError(f"results CSV row {i + 2} (run {runs[i]}), column 'replicate': "
-                              f"{sheet.df['replicate'].iloc[i]!r} is not a replicate number (1, 2, 3, ...); fill it in")
+            raise ConfigError(f"results CSV row {i + 2} (run {runs[i]}), column {col!r}: "
+                              f"{sheet.df[col].iloc[i]!r} is not a {what} number (1, 2, 3, ...); fill it in")
         reps = reps.astype(np.int64)
         if reps.max() > 1:
-            sheet.run_label = [f"{r}, replicate {k}" for r, k in zip(runs, reps)]
+            sheet.run_label = [f"{r}, {what} {k}" for r, k in zip(runs, reps)]
     key = runs if reps is None else runs * (int(reps.max()) + 1) + reps
     _, counts = np.unique(key, return_counts=True)
     if (counts > 1).any():
@@ -388,7 +400,7 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
                               "(`doe plan --replicates`)")
         i = rows[0] - 2
         raise ConfigError(f"results CSV: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
-                          f"as replicate {reps[i]}; keep one row per run and replicate")
+                          f"as {what} {reps[i]}; keep one row per run and {what}")
     n = int(runs.max())
     present = set(runs.tolist())
     if len(present) != n:
@@ -401,9 +413,9 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
             have = sorted(reps[runs == run].tolist())
             if have != list(range(1, r + 1)):
                 missing = sorted(set(range(1, r + 1)) - set(have))
-                raise ConfigError(f"results CSV: run {run} has replicate(s) {have}, other runs go up to {r}; every "
-                                  f"run needs replicates 1..{r} once each (missing {missing}) - fill in the missing "
-                                  "rows or delete the extra replicates of the other runs")
+                raise ConfigError(f"results CSV: run {run} has {what}(s) {have}, other runs go up to {r}; every "
+                                  f"run needs {what}s 1..{r} once each (missing {missing}) - fill in the missing "
+                                  f"rows or delete the extra {what}s of the other runs")
     return runs, reps
 
 
@@ -520,13 +532,15 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     replicated = {k: v.reshape(-1, r) for k, v in out.items()} if reps is not None else None
     means = {k: v.mean(axis=1) for k, v in replicated.items()} if replicated is not None else out
     return FieldResults(table, level_cols, names, means, levels[per_run], valuearr[per_run], level_values, units,
-                        ignored, replicates=r, responses_replicated=replicated)
+                        ignored, replicates=r, responses_replicated=replicated,
+                        block_column=block_column(df) if reps is not None else None)
 
 
 def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.ndarray:
     """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
     df = sheet.df
-    numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order") and c.lower() not in META_COLUMNS
+    blk = block_column(df)
+    numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order", blk) and c.lower() not in META_COLUMNS
                     and c not in factor_cols and c not in RAW_COLUMNS]
     col = INDEX_NAMES.get(r, r)
     if r not in INDEX_NAMES and col not in df.columns:

@@ -236,7 +236,8 @@ class FieldResults:
     ``level_values[name]`` is the tuple of level values (level 1, 2, ...) or None when the sheet gives only
     level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
     ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
-    and ``responses_replicated`` is None.
+    and ``responses_replicated`` is None.  A ``block`` (or ``blocks``) column takes the replicate column's role and
+    names the blocks of the analysis (``block_column``: each run once per block).
     """
 
     table: pd.DataFrame
@@ -250,6 +251,8 @@ class FieldResults:
     ignored_columns: list[str] = field(default_factory=list)
     replicates: int = 1
     responses_replicated: dict[str, np.ndarray] | None = None
+    #: the column whose numbers are the blocks of the replicated analysis (``block``/``blocks``, else ``replicate``)
+    block_column: str | None = None
 
 
 def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:

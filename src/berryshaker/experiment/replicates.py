@@ -94,8 +94,96 @@ def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) 
     return ss, float(table.loc["Residual", "sum_sq"]), int(round(table.loc["Residual", "df"]))
 
 
+def block_error(y: np.ndarray) -> tuple[float, int]:
+    """Run x block interaction sum of squares and degrees of freedom of a (runs, blocks) array.
+
+    SS_E = sum_i sum_k (y_ik - ybar_i. - ybar_.k + ybar_..)^2 with (n - 1)(r - 1) degrees of freedom: the error of a
+    randomised complete block design with the n runs as treatments and the r blocks (Montgomery 2013, sec. 4.1,
+    eq. 4.7).  Block effects (a start, a field day, a row of bushes shared by every run) cancel from it.
+    """
+    y = np.asarray(y, float)
+    n, r = y.shape
+    e = y - y.mean(axis=1, keepdims=True) - y.mean(axis=0, keepdims=True) + y.mean()
+    return float(np.sum(e**2)), int((n - 1) * (r - 1))
+
+
+def error_term(y: np.ndarray, blocks: bool) -> tuple[float, int]:
+    """The error that effects are judged against: :func:`block_error` with blocks, else :func:`pure_error`."""
+    return block_error(y) if blocks else pure_error(y)
+
+
+def block_variance(y: np.ndarray) -> dict:
+    """Variance components of a blocked (runs, blocks) array: y_ik = mu + tau_i + beta_k + e_ik.
+
+    ``ms_block`` = n sum_k (ybar_.k - ybar_..)^2 / (r - 1) estimates sigma^2 + n sigma_beta^2, ``ms_error`` (the
+    interaction, :func:`block_error`) estimates sigma^2, so sigma_beta^2 = max((ms_block - ms_error) / n, 0)
+    (method of moments, Montgomery 2013, sec. 13.1).  ``per_start_sd`` = sqrt(sigma_beta^2 + sigma^2): the spread of
+    one run's replicates, block included.
+    """
+    y = np.asarray(y, float)
+    n, r = y.shape
+    ss_e, df_e = block_error(y)
+    ms_e = ss_e / df_e if df_e else float("nan")
+    ms_b = n * float(np.sum((y.mean(axis=0) - y.mean()) ** 2)) / (r - 1) if r > 1 else float("nan")
+    var_b = max((ms_b - ms_e) / n, 0.0) if np.isfinite(ms_b) and np.isfinite(ms_e) else float("nan")
+    return {"ms_block": ms_b, "df_block": r - 1, "ms_error": ms_e, "df_error": df_e, "var_block": var_b,
+            "per_start_sd": float(np.sqrt(var_b + ms_e)) if np.isfinite(var_b) else float("nan")}
+
+
+def paired_differences(levels_j: np.ndarray, y: np.ndarray, confidence: float = 0.95) -> list[dict]:
+    """Paired (within-block) differences between the levels of one factor.
+
+    Parameters
+    ----------
+    levels_j : ndarray (runs,)
+        The factor's level (1-based) in each run.
+    y : ndarray (runs, blocks)
+        Observations; column k is block k, shared by every run (a start drawn once and used for every run: common
+        random numbers; a field day or row in a field test).
+    confidence : float
+        Level of the t-intervals.
+
+    Returns
+    -------
+    list of dict
+        For every pair of levels a < b: ``levels`` [a, b], ``difference`` dbar = mean_k d_k with
+        d_k = mean(y_ik, level b) - mean(y_ik, level a) in block k, ``se`` = sd(d) / sqrt(r), ``ci`` (Student t,
+        r - 1 dof), ``p`` (two-sided paired t test), ``beyond_noise`` (p < 1 - confidence).
+
+    Notes
+    -----
+    The paired t test of Student (1908) on the block-wise contrasts: block effects cancel from each d_k, so the
+    standard error is that of the contrast itself, not of the start-to-start spread (Montgomery 2013, sec. 2.5.1).
+    """
+    from scipy import stats
+
+    y = np.asarray(y, float)
+    levels_j = np.asarray(levels_j)
+    r = y.shape[1]
+    ks = sorted(int(v) for v in np.unique(levels_j))
+    means = {k: y[levels_j == k].mean(axis=0) for k in ks}
+    out = []
+    for i, a in enumerate(ks):
+        for b in ks[i + 1:]:
+            d = means[b] - means[a]
+            dbar = float(d.mean())
+            if r < 2:
+                out.append({"levels": [a, b], "difference": dbar, "se": float("nan"), "ci": [float("nan")] * 2,
+                            "p": float("nan"), "beyond_noise": False})
+                continue
+            se = float(d.std(ddof=1) / np.sqrt(r))
+            t = float(stats.t.ppf(0.5 + confidence / 2, r - 1))
+            if se > 0:
+                p = float(2 * stats.t.sf(abs(dbar) / se, r - 1))
+            else:
+                p = 0.0 if dbar != 0 else 1.0
+            out.append({"levels": [a, b], "difference": dbar, "se": se, "ci": [dbar - t * se, dbar + t * se],
+                        "p": p, "beyond_noise": bool(p < 1 - confidence)})
+    return out
+
+
 def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str], alpha: float = 0.05,
-                     confidence: float = 0.95) -> dict:
+                     confidence: float = 0.95, blocks: bool = False) -> dict:
     """Main-effect ANOVA and level statistics of one replicated response.
 
     Parameters
@@ -104,18 +192,26 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
         1-based level numbers of an orthogonal array.
     y : ndarray (runs, replicates)
         Observations; at least 2 replicates.
+    factor_names : list of str
+        Names of the factors (columns of ``levels``).
     alpha : float
         Significance level: an effect is significant only if p < alpha.
     confidence : float
         Level of the intervals (0.95: 95 %).
+    blocks : bool
+        Replicate k of every run shares block k (the same start, field day or row): the error is the run x block
+        interaction (:func:`block_error`, randomised complete blocks) instead of the pure error, and every
+        factor's level pairs get paired differences (:func:`paired_differences`).
 
     Returns
     -------
     dict
-        ``pure_error`` {ss, df, ms}; ``lack_of_fit`` {ss, df, ms, f, p} (df 0 when saturated);
-        ``factors``: per factor ss, df, ms, f, p, significant, level_means, level_se, level_ci, range,
-        range_ci (Tukey-Kramer, for the difference of the extreme levels), hsd (Tukey-Kramer half-width
-        of a level difference), best_level and best_levels_within_noise.
+        ``pure_error`` {ss, df, ms}: the spread of each run's replicates (block included); ``error`` {ss, df, ms,
+        kind}: what effects are tested against (the pure error, or the block interaction); ``blocks``
+        (:func:`block_variance`, or None); ``lack_of_fit`` {ss, df, ms, f, p} (df 0 when saturated); ``factors``:
+        per factor ss, df, ms, f, p, significant, level_means, level_se (for comparisons between levels),
+        level_ci, range, range_ci (Tukey-Kramer, for the difference of the extreme levels), hsd (Tukey-Kramer
+        half-width of a level difference), ``paired`` (with blocks) and the levels.
     """
     from scipy import stats
 
@@ -123,18 +219,23 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
     y = np.asarray(y, float)
     n, r = y.shape
     ss_pe, df_pe = pure_error(y)
-    ms_pe = ss_pe / df_pe
+    ss_e, df_e = error_term(y, blocks)
+    ms_e = ss_e / df_e if df_e else float("nan")
     ss, ss_res, df_res = _main_effect_ss(levels, y, factor_names)
-    ss_lof, df_lof = max(ss_res - ss_pe, 0.0), df_res - df_pe
-    t = float(stats.t.ppf(0.5 + confidence / 2, df_pe))
+    if blocks:  # the blocks take r - 1 degrees of freedom and their sum of squares out of the residual
+        bv = block_variance(y)
+        ss_res -= bv["ms_block"] * bv["df_block"]
+        df_res -= bv["df_block"]
+    ss_lof, df_lof = max(ss_res - ss_e, 0.0), df_res - df_e
+    t = float(stats.t.ppf(0.5 + confidence / 2, df_e)) if df_e else float("nan")
     total = float(np.sum((y - y.mean()) ** 2))
     factors = {}
     for j, f in enumerate(factor_names):
         ssf, dff = ss[f]
         msf = ssf / dff
-        if ms_pe > 0:
-            F = msf / ms_pe
-            p = float(stats.f.sf(F, dff, df_pe))
+        if ms_e > 0:
+            F = msf / ms_e
+            p = float(stats.f.sf(F, dff, df_e))
         else:  # identical replicates: no noise estimate; an effect larger than round-off counts as real
             real = ssf > 1e-12 * max(total, 1e-300)
             F, p = (float("inf"), 0.0) if real else (float("nan"), 1.0)
@@ -143,22 +244,27 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
         for k in ks:
             obs = y[levels[:, j] == k]
             m = float(obs.mean())
-            se = float(np.sqrt(ms_pe / obs.size))
+            se = float(np.sqrt(ms_e / obs.size))
             means.append(m)
             ses.append(se)
             cis.append([m - t * se, m + t * se])
             nobs.append(obs.size)
         hi, lo = int(np.argmax(means)), int(np.argmin(means))
         R = means[hi] - means[lo]
-        hw = _tukey_half_width(ms_pe, df_pe, len(ks), nobs[hi], nobs[lo], confidence)
+        hw = _tukey_half_width(ms_e, df_e, len(ks), nobs[hi], nobs[lo], confidence)
         factors[f] = {"ss": ssf, "df": dff, "ms": msf, "f": float(F), "p": p, "significant": bool(p < alpha),
                       "levels": ks, "level_means": means, "level_se": ses, "level_ci": cis, "range": R,
-                      "range_ci": [R - hw, R + hw], "hsd": hw, "n_per_level": nobs}
+                      "range_ci": [R - hw, R + hw], "hsd": hw, "n_per_level": nobs,
+                      "paired": paired_differences(levels[:, j], y, confidence) if blocks else None}
     lof = {"ss": ss_lof, "df": int(df_lof), "ms": ss_lof / df_lof if df_lof > 0 else float("nan")}
-    if df_lof > 0 and ms_pe > 0:
-        lof["f"] = lof["ms"] / ms_pe
-        lof["p"] = float(stats.f.sf(lof["f"], df_lof, df_pe))
-    return {"pure_error": {"ss": ss_pe, "df": df_pe, "ms": ms_pe}, "lack_of_fit": lof, "factors": factors,
+    if df_lof > 0 and ms_e > 0:
+        lof["f"] = lof["ms"] / ms_e
+        lof["p"] = float(stats.f.sf(lof["f"], df_lof, df_e))
+    kind = ("run x block interaction (replicate k of every run shares block k)" if blocks
+            else "pure error (replicates)")
+    return {"pure_error": {"ss": ss_pe, "df": df_pe, "ms": ss_pe / df_pe},
+            "error": {"ss": ss_e, "df": df_e, "ms": ms_e, "kind": kind},
+            "blocks": block_variance(y) if blocks else None, "lack_of_fit": lof, "factors": factors,
             "total_ss": total, "replicates": r, "runs": n}
 
 
@@ -170,7 +276,8 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
                        responses_replicated: dict[str, np.ndarray], senses: dict[str, bool],
                        weights: dict[str, float] | None = None, *, alpha: float = 0.05, confidence: float = 0.95,
                        level_values: dict[str, tuple[float, ...] | None] | None = None,
-                       units: dict[str, str] | None = None, fallback_weights: dict[str, float] | None = None) -> dict:
+                       units: dict[str, str] | None = None, fallback_weights: dict[str, float] | None = None,
+                       blocks: bool = False) -> dict:
     """Analysis of a replicated orthogonal test, with every effect judged against the replicate noise.
 
     Parameters
@@ -196,6 +303,11 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
         Second-tier responses (e.g. machine loads when the primary ones are harvest indexes): they decide a
         factor's level only where the weighted (primary) responses show no significant difference, or
         cannot tell the best levels apart (:data:`TIERED_RULE`).
+    blocks : bool
+        Replicate k of every run shares block k (common random numbers in a simulation: the same start for
+        every run; a field day or a row of bushes in a field test): effects are judged against the run x block
+        interaction (randomised complete blocks, :func:`block_error`), and each factor's levels are compared
+        by paired differences (:func:`paired_differences`).  Without blocks, against the pure error.
 
     Returns
     -------
@@ -227,18 +339,24 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
         raise ConfigError("a replicated analysis needs at least 2 replicates per run (use analyze() for a single "
                           "replicate, which pools the weakest factor into the error)")
     w = check_weights(weights, reps)
-    rule = (f"an effect is significant only if p < {alpha:g} (F test of the factor mean square against the pure "
-            f"(replicate) error, {n} runs x {r} replicates = {n * (r - 1)} degrees of freedom); otherwise the "
-            f"levels show no meaningful difference. Intervals: {100 * confidence:g} % (level means: t; range: "
-            "Tukey-Kramer, simultaneous over all level pairs).")
+    if blocks:
+        err = (f"the run x block interaction of a randomised complete block design ({n} runs x {r} blocks, replicate "
+               f"k of every run in block k: {(n - 1) * (r - 1)} degrees of freedom; block effects cancel)")
+    else:
+        err = f"the pure (replicate) error, {n} runs x {r} replicates = {n * (r - 1)} degrees of freedom"
+    rule = (f"an effect is significant only if p < {alpha:g} (F test of the factor mean square against {err}); "
+            f"otherwise the levels show no meaningful difference. Intervals: {100 * confidence:g} % (level means: t, "
+            "for comparisons between levels; range: Tukey-Kramer, simultaneous over all level pairs"
+            + ("; paired differences: Student t over the blocks" if blocks else "") + ").")
     out = {"significance_rule": rule, "alpha": alpha, "confidence": confidence, "runs": n, "replicates": r,
+           "blocks": bool(blocks),
            "weights": w, "factors": factor_levels_report(factor_names, levels, level_values, units),
            "responses": {}}
     notes = []
     for name, y in reps.items():
-        an = replicated_anova(levels, y, factor_names, alpha, confidence)
+        an = replicated_anova(levels, y, factor_names, alpha, confidence, blocks)
         mx = senses[name]
-        if an["pure_error"]["ms"] == 0:
+        if an["error"]["ms"] == 0:
             notes.append(f"{name}: the replicates are identical (zero pure error); effects are exact for this "
                          "model, not judged against noise - check that the replicates vary the seed")
         fac = {}
@@ -248,7 +366,7 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
             within = [d["levels"][i] for i, m in enumerate(d["level_means"])
                       if abs(best_val - m) <= d["hsd"] or not np.isfinite(d["hsd"])]
             fac[f] = {**{k: d[k] for k in ("level_means", "level_se", "level_ci", "range", "range_ci", "hsd",
-                                           "significant", "p")},
+                                           "significant", "p", "paired")},
                       "K": [m * c for m, c in zip(d["level_means"], d["n_per_level"])],
                       "best_level": d["levels"][b], "best_levels_within_noise": within,
                       "verdict": (f"level {d['levels'][b]} best" if d["significant"] else "no meaningful difference")}
@@ -263,22 +381,22 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
             "significant_factors": [f for f in factor_names if fac[f]["significant"]],
             "anova": {"factors": {f: {k: an["factors"][f][k] for k in ("ss", "df", "ms", "f", "p", "significant")}
                                   for f in factor_names},
-                      "error": {**an["pure_error"], "kind": "pure error (replicates)"},
+                      "error": an["error"], "blocks": an["blocks"],
                       "pure_error": an["pure_error"], "lack_of_fit": an["lack_of_fit"], "pooled": [],
                       "total_ss": an["total_ss"]},
             "regression": reg,
         }
-    out["optimum"] = _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence)
+    out["optimum"] = _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence, blocks)
     if fallback_weights:
         wf = check_weights(fallback_weights, reps)
         out["fallback_weights"] = wf
-        fb = _weighted_optimum(levels, factor_names, reps, senses, wf, out, alpha, confidence)
+        fb = _weighted_optimum(levels, factor_names, reps, senses, wf, out, alpha, confidence, blocks)
         out["optimum"] = _tiered_optimum(out["optimum"], fb, factor_names, reps, out, confidence)
     out["notes"] = notes
     return out
 
 
-def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence) -> dict:
+def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence, blocks=False) -> dict:
     """Per factor: a level chosen from the responses it significantly affects, or no meaningful difference."""
     n, r = next(iter(reps.values())).shape
     scale = {}
@@ -301,7 +419,7 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
             continue
         # composite per observation over the responses this factor significantly affects
         z = sum((w[name] * (1.0 if senses[name] else -1.0) / scale[name]) * reps[name] for name in sig)
-        ss_pe, df_pe = pure_error(z)
+        ss_pe, df_pe = error_term(z, blocks)
         ms = ss_pe / df_pe
         ks = sorted(int(v) for v in np.unique(levels[:, j]))
         means = [float(z[levels[:, j] == k].mean()) for k in ks]
@@ -354,9 +472,17 @@ def _predict(factor_names, reps, out, chosen, confidence) -> tuple[dict, dict]:
                           for f in used)
         dof_used = sum(len(out["factors"][f]["level_numbers"]) - 1 for f in used)
         n_eff = y.size / (1 + dof_used)
-        pe = ra["anova"]["pure_error"]
-        t = float(stats.t.ppf(0.5 + confidence / 2, pe["df"]))
-        hw = t * float(np.sqrt(pe["ms"] / n_eff))
+        e, bl = ra["anova"]["error"], ra["anova"].get("blocks")
+        var, dof = e["ms"] / n_eff, e["df"]
+        if bl is not None and bl["ms_block"] > e["ms"]:
+            # the blocks (starts) are shared: their spread does not average out over the runs, only over the r
+            # blocks; var = sigma^2 / n_eff + sigma_beta^2 / r, dof by Satterthwaite (1946)
+            n_all = y.size
+            c1, c2 = e["ms"] * (1 / n_eff - 1 / n_all), bl["ms_block"] / n_all
+            var = c1 + c2
+            dof = var**2 / (c1**2 / e["df"] + c2**2 / bl["df_block"])
+        t = float(stats.t.ppf(0.5 + confidence / 2, dof))
+        hw = t * float(np.sqrt(var))
         pred[name] = float(val)
         intervals[name] = [float(val - hw), float(val + hw)]
     return pred, intervals
@@ -409,14 +535,21 @@ def describe_replicated(res: dict) -> str:
     """Plain-text summary of :func:`analyze_replicated` (rule, per-response table, optimum with reasons)."""
     lines = [f"Significance rule: {res['significance_rule']}"]
     for name, ra in res["responses"].items():
-        pe = ra["anova"]["pure_error"]
-        lines.append(f"{name} ({'maximise' if ra['maximize'] else 'minimise'}); pure error MS {pe['ms']:.4g} "
-                     f"({pe['df']} dof)")
+        pe, e = ra["anova"]["pure_error"], ra["anova"]["error"]
+        head = (f"{name} ({'maximise' if ra['maximize'] else 'minimise'}); replicate SD {pe['ms'] ** 0.5:.4g} "
+                f"({pe['df']} dof)")
+        if ra["anova"].get("blocks"):
+            head += f"; blocked error SD {e['ms'] ** 0.5:.4g} ({e['df']} dof)"
+        lines.append(head)
         for f, d in ra["factors"].items():
             a = ra["anova"]["factors"][f]
             lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d["level_means"], d["level_ci"]))
             lines.append(f"  {f}: R = {d['range']:.4g} [{d['range_ci'][0]:.4g}, {d['range_ci'][1]:.4g}], "
                          f"F = {a['f']:.3g}, p = {a['p']:.3g} -> {d['verdict']}; level means {lm}")
+            if d.get("paired"):
+                lines.append("     paired: " + "; ".join(
+                    f"{f}{q['levels'][1]} - {f}{q['levels'][0]} = {q['difference']:+.4g} +- {q['se']:.2g} (SE, "
+                    f"p = {q['p']:.2g})" for q in d["paired"]))
     lines.append("Weighted choice:")
     for f, c in res["optimum"]["choices"].items():
         if c["level"] is None:
@@ -476,5 +609,5 @@ def replicate_trend(samples: list[list[float]], alpha: float = TREND_ALPHA) -> d
             "grows": all(s["verdict"] == "up" for s in steps), "alpha": alpha}
 
 
-__all__ = ["analyze_replicated", "comparison_half_width", "describe_replicated", "pure_error", "replicated_anova",
-           "replicate_trend"]
+__all__ = ["analyze_replicated", "block_error", "block_variance", "comparison_half_width", "describe_replicated",
+           "error_term", "paired_differences", "pure_error", "replicated_anova", "replicate_trend"]

@@ -91,7 +91,10 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
     over = f", replicate mean of {fit['replicates']} replicates, perturbed starts" if fit.get("replicates") else ""
 
     def refit(key):
-        return f" (refit here{over}: {fit[key]:.4g})" if key in fit else ""
+        if key not in fit:
+            return ""
+        se = (fit.get("uncertainty") or {}).get(key)
+        return f" (refit here{over}: {fit[key]:.4g}" + (f" +- {se:.2g} SE" if se is not None else "") + ")"
 
     rows = [
         ("branch E", b.elastic_modulus / 1e9, "GPa", "[assumed, cited range]",

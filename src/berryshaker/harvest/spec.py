@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import BeforeValidator, Field
+from pydantic import BeforeValidator, Field, model_validator
 
 from berryshaker.quantity_fields import NonNegAngle, _d, _q
 from berryshaker.quantity_fields import StrictModel as _Strict
@@ -41,9 +41,23 @@ class HarvestSpec(_Strict):
     damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
     bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run
     seed: int = 2024
-    # replicates of each virtual test run (docs/harvest.md, "Replicates"): replicate k uses seed + 1000 k for
-    # its bushes and for its machine's initial state (clearance eccentricities, drive phase at the bush)
-    replicates: int = Field(3, ge=2)
+    # starts of each virtual test run (docs/harvest.md, "Replicates"): start k uses seed + 1000 k for its bushes and
+    # for its machine's initial state (clearance eccentricities, drive phase at the bush); 8 = the count at which the
+    # spread of every harvest response is known to 30 % (berryshaker doe virtual --convergence; the test
+    # tests/test_replicate_convergence.py holds it)
+    replicates: int = Field(8, ge=2, le=1000)
+    # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of
+    # ``replicates`` until every harvest response's standard error is at most se_target x its mean, or max_replicates
+    se_target: float = Field(0.05, gt=0, lt=1)
+    max_replicates: int = Field(32, ge=2, le=1000)
     initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
     start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]
     tolerance_replicates: int = Field(2, ge=0)  # replicates re-run at rtol 1e-7 for the tolerance check
+
+    @model_validator(mode="after")
+    def _max_covers_replicates(self):
+        if self.max_replicates < self.replicates:
+            raise ValueError(f"max_replicates = {self.max_replicates} is below replicates = {self.replicates}: the "
+                             "sequential starts of a reported set begin with replicates starts; raise max_replicates "
+                             "or lower replicates")
+        return self

@@ -255,8 +255,9 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     dict
         ``yield_per_bush_kg``, ``unripe_fraction``, ``damage_acceleration_m_s2`` (fitted or as described),
         ``fitted`` (index -> parameter), ``held_out`` (index -> {"model", "study"}), ``check`` (the indexes
-        with the returned values; replicate means with ``replicates``), ``reachable``, ``replicates`` (number
-        of replicates averaged; 0 for the single unperturbed drive-past).
+        with the returned values; replicate means with ``replicates``), ``reachable``, ``uncertainty`` (standard
+        error of every fitted parameter from the replicate noise, :func:`_calibration_uncertainty`; empty for a
+        single run), ``replicates`` (number of replicates averaged; 0 for the single unperturbed drive-past).
     """
     from berryshaker.errors import ConfigError
 
@@ -272,12 +273,14 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     else:
         runs = [(envelopes if envelopes is not None else envelopes_for(machine, None), None)]
 
-    def idx(yb=None, uf=None, ad=None):
-        """Indexes averaged over the replicates (one run: that run's indexes)."""
+    def idx(yb=None, uf=None, ad=None, per_replicate=False):
+        """Indexes averaged over the replicates (one run: that run's indexes); with ``per_replicate`` also each
+        replicate's."""
         each = [harvest_indexes(machine, env_k, sample_population(machine, seed=seed_k, unripe_fraction=uf,
                                                                   yield_per_bush=yb), ad) for env_k, seed_k in runs]
-        return {k: float(np.mean([e[k] for e in each])) for k in each[0]
+        mean = {k: float(np.nanmean([e[k] for e in each])) for k in each[0]
                 if isinstance(each[0][k], (int, float, np.floating))}
+        return (mean, each) if per_replicate else mean
 
     yb, uf, ad = machine.harvest.yield_per_bush, machine.harvest.unripe_fraction, machine.harvest.damage_acceleration
     if idx(yb=yb, uf=uf)["efficiency_kg_min"] <= 0:
@@ -293,14 +296,47 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         if "damage" in fit:
             ad = optimize.brentq(lambda a: idx(yb=yb, uf=uf, ad=a)["damage_rate_pct"] - targets["damage_rate_pct"],
                                  1.0, 1e5, xtol=1e-3)
-    check = idx(yb=yb, uf=uf, ad=ad)
+    check, each = idx(yb=yb, uf=uf, ad=ad, per_replicate=True)
     names = {"efficiency": ("efficiency_kg_min", "yield_per_bush"), "unripe": ("unripe_rate_pct", "unripe_fraction"),
              "damage": ("damage_rate_pct", "damage_acceleration")}
     fitted = {names[k][0]: names[k][1] for k in fit if k != "unripe" or reachable["unripe_rate_pct"]}
     held_out = {key: {"model": check[key], "study": targets[key]} for key in targets if key not in fitted}
+    unc = _calibration_uncertainty(idx, each, fitted, yb, uf, ad) if len(runs) > 1 else {}
     return {"yield_per_bush_kg": yb, "unripe_fraction": uf, "damage_acceleration_m_s2": ad, "check": check,
-            "fitted": fitted, "held_out": held_out, "reachable": reachable,
+            "fitted": fitted, "held_out": held_out, "reachable": reachable, "uncertainty": unc,
             "replicates": len(runs) if replicates is not None else 0}
+
+
+def _calibration_uncertainty(idx, each: list[dict], fitted: dict, yb: float, uf: float, ad: float) -> dict:
+    """Standard error of every fitted parameter from the replicate noise of the mean it was fitted to.
+
+    The fit solves mean_k I_k(theta) = target; the replicate mean has standard error SE(I) = sd_k(I_k) / sqrt(R),
+    so, to first order (delta method), SE(theta) = SE(I) / |d mean I / d theta|.  The efficiency is proportional to
+    the yield per bush, so SE(yield) / yield = SE(efficiency) / efficiency exactly; the damage rate's slope in the
+    Weibull scale and the unripe rate's in the unripe fraction are central differences of +-1 %.
+    """
+    R = len(each)
+
+    def se(key):
+        v = np.array([e[key] for e in each], float)
+        v = v[np.isfinite(v)]
+        return float(np.std(v, ddof=1) / math.sqrt(v.size)) if v.size > 1 else float("nan")
+
+    out = {}
+    if "efficiency_kg_min" in fitted:
+        m = float(np.mean([e["efficiency_kg_min"] for e in each]))
+        out["yield_per_bush_kg"] = yb * se("efficiency_kg_min") / m if m > 0 else float("nan")
+    if "damage_rate_pct" in fitted:
+        slope = (idx(yb=yb, uf=uf, ad=ad * 1.01)["damage_rate_pct"] - idx(yb=yb, uf=uf, ad=ad / 1.01)["damage_rate_pct"]
+                 ) / (ad * (1.01 - 1 / 1.01))
+        out["damage_acceleration_m_s2"] = se("damage_rate_pct") / abs(slope) if slope else float("nan")
+    if "unripe_rate_pct" in fitted:
+        slope = (idx(yb=yb, uf=uf * 1.01)["unripe_rate_pct"] - idx(yb=yb, uf=uf / 1.01)["unripe_rate_pct"]
+                 ) / (uf * (1.01 - 1 / 1.01))
+        out["unripe_fraction"] = se("unripe_rate_pct") / abs(slope) if slope else float("nan")
+    out["method"] = (f"delta method on the replicate mean of {R} starts: SE(parameter) = SE(fitted index) / |slope of "
+                     "the mean index in the parameter|")
+    return out
 
 
 def replicate_seeds(machine: Machine, replicates: int | None = None) -> list[int]:

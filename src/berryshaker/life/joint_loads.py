@@ -256,7 +256,8 @@ def flat_outputs(summary: dict) -> dict[str, float]:
 
 
 def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int = 2, slip: float = DEFAULT_SLIP,
-                rtol: float = HARVESTER_RTOL) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, float]]:
+                rtol: float = HARVESTER_RTOL, initial_perturbation=None
+                ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, float]]:
     """Loads of every clearance pair and the scalar outputs of one multibody run (the ``simulate`` callable of
     :func:`berryshaker.life.wear.wear_life`).
 
@@ -273,6 +274,9 @@ def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int
         Roller slip ratio [assumed default 5 %].
     rtol : float
         Integrator tolerance (default: the harvester runs', :data:`berryshaker.drives.base.HARVESTER_RTOL`).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start off centre in the clearances and at another drive phase (a replicate,
+        :mod:`berryshaker.multibody.perturbation`); default the centred start.
 
     Returns
     -------
@@ -290,7 +294,8 @@ def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int
     """
     from berryshaker.drives.simulation import simulate_multibody
 
-    result, summary = simulate_multibody(machine, clearances_m or {}, revolutions=revolutions, rtol=rtol)
+    result, summary = simulate_multibody(machine, clearances_m or {}, revolutions=revolutions, rtol=rtol,
+                                         initial_perturbation=initial_perturbation)
     sized = machine.with_clearances(clearances_m or {})
     sel = result.t >= result.stats_from - 1e-12
     t = result.t[sel]

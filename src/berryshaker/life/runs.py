@@ -69,8 +69,12 @@ def loads_from_json(value: dict) -> tuple[dict, dict]:
 
 
 def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, slip: float = DEFAULT_SLIP,
-                  load_direction: str = "fixed") -> dict:
+                  load_direction: str = "fixed", seed: list | None = None) -> dict:
     """Clearance growth rate, peak and mean force of every pair at one clearance state (one multibody run).
+
+    ``seed``: start from the seeded perturbation (a replicate: clearance eccentricities uniform over
+    ``harvest.initial_eccentricity`` of each free radius, drive turned by up to ``harvest.start_phase_spread``,
+    :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`); default the centred start.
 
     Returns
     -------
@@ -83,7 +87,13 @@ def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, sli
     from berryshaker.life.wear import SECONDS_PER_HOUR
 
     machine = machine_with_overrides(machine_data)
-    loads, outputs = joint_loads(machine, clearance, revolutions=revolutions, slip=slip)
+    pert = None
+    if seed is not None:
+        from berryshaker.multibody.perturbation import RandomInitialPerturbation
+
+        h = machine.harvest
+        pert = RandomInitialPerturbation(tuple(int(x) for x in seed), h.initial_eccentricity, h.start_phase_spread)
+    loads, outputs = joint_loads(machine, clearance, revolutions=revolutions, slip=slip, initial_perturbation=pert)
     models = joint_wear_models(machine, load_direction=load_direction)
     sized = machine.with_clearances(clearance)
     rate, peak, mean = {}, {}, {}

@@ -4,7 +4,7 @@ verdict's colour class (the HTML report, berryshaker.report.html, and its tests 
 from __future__ import annotations
 
 #: the claims' verdicts in the order the headline counts them (berryshaker.study.claims)
-VERDICTS = ("reproduced", "partly reproduced", "not reproduced", "undecided", "not comparable")
+VERDICTS = ("reproduced", "partly reproduced", "not reproduced", "undecided", "not tested", "not comparable")
 
 
 def report_title(claims: list[dict]) -> str:
@@ -45,6 +45,7 @@ def runs_text(runs: dict) -> str:
 
 
 def verdict_class(verdict: str) -> str:
-    """CSS class of a claim's verdict in the report (its colour): "undecided" as "partly"."""
+    """CSS class of a claim's verdict in the report (its colour): "undecided" as "partly"; "not tested" (a claim
+    that holds by construction of the model) as "not comparable"."""
     return {"reproduced": "v-reproduced", "not reproduced": "v-not", "partly reproduced": "v-partly",
             "undecided": "v-partly"}.get(verdict, "v-nc")

@@ -117,16 +117,30 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     if opt is None:
         parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
     else:
+        fitted = set(opt.get("fitted") or [])
+        iv = opt.get("intervals") or {}
+
+        def cell(name, value):
+            est = iv.get(name)
+            text = f"{value:.3g}" if est is None else (f"{est['mean']:.3g} [{est['ci'][0]:.3g}, {est['ci'][1]:.3g}], "
+                                                      f"SD {est['sd']:.2g}")
+            return text + (" (fitted)" if name in fitted else "")
+
         parts.append(_table(["", *[f"{p} (mm)" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)",
                              "damage (%)"], [
-            [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES], opt["efficiency_kg_min"],
-             opt["unripe_rate_pct"], opt["damage_rate_pct"]],
+            [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES],
+             cell("efficiency", opt["efficiency_kg_min"]), cell("unripe", opt["unripe_rate_pct"]),
+             cell("damage", opt["damage_rate_pct"])],
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
         if opt.get("statement"):
-            parts.append(f"<p class='small'>{html.escape(opt['statement'])} Index values: means of the replicates "
-                         "(section 6 gives their intervals and the trade-off table).</p>")
+            parts.append(f"<p class='small'>{html.escape(opt['statement'])} Index values: mean [95 % interval] over "
+                         f"{opt.get('starts') or 'the'} perturbed starts, and the SD of one start"
+                         + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
+                            "value of that index at these clearances, so it reproduces the target by construction "
+                            "and is not evidence" if fitted else "")
+                         + " (section 6 gives the trade-off table).</p>")
     # kinematics
     parts.append("<h2>1. Kinematics of the drive (eq. 1-3)</h2>")
     krows = []
@@ -343,15 +357,24 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     if pert:
         parts.append(f"<p class='small'>Replicates: {html.escape(pert['what'])}.</p>")
     rows = []
+    paired = l9.get("paired") or {}
     for name, ra in rep.get("responses", {}).items():
         sd = ra["anova"]["pure_error"]["ms"] ** 0.5
+        e = ra["anova"].get("error", ra["anova"]["pure_error"])
         sig = ", ".join(f"{f} (p = {ra['factors'][f]['p']:.2g})" for f in ra["significant_factors"]) or "none"
+        pr = "; ".join(f"{f}{q['levels'][1]} - {f}{q['levels'][0]}: {q['difference']:+.3g} +- {q['se']:.2g}"
+                       + ("" if q["beyond_noise"] else " (noise)") for f, q in paired.get(name, {}).items())
         rows.append([name, units.get(name, ""), float(sum(ra["run_means"]) / len(ra["run_means"])), sd,
-                     ra["anova"]["pure_error"]["df"], sig])
+                     e["ms"] ** 0.5, e["df"], sig, pr])
     if rows:
         parts.append("<h3>Replicate spread and significance</h3>")
-        parts.append(_table(["response", "unit", "grand mean", "replicate SD (pooled)", "dof", "significant factors"],
-                            rows, left=(0, 1, 5)))
+        parts.append("<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
+                     "from every comparison.  Per-start SD: the spread of one run's starts; blocked error SD: what "
+                     "effects are tested against (the run x start interaction); paired differences: the extreme levels "
+                     "of each factor compared start by start, +- one standard error.</p>")
+        parts.append(_table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
+                             "significant factors", "paired differences (last - first level)"],
+                            rows, left=(0, 1, 6, 7)))
     rec = l9.get("recommended") or {}
     if rec.get("statement"):
         parts.append("<h3>Recommendation and its basis</h3>")
@@ -360,6 +383,9 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
                                                           for p in pair_names if p in rec.get("basis", {})],
                             left=(0, 2)))
         parts.append(f"<p class='small'>Rule: {html.escape(rec.get('rule', ''))}.</p>")
+        seq = rec.get("sequential")
+        if seq:
+            parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(seq['statement'])}.</p>")
     tc = l9.get("tolerance_check") or {}
     if tc.get("done"):
         rt = tc.get("rtol", [1e-6, 1e-7])  # a summary written before the tolerances were recorded: 1e-6, 1e-7

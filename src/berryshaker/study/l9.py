@@ -3,13 +3,17 @@
 Replicates (docs/harvest.md, "Replicates"): replicate k of every run uses the seed ``harvest.seed + 1000 k``
 for its bushes (population) *and* for the machine's initial state in each branch class's coupled drive-past
 (random eccentricity inside every clearance, random drive phase when the comb reaches the bush:
-:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`).  The same seeds are used for every run
-(common random numbers), so differences between clearance sets are not confounded with different luck; the
-pure-error test is then conservative (the replicate-to-replicate part shared by all runs cancels from the
-effects but stays in the error).
+:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`).  ``harvest.replicates`` starts (8 on the
+reference machine, chosen by :func:`start_convergence`: the count at which the spread of every harvest response is
+known to 30 %) are drawn once and used for every run (common random numbers), and the analysis treats start k as
+block k (randomised complete blocks, :func:`berryshaker.experiment.replicates.analyze_replicated` with
+``blocks=True``): start-to-start luck shared by every run cancels from the effects *and* from the error, and each
+factor's levels are compared by paired differences with their standard errors.
 
-Every response (harvest indexes and machine loads) carries its mean, replicate standard deviation and 95 %
-interval per run; range analysis and ANOVA use the pure (replicate) error; the recommendation is tiered
+Every response (harvest indexes and machine loads) carries its mean, per-start standard deviation and 95 %
+interval per run (from its own starts); range analysis and ANOVA use the blocked error; the recommended set's
+starts are then extended until every harvest response's mean is known to ``harvest.se_target`` of itself
+(:func:`sequential_starts`), and its intervals and SDs come from all of them.  The recommendation is tiered
 (:data:`berryshaker.experiment.replicates.TIERED_RULE`): harvest indexes first, machine loads where the
 harvest indexes do not differ, and the configured clearance where nothing differs.  The tiered choice is then
 confirmed against the trade-off table of the runs (:data:`CONFIRMATION_RULE`), whose dominance test uses the
@@ -25,6 +29,7 @@ import math
 
 import numpy as np
 
+from berryshaker.experiment.noise import CONVERGENCE_COUNTS
 from berryshaker.harvest.virtual import replicate_seeds  # noqa: F401  (one home; re-exported here)
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
@@ -40,6 +45,9 @@ HARVEST_RESPONSES = {
     "unripe_shed": ("unripe_shed_fraction", 100.0, "%", False),
     "damage": ("damage_rate_pct", 1.0, "%", False),
 }
+#: resolution of each harvest response (its reported unit): a mean this small is "none" (sequential replication does
+#: not chase a relative target below it; the convergence table calls a response below it negligible)
+RESPONSE_RESOLUTION = {"efficiency": 0.01, "ripe_removal": 0.05, "unripe": 0.05, "unripe_shed": 0.05, "damage": 0.05}
 #: tolerances of the solver-tolerance check: the runs' own (the coupled runs' default) and the tighter one
 RTOL_RUN, RTOL_CHECK = COUPLED_RTOL, 1e-7
 CONFIDENCE = 0.95
@@ -122,6 +130,125 @@ def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[lis
     return out
 
 
+def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict | None = None, label: str = "starts",
+                rtol: float = RTOL_RUN, outputs: list | None = None) -> list[dict[str, float]]:
+    """Every response (:func:`_cell`: harvest indexes, machine loads) of one clearance set at each start seed: one
+    coupled drive-past per branch class and start through the runner (cached), the start's own population.
+    ``outputs``: a list that receives each start's run outputs (one per branch class, :func:`replicate_run`)."""
+    nc = len(machine.harvest.branch_classes)
+    o = runner.values(replicate_run, replicate_jobs(machine, clearance, seeds, rtol, data), label)
+    if outputs is not None:
+        outputs.extend(o[k * nc:(k + 1) * nc] for k in range(len(seeds)))
+    return cells_from_outputs(machine, o, seeds)
+
+
+def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, float]]:
+    """:func:`_cell` of each start from the outputs of :func:`replicate_jobs` (start-major, one per branch class)."""
+    from berryshaker.harvest.virtual import sample_population
+
+    nc = len(machine.harvest.branch_classes)
+    return [_cell(machine, outs[k * nc:(k + 1) * nc], sample_population(machine, seed=sd))
+            for k, sd in enumerate(seeds)]
+
+
+def start_convergence(machine, runner, clearance: dict | None = None, counts=CONVERGENCE_COUNTS,
+                      seeds: list[int] | None = None) -> dict:
+    """Mean and spread of every harvest response against the number of starts at one clearance set (the
+    convergence study that chooses ``harvest.replicates``, docs/harvest.md "How many starts").
+
+    Parameters
+    ----------
+    machine : Machine
+        With ``[plant]`` and ``[harvest]``.
+    runner : SweepRunner
+        Runs the coupled drive-pasts (cached).
+    clearance : dict, optional
+        Clearance sizes (m); default the machine's own.
+    counts : sequence of int
+        Start counts of the table (nested: the first n starts of the largest count).
+    seeds : list of int, optional
+        Start seeds (default :func:`replicate_seeds` for the largest count).
+
+    Returns
+    -------
+    dict
+        :func:`berryshaker.experiment.noise.spread_convergence` of the harvest responses (``table``, ``chosen``,
+        ``rule``), with ``units``, ``seeds``, ``clearance_mm``, ``configured`` (``harvest.replicates``) and
+        ``values`` (every start's responses).
+    """
+    from berryshaker.experiment.noise import spread_convergence
+
+    cl = machine.clearance_sizes() if clearance is None else {**machine.clearance_sizes(), **clearance}
+    n = max(int(c) for c in counts)
+    seeds = replicate_seeds(machine, n) if seeds is None else list(seeds)
+    cells = start_cells(machine, runner, cl, seeds, label=f"convergence of the spread: {len(seeds)} starts")
+    names = [k for k in HARVEST_RESPONSES]
+    res = spread_convergence({k: np.array([c[k] for c in cells]) for k in names}, counts,
+                             floors={k: RESPONSE_RESOLUTION[k] for k in names})
+    units = response_units(machine.pair_names)
+    return {**res, "units": {k: units[k] for k in names}, "seeds": seeds,
+            "clearance_mm": {p: v * 1e3 for p, v in cl.items()}, "configured": int(machine.harvest.replicates),
+            "values": {k: [c[k] for c in cells] for k in names}}
+
+
+def sequential_starts(machine, runner, clearance: dict, have: list[dict] | None = None, data: dict | None = None,
+                      label: str = "sequential starts", have_outputs: list | None = None) -> dict:
+    """Starts added at one clearance set until the mean of every harvest response is known to its target.
+
+    Batches of ``harvest.replicates`` starts (the seeds :func:`replicate_seeds` continues) until the standard error
+    of every harvest response's mean is at most ``harvest.se_target`` x |mean| (or its
+    :data:`RESPONSE_RESOLUTION`), or ``harvest.max_replicates`` starts are reached
+    (:func:`berryshaker.experiment.noise.standard_error_reached`).
+
+    Parameters
+    ----------
+    machine : Machine
+    runner : SweepRunner
+    clearance : dict
+        Clearance sizes (m).
+    have : list of dict, optional
+        Responses (:func:`_cell`) of the first starts already run (the seeds' order), reused.
+    have_outputs : list, optional
+        Their run outputs (per start, one per branch class); with them the result's ``outputs`` is complete.
+    data : dict, optional
+        ``machine.model_dump(mode="json")`` if the caller has it.
+    label : str
+        Progress label.
+
+    Returns
+    -------
+    dict
+        ``cells`` (every start's responses), ``outputs`` (every start's run outputs, when ``have_outputs`` is given
+        or nothing was), ``seeds``, ``reached`` (per response mean, se, target, met;
+        ``all_met``), ``stopped`` ("target met" or "max_replicates reached"), ``target`` (relative), ``max``.
+    """
+    from berryshaker.experiment.noise import standard_error_reached
+
+    h = machine.harvest
+    cells = list(have or [])
+    outputs = list(have_outputs) if have_outputs is not None else ([] if not cells else None)
+    n = len(cells) or min(int(h.replicates), int(h.max_replicates))
+    while True:
+        seeds = replicate_seeds(machine, n)
+        if len(cells) < n:
+            cells += start_cells(machine, runner, clearance, seeds[len(cells):], data,
+                                 f"{label}: starts {len(cells) + 1}-{n}", outputs=outputs)
+        reached = standard_error_reached({k: np.array([c[k] for c in cells]) for k in HARVEST_RESPONSES},
+                                         h.se_target, RESPONSE_RESOLUTION)
+        if reached["all_met"] or n >= h.max_replicates:
+            break
+        n = min(n + int(h.replicates), int(h.max_replicates))
+    stopped = "target met" if reached["all_met"] else "max_replicates reached"
+    return {"cells": cells, "outputs": outputs, "seeds": seeds, "reached": reached, "stopped": stopped, "target": h.se_target,
+            "max": int(h.max_replicates), "statement": (
+                f"{len(cells)} starts: " + ("every harvest response's standard error is within " if reached["all_met"]
+                                            else "harvest.max_replicates reached before every standard error was "
+                                            "within ")
+                + f"{100 * h.se_target:g} % of its mean (resolution " + ", ".join(
+                    f"{k} {v:g}" for k, v in RESPONSE_RESOLUTION.items()) + "): " + ", ".join(
+                    f"{k} SE {v['se']:.3g} (target {v['target']:.3g})" for k, v in reached["responses"].items()))}
+
+
 def l9_jobs(machine, replicates: int | None = None, data: dict | None = None) -> tuple[list[dict], str]:
     """The replicated L9's coupled drive-pasts: keyword arguments of
     :func:`berryshaker.study.runs.replicate_run` (run-major, then :func:`replicate_jobs`' order) and the label
@@ -202,22 +329,23 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     rep = analyze_replicated(a, values, pairs, y, senses, PRIORITY_WEIGHTS, confidence=CONFIDENCE,
                              level_values={p: tuple(v * 1e3 for v in levels_m[p]) for p in pairs},
                              units={p: "mm" for p in pairs},
-                             fallback_weights={n: 1.0 for n in loads} or None)
+                             fallback_weights={n: 1.0 for n in loads} or None, blocks=True)
     rep["seeds"] = seeds
     rep["units"] = units
     rep["perturbation"] = {"initial_eccentricity": h.initial_eccentricity,
                            "start_phase_spread_rad": h.start_phase_spread,
-                           "what": ("replicate k: seed + 1000 k for the bushes and for every branch class's coupled "
-                                    "run (seed, class): clearance eccentricities uniform over the disc of "
+                           "what": ("start k (block k of every run): seed + 1000 k for the bushes and for every branch "
+                                    "class's coupled run (seed, class): clearance eccentricities uniform over the disc of "
                                     f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
                                     f"in +-{math.degrees(h.start_phase_spread):.0f} deg")}
     rep["text"] = describe_replicated(rep)
-    pe = {n: (rep["responses"][n]["anova"]["pure_error"]["ms"], rep["responses"][n]["anova"]["pure_error"]["df"])
-          for n in names}
+    # comparisons between runs (they share the starts) use the blocked error; a run's own interval, its own starts
+    err = {n: (rep["responses"][n]["anova"]["error"]["ms"], rep["responses"][n]["anova"]["error"]["df"])
+           for n in names}
     an["runs"] = [{"run": i + 1, "levels": {p: int(a[i, j]) for j, p in enumerate(pairs)},
                    "clearance_mm": {p: float(values[i, j]) for j, p in enumerate(pairs)},
                    **{n: float(y[n][i].mean()) for n in study_idx},
-                   "replicates": {n: interval(y[n][i], pe[n]) for n in names}} for i in range(len(runs))]
+                   "replicates": {n: interval(y[n][i]) for n in names}} for i in range(len(runs))]
     an["replicated"] = rep
     an["response_units"] = units
 
@@ -259,7 +387,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     row, best_cl, rec_cells = rec_cells_at(rec_levels)
     rec_y = {n: np.array([c[n] for c in rec_cells]) for n in names}
     check = confirm_recommendation([an["runs"][i]["levels"] for i in range(len(runs))], runs, y, rec_levels, best_cl,
-                                   None if row is not None else rec_y, pe, pairs)
+                                   None if row is not None else rec_y, err, pairs)
     an["tradeoff"], an["tradeoff_columns"] = check.pop("records"), check.pop("columns")
     if check["moved"]:
         row = check["l9_run"] - 1
@@ -275,17 +403,57 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     statement = statement + " " + check["statement"]
     opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"], tiered_levels=tiered_levels)
     an["optimum"] = opt
-    vh = {key: float(np.mean(rec_y[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items() if n in rec_y}
+    # the recommended set's starts extended until every harvest response's mean is known to its target; its
+    # intervals and SDs come from all of them (the first are the L9's: the same seeds)
+    seq = sequential_starts(machine, runner, best_cl, have=list(rec_cells), data=data,
+                            label="virtual harvest at the recommendation")
+    rec_all = {n: np.array([c[n] for c in seq["cells"]]) for n in names}
+    vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
+          if n in rec_all}
     an["recommended"] = {"levels": rec_levels, "code": level_code(rec_levels),
                          "clearance_mm": {p: best_cl[p] * 1e3 for p in pairs}, "l9_run": None if row is None else row + 1,
                          "study": {"code": CHOSEN_CODE}, "same_as_study": rec_levels == CHOSEN_LEVELS,
-                         "virtual_harvest": vh, "replicates": {n: interval(rec_y[n], pe[n]) for n in names},
+                         "virtual_harvest": vh, "replicates": {n: interval(rec_all[n]) for n in names},
+                         "starts": len(seq["cells"]), "sequential": {k: seq[k] for k in (
+                             "reached", "stopped", "target", "max", "statement")},
+                         "fitted": fitted_here(machine, best_cl),
                          "basis": basis, "rule": rep["optimum"]["method"]
                          + "; a factor with no significant difference keeps the configured clearance; "
                          + CONFIRMATION_RULE, "statement": statement, "check": check}
     an["tolerance_check"] = _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
-                                             rep, names)
+                                             {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
+    an["paired"] = paired_summary(rep, pairs)
     return an
+
+
+def fitted_here(machine, clearance: dict) -> list[str]:
+    """The harvest responses (names of :data:`HARVEST_RESPONSES`) whose value at ``clearance`` was fitted: the
+    description's calibrated parameters (``harvest.yield_per_bush`` -> efficiency, ``harvest.damage_acceleration``
+    -> damage, ``harvest.unripe_fraction`` -> unripe) were fitted at the configured clearances, so their indexes
+    there reproduce the calibration target and are not evidence."""
+    from berryshaker.config import value_tag
+
+    own = machine.clearance_sizes()
+    if any(abs(own[p] - clearance.get(p, own[p])) > 1e-12 for p in own):
+        return []
+    tagged = {"efficiency": "harvest.yield_per_bush", "damage": "harvest.damage_acceleration",
+              "unripe": "harvest.unripe_fraction"}
+    return [n for n, key in tagged.items() if value_tag(machine, key) == "calibrated"]
+
+
+def paired_summary(rep: dict, pairs) -> dict:
+    """Per response and factor, the paired difference of its extreme levels (last minus first, e.g. A3 - A1) over
+    the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`)."""
+    out = {}
+    for n, ra in rep["responses"].items():
+        per = {}
+        for p in pairs:
+            pd_ = ra["factors"][p].get("paired") or []
+            if pd_:
+                ext = max(pd_, key=lambda q: q["levels"][1] - q["levels"][0])
+                per[p] = {k: ext[k] for k in ("levels", "difference", "se", "ci", "p", "beyond_noise")}
+        out[n] = per
+    return out
 
 
 #: how the tiered choice is checked against the trade-off table (docs/harvest.md, "Trade-off table")
@@ -391,7 +559,7 @@ def _candidate(name, cl, yc, names, pairs, pe, k, confidence=CONFIDENCE) -> dict
     from berryshaker.experiment.replicates import comparison_half_width
 
     def est(n):
-        s = interval(yc[n], pe[n])
+        s = interval(yc[n])
         return {"mean": s["mean"], "ci": s["ci"],
                 "noise": comparison_half_width(pe[n][0], int(pe[n][1]), k, s["n"], confidence)}
 
@@ -439,10 +607,10 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
             "replicate_sd": float(replicate_sd), "noise_sd": noise, "within_replicate_spread": bool(abs(mean) <= 2 * noise)}
 
 
-def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, rep, names) -> dict:
+def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, sds, names) -> dict:
     """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at :data:`RTOL_CHECK`: each
-    response's mean change against the noise of k replicates (:func:`tolerance_verdict`, the pooled replicate
-    standard deviation sqrt(MS_PE) of the L9)."""
+    response's mean change against the noise of k replicates (:func:`tolerance_verdict`, ``sds``: the per-start
+    standard deviation of each response at the recommended set)."""
     k = min(machine.harvest.tolerance_replicates, len(seeds))
     if k == 0:
         return {"done": False, "reason": "harvest.tolerance_replicates = 0"}
@@ -452,7 +620,7 @@ def _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec
     out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "velocity_scale_m_s": COUPLED_VELOCITY_SCALE,
            "replicates": k, "responses": {}}
     for n in names:
-        sd = math.sqrt(rep["responses"][n]["anova"]["pure_error"]["ms"])
+        sd = sds[n]
         out["responses"][n] = tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sd)
     bad = [n for n, v in out["responses"].items() if not v["within_replicate_spread"]]
     out["all_within"] = not bad

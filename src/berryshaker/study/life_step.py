@@ -1,11 +1,11 @@
 """Study step "Clearance life": a cheap summary of joint wear and fit choice for the report.
 
-Three multibody runs per clearance pair (one pair varied at a time, cached through the study's runner) give each
-pair's Archard growth rate and peak collision force against its own clearance (:mod:`berryshaker.life.tolerance`'s
-surrogate).  From it: the clearance of every pair over 2000 operating hours from the description's sizes
+Three clearances per pair, each from ``harvest.replicates`` perturbed starts (one pair varied at a time, cached
+through the study's runner), give each pair's Archard growth rate and mean peak collision force against its own
+clearance (:mod:`berryshaker.life.tolerance`'s surrogate).  From it: the clearance of every pair over 2000 operating hours from the description's sizes
 (dc/dh = r(c) on the interpolant), the hours to each pair's largest test level, and the fit recommended by
-NSGA-II on the surrogate.  Coarse on purpose (about 12 runs of 2 revolutions); ``berryshaker wear`` re-simulates
-at every state and ``berryshaker tolerance`` uses a finer grid.
+NSGA-II on the surrogate.  Coarse on purpose (3 points per pair, runs of 2 revolutions); ``berryshaker wear``
+re-simulates at every state and ``berryshaker tolerance`` uses a finer grid.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ def step_life(ctx):
         joint_candidates,
         nsga2_front,
         compromise_index,
+        force_fall_notes,
         response_grid,
     )
     from berryshaker.study.pipeline import StepResult
@@ -42,7 +43,8 @@ def step_life(ctx):
     cands = joint_candidates(m, joints)
     lo = {j: min(float(cands[j].size.min()), sizes[j]) for j in joints}
     grid = response_grid(m, joints, limits, lo, n_points=3)
-    resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid")
+    resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid",
+                               starts=m.harvest.replicates)
     hours = np.linspace(0.0, HORIZON_H, 21)
     growth = {j: {"hours": hours.tolist(), "clearance_mm": (resp[j].grow(sizes[j], hours) * 1e3).tolist()}
               for j in joints}
@@ -53,10 +55,11 @@ def step_life(ctx):
            "cost": float(f[best, 0]), "peak_force_N": float(f[best, 1]), "maintenance_interval_h": float(-f[best, 2])}
     data = {"horizon_h": HORIZON_H, "growth": growth, "hours_to_limit": to_limit,
             "clearance_limit_mm": {j: v * 1e3 for j, v in limits.items()}, "recommended": rec,
-            "front_size": int(len(x)), "simulations": len(joints) * 3,
+            "front_size": int(len(x)), "simulations": len(joints) * 3 * m.harvest.replicates,
             "surrogate": {j: r.to_dict() for j, r in resp.items()},
-            "notes": ["3 multibody runs (2 revolutions) per pair, one pair at a time; growth integrated on the "
-                      "interpolated rate (no re-simulation per state)",
+            "notes": [f"3 clearances per pair, one pair at a time, each the mean over {m.harvest.replicates} perturbed starts "
+                      "(2 revolutions each); growth integrated on the interpolated rate (no re-simulation per state)",
+                      *force_fall_notes(resp, m),
                       "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"]}
     figs = []
     try:
