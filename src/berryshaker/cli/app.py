@@ -39,8 +39,8 @@ app.add_typer(doe_app, name="doe")
 
 show_flags_as_flags()  # boolean options show as flags in --help, not as <bool>
 
-out = Console()
-err = Console(stderr=True, soft_wrap=True)
+out = Console(emoji=False)  # user text such as "peak_force:A" is never an emoji code
+err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 ConfigOpt = typer.Option(None, "--config", "-c", help="Machine description (TOML). Default: built-in reference machine.",
                          exists=False, dir_okay=False)
