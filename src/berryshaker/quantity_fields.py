@@ -24,7 +24,14 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
-from berryshaker.units import DIMENSIONS, check_limits, parse_quantity, parse_unit, plausibility_warning
+from berryshaker.units import (
+    DIMENSIONS,
+    bare_number_message,
+    check_limits,
+    parse_quantity,
+    parse_unit,
+    plausibility_warning,
+)
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -47,7 +54,7 @@ def units_required(info: ValidationInfo | None) -> bool:
     return bool(isinstance(ctx, dict) and ctx.get(UNITS_REQUIRED))
 
 
-def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None) -> float:
+def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None, display: str | None = None) -> float:
     """One quantity of a description field: parsed strictly, bounded by :data:`berryshaker.units.LIMITS`
     (a user's value both ways, :func:`units_required`; one computed inside the package from above only).
 
@@ -58,6 +65,8 @@ def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None) ->
     """
     key = (getattr(info, "field_name", None) or "value") if info is not None else "value"
     user = units_required(info)
+    if user and display and isinstance(v, (int, float)) and not isinstance(v, bool) and v != 0 and math.isfinite(v):
+        raise ValueError(bare_number_message(v, dimension, key, display))  # the field's own unit in the fix
     try:
         return check_limits(parse_quantity(v, dimension, key, units_required=user), dimension, key, lower=user)
     except ConfigError as exc:
@@ -65,9 +74,12 @@ def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None) ->
         raise ValueError(str(exc).removeprefix(f"{key}: ")) from None
 
 
-def _q(dimension: str) -> QuantityValidator:
+def _q(dimension: str, display: str | None = None) -> QuantityValidator:
+    """The validator of a quantity field of ``dimension``; ``display``: the unit the fix of a bare number
+    suggests (default :data:`berryshaker.units.DISPLAY_UNITS`), e.g. "m/min" for a walking speed."""
+
     def convert(v: Any, info: ValidationInfo) -> float:
-        return read_quantity(v, dimension, info)
+        return read_quantity(v, dimension, info, display)
 
     return QuantityValidator(convert, dimension=dimension)
 

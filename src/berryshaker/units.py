@@ -312,13 +312,14 @@ def _split_number(text: str) -> tuple[str, str] | None:
     return m.group(), text[m.end():].strip()
 
 
-def bare_number_message(value: float, dimension: str, key: str) -> str:
+def bare_number_message(value: float, dimension: str, key: str, unit: str | None = None) -> str:
     """The error for a bare number where a unit is required, with the fix: ``speed = "120 rpm"``.
 
-    The example keeps the number and takes the dimension's display unit (:data:`DISPLAY_UNITS`); the SI
-    reading that berryshaker 0.x made of it is shown beside, so an old file's author sees both readings.
+    The example keeps the number and takes ``unit`` (default: the dimension's display unit,
+    :data:`DISPLAY_UNITS`); the SI reading that berryshaker 0.x made of it is shown beside, so an old file's
+    author sees both readings.
     """
-    unit = DISPLAY_UNITS[dimension]
+    unit = unit or DISPLAY_UNITS[dimension]
     si = DIMENSIONS[dimension][1]
     number = f"{float(value):.6g}"
     text = f"{number} is a bare number; give a unit, e.g. {key} = \"{number} {unit}\""
@@ -649,7 +650,13 @@ def check_limits(value_si: float, dimension: str, field: str = "value", lower: b
     if v == 0.0 or (lo <= abs(v) or not lower) and abs(v) <= hi:
         return v
     unit = DISPLAY_UNITS[dimension]
-    show = (lambda x: format_quantity(x, unit, 3)) if unit != "1" else (lambda x: f"{x:.3g}")
+
+    def show(x: float) -> str:
+        if unit == "1":
+            return f"{x:.3g}"
+        shown = format_quantity(x, unit, 3)
+        return shown if math.isfinite(x / ENGINEERING_FACTORS[unit]) else f"{x:.3g} {DIMENSIONS[dimension][1]}"
+
     side = "large" if abs(v) > hi else "small"
     raise ConfigError(f"{field}: {show(v)} is too {side} for {_noun(dimension)} (berryshaker accepts "
                       f"{show(lo)} .. {show(hi)}); check the number and its unit")
@@ -665,7 +672,7 @@ def plausibility_warning(value_si: float, dimension: str, field: str = "value") 
     """A warning when ``|value_si|`` lies outside :func:`plausible_range` (zero is never flagged), else None.
 
     The message names the field, the value and the range in engineering units, and hints at the likely slip
-    (a plain number read as SI, or a factor of 1000 from a missing/extra prefix).
+    (a wrong unit, or a factor of 1000 from a missing/extra prefix).
     """
     lo, hi = plausible_range(dimension)
     v = abs(float(value_si))
@@ -679,9 +686,9 @@ def plausibility_warning(value_si: float, dimension: str, field: str = "value") 
     msg = (f"{field}: {show(value_si)} is implausibly {side} for {_noun(dimension)} in a harvester drive "
            f"(usual range {show(lo)} .. {show(hi)})")
     if dimension == "angle" and v > hi:
-        msg += "; a plain number is read in radians - write the unit, e.g. '180 deg'"
+        msg += "; check the unit, e.g. '180 deg' rather than '180 rad'"
     elif dimension == "length" and v > hi:
-        msg += "; a plain number is read in metres - write the unit, e.g. '80 mm'"
+        msg += "; check the unit, e.g. '80 mm' rather than '80 m'"
     elif any(lo <= v * f <= hi for f in (1e-3, 1e3, 1e-6, 1e6)):
         msg += "; check the unit (a factor of 1000 or 10^6 would bring it into range)"
     else:

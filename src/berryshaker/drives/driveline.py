@@ -38,7 +38,7 @@ from berryshaker.quantity_fields import (
 
 
 #: a power, read by the one strict parser ("1.5 kW", "750 W"; "1,5 kW" and "1.5 kW * 1000" are refused)
-Power = Annotated[float, _q("power"), Field(gt=0, json_schema_extra={"display": "kW"})]
+Power = Annotated[float, _q("power", "kW"), Field(gt=0, json_schema_extra={"display": "kW"})]
 Torque = Annotated[float, _q("torsional_stiffness"), Field(json_schema_extra={"display": "N*m"})]
 Force = Annotated[float, _q("force"), Field(gt=0, json_schema_extra={"display": "N"})]
 Fraction = Annotated[float, _q("dimensionless"), Field(gt=0, le=1, json_schema_extra={"display": "1"})]

@@ -17,7 +17,7 @@ class BranchSpec(_Strict):
     root_diameter: Length  # d0
     tip_diameter: Length  # dm
     length: Length  # l
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))]
+    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))]
     density: Annotated[float, _q("density"), Field(gt=0, json_schema_extra=_d("kg/m^3"))]
     damping_ratio: Annotated[float, _q("dimensionless"), Field(ge=0, lt=1, json_schema_extra=_d("1"))] = 0.07
 
@@ -49,7 +49,7 @@ class PedicelSpec(_Strict):
 
 class FruitSpec(_Strict):
     """Fruit on the branch: mass m0, positions (fractions of the length) and names (study eq. 16-17)."""
-    mass: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
+    mass: Annotated[float, _q("mass", "g"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
     pedicel: PedicelSpec = PedicelSpec()
     positions: tuple[float, ...] = Field((0.2, 0.5, 0.85), max_length=20)  # fractions of the branch length
     names: tuple[str, ...] = Field(("root", "middle", "end"), max_length=20)
@@ -71,9 +71,9 @@ class FingerSpec(_Strict):
 
     diameter: Length = 0.012
     free_length: Length = 0.2  # clamp to the striking section (m)
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
+    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
     poisson_ratio: float = Field(0.39, ge=0, lt=0.5)
-    wood_transverse_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
+    wood_transverse_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
     wood_poisson_ratio: float = Field(0.3, ge=0, lt=0.5)
     reference_force: Annotated[float, _q("force"), Field(gt=0, json_schema_extra=_d("N"))] = 5.0  # Hertz linearised
 
