@@ -117,10 +117,16 @@ def test_the_two_reference_drives_swing_the_combs_alike():
     assert out["crank_rocker"]["drive"]["comb_frequency_hz"] == out["groove_cam"]["drive"]["comb_frequency_hz"]
 
 
-def test_machine_files_of_version_0_1_0_still_load():
+def test_machine_files_of_version_0_1_0_get_the_unit_message_then_load():
+    """A 0.1.0 file with a bare dimensional number is not read as SI: loading names the field and the fix;
+    with the unit given as the message says, the rest of the old file (kinds, sizes, springs) still loads."""
     from berryshaker.config import load_machine, reference_machine
+    from berryshaker.errors import ConfigError
 
-    old = load_machine(Path(__file__).parent / "data" / "machine_0_1_0.toml")
+    with pytest.raises(ConfigError, match=r'harvest.damage_acceleration: 6012 is a bare number; give a unit, '
+                                          r'e.g. damage_acceleration = "6012 m/s\^2"'):
+        load_machine(Path(__file__).parent / "data" / "machine_0_1_0.toml")
+    old = load_machine(Path(__file__).parent / "data" / "machine_0_1_0_units.toml")
     new = reference_machine()
     assert old.clearance["A"].kind == "roller-in-groove" and old.clearance["C"].kind == "pin-in-bore"
     assert old.clearance_sizes() == new.clearance_sizes()

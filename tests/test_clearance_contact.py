@@ -56,7 +56,7 @@ def test_pin_law_is_the_conformal_module_law():
 
 def test_old_files_keep_their_linear_springs():
     """A 0.1.0 description gives K_i and C_i and no law: it keeps the IMPACT law with exponent 1."""
-    m = load_machine("tests/data/machine_0_1_0.toml")
+    m = load_machine("tests/data/machine_0_1_0_units.toml")
     for p, k in (("A", 1e8), ("B", 1e8), ("C", 5e7), ("F", 5e7)):
         c = m.pair_contact(p)
         assert (c.law, c.stiffness, c.exponent, c.damping, c.damping_depth) == ("impact", k, 1.0, 2000.0, 1e-5)
@@ -79,7 +79,7 @@ def test_config_show_rows_state_law_stiffness_damping_and_ramp(machine):
     assert "hysteresis (lankarani_nikravesh), restitution e = 0.9" in rows["(resolved) contact C damping"][0]
     assert f"{float(hysteresis_factor(0.9, 'lankarani_nikravesh')):.4g}" in rows["(resolved) contact C damping"][0]
     assert rows["(resolved) contact C damping ramp"][0].startswith("none")
-    old = {k: v for k, v, _ in pair_contact_rows(load_machine("tests/data/machine_0_1_0.toml"))}
+    old = {k: v for k, v, _ in pair_contact_rows(load_machine("tests/data/machine_0_1_0_units.toml"))}
     assert old["(resolved) contact A damping ramp"] == "full damping at 0.01 mm"
 
 

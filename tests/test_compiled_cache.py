@@ -5,7 +5,9 @@ runs the callee's old code after that file changes.  The package therefore names
 of every source that mentions numba.  Checked here: the digest moves with every callee file a cached kernel calls
 across files (found by a scan of the package) and not with the rest; a child process keeps its parent's folder
 while a new ``NUMBA_CACHE_DIR`` gets its own; old digest folders are pruned and nothing else is; an unwritable base
-falls back to the temp folder.
+falls back to the temp folder; the cache lives only in private folders (mode 0700, this user's, no symlinks, not
+writable by group or others; a folder another user made first, the temp fallback's included, is refused), and the
+numba and run caches share one home (``cache_home``).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ import sys
 import time
 import types
 from pathlib import Path
+
+import pytest
 
 import berryshaker
 from berryshaker.compiled_cache import FOLDER_PREFIX, KEEP_FOLDERS, MARKER, compiled_sources_digest
@@ -140,3 +144,87 @@ def test_an_unwritable_base_falls_back_to_the_temp_folder(tmp_path):
     temp.mkdir()
     folder = Path(_folder_in_child(_env(NUMBA_CACHE_DIR=str(blocker / "cache"), TMPDIR=str(temp))))
     assert temp in folder.parents and (folder / MARKER).is_file()
+
+
+# ---- private folders only (issue 42): numba's entries are pickles and generated sources are imported -------------
+def _cache_in_child(env: dict) -> tuple[str, str]:
+    """(NUMBA_CACHE_DIR or "none", stderr) of a fresh process importing berryshaker with ``env``."""
+    code = "import os, berryshaker; print(os.environ.get('NUMBA_CACHE_DIR') or 'none')"
+    out = subprocess.run([sys.executable, "-W", "always", "-c", code], env=env, capture_output=True, text=True,
+                         check=True)
+    return out.stdout.strip().splitlines()[-1], out.stderr
+
+
+def _mode(p: Path) -> int:
+    return p.stat().st_mode & 0o777
+
+
+def test_new_cache_folders_are_private(tmp_path):
+    home = tmp_path / "home"
+    folder = Path(_cache_in_child(_env(BERRYSHAKER_CACHE=str(home), TMPDIR=str(tmp_path)))[0])
+    assert folder.parent == home / "numba"
+    assert _mode(home) == _mode(home / "numba") == _mode(folder) == 0o700
+
+
+OTHER_UID = 65534  # nobody
+
+
+@pytest.mark.parametrize("how", ["owner", "group-writable", "symlink"])
+def test_a_cache_someone_else_can_write_is_never_used(tmp_path, how):
+    home = tmp_path / "home"  # what another local user prepared where the cache goes
+    if how == "symlink":  # a link inside the cache could be swapped for another folder: never followed
+        home.mkdir(mode=0o700)
+        (tmp_path / "elsewhere").mkdir(mode=0o700)
+        (home / "numba").symlink_to(tmp_path / "elsewhere")
+    else:
+        home.mkdir(mode=0o700)
+        if how == "owner":
+            if os.geteuid() != 0:
+                pytest.skip("making a folder another user owns needs root (CI runs as root)")
+            os.chown(home, OTHER_UID, OTHER_UID)
+        else:
+            os.chmod(home, 0o770)
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    folder, _ = _cache_in_child(_env(BERRYSHAKER_CACHE=str(home), TMPDIR=str(temp)))
+    # the per-user fallback in the temporary folder, private, instead
+    assert Path(folder).parents[1] == (temp / f"berryshaker-{os.getuid()}").resolve()
+    assert _mode(temp / f"berryshaker-{os.getuid()}") == 0o700
+    assert not any(p.name.startswith("berryshaker-numba-") for p in home.rglob("*"))
+    assert not any(p.name.startswith("berryshaker-numba-") for p in tmp_path.glob("elsewhere/*"))
+
+
+def test_a_temp_fallback_made_by_another_user_is_refused(tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("making a folder another user owns needs root (CI runs as root)")
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    temp = tmp_path / "tmp"
+    temp.mkdir()
+    planted = temp / f"berryshaker-{os.getuid()}"  # created first by someone else
+    planted.mkdir(mode=0o777)
+    os.chown(planted, OTHER_UID, OTHER_UID)
+    folder, stderr = _cache_in_child(_env(BERRYSHAKER_CACHE=str(blocker / "cache"), TMPDIR=str(temp)))
+    assert folder == "none" and "owned by another user" in stderr
+    assert list(planted.iterdir()) == []
+
+
+def test_one_cache_home_for_numba_and_runs(tmp_path, monkeypatch):
+    from berryshaker.compiled_cache import cache_home, numba_cache_base
+    from berryshaker.errors import ConfigError
+    from berryshaker.runs.runner import default_cache_dir
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.delenv("BERRYSHAKER_NUMBA_BASE", raising=False)
+    monkeypatch.delenv("BERRYSHAKER_CACHE", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache_home() == tmp_path / "xdg" / "berryshaker"
+    assert numba_cache_base() == cache_home() / "numba" and default_cache_dir() == cache_home() / "runs"
+    assert _mode(cache_home() / "runs") == 0o700
+    shared = tmp_path / "shared"
+    shared.mkdir()
+    os.chmod(shared, 0o777)
+    monkeypatch.setenv("BERRYSHAKER_CACHE", str(shared))
+    with pytest.raises(ConfigError, match="writable by group or others"):
+        default_cache_dir()
+    assert not (shared / "runs").exists()

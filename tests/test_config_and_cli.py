@@ -151,3 +151,61 @@ def test_rich_tables_and_errors_print_brackets_as_written():
     con.print(rich_table(["value [mm]", "tag"], [[0.25, "[study]"], [0.1, "[bold]x[/]"]], title="levels [mm]"))
     text = con.export_text()
     assert "[study]" in text and "value [mm]" in text and "[bold]x[/]" in text and "levels [mm]" in text
+
+
+# ---- issue #42: nothing silently misread -------------------------------------------------------------------
+@pytest.mark.parametrize("section,key,value,needle", [
+    ("cam", "speed", 120, 'cam.speed: 120 is a bare number; give a unit, e.g. speed = "120 rpm"'),
+    ("operation", "walking_speed", 30, 'walking_speed = "30 m/min"'),
+    ("plant.fruit", "mass", 1.8, 'plant.fruit.mass: 1.8 is a bare number; give a unit, e.g. mass = "1.8 g"'),
+    ("plant.contact", "penetration_depth", 0.1, '"100 mm"'),
+    ("driveline.motor", "rated_power", 1.5, 'rated_power = "1.5 kW"'),
+    ("driveline.motor", "rated_power", "1,5 kW", "not a comma"),
+    ("driveline.motor", "rated_power", "1.5 kW * 1000", "cannot read '1.5 kW * 1000'"),
+    ("push_rod", "friction_coefficient", 1e300, "push_rod.friction_coefficient"),
+    ("harvest", "replicates", 9_200_000_000_000_000_000, "harvest.replicates: must be <= 1000"),
+    ("clearance.C", "diameter", "1e308 m", "clearance.C.diameter: 1e+308 m is too large for a length"),
+    ("clearance.C", "fit", "Z99/q1", "clearance.C: fit: tolerance class 'Z99'"),
+])
+def test_misreadings_are_errors_naming_the_field_and_the_fix(machine_dict, write_toml, section, key, value, needle):
+    table = machine_dict
+    for part in section.split("."):
+        table = table[part]
+    table[key] = value
+    p = write_toml(machine_dict)
+    with pytest.raises(ConfigError) as exc:
+        load_machine(p)
+    assert needle in str(exc.value)
+    r = _kin(["config", "validate", str(p)])
+    assert r.exit_code == 2 and needle in r.stderr and "Traceback" not in r.output
+
+
+def test_bom_deep_nesting_and_huge_values(tmp_path):
+    from berryshaker.config import reference_toml_text
+
+    text = reference_toml_text()
+    p = tmp_path / "bom.toml"
+    p.write_bytes("\ufeff".encode() + text.encode())
+    assert load_machine(p) == load_machine(None)
+    p.write_text(text.replace('name = "berryshaker reference harvester"', "name = " + "[" * 5000 + "]" * 5000))
+    with pytest.raises(ConfigError, match="nested too deeply"):
+        load_machine(p)
+    p.write_text(text.replace('material_pair = "steel-on-bronze-greased"', 'material_pair = "' + "x" * 100_000 + '"'))
+    with pytest.raises(ConfigError) as exc:
+        load_machine(p)
+    assert len(str(exc.value)) < 1000
+
+
+def test_json_output_never_writes_nan(capsys):
+    from berryshaker.cli.app import _print_json
+
+    _print_json({"a": 1.0, "b": [float("nan"), 2.0], "c": {"d": float("inf")}})
+    out = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(c))
+    assert out["b"] == [None, 2.0] and out["c"]["d"] is None
+    assert set(out["null_values"]) == {"b[0]", "c.d"} and "not a finite number" in out["null_values"]["b[0]"]
+
+
+def test_error_messages_print_user_text_as_written():
+    r = _kin(["simulate", "--model", "mlsd", "--clearance",
+              ":a:=0.25mm"])
+    assert r.exit_code == 2 and ":a:" in r.stderr

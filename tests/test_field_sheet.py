@@ -302,3 +302,32 @@ def test_replicated_sheets_are_checked():
     bad.loc[0, "replicate"] = 0
     with pytest.raises(ConfigError, match=r"row 2 \(run 1\), column 'replicate': '0' is not a replicate number"):
         read_results(_csv(bad), ["efficiency"])
+
+
+# ---- issue #42: nothing silently misread -------------------------------------------------------------------
+def test_a_value_column_without_its_level_column_is_an_error():
+    """A_level deleted, A_mm kept: factor A is not dropped from the analysis without a word."""
+    df = _filled().drop(columns=["A_level"])
+    with pytest.raises(ConfigError, match=r"column 'A_mm' holds the values of factor 'A', but its 'A_level' "
+                                          r"column is missing"):
+        read_results(_csv(df), ["efficiency"])
+    # without any level column the value columns are the factors (plain sheets), A included
+    fr = read_results(_csv(_filled().drop(columns=[f"{f}_level" for f in "ABCF"])), ["efficiency"])
+    assert fr.factor_names == ["A", "B", "C", "F"]
+
+
+@pytest.mark.parametrize("spec", ["A=1,2,3mm*1000", "A=1,2,3mm**9**9", "A=1,2,3m^99", "A=1,2,3kg/"])
+def test_factor_units_are_read_strictly(spec):
+    with pytest.raises(ConfigError, match="is not a unit berryshaker reads"):
+        parse_factor(spec)
+    assert parse_factor("A=1,2,3m/s^2").unit == "m/s^2"
+
+
+def test_sheet_cells_with_units_use_the_strict_parser():
+    df = _filled()
+    df["A_mm"] = df["A_mm"].map(lambda v: f"{v / 10:g} cm")
+    fr = read_results(_csv(df), ["efficiency"])
+    assert fr.level_values["A"] == pytest.approx((0.25, 0.5, 0.75))
+    df["A_mm"] = "0.05 cm*5"
+    with pytest.raises(ConfigError, match="A_mm"):
+        read_results(_csv(df), ["efficiency"])

@@ -109,3 +109,55 @@ def test_life_fields_do_not_change_the_dynamics():
 
         data["clearance"]["C"]["material_pair"] = "unobtainium"
         joint_geometry(machine_from_dict(data, "(test)"), "C")
+
+
+# ---- issue 42: bad input is a message naming the flag, and --plot is a checked, staged destination ---------------
+@pytest.mark.parametrize("args, flag", [
+    (["wear", "--joint", "Z"], "--joint Z"),
+    (["wear", "--joint", "C", "--joint", "C"], "--joint"),
+    (["wear", "--hours", "inf"], "--hours"),
+    (["sensitivity", "--seed", "-1"], "--seed -1"),
+    (["sensitivity", "--samples", str(2**40)], "--samples"),
+    (["tolerance", "--pop-size", "0"], "--pop-size 0"),
+    (["tolerance", "--generations", "-1"], "--generations -1"),
+    (["tolerance", "--points", "1000000000"], "--points"),
+    (["tolerance", "--seed", "-5"], "--seed -5"),
+])
+def test_life_flags_out_of_range_are_one_message(args, flag, tmp_path):
+    r = cli.invoke(app, args + ["--cache", str(tmp_path)])
+    assert r.exit_code == 2, r.output
+    assert r.exception is None or isinstance(r.exception, SystemExit), r.exception
+    assert flag in r.output and "Traceback" not in r.output, r.output
+
+
+def test_wear_from_fit_on_some_joints_prints_the_interval_and_plots(tmp_path):
+    machine = tmp_path / "m.toml"
+    assert cli.invoke(app, ["config", "init", str(machine)]).exit_code == 0
+    plots = tmp_path / "plots"
+    args = ["wear", "--config", str(machine), "--from-fit", "--joint", "C", "--hours", "50",
+            "--cache", str(tmp_path / "cache")]
+    r = cli.invoke(app, args)
+    assert r.exit_code == 0, r.output
+    assert "maintenance interval" in r.output and "does not wear" in r.output
+    r = cli.invoke(app, args + ["--plot", str(plots), "--json"])
+    assert r.exit_code == 0, r.output
+    s = json.loads(r.stdout)
+    assert s["figures"] == [str(plots / "wear_clearance.png")] and (plots / "wear_clearance.png").is_file()
+    assert s["joints"]["A"]["maintenance_interval_h"] is None and s["joints"]["C"]["size_convention"] == "radial"
+    from berryshaker.outputs import read_output_marker
+
+    assert list(read_output_marker(plots)["outputs"]) == ["wear --plot"]
+
+
+@pytest.mark.parametrize("command", [["sensitivity", "--samples", "2"], ["tolerance", "--points", "2"],
+                                     ["wear", "--hours", "1"]])
+def test_life_plots_never_overwrite_the_users_pngs(command, tmp_path):
+    folder = tmp_path / "figures"
+    folder.mkdir()
+    for name in ("sobol_collision_force_A_peak.png", "tolerance_pareto.png", "wear_clearance.png"):
+        (folder / name).write_bytes(b"the user's figure")
+    r = cli.invoke(app, command + ["--plot", str(folder), "--cache", str(tmp_path / "cache")])
+    assert r.exit_code == 2 and "not empty and was not written by berryshaker" in r.output, r.output
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == {
+        n: b"the user's figure" for n in ("sobol_collision_force_A_peak.png", "tolerance_pareto.png",
+                                          "wear_clearance.png")}

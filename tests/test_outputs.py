@@ -3,6 +3,7 @@ files, staging folders that never outlive their run."""
 
 import json
 import os
+import stat
 import subprocess
 import sys
 import time
@@ -233,3 +234,173 @@ def test_stale_staging_folders_are_cleaned(tmp_path):
 def test_provenance_names_the_code():
     p = provenance(extra_input=1)
     assert p["package"] == "berryshaker" and len(p["code_sha256"]) == 64 and p["extra_input"] == 1
+
+
+# ---- markers own only their command's files, by digest (issue 42) ----------------------------------------------
+def _files(folder: Path) -> dict:
+    return {k: v for k, v in _snapshot(folder).items() if k != MARKER_NAME}
+
+
+def _write(kind, out, files):
+    with staged_directory(out, kind=kind) as stage:
+        for rel, text in files.items():
+            (stage / rel).parent.mkdir(parents=True, exist_ok=True)
+            (stage / rel).write_text(text)
+
+
+def test_marker_records_the_command_and_a_digest_per_file(tmp_path):
+    import hashlib
+
+    out = tmp_path / "out"
+    _write("kinematics --plot", out, {"svaj.png": "s", "figs/g.png": "g"})
+    m = read_output_marker(out)
+    files = m["outputs"]["kinematics --plot"]["files"]
+    assert files == {"figs/g.png": hashlib.sha256(b"g").hexdigest(), "svaj.png": hashlib.sha256(b"s").hexdigest()}
+    assert m["kind"] == "kinematics --plot" and m["files"] == ["figs/g.png", "svaj.png"]
+
+
+def test_another_command_keeps_the_first_commands_files(tmp_path):
+    out = tmp_path / "out"
+    _write("kinematics --plot", out, {"svaj.png": "s", "provenance.json": "p"})
+    _write("simulate --out", out, {"timeseries.csv": "t", "summary.json": "j"})
+    assert _files(out) == {"svaj.png": b"s", "provenance.json": b"p", "timeseries.csv": b"t",
+                              "summary.json": b"j"}
+    _write("simulate --out", out, {"timeseries.csv": "t2"})  # its own summary.json goes, the figures stay
+    assert _files(out) == {"svaj.png": b"s", "provenance.json": b"p", "timeseries.csv": b"t2"}
+    owners = read_output_marker(out)["outputs"]
+    assert set(owners["kinematics --plot"]["files"]) == {"svaj.png", "provenance.json"}
+    assert set(owners["simulate --out"]["files"]) == {"timeseries.csv"}
+    before = _snapshot(out)
+    with pytest.raises(OutputError, match=r"provenance.json \(kinematics --plot\)"):
+        _write("plant --plot", out, {"mode_shapes.png": "m", "provenance.json": "p2"})
+    assert _snapshot(out) == before and _staging_left(tmp_path) == []
+
+
+def test_a_changed_file_is_never_replaced_nor_removed(tmp_path):
+    out = tmp_path / "out"
+    _write("sensitivity --plot", out, {"sobol_a.png": "a", "sobol_b.png": "b"})
+    (out / "sobol_a.png").write_text("the user's edit")
+    before = _snapshot(out)
+    with pytest.raises(OutputError, match="sobol_a.png changed"):
+        prepare_output_dir(out, kind="sensitivity --plot")  # refused before any work
+    for files in ({"sobol_a.png": "a2"}, {"sobol_b.png": "b2"}):  # replaced, or left over and removed
+        with pytest.raises(OutputError, match="sobol_a.png"):
+            _write("sensitivity --plot", out, files)
+        assert _snapshot(out) == before
+    prepare_output_dir(out, kind="tolerance --plot")  # another command may write beside it
+
+
+def test_a_marker_entry_through_a_symlink_is_never_removed(tmp_path):
+    out, outside = tmp_path / "out", tmp_path / "outside"
+    _write("compare --plot", out, {"sub/x.png": "x", "a.png": "a"})
+    outside.mkdir()
+    (outside / "x.png").write_text("x")  # the same bytes: only the link stands between it and removal
+    (out / "sub" / "x.png").unlink()
+    (out / "sub").rmdir()
+    (out / "sub").symlink_to(outside, target_is_directory=True)
+    with pytest.raises(OutputError, match="sub/x.png"):
+        _write("compare --plot", out, {"a.png": "a2"})
+    assert (outside / "x.png").read_text() == "x" and (out / "a.png").read_text() == "a"
+    # a marker edited to name the outside file directly (absolute, .., through the link) removes nothing either
+    m = json.loads((out / MARKER_NAME).read_text())
+    m["outputs"]["compare --plot"]["files"] = {"../outside/x.png": None, str(outside / "x.png"): None, "a.png":
+                                               m["outputs"]["compare --plot"]["files"]["a.png"]}
+    (out / MARKER_NAME).write_text(json.dumps(m))
+    _write("compare --plot", out, {"b.png": "b"})
+    assert (outside / "x.png").read_text() == "x" and not (out / "a.png").exists()
+
+
+def test_a_marker_entry_that_is_a_symlink_is_kept(tmp_path):
+    out, precious = tmp_path / "out", tmp_path / "precious.txt"
+    _write("wear --plot", out, {"w.png": "w"})
+    precious.write_text("p")
+    (out / "w.png").unlink()
+    (out / "w.png").symlink_to(precious)
+    with pytest.raises(OutputError, match="w.png"):
+        _write("wear --plot", out, {"other.png": "o"})
+    assert precious.read_text() == "p" and (out / "w.png").is_symlink()
+
+
+def test_an_older_marker_without_digests(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "report.html").write_text("old")
+    (out / "gone.csv").write_text("old")
+    old = {"package": "berryshaker", "kind": "study", "version": "0.0.9", "files": ["report.html", "gone.csv"],
+           "written": "2026-01-01T00:00:00+00:00"}
+    (out / MARKER_NAME).write_text(json.dumps(old))
+    past = time.time() - 400 * 86400  # before the marker was written: trusted as the study's own
+    for f in ("report.html", "gone.csv"):
+        os.utime(out / f, (past, past))
+    (out / "gone.csv").touch()  # ... but this one was modified after it: kept, the study refused
+    with pytest.raises(OutputError, match="gone.csv"):
+        _write("study", out, {"report.html": "new"})
+    os.utime(out / "gone.csv", (past, past))
+    _write("study", out, {"report.html": "new"})
+    assert _files(out) == {"report.html": b"new"}
+    # the files of an older marker of another kind are kept, and block their names
+    (out / MARKER_NAME).write_text(json.dumps({**old, "kind": "plots", "files": ["report.html"]}))
+    with pytest.raises(OutputError, match="report.html"):
+        _write("study", out, {"report.html": "newer"})
+    assert (out / "report.html").read_text() == "new"
+
+
+def test_outputs_under_proc_are_refused_before_any_work(tmp_path):
+    if not Path("/proc/self").is_dir():
+        pytest.skip("no /proc")
+    for bad in ("/proc/berryshaker-test", "/proc/self/berryshaker-test/sub"):
+        with pytest.raises(OutputError):
+            prepare_output_dir(bad, kind="kinematics --plot")
+        with pytest.raises(OutputError):
+            check_output_file(bad + ".csv", allowed_suffixes=(".csv",))
+
+
+def test_doe_plan_force_replaces_only_the_named_sheet(tmp_path):
+    from typer.testing import CliRunner
+
+    from berryshaker.cli import app
+
+    cli = CliRunner()
+    args = ["doe", "plan", "--array", "L4", "--factor", "A=1,2mm", "--factor", "B=1,2mm"]
+    csv, html = tmp_path / "trial.csv", tmp_path / "trial.html"
+    assert cli.invoke(app, args + ["--out", str(html)]).exit_code == 0
+    assert cli.invoke(app, args + ["--out", str(html), "--force"]).exit_code == 0  # its own pair: replaced
+    csv.write_text(csv.read_text() + "filled in the field\n")
+    before = _snapshot(tmp_path)
+    r = cli.invoke(app, args + ["--out", str(html), "--force"])
+    assert r.exit_code == 2 and "trial.csv" in r.output and _snapshot(tmp_path) == before
+    r = cli.invoke(app, args + ["--out", str(csv), "--force"])  # named: replaced
+    assert r.exit_code == 0 and "filled" not in csv.read_text()
+    html.write_text(html.read_text().replace("field sheet", "my notes"))
+    before = _snapshot(tmp_path)
+    r = cli.invoke(app, args + ["--out", str(csv), "--force"])
+    assert r.exit_code == 2 and "trial.html" in r.output and _snapshot(tmp_path) == before
+
+
+@pytest.mark.parametrize("make", ["fifo", "folder", "device"])
+def test_config_init_refuses_a_non_regular_destination_even_with_force(tmp_path, make):
+    from typer.testing import CliRunner
+
+    from berryshaker.cli import app
+
+    dest = tmp_path / "dest.toml"
+    if make == "fifo":
+        os.mkfifo(dest)
+    elif make == "folder":
+        dest.mkdir()
+    else:  # a device node of its own (never /dev/null: a regression would replace the system's)
+        try:
+            os.mknod(dest, 0o600 | stat.S_IFCHR, os.makedev(1, 3))
+        except PermissionError:  # not root: a socket is another non-regular file
+            import socket
+
+            sock = socket.socket(socket.AF_UNIX)
+            sock.bind(str(dest))
+            sock.close()
+    r = CliRunner().invoke(app, ["config", "init", str(dest), "--force"])
+    assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+    assert dest.exists() and not dest.is_file()
+    blocker = tmp_path / "a_file"
+    blocker.write_text("x")
+    r = CliRunner().invoke(app, ["config", "init", str(blocker / "x.toml")])
+    assert r.exit_code == 2 and "is a file, not a folder" in r.output and blocker.read_text() == "x"

@@ -288,3 +288,53 @@ def test_format_tolerance_writes_tolerances_as_people_do():
     from berryshaker.units import format_tolerance
 
     assert [format_tolerance(x) for x in (1e-5, 1e-7, 1e-10, 3e-3)] == ["1e-5", "1e-7", "1e-10", "3e-3"]
+
+
+# ---- issue #42: nothing silently misread -------------------------------------------------------------------
+def test_units_required_refuses_bare_numbers_with_the_fix():
+    from berryshaker.units import bare_number_message
+
+    with pytest.raises(ConfigError, match=r'cam.speed: 120 is a bare number; give a unit, e.g. speed = "120 rpm" '
+                                          r'\(berryshaker 0.x read a bare number as SI: 120 rad/s = "1145.92 rpm"\)'):
+        parse_quantity(120, "angular_speed", "cam.speed", units_required=True)
+    assert parse_quantity(120, "angular_speed", "cam.speed") == 120.0  # inside the package: SI
+    assert parse_quantity(0, "length", "engagement", units_required=True) == 0.0  # 0 in every unit
+    assert parse_quantity(0.3, "dimensionless", "mu", units_required=True) == 0.3
+    assert bare_number_message(1.8, "mass", "mass", "g").startswith('1.8 is a bare number; give a unit, e.g. '
+                                                                    'mass = "1.8 g"')
+
+
+@pytest.mark.parametrize("text,needle", [("1,5 kW", "not a comma"), ("1.5 kW * 1000", "expected a unit name"),
+                                         ("1.5 kW*1000", "expected a unit name"), ("9**9**9 W", "expected a unit")])
+def test_decimal_comma_and_arithmetic_are_refused(text, needle):
+    with pytest.raises(ConfigError, match=needle):
+        parse_quantity(text, "power", "rated_power")
+
+
+def test_limits_name_the_field_and_the_range():
+    from berryshaker.units import LIMITS, check_limits
+
+    assert check_limits(0.08, "length", "cam.base_radius") == 0.08
+    assert check_limits(0.0, "length", "x") == 0.0
+    with pytest.raises(ConfigError, match=r"clearance.C.diameter: 1e\+308 m is too large for a length "
+                                          r"\(berryshaker accepts 0.001 mm .. 1e\+05 mm\)"):
+        check_limits(1e308, "length", "clearance.C.diameter")
+    with pytest.raises(ConfigError, match="too small"):
+        check_limits(1e-300, "mass", "m")
+    assert check_limits(1e-300, "torque", "t", lower=False) == 1e-300  # computed inside: upper limit only
+    with pytest.raises(ConfigError, match="not a finite number"):
+        check_limits(math.nan, "length", "x")
+    assert all(0 <= lo < hi < math.inf for lo, hi in LIMITS.values())
+
+
+def test_unit_dimension_and_factor_use_the_strict_grammar():
+    from berryshaker.units import unit_dimension, unit_factor
+
+    assert unit_dimension("mm") == "length" and unit_dimension("rpm") == "angular_speed"
+    assert unit_dimension("%") == "dimensionless"
+    for bad in ("9**9**9", "mm*1000", "m**9", "(m", "", "x" * 100):
+        assert unit_dimension(bad) is None
+    assert unit_factor("cm", "mm") == pytest.approx(10.0)
+    assert unit_factor("mm", "mm") == 1.0
+    with pytest.raises(ConfigError, match="cannot be read as 'mm'"):
+        unit_factor("kg", "mm", "row 2")

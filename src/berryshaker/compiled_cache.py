@@ -14,8 +14,14 @@ So the package points numba at a folder named by a digest of every source file t
 its kernels again.  Where:
 
 * base folder: ``$NUMBA_CACHE_DIR/berryshaker`` if the user set ``NUMBA_CACHE_DIR``, else
-  ``$BERRYSHAKER_CACHE/numba``, else ``$XDG_CACHE_HOME/berryshaker/numba`` (``~/.cache/berryshaker/numba``);
-  if it cannot be created, ``<temp dir>/berryshaker-<uid>/numba``;
+  ``$BERRYSHAKER_CACHE/numba``, else ``$XDG_CACHE_HOME/berryshaker/numba`` (``~/.cache/berryshaker/numba``;
+  :func:`cache_home` is the one home of the package's cache, the run cache's too); if it cannot be created or is
+  not private, ``<temp dir>/berryshaker-<uid>/numba``;
+* private folders only: numba's cache entries are pickles and the generated kernel sources are imported, so a
+  folder another local user can write would run their code as you.  Every folder of the cache is created with
+  mode 0700 and used only if it is a real folder (not a symlink) owned by this user and not writable by group or
+  others, its parent not writable by others unless sticky (:func:`private_folder`); otherwise the next location is
+  tried, and with none a warning says so;
 * inside it, ``berryshaker-numba-<digest>`` with a marker file; the :data:`KEEP_FOLDERS` most recently used such
   folders are kept and older ones removed when a new one is started.  Only folders with that exact name pattern
   *and* the marker are ever removed, so nothing else in the base folder is touched.
@@ -33,6 +39,7 @@ import hashlib
 import os
 import re
 import shutil
+import stat
 import sys
 import tempfile
 import warnings
@@ -60,46 +67,114 @@ def compiled_sources_digest(root: Path) -> str:
     return h.hexdigest()[:16]
 
 
+def cache_home() -> Path:
+    """The package's cache folder, absolute: ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, else
+    ``~/.cache/berryshaker`` (an empty variable counts as unset).  The one home of this rule: numba's kernels go
+    to ``numba/`` in it (:func:`numba_cache_base`), the sweep runner's results to ``runs/``
+    (:func:`berryshaker.runs.runner.default_cache_dir`)."""
+    base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "berryshaker")
+    return Path(base).expanduser().resolve()
+
+
+def temp_cache_home() -> Path:
+    """The per-user fallback in the system's temporary folder, ``<temp dir>/berryshaker-<uid>`` (use it only through
+    :func:`private_folder`: anyone may create that name first)."""
+    user = os.getuid() if hasattr(os, "getuid") else "user"
+    return Path(tempfile.gettempdir()).resolve() / f"berryshaker-{user}"
+
+
+class UnsafeCacheFolder(OSError):
+    """A cache folder that another user could write (or that is not a plain folder of this user)."""
+
+
+def _check_private(path: Path) -> None:
+    st = os.lstat(path)
+    if stat.S_ISLNK(st.st_mode) or not stat.S_ISDIR(st.st_mode):
+        raise UnsafeCacheFolder(f"{path} is {'a symlink' if stat.S_ISLNK(st.st_mode) else 'not a folder'}")
+    if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+        raise UnsafeCacheFolder(f"{path} is owned by another user (uid {st.st_uid})")
+    if st.st_mode & 0o022:
+        raise UnsafeCacheFolder(f"{path} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o}; "
+                                f"chmod go-w {path} if it is yours)")
+
+
+def private_folder(folder: Path, top: Path) -> Path:
+    """Create ``folder`` (and the folders from ``top`` down to it) with mode 0700 and check that every one of them is
+    private: a real folder (not a symlink), owned by this user, not writable by group or others; and that ``top``'s
+    parent is not writable by others unless it is sticky (as /tmp).  Returns ``folder``.
+
+    Raises
+    ------
+    UnsafeCacheFolder
+        One of them is not private (the message names it and why); nothing is written into it.
+    OSError
+        A folder cannot be created.
+    """
+    folder, top = Path(folder), Path(top)
+    if folder != top and top not in folder.parents:
+        raise ValueError(f"{folder} is not inside {top}")
+    chain = [top] + [p for p in reversed(folder.parents) if top in p.parents] + ([folder] if folder != top else [])
+    top.parent.mkdir(parents=True, exist_ok=True, mode=0o700)
+    pst = os.stat(top.parent)
+    if pst.st_mode & 0o002 and not pst.st_mode & stat.S_ISVTX:
+        raise UnsafeCacheFolder(f"{top.parent} is writable by others and not sticky")
+    for p in chain:
+        try:
+            os.mkdir(p, 0o700)  # the umask cannot widen 0700
+        except FileExistsError:
+            pass
+        _check_private(p)
+    return folder
+
+
 def numba_cache_base() -> Path:
     """The folder holding the digest folders (see the module docstring); absolute."""
+    return _numba_base()[0]
+
+
+def _numba_base() -> tuple[Path, Path]:
+    """(base, top): the base folder and the topmost folder of the package's own that holds it (checked private)."""
     inherited = os.environ.get("BERRYSHAKER_NUMBA_BASE")
     given = os.environ.get("NUMBA_CACHE_DIR")
     if given:
         g = Path(given).expanduser().resolve()
         if inherited and FOLDER_PATTERN.fullmatch(g.name) and g.parent == Path(inherited):
-            return g.parent  # pointed by a parent process: keep its base
-        return g / "berryshaker"  # the user's (or a test's) own folder
-    cache_home = os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache")
-    base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(cache_home, "berryshaker")
-    return Path(base).expanduser().resolve() / "numba"
+            return g.parent, g.parent  # pointed by a parent process: keep its base
+        return g / "berryshaker", g / "berryshaker"  # the user's (or a test's) own folder
+    return cache_home() / "numba", cache_home()
 
 
-def _prepare(folder: Path) -> bool:
-    """Create ``folder`` (with its marker) or mark it used; prune old siblings when it is new.  False if not
-    writable."""
+def _prepare(folder: Path, top: Path) -> str | None:
+    """Create ``folder`` (private, with its marker) or mark it used; prune old siblings when it is new.  None when
+    done, else why not."""
     try:
+        private_folder(folder, top)
         new = not (folder / MARKER).exists()
-        folder.mkdir(parents=True, exist_ok=True)
         (folder / MARKER).touch()  # most recently used
         if new:
             _prune(folder)
-        return True
-    except OSError:
-        return False
+        return None
+    except OSError as exc:
+        return str(exc) if isinstance(exc, UnsafeCacheFolder) else f"{folder}: {exc.strerror or exc}"
 
 
 def point_numba_cache() -> Path | None:
-    """Point numba's cache at this package version's digest folder; returns it (None when nothing is
-    writable)."""
+    """Point numba's cache at this package version's digest folder; returns it (None when no private folder can be
+    written)."""
     name = FOLDER_PREFIX + compiled_sources_digest(Path(__file__).resolve().parent)
-    base = numba_cache_base()
+    base, top = _numba_base()
     folder = base / name
-    if not _prepare(folder):
-        base = Path(tempfile.gettempdir()) / f"berryshaker-{os.getuid() if hasattr(os, 'getuid') else 'user'}" / "numba"
+    why = _prepare(folder, top)
+    if why is not None:
+        first = why
+        top = temp_cache_home()
+        base = top / "numba"
         folder = base / name
-        if not _prepare(folder):
-            warnings.warn(f"berryshaker: no writable folder for numba's cache ({numba_cache_base()}, {base}); numba "
-                          "falls back to its own, where a kernel can keep stale code after an update "
+        why = _prepare(folder, top)
+        if why is not None:
+            warnings.warn(f"berryshaker: no private writable folder for numba's cache ({first}; {why}); numba falls "
+                          "back to its own, where a kernel can keep stale code after an update "
                           "(berryshaker.compiled_cache)", RuntimeWarning, stacklevel=2)
             return None
     os.environ["BERRYSHAKER_NUMBA_BASE"] = str(base)

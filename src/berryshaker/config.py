@@ -3,7 +3,9 @@
 ``[machine] drive = "..."`` picks the drive (:mod:`berryshaker.drives`; default ``groove_cam``, so files written
 by berryshaker 0.1.0 still load).  Each drive's description class validates every value once, where the
 machine is built (units and dimensions, ranges, clearance pairs and their geometric limits); everything
-inside is SI.  The provenance tags written in the file's comments ([study], [assumed], [calibrated]) are read
+inside is SI.  A machine file gives every dimensional value with its unit (``speed = "120 rpm"``); a bare number
+there is an error that shows the fix, and only dimensionless values (coefficients, fractions, counts, ratios)
+are plain numbers.  The provenance tags written in the file's comments ([study], [assumed], [calibrated]) are read
 with the values and travel with them into every view (:func:`machine_table`).
 
 Geometric feasibility over the whole cycle (assembly, undercut) needs the kinematics and is checked by the
@@ -22,7 +24,7 @@ from pydantic import BaseModel, ValidationError
 from berryshaker.drives import get_drive
 from berryshaker.drives.base import MachineBase
 from berryshaker.errors import ConfigError
-from berryshaker.quantity_fields import format_validation_error, plausibility_warnings
+from berryshaker.quantity_fields import UNITS_REQUIRED, format_validation_error, plausibility_warnings
 
 #: any drive's machine description
 Machine = MachineBase
@@ -41,15 +43,35 @@ def _drive_name(data: dict[str, Any], source: str) -> str:
     return name
 
 
-def machine_from_dict(data: dict[str, Any], source: str = "<dict>", provenance: dict[str, str] | None = None):
-    """Validate a nested dict (as read from TOML) into the description of its drive's machine."""
+def machine_from_dict(data: dict[str, Any], source: str = "<dict>", provenance: dict[str, str] | None = None,
+                      units_required: bool = False):
+    """Validate a nested dict into the description of its drive's machine.
+
+    Parameters
+    ----------
+    data : dict
+        The sections, as read from TOML (``units_required``) or as dumped by a description (SI numbers).
+    source : str
+        Where the data came from, for error messages.
+    provenance : dict, optional
+        Provenance tag per dotted key (:func:`provenance_tags`).
+    units_required : bool
+        The data is a user's file: a bare number in a dimensional field is an error showing the fix.
+
+    Raises
+    ------
+    ConfigError
+        Every invalid value, one line each, with its dotted key.
+    """
     if not isinstance(data, dict):
         raise ConfigError(f"invalid machine description {source}: expected a table of sections")
     drive = get_drive(_drive_name(data, source))
     try:
-        machine = drive.machine_class.model_validate(data)
+        machine = drive.machine_class.model_validate(data, context={UNITS_REQUIRED: units_required})
     except ValidationError as err:
         raise ConfigError(format_validation_error(err, source)) from None
+    except RecursionError:
+        raise ConfigError(f"invalid machine description {source}: values nested too deeply") from None
     if provenance:
         object.__setattr__(machine, "__provenance__", dict(provenance))
     return machine
@@ -90,23 +112,39 @@ def _read_text(p: Path) -> str:
     if p.stat().st_size > _MAX_FILE_BYTES:
         raise ConfigError(f"{p}: {p.stat().st_size} bytes is too large for a machine description (limit 1 MB)")
     try:
-        return p.read_bytes().decode("utf-8")
+        return p.read_bytes().decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is dropped
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
 
 
 def load_machine(path: str | Path | None = None, drive: str = "groove_cam"):
-    """Load a machine description from TOML; ``None`` gives the built-in reference machine of ``drive``."""
+    """Load a machine description from TOML; ``None`` gives the built-in reference machine of ``drive``.
+
+    Every dimensional value must carry its unit (a bare number is an error naming the field and the fix);
+    a UTF-8 byte-order mark is accepted.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, invalid TOML (arrays or tables nested too deeply included), or invalid values.
+    """
     if path is None:
         text, source = reference_toml_text(drive), f"(built-in reference machine, {drive})"
     else:
         p = Path(path)
         text, source = _read_text(p), str(p)
+    text = text.removeprefix("\ufeff")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{source}: not valid TOML ({exc})") from None
-    return machine_from_dict(data, source, provenance_tags(text))
+        raise ConfigError(f"{source}: not valid TOML ({_short_text(str(exc))})") from None
+    except RecursionError:
+        raise ConfigError(f"{source}: not valid TOML (arrays or tables nested too deeply)") from None
+    return machine_from_dict(data, source, provenance_tags(text), units_required=True)
+
+
+def _short_text(text: str, limit: int = 200) -> str:
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def machine_warnings(machine) -> list[str]:

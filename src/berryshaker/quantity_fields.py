@@ -1,6 +1,8 @@
-"""Pydantic field types for physical quantities: each accepts a plain SI number or a string with a unit
-(parsed by :func:`berryshaker.units.parse_quantity`, dimension checked) and stores an SI float; the display
-unit travels in the field's schema (``display``) so every view prints engineering units.
+"""Pydantic field types for physical quantities: each accepts a string with a unit (parsed by
+:func:`berryshaker.units.parse_quantity`, dimension checked, bounded by :data:`berryshaker.units.LIMITS`) and
+stores an SI float; a plain number is SI only inside the package (a user's file is validated with
+:data:`UNITS_REQUIRED`, where a bare number is an error showing the fix).  The display unit travels in the
+field's schema (``display``) so every view prints engineering units.
 
 Also the strict base model every description section derives from (unknown keys, infinities and NaN refused;
 a plain numeric field refuses ``true`` and lists or tables with the field named), the formatter that turns
@@ -18,11 +20,18 @@ import types
 import typing
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo
 from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
-from berryshaker.units import DIMENSIONS, parse_quantity, parse_unit, plausibility_warning
+from berryshaker.units import (
+    DIMENSIONS,
+    bare_number_message,
+    check_limits,
+    parse_quantity,
+    parse_unit,
+    plausibility_warning,
+)
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -33,13 +42,44 @@ class QuantityValidator(BeforeValidator):
     dimension: str = "dimensionless"
 
 
-def _q(dimension: str) -> QuantityValidator:
-    def convert(v: Any) -> float:
-        try:
-            return parse_quantity(v, dimension)
-        except ConfigError as exc:
-            # pydantic turns ValueError into a located validation error; drop our generic prefix
-            raise ValueError(str(exc).removeprefix("value: ")) from None
+#: validation-context key: the values come from a user's file (a bare number in a dimensional field is an
+#: error, :func:`berryshaker.units.parse_quantity` ``units_required``); descriptions rebuilt inside the package
+#: from their SI dump are validated without it
+UNITS_REQUIRED = "units_required"
+
+
+def units_required(info: ValidationInfo | None) -> bool:
+    """True when the validation context says the values are a user's (see :data:`UNITS_REQUIRED`)."""
+    ctx = getattr(info, "context", None)
+    return bool(isinstance(ctx, dict) and ctx.get(UNITS_REQUIRED))
+
+
+def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None, display: str | None = None) -> float:
+    """One quantity of a description field: parsed strictly, bounded by :data:`berryshaker.units.LIMITS`
+    (a user's value both ways, :func:`units_required`; one computed inside the package from above only).
+
+    Raises
+    ------
+    ValueError
+        For pydantic to locate (the field's dotted key is put in front of the message).
+    """
+    key = (getattr(info, "field_name", None) or "value") if info is not None else "value"
+    user = units_required(info)
+    if user and display and isinstance(v, (int, float)) and not isinstance(v, bool) and v != 0 and math.isfinite(v):
+        raise ValueError(bare_number_message(v, dimension, key, display))  # the field's own unit in the fix
+    try:
+        return check_limits(parse_quantity(v, dimension, key, units_required=user), dimension, key, lower=user)
+    except ConfigError as exc:
+        # pydantic turns ValueError into a located validation error; drop our prefix (the key is in front)
+        raise ValueError(str(exc).removeprefix(f"{key}: ")) from None
+
+
+def _q(dimension: str, display: str | None = None) -> QuantityValidator:
+    """The validator of a quantity field of ``dimension``; ``display``: the unit the fix of a bare number
+    suggests (default :data:`berryshaker.units.DISPLAY_UNITS`), e.g. "m/min" for a walking speed."""
+
+    def convert(v: Any, info: ValidationInfo) -> float:
+        return read_quantity(v, dimension, info, display)
 
     return QuantityValidator(convert, dimension=dimension)
 
@@ -61,7 +101,8 @@ Stiffness = Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("
 Damping = Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))]
 TorsionalStiffness = Annotated[float, _q("torsional_stiffness"), Field(ge=0, json_schema_extra=_d("N*m/rad"))]
 TorsionalDamping = Annotated[float, _q("torsional_damping"), Field(ge=0, json_schema_extra=_d("N*m*s/rad"))]
-Coefficient = Annotated[float, _q("dimensionless"), Field(ge=0, json_schema_extra=_d("1"))]
+#: a friction coefficient: 0 .. 2 (dry rubber on rough steel stays below ~1.5; above 2 is a slip of the number)
+Coefficient = Annotated[float, _q("dimensionless"), Field(ge=0, le=2, json_schema_extra=_d("1"))]
 
 
 # ---- plain numeric fields: no booleans, no lists or tables where one number belongs ----------------------
@@ -183,9 +224,21 @@ def _located(loc: str, msg: str) -> str:
     return f"{loc}: {msg}"
 
 
+#: longest line of a validation message: a longer one (a 100 kB value echoed by a validator) keeps its start
+#: (the field) and its end (the fix) around "..."
+MAX_MESSAGE_LINE = 400
+
+
+def _clip(line: str, limit: int = MAX_MESSAGE_LINE) -> str:
+    if len(line) <= limit:
+        return line
+    head = limit * 3 // 5
+    return f"{line[:head]} ... {line[-(limit - head - 5):]}"
+
+
 def format_validation_error(err: ValidationError, source: str) -> str:
-    """Turn pydantic's errors into located messages, one line per field (``cam.stroke: must be > 0 ...``)."""
-    """pydantic's errors as one message, a line per error, each starting with the dotted key of the field."""
+    """pydantic's errors as one message, a line per error, each starting with the dotted key of the field
+    (``cam.stroke: must be > 0 ...``); each line at most :data:`MAX_MESSAGE_LINE` characters, at most 20 lines."""
     lines = []
     for e in err.errors():
         loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
@@ -205,8 +258,10 @@ def format_validation_error(err: ValidationError, source: str) -> str:
             msg = f"must be a finite number, got {e.get('input')!r}"
         elif typ.endswith("_parsing") or typ.endswith("_type") or typ == "int_from_float":
             msg = f"{msg}, got {_what(e.get('input'))}"
-        lines.append(_located(loc, msg))
-    return f"invalid machine description {source}:\n  " + "\n  ".join(lines)
+        lines.append(_clip(_located(loc, msg)))
+    if len(lines) > 20:
+        lines = lines[:20] + [f"... and {len(lines) - 20} more"]
+    return f"invalid machine description {_clip(source, 200)}:\n  " + "\n  ".join(lines)
 
 
 # ---- the physical dimension of a field, and plausibility -----------------------------------------------

@@ -1,9 +1,13 @@
 """Strict, unit-aware reading of every quantity a user types ("0.25 mm", "120 rpm", "1.1 GPa", "30 m/min").
 
-Inside berryshaker every number is SI (m, kg, s, rad, N).  Config files and the command line may give a
-plain number (taken as SI) or a string "number unit".  This module is the one entry point for both:
+Inside berryshaker every number is SI (m, kg, s, rad, N).  Machine files and the command line give every
+dimensional value as a string "number unit"; a bare number is an error there (``units_required``: the message
+shows the fix, ``speed = "120 rpm"``), and only dimensionless values (coefficients, fractions, counts, ratios)
+are plain numbers.  Inside the package (descriptions rebuilt from their SI dump) a plain number is SI.  This
+module is the one entry point for every field, option and sheet cell:
 
-* :func:`parse_quantity` reads one value, checks its physical dimension and returns an SI float.
+* :func:`parse_quantity` reads one value, checks its physical dimension and returns an SI float;
+  :func:`check_limits` and :data:`LIMITS` bound it to what berryshaker can compute with.
 * :func:`parse_value_list` reads sweep / command-line value lists (``0.1..0.3mm``, ``100,120,140rpm``,
   ``0.25mm+-0.05mm``) into a :class:`ValueSpec`.
 * :data:`PLAUSIBLE`, :func:`plausible_range` and :func:`plausibility_warning` flag values that are orders
@@ -14,7 +18,7 @@ Safety rules (issue "never compute on a misread input"):
 
 * No expression evaluation.  A string is accepted only as ``[sign] decimal-number [exponent] [unit]`` where
   the unit is unit names joined by ``*``, ``/``, ``·`` or spaces, with small integer powers (``^2``, ``**-1``,
-  ``²``) and at most one level of parentheses.  The grammar is checked by a tokeniser here; pint (a maintained
+  ``²``) and at most one level of parentheses.  No decimal comma ("1,5 kW" is refused, not read as 15 kW).  The grammar is checked by a tokeniser here; pint (a maintained
   units library) is only asked to look up single unit *names* (``ureg.Unit("mm")``), never to evaluate the
   raw text, so ``"9**9**9 mm"`` is refused at once instead of hanging.  Input length is bounded.
 * Only linear (multiplicative) units are accepted: offset and logarithmic units (degC, dB) are refused.
@@ -22,7 +26,8 @@ Safety rules (issue "never compute on a misread input"):
   2 rad/s.  Here, for an ``angular_speed``, a unit without an angle in it (``Hz``, ``1/s``, ``s^-1``, ``1/min``)
   counts **revolutions** per time, like ``rps`` and ``rpm``: "2 Hz" is 2 rev/s = 4 pi rad/s.  ``rad/s`` and
   ``deg/s`` are taken as written.  An ``angle`` string must carry an angle unit ("180 deg", "3.1 rad",
-  "0.5 turn"); "180" alone is refused.  A plain JSON/TOML number (not a string) stays SI (rad, rad/s).
+  "0.5 turn"); "180" alone is refused.  A plain number (not a string) given inside the package stays SI
+  (rad, rad/s); in a machine file it is refused (``units_required``).
 * ``dimensionless`` takes plain numbers and percentages ("5 %" -> 0.05).
 
 long module: the strict quantity grammar, the dimension table and the value-list parser are one parser; splitting would separate the grammar from its only users.
@@ -307,19 +312,41 @@ def _split_number(text: str) -> tuple[str, str] | None:
     return m.group(), text[m.end():].strip()
 
 
-def parse_quantity(value: object, dimension: str, field: str = "value") -> float:
+def bare_number_message(value: float, dimension: str, key: str, unit: str | None = None) -> str:
+    """The error for a bare number where a unit is required, with the fix: ``speed = "120 rpm"``.
+
+    The example keeps the number and takes ``unit`` (default: the dimension's display unit,
+    :data:`DISPLAY_UNITS`); the SI reading that berryshaker 0.x made of it is shown beside, so an old file's
+    author sees both readings.
+    """
+    unit = unit or DISPLAY_UNITS[dimension]
+    si = DIMENSIONS[dimension][1]
+    number = f"{float(value):.6g}"
+    text = f"{number} is a bare number; give a unit, e.g. {key} = \"{number} {unit}\""
+    if unit in ENGINEERING_FACTORS and ENGINEERING_FACTORS[unit] != 1.0 and math.isfinite(float(value)):
+        text += (f" (berryshaker 0.x read a bare number as SI: {number} {si} = "
+                 f"\"{format_quantity(float(value), unit)}\")")
+    return text
+
+
+def parse_quantity(value: object, dimension: str, field: str = "value", units_required: bool = False) -> float:
     """Convert a plain SI number or a string "number unit" into an SI float, strictly.
 
     Parameters
     ----------
     value : int, float or str
-        A plain number is taken as SI (m, rad, rad/s, kg, ...).  A string is ``[sign]number[exponent] [unit]``,
+        A plain number is taken as SI (m, rad, rad/s, kg, ...) unless ``units_required``.  A string is
+        ``[sign]number[exponent] [unit]``,
         e.g. ``"0.25 mm"``, ``"120 rpm"``, ``"120 r/min"``, ``"2 Hz"``, ``"1.1 GPa"``, ``"1e8 N/m"``,
         ``"0.0176 kg*m^2"``, ``"5 %"``.  No arithmetic is evaluated; at most :data:`MAX_QUANTITY_CHARS` chars.
     dimension : str
         One of :data:`DIMENSIONS` (``"length"``, ``"angle"``, ``"angular_speed"``...).
     field : str
         Name of the field, used at the start of every error message (``"cam.stroke: ..."``).
+    units_required : bool
+        Refuse a plain number other than 0 for every dimension except ``dimensionless`` (what a user wrote in
+        a machine file, a sheet or on the command line: a bare ``120`` for a speed is not silently 120 rad/s;
+        a bare 0 is zero in every unit).
 
     Returns
     -------
@@ -333,12 +360,13 @@ def parse_quantity(value: object, dimension: str, field: str = "value") -> float
     ConfigError
         Not a number or a string (bool, list, dict, None), NaN or infinity, text that is not "number unit",
         an unknown or non-linear unit, a unit of another dimension, a string without a unit where one is
-        needed (every dimension except ``dimensionless``), or a value that over/underflows in SI.
+        needed (every dimension except ``dimensionless``), a bare number where ``units_required``, or a value
+        that over/underflows in SI.
     """
     _check_dimension(dimension)
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, str)):
-        raise ConfigError(f"{field}: got {_short(value)} ({type(value).__name__}); {_expected(dimension)} "
-                          f"or a plain number in SI ({DIMENSIONS[dimension][1]})")
+        plain = "" if units_required else f" or a plain number in SI ({DIMENSIONS[dimension][1]})"
+        raise ConfigError(f"{field}: got {_short(value)} ({type(value).__name__}); {_expected(dimension)}{plain}")
     if not isinstance(value, str):
         try:
             out = float(value)
@@ -346,6 +374,8 @@ def parse_quantity(value: object, dimension: str, field: str = "value") -> float
             out = math.nan
         if not math.isfinite(out):
             raise ConfigError(f"{field}: {_short(value)} is not a finite number; {_expected(dimension)}")
+        if units_required and dimension != "dimensionless" and out != 0.0:  # a bare 0 is 0 in every unit
+            raise ConfigError(f"{field}: {bare_number_message(out, dimension, field.rsplit('.', 1)[-1])}")
         return out
     text = value.strip()
     if not text:
@@ -362,8 +392,7 @@ def parse_quantity(value: object, dimension: str, field: str = "value") -> float
         raise ConfigError(f"{field}: {value!r} is not a finite number; {_expected(dimension)}")
     if not unit_text:
         if dimension != "dimensionless":
-            raise ConfigError(f"{field}: {value!r} has no unit; give a unit, e.g. {EXAMPLES[dimension]} "
-                              f"(only a plain number, not a string, is read as SI {DIMENSIONS[dimension][1]})")
+            raise ConfigError(f"{field}: {value!r} has no unit; give a unit, e.g. {EXAMPLES[dimension]}")
         return number
     try:
         factor = _unit_si(_parse_unit_tokens(_tokenise_unit(unit_text)), dimension)
@@ -396,6 +425,43 @@ def parse_unit(unit: str, dimension: str, field: str = "unit") -> float:
     if not unit.strip() and dimension == "dimensionless":
         return 1.0
     return parse_quantity(f"1 {unit.strip()}", dimension, field)
+
+
+def unit_dimension(unit: str) -> str | None:
+    """The dimension (a key of :data:`DIMENSIONS`) of a unit written by a user, or None when the text is not
+    one unit of the strict grammar (no expression evaluation, at most :data:`MAX_QUANTITY_CHARS` characters)
+    or measures nothing berryshaker knows.  ``"mm"`` -> ``"length"``, ``"rpm"`` -> ``"angular_speed"``,
+    ``"%"`` -> ``"dimensionless"``; ``"9**9**9"``, ``"kW*1000"`` -> None.
+    """
+    if not isinstance(unit, str) or not unit.strip() or len(unit) > MAX_QUANTITY_CHARS:
+        return None
+    for dim in DIMENSIONS:
+        try:
+            parse_unit(unit, dim)
+        except ConfigError:
+            continue
+        return dim
+    return None
+
+
+def unit_factor(unit: str, target: str, field: str = "unit") -> float:
+    """How many ``target`` one ``unit`` is (``unit_factor("cm", "mm") -> 10``), by the strict grammar.
+
+    Raises
+    ------
+    ConfigError
+        Either text is not a unit, or the two measure different things; the message names ``field``.
+    """
+    if unit.strip() == target.strip():
+        return 1.0
+    dim = unit_dimension(target)
+    if dim is None:
+        raise ConfigError(f"{field}: {_short(target)} is not a unit berryshaker reads")
+    try:
+        return parse_unit(unit, dim, field) / parse_unit(target, dim, field)
+    except ConfigError:
+        raise ConfigError(f"{field}: unit {_short(unit)} cannot be read as {_short(target)} "
+                          f"({_noun(dim)}); write the value in {target}") from None
 
 
 @dataclass(frozen=True)
@@ -536,6 +602,66 @@ PLAUSIBLE: dict[str, tuple[float, float]] = {
 }
 
 
+#: SI magnitudes (lo, hi) berryshaker accepts at all for a nonzero value of each dimension (zero passes where
+#: the field allows it).  Much wider than :data:`PLAUSIBLE` (a value outside PLAUSIBLE is only a warning), and
+#: narrow enough that nothing downstream overflows or loses every digit: a 1e308 m diameter, a 1e-300 kg mass
+#: are refused where they are read (the field named), not met as overflow, LAPACK noise or NaN in a result.
+LIMITS: dict[str, tuple[float, float]] = {
+    "length": (1e-6, 100.0),  # 1 um .. 100 m
+    "angle": (1e-9, 20.0 * math.pi),  # .. ten turns
+    "angular_speed": (1e-6, 1e6 * _TWO_PI / 60.0),  # .. 1 000 000 rpm
+    "frequency": (1e-6, 1e9),  # Hz
+    "speed": (1e-9, 1e4),  # m/s
+    "acceleration": (1e-6, 1e9),  # m/s^2
+    "mass": (1e-9, 1e6),  # 1 ug .. 1000 t
+    "inertia": (1e-15, 1e6),  # kg m^2
+    "stiffness": (1e-6, 1e15),  # N/m
+    "damping": (1e-9, 1e12),  # N s/m
+    "torsional_stiffness": (1e-9, 1e12),  # N m/rad
+    "torsional_damping": (1e-9, 1e9),  # N m s/rad
+    "pressure": (1e-3, 1e13),  # Pa (a 10 TPa modulus is ten times diamond's)
+    "density": (1e-3, 1e5),  # kg/m^3
+    "force": (1e-9, 1e9),  # N
+    "torque": (1e-9, 1e9),  # N m
+    "energy": (1e-12, 1e12),  # J
+    "power": (1e-6, 1e9),  # W
+    "time": (1e-12, 1e10),  # s (1 ps .. 300 years)
+    "dimensionless": (0.0, 1e9),
+}
+
+
+def check_limits(value_si: float, dimension: str, field: str = "value", lower: bool = True) -> float:
+    """``value_si`` if it is finite and zero or within :data:`LIMITS` of ``dimension`` (by magnitude).
+
+    ``lower=False`` checks only the upper limit (values computed inside the package, where a torque table
+    may pass within 1e-12 N m of zero; what a user types is checked both ways).
+
+    Raises
+    ------
+    ConfigError
+        Not finite, or outside the limits; the message names the field, the value and the accepted range
+        in engineering units.
+    """
+    _check_dimension(dimension)
+    v = float(value_si)
+    if not math.isfinite(v):
+        raise ConfigError(f"{field}: {_short(value_si)} is not a finite number")
+    lo, hi = LIMITS[dimension]
+    if v == 0.0 or (lo <= abs(v) or not lower) and abs(v) <= hi:
+        return v
+    unit = DISPLAY_UNITS[dimension]
+
+    def show(x: float) -> str:
+        if unit == "1":
+            return f"{x:.3g}"
+        shown = format_quantity(x, unit, 3)
+        return shown if math.isfinite(x / ENGINEERING_FACTORS[unit]) else f"{x:.3g} {DIMENSIONS[dimension][1]}"
+
+    side = "large" if abs(v) > hi else "small"
+    raise ConfigError(f"{field}: {show(v)} is too {side} for {_noun(dimension)} (berryshaker accepts "
+                      f"{show(lo)} .. {show(hi)}); check the number and its unit")
+
+
 def plausible_range(dimension: str) -> tuple[float, float]:
     """(lo, hi) SI magnitudes plausible for ``dimension`` in a harvester drive (see :data:`PLAUSIBLE`)."""
     _check_dimension(dimension)
@@ -546,7 +672,7 @@ def plausibility_warning(value_si: float, dimension: str, field: str = "value") 
     """A warning when ``|value_si|`` lies outside :func:`plausible_range` (zero is never flagged), else None.
 
     The message names the field, the value and the range in engineering units, and hints at the likely slip
-    (a plain number read as SI, or a factor of 1000 from a missing/extra prefix).
+    (a wrong unit, or a factor of 1000 from a missing/extra prefix).
     """
     lo, hi = plausible_range(dimension)
     v = abs(float(value_si))
@@ -560,9 +686,9 @@ def plausibility_warning(value_si: float, dimension: str, field: str = "value") 
     msg = (f"{field}: {show(value_si)} is implausibly {side} for {_noun(dimension)} in a harvester drive "
            f"(usual range {show(lo)} .. {show(hi)})")
     if dimension == "angle" and v > hi:
-        msg += "; a plain number is read in radians - write the unit, e.g. '180 deg'"
+        msg += "; check the unit, e.g. '180 deg' rather than '180 rad'"
     elif dimension == "length" and v > hi:
-        msg += "; a plain number is read in metres - write the unit, e.g. '80 mm'"
+        msg += "; check the unit, e.g. '80 mm' rather than '80 m'"
     elif any(lo <= v * f <= hi for f in (1e-3, 1e3, 1e-6, 1e6)):
         msg += "; check the unit (a factor of 1000 or 10^6 would bring it into range)"
     else:

@@ -3,13 +3,15 @@
 ``berryshaker --help``.
 
 Every command works on the built-in reference machine unless ``--config FILE`` names another machine
-description (TOML, units allowed: "0.25 mm", "120 rpm").  ``--json`` prints one JSON object on stdout for
+description (TOML, every dimensional value with its unit: "0.25 mm", "120 rpm").  ``--json`` prints one JSON object
+on stdout (never NaN: a non-finite value is null, listed under "null_values") for
 scripts; errors go to stderr as one clear message with exit code 2 and nothing written.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Optional
@@ -39,8 +41,8 @@ app.add_typer(doe_app, name="doe")
 
 show_flags_as_flags()  # boolean options show as flags in --help, not as <bool>
 
-out = Console()
-err = Console(stderr=True, soft_wrap=True)
+out = Console(emoji=False)  # user text such as "peak_force:A" is never an emoji code
+err = Console(stderr=True, soft_wrap=True, emoji=False)
 
 ConfigOpt = typer.Option(None, "--config", "-c", help="Machine description (TOML). Default: built-in reference machine.",
                          exists=False, dir_okay=False)
@@ -77,8 +79,28 @@ def main(version: bool = typer.Option(False, "--version", callback=_version_cb, 
         _fail(exc)
 
 
+def _finite_json(obj, path: str, nulls: dict[str, str]):
+    """``obj`` with every NaN or infinity replaced by None, its JSON path and value recorded in ``nulls``."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        nulls[path or "(the result)"] = repr(obj)
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite_json(v, f"{path}.{k}" if path else str(k), nulls) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite_json(v, f"{path}[{i}]", nulls) for i, v in enumerate(obj)]
+    return obj
+
+
 def _print_json(obj) -> None:
-    sys.stdout.write(json.dumps(obj, indent=2) + "\n")
+    """``obj`` as JSON on stdout.  Never ``NaN`` or ``Infinity`` (not JSON): such a value is written as null and
+    its key listed with the reason under ``"null_values"`` (a top-level object), or the command fails naming it."""
+    nulls: dict[str, str] = {}
+    clean = _finite_json(obj, "", nulls)
+    if nulls:
+        if not isinstance(clean, dict):
+            raise BerryshakerError(f"result {next(iter(nulls))} is not a finite number ({nulls[next(iter(nulls))]})")
+        clean["null_values"] = {k: f"not a finite number ({v}): written as null" for k, v in nulls.items()}
+    sys.stdout.write(json.dumps(clean, indent=2, allow_nan=False) + "\n")
 
 
 

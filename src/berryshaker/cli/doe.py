@@ -23,6 +23,7 @@ from berryshaker.cli.app import (
     _load,
     _print_json,
 )
+from berryshaker.cli.study import SCHEDULER_HELP
 
 
 def _parse_weights(text: Optional[str]) -> Optional[dict]:
@@ -97,8 +98,10 @@ def doe_plan(
     """Write a field sheet: run, replicate, test order, factor levels (units in the header), empty response
     columns; one row per run and replicate."""
     try:
+        import hashlib
+
         from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
-        from berryshaker.outputs import check_output_file, write_text_atomic
+        from berryshaker.outputs import check_forced_pair, check_output_file, stamp_html, write_text_atomic
 
         if seed is not None and seed < 0:
             raise BerryshakerError(f"--seed {seed}: the seed must be an integer >= 0")
@@ -109,12 +112,17 @@ def doe_plan(
             raise BerryshakerError("factor names must be distinct")
         check_output_file(csv_path, allowed_suffixes=(".csv",), overwrite=force)
         check_output_file(html_path, allowed_suffixes=(".html",), overwrite=force)
+        if force:  # the named file may be replaced; the other only if it is this command's own, unchanged
+            check_forced_pair(out_file, csv_path, html_path, "doe plan")
         if replicates is None:
             harvest = _load(config).harvest if config is not None else None
             replicates = harvest.replicates if harvest is not None else FIELD_REPLICATES
         df = plan_table(array, factors, randomize, seed, replicates=replicates)
-        write_text_atomic(csv_path, df.to_csv(index=False))
-        write_text_atomic(html_path, plan_html(df, f"berryshaker field sheet: {array} test of {', '.join(names)}"))
+        csv_text = df.to_csv(index=False)
+        write_text_atomic(csv_path, csv_text)
+        write_text_atomic(html_path, stamp_html(plan_html(df, f"berryshaker field sheet: {array} test of "
+                                                          f"{', '.join(names)}"), "doe plan",
+                                                {"csv": hashlib.sha256(csv_text.encode("utf-8")).hexdigest()}))
     except BerryshakerError as exc:
         _fail(exc)
         return
@@ -162,7 +170,7 @@ def doe_analyze(
         if plot is not None:
             from berryshaker.outputs import prepare_output_dir
 
-            prepare_output_dir(plot, kind="plots")
+            prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
         fr = read_results(results, list(senses))
         if fr.replicates >= 2:
@@ -186,7 +194,7 @@ def doe_analyze(
             from berryshaker.report.plots import plot_main_effects, plot_replicated_effects, plot_response_surfaces
 
             known = {f: v for f, v in fr.level_values.items() if v is not None}
-            with staged_directory(plot, kind="plots") as stage:
+            with staged_directory(plot, kind="doe analyze --plot") as stage:
                 if fr.replicates >= 2:  # error bars: 95 % intervals from the pure error
                     plot_replicated_effects(res, list(res["responses"]), stage / "main_effects.png",
                                             level_values=known or None)
@@ -295,7 +303,7 @@ def doe_virtual(
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process may run on, its CPU affinity)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=2, max=1000,
@@ -344,7 +352,7 @@ def doe_virtual(
         from berryshaker.study.l9 import virtual_l9
 
         if plot is not None:
-            prepare_output_dir(plot, kind="plots")
+            prepare_output_dir(plot, kind="doe virtual --plot")
         machine = _load(config)
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
@@ -373,7 +381,7 @@ def doe_virtual(
 
             pairs = list(machine.pair_names)
             values = np.array([[r["clearance_mm"][p] for p in pairs] for r in res["runs"]])
-            with staged_directory(plot) as stage:
+            with staged_directory(plot, kind="doe virtual --plot") as stage:
                 plot_main_effects(res, stage / "main_effects.png", "Virtual L9 test: main effects",
                                   level_values={p: [v * 1e3 for v in machine.clearance_levels()[p]] for p in pairs},
                                   factor_unit="mm")

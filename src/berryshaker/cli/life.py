@@ -13,12 +13,56 @@ from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out
+from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import ConfigError
 
 WorkersOpt = typer.Option(None, "--workers", help="Local processes (default: every core this process may run on, its CPU affinity).")
-SchedulerOpt = typer.Option(None, "--scheduler", help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+SchedulerOpt = typer.Option(None, "--scheduler", help=SCHEDULER_HELP)
 CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs).")
-PlotOpt = typer.Option(None, "--plot", help="Folder for PNG figures.")
+PlotOpt = typer.Option(None, "--plot", help="Folder for PNG figures: new, empty, or an earlier berryshaker output "
+                       "(only this command's own unchanged figures there are replaced).")
+#: largest seed (numpy's and SALib's generators take 0 .. 2**32 - 1)
+SEED_MAX = 2**32 - 1
+
+
+def check_range(flag: str, value: int, lo: int, hi: int, what: str) -> int:
+    """``value`` if ``lo <= value <= hi``; else a :class:`ConfigError` naming the flag, the range and its meaning
+    (exit code 2 instead of a traceback or a huge allocation deep inside a library)."""
+    if not lo <= value <= hi:
+        raise ConfigError(f"{flag} {value}: expected a whole number in {lo}..{hi} ({what})")
+    return value
+
+
+def _check_joints(machine, joints, flag: str = "--joint") -> list[str]:
+    """The joints named by ``--joint`` (each once, each a clearance pair of the machine), or every pair."""
+    pairs = list(machine.pair_names)
+    if not joints:
+        return pairs
+    unknown = [j for j in joints if j not in pairs]
+    if unknown:
+        raise ConfigError(f"{flag} {', '.join(unknown)}: not a clearance pair of {machine.machine.name}; pairs: "
+                          f"{', '.join(pairs)}")
+    if len(set(joints)) != len(joints):
+        raise ConfigError(f"{flag}: name each joint once, got {', '.join(joints)}")
+    return list(joints)
+
+
+def _staged_plots(plot: Path, kind: str, draw) -> list[str]:
+    """Draw figures with ``draw(folder) -> names`` into a staging folder beside ``plot`` and move them in only when
+    all succeeded (:func:`berryshaker.outputs.staged_directory`); returns their paths."""
+    from berryshaker.outputs import staged_directory
+
+    with staged_directory(plot, kind=kind) as stage:
+        names = draw(stage)
+    return [str(plot / n) for n in names]
+
+
+def _check_plot(plot: Optional[Path], kind: str) -> None:
+    """Refuse a --plot folder holding files berryshaker did not write, before any work."""
+    if plot is not None:
+        from berryshaker.outputs import prepare_output_dir
+
+        prepare_output_dir(plot, kind=kind)
 
 _LIMIT_DIMENSION = {"clearance": "length", "peak_force": "force", "mean_force": "force"}
 
@@ -121,10 +165,10 @@ def wear_report(machine, hours: float, limits: dict[str, float], revolutions: in
 
     life = wear_life(machine, hours, limits, simulate=simulate, joints=models, initial_clearances=initial or None)
     res = life.to_dict()
-    for j in joints:
+    for j in res["joints"]:  # the joints that do not wear (not in --joint) are listed too, at their size
         keys = [k for k in life.limits if k.partition(":")[2] == j]
         hits = [life.limits[k]["hours"] for k in keys if life.limits[k]["hours"] is not None]
-        g = geos[j]
+        g = geos[j] if j in geos else joint_geometry(machine, j)
         res["joints"][j].update(
             maintenance_interval_h=min(hits) if hits else None,
             limits=keys, diameter_mm=g.diameter * 1e3, bearing_length_mm=g.bearing_length * 1e3,
@@ -195,8 +239,11 @@ def wear_cmd(
     Simulates the multibody drive, wears the joints (adaptive steps in hours), re-simulates; each simulation is
     cached.  JSON: joints.<name>.hours[], .clearance_mm[], .maintenance_interval_h (null if not reached).
     """
+    if not (math.isfinite(hours) and 0 < hours <= 1e7):
+        raise ConfigError(f"--hours {hours!r}: expected operating hours in (0, 1e7]")
+    _check_plot(plot, "wear --plot")
     machine = _load(config)
-    joints = joint or list(machine.pair_names)
+    joints = _check_joints(machine, joint)
     limits = dict(parse_limit(s) for s in limit) if limit else _default_wear_limits(machine, joints)
     runner = _runner(1, None, cache, progress=False)
     status = None if as_json else err.status("wear: starting")
@@ -210,7 +257,7 @@ def wear_cmd(
             status.stop()
         runner.close()
     if plot is not None:
-        res["figures"] = [str(plot / f) for f in _plot_wear(res, plot)]
+        res["figures"] = _staged_plots(plot, "wear --plot", lambda folder: _plot_wear(res, folder))
     if as_json:
         _print_json(res)
         return
@@ -221,7 +268,8 @@ def wear_cmd(
         rate = d.get("growth_rate_um_per_h", [math.nan])[0]
         mi = d["maintenance_interval_h"]
         t.add_row(j, d["material_pair"], f"{d['clearance_mm'][0]:.4g} mm", f"{d['clearance_mm'][-1]:.4g} mm",
-                  f"{rate:.3g} µm/h", "not reached" if mi is None else f"{mi:.0f} h")
+                  f"{rate:.3g} µm/h" if d["wears"] else "does not wear",
+                  "" if not d["wears"] else "not reached" if mi is None else f"{mi:.0f} h")
     out.print(t)
     mi = res["maintenance_interval_h"]
     out.print(f"maintenance interval: {'not reached within the horizon' if mi is None else f'{mi:.0f} h'}"
@@ -281,6 +329,9 @@ def sensitivity_cmd(
     from berryshaker.drives import drive_of
     from berryshaker.life.sensitivity import default_clearance_params, machine_sobol, parse_sensitivity_param
 
+    check_range("--seed", seed, 0, SEED_MAX, "the seed of the Sobol sequence and the bootstrap")
+    check_range("--samples", samples, 2, 2**16, "the base sample N, a power of two; runs = N (D + 2)")
+    _check_plot(plot, "sensitivity --plot")
     machine = _load(config)
     if model is None:
         model = "mlsd" if drive_of(machine).reduced_model is not None else "multibody"
@@ -291,7 +342,7 @@ def sensitivity_cmd(
         res["runner"] = runner.summary_line()
     res["version"] = __version__
     if plot is not None:
-        res["figures"] = [str(plot / f) for f in _plot_sobol(res, plot)]
+        res["figures"] = _staged_plots(plot, "sensitivity --plot", lambda folder: _plot_sobol(res, folder))
     if as_json:
         _print_json(res)
         return
@@ -359,6 +410,11 @@ def tolerance_cmd(
     of a few multibody runs per joint) and the recommended fit specification."""
     from berryshaker.life.tolerance import tolerance_design
 
+    check_range("--pop-size", pop_size, 2, 10_000, "the NSGA-II population")
+    check_range("--generations", generations, 1, 100_000, "NSGA-II generations")
+    check_range("--points", points, 2, 64, "surrogate grid clearances per joint, one multibody run each")
+    check_range("--seed", seed, 0, SEED_MAX, "the NSGA-II seed")
+    _check_plot(plot, "tolerance --plot")
     machine = _load(config)
     lims = {}
     for s in limit:
@@ -374,7 +430,7 @@ def tolerance_cmd(
         res["runner"] = runner.summary_line()
     res["version"] = __version__
     if plot is not None:
-        res["figures"] = [str(plot / f) for f in _plot_front(res, plot)]
+        res["figures"] = _staged_plots(plot, "tolerance --plot", lambda folder: _plot_front(res, folder))
     if as_json:
         _print_json(res)
         return

@@ -44,7 +44,7 @@ def kinematics(
         from berryshaker.outputs import prepare_output_dir
 
         if plot is not None:
-            prepare_output_dir(plot, kind="plots")
+            prepare_output_dir(plot, kind="kinematics --plot")
         machine = _load(config)
         drive = drive_of(machine)
         kin = drive.check(machine, allow_undercut=allow_undercut)
@@ -55,7 +55,7 @@ def kinematics(
             from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import write_kinematics_figures
 
-            with staged_directory(plot) as stage:
+            with staged_directory(plot, kind="kinematics --plot") as stage:
                 fig_names = write_kinematics_figures(machine, kin, stage)
                 write_provenance(stage, machine)
             summary["plots"] = [str(plot / n) for n in fig_names]
@@ -112,6 +112,8 @@ def _print_comb_rows(t, s: dict) -> None:
 
 
 CAM_PROFILE_FORMATS = {".csv": "csv", ".dxf": "dxf"}
+#: most points per revolution of ``cam-profile`` (0.0036 deg apart; ~10 MB of CSV, far finer than any CAM needs)
+CAM_PROFILE_MAX_POINTS = 100_000
 
 
 def _cam_profile_format(out_file: Path, fmt: Optional[str]) -> str:
@@ -141,7 +143,8 @@ def cam_profile(
                                       "(closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL). Default: from the "
                                       "extension of --out."),
     config: Optional[Path] = ConfigOpt,
-    points: int = typer.Option(1441, "--points", min=90, help="Points per revolution."),
+    points: int = typer.Option(1441, "--points", min=90, max=CAM_PROFILE_MAX_POINTS,
+                               help=f"Points per revolution (90..{CAM_PROFILE_MAX_POINTS})."),
     force: bool = typer.Option(False, "--force", help="Replace an existing file."),
 ):
     """Export the groove walls of the cam (study eq. 2, corrected) for CAM."""
@@ -213,13 +216,20 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
     """Write an editable copy of a drive's reference machine (each value annotated \\[study], \\[assumed] or
     \\[calibrated])."""
     from berryshaker.config import reference_toml_text
-    from berryshaker.outputs import write_text_atomic
+    from berryshaker.errors import OutputError
+    from berryshaker.outputs import check_output_file, write_text_atomic
 
     if path.is_dir():
         _fail(BerryshakerError(f"{path} is a folder; give a file name, e.g. {path / 'machine.toml'}"))
-    if path.exists() and not force:
+    if (path.exists() or path.is_symlink()) and not force:
         _fail(BerryshakerError(f"{path} exists; use --force to overwrite"))
-    write_text_atomic(path, reference_toml_text(drive))
+    # a FIFO, device or folder is refused even with --force; so is a parent that is a file or cannot be written
+    check_output_file(path, overwrite=force)
+    text = reference_toml_text(drive)
+    try:
+        write_text_atomic(path, text)
+    except OSError as exc:
+        raise OutputError(f"cannot write {path} ({exc.strerror or exc}); choose another location") from None
     err.print(f"wrote {path}")
 
 

@@ -63,7 +63,7 @@ def plant(
         from berryshaker.outputs import prepare_output_dir
 
         if plot is not None:
-            prepare_output_dir(plot, kind="plots")
+            prepare_output_dir(plot, kind="plant --plot")
 
         machine = _load(config)
         br = _branch_of(machine)
@@ -81,7 +81,7 @@ def plant(
             from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_mode_shapes
 
-            with staged_directory(plot) as stage:
+            with staged_directory(plot, kind="plant --plot") as stage:
                 plot_mode_shapes(ma, mf, stage / "mode_shapes.png")
                 write_provenance(stage, machine)
             res["plots"] = [str(plot / "mode_shapes.png")]
@@ -183,9 +183,9 @@ def fruit_force_cmd(
         from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
         from berryshaker.outputs import prepare_output_dir
 
-        for folder in (plot, out_dir):
+        for folder, flag in ((plot, "--plot"), (out_dir, "--out")):
             if folder is not None:
-                prepare_output_dir(folder, kind="fruit-force")
+                prepare_output_dir(folder, kind=f"fruit-force {flag}")
 
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)
@@ -199,13 +199,13 @@ def fruit_force_cmd(
             from berryshaker.report.plots import plot_fruit_force
 
             if plot is not None:
-                with staged_directory(plot) as stage:
+                with staged_directory(plot, kind="fruit-force --plot") as stage:
                     plot_fruit_force(res.distance, res.fruit_force, STUDY_FRUIT_FORCE_N, stage / "fruit_force.png",
                                      peaks={n: d["peak_force_N"] for n, d in summary["positions"].items()})
                     write_provenance(stage, res.machine)
                 summary["plots"] = [str(plot / "fruit_force.png")]
             if out_dir is not None:
-                with staged_directory(out_dir) as stage:
+                with staged_directory(out_dir, kind="fruit-force --out") as stage:
                     cols = ["time_s", "distance_m"] + [f"fruit_{n}_N" for n in res.fruit_force] + \
                         [f"{n}_contact_N" for n in res.contact_force]
                     arr = np.column_stack([res.t, res.distance, *res.fruit_force.values(), *res.contact_force.values()])

@@ -25,7 +25,7 @@ from berryshaker.cli.app import (
 )
 
 
-def _check_folders(*folders, kind: str = "simulation") -> None:
+def _check_folders(*folders, kind: str = "simulate --out") -> None:
     """Refuse output folders that hold files berryshaker did not write, before any work."""
     from berryshaker.outputs import prepare_output_dir
 
@@ -172,7 +172,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
         from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
 
         cm = result.compiled
-        with staged_directory(out_dir) as stage:
+        with staged_directory(out_dir, kind="simulate --out") as stage:
             cols = ["time_s"]
             data = [result.t]
             for i, b in enumerate(spec.bodies):
@@ -216,7 +216,7 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     from berryshaker.report.plots import plot_joint_forces
 
     cm = result.compiled
-    with staged_directory(out_dir) as stage:
+    with staged_directory(out_dir, kind="simulate --out") as stage:
         cols, data = ["time_s"], [result.t]
         pairs = machine.pair_names
         for p in pairs:
@@ -276,7 +276,7 @@ def compare(
         from berryshaker.experiment.agreement import model_agreement, model_check
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
 
-        _check_folders(plot, kind="plots")
+        _check_folders(plot, kind="compare --plot")
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)
         if starts == 1:
@@ -303,7 +303,7 @@ def compare(
             from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import plot_time_series
 
-            with staged_directory(plot) as stage:
+            with staged_directory(plot, kind="compare --plot") as stage:
                 write_provenance(stage, machine, clearance_mm=res["clearance_mm"])
                 for p, (a, b) in series.items():
                     plot_time_series(t, {"multibody": a, "MLSD": b}, f"collision force at {p} [N]",
@@ -349,7 +349,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
     from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.plots import plot_joint_forces, plot_time_series
 
-    with staged_directory(out_dir) as stage:
+    with staged_directory(out_dir, kind="simulate --out") as stage:
         cols = ["time_s", "cam_angle_deg", "x_m", "theta_D_rad", "u_m", "theta_E_rad"] + list(RESULT_COLUMNS)
         data = [result.t, np.degrees(result.t * result.machine.cam.speed)] + [result.state[:, i] for i in range(4)]
         data += [result.results[:, idx] for idx, _ in RESULT_COLUMNS.values()]

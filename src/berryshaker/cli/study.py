@@ -25,6 +25,10 @@ from berryshaker.cli.app import (
 )
 
 
+#: --scheduler's help: Dask exchanges pickles with the scheduler and its workers
+SCHEDULER_HELP = ("Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code runs "
+                  "where they are loaded): give only a scheduler you trust, on a trusted network or over TLS "
+                  "(tls://).")
 CacheOpt = typer.Option(None, "--cache", help="Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).")
 
 
@@ -33,7 +37,7 @@ def study(
     config: Optional[Path] = ConfigOpt,
     out_dir: Path = typer.Option(Path("berryshaker-study"), "--out", help="Output folder: new, empty, or an earlier study's output (then replaced atomically); any other folder is refused."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: every core this process may run on, its CPU affinity)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler, e.g. tcp://10.0.0.5:8786."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
     cache: Optional[Path] = CacheOpt,
     no_cache: bool = typer.Option(False, "--no-cache", help="Recompute every run."),
     as_json: bool = JsonOpt,
@@ -157,7 +161,7 @@ def sweep(
     figure: Optional[Path] = typer.Option(None, "--figure", help="With --model harvest and one --param: ripe removal, "
                                           "unripe shedding and damage against it (PNG or SVG)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: every core this process may run on, its CPU affinity)."),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
     cache: Optional[Path] = CacheOpt,
     as_json: bool = JsonOpt,
 ):

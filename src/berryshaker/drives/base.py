@@ -120,6 +120,18 @@ class ClearancePair(StrictModel):
                 data = dict(data, law=LEGACY_LAW)
         return data
 
+    @model_validator(mode="after")
+    def _fit_readable(self) -> "ClearancePair":
+        # read here, where the description is built, so `config validate` refuses what `life` could not read
+        if self.fit is not None:
+            from berryshaker.life.fits import parse_fit
+
+            try:
+                parse_fit(self.fit, self.geometry().diameter * 1e3)
+            except ConfigError as exc:
+                raise ValueError(f"fit: {exc}".replace("fit: fit ", "fit ")) from None
+        return self
+
     def geometry(self, wall_radius: float = math.inf):
         """The pair's :class:`~berryshaker.contact.pair_law.PairGeometry` ([assumed] defaults filled in)."""
         from berryshaker.contact.pair_law import pair_geometry
@@ -174,7 +186,7 @@ class FourBar(StrictModel):
 class OperationSpec(StrictModel):
     """How the machine is run in the field (study field settings)."""
 
-    walking_speed: Annotated[float, _q("speed"), Field(gt=0, json_schema_extra=_d("m/min"))] = 0.5  # 30 m/min
+    walking_speed: Annotated[float, _q("speed", "m/min"), Field(gt=0, json_schema_extra=_d("m/min"))] = 0.5  # 30 m/min
     plant_spacing: Length = 1.5
     test_duration: Annotated[float, _q("time"), Field(gt=0, json_schema_extra=_d("s"))] = 10.0
 

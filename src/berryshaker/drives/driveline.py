@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+from typing import Annotated, Literal
 
 import numpy as np
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import Field, model_validator
 
 from berryshaker.errors import SimulationError
 from berryshaker.quantity_fields import (
@@ -37,28 +37,12 @@ from berryshaker.quantity_fields import (
 )
 
 
-def _power(v: Any) -> float:
-    """Power in W from a number or a string with a unit ("1.5 kW", "2 hp")."""
-    if isinstance(v, bool):
-        raise ValueError(f"expected a power, got {v!r}")  # noqa: TRY004 - pydantic wants ValueError
-    if isinstance(v, (int, float)):
-        return float(v)
-    if isinstance(v, str):
-        from berryshaker.units import _registry  # units.DIMENSIONS has no "power" yet
-
-        try:
-            q = _registry().Quantity(v.strip())
-            return float(q.to("W").magnitude)
-        except Exception as exc:  # noqa: BLE001 - pint raises several error types
-            raise ValueError(f"cannot read {v!r} as a power ({exc})") from None
-    raise ValueError(f"expected a power, got {v!r}")
-
-
-Power = Annotated[float, BeforeValidator(_power), Field(gt=0, json_schema_extra={"display": "kW"})]
+#: a power, read by the one strict parser ("1.5 kW", "750 W"; "1,5 kW" and "1.5 kW * 1000" are refused)
+Power = Annotated[float, _q("power", "kW"), Field(gt=0, json_schema_extra={"display": "kW"})]
 Torque = Annotated[float, _q("torsional_stiffness"), Field(json_schema_extra={"display": "N*m"})]
 Force = Annotated[float, _q("force"), Field(gt=0, json_schema_extra={"display": "N"})]
 Fraction = Annotated[float, _q("dimensionless"), Field(gt=0, le=1, json_schema_extra={"display": "1"})]
-Ratio = Annotated[float, _q("dimensionless"), Field(gt=0, json_schema_extra={"display": "1"})]
+Ratio = Annotated[float, _q("dimensionless"), Field(gt=0, le=1000, json_schema_extra={"display": "1"})]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -69,7 +53,7 @@ class InductionMotor(StrictModel):
     rated_power: Power = 1500.0  # W [assumed]
     synchronous_speed: AngularSpeed = 1500.0 * math.pi / 30.0  # rad/s, 4-pole 50 Hz [assumed]
     rated_slip: Fraction = 0.05  # [assumed]
-    breakdown_ratio: Annotated[float, Field(gt=1)] = 2.5  # T_breakdown / T_rated [assumed]
+    breakdown_ratio: Annotated[float, Field(gt=1, le=10)] = 2.5  # T_breakdown / T_rated [assumed]
     rotor_inertia: Inertia = 0.0045  # kg m^2, rotor + driver pulley [assumed]
 
 

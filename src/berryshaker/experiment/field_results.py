@@ -90,13 +90,9 @@ def _unit_factor(unit: str, target: str, where: str) -> float:
         return 1.0
     if not target:
         raise ConfigError(f"{where}: unit {unit!r} given, but the factor has no unit; write the plain number")
-    from berryshaker.units import _registry
+    from berryshaker.units import unit_factor  # the strict grammar: no expression evaluation
 
-    ureg = _registry()
-    try:
-        return float(ureg.Quantity(1.0, ureg.Unit(unit)).to(ureg.Unit(target)).magnitude)
-    except Exception:  # noqa: BLE001 - pint raises several types
-        raise ConfigError(f"{where}: unit {unit!r} cannot be read as {target!r}; write the value in {target}") from None
+    return unit_factor(unit, target, where)
 
 
 def _load_sheet(path_or_text) -> _Sheet:
@@ -149,13 +145,9 @@ def _split_unit(col: str) -> tuple[str, str] | None:
         return None
     if unit in ("%", "pct"):
         return name, "%"
-    from berryshaker.units import _registry
+    from berryshaker.units import unit_dimension  # the strict grammar: no expression evaluation
 
-    try:
-        _registry().Unit(unit)
-    except Exception:  # noqa: BLE001
-        return None
-    return name, unit
+    return (name, unit) if unit_dimension(unit) is not None else None
 
 
 def _balance_problem(sheet: _Sheet, col: str, x: np.ndarray) -> None:
@@ -300,6 +292,17 @@ def _resolve_factor(sheet: _Sheet, name: str, code_col: str | None, value_col: s
     return codes, levels, values, unit
 
 
+def _check_orphan_values(cols: list[str], names: set[str], reserved: set[str]) -> None:
+    """Refuse a factor's value column (``A_mm``) whose ``A_level`` column is missing while other factors have
+    theirs: the factor would otherwise be left out of the analysis without a word."""
+    for c in cols:
+        su = _split_unit(c) if c not in reserved and not c.endswith("_level") else None
+        if su and su[0] not in names:
+            raise ConfigError(f"results CSV: column {c!r} holds the values of factor {su[0]!r}, but its "
+                              f"{su[0] + '_level'!r} column is missing (the other factors have theirs); restore "
+                              f"{su[0] + '_level'!r} from the plan, or rename {c!r} if it is not a factor")
+
+
 def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: set[str]):
     """(name, code column, value column, unit, given Factor) per factor, and the columns ignored."""
     cols = list(sheet.df.columns)
@@ -326,6 +329,7 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
                 value = cand[0] if cand else None
                 unit = (_split_unit(value) or (name, ""))[1] if value and value != name else ""
                 found.append((name, code, value, unit, None))
+            _check_orphan_values(cols, {f[0] for f in found}, reserved | meta)
         else:
             for c in cols:
                 if c in reserved or c in meta:

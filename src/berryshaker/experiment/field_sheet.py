@@ -1,7 +1,9 @@
 """Field sheets: writing a test plan (CSV + printable HTML) and reading it back with results.
 
 Reading a filled sheet back (strict: issue "never compute on a misread input") lives in
-:mod:`berryshaker.experiment.field_results`; :func:`read_results` here forwards to it.
+:mod:`berryshaker.experiment.field_results`; :func:`read_results` here forwards to it.  Units (of a
+``--factor``, of a sheet's ``A_mm`` column, in a cell) are read by the one strict quantity grammar of
+:mod:`berryshaker.units`, never by pint's expression evaluator.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ import pandas as pd
 from berryshaker import __version__
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import ARRAYS, assign_factors, orthogonal_array
+from berryshaker.units import MAX_LIST_CHARS, unit_dimension
 
 RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
 INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
@@ -46,37 +49,51 @@ def _reserved_columns() -> set[str]:
     return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
 
 
+def _short(text: str, limit: int = 60) -> str:
+    text = repr(text)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def parse_factor(spec: str) -> Factor:
-    """``A=0.25,0.5,0.75mm`` -> Factor('A', (0.25, 0.5, 0.75), 'mm').  A unit on the last value applies to all."""
+    """``A=0.25,0.5,0.75mm`` -> Factor('A', (0.25, 0.5, 0.75), 'mm').  A unit on the last value applies to all.
+
+    The unit is read by the strict quantity grammar (:func:`berryshaker.units.unit_dimension`): a unit name with
+    small whole powers, never an expression (``mm*1000``, ``9**9**9`` are refused at once).
+
+    Raises
+    ------
+    ConfigError
+        Not ``NAME=v1,v2,...[unit]``, fewer than two or repeated levels, a level that is not a finite number, a
+        unit that is not one, or a name whose columns are reserved.
+    """
+    if not isinstance(spec, str) or len(spec) > MAX_LIST_CHARS:
+        raise ConfigError(f"--factor {_short(spec)}: too long (at most {MAX_LIST_CHARS} characters); expected "
+                          "NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm")
     if "=" not in spec:
-        raise ConfigError(f"--factor {spec!r}: expected NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm")
+        raise ConfigError(f"--factor {_short(spec)}: expected NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm")
     name, values = (s.strip() for s in spec.split("=", 1))
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", name):
-        raise ConfigError(f"--factor {spec!r}: factor name must be a word (letters, digits, _)")
+        raise ConfigError(f"--factor {_short(spec)}: factor name must be a word (letters, digits, _)")
     parts = [p.strip() for p in values.split(",") if p.strip()]
     m = re.fullmatch(r"([-+]?[\d.]+(?:e[-+]?\d+)?)\s*([A-Za-z/%^*0-9]*)", parts[-1] if parts else "", re.I)
     if not parts or not m:
-        raise ConfigError(f"--factor {spec!r}: cannot read the levels")
+        raise ConfigError(f"--factor {_short(spec)}: cannot read the levels")
     unit = m.group(2)
     levels = []
     for p in parts[:-1] + [m.group(1)]:
         try:
             levels.append(float(p))
         except ValueError:
-            raise ConfigError(f"--factor {spec!r}: level {p!r} is not a number") from None
+            raise ConfigError(f"--factor {_short(spec)}: level {_short(p)} is not a number") from None
     if len(levels) < 2:
-        raise ConfigError(f"--factor {spec!r}: a factor needs at least two levels")
+        raise ConfigError(f"--factor {_short(spec)}: a factor needs at least two levels")
     if not all(math.isfinite(v) for v in levels):
-        raise ConfigError(f"--factor {spec!r}: levels must be finite numbers")
-    if unit and unit != "%":
-        from berryshaker.units import _registry
-
-        try:
-            _registry().Unit(unit)
-        except Exception:  # noqa: BLE001 - pint raises several types
-            raise ConfigError(f"--factor {spec!r}: unknown unit {unit!r}") from None
+        raise ConfigError(f"--factor {_short(spec)}: levels must be finite numbers")
+    if unit and unit != "%" and unit_dimension(unit) is None:  # the strict grammar: no expression evaluation
+        raise ConfigError(f"--factor {_short(spec)}: {_short(unit)} is not a unit berryshaker reads (a unit name "
+                          f"with powers such as 'mm', 'rpm', 'm/s^2'; no arithmetic)")
     if len(set(levels)) != len(levels):
-        raise ConfigError(f"--factor {spec!r}: levels must be distinct")
+        raise ConfigError(f"--factor {_short(spec)}: levels must be distinct")
     f = Factor(name, tuple(levels), unit)
     _check_factor_name(f)
     return f

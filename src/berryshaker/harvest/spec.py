@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from typing import Annotated
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import Field, model_validator
 
 from berryshaker.quantity_fields import NonNegAngle, _d, _q
 from berryshaker.quantity_fields import StrictModel as _Strict
@@ -28,31 +28,44 @@ COUPLED_RTOL = 1e-5
 COUPLED_VELOCITY_SCALE = 1.0
 
 
-class HarvestSpec(_Strict):
-    """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md)."""
+#: largest count of bushes, branches and replicates a description may ask for: the virtual harvest runs every
+#: one of them (a replicate is a coupled run per branch class), so more is a slip of the number, not a plan
+MAX_COUNT = 1000
+#: population seeds are numpy seeds: 0 .. 2**32 - 1 (replicate k adds 1000 k, kept below 2**63)
+MAX_SEED = 2**32 - 1
 
-    branches_per_bush: int = Field(12, ge=1)
-    branch_classes: tuple[float, ...] = (0.85, 1.0, 1.15)  # diameter scale factors of the reference branch
-    fruit_zone: tuple[float, float] = (0.1, 0.95)  # fruit along the branch, fractions of its length
+
+class HarvestSpec(_Strict):
+    """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md).
+
+    Counts are bounded (1 .. :data:`MAX_COUNT`), fractions lie in 0 .. 1, seeds in 0 .. :data:`MAX_SEED`,
+    so a description that loads also runs (nothing accepted here fails later at use).
+    """
+
+    branches_per_bush: int = Field(12, ge=1, le=MAX_COUNT)
+    branch_classes: tuple[Annotated[float, Field(gt=0, le=10)], ...] = Field(
+        (0.85, 1.0, 1.15), min_length=1, max_length=20)  # diameter scale factors of the reference branch
+    fruit_zone: tuple[Annotated[float, Field(ge=0, le=1)], Annotated[float, Field(ge=0, le=1)]] = (
+        0.1, 0.95)  # fruit along the branch, fractions of its length
     fruit_mass_cv: float = Field(0.2, ge=0, lt=1)  # coefficient of variation of fruit mass
     yield_per_bush: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))] = 0.5  # [calibrated]
     unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [assumed; unripe rate held out]
-    damage_acceleration: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 300.0  # m/s^2 [cal.]
-    damage_shape: float = Field(2.0, gt=0)  # Weibull shape of the damage probability [assumed]
-    bushes: int = Field(40, ge=1)  # bushes sampled per virtual test run
-    seed: int = 2024
+    damage_acceleration: Annotated[float, _q("acceleration"), Field(gt=0, json_schema_extra=_d("m/s^2"))] = 300.0
+    damage_shape: float = Field(2.0, gt=0, le=100)  # Weibull shape of the damage probability [assumed]
+    bushes: int = Field(40, ge=1, le=MAX_COUNT)  # bushes sampled per virtual test run
+    seed: int = Field(2024, ge=0, le=MAX_SEED)
     # starts of each virtual test run (docs/harvest.md, "Replicates"): start k uses seed + 1000 k for its bushes and
     # for its machine's initial state (clearance eccentricities, drive phase at the bush); 8 = the count at which the
     # spread of every harvest response is known to 30 % (berryshaker doe virtual --convergence; the test
     # tests/test_replicate_convergence.py holds it)
-    replicates: int = Field(8, ge=2, le=1000)
+    replicates: int = Field(8, ge=2, le=MAX_COUNT)
     # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of
     # ``replicates`` until every harvest response's standard error is at most se_target x its mean, or max_replicates
     se_target: float = Field(0.05, gt=0, lt=1)
-    max_replicates: int = Field(32, ge=2, le=1000)
+    max_replicates: int = Field(32, ge=2, le=MAX_COUNT)
     initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
     start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]
-    tolerance_replicates: int = Field(2, ge=0)  # replicates re-run at rtol 1e-7 for the tolerance check
+    tolerance_replicates: int = Field(2, ge=0, le=MAX_COUNT)  # replicates re-run at rtol 1e-7 for the tolerance check
 
     @model_validator(mode="after")
     def _max_covers_replicates(self):

@@ -1,5 +1,6 @@
 """Planar mechanisms described as data (TOML): bodies, joints (ideal and with clearance), drivers and
-force elements.  Values accept units like the machine description ("0.5 mm", "5000 rpm").
+force elements.  Like a machine description, a file gives every dimensional value with its unit ("0.5 mm",
+"5000 rpm"; a bare number other than 0 is an error there); contact stiffness K (N/m^n) is a plain SI number.
 
 A body's ``position`` is its centre of mass in the frame and ``angle`` its orientation; joint points
 are given in the body frames (origin at the centre of mass).  ``ground`` is the fixed frame.
@@ -31,12 +32,11 @@ import tomllib
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import Angle, Coefficient, _q
+from berryshaker.quantity_fields import UNITS_REQUIRED, Angle, Coefficient, SignedLength, _q, _what, read_quantity
 from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
-from berryshaker.units import parse_quantity
 
 Mass = Annotated[float, _q("mass"), Field(gt=0)]
 Inertia = Annotated[float, _q("inertia"), Field(gt=0)]
@@ -52,46 +52,18 @@ def _num(v):
 
 
 def _vec(dimension: str):
-    def convert(v: Any) -> tuple[float, float]:
+    def convert(v: Any, info: ValidationInfo) -> tuple[float, float]:
         if not isinstance(v, (list, tuple)) or len(v) != 2:
-            raise ValueError(f"expected a pair [x, y], got {v!r}")
-        try:
-            return tuple(parse_quantity(c, dimension) for c in v)  # type: ignore[return-value]
-        except ConfigError as exc:
-            raise ValueError(str(exc).removeprefix("value: ")) from None
+            raise ValueError(f"expected a pair [x, y], got {_what(v)}")
+        return tuple(read_quantity(c, dimension, info) for c in v)  # type: ignore[return-value]
 
     return BeforeValidator(convert)
 
 
 Point = Annotated[tuple[float, float], _vec("length")]
 Direction = Annotated[tuple[float, float], _vec("dimensionless")]
-Accel = Annotated[tuple[float, float], BeforeValidator(lambda v: _accel(v))]
-
-
-def _accel(v):
-    if not isinstance(v, (list, tuple)) or len(v) != 2:
-        raise ValueError(f"expected a pair [gx, gy], got {v!r}")
-    out = []
-    for c in v:
-        if isinstance(c, str):
-            from berryshaker.units import _registry
-
-            try:
-                out.append(float(_registry().Quantity(c).to("m/s**2").magnitude))
-            except Exception as exc:  # noqa: BLE001
-                raise ValueError(f"cannot read {c!r} as an acceleration ({exc})") from None
-        else:
-            out.append(_num(c))
-    return tuple(out)
-
-
-def _force(v):
-    if not isinstance(v, (list, tuple)) or len(v) != 2:
-        raise ValueError(f"expected a pair [Fx, Fy], got {v!r}")
-    try:
-        return tuple(parse_quantity(c, "force") for c in v)
-    except ConfigError as exc:
-        raise ValueError(str(exc).removeprefix("value: ")) from None
+Accel = Annotated[tuple[float, float], _vec("acceleration")]  # gravity: '9.81 m/s^2', strict parser
+ForcePair = Annotated[tuple[float, float], _vec("force")]
 
 
 class _Strict(BaseModel):
@@ -126,7 +98,7 @@ class ContactSpec(_Strict):
     stiffness: Real | Literal["hertz"] = "hertz"  # N/m^n; "hertz": from materials and radii
     exponent: float = Field(1.5, gt=0)
     restitution: float = Field(0.9, gt=0, le=1)
-    damping: Real = 0.0  # N s/m: mlsd damping, or cmax of impact
+    damping: Annotated[float, _q("damping"), Field(ge=0)] = 0.0  # N s/m: mlsd damping, or cmax of impact
     damping_depth: LengthPos = 1e-4  # d of impact: penetration of full damping
     # v_ref of the hysteresis laws (m/s): restitution holds from this impact speed up, slower impacts get the
     # damping of one at v_ref (docs/contact.md sec. 6.4).  0 (default here): the published laws, as the validation
@@ -151,7 +123,7 @@ class JointSpec(_Strict):
     pin_radius: LengthNN = 0.0
     contact: ContactSpec = ContactSpec()
     friction_coefficient: Coefficient = 0.0
-    supports: tuple[Real, Real] | None = None  # prismatic: axial positions of two guide supports (m)
+    supports: tuple[SignedLength, SignedLength] | None = None  # prismatic: axial positions of two guide supports
 
     @model_validator(mode="after")
     def _check(self) -> "JointSpec":
@@ -218,7 +190,7 @@ class ForceSpec(_Strict):
     damping: Annotated[float, _q("torsional_damping"), Field(ge=0)] = 0.0
     angle0: Angle = 0.0  # free angle phi_i - phi_j
     point: Point = (0.0, 0.0)
-    force: Annotated[tuple[float, float], BeforeValidator(lambda v: _force(v))] = (0.0, 0.0)
+    force: ForcePair = (0.0, 0.0)
     # geared_spring_damper: omega_i / omega_j, efficiencies (power into body_j / out of it), creep compliance
     # (fractional speed loss per N m of elastic torque, 1/(N m)), slip torque (N m, 0 = never slips), and the
     # initial windup psi (rad at the input)
@@ -373,21 +345,30 @@ class MechanismSpec(_Strict):
 
 
 
-def mechanism_from_dict(data: dict, source: str = "<dict>") -> MechanismSpec:
-    """Validate a nested dict into a :class:`MechanismSpec`; errors are located (``joints.2.clearance: ...``)."""
+def mechanism_from_dict(data: dict, source: str = "<dict>", units_required: bool = False) -> MechanismSpec:
+    """Validate a nested dict into a :class:`MechanismSpec`; errors are located (``joints.2.clearance: ...``).
+
+    ``units_required``: the data is a user's file, a bare number in a dimensional field is an error.
+    """
     try:
-        return MechanismSpec.model_validate(data)
+        return MechanismSpec.model_validate(data, context={UNITS_REQUIRED: units_required})
+    except RecursionError:
+        raise ConfigError(f"invalid mechanism description {source}: values nested too deeply") from None
     except ValidationError as err:
         raise ConfigError(_format_validation_error(err, source).replace("machine description", "mechanism description")) from None
 
 
 def load_mechanism(path: str | Path) -> MechanismSpec:
-    """Read a mechanism description from TOML (units allowed) and validate it."""
+    """Read a mechanism description from TOML (every dimensional value with its unit) and validate it."""
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"mechanism file not found: {p}")
     try:
-        data = tomllib.loads(p.read_text("utf-8"))
+        data = tomllib.loads(p.read_bytes().decode("utf-8-sig"))
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"{p}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
     except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{p}: not valid TOML ({exc})") from None
-    return mechanism_from_dict(data, str(p))
+        raise ConfigError(f"{p}: not valid TOML ({str(exc)[:200]})") from None
+    except RecursionError:
+        raise ConfigError(f"{p}: not valid TOML (arrays or tables nested too deeply)") from None
+    return mechanism_from_dict(data, str(p), units_required=True)

@@ -1,13 +1,14 @@
 """The plant section of a machine description: branch (study eq. 13-15), fruit (eq. 16-17) and the comb-branch
-contact.  Values SI; strings with units accepted (see :mod:`berryshaker.quantity_fields`)."""
+contact.  Values SI inside; a machine file gives every dimensional value with its unit
+(:mod:`berryshaker.quantity_fields`)."""
 
 from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import BeforeValidator, Field, model_validator
+from pydantic import BeforeValidator, Field, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import Length, LengthNonNeg, StrictModel as _Strict, _d, _q
+from berryshaker.quantity_fields import Length, LengthNonNeg, StrictModel as _Strict, _d, _q, _what
 
 
 class BranchSpec(_Strict):
@@ -16,7 +17,7 @@ class BranchSpec(_Strict):
     root_diameter: Length  # d0
     tip_diameter: Length  # dm
     length: Length  # l
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))]
+    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))]
     density: Annotated[float, _q("density"), Field(gt=0, json_schema_extra=_d("kg/m^3"))]
     damping_ratio: Annotated[float, _q("dimensionless"), Field(ge=0, lt=1, json_schema_extra=_d("1"))] = 0.07
 
@@ -48,10 +49,10 @@ class PedicelSpec(_Strict):
 
 class FruitSpec(_Strict):
     """Fruit on the branch: mass m0, positions (fractions of the length) and names (study eq. 16-17)."""
-    mass: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
+    mass: Annotated[float, _q("mass", "g"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
     pedicel: PedicelSpec = PedicelSpec()
-    positions: tuple[float, ...] = (0.2, 0.5, 0.85)  # fractions of the branch length
-    names: tuple[str, ...] = ("root", "middle", "end")
+    positions: tuple[float, ...] = Field((0.2, 0.5, 0.85), max_length=20)  # fractions of the branch length
+    names: tuple[str, ...] = Field(("root", "middle", "end"), max_length=20)
 
     @model_validator(mode="after")
     def _check(self) -> "FruitSpec":
@@ -70,22 +71,24 @@ class FingerSpec(_Strict):
 
     diameter: Length = 0.012
     free_length: Length = 0.2  # clamp to the striking section (m)
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
+    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
     poisson_ratio: float = Field(0.39, ge=0, lt=0.5)
-    wood_transverse_modulus: Annotated[float, _q("pressure"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
+    wood_transverse_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
     wood_poisson_ratio: float = Field(0.3, ge=0, lt=0.5)
-    reference_force: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] = 5.0  # N, Hertz linearised
+    reference_force: Annotated[float, _q("force"), Field(gt=0, json_schema_extra=_d("N"))] = 5.0  # Hertz linearised
 
 
 class CombContactSpec(_Strict):
     """Comb fingers striking the branch (ADAMS IMPACT function, nylon on wood).
 
-    ``stiffness`` (N/m^exponent) given explicitly wins (backwards compatible, exponent default 1.5);
+    ``stiffness`` (N/m^exponent, a plain SI number: no unit is written for it) given explicitly wins (backwards
+    compatible, exponent default 1.5);
     left out, the contact is linear (exponent 1) with K = the finger cantilever in series with the
     linearised Hertz contact (berryshaker.plant.finger.finger_contact)."""
 
-    stiffness: Annotated[float, BeforeValidator(lambda v: float(v)), Field(gt=0)] | None = None  # N/m^exponent
-    exponent: Annotated[float, Field(gt=0)] | None = None
+    # K in N/m^exponent: a plain SI number (its unit depends on the exponent, which need not be whole)
+    stiffness: Annotated[float, Field(gt=0, le=1e15)] | None = None
+    exponent: Annotated[float, Field(gt=0, le=3)] | None = None
     finger: FingerSpec = FingerSpec()
     damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 7.8  # cmax
     penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [STUDY.md]
@@ -116,16 +119,12 @@ class CombContactSpec(_Strict):
 
 def _range(kind: str):
     """A (low, high) pair of quantities of one dimension, low <= high."""
-    from berryshaker.errors import ConfigError
-    from berryshaker.units import parse_quantity
+    from berryshaker.quantity_fields import read_quantity
 
-    def convert(v):
+    def convert(v, info: ValidationInfo):
         if not isinstance(v, (list, tuple)) or len(v) != 2:
-            raise ValueError(f"expected a range [low, high] of {kind} values, got {v!r}")
-        try:
-            lo, hi = (parse_quantity(c, kind) for c in v)
-        except ConfigError as exc:
-            raise ValueError(str(exc).removeprefix("value: ")) from None
+            raise ValueError(f"expected a range [low, high] of {kind} values, got {_what(v)}")
+        lo, hi = (read_quantity(c, kind, info) for c in v)
         if lo > hi:
             raise ValueError(f"range [{lo:g}, {hi:g}] (SI) has low > high")
         return (float(lo), float(hi))
@@ -157,7 +156,7 @@ class BushSpec(_Strict):
 
     branches: int = Field(12, ge=1, le=200)  # engaged branches per bush, as harvest.branches_per_bush [assumed]
     members: int = Field(6, ge=0, le=64)  # simulated sample of the other branches (convergence: tests/test_bush.py)
-    seed: int = 12
+    seed: int = Field(12, ge=0, le=2**32 - 1)
     n_modes: int = Field(2, ge=1, le=16)  # bending modes per member (the fruit branch keeps plant.contact.n_modes)
     root_diameter: LengthRange = (0.008, 0.016)  # d0, uniform (m)
     tip_ratio: float = Field(0.3333, gt=0, le=1)  # dm / d0, as the reference branch (4 / 12 mm)

@@ -76,10 +76,25 @@ def usable_cores() -> int:
 
 
 def default_cache_dir() -> Path:
-    """``$BERRYSHAKER_CACHE/runs``, else ``$XDG_CACHE_HOME/berryshaker/runs`` (``~/.cache/berryshaker/runs``)."""
-    base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "berryshaker")  # "" counts as unset
-    return Path(base).expanduser().resolve() / "runs"
+    """``runs/`` in the package's cache folder (:func:`berryshaker.compiled_cache.cache_home`:
+    ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, ``~/.cache/berryshaker``), created private (mode
+    0700; :func:`berryshaker.compiled_cache.private_folder`).
+
+    Raises
+    ------
+    ConfigError
+        The folder is not private (another user owns it or may write it) or cannot be created; ``--cache`` names
+        another.
+    """
+    from berryshaker.compiled_cache import cache_home, private_folder
+    from berryshaker.errors import ConfigError
+
+    top = cache_home()
+    try:
+        return private_folder(top / "runs", top)
+    except OSError as exc:
+        raise ConfigError(f"run cache {top / 'runs'}: {exc.strerror or exc}; it must be a folder of yours that "
+                          "nobody else can write (give another with --cache or BERRYSHAKER_CACHE)") from None
 
 
 def _jsonable(obj):

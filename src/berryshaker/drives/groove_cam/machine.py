@@ -3,7 +3,7 @@
 Engine -> belt -> CVT -> worm reducer -> groove cam (O) -> cam roller in the groove (pair A) -> push rod in a
 linear bearing -> push-rod roller in the slot of the left comb's rocker (pair B) -> left comb about D ->
 connecting rod CF (pins C and F) -> right comb about E.  Frame: origin O at the cam centre, x along the push
-rod, y up.  Values SI; strings with units accepted.
+rod, y up.  Values SI inside; a machine file gives every dimensional value with its unit.
 """
 
 from __future__ import annotations
@@ -11,10 +11,9 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar, Literal
 
-from pydantic import Field, model_validator
+from pydantic import model_validator
 
 from berryshaker.drives.base import MachineBase, PairInfo
-from berryshaker.errors import ConfigError
 from berryshaker.reference_study import CLEARANCE_LEVELS_MM
 from berryshaker.quantity_fields import (
     Angle,
@@ -26,11 +25,10 @@ from berryshaker.quantity_fields import (
     Mass,
     NonNegAngle,
     PositiveAngle,
-    _d,
+    SignedLength,
     check_drive_speed,
 )
 from berryshaker.quantity_fields import StrictModel as _Strict
-from berryshaker.units import parse_quantity
 
 
 class Cam(_Strict):
@@ -76,21 +74,8 @@ class PushRod(_Strict):
     length: Length  # l_AB, roller A centre to roller B centre
     mass: Mass  # m2
     friction_coefficient: Coefficient = 0.05  # mu2, push rod in its linear bearing
-    bearing_G_x: float = Field(default=0.18, json_schema_extra=_d("mm"))  # frame x of bearing G (m)
-    bearing_H_x: float = Field(default=0.32, json_schema_extra=_d("mm"))  # frame x of bearing H (m)
-
-    @model_validator(mode="before")
-    @classmethod
-    def _units(cls, data: Any) -> Any:
-        if isinstance(data, dict):
-            data = dict(data)
-            for key in ("bearing_G_x", "bearing_H_x"):
-                if key in data:
-                    try:
-                        data[key] = parse_quantity(data[key], "length", key)
-                    except ConfigError as exc:
-                        raise ValueError(str(exc)) from None
-        return data
+    bearing_G_x: SignedLength = 0.18  # frame x of bearing G (m)
+    bearing_H_x: SignedLength = 0.32  # frame x of bearing H (m)
 
     @model_validator(mode="after")
     def _check(self) -> "PushRod":
@@ -102,23 +87,16 @@ class PushRod(_Strict):
 class Rocker(_Strict):
     """Left comb rocker: slot through shaft D in which push-rod roller B slides; arm DC (eq. 3)."""
 
-    shaft_D_x: float | None = Field(default=None, json_schema_extra=_d("mm"))  # None: below B at mid-stroke
+    shaft_D_x: SignedLength | None = None  # None (or "mid-stroke"): below B at mid-stroke
     shaft_D_drop: Length  # y_D = e - drop
     arm_CD: Length  # l_CD
     arm_angle: Angle = math.pi  # angle of D->C measured from the slot direction D->B
 
     @model_validator(mode="before")
     @classmethod
-    def _units(cls, data: Any) -> Any:
-        if isinstance(data, dict) and data.get("shaft_D_x") is not None:
-            data = dict(data)
-            if data["shaft_D_x"] == "mid-stroke":
-                data["shaft_D_x"] = None
-            else:
-                try:
-                    data["shaft_D_x"] = parse_quantity(data["shaft_D_x"], "length", "shaft_D_x")
-                except ConfigError as exc:
-                    raise ValueError(str(exc)) from None
+    def _mid_stroke(cls, data: Any) -> Any:
+        if isinstance(data, dict) and data.get("shaft_D_x") == "mid-stroke":
+            data = dict(data, shaft_D_x=None)
         return data
 
 
