@@ -1,47 +1,48 @@
-"""Calibrate the reference machine's picking parameters on the virtual L9's statistic (docs/harvest.md).
+"""Calibrate the reference machine's picking parameters on the statistic the study reports (docs/harvest.md).
 
-Runs the replicated drive-pasts at the configured clearances (A1B1C1F3; ``harvest.replicates`` replicates,
-the L9's seeds and perturbation), prints the replicate-mean indexes with the stored values, fits
-``yield_per_bush`` and ``damage_acceleration`` on the replicate mean, and prints the refit indexes and the CPU
-time.  Usage: ``python benchmarks/calibrate_harvest_replicates.py [replicates]``.
+Runs the perturbed starts at the configured clearances (A1B1C1F3) sequentially, as the study's calibration step
+does (:func:`berryshaker.study.l9.sequential_starts`: batches of ``harvest.replicates`` starts until every harvest
+index's standard error is within ``harvest.se_target`` of its mean), prints the indexes at the stored values, fits
+``yield_per_bush`` and ``damage_acceleration`` on the converged mean and prints them with their standard errors.
+Usage: ``python benchmarks/calibrate_harvest_replicates.py [--workers N] [--cache DIR]``.
 """
 
 from __future__ import annotations
 
-import sys
-import time
+import argparse
 
 import numpy as np
 
 from berryshaker.config import reference_machine
-from berryshaker.harvest.virtual import calibrate_harvest, harvest_indexes, sample_population
-from berryshaker.study.l9 import replicate_envelopes, replicate_jobs, replicate_seeds
-from berryshaker.study.runs import replicate_run
+from berryshaker.harvest.virtual import calibrate_harvest
+from berryshaker.runs.runner import SweepRunner
+from berryshaker.study.l9 import sequential_starts
 
 
-def main(replicates: int | None = None) -> None:
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--cache", default=None)
+    a = ap.parse_args()
     machine = reference_machine()
-    seeds = replicate_seeds(machine, replicates)
-    t0 = time.process_time()
-    outs = [replicate_run(**job) for job in replicate_jobs(machine, machine.clearance_sizes(), seeds)]
-    t_runs = time.process_time() - t0
-    reps = replicate_envelopes(machine, outs, seeds)
-    before = [harvest_indexes(machine, env, sample_population(machine, seed=sd)) for env, sd in reps]
     h = machine.harvest
+    with SweepRunner(workers=a.workers, cache_dir=a.cache) as runner:
+        seq = sequential_starts(machine, runner, machine.clearance_sizes(), label="calibration starts")
+    reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
     print(f"clearances (mm): { {p: v * 1e3 for p, v in machine.clearance_sizes().items()} }")
-    print(f"{len(reps)} replicates (seeds {seeds}), {len(outs)} coupled runs, CPU {t_runs:.1f} s")
-    print(f"stored: yield_per_bush {h.yield_per_bush:.6g} kg, damage_acceleration {h.damage_acceleration:.6g} m/s^2")
-    for key in ("efficiency_kg_min", "damage_rate_pct", "unripe_rate_pct"):
-        v = [b[key] for b in before]
-        print(f"  stored values, replicate mean {key}: {np.mean(v):.4f}  (per replicate {np.round(v, 4).tolist()})")
-    t1 = time.process_time()
+    print(seq["statement"])
+    stored = calibrate_harvest(machine, fit=(), replicates=reps)
+    print(f"stored: yield_per_bush {h.yield_per_bush:.6g} kg, damage_acceleration {h.damage_acceleration:.6g} m/s^2 "
+          f"-> efficiency {stored['check']['efficiency_kg_min']:.4f} kg/min, damage "
+          f"{stored['check']['damage_rate_pct']:.4f} %, unripe {stored['check']['unripe_rate_pct']:.4f} %")
     fit = calibrate_harvest(machine, replicates=reps)
-    print(f"fit CPU {time.process_time() - t1:.1f} s")
-    print(f"fitted: yield_per_bush {fit['yield_per_bush_kg']:.6g} kg, damage_acceleration "
-          f"{fit['damage_acceleration_m_s2']:.6g} m/s^2")
+    u = fit["uncertainty"]
+    print(f"fitted on {fit['replicates']} starts: yield_per_bush {fit['yield_per_bush_kg']:.6g} +- "
+          f"{u['yield_per_bush_kg']:.2g} kg, damage_acceleration {fit['damage_acceleration_m_s2']:.6g} +- "
+          f"{u['damage_acceleration_m_s2']:.2g} m/s^2 (SE; {u['method']})")
     for key in ("efficiency_kg_min", "damage_rate_pct", "unripe_rate_pct"):
-        print(f"  refit values, replicate mean {key}: {fit['check'][key]:.4f}")
+        print(f"  refit values, mean over the starts {key}: {fit['check'][key]:.4f}")
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else None)
+    main()
