@@ -232,7 +232,7 @@ def test_published_l9_example_yang_el_haik():
 
 def test_plan_replicates_default_from_config_and_analyze_against_pure_error(tmp_path):
     """`doe plan` writes runs x replicates rows: --replicates, else harvest.replicates of --config, else that
-    field's default (3); `doe analyze` of a replicated sheet is the pure-error analysis of the virtual L9."""
+    field's default (3); `doe analyze` of a replicated sheet is the blocked analysis of the virtual L9."""
     import pandas as pd
 
     from berryshaker.config import reference_toml_text
@@ -252,8 +252,11 @@ def test_plan_replicates_default_from_config_and_analyze_against_pure_error(tmp_
                             "--json", "--plot", str(tmp_path / "p")])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
-    assert s["replicates"] == 2 and "pure (replicate) error" in s["significance_rule"]
+    # the replicate column numbers the blocks: randomised complete blocks, 8 (r - 1) error dof
+    assert s["replicates"] == 2 and "run x block interaction" in s["significance_rule"]
+    assert s["block_column"] == "replicate" and s["blocks"] is True
     assert s["responses"]["efficiency"]["anova"]["pure_error"]["df"] == 9
+    assert s["responses"]["efficiency"]["anova"]["error"]["df"] == 8
     assert s["responses"]["efficiency"]["factors"]["A"]["significant"]
     assert s["optimum"]["levels"]["A"] == 1 and (tmp_path / "p" / "main_effects.png").exists()
     text = runner.invoke(app, ["doe", "analyze", str(filled), "--maximize", "efficiency", "--minimize", "damage"])
