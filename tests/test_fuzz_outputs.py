@@ -409,6 +409,9 @@ FLAGS = {  # command, flag, invalid values
     "tolerance --points": (["tolerance"], "--points", _out_of(2, 64)),
     "tolerance --seed": (["tolerance"], "--seed", _out_of(0, 2**32 - 1)),
     "cam-profile --points": (["cam-profile", "--out", "CASE/cam.csv"], "--points", _out_of(90, 100_000)),
+    "wear --revolutions": (["wear", "--hours", "1"], "--revolutions", _out_of(2, 200)),
+    "sensitivity --revolutions": (["sensitivity"], "--revolutions", _out_of(2, 200)),
+    "compare --points": (["compare", "--starts", "0"], "--points", _out_of(4, 10_000)),
     "wear --joint": (["wear", "--hours", "1"], "--joint",
                      st.text(min_size=1, max_size=6).filter(lambda s: s not in ("A", "B", "C", "F")
                                                             and not s.startswith("-"))),
@@ -422,7 +425,7 @@ def test_out_of_range_flags_are_one_message_before_any_work(which, data):
     value = data.draw(values)
     case = _fresh()
     args = [a.replace("CASE", str(case)) for a in head] + [flag, str(value), "--cache", str(case / "cache")]
-    if which.startswith("cam-profile"):
+    if which.startswith(("cam-profile", "compare")):
         args = args[:-2]
     t0 = time.perf_counter()
     r = runner.invoke(app, args)
