@@ -225,7 +225,8 @@ def wear_cmd(
                                     "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each pair's largest test level, at least twice its "
                                     "present size."),
     joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
-    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, help="Drive revolutions per simulation."),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200,
+                                     help="Drive revolutions per simulation (2..200)."),
     load_direction: str = typer.Option("fixed", "--load-direction", help="Pins: fixed (conservative) or rotating."),
     slip: Optional[float] = typer.Option(None, "--slip", help="Roller slip ratio (default 0.05 [assumed])."),
     from_fit: bool = typer.Option(False, "--from-fit", help="Start from each pair's fit (mean clearance), not its size."),
@@ -316,7 +317,7 @@ def sensitivity_cmd(
                                     "clearance.A.size=0.1..0.8mm (default: every pair over its test levels)."),
     samples: int = typer.Option(64, "--samples", "-N", help="Base sample N (power of two); runs = N (D + 2)."),
     model: Optional[str] = typer.Option(None, "--model", help="mlsd (default where the drive has it) or multibody."),
-    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200, help="Drive revolutions per run (2..200)."),
     seed: int = typer.Option(0, "--seed"),
     workers: Optional[int] = WorkersOpt,
     scheduler: Optional[str] = SchedulerOpt,
@@ -395,7 +396,7 @@ def tolerance_cmd(
     limit: list[str] = typer.Option([], "--limit", help="Clearance limit for the life objective, clearance:C=0.3mm "
                                     "(repeatable; default each pair's largest test level)."),
     points: int = typer.Option(4, "--points", help="Surrogate grid clearances per joint (multibody runs each)."),
-    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2),
+    revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200, help="Drive revolutions per run (2..200)."),
     pop_size: int = typer.Option(60, "--pop-size"),
     generations: int = typer.Option(80, "--generations"),
     seed: int = typer.Option(1, "--seed"),

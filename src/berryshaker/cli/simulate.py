@@ -248,8 +248,9 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
 def compare(
     clearance: Optional[str] = typer.Option("level2", "--clearance",
                                             help="Clearance set (default level2, the study's model check, Table 3)."),
-    revolutions: int = typer.Option(3, "--revolutions", "-n", min=2),
-    points: int = typer.Option(10, "--points", min=4, help="Samples per curve for the F test (study: about 10)."),
+    revolutions: int = typer.Option(3, "--revolutions", "-n", min=2, max=200, help="Cam revolutions (2..200)."),
+    points: int = typer.Option(10, "--points", min=4, max=10_000,
+                               help="Samples per curve for the F test (study: about 10; 4..10000)."),
     alpha: float = typer.Option(0.05, "--alpha", help="Significance level of the F test."),
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
