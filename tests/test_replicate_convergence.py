@@ -156,8 +156,16 @@ def test_the_default_number_of_starts_is_where_the_spread_converges(machine, con
 
 
 def test_the_spread_at_the_recommendation_agrees_with_fresh_starts(machine, convergence, spread_runner):
-    """The per-start SD the sequential replication reports at a set (its starts reuse the convergence's runs) against
-    an independent estimate from 24 fresh starts (other seeds): ratio within 0.67-1.5 for efficiency and damage."""
+    """The per-start SD the sequential replication reports at a set (its starts reuse the convergence's runs)
+    against an independent estimate from 24 fresh starts (other seeds, declared here): consistent within their
+    joint sampling error (variance-ratio F test, two-sided p >= 0.001) and within a factor of 2.
+
+    Why not a fixed band of 0.67-1.5: the damage rate is right-skewed (a start whose phase misses the bond picks
+    little and bruises the few it picks), and its 24-start SD itself varies from 0.20 to 0.36 between independent
+    draws (measured over two fresh sets of 24 and the study's 32); the F test carries that sampling error, and a
+    2x understatement of the spread (the defect this guards against was 5-7x) fails it at these counts."""
+    from scipy import stats
+
     from berryshaker.study.l9 import sequential_starts, start_cells
 
     cl = machine.clearance_sizes()
@@ -165,9 +173,11 @@ def test_the_spread_at_the_recommendation_agrees_with_fresh_starts(machine, conv
     assert seq["reached"]["all_met"] or len(seq["cells"]) == machine.harvest.max_replicates
     fresh = start_cells(machine, spread_runner, cl, [10**6 + 1000 * k for k in range(24)])
     for n in ("efficiency", "damage"):
-        ours = np.std([c[n] for c in seq["cells"]], ddof=1)
-        ref = np.std([c[n] for c in fresh], ddof=1)
-        assert 0.67 <= ours / ref <= 1.5, (n, ours, ref)
+        a = np.array([c[n] for c in seq["cells"]])
+        b = np.array([c[n] for c in fresh])
+        f = a.var(ddof=1) / b.var(ddof=1)
+        p = 2 * min(stats.f.sf(f, a.size - 1, b.size - 1), stats.f.cdf(f, a.size - 1, b.size - 1))
+        assert 0.5 <= np.sqrt(f) <= 2.0 and p >= 1e-3, (n, np.sqrt(f), p)
 
 
 def test_doe_analyze_blocks_on_a_block_column(tmp_path):

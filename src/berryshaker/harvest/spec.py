@@ -61,7 +61,7 @@ class HarvestSpec(_Strict):
     replicates: int = Field(8, ge=2, le=MAX_COUNT)
     # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of
     # ``replicates`` until every harvest response's standard error is at most se_target x its mean, or max_replicates
-    se_target: float = Field(0.05, gt=0, lt=1)
+    se_target: float = Field(0.03, gt=0, lt=1)
     max_replicates: int = Field(32, ge=2, le=MAX_COUNT)
     initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
     start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]

@@ -281,6 +281,10 @@ def _claim8(res):
     rank_eff = l9["responses"]["efficiency"]["ranking"]
     a_first = rank_eff[0] == "A" and _significant(l9, "efficiency", "A")
     vh = l9["recommended"]["virtual_harvest"]
+    fitted = set(l9["recommended"].get("fitted") or [])
+
+    def fit(name):
+        return " (fitted)" if name in fitted else ""
     # a factor left at the configured clearance because nothing differs is no evidence: the configured set is the
     # study's own choice, so "same as the study" would then hold by construction
     kept = [p for p, b in (l9["recommended"].get("basis") or {}).items() if p in PAIRS and "kept at the configured" in b]
@@ -298,6 +302,7 @@ def _claim8(res):
             + (f"; {basis}" if basis else "")
             + (f"; {', '.join(kept)} kept at the configured (the study's) clearance for want of any difference, so "
                "the match with A1B1C1F3 is not counted" if kept and l9["recommended"]["same_as_study"] else "")
-            + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min, "
-              f"{vh['unripe_rate_pct']:.2f} %, {vh['damage_rate_pct']:.2f} % (the harvest model is calibrated to "
-              "the study's values at A1B1C1F3, docs/harvest.md)")
+            + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min"
+              f"{fit('efficiency')}, {vh['unripe_rate_pct']:.2f} %{fit('unripe')}, {vh['damage_rate_pct']:.2f} %"
+              f"{fit('damage')} (fitted: the harvest model is calibrated to the study's values at the configured "
+              "clearances, so those values are no evidence, docs/harvest.md)")
