@@ -105,7 +105,7 @@ def test_entry_records_what_computed_it(tmp_path):
     e = json.loads(_entry(tmp_path, J.slow_square, kw).read_text())
     assert e["key"] == run_key(J.slow_square, kw) and e["fingerprint"] == R.code_fingerprint()
     assert e["fn"] == "runner_jobs.slow_square" and len(e["kwargs_sha256"]) == 64 and len(e["value_sha256"]) == 64
-    assert e["value"]["y"] == 4.0 and e["wall_s"] >= 0.05  # the job sleeps 0.05 s (no upper bound: a busy host)
+    assert e["value"]["y"] == 4.0 and e["wall_s"] > 0.04  # the job sleeps 0.05 s (no upper bound: a busy host)
 
 
 def test_worker_reuses_an_entry_written_by_another_sweep(tmp_path):
@@ -145,7 +145,7 @@ def test_stats_keep_the_cold_cost(tmp_path):
     jobs = [dict(x=float(i), delay=0.15) for i in range(4)]
     cold = _runner(tmp_path)
     cold.values(J.slow_square, jobs)
-    assert cold.stats["computed"] == 4 and cold.stats["compute_s"] >= 0.6  # four runs that sleep 0.15 s each
+    assert cold.stats["computed"] == 4 and cold.stats["compute_s"] > 0.55  # four runs that sleep 0.15 s each
     warm = _runner(tmp_path)
     warm.values(J.slow_square, jobs)
     s = warm.stats
