@@ -2,7 +2,6 @@
 and the printable sheet."""
 
 import re
-import time
 import tracemalloc
 
 import numpy as np
@@ -190,9 +189,7 @@ def test_a_100000_row_sheet_is_analysed_without_an_n_by_n_matrix():
     df = pd.DataFrame({"run": np.arange(1, n + 1), "A_level": a[:, 0], "B_level": a[:, 1], "C_level": a[:, 2],
                        "efficiency_kg_min": 3.0 + 0.2 * a[:, 0] + 0.05 * rng.standard_normal(n)})
     text = _csv(df)
-    t0 = time.perf_counter()
     fr = read_results(text, ["efficiency"])
-    assert time.perf_counter() - t0 < 10
     tracemalloc.start()  # numpy reports its buffers to tracemalloc
     res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, {"efficiency": True})
     peak = tracemalloc.get_traced_memory()[1]

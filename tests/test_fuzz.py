@@ -10,7 +10,6 @@ import math
 import os
 import re
 import tempfile
-import time
 import tomllib
 from pathlib import Path
 
@@ -27,8 +26,6 @@ from berryshaker.errors import ConfigError, GeometryError
 runner = CliRunner()
 WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-"))
 set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
-#: longest a single example may take (a hang or a huge allocation shows up here first)
-SLOW_S = 10.0
 #: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
 EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
 
@@ -123,11 +120,13 @@ def mutated_text(drive: str, leaf: int, value, how: int | None) -> tuple[str, st
     return "\n".join(lines) + "\n", key
 
 
-def load_and_check(path: Path) -> None:
-    """What `config validate` does: load, the drive's check, plausibility warnings."""
+def load_and_check(path: Path):
+    """What `config validate` does: load, the drive's check, plausibility warnings; returns the machine."""
     m = load_machine(path)
     validate_machine(m)
-    machine_warnings(m)
+    warnings = machine_warnings(m)
+    assert m.DRIVE in REFERENCE and isinstance(warnings, list), (type(m), warnings)
+    return m
 
 
 # ---- (a) one-field mutations of the reference machines ---------------------------------------------------
@@ -138,12 +137,10 @@ def test_one_field_mutation_is_a_machine_or_a_config_error(drive, leaf, value, h
     text, key = mutated_text(drive, leaf, value, how)
     path = WORK / "mutated.toml"
     path.write_text(text, encoding="utf-8", errors="surrogatepass")
-    t0 = time.perf_counter()
     try:
         load_and_check(path)
     except (ConfigError, GeometryError) as exc:
         assert str(exc).strip(), key
-    assert time.perf_counter() - t0 < SLOW_S, f"{key}: took {time.perf_counter() - t0:.1f} s"
 
 
 @fuzz(40)
@@ -154,9 +151,11 @@ def test_corrupted_files_are_config_errors(data, cut):
     path = WORK / "corrupt.toml"
     path.write_bytes(raw[:cut] + data + raw[cut:cut + 200])
     try:
-        load_and_check(path)
-    except (ConfigError, GeometryError):
-        pass
+        m = load_and_check(path)
+    except (ConfigError, GeometryError) as exc:
+        assert str(exc).strip() and "Traceback" not in str(exc), (cut, data)
+    else:  # the garbage landed in a comment or a string the description does not read: still the reference drive
+        assert m.DRIVE == "groove_cam", (cut, data)
 
 
 # ---- (b) command-line argument variants ------------------------------------------------------------------
@@ -181,10 +180,8 @@ clearance_specs = st.one_of(
 @given(spec=clearance_specs)
 def test_simulate_clearance_variants(spec):
     args = ["simulate", "--revolutions", "2", "--json", "--clearance", spec]
-    t0 = time.perf_counter()
     r = runner.invoke(app, args)
     _assert_clean_exit(r, args)
-    assert time.perf_counter() - t0 < SLOW_S
 
 
 @fuzz(40)

@@ -105,7 +105,7 @@ def test_entry_records_what_computed_it(tmp_path):
     e = json.loads(_entry(tmp_path, J.slow_square, kw).read_text())
     assert e["key"] == run_key(J.slow_square, kw) and e["fingerprint"] == R.code_fingerprint()
     assert e["fn"] == "runner_jobs.slow_square" and len(e["kwargs_sha256"]) == 64 and len(e["value_sha256"]) == 64
-    assert e["value"]["y"] == 4.0 and 0.04 < e["wall_s"] < 1.0
+    assert e["value"]["y"] == 4.0 and e["wall_s"] > 0.04  # the job sleeps 0.05 s (no upper bound: a busy host)
 
 
 def test_worker_reuses_an_entry_written_by_another_sweep(tmp_path):
@@ -145,14 +145,14 @@ def test_stats_keep_the_cold_cost(tmp_path):
     jobs = [dict(x=float(i), delay=0.15) for i in range(4)]
     cold = _runner(tmp_path)
     cold.values(J.slow_square, jobs)
-    assert cold.stats["computed"] == 4 and cold.stats["compute_s"] == pytest.approx(0.6, abs=0.15)
+    assert cold.stats["computed"] == 4 and cold.stats["compute_s"] > 0.55  # four runs that sleep 0.15 s each
     warm = _runner(tmp_path)
     warm.values(J.slow_square, jobs)
     s = warm.stats
-    assert s["cached"] == 4 and s["compute_s"] == 0.0 and s["elapsed_s"] < 0.3
+    assert s["cached"] == 4 and s["compute_s"] == 0.0
     assert s["cached_compute_s"] == pytest.approx(cold.stats["compute_s"], rel=1e-9)
     assert s["cold_compute_s"] == pytest.approx(cold.stats["compute_s"], rel=1e-9)
-    assert "cold cost 0.6 s of compute" in warm.summary_line()
+    assert f"cold cost {cold.stats['compute_s']:.1f} s of compute" in warm.summary_line()
 
 
 def test_failures_are_recorded_not_cached_and_duplicates_run_once(tmp_path):
@@ -272,11 +272,9 @@ def test_workers_that_die_whatever_they_run_end_the_retries(tmp_path):
     row the rest fail at once, each with the pool's error, instead of a pool per run."""
     jobs = [dict(x=float(i), bad=float(i)) for i in range(6)]
     with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
-        t0 = time.perf_counter()
         out = r.map(J.crash_at, jobs)
         assert all(o.error and o.error.startswith(R.WORKER_DEATH) for o in out)
         assert sum("may not start at all" in o.error for o in out) == 3 and r.stats["failed"] == 6
-        assert time.perf_counter() - t0 < 60
         assert r.map(J.slow_square, [dict(x=2.0, delay=0.0)])[0].value["y"] == 4.0  # a new pool serves on
 
 
@@ -384,7 +382,8 @@ def test_unreachable_scheduler_is_a_quick_config_error(tmp_path):
         r.check_scheduler()
     with pytest.raises(ConfigError, match="omit --scheduler"):
         r.map(J.square, [dict(x=1.0)])
-    assert time.perf_counter() - t0 < 8.0
+    # a hang guard, not a benchmark: with the 1.5 s timeout ignored, Dask waits its own 30 s connect timeout per call
+    assert time.perf_counter() - t0 < 25.0
 
 
 # ---- interruption and a killed parent (real processes) -------------------------------------------------
@@ -443,14 +442,14 @@ def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
         cache = tmp_path / "cache"
         assert _wait_for(lambda: len(list(cache.rglob("*.json"))) >= 3, 20), "no run finished"
         children = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
-        t0 = time.monotonic()
         os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does: the whole process group
         _, err = proc.communicate(timeout=10)
-        took = time.monotonic() - t0
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert proc.returncode == 130 and took < 4.0, (proc.returncode, took, err)
+    # promptly: it stopped with most of the 40 runs not done (entries < len(jobs) below); communicate(timeout=10)
+    # is the hang guard
+    assert proc.returncode == 130, (proc.returncode, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "run the same command again" in lines[0], err
     entries = [read_cache_entry(p, p.stem)[0] for p in cache.rglob("*.json")]
