@@ -10,7 +10,6 @@ import contextlib
 import json
 import math
 import re
-import time
 
 import pint
 import pytest
@@ -28,7 +27,6 @@ from berryshaker.units import LIMITS, parse_quantity
 from test_fuzz import REFERENCE, WORK, fuzz
 
 runner = CliRunner()
-FAST_S = 2.0  # a strict parse is instant; pint's evaluator on "9**9**9" never returns
 
 
 def _leaves(text: str) -> list[tuple[int, str, str]]:
@@ -145,7 +143,6 @@ def no_pint_expressions():
        tail=st.sampled_from(EXPRESSIONS))
 def test_unit_expressions_are_refused_at_once_everywhere(number, unit, tail):
     text = f"{number} {unit}{tail}"
-    t0 = time.perf_counter()
     i = next(i for d, i, k, _, _ in DIMENSIONAL if d == "groove_cam" and k == "driveline.motor.rated_power")
     with no_pint_expressions():
         with pytest.raises(ConfigError):
@@ -154,7 +151,6 @@ def test_unit_expressions_are_refused_at_once_everywhere(number, unit, tail):
             _load_text(_with("groove_cam", i, json.dumps(text)))
         with pytest.raises(ConfigError, match="--factor"):
             parse_factor(f"A=1,2,3{unit}{tail.replace(',', '').replace(' ', '')}")
-    assert time.perf_counter() - t0 < FAST_S
 
 
 @fuzz(20)
@@ -163,13 +159,11 @@ def test_sheet_units_never_reach_pint_expressions(tail):
     df = plan_table("L9", [parse_factor(s) for s in ("A=1,2,3mm", "B=1,2,3mm")])
     df = df.rename(columns={"A_mm": f"A_{tail}"})
     df["efficiency_kg_min"] = 4.0
-    t0 = time.perf_counter()
     with no_pint_expressions():
         try:
             read_results(df.to_csv(index=False), ["efficiency"])
-        except ConfigError:
-            pass
-    assert time.perf_counter() - t0 < FAST_S
+        except ConfigError as exc:  # refused: with a message that names the column
+            assert str(exc) and "A_" in str(exc), exc
 
 
 # ---- bounds: nothing accepted by loading fails later -------------------------------------------------------

@@ -18,7 +18,6 @@ import json
 import os
 import stat
 import tempfile
-import time
 from pathlib import Path, PurePosixPath
 
 import pytest
@@ -35,7 +34,6 @@ runner = CliRunner()
 WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-outputs-"))
 set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
 #: longest a refusal may take (it comes before any work)
-SLOW_S = 10.0
 #: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
 EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
 
@@ -427,11 +425,9 @@ def test_out_of_range_flags_are_one_message_before_any_work(which, data):
     args = [a.replace("CASE", str(case)) for a in head] + [flag, str(value), "--cache", str(case / "cache")]
     if which.startswith(("cam-profile", "compare")):
         args = args[:-2]
-    t0 = time.perf_counter()
     r = runner.invoke(app, args)
     assert r.exit_code == 2, f"{args}: exit {r.exit_code}\n{r.output}\n{r.exception!r}"
     assert "Traceback" not in r.output and flag in r.output, (args, r.output)
-    assert time.perf_counter() - t0 < SLOW_S
     assert not (case / "cam.csv").exists()
 
 

@@ -110,18 +110,29 @@ def test_check_output_file(tmp_path):
         check_output_file(blocker / "deeper" / "s.csv")
 
 
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="permissions do not bind root")
 def test_unwritable_parent_is_refused(tmp_path):
+    """A folder the process may not write into is refused before any work.  Permission bits do not bind root (CI
+    runs as root), so as root the folder is made immutable (``chattr +i``: not even root may create a file in it)."""
+    import shutil
+
     ro = tmp_path / "ro"
     ro.mkdir()
-    ro.chmod(0o500)
+    if os.geteuid() == 0:
+        assert shutil.which("chattr"), "chattr (e2fsprogs) is needed to make a folder unwritable for root"
+        subprocess.run(["chattr", "+i", str(ro)], check=True)
+        undo = ["chattr", "-i", str(ro)]
+    else:
+        ro.chmod(0o500)
+        undo = ["chmod", "700", str(ro)]
     try:
+        with pytest.raises(OSError):  # the precondition: this process really cannot write there
+            (ro / "probe").write_text("")
         with pytest.raises(OutputError, match="permission"):
             check_output_file(ro / "s.csv")
         with pytest.raises(OutputError, match="permission"):
             prepare_output_dir(ro / "out")
     finally:
-        ro.chmod(0o700)
+        subprocess.run(undo, check=True)
 
 
 def test_staged_directory_writes_marker_and_leaves_no_staging(tmp_path):

@@ -182,7 +182,6 @@ def test_repeated_study_comes_from_the_cache(study_out, fast_config, tmp_path):
     s = json.loads(r.stdout)
     assert s["runs"]["cached"] == s["runs"]["runs"] and s["runs"]["failed"] == 0
     assert s["optimum"] == first["optimum"]  # same config, same numbers
-    assert s["timings_s"]["total"] < first["timings_s"]["total"]
 
 
 def test_failed_study_leaves_an_existing_folder_untouched(fast_config, tmp_path, monkeypatch):
