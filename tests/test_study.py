@@ -281,7 +281,9 @@ def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tm
                                 str(cache), "--workers", "1", "--json"])
     assert r.exit_code == 0, r.output
     s = json.loads(r.stdout)
-    assert len(s["failures"]) == 1 and "exploded" in s["failures"][0]["error"] and "row 7" in s["failures"][0]["inputs"]
+    # row 7 fails, alone and from each of its perturbed starts (harvest.replicates = 2 in the fast description)
+    assert len(s["failures"]) == 3 and all("exploded" in f["error"] for f in s["failures"])
+    assert "row 7" in s["failures"][0]["inputs"] and all("B 0.6 mm" in f["inputs"] for f in s["failures"])
     verdicts = {c["id"]: c["verdict"] for c in s["claims"]}
     assert verdicts[3] == "not comparable"  # needs row 7
     assert verdicts[1] != "not comparable" and s["optimum"] is not None

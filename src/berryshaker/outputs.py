@@ -8,6 +8,9 @@
   their sha256), so a later run of the same command may replace exactly those files while they are unchanged --
   and never a file the user put there or changed, a file another command wrote, or anything reached through a
   symlink.
+
+long module: destination checks, staging, the marker's ownership and digests and the atomic writers are one
+protocol; split, each part would need the others' private rules.
 """
 
 from __future__ import annotations

@@ -18,7 +18,8 @@ DRIVE_PACKAGES = {
 def get_drive(name: str):
     """The :class:`~berryshaker.drives.base.Drive` registered as ``name``."""
     if name not in DRIVE_PACKAGES:
-        raise ConfigError(f"unknown comb drive {name!r} in [machine] drive; drives: {', '.join(DRIVE_PACKAGES)}")
+        shown = repr(name) if len(repr(name)) <= 80 else f"{repr(name)[:60]}... ({len(str(name))} characters)"
+        raise ConfigError(f"unknown comb drive {shown} in [machine] drive; drives: {', '.join(DRIVE_PACKAGES)}")
     return importlib.import_module(DRIVE_PACKAGES[name]).DRIVE
 
 

@@ -27,6 +27,9 @@ factor's effect on it is significant; the scaling of a response (to combine it w
 range of run means over the whole design, fixed per response, so a noise-sized level difference is not
 stretched to 0..1 as a min-max scaling of each factor's level means would.  Levels whose composite
 score is within the Tukey-Kramer margin of the best are reported as not distinguishable from it.
+
+long module: the ANOVA, its error terms (pure or blocked), the level comparisons and the tiered optimum read each
+other's intermediate results; split, every half would import the other.
 """
 
 from __future__ import annotations

@@ -1,5 +1,9 @@
 """Self-contained HTML report of the study: every figure embedded (base64 PNG), numbers in tables, the
-resolved configuration and package version at the end.  Opens offline; no scripts."""
+resolved configuration and package version at the end.  Opens offline; no scripts.
+
+long module: the study report's sections are rendered here from the steps' results and share this module's table
+and figure helpers.
+"""
 
 from __future__ import annotations
 

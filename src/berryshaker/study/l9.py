@@ -20,6 +20,9 @@ confirmed against the trade-off table of the runs (:data:`CONFIRMATION_RULE`), w
 ANOVA's pure error with Tukey-Kramer simultaneous margins, so the table cannot call a noise-sized difference
 dominance that the ANOVA calls no effect; a tested run that still dominates the choice becomes the
 recommendation.
+
+long module: the L9's jobs, its cells, the starts' convergence and sequential extension share the job and cell
+layout of one start; the trade-off confirmation reads the analysis it confirms.
 """
 
 from __future__ import annotations
