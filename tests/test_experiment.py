@@ -207,12 +207,12 @@ def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, env
 def test_stored_harvest_calibration_reproduces_the_study_values(machine):
     """yield and damage scale were calibrated (docs/harvest.md) to the study's chosen clearances, 3.93 kg/min and
     2.8 % [study], on the virtual L9's statistic: the replicate mean over perturbed starts
-    (benchmarks/calibrate_harvest_replicates.py, ``harvest.replicates`` = 3 replicates).
+    (benchmarks/studies/calibrate_harvest_replicates.py, ``harvest.replicates`` = 3 replicates).
 
     The very statistic the values were fitted on: the 3 replicates of the L9's run A1B1C1F3 (9 coupled runs, the
     L9's jobs, ~45 s of CPU since the greased pairs' impact-velocity floor removed the step blow-ups, docs/contact.md
     sec. 6.4).  A single replicate is no check: replicate efficiencies spread by ~16 % (SD over 12 replicates,
-    benchmarks/README.md sec. 9); the first one lies 2.3 % above the 3-replicate mean.  The stored values are the
+    benchmarks/HISTORY.md sec. 9); the first one lies 2.3 % above the 3-replicate mean.  The stored values are the
     fit rounded to 4 digits (< 1e-4 relative), so the tolerances, 0.5 % and 0.02 points, fail if the stored
     calibration is stale (the refit after the floor moved the efficiency by 0.8 %)."""
     from berryshaker.harvest.virtual import calibrate_harvest
