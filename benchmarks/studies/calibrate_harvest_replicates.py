@@ -3,7 +3,11 @@
 Runs the replicated drive-pasts at the configured clearances (A1B1C1F3; ``harvest.replicates`` replicates,
 the L9's seeds and perturbation), prints the replicate-mean indexes with the stored values, fits
 ``yield_per_bush`` and ``damage_acceleration`` on the replicate mean, and prints the refit indexes and the CPU
-time.  Usage: ``python benchmarks/calibrate_harvest_replicates.py [replicates]``.
+time.  Usage: ``python benchmarks/studies/calibrate_harvest_replicates.py [replicates]``.
+
+The default it chooses: the reference machine's ``harvest.yield_per_bush`` and ``harvest.damage_acceleration``,
+stored in src/berryshaker/drives/groove_cam/reference.toml (which cites this script) and checked by
+tests/test_experiment.py; every earlier fit is listed in docs/harvest.md.  It prints the fit (no JSON written).
 """
 
 from __future__ import annotations
@@ -44,4 +48,9 @@ def main(replicates: int | None = None) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else None)
+    import argparse
+
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("replicates", nargs="?", type=int, default=None,
+                    help="replicates (default: the reference machine's harvest.replicates)")
+    main(ap.parse_args(sys.argv[1:]).replicates)
