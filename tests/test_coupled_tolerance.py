@@ -43,7 +43,7 @@ rtol    harvest indexes          peak collision force A / B / C / F          dri
 
 (Measured at the engine's velocity scale, 0.1 m/s; the coupled runs now hold their velocities at rtol x
 :data:`berryshaker.harvest.spec.COUPLED_VELOCITY_SCALE` = 1 m/s, chosen at rtol 1e-5 by
-benchmarks/coupled_velocity_scale_study.py against rtol 1e-7 at 0.1 m/s, and the tests below run at it.)
+benchmarks/studies/coupled_velocity_scale_study.py against rtol 1e-7 at 0.1 m/s, and the tests below run at it.)
 rtol 1e-5 is the loosest tolerance at which no response differs from rtol 1e-7 beyond 2 SE (1e-4 shifts pair A's
 peak force by +0.58 +- 0.23 SD for 10 % less CPU; 1e-6's drive-torque peak is a 2-SE chance), and it costs 16 %
 less per replicate job than the former default 1e-6 (21 % at the reference clearances).  Unripe rate and
@@ -137,7 +137,7 @@ def test_coupled_runs_default_to_the_chosen_tolerance():
 
 def test_coupled_runs_carry_the_studied_velocity_scale(monkeypatch):
     """The coupled mechanism holds its velocities' error at rtol x COUPLED_VELOCITY_SCALE (the scale chosen with
-    COUPLED_RTOL by benchmarks/coupled_velocity_scale_study.py), not at the harvester's or the engine's default
+    COUPLED_RTOL by benchmarks/studies/coupled_velocity_scale_study.py), not at the harvester's or the engine's default
     (a scale of its own is set, not inherited: the harvester's is 1 m/s too, so a distinct value is patched in),
     and the engine turns it into that absolute tolerance on every velocity state, the branch's modal ones too."""
     from berryshaker.harvest import coupled

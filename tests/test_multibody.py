@@ -83,7 +83,7 @@ def test_ideal_slider_crank_against_closed_form(spec):
 def exudyn_run(spec):
     exudyn = pytest.importorskip("exudyn", reason="Exudyn (independent reference engine) is not installed")
     assert exudyn
-    from berryshaker.validation.exudyn_slider_crank import run_exudyn_slider_crank
+    from exudyn_slider_crank import run_exudyn_slider_crank
 
     y0 = initial_state(spec)
     rec, _ = run_exudyn_slider_crank(spec, y0, duration=1.5e-3, step=2.5e-7)

@@ -7,7 +7,7 @@ using it after the callee's file changes (numba issue #6845).  The package has s
 ``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``, ``drives.groove_cam.mlsd`` ->
 ``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...; tests/test_compiled_cache.py finds them), and a
 stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path still ran
-the old one from ``integrate_sets``' entry (benchmarks/README.md sec. 21).
+the old one from ``integrate_sets``' entry (benchmarks/HISTORY.md sec. 21).
 
 So the package points numba at a folder named by a digest of every source file that mentions numba
 (:func:`compiled_sources_digest`): a change to any of them starts an empty folder, and an unchanged package finds

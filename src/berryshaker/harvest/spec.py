@@ -22,7 +22,7 @@ COUPLED_RTOL = 1e-5
 #: is held absolutely below rtol x this speed).  Applied as a number to every velocity state: the machine's
 #: (m/s, rad/s) and the branch's mass-normalised modal ones (m sqrt(kg)/s, rtol x |phi(z)| m/s at a point of
 #: mode shape phi(z): ~10x looser at the branch tip; the study checks the stem-force tables they feed).
-#: Chosen by benchmarks/coupled_velocity_scale_study.py: the loosest scale at which no response of 16
+#: Chosen by benchmarks/studies/coupled_velocity_scale_study.py: the loosest scale at which no response of 16
 #: replicates differs from rtol 1e-7 at the engine's 0.1 m/s beyond 2 standard errors (docs/harvest.md,
 #: "Solver tolerance of the coupled runs"); it was the engine's 0.1 m/s
 COUPLED_VELOCITY_SCALE = 1.0

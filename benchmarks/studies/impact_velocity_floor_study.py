@@ -1,5 +1,10 @@
 """Impact-velocity floor of lubricated pairs: is a restitution velocity v_floor a converged regularisation?
 
+The study behind the lubricated (greased) pairs' default ``restitution_velocity`` of 1 mm/s (the largest floor with
+no effect; 3 mm/s raises the collision forces' 95th percentiles): cited by ``src/berryshaker/contact/pair_law.py``,
+docs/contact.md sec. 6.4 and tests/test_impact_velocity_floor.py; its history is benchmarks/HISTORY.md sec. 9.
+Writes benchmarks/studies/results/impact_velocity_floor.json (the ``run`` command's path; ~25 min).
+
 The hysteresis laws divide their damping by max(v_imp, v_ref) (docs/contact.md sec. 6.4).  For each
 ``v_floor`` of ``--floors`` (m/s; 0 = the published law, with the kernel's own 1e-6 m/s floor on v_imp) the
 reference machine runs with ``restitution_velocity = v_floor`` on all four pairs:
@@ -23,21 +28,19 @@ interrupted measurement resumes.
 
 Usage::
 
-    .venv/bin/python benchmarks/bench_impact_velocity_floor.py run /tmp/floor.json [--part plain|coupled|both]
+    .venv/bin/python benchmarks/studies/impact_velocity_floor_study.py run [PATH] [--part plain|coupled|both]
         [--floors 0 1e-5 3e-5 1e-4 3e-4 1e-3] [--sets 8] [--replicates 6]
-    .venv/bin/python benchmarks/bench_impact_velocity_floor.py table /tmp/floor.json [/tmp/more_floors.json ...]
+    .venv/bin/python benchmarks/studies/impact_velocity_floor_study.py table PATH [MORE_PATHS ...]
 
-(benchmarks/README.md sec. 9).
+PATH defaults to benchmarks/studies/results/impact_velocity_floor.json.
 """
 
 from __future__ import annotations
 
-import os
-
 import argparse
+import os
 import json
 import math
-import sys
 import time
 from pathlib import Path
 
@@ -47,8 +50,7 @@ import numpy as np
 # one once compiled on this machine: multibody.specialised)
 os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "src"))
+RESULTS = Path(__file__).resolve().parent / "results" / "impact_velocity_floor.json"
 
 FLOORS = (0.0, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)
 HARVEST_KEYS = ("efficiency_kg_min", "damage_rate_pct", "unripe_rate_pct")
@@ -237,10 +239,10 @@ def table(args) -> None:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("run", help="measure (resumes from the JSON file)")
-    r.add_argument("path")
+    r.add_argument("path", nargs="?", default=str(RESULTS))
     r.add_argument("--part", choices=("plain", "coupled", "both"), default="both")
     r.add_argument("--floors", type=float, nargs="+", default=list(FLOORS))
     r.add_argument("--sets", type=int, default=8, help="drawn clearance sets besides the reference (plain)")

@@ -1,4 +1,7 @@
-"""The convergence study behind ``harvest.spec.COUPLED_VELOCITY_SCALE`` (benchmarks/README.md sec. 28).
+"""The convergence study behind ``harvest.spec.COUPLED_VELOCITY_SCALE`` (1 m/s), the velocity scale of every coupled
+machine-plant run's error control.  Cited by ``src/berryshaker/harvest/spec.py`` (``COUPLED_VELOCITY_SCALE``),
+docs/harvest.md ("Solver tolerance of the coupled runs") and tests/test_coupled_tolerance.py; its history is
+benchmarks/HISTORY.md sec. 28.  Writes benchmarks/studies/results/coupled_velocity_scale.json (``--out``).
 
 The coupled machine-plant runs (the virtual L9's replicates, the calibration, the harvest against frequency) hold
 a velocity's error absolutely below rtol x the velocity scale.  For each candidate scale, 16 replicates of the
@@ -10,7 +13,7 @@ of every clearance pair, drive torque peak and RMS) and, finer than the indexes,
 class's peak stem-force table.  Printed per scale: step attempts and CPU per replicate job, the responses beyond
 2 SE (a systematic shift) and beyond the test's bound (1 SD).
 
-    .venv/bin/python benchmarks/coupled_velocity_scale_study.py [--replicates 16] [--scales 0.1 1 3 10]  # ~6 min
+    .venv/bin/python benchmarks/studies/coupled_velocity_scale_study.py [--replicates 16] [--scales 0.1 1 3 10]  # ~6 min
 """
 
 from __future__ import annotations
@@ -30,6 +33,8 @@ from berryshaker.harvest.virtual import replicate_seeds, sample_population, stem
 from berryshaker.multibody.perturbation import RandomInitialPerturbation
 from berryshaker.study.l9 import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_record
+
+from _results import default_out, write_results  # benchmarks/studies/ (the script's own folder) is on sys.path
 
 # the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
 # one once compiled on this machine: multibody.specialised)
@@ -90,11 +95,15 @@ def main() -> None:
     ap.add_argument("--replicates", type=int, default=16)
     ap.add_argument("--scales", type=float, nargs="+", default=[0.1, 1.0, 3.0, 10.0], help="m/s")
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", default=str(default_out("coupled_velocity_scale")), help="JSON of the results")
     a = ap.parse_args()
+    data = {"clearance_m": CLEARANCE, "coupled_rtol": COUPLED_RTOL, "reference": {"rtol": REFERENCE[0],
+            "velocity_scale_m_s": REFERENCE[1]}, "scales": []}
     with multiprocessing.get_context("fork").Pool(a.workers) as pool:
         ref, ref_att, ref_cpu = responses(pool, *REFERENCE, a.replicates)
         print(f"reference rtol {REFERENCE[0]:g}, {REFERENCE[1]:g} m/s: {ref_att:.0f} attempts, {ref_cpu:.3f} s CPU "
               f"per job; {a.replicates} replicates")
+        data["reference"].update(attempts_per_job=ref_att, cpu_s_per_job=ref_cpu)
         for scale in a.scales:
             cur, att, cpu = responses(pool, COUPLED_RTOL, scale, a.replicates)
             v = paired(cur, ref)
@@ -105,6 +114,10 @@ def main() -> None:
                 rel = float(np.mean(cur[n]) / np.mean(ref[n]) - 1.0) if np.mean(ref[n]) else 0.0
                 print(f"  {n:34s} {m:+.2f} +- {se:.2f} SD  (means {100 * rel:+.2f} %)")
             print(f"  beyond 2 SE: {shifted or 'none'}; beyond the test's bound (1 SD, SE 0.5): {beyond or 'none'}")
+            data["scales"].append({"velocity_scale_m_s": scale, "attempts_per_job": att, "cpu_s_per_job": cpu,
+                                   "paired_difference_sd": {n: {"mean": m, "se": se} for n, (m, se) in v.items()},
+                                   "beyond_2se": sorted(shifted), "beyond_test_bound": beyond})
+    write_results(a.out, "coupled_velocity_scale", vars(a), data)
 
 
 if __name__ == "__main__":

@@ -4,7 +4,7 @@ Runs the perturbed starts at the configured clearances (A1B1C1F3) sequentially, 
 does (:func:`berryshaker.study.l9.sequential_starts`: batches of ``harvest.replicates`` starts until every harvest
 index's standard error is within ``harvest.se_target`` of its mean), prints the indexes at the stored values, fits
 ``yield_per_bush`` and ``damage_acceleration`` on the converged mean and prints them with their standard errors.
-Usage: ``python benchmarks/calibrate_harvest_replicates.py [--workers N] [--cache DIR]``.
+Usage: ``python benchmarks/studies/calibrate_harvest_replicates.py [--workers N] [--cache DIR]``.
 """
 
 from __future__ import annotations

@@ -1,6 +1,9 @@
-"""Benchmark: berryshaker's multibody engine vs Exudyn with its BUILT-IN C++ contact, at matched accuracy.
+"""The ladder behind the suite's Exudyn comparison (test_exudyn.py): berryshaker's multibody engine vs Exudyn with
+its BUILT-IN C++ contact, every setting of both, errors and costs, and the matched-accuracy tables.  Not collected
+by pytest (no ``test_`` prefix): rerun it when the engine's accuracy per rtol changes, and set
+``test_exudyn.MATCHED`` from its ladders.
 
-Run:  .venv/bin/python benchmarks/bench_exudyn_contact.py [--quick]
+Run:  .venv/bin/python benchmarks/suite/exudyn_contact_ladder.py [--quick]   (~4 min; --quick ~30 s)
 
 Model: the clearance slider-crank of examples/slider_crank_clearance.toml with the contact law switched
 from Lankarani-Nikravesh to Hunt-Crossley (e = 0.9, n = 1.5, Hertz pin-in-bore stiffness), because that
@@ -38,9 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "src"))
-sys.path.insert(0, str(ROOT / "benchmarks"))
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # exudyn_models beside this file
 
 from berryshaker.multibody.engine import initial_state, simulate_mechanism  # noqa: E402
 from berryshaker.multibody.spec import load_mechanism, mechanism_from_dict  # noqa: E402

@@ -1,4 +1,7 @@
-"""The convergence study behind ``drives.base.HARVESTER_VELOCITY_SCALE`` (benchmarks/README.md sec. 25).
+"""The convergence study behind ``drives.base.HARVESTER_VELOCITY_SCALE`` (1 m/s), the velocity scale of a harvester
+run's error control on every drive.  Cited by ``src/berryshaker/drives/base.py`` (``HARVESTER_VELOCITY_SCALE``) and
+docs/multibody.md ("Integrator"); its history is benchmarks/HISTORY.md sec. 25.  Writes
+benchmarks/studies/results/velocity_scale_<drive>.json (``--out``).
 
 For one drive, ensembles of 8 seeded perturbed starts x 6 cam revolutions at rtol 1e-5 and several velocity
 scales (``simulation.velocity_scale``: the velocities' absolute tolerance is rtol x scale) are compared, statistic
@@ -6,22 +9,24 @@ by statistic, with the reference ensemble at rtol 1e-7 and the engine's 0.1 m/s,
 tests/test_multibody_convergence.py (``compare``); printed per scale: step attempts, CPU per run, the statistics
 failing that criterion, and those whose difference exceeds twice its standard error (a systematic shift).
 
-    .venv/bin/python benchmarks/velocity_scale_study.py groove_cam      # ~3 min
-    .venv/bin/python benchmarks/velocity_scale_study.py crank_rocker
+    .venv/bin/python benchmarks/studies/velocity_scale_study.py groove_cam      # ~3 min
+    .venv/bin/python benchmarks/studies/velocity_scale_study.py crank_rocker
 """
 
 from __future__ import annotations
 
+import argparse
 import os
-
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
+
+from _results import default_out, write_results  # noqa: E402  (benchmarks/studies/, the script's own folder)
 
 from test_multibody_convergence import compare, summary_statistics  # noqa: E402
 
@@ -55,9 +60,18 @@ def ensemble(drive: str, rtol: float, scale: float):
     return {k: np.array([r[k] for r in runs]) for k in runs[0]}, float(np.mean(attempts)), cpu / STARTS
 
 
-def main(drive: str) -> None:
+def main(argv=None) -> None:
+    """Run the ensembles of one drive, print and write the comparison."""
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("drive", nargs="?", default="groove_cam", help="groove_cam (default) or crank_rocker")
+    ap.add_argument("--out", default=None, help="JSON of the results (default results/velocity_scale_<drive>.json)")
+    a = ap.parse_args(argv)
+    drive = a.drive
     ref, n_ref, c_ref = ensemble(drive, 1e-7, 0.1)
     print(f"{drive}: reference rtol 1e-7, 0.1 m/s: {n_ref:.0f} step attempts, {c_ref:.3f} s per run")
+    data = {"drive": drive, "starts": STARTS, "revolutions": REVOLUTIONS,
+            "reference": {"rtol": 1e-7, "velocity_scale_m_s": 0.1, "attempts_per_run": n_ref, "cpu_s_per_run": c_ref},
+            "scales": []}
     for scale in SCALES:
         e, n, c = ensemble(drive, 1e-5, scale)
         res = compare(e, ref)
@@ -66,7 +80,12 @@ def main(drive: str) -> None:
                   if abs(v["difference"]) > 2 * v["se"]}
         print(f"rtol 1e-5, {scale:g} m/s: {n:.0f} attempts, {c:.3f} s per run; failing {fails or 'none'}; "
               f"shifts beyond 2 SE ({len(shifts)}): {shifts}", flush=True)
+        data["scales"].append({"rtol": 1e-5, "velocity_scale_m_s": scale, "attempts_per_run": n, "cpu_s_per_run": c,
+                               "failing": fails, "beyond_2se": sorted(shifts),
+                               "statistics": {k: {"difference": v["difference"], "se": v["se"], "ok": bool(v["ok"])}
+                                              for k, v in res.items()}})
+    write_results(a.out or default_out(f"velocity_scale_{drive}"), "velocity_scale", vars(a), data)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "groove_cam")
+    main()
