@@ -225,7 +225,7 @@ def test_tolerance_flags_a_force_that_falls_with_clearance_beyond_the_noise():
 
 
 def test_stored_calibration_reproduces_the_study_values_on_its_own_statistic(machine, convergence, spread_runner):
-    """yield_per_bush and damage_acceleration were fitted (benchmarks/calibrate_harvest_replicates.py) to the
+    """yield_per_bush and damage_acceleration were fitted (benchmarks/studies/calibrate_harvest_replicates.py) to the
     study's 3.93 kg/min and 2.8 % at A1B1C1F3 on the mean over the sequential starts the study's calibration step
     uses (the first starts of the convergence's, shared through the cache).  The stored values are the fit rounded
     to 4 digits, so 0.5 % and 0.02 points fail if the calibration is stale; they are "fitted", never evidence."""

@@ -84,7 +84,7 @@ class StudyContext:
         """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
         a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
         virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
-        benchmarks/README.md sec. 22.)  The figure functions set their whole style themselves
+        benchmarks/HISTORY.md sec. 22.)  The figure functions set their whole style themselves
         (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
         by a program that calls :func:`run_study` does not reach the workers."""
         import pickle
@@ -184,7 +184,7 @@ def step_agreement(ctx: StudyContext) -> StepResult:
 
 
 #: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
-#: comparisons allow for (benchmarks/README.md sec. 26)
+#: comparisons allow for (benchmarks/HISTORY.md sec. 26)
 MODEL_CHECK_STARTS = 8
 
 
@@ -211,7 +211,7 @@ def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
         plans.append(PlannedRuns(multibody_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} perturbed starts, "
                                                        "multibody"))
         # (started with the multibody runs, after the engine step: beside the engine's compilation on two cores
-        # they slowed it by more than they took, benchmarks/README.md sec. 26)
+        # they slowed it by more than they took, benchmarks/HISTORY.md sec. 26)
         plans.append(PlannedRuns(reduced_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} turned starts, {name}"))
     return plans
 
