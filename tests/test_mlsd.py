@@ -311,3 +311,45 @@ def test_simulate_cli_json_and_outputs(tmp_path):
     assert header.startswith("time_s,cam_angle_deg") and "F_A_N" in header
     r = runner.invoke(app, ["simulate", "--clearance", "B=-2mm", "--out", str(tmp_path / "bad")])
     assert r.exit_code == 2 and "negative" in r.stderr and not (tmp_path / "bad").exists()
+
+
+def test_chunked_integration_is_bitwise_one_call(machine, monkeypatch):
+    """The MLSD integrates in chunks (Ctrl-C is seen between them): any chunk length gives bitwise the same run,
+    and a jammed chunk is checked between them, so chunks must resume the step sequence exactly."""
+    import berryshaker.drives.groove_cam.mlsd as mlsd
+
+    sizes = {"A": 0.25e-3, "B": 0.2e-3, "C": 0.1e-3, "F": 0.2e-3}
+    whole = simulate_mlsd(machine, sizes, revolutions=2, start_angle=0.7)
+    monkeypatch.setattr(mlsd, "CHUNK_STEPS", 997)  # ~30 chunks, ending anywhere: inside a cut, after a rejection
+    parts = simulate_mlsd(machine, sizes, revolutions=2, start_angle=0.7)
+    assert parts.steps + parts.rejected > 20 * 997
+    for name in ("state", "results", "peaks"):
+        assert np.array_equal(getattr(whole, name), getattr(parts, name)), name
+    assert (whole.steps, whole.rejected, whole.event_cuts, whole.onsets) == (
+        parts.steps, parts.rejected, parts.event_cuts, parts.onsets)
+
+
+def test_self_locking_limit_of_the_reference_guide(machine):
+    """The push rod's self-locking limit (kinematics.self_locking_limit) against a hand calculation at the angle it
+    names: mu_lim = L / ((|x_A - x_G| + |x_A - x_H|) |tan alpha|); a friction at it is refused by name."""
+    from berryshaker.drives.groove_cam.kinematics import check_self_locking, self_locking_limit
+    from berryshaker.kinematics.cam import follower_svaj, pressure_angle
+
+    lock = self_locking_limit(machine)
+    c, rod = machine.cam, machine.push_rod
+    s, ds = (v[0] for v in follower_svaj(np.array([lock.cam_angle]), c.stroke, c.rise_angle, c.far_dwell_angle,
+                                         c.return_angle, c.law)[:2])
+    alpha = float(pressure_angle(s, ds, c.s0, c.offset))
+    xa = c.s0 + s
+    hand = abs(rod.bearing_H_x - rod.bearing_G_x) / (
+        (abs(xa - rod.bearing_G_x) + abs(xa - rod.bearing_H_x)) * abs(math.tan(alpha)))
+    assert lock.mu_limit == pytest.approx(hand, rel=1e-12) and lock.pressure_angle == pytest.approx(alpha)
+    assert 0.9 < lock.mu_limit < 1.0  # the reference: 0.949, against its 0.05
+    assert lock.overhang == pytest.approx(rod.bearing_G_x - xa)
+    check_self_locking(machine)
+    locked = machine.model_copy(update={"push_rod": rod.model_copy(update={"friction_coefficient": lock.mu_limit})})
+    with pytest.raises(ConfigError, match=r"push_rod.friction_coefficient = 0.94\d* self-locks"):
+        check_self_locking(locked)
+    # a longer guide, roller A inside it, raises the limit to 1 / |tan alpha| at most
+    inside = machine.model_copy(update={"push_rod": rod.model_copy(update={"bearing_G_x": 0.0})})
+    assert self_locking_limit(inside).mu_limit > lock.mu_limit

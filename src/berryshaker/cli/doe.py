@@ -77,6 +77,16 @@ def _plan_paths(out_file: Path) -> tuple[Path, Path]:
 FIELD_REPLICATES = 3
 
 
+def _check_replicates(replicates: int, what: str) -> None:
+    """Refuse ``--replicates`` above harvest.replicates' own bound (``harvest.spec.MAX_COUNT``) before any work."""
+    from berryshaker.harvest.spec import MAX_COUNT
+
+    if replicates > MAX_COUNT:
+        raise BerryshakerError(f"--replicates {replicates:,}: at most {MAX_COUNT:,} replicates per run (each replicate "
+                               f"multiplies the {what}; as for harvest.replicates, more is a slip of the number, "
+                               "not a plan)")
+
+
 @command(doe_app, "plan")
 def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
@@ -117,6 +127,7 @@ def doe_plan(
         if replicates is None:
             harvest = _load(config).harvest if config is not None else None
             replicates = harvest.replicates if harvest is not None else FIELD_REPLICATES
+        _check_replicates(replicates, "rows of the field sheet: it is printed and filled in by hand")
         df = plan_table(array, factors, randomize, seed, replicates=replicates)
         csv_text = df.to_csv(index=False)
         write_text_atomic(csv_path, csv_text)
@@ -330,7 +341,7 @@ def doe_virtual(
     sd_relative_error, stable), chosen, configured, rule, seeds, values.
 
     --json keys: runs (levels, clearance_mm, replicate means of efficiency/unripe/damage, replicates: per
-    response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the pure
+    response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the blocked
     error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
     optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
     rule in method, tiered_levels); paired (response -> factor -> the paired difference of the extreme levels,
@@ -356,6 +367,8 @@ def doe_virtual(
         machine = _load(config)
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
+        if replicates is not None:
+            _check_replicates(replicates, "coupled runs: 9 runs x 3 branch classes each")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         if convergence:
             from berryshaker.experiment.noise import describe_convergence

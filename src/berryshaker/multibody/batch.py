@@ -24,7 +24,8 @@ from numba import njit, prange
 from berryshaker.compiled_cache import kernel_choice
 from berryshaker.errors import BerryshakerError
 from berryshaker.multibody import kernel as mb
-from berryshaker.multibody.engine import MultibodyResult, PreparedRun, call_compiled, finish_run, prepare_run
+from berryshaker.multibody.engine import (MultibodyResult, PreparedRun, finish_run, integrate_in_chunks, prepare_run,
+                                          resumable)
 from berryshaker.multibody.spec import MechanismSpec
 from berryshaker.multibody.specialised import mark_compiled
 
@@ -82,11 +83,9 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     if numba.get_num_threads() == 1 or len(runs) == 1:
         t0 = time.perf_counter()
         for r in runs:
-            r.info[0] = r.budget
-            integrate = integrator(r.cm, r.specialised)
-            call_compiled(integrate, r.y, r.t_out, r.cm.model, r.state, r.work, r.rtol, r.atol, r.max_step,
-                          r.stats_from, r.out_y, r.out_e, r.out_lam, r.peaks, r.first, r.info)
-            if integrate is not mb.integrate:
+            integrate = resumable(integrator(r.cm, r.specialised))
+            integrate_in_chunks(integrate, r)  # in chunks: Ctrl-C stops it (the parallel call below cannot)
+            if integrate is not mb.integrate_resumable:
                 mark_compiled(r.cm.model, r.cm.n, integrate)  # later runs of the structure take it by default
         return time.perf_counter() - t0
     if any(r.specialised or (r.specialised is None and kernel_choice() == "specialised") for r in runs):

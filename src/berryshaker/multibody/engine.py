@@ -450,6 +450,10 @@ MAX_OUTPUT_SAMPLES = 2_000_000
 STEP_BUDGET_DT = 1e-6
 #: the budget is never below this many steps (short runs with many contact onsets)
 MIN_STEP_BUDGET = 200_000
+#: integrator steps per compiled call of a run (:func:`integrate_in_chunks`): between two chunks the run is back
+#: in Python, where Ctrl-C is seen; ~0.15 s of a harvester run's steps (7-8 us each), so a 2-revolution run is
+#: one chunk.  The results do not depend on it: a chunk resumes the step sequence exactly (bitwise)
+CHUNK_STEPS = 20_000
 
 
 def check_output_samples(duration: float, output_step: float,
@@ -699,7 +703,7 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     """
     run = prepare_run(spec, duration, rtol, output_step, max_step, y0, max_steps, initial_perturbation, series)
     cm, nf = run.cm, len(run.cm.frc_names)
-    integrate = integrator(cm, run.specialised if specialised is None else specialised)
+    integrate = resumable(integrator(cm, run.specialised if specialised is None else specialised))
     key = _argument_types(run)
     if key is not None:
         key = (integrate, key)
@@ -708,19 +712,43 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
         s2, w2 = _state_and_work(cm)
         call_compiled(integrate, run.y.copy(), run.t_out[:2] * 1e-9, cm.model, s2, w2, run.rtol, run.atol,
                       run.max_step, 0.0, np.zeros((2, 2 * cm.n)), np.zeros((2, nf, mb.N_EO)), np.zeros((2, cm.m)),
-                      np.zeros(nf), np.zeros((nf, mb.N_FIRST)), np.zeros(6))
+                      np.zeros(nf), np.zeros((nf, mb.N_FIRST)), np.zeros(6), np.zeros(mb.resume_size(2 * cm.n, nf)))
         if key is not None:
             _WARM.add(key)
     t0 = time.perf_counter()
-    run.info[0] = run.budget  # the kernel stops with status 4 when accepted + rejected steps reach it
-    call_compiled(integrate, run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step,
-                  run.stats_from, run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info)
+    integrate_in_chunks(integrate, run)
     wall = time.perf_counter() - t0
-    if integrate is not mb.integrate:
+    if integrate is not mb.integrate_resumable:
         from berryshaker.multibody.specialised import mark_compiled
 
         mark_compiled(cm.model, cm.n, integrate)  # compiled and cached: later runs of the structure take it
     return finish_run(run, wall)
+
+
+def resumable(integrate):
+    """The resumable form of a compiled integrator (``kernel.integrate`` or a specialised module's): the
+    ``integrate_resumable`` beside it, which :func:`integrate_in_chunks` calls."""
+    return getattr(integrate, "py_func", integrate).__globals__["integrate_resumable"]
+
+
+def integrate_in_chunks(integrate, run: "PreparedRun", chunk_steps: int | None = None) -> None:
+    """Run the compiled integrator ``integrate`` (``kernel.integrate_resumable`` or a specialised module's,
+    :func:`resumable`) on ``run``'s arrays in chunks of ``chunk_steps`` steps (its ``resume`` argument), back in Python between them, so that Ctrl-C
+    (KeyboardInterrupt) stops a long run within a chunk's time instead of after the whole run (numba's compiled
+    code does not see signals).  The step sequence, and so every result, is bitwise that of one call; the step
+    budget (``run.budget``, status 4) counts over the whole run.  Leaves the final status in ``run.info``.
+    ``chunk_steps``: default :data:`CHUNK_STEPS`."""
+    cm = run.cm
+    chunk_steps = CHUNK_STEPS if chunk_steps is None else int(chunk_steps)
+    resume = np.zeros(mb.resume_size(run.y.shape[0], len(cm.frc_names)))
+    while True:
+        run.info[0] = run.budget  # the kernel stops with status 4 when accepted + rejected steps reach it
+        run.info[3] = 0.0  # t_fail: written by a failure (and by a pause, which is none)
+        resume[mb.RS_LIMIT] = resume[mb.RS_ACC] + resume[mb.RS_REJ] + chunk_steps
+        call_compiled(integrate, run.y, run.t_out, cm.model, run.state, run.work, run.rtol, run.atol, run.max_step,
+                      run.stats_from, run.out_y, run.out_e, run.out_lam, run.peaks, run.first, run.info, resume)
+        if int(run.info[4]) != 5:  # 5: a chunk's end, resumable
+            return
 
 
 def integrator(cm: CompiledMechanism, specialised: bool | None = None):

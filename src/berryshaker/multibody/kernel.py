@@ -54,6 +54,14 @@ FF_TAB = 22
 # first run on a fresh install pays.
 #: entries of integrate's ``info``; a longer array gets the step-size histogram (STEP_* below)
 N_INFO = 6
+#: layout of integrate's optional ``resume`` array (a run in chunks): the step count at which to pause (<= 0:
+#: none), started flag, then the loop's state (time, step size, the size to resume with after an onset cut, the
+#: PI controller's last error, last step rejected, accepted / rejected / cut steps, largest constraint residual,
+#: next output sample), then the state y, the derivative at y (k[0]) and per force element the penetration, force
+#: and penetration rate at the last accepted step; :func:`resume_size` entries in all
+(RS_LIMIT, RS_STARTED, RS_T, RS_H, RS_H_RESUME, RS_ERR_OLD, RS_LAST_REJ, RS_ACC, RS_REJ, RS_CUTS, RS_MAX_RES,
+ RS_IO) = range(12)
+N_RESUME = 12
 #: columns of integrate's ``first``: first onset time, its impact velocity, the first episode's peak force, done
 #: flag (0 not yet, 1 in the first episode, 2 after it), impacts counted over the statistics window
 N_FIRST = 5
@@ -1121,6 +1129,11 @@ BETA = 0.04  # PI step-size control: weight of the previous step's error (Hairer
 EXPO1 = 0.2 - 0.75 * BETA
 
 
+def resume_size(ny: int, nf: int) -> int:
+    """Length of integrate's ``resume`` array for ``ny`` states and ``nf`` force elements."""
+    return N_RESUME + 2 * ny + 3 * nf
+
+
 @njit(cache=True)
 def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks,
               first, info):
@@ -1132,9 +1145,27 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     whose approach speed is at least :data:`IMPACT_COUNT_SPEED` (located onsets: the count does not depend on the
     output grid).
     info = [accepted, rejected, event cuts, t_fail, status (0 ok, 1 step underflow, 2 non-finite,
-    3 projection failed), max constraint residual]; an ``info`` longer than :data:`N_INFO` also receives the
+    3 projection failed, 4 step budget spent, 5 paused at a chunk's end: ``resume``), max constraint residual]; an
+    ``info`` longer than :data:`N_INFO` also receives the
     histogram of accepted step sizes, bin b counting h in 10^(STEP_HIST_LOG10_MIN + b / STEP_BINS_PER_DECADE) .. the
     next bin (the first and last bins take what falls outside).
+
+    One call of :func:`integrate_resumable` without a ``resume`` array.
+    """
+    integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks,
+                        first, info, None)
+
+
+@njit(cache=True)
+def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks,
+                        first, info, resume):
+    """:func:`integrate`, resumable.
+
+    ``resume`` (None, or :func:`resume_size` entries, layout ``RS_*``) runs the integration in chunks, so that a
+    long run returns to Python (where Ctrl-C is seen) now and then: with ``resume[RS_LIMIT] > 0`` the call returns
+    with status 5 once that many steps (accepted + rejected, from the run's start) are taken, its whole loop state
+    saved in ``resume``; the next call with the same arguments (``info[0]`` the budget again) continues from it
+    exactly as an uninterrupted run would (the same step sequence, bitwise).  ``y0`` is read at the start only.
     """
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
@@ -1163,16 +1194,21 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     # which the chaotic contact dynamics would amplify)
     psi_c_keep = np.empty(psi_c.shape[0])
     psi_f_keep = np.empty(psi_f.shape[0])
-    accelerations(t, y, model, state, work, k[0])
-    for j in range(lam.shape[0]):
-        lam_prev[j] = lam[j]
-    for j in range(nf):
-        pen_start[j] = eout[j, EO_PEN]
-        f_start[j] = abs(eout[j, EO_FN])
-        pdot_start[j] = eout[j, EO_PENDOT]
-    _write_sample(np.int64(0), y, eout, lam, out_y, out_e, out_lam)
+    resumed = False
+    if resume is not None:
+        resumed = resume[RS_STARTED] > 0.0
+    if not resumed:
+        accelerations(t, y, model, state, work, k[0])
+        for j in range(lam.shape[0]):
+            lam_prev[j] = lam[j]
+        for j in range(nf):
+            pen_start[j] = eout[j, EO_PEN]
+            f_start[j] = abs(eout[j, EO_FN])
+            pdot_start[j] = eout[j, EO_PENDOT]
+        _write_sample(np.int64(0), y, eout, lam, out_y, out_e, out_lam)
     h = min(h_max, 1e-6)
     budget = info[0]  # on entry: the step budget (accepted + rejected steps; <= 0: none)
+    stop = budget  # the step count at which the loop stops: the budget, or a chunk's end before it
     acc = 0
     rej = 0
     cuts = 0
@@ -1183,6 +1219,27 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     n_out = t_out.shape[0]
     t_end = t_out[n_out - 1]
     io = np.int64(1)
+    if resume is not None:
+        if resume[RS_LIMIT] > 0.0 and (budget <= 0.0 or resume[RS_LIMIT] < budget):
+            stop = resume[RS_LIMIT]
+        if resumed:
+            t = resume[RS_T]
+            h = resume[RS_H]
+            h_resume = resume[RS_H_RESUME]
+            err_old = resume[RS_ERR_OLD]
+            last_rejected = resume[RS_LAST_REJ] > 0.5
+            acc = int(resume[RS_ACC])
+            rej = int(resume[RS_REJ])
+            cuts = int(resume[RS_CUTS])
+            max_res = resume[RS_MAX_RES]
+            io = np.int64(resume[RS_IO])
+            for i in range(ny):
+                y[i] = resume[N_RESUME + i]
+                k[0, i] = resume[N_RESUME + ny + i]
+            for j in range(nf):
+                pen_start[j] = resume[N_RESUME + 2 * ny + j]
+                f_start[j] = resume[N_RESUME + 2 * ny + nf + j]
+                pdot_start[j] = resume[N_RESUME + 2 * ny + 2 * nf + j]
     while io < n_out:
         if t >= t_end - 1e-15:  # only reached with t_end within 1e-15 s: the remaining samples are the state
             for i in range(ny):
@@ -1191,12 +1248,33 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
             _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
             io += 1
             continue
-        if budget > 0.0 and acc + rej >= budget:
+        if stop > 0.0 and acc + rej >= stop:
             info[0] = acc
             info[1] = rej
             info[2] = cuts
             info[3] = t
             info[4] = 4
+            if resume is not None:
+                if stop < budget or budget <= 0.0:  # a chunk's end: save the loop's state (status 5)
+                    info[4] = 5
+                    resume[RS_STARTED] = 1.0
+                    resume[RS_T] = t
+                    resume[RS_H] = h
+                    resume[RS_H_RESUME] = h_resume
+                    resume[RS_ERR_OLD] = err_old
+                    resume[RS_LAST_REJ] = 1.0 if last_rejected else 0.0
+                    resume[RS_ACC] = acc
+                    resume[RS_REJ] = rej
+                    resume[RS_CUTS] = cuts
+                    resume[RS_MAX_RES] = max_res
+                    resume[RS_IO] = io
+                    for i in range(ny):
+                        resume[N_RESUME + i] = y[i]
+                        resume[N_RESUME + ny + i] = k[0, i]
+                    for j in range(nf):
+                        resume[N_RESUME + 2 * ny + j] = pen_start[j]
+                        resume[N_RESUME + 2 * ny + nf + j] = f_start[j]
+                        resume[N_RESUME + 2 * ny + 2 * nf + j] = pdot_start[j]
             return
         h_try = h if h < t_end - t else t_end - t
         # the stages' states, state index innermost (contiguous rows of k: the loops vectorise); each element

@@ -221,7 +221,7 @@ def specialised_integrator(model: tuple, n: int, m: int):
 
 def specialised_module(model: tuple, n: int, m: int):
     """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve``,
-    ``accelerations`` and ``integrate``), written to :func:`source_folder` if missing or different and imported
+    ``accelerations``, ``integrate_resumable`` and ``integrate``), written to :func:`source_folder` if missing or different and imported
     once per process."""
     key = structure_key(model, n)
     mod = _LOADED.get(key)
@@ -345,6 +345,6 @@ def specialised_source(model: tuple, n: int, m: int) -> str:
             "", ""]
     body = _constraints_source(ctype, cint, crow, m) + ["", ""] + _solve_source(cint, crow, plan, m)
     generic = []
-    for fn in (mb.accelerations, mb.integrate):
+    for fn in (mb.accelerations, mb.integrate_resumable, mb.integrate):
         generic += ["", ""] + inspect.getsource(fn.py_func).rstrip("\n").split("\n")
     return "\n".join(head + body + generic) + "\n"

@@ -11,8 +11,12 @@ from dataclasses import dataclass
 
 from berryshaker.runs.runner import RunResult
 
-#: most points one sweep may have (each is validated before the runner starts)
+#: most points one sweep may have (each is validated before the runner starts): each point is a simulation
+#: (0.1-0.5 s of a core for the MLSD and multibody models, seconds for a coupled harvest run), so the bound is
+#: already hours of CPU; more is a slip of the number or a sweep to split
 MAX_SWEEP_POINTS = 100_000
+#: validating this many points or more shows a progress bar (about 2 ms per point) when stderr is a terminal
+VALIDATE_PROGRESS_FROM = 2_000
 #: spacing of the written series of a sweep point's run (s), as in the reduced and multibody models
 SWEEP_OUTPUT_STEP = 1e-4
 
@@ -146,9 +150,11 @@ def point_machine(machine_data: dict, overrides: dict, revolutions: int = 3, che
 
 
 def validate_points(machine, params: list[SweepParam], points: list[list[float]], revolutions: int,
-                    limit: int = 8) -> None:
+                    limit: int = 8, progress: bool | None = None) -> None:
     """Validate every sweep point's machine before any run starts (values, clearance limits, geometry over
     the cycle, run length); refuse the sweep listing the first ``limit`` bad points with their errors.
+    ``progress``: show a progress bar on stderr (about 2 ms per point); default when there are at least
+    :data:`VALIDATE_PROGRESS_FROM` points and stderr is a terminal.
 
     Raises
     ------
@@ -158,16 +164,26 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
     from berryshaker.errors import BerryshakerError, ConfigError
 
     if len(points) > MAX_SWEEP_POINTS:
-        raise ConfigError(f"the sweep has {len(points):,} points, more than {MAX_SWEEP_POINTS:,}; use fewer "
-                          "--points or levels, or --method lhs")
+        raise ConfigError(f"the sweep has {len(points):,} points: at most {MAX_SWEEP_POINTS:,} runs per sweep; use "
+                          "fewer --points or levels, or split the sweep")
+    import sys
+
+    from rich.console import Console
+    from rich.progress import Progress
+
     data = machine.model_dump(mode="json")
     bad = []
-    for i, pt in enumerate(points):
-        try:
-            point_machine(data, overrides_of(params, pt), revolutions)
-        except BerryshakerError as exc:
-            where = ", ".join(f"{p.key} = {v:.6g}{' ' + p.unit if p.unit else ''}" for p, v in zip(params, pt))
-            bad.append(f"point {i + 1} ({where}): {str(exc).replace(chr(10), ' ')}")
+    if progress is None:
+        progress = len(points) >= VALIDATE_PROGRESS_FROM and sys.stderr.isatty()
+    with Progress(console=Console(stderr=True), transient=True, disable=not progress) as bar:
+        task = bar.add_task(f"validating {len(points):,} sweep points", total=len(points))
+        for i, pt in enumerate(points):
+            try:
+                point_machine(data, overrides_of(params, pt), revolutions)
+            except BerryshakerError as exc:
+                where = ", ".join(f"{p.key} = {v:.6g}{' ' + p.unit if p.unit else ''}" for p, v in zip(params, pt))
+                bad.append(f"point {i + 1} ({where}): {str(exc).replace(chr(10), ' ')}")
+            bar.advance(task)
     if bad:
         more = f"\n  ... and {len(bad) - limit} more" if len(bad) > limit else ""
         raise ConfigError(f"{len(bad)} of {len(points)} sweep points would be refused; nothing was run:\n  "
@@ -177,6 +193,44 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
 def overrides_of(params: list[SweepParam], point: list[float]) -> dict:
     """SI overrides (dotted key -> value) of one sampled point (values in each parameter's unit)."""
     return {p.key: float(v) * p.factor for p, v in zip(params, point)}
+
+
+def sweep_size(params: list[SweepParam], method: str, n: int) -> int:
+    """Runs of a sweep: ``n`` for lhs / montecarlo; for a grid the product of ``n`` per range and the number of
+    levels of each list (an exact integer, however large)."""
+    if method != "grid":
+        return n
+    size = 1
+    for p in params:
+        size *= len(p.values) if p.kind == "levels" else n
+    return size
+
+
+def check_sweep_size(params: list[SweepParam], method: str, n: int) -> int:
+    """Refuse a sweep of more than :data:`MAX_SWEEP_POINTS` runs before any work (sampling, validation, runs),
+    with the arithmetic that gives its size; returns the size.
+
+    Raises
+    ------
+    ConfigError
+        Too many runs; the message names ``--points``, the count, the bound and what to do instead.
+    """
+    from berryshaker.errors import ConfigError
+
+    size = sweep_size(params, method, n)
+    if size <= MAX_SWEEP_POINTS:
+        return size
+    why = (f"at most {MAX_SWEEP_POINTS:,} runs per sweep (each run is a simulation of 0.1 s to seconds of a core, "
+           "so the bound is hours already)")
+    if method == "grid":
+        ranges = sum(1 for p in params if p.kind != "levels")
+        terms = [f"--points {n:,}" + (f" ^ {ranges} ranges" if ranges > 1 else "")] if ranges else []
+        terms += [f"{len(p.values)} levels of {p.key}" for p in params if p.kind == "levels"]
+        count = f"{size:,}" if size < 10**12 else f"{float(size):.3g}"
+        raise ConfigError(f"the grid has {' x '.join(terms)} = {count} runs: {why}; use fewer --points or levels, "
+                          "split the sweep, or sample the ranges with --method lhs (--points samples in all)")
+    raise ConfigError(f"--points {n:,} with --method {method} is {n:,} runs: {why}; use fewer --points or split "
+                      "the sweep")
 
 
 def sample_params(params: list[SweepParam], method: str, n: int, seed: int | None) -> list[list[float]]:
@@ -192,14 +246,7 @@ def sample_params(params: list[SweepParam], method: str, n: int, seed: int | Non
         raise ConfigError("a sweep needs at least one --param KEY=VALUES")
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ConfigError(f"--points must be a whole number >= 1, got {n!r}")
-    size = n
-    if method == "grid":
-        size = 1
-        for p in params:
-            size *= len(p.values) if p.kind == "levels" else n
-    if size > MAX_SWEEP_POINTS:
-        raise ConfigError(f"the sweep would have {size:,} points, more than {MAX_SWEEP_POINTS:,}; use fewer "
-                          "--points or levels, or --method lhs")
+    check_sweep_size(params, method, n)
     if method == "grid":
         axes = []
         for p in params:

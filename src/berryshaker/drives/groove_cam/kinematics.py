@@ -3,7 +3,8 @@
 :func:`geometry_vector` packs a :class:`~berryshaker.config.Machine` into a flat float array that the
 compiled kernels read; :func:`ideal_state` evaluates the whole mechanism at one cam angle inside
 compiled code; :func:`cycle_kinematics` evaluates it on a grid (numpy arrays); :func:`check_machine`
-refuses a machine whose linkage cannot assemble or whose cam undercuts, naming the cam angle.
+refuses a machine whose linkage cannot assemble, whose cam undercuts or whose push rod self-locks in its guide
+(:func:`self_locking_limit`), naming the cam angle.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.errors import GeometryError
+from berryshaker.errors import ConfigError, GeometryError
 from berryshaker.kinematics.cam import (
     FOLLOWER_LAWS,
     _follower_svaj_scalar,
@@ -180,6 +181,8 @@ def check_machine(machine: Machine, allow_undercut: bool = False) -> CycleKinema
         The four-bar cannot assemble at some cam angle; the slot would have to pass through D; or the
         groove undercuts (|rho_pitch| <= r_r) and ``allow_undercut`` is False.  The message names the
         first cam angle where it fails.
+    ConfigError
+        The push rod self-locks in its guide (:func:`check_self_locking`).
     """
     kin = cycle_kinematics(machine)
     if not np.all(kin.assembled):
@@ -201,10 +204,107 @@ def check_machine(machine: Machine, allow_undercut: bool = False) -> CycleKinema
             f"radius of curvature {rho_min * 1e3:.2f} mm <= roller radius "
             f"{machine.cam.roller_radius * 1e3:.2f} mm (use a smaller roller, a larger base circle or "
             f"longer rise/return angles)")
+    check_self_locking(machine)
     return kin
 
 
-#: geometries (:func:`geometry_vector`, roller radius, undercut flag) that passed :func:`check_machine`, for
+@dataclass(frozen=True)
+class SelfLocking:
+    """The self-locking limit of the push rod in its guide (:func:`self_locking_limit`; SI)."""
+
+    mu_limit: float  # guide friction coefficient at which the cam can no longer drive the push rod (inf: never)
+    cam_angle: float  # rad, where the limit is lowest
+    pressure_angle: float  # rad, there
+    overhang: float  # m, roller A's distance outside the guide there (0: between the bearings)
+    guide_length: float  # m, |x_H - x_G|
+
+
+def self_locking_limit(machine: Machine, n: int = 3601) -> SelfLocking:
+    """The guide friction coefficient at which the push rod self-locks (jams) in its linear bearing.
+
+    The cam drives roller A (frame x_A = s0 + s) with a force F along the groove normal, at the pressure angle
+    alpha to the push-rod axis (:func:`berryshaker.kinematics.cam.pressure_angle`).  Its axial component
+    F cos(alpha) drives the rod; its lateral component F sin(alpha), applied at x_A, is carried by the guide's
+    bearings G and H (frame x_G, x_H; guide length L = |x_H - x_G|).  Moments about H and about G give the
+    bearing reactions (study eq. 10 with the cam's force alone)::
+
+        R_G = F sin(alpha) (x_A - x_H) / (x_G - x_H),   R_H = F sin(alpha) (x_G - x_A) / (x_G - x_H)
+
+    and Coulomb friction in both bearings resists the motion with mu (|R_G| + |R_H|) =
+    mu F |sin(alpha)| k, k = (|x_A - x_G| + |x_A - x_H|) / L (k = 1 with A between the bearings, (L + 2a) / L
+    with A an overhang a outside them).  The cam moves the rod only while its axial component exceeds that
+    friction, F cos(alpha) > mu k F |sin(alpha)|; since both sides grow with F, no cam force can move the rod
+    (it self-locks) once::
+
+        mu >= mu_lim(phi) = L / ((|x_A - x_G| + |x_A - x_H|) |tan(alpha)|)
+
+    This is the classical jamming condition of a translating follower in a guide of length L with overhang a,
+    tan(alpha) >= L / (mu (L + 2 a)) (Rothbart, Cam Design Handbook, McGraw-Hill 2004, forces and jamming of
+    translating followers; Norton, Design of Machinery, the pressure angle of a translating roller follower),
+    written for a contact point on either side of the guide.  The comb's load on roller B (the rocker slot) adds
+    friction in proportion to the load, not to the cam force, so it does not move the limit; the rod's inertia
+    neither.  The limit of the machine is the lowest over the cam angles at which the push rod moves
+    (|ds/dphi| > 0; in a dwell nothing needs to move), the same friction law as the MLSD model's guide
+    (:mod:`berryshaker.drives.groove_cam.mlsd`, ``coulomb_friction_kernel`` on |R_G| + |R_H|) and the multibody
+    model's prismatic guide with supports G, H.
+
+    Parameters
+    ----------
+    machine : Machine
+    n : int
+        Cam angles over one revolution.
+
+    Returns
+    -------
+    SelfLocking
+        ``mu_limit`` (inf when the pressure angle is zero wherever the rod moves) and where it is reached.
+    """
+    from berryshaker.kinematics.cam import follower_svaj, pressure_angle
+
+    c = machine.cam
+    phi = np.linspace(0.0, 2 * math.pi, n)
+    svaj = follower_svaj(phi, c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law)
+    s, ds = svaj[0], svaj[1]
+    alpha = pressure_angle(s, ds, c.s0, c.offset)
+    xg, xh = machine.push_rod.bearing_G_x, machine.push_rod.bearing_H_x
+    guide = abs(xh - xg)
+    xa = c.s0 + s
+    k = (np.abs(xa - xg) + np.abs(xa - xh)) / guide
+    tan_a = np.abs(np.tan(alpha))
+    moving = np.abs(ds) > 1e-9 * max(float(np.max(np.abs(ds))), 1e-300)
+    with np.errstate(divide="ignore"):
+        lim = np.where(moving & (tan_a > 0.0), 1.0 / (k * tan_a), np.inf)
+    i = int(np.argmin(lim))
+    over = max(0.0, min(xg, xh) - xa[i], xa[i] - max(xg, xh))
+    return SelfLocking(mu_limit=float(lim[i]), cam_angle=float(phi[i]), pressure_angle=float(alpha[i]),
+                       overhang=float(over), guide_length=float(guide))
+
+
+def check_self_locking(machine: Machine) -> SelfLocking:
+    """Refuse a push rod that self-locks in its guide (:func:`self_locking_limit`).
+
+    Raises
+    ------
+    ConfigError
+        ``push_rod.friction_coefficient`` is at or above the limit of this geometry; the message names the
+        limit, where it is reached and what to change.
+    """
+    lock = self_locking_limit(machine)
+    mu = machine.push_rod.friction_coefficient
+    if mu >= lock.mu_limit:
+        where = (f"roller A {lock.overhang * 1e3:.0f} mm outside the guide" if lock.overhang > 0
+                 else "roller A between the bearings")
+        raise ConfigError(
+            f"push_rod.friction_coefficient = {mu:g} self-locks the push rod in its guide: the limit of this "
+            f"geometry is {lock.mu_limit:.3g} (pressure angle {math.degrees(lock.pressure_angle):.1f} deg at cam "
+            f"angle {math.degrees(lock.cam_angle):.1f} deg, guide G-H {lock.guide_length * 1e3:.0f} mm, {where}); "
+            "above it no cam force can move the rod.  Lower the friction coefficient below the limit, lengthen the "
+            "guide (push_rod.bearing_G_x, bearing_H_x) or reduce the pressure angle (a larger cam base circle, a "
+            "longer rise or return angle, a smaller offset)")
+    return lock
+
+
+#: geometries (:func:`geometry_vector`, roller radius, undercut flag, guide) that passed :func:`check_machine`, for
 #: :func:`require_buildable`; cleared when it reaches :data:`BUILDABLE_CACHE_SIZE`
 _BUILDABLE: set = set()
 BUILDABLE_CACHE_SIZE = 1024
@@ -213,8 +313,8 @@ BUILDABLE_CACHE_SIZE = 1024
 def require_buildable(machine: Machine, allow_undercut: bool = False) -> None:
     """:func:`check_machine` for its errors only, remembered per geometry.
 
-    The check depends on the geometry vector (every length, angle and cam parameter the cycle kinematics read)
-    and the roller radius alone; a geometry that passed once is not checked again.  The mechanism and the MLSD
+    The check depends on the geometry vector (every length, angle and cam parameter the cycle kinematics read),
+    the roller radius and the push rod's guide (friction, bearings: :func:`check_self_locking`) alone; a geometry that passed once is not checked again.  The mechanism and the MLSD
     model of every run call this: a clearance sweep builds thousands of runs of one geometry, and the check
     (3601 cam angles, ~1 ms) was ~1 % of a multibody run.
 
@@ -223,7 +323,9 @@ def require_buildable(machine: Machine, allow_undercut: bool = False) -> None:
     GeometryError
         As :func:`check_machine`, every time for a geometry that fails.
     """
-    key = (geometry_vector(machine).tobytes(), float(machine.cam.roller_radius), bool(allow_undercut))
+    rod = machine.push_rod
+    key = (geometry_vector(machine).tobytes(), float(machine.cam.roller_radius), bool(allow_undercut),
+           float(rod.friction_coefficient), float(rod.bearing_G_x), float(rod.bearing_H_x))
     if key in _BUILDABLE:
         return
     check_machine(machine, allow_undercut=allow_undercut)

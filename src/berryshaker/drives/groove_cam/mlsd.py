@@ -316,45 +316,108 @@ def _rhs(t, y, g, p, res, dy, cst):
 _C, _A, _E = DOPRI_C, DOPRI_A, DOPRI_E
 
 
+#: layout of the integrator's resumable state (:func:`integrate`): time, step size, next output sample, steps
+#: accepted / rejected / cut at onsets, then the state y (8), the derivative at y (the FSAL stage k0, 8), the
+#: contact state (in contact x 4, impact velocity x 4) and the penetrations at the last accepted step (4)
+S_T, S_H, S_IO, S_ACC, S_REJ, S_CUTS = range(6)
+S_Y = 6
+S_K0 = S_Y + 8
+S_CST = S_K0 + 8
+S_PEN = S_CST + 8
+N_S = S_PEN + 4
+#: integrator steps (accepted + rejected) per call of the compiled kernel (:func:`integrate`): the run returns to
+#: Python between chunks, where Ctrl-C and the step budget are seen; ~0.1-0.2 s of a quiet core, and a
+#: reference run (3 revolutions, ~40 000 steps) is one chunk.  Chunking does not change the step sequence.
+CHUNK_STEPS = 50_000
+#: default step budget per second of simulated motion (accepted + rejected steps): a mean step of 1 us, as the
+#: multibody engine's.  The reference machine needs ~27 000 per second (mean step 37 us), zero clearance ~23 000
+STEPS_PER_SECOND = 1_000_000
+#: a run is never refused a budget below this many steps
+MIN_STEP_BUDGET = 200_000
+
+
 @njit(cache=True)
-def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peaks, info, onsets):
+def integrate(t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peaks, info, onsets, st, step_limit):
     """Adaptive Dormand-Prince 5(4) from t_out[0] through every output time (landing on each exactly), with
-    contact-onset location as in the multibody engine.
+    contact-onset location as in the multibody engine; resumable, so that a long run returns to Python in chunks.
+
+    ``st`` (:data:`N_S`) holds the integrator's whole state (layout ``S_*``): a call with ``st[S_IO] == 0``
+    starts at t_out[0] from the state in ``st[S_Y:S_Y + 8]``; a call returns with status 5 when the steps taken
+    (accepted + rejected, counted from the run's start) reach ``step_limit``, having saved the state in ``st``, and
+    the next call continues from it exactly as an uninterrupted run would (the same step sequence, bitwise).
 
     Fills out_y (n_out, 8) and out_r (n_out, N_R); peaks[k] = max |res[k]| over every accepted step
     with t >= stats_from; info = [accepted steps, rejected steps, t_fail, status, event cuts] (status 0 ok,
-    1 step size underflow, 2 non-finite state, 3 linkage cannot assemble); onsets[k] = contact onsets of
-    pair k (transitions from open to in contact over accepted steps) with t >= stats_from.  A step in
-    which a pair's penetration goes from <= 0 to more than EVENT_TOL is cut back to the crossing, so the
-    hysteresis laws get the impact velocity at first touch.
+    1 step size underflow, 2 non-finite state, 3 linkage cannot assemble, 5 step limit reached, resumable);
+    onsets[k] = contact onsets of pair k (transitions from open to in contact over accepted steps) with
+    t >= stats_from.  A step in which a pair's penetration goes from <= 0 to more than EVENT_TOL is cut back to
+    the crossing, so the hysteresis laws get the impact velocity at first touch.
     """
-    n = y0.shape[0]
+    n = 8
     k = np.zeros((7, n))
     ytmp = np.empty(n)
     ynew = np.empty(n)
     res = np.zeros(N_R)
     cst = np.zeros(8)  # in contact x 4, impact velocity x 4
     pen0 = np.zeros(4)
-    y = y0.copy()
-    t = t_out[0]
-    _rhs(t, y, g, p, res, k[0], cst)
-    for j in range(4):
-        pe, pd = _penetration(res, p, j)
-        pen0[j] = pe
-        if pe > 0.0:
-            cst[j] = 1.0
-            cst[4 + j] = pd if pd > 1e-6 else 1e-6
-    for j in range(N_R):
-        out_r[0, j] = res[j]
+    y = np.empty(n)
     for i in range(n):
-        out_y[0, i] = y[i]
-    h = min(h_max, 1e-5)
-    acc = 0
-    rej = 0
-    cuts = 0
-    for io in range(1, t_out.shape[0]):
+        y[i] = st[S_Y + i]
+    io0 = int(st[S_IO])
+    if io0 == 0:
+        t = t_out[0]
+        _rhs(t, y, g, p, res, k[0], cst)
+        for j in range(4):
+            pe, pd = _penetration(res, p, j)
+            pen0[j] = pe
+            if pe > 0.0:
+                cst[j] = 1.0
+                cst[4 + j] = pd if pd > 1e-6 else 1e-6
+        for j in range(N_R):
+            out_r[0, j] = res[j]
+        for i in range(n):
+            out_y[0, i] = y[i]
+        h = min(h_max, 1e-5)
+        acc = 0
+        rej = 0
+        cuts = 0
+        io0 = 1
+    else:
+        t = st[S_T]
+        h = st[S_H]
+        acc = int(st[S_ACC])
+        rej = int(st[S_REJ])
+        cuts = int(st[S_CUTS])
+        for i in range(n):
+            k[0, i] = st[S_K0 + i]
+        for j in range(8):
+            cst[j] = st[S_CST + j]
+        for j in range(4):
+            pen0[j] = st[S_PEN + j]
+    for io in range(io0, t_out.shape[0]):
         t_target = t_out[io]
         while t < t_target - 1e-15:
+            if acc + rej >= step_limit:
+                # save the whole state and return: the next call resumes here (before this step)
+                st[S_T] = t
+                st[S_H] = h
+                st[S_IO] = io
+                st[S_ACC] = acc
+                st[S_REJ] = rej
+                st[S_CUTS] = cuts
+                for i in range(n):
+                    st[S_Y + i] = y[i]
+                    st[S_K0 + i] = k[0, i]
+                for j in range(8):
+                    st[S_CST + j] = cst[j]
+                for j in range(4):
+                    st[S_PEN + j] = pen0[j]
+                info[0] = acc
+                info[1] = rej
+                info[2] = t
+                info[3] = 5
+                info[4] = cuts
+                return
             if h > t_target - t:
                 h_try = t_target - t
             else:
@@ -379,6 +442,8 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
                 err += (ei / sc) ** 2
             err = math.sqrt(err / n)
             if not math.isfinite(err):
+                info[0] = acc
+                info[1] = rej
                 info[2] = t
                 info[3] = 2
                 return
@@ -402,6 +467,8 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
                     k[0, i] = k[6, i]
                 acc += 1
                 if res[R_OK] < 0.5:
+                    info[0] = acc
+                    info[1] = rej
                     info[2] = t
                     info[3] = 3
                     return
@@ -432,6 +499,8 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
                     fac = 0.2
                 h = h_try * fac
                 if h < 1e-13:
+                    info[0] = acc
+                    info[1] = rej
                     info[2] = t
                     info[3] = 1
                     return
@@ -441,6 +510,7 @@ def integrate(y0, t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peak
             out_r[io, j] = res[j]
     info[0] = acc
     info[1] = rej
+    info[2] = t
     info[3] = 0
     info[4] = cuts
 
@@ -527,9 +597,68 @@ class MLSDResult:
         return out
 
 
+#: a chunk of :data:`CHUNK_STEPS` steps whose mean step is below this (s) has a collapsed step size (the reference
+#: machine's mean step is ~37 us); with the push rod stuck behind its cam (:func:`_jammed`) the drive is jammed
+JAM_MEAN_STEP = 1e-7
+#: the push rod is stuck behind its cam when it lags the cam's position by more than the clearance at A plus this
+#: (m; far beyond a steel contact's deflection, ~0.02 mm at the reference's peak force) ...
+JAM_LAG = 1e-4
+#: ... and moves at less than this fraction of the speed the cam drives it at
+JAM_SPEED_RATIO = 0.1
+
+
+def default_step_budget(duration: float) -> int:
+    """The step budget (accepted + rejected steps) of an MLSD run of ``duration`` s of motion:
+    :data:`STEPS_PER_SECOND` per second, at least :data:`MIN_STEP_BUDGET`."""
+    return max(MIN_STEP_BUDGET, int(math.ceil(STEPS_PER_SECOND * duration)))
+
+
+def _jammed(st: np.ndarray, g: np.ndarray, p: np.ndarray, t: float) -> tuple[bool, float, float, float]:
+    """(stuck, lag (m), push-rod speed (m/s), the cam's speed (m/s)) at the saved state ``st`` at time ``t``:
+    stuck when the push rod lags the cam beyond the clearance at A by more than :data:`JAM_LAG` and moves at less
+    than :data:`JAM_SPEED_RATIO` of the cam's speed while the cam moves it."""
+    _ok, s, v, *_rest = ideal_state(g[G_OMEGA] * t, g)
+    x, xd = st[S_Y], st[S_Y + 4]
+    lag = s - x
+    stuck = abs(lag) > p[P_PAIR0] + JAM_LAG and abs(v) > 1e-3 and abs(xd) < JAM_SPEED_RATIO * abs(v)
+    return stuck, lag, xd, v
+
+
+def _stalled_message(machine: Machine, st: np.ndarray, g: np.ndarray, p: np.ndarray, info: np.ndarray,
+                     t_start: float, t_end: float, budget: int, why: str) -> str:
+    """The message of a run stopped for its step budget (``why="budget"``) or for a jammed drive (``"jam"``):
+    what happened, where the drive stood, and what to change."""
+    from berryshaker.drives.groove_cam.kinematics import self_locking_limit
+
+    t = float(info[2])
+    done = t - t_start
+    taken = int(info[0] + info[1])
+    stuck, lag, xd, v = _jammed(st, g, p, t)
+    if why == "budget":
+        head = (f"MLSD simulation stopped at t = {done:.6g} s of {t_end:.6g} s: the integrator needed more than "
+                f"{budget:,} steps (mean step {done / max(taken, 1):.3g} s; the budget is {STEPS_PER_SECOND:,} steps "
+                "per second of motion)")
+    else:
+        head = (f"MLSD simulation stopped at t = {done:.6g} s of {t_end:.6g} s: the step size collapsed (the last "
+                f"{CHUNK_STEPS:,} steps advanced less than {JAM_MEAN_STEP * CHUNK_STEPS:.3g} s)")
+    if stuck:
+        lock = self_locking_limit(machine)
+        mu = machine.push_rod.friction_coefficient
+        return (f"{head}.  The drive jams: the push rod lags its cam by {abs(lag) * 1e3:.3g} mm (clearance at A "
+                f"{p[P_PAIR0] * 1e3:.3g} mm) and moves at {xd:.3g} m/s where the cam drives it at {v:.3g} m/s.  "
+                f"push_rod.friction_coefficient = {mu:g}, the self-locking limit of this geometry "
+                f"{lock.mu_limit:.3g} (pressure angle {math.degrees(lock.pressure_angle):.1f} deg at cam angle "
+                f"{math.degrees(lock.cam_angle):.1f} deg): lower the guide friction, lengthen the guide "
+                "(push_rod.bearing_G_x, bearing_H_x) or reduce the pressure angle (a larger base circle, a longer rise "
+                "or return angle)")
+    return (f"{head}: the drive jams or the tolerance is too tight for its contacts.  Check the contact stiffness "
+            "and damping (and their units), loosen rtol or simulate fewer revolutions; to allow a longer run pass "
+            "max_steps")
+
+
 def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, revolutions: int = 3,
                   output_step: float = 1e-4, rtol: float = 1e-7, h_max: float = 2e-4,
-                  start_angle: float = 0.0) -> MLSDResult:
+                  start_angle: float = 0.0, max_steps: int | None = None) -> MLSDResult:
     """Simulate the MLSD clearance model of the harvester drive.
 
     Parameters
@@ -551,10 +680,20 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
         start, the MLSD's replicate (the impact sequence is chaotic, so its statistics are one draw).  The run
         covers ``revolutions`` whole revolutions from there (times from start_angle / omega, taken mod one
         revolution), the statistics the last ``revolutions - 1``.
+    max_steps : int, optional
+        Step budget of the run (accepted + rejected integrator steps); default :func:`default_step_budget`.
 
     Returns
     -------
     MLSDResult
+
+    Raises
+    ------
+    SimulationError
+        The integrator gave up; the step budget was spent; or the drive jammed (a chunk of :data:`CHUNK_STEPS`
+        steps advanced less than :data:`JAM_MEAN_STEP` per step with the push rod stuck behind its cam).  The message says which and,
+        for a drive that does not follow its cam, how far the push rod lags and the self-locking limit of the
+        guide (:func:`~berryshaker.drives.groove_cam.kinematics.self_locking_limit`).
     """
     if not math.isfinite(start_angle):
         raise ConfigError(f"start_angle={start_angle!r}: give a finite cam angle (rad)")
@@ -580,11 +719,28 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     peaks = np.zeros(N_R)
     info = np.zeros(5)
     onsets = np.zeros(4)
+    budget = default_step_budget(t_end) if max_steps is None else int(max_steps)
+    if budget < 1:
+        raise ConfigError(f"max_steps must be >= 1, got {max_steps}")
     # compile (cached on disk after the first run) before timing
-    integrate(y0, t_out[:2], g, p, rtol, atol, h_max, 0.0, np.zeros((2, 8)), np.zeros((2, N_R)), np.zeros(N_R),
-              np.zeros(5), np.zeros(4))
+    st = np.zeros(N_S)
+    st[S_Y:S_Y + 8] = y0
+    integrate(t_out[:2], g, p, rtol, atol, h_max, 0.0, np.zeros((2, 8)), np.zeros((2, N_R)), np.zeros(N_R),
+              np.zeros(5), np.zeros(4), st.copy(), CHUNK_STEPS)
     t0 = time.perf_counter()
-    integrate(y0, t_out, g, p, rtol, atol, h_max, t_start + period, out_y, out_r, peaks, info, onsets)
+    t_chunk = t_start
+    while True:
+        # chunks of CHUNK_STEPS steps: Ctrl-C (KeyboardInterrupt) is raised here, between two chunks
+        integrate(t_out, g, p, rtol, atol, h_max, t_start + period, out_y, out_r, peaks, info, onsets, st,
+                  min(budget, int(info[0] + info[1]) + CHUNK_STEPS))
+        if int(info[3]) != 5:
+            break
+        taken = int(info[0] + info[1])
+        if taken >= budget:
+            raise SimulationError(_stalled_message(machine, st, g, p, info, t_start, t_end, budget, "budget"))
+        if info[2] - t_chunk < JAM_MEAN_STEP * CHUNK_STEPS and _jammed(st, g, p, info[2])[0]:
+            raise SimulationError(_stalled_message(machine, st, g, p, info, t_start, t_end, budget, "jam"))
+        t_chunk = info[2]
     wall = time.perf_counter() - t0
     status = int(info[3])
     if status != 0:
