@@ -858,7 +858,8 @@ def finish_run(run: PreparedRun, wall: float) -> MultibodyResult:
         raise SimulationError(
             f"multibody simulation stopped at t = {info[3]:.6g} s of {duration:.6g} s: it used "
             f"{int(info[0] + info[1]):,} integrator steps, over its budget of {budget:,} (mean step "
-            f"{info[3] / max(info[0], 1):.3g} s). The model is far stiffer than intended: check contact stiffness "
+            f"{info[3] / max(info[0], 1):.3g} s). The mechanism jams (a guide whose friction self-locks, a joint driven "
+            "into a toggle) or the model is far stiffer than intended: check friction coefficients, contact stiffness "
             "and damping (and their units), or simulate fewer revolutions; to allow a longer run pass max_steps")
     status = int(info[4])
     if status != 0:
