@@ -228,3 +228,23 @@ def test_one_cache_home_for_numba_and_runs(tmp_path, monkeypatch):
     with pytest.raises(ConfigError, match="writable by group or others"):
         default_cache_dir()
     assert not (shared / "runs").exists()
+
+
+def test_generated_kernel_sources_go_only_to_a_private_temp_folder(tmp_path, monkeypatch):
+    """Without a numba cache folder the specialised kernels' generated sources (imported as code) would go to the
+    per-user temp folder: one that another user created first is refused, and the kernel is then not picked."""
+    import berryshaker.compiled_cache as cc
+    from berryshaker.compiled_cache import UnsafeCacheFolder
+    from berryshaker.multibody import specialised as sp
+
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setattr(cc.tempfile, "gettempdir", lambda: str(tmp_path))
+    own = sp.source_folder()  # created private: 0700, ours
+    assert own.is_dir() and own.parent == cc.temp_cache_home() and (own.stat().st_mode & 0o077) == 0
+    if os.geteuid() == 0:  # someone else's folder of that name (as root: hand it to uid 65534)
+        os.chown(cc.temp_cache_home(), 65534, 65534)
+    else:
+        cc.temp_cache_home().chmod(0o777)
+    with pytest.raises(UnsafeCacheFolder):
+        sp.source_folder()
+    assert sp.is_compiled((), 1) is False

@@ -244,8 +244,11 @@ def is_compiled(model: tuple, n: int) -> bool:
     """True when this machine has compiled the structure's specialised kernel with this package version, numba
     version and CPU (a run with it finished its first call and numba saved it: :func:`mark_compiled`), so running
     it costs a load from numba's cache (~0.1 s), not a compilation.  ~15 us (the structure's digest and a file's
-    existence)."""
-    return _compiled_marker(model, n).is_file()
+    existence); False where no private folder can hold the generated sources (:func:`source_folder`)."""
+    try:
+        return _compiled_marker(model, n).is_file()
+    except OSError:
+        return False
 
 
 def mark_compiled(model: tuple, n: int, integrate=None) -> None:
@@ -256,7 +259,10 @@ def mark_compiled(model: tuple, n: int, integrate=None) -> None:
     not with the source, so that a process starting while another one compiles does not take it for compiled;
     and, given the ``integrate`` dispatcher, only when numba's index file for it exists (numba may fail to save).
     A folder that cannot be written is no error: the kernel is then just not picked by default."""
-    path = _compiled_marker(model, n)
+    try:
+        path = _compiled_marker(model, n)
+    except OSError:  # no private folder for it: the kernel is then just not picked by default
+        return
     if path.is_file():
         return
     cache_file = getattr(getattr(integrate, "_cache", None), "_cache_file", None)
@@ -293,13 +299,18 @@ def source_folder() -> Path:
     """Where the generated sources go: ``specialised-<digest>/`` in numba's cache folder, the digest that of the
     package's compiled sources (:func:`berryshaker.compiled_cache.compiled_sources_digest`): the generated code
     calls the kernel's functions, so a changed kernel must not find an old module's machine code (numba checks
-    only the generated file).  Without a numba cache folder, a per-user temporary one."""
-    from berryshaker.compiled_cache import compiled_sources_digest
+    only the generated file).  Without a numba cache folder, the per-user temporary one, used only when it is
+    private (:func:`berryshaker.compiled_cache.private_folder`: created 0700, owned by this user, not writable by
+    others; generated sources are imported, so a folder someone else made first is refused with
+    :class:`~berryshaker.compiled_cache.UnsafeCacheFolder`, an ``OSError``: callers then run the generic kernel)."""
+    from berryshaker.compiled_cache import compiled_sources_digest, private_folder, temp_cache_home
 
     base = os.environ.get("NUMBA_CACHE_DIR")
-    user = os.getuid() if hasattr(os, "getuid") else "user"
-    root = Path(base) if base else Path(tempfile.gettempdir()) / f"berryshaker-{user}"
-    return root / f"specialised-{_package_digest(compiled_sources_digest)}"
+    name = f"specialised-{_package_digest(compiled_sources_digest)}"
+    if base:
+        return Path(base) / name
+    top = temp_cache_home()
+    return private_folder(top / name, top)
 
 
 _DIGEST: list[str] = []
