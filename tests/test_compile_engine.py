@@ -56,7 +56,7 @@ def test_compiled_parts_are_what_runs_use(counts):
     assert all(counts["before"][f] == 1 for f in parts), counts["before"]
     # every run (harvester, with modal plant, powered, crank-rocker) used those same specialisations: none was added
     assert {f: counts["after"][f] for f in parts} == {f: 1 for f in parts}, counts["after"]
-    assert counts["after"]["integrate"] == 1
+    assert counts["after"]["integrate_resumable"] == 1  # what every run integrates with (in chunks)
     assert set(counts["seconds"]) == set(ENGINE_PARTS)
 
 

@@ -317,7 +317,7 @@ def doe_virtual(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
-    replicates: Optional[int] = typer.Option(None, "--replicates", min=2, max=1000,
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=2,
                                              help="Starts per run (>= 2; default harvest.replicates in the "
                                              "description, chosen by --convergence)."),
     convergence: bool = typer.Option(False, "--convergence", help="Instead of the L9: mean and SD of every harvest "
