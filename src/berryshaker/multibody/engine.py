@@ -555,7 +555,7 @@ def call_compiled(fn, *args):
     first call with the same argument types in this process.
 
     numba's dispatcher types every argument at every call, in Python for tuples: the kernel's model, state and
-    work tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/README.md
+    work tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/HISTORY.md
     sec. 23); a harvester run made two such calls, a perturbed start one per continuation step.  The first call
     goes through the dispatcher (which compiles or loads the specialisation); the specialisation it used is then
     called directly for arguments of the same :func:`_type_key`, which follows numba's own typing rules, so the
@@ -589,13 +589,13 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     ``spec``'s runs, without running anything.
 
     The integrator (``kernel.integrate``) calls a chain of ~30 compiled functions, compiled one after the other
-    on first use: about 16 s of one core on a fresh install (benchmarks/README.md sec. 19-20).  Compiling a part
+    on first use: about 16 s of one core on a fresh install (benchmarks/HISTORY.md sec. 19-20).  Compiling a part
     compiles the callees it needs that are not compiled yet and writes everything to the cache, so two processes
     can share the work: one compiles ``"forces"`` and ``"step_forces"`` (which share the contact laws' calls and
     only small geometry helpers with the rest) while the other compiles ``"projection"`` and ``"step_events"``,
     then ``"right_hand_side"`` once the first is done; a run then compiles only the integrator itself and loads
     the rest.  (About 3.5 + 0.7 s against 2.8 + 0.9 s of one core; with ``"step"`` whole on the projection's side
-    the forces' process idled ~3 s, benchmarks/README.md sec. 22.)
+    the forces' process idled ~3 s, benchmarks/HISTORY.md sec. 22.)
 
     Parameters
     ----------

@@ -68,7 +68,7 @@ N_FIRST = 5
 #: approach speed (m/s) from which a located contact onset counts as an impact (``first[:, 4]``): the greased
 #: pairs' impact-velocity floor (contact.pair_law.LUBRICATED_RESTITUTION_VELOCITY).  Slower closings are a pin
 #: settling into its bore (down to 1 um/s): their number depends on the tolerance and on how the chatter of a
-#: loaded roller is resolved, the faster ones' does not (benchmarks/README.md sec. 16)
+#: loaded roller is resolved, the faster ones' does not (benchmarks/HISTORY.md sec. 16)
 IMPACT_COUNT_SPEED = LUBRICATED_RESTITUTION_VELOCITY
 STEP_HIST_LOG10_MIN = -9.0
 STEP_BINS_PER_DECADE = 20.0
@@ -87,7 +87,7 @@ PEAK_BOUND_MARGIN = 0.01
 EO_FN, EO_PEN, EO_PENDOT, EO_FT = range(4)
 N_EO = 4
 
-# Reference counting (benchmarks/README.md sec. 10).  Every function of this module but ``integrate`` is compiled
+# Reference counting (benchmarks/HISTORY.md sec. 10).  Every function of this module but ``integrate`` is compiled
 # with ``_nrt=False``: none of them allocates, and without the numba runtime a call no longer increments and
 # decrements the reference count of every array it receives (an atomic operation each; ``accelerations`` takes
 # the 31 arrays of the model, state and work tuples and passes most of them on to ``constraints`` and
@@ -208,7 +208,7 @@ def pitch_foot_speed(lx, ly, cam, guess):
 #: the groove contacts' foot memory (state ``psi_f``, 3 nf long): per force element k the last foot parameter
 #: psi (rad; NaN: none yet) at [k], its rate psi' (rad/s) at [nf + k] and the time it was found (s) at [2 nf + k].
 #: Newton starts from psi + psi' (t - t_found): one curve evaluation instead of two to three from psi alone
-#: (benchmarks/README.md sec. 17)
+#: (benchmarks/HISTORY.md sec. 17)
 FOOT_MEMORY = 3
 #: largest predicted move of the foot (rad) taken as Newton's start; a larger one (a foot near the pitch curve's
 #: centre of curvature, where psi' is ill-conditioned) starts from the last foot itself, as without prediction
@@ -776,7 +776,7 @@ def _spd_solve(plan, W, b, m):
     and the pivots' reciprocals 1/d_i on it (so the assembly never has to clear anything): row i first forms
     c_ij = L_ij d_j = W_ji - sum_k c_ik L_jk, then L_ij = c_ij / d_j and d_i = W_ii - sum_j c_ij L_ij.  One
     division per row and no square root: the chain of dependent long-latency operations is about a third of the
-    Cholesky factorisation's it replaced (benchmarks/README.md sec. 24).  Each row's forward substitution
+    Cholesky factorisation's it replaced (benchmarks/HISTORY.md sec. 24).  Each row's forward substitution
     (L z = b) runs as soon as the row is factored (split into two passes the harvester's integration was ~4 %
     slower); back substitution L^T x = D^-1 z over each column's extent i .. ``plan[i, 1]``.  A pivot that is not
     positive (a singular constraint set) is replaced by 1e-300.  No scratch array (no allocation).
@@ -1350,7 +1350,7 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
         for i in range(ny):
             rc5[i] = h_try * e_vec[i]
         acc += 1
-        if info.shape[0] > N_INFO:  # optional histogram of accepted step sizes (benchmarks/README.md sec. 6)
+        if info.shape[0] > N_INFO:  # optional histogram of accepted step sizes (benchmarks/HISTORY.md sec. 6)
             hb = int(STEP_BINS_PER_DECADE * (math.log10(h_try) - STEP_HIST_LOG10_MIN))
             info[N_INFO + min(max(hb, 0), info.shape[0] - N_INFO - 1)] += 1.0
         # constraint residuals at the new state are in the work arrays (last stage was at ytmp)

@@ -4,7 +4,7 @@ mechanism's structure, compiled once per structure and cached on disk.
 The generic kernel (:mod:`berryshaker.multibody.kernel`) serves every mechanism with one compiled integrator: its
 constraint loop and multiplier solve follow index arrays (``ctype``, ``cint``, ``crow`` and the solve plan of
 :func:`berryshaker.multibody.sparsity.solve_plan`).  In a right-hand side those index loads sit on the chain of
-dependent operations that bounds each stage (benchmarks/README.md sec. 24, 27): a hand-written slider-crank
+dependent operations that bounds each stage (benchmarks/HISTORY.md sec. 24, 27): a hand-written slider-crank
 right-hand side with the same arithmetic ran the step 38 % faster (sec. 29).  This module writes that code for any
 mechanism, from the structure alone:
 
@@ -26,7 +26,7 @@ The values (masses, lengths, stiffnesses, speeds) stay arguments: every mechanis
 sweep, a tolerance study, perturbed starts) shares one compiled integrator.  The source is written to
 ``<numba cache>/specialised/`` (the package's digest folder, :mod:`berryshaker.compiled_cache`, so an update of
 the package starts afresh) and numba caches its compiled code beside the package's; a structure costs about
-10-20 s of compilation once per machine (benchmarks/README.md sec. 29) and about 0.1 s to load after that.  Asked
+10-20 s of compilation once per machine (benchmarks/HISTORY.md sec. 29) and about 0.1 s to load after that.  Asked
 for with ``[simulation] specialised = true``, ``simulate_mechanism(..., specialised=True)`` or by ``berryshaker
 sweep`` when a sweep has the runs to pay for it; a run left to choose (the default) takes it once this machine has
 compiled it (:func:`is_compiled`, :func:`berryshaker.multibody.engine.integrator`), so no run waits for a
