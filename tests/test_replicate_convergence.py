@@ -213,15 +213,21 @@ def test_tolerance_flags_a_force_that_falls_with_clearance_beyond_the_noise():
     from berryshaker.life.tolerance import ClearanceResponse, force_fall_notes
 
     c = np.array([0.025, 0.083, 0.142]) * 1e-3
-    falls = ClearanceResponse("C", c, np.array([17700.0, 14200, 14500]), np.ones(3), np.array([500.0, 400, 200]),
-                              np.array([19000.0, 15000, 15000]), 8)
-    noise = ClearanceResponse("A", c, np.array([9000.0, 8800, 9500]), np.ones(3), np.array([300.0, 300, 300]),
-                              np.array([9500.0, 9300, 9900]), 8)
+    rng = np.random.default_rng(3)
+    start = rng.normal(0, 1500, 8)  # the start-to-start spread, shared by every grid point (the same starts)
+
+    def resp(name, means, run_sd):
+        peaks = np.array([m + start + rng.normal(0, run_sd, 8) for m in means])
+        return ClearanceResponse(name, c, peaks.mean(axis=1), np.ones(3), peaks.std(axis=1, ddof=1) / np.sqrt(8),
+                                 np.percentile(peaks, 95, axis=1), 8, peaks)
+
+    falls = resp("C", [17700.0, 14200, 14500], 300)  # 3500 N down, far beyond the paired noise
+    noise = resp("A", [9000.0, 8950, 9500], 300)  # 50 N down: inside it
     single = ClearanceResponse("B", c, np.array([19000.0, 14000, 15000]), np.ones(3))
     assert [f["from_mm"] for f in falls.force_falls()] == [0.025]
-    assert noise.force_falls() == [] and single.force_falls() == []  # within 2 SE; one run cannot tell
+    assert noise.force_falls() == [] and single.force_falls() == []  # within the noise; one run cannot tell
     (note,) = force_fall_notes({"C": falls, "A": noise, "B": single})
-    assert note.startswith("C: the mean peak force falls by 3500") and "stiffens" in note
+    assert note.startswith("C: the mean peak force falls by 3") and "stiffens" in note and "paired" in note
 
 
 def test_stored_calibration_reproduces_the_study_values_on_its_own_statistic(machine, convergence, spread_runner):

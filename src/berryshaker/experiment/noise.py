@@ -153,7 +153,8 @@ def standard_error_reached(samples: dict[str, np.ndarray], relative: float, floo
     Returns
     -------
     dict
-        Per response ``mean``, ``se``, ``target``, ``met``; ``all_met``.
+        Per response ``mean``, ``se``, ``target``, ``met`` over its finite replicates (fewer than two: ``undefined``,
+        not judged); ``all_met``.
     """
     floors = floors or {}
     out, ok = {}, True
@@ -161,6 +162,11 @@ def standard_error_reached(samples: dict[str, np.ndarray], relative: float, floo
         v = np.asarray(v, float)
         if v.size < 2:
             raise ConfigError(f"standard_error_reached: {name!r} has {v.size} replicate(s); need >= 2")
+        v = v[np.isfinite(v)]  # an index undefined for a replicate (a rate of nothing picked) tells nothing
+        if v.size < 2:
+            out[name] = {"mean": float("nan"), "se": float("nan"), "target": float("nan"), "met": True,
+                         "undefined": True}
+            continue
         m, se = float(v.mean()), float(v.std(ddof=1) / math.sqrt(v.size))
         target = max(relative * abs(m), float(floors.get(name, 0.0)))
         met = bool(se <= target)

@@ -16,7 +16,8 @@ Taguchi Method*, 1990):
   observations, ``anova_lm``; the array is orthogonal, so sequential = partial sums of squares);
 * F = MS_factor / MS_pure_error with (k - 1, n (r - 1)) degrees of freedom, p from scipy's F
   distribution; an effect is *significant* only if p < alpha;
-* level means with standard error sqrt(MS_PE / N_level) (N_level observations at the level) and
+* level means with standard error sqrt(MS_E / N_level) (N_level observations at the level; MS_E the pure error, or
+  with blocks the run x block interaction: then an interval for comparing levels, not for a level's absolute mean) and
   t-intervals; the range R (best minus worst level mean) with a Tukey-Kramer simultaneous interval
   (studentized range; it stays valid although the extreme pair is picked after seeing the data);
 * lack of fit (between-run variation the main effects do not explain) tested against pure error when
@@ -359,7 +360,10 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
     for name, y in reps.items():
         an = replicated_anova(levels, y, factor_names, alpha, confidence, blocks)
         mx = senses[name]
-        if an["error"]["ms"] == 0:
+        if an["error"]["ms"] == 0 and an["pure_error"]["ms"] > 0:
+            notes.append(f"{name}: zero run x block interaction (the starts shift every run alike); effects are "
+                         "exact for this model, not judged against noise")
+        elif an["error"]["ms"] == 0:
             notes.append(f"{name}: the replicates are identical (zero pure error); effects are exact for this "
                          "model, not judged against noise - check that the replicates vary the seed")
         fac = {}
@@ -457,8 +461,9 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
 
 
 PREDICTION_RULE = ("additive model: grand mean + level-mean deviations of the factors significant for the response at "
-                   "the chosen levels (others averaged); interval from the pure error with Taguchi's effective number "
-                   "of replications N / (1 + dof of the factors used)")
+                   "the chosen levels (others averaged); interval from the error over Taguchi's effective number of "
+                   "replications N / (1 + dof of the factors used), plus, with blocks, the block variance over the "
+                   "number of blocks (dof by Satterthwaite)")
 
 
 def _predict(factor_names, reps, out, chosen, confidence) -> tuple[dict, dict]:
@@ -548,7 +553,9 @@ def describe_replicated(res: dict) -> str:
             a = ra["anova"]["factors"][f]
             lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d["level_means"], d["level_ci"]))
             lines.append(f"  {f}: R = {d['range']:.4g} [{d['range_ci'][0]:.4g}, {d['range_ci'][1]:.4g}], "
-                         f"F = {a['f']:.3g}, p = {a['p']:.3g} -> {d['verdict']}; level means {lm}")
+                         f"F = {a['f']:.3g}, p = {a['p']:.3g} -> {d['verdict']}; level means {lm}"
+                         + (" (intervals for comparing levels: the starts' shared luck left out)"
+                            if ra["anova"].get("blocks") else ""))
             if d.get("paired"):
                 lines.append("     paired: " + "; ".join(
                     f"{f}{q['levels'][1]} - {f}{q['levels'][0]} = {q['difference']:+.4g} +- {q['se']:.2g} (SE, "

@@ -20,7 +20,7 @@ interpolants.  Each grid point is the mean over ``starts`` perturbed starts (def
 same starts at every point): one run's peak of a chaotic impact sequence varies by 10-30 % from start to start, so a
 single run would rank fits on noise.  The objective is the mean of the per-start peaks; its standard error and the
 95th percentile over the starts are reported beside it, and a force that falls with growing clearance beyond that
-noise is flagged.  Interactions between joints are therefore ignored, and the force at clearances below
+noise (paired t test over the starts) is flagged and explained.  Interactions between joints are therefore ignored, and the force at clearances below
 :data:`GRID_FLOOR` (m) is taken as the force at the floor (the engine's step control makes runs below about
 0.02 mm expensive: one at 0.012 mm took about a minute).  The recommended design is the compromise point of the
 Pareto front nearest the ideal point in objectives normalised to [0, 1] over the front.
@@ -156,6 +156,8 @@ class ClearanceResponse:
         95th percentile over the starts of the per-start peaks (N).
     starts : int
         Perturbed starts per grid point (1: the centred start alone).
+    peak_force_starts : numpy.ndarray, optional
+        The per-start peaks (N), grid points x starts (the same starts at every point).
     """
 
     joint: str
@@ -165,6 +167,7 @@ class ClearanceResponse:
     peak_force_se: np.ndarray | None = None
     peak_force_p95: np.ndarray | None = None
     starts: int = 1
+    peak_force_starts: np.ndarray | None = None
 
     def force(self, c):
         """Peak force (N) at clearance c (m): linear interpolation, constant beyond the grid."""
@@ -195,18 +198,23 @@ class ClearanceResponse:
                         atol=1e-12)
         return sol.y[0]
 
-    def force_falls(self) -> list[dict]:
-        """Grid steps where the mean peak force falls as the clearance grows by more than twice the standard error
-        of the difference: a property of the dynamics, not noise (empty without standard errors)."""
-        if self.peak_force_se is None or self.starts < 2:
+    def force_falls(self, alpha: float = 0.05) -> list[dict]:
+        """Grid steps where the mean peak force falls as the clearance grows beyond the noise: the paired t test
+        over the starts (the same starts at every point), two-sided p < ``alpha``; a property of the dynamics, not
+        noise (empty without per-start peaks)."""
+        from scipy import stats
+
+        if self.peak_force_starts is None or self.starts < 2:
             return []
         out = []
         for i in range(len(self.clearance) - 1):
-            d = float(self.peak_force[i + 1] - self.peak_force[i])
-            se = float(np.hypot(self.peak_force_se[i], self.peak_force_se[i + 1]))
-            if d < -2 * se:
+            d = self.peak_force_starts[i + 1] - self.peak_force_starts[i]
+            m = float(d.mean())
+            se = float(d.std(ddof=1) / np.sqrt(d.size))
+            p = float(2 * stats.t.sf(abs(m) / se, d.size - 1)) if se > 0 else (0.0 if m != 0 else 1.0)
+            if m < 0 and p < alpha:
                 out.append({"from_mm": float(self.clearance[i] * 1e3), "to_mm": float(self.clearance[i + 1] * 1e3),
-                            "change_N": d, "se_N": se})
+                            "change_N": m, "se_N": se, "p": p})
         return out
 
     def to_dict(self) -> dict:
@@ -271,7 +279,7 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
         n = peaks.shape[1]
         se = peaks.std(axis=1, ddof=1) / np.sqrt(n) if n > 1 else np.zeros(len(peaks))
         out[j] = ClearanceResponse(j, np.asarray(grid[j], float), peaks.mean(axis=1), rates.mean(axis=1), se,
-                                   np.percentile(peaks, 95, axis=1), n)
+                                   np.percentile(peaks, 95, axis=1), n, peaks)
     return out
 
 
@@ -485,7 +493,7 @@ def force_fall_notes(responses: dict[str, ClearanceResponse], machine=None) -> l
                "depends on the radii through the clearance, docs/contact.md), so a tighter fit hits harder at the "
                "same approach speed") if pin else "a property of this joint's dynamics that the runs measure"
         for f in r.force_falls():
-            out.append(f"{j}: the mean peak force falls by {-f['change_N']:.0f} +- {f['se_N']:.0f} N (SE) from "
-                       f"{f['from_mm']:.3g} to {f['to_mm']:.3g} mm over {r.starts} starts, beyond the start-to-start "
-                       f"noise: {why}")
+            out.append(f"{j}: the mean peak force falls by {-f['change_N']:.0f} +- {f['se_N']:.0f} N (SE, paired over "
+                       f"{r.starts} starts, p = {f['p']:.2g}) from {f['from_mm']:.3g} to {f['to_mm']:.3g} mm, beyond "
+                       f"the start-to-start noise: {why}")
     return out

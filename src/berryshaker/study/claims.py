@@ -20,10 +20,10 @@ CRITERIA = {
        "partly if level 2 agrees but a row differs or is within noise; not reproduced if a level-2 pair differs "
        "beyond its noise; undecided if level 2 is within noise.  eq. 18 (one run from the centred start) is shown "
        "beside it but passes on noise, so it is no criterion",
-    2: "on the mean over 8 perturbed starts of each run's peak collision force: reproduced if it falls A > B > C > F "
+    2: "on the mean over harvest.replicates perturbed starts of each run's peak collision force: reproduced if it falls A > B > C > F "
        "in each of the three level sets, every step beyond the noise (paired t over the starts, p < 0.05); not "
        "reproduced if a step rises beyond the noise in every set; partly otherwise",
-    3: "on the mean over 8 perturbed starts (the same in every row) of each run's peak force: reproduced if, for "
+    3: "on the mean over harvest.replicates perturbed starts (the same in every row) of each run's peak force: reproduced if, for "
        "every pair alone, it rises from no clearance through levels 1, 2, 3, every step beyond the noise (paired t, "
        "p < 0.05); a step inside the noise is no rise (partly); a step down beyond the noise for every pair: not "
        "reproduced",
@@ -120,24 +120,38 @@ def _claim1(res):
 def paired_steps(samples: list, alpha: float = 0.05) -> list[dict]:
     """Consecutive differences of paired samples (the same starts at every level) judged by the paired t test.
 
-    ``samples``: per level, the per-start values (equal lengths, start k in every list the same start).  Per step
-    (level i -> i + 1): ``difference`` (mean of b - a), ``se``, ``p`` (two-sided, scipy.stats.ttest_rel) and
-    ``verdict`` "up", "down" or "within noise" (p >= alpha).
+    ``samples``: per level, the per-start values in the order of the starts (equal lengths, start k in every list
+    the same start; a start whose run failed is None or NaN there, and each step pairs only the starts present at
+    both its levels).  Per step (level i -> i + 1): ``difference`` (mean of b - a), ``se``, ``p`` (two-sided,
+    scipy.stats.ttest_rel), ``pairs`` (starts used) and ``verdict`` "up", "down" or "within noise" (p >= alpha;
+    fewer than two pairs is no evidence: "within noise", p NaN).
     """
     import numpy as np
     from scipy import stats
 
+    def arr(v):
+        return np.array([np.nan if x is None else x for x in v], float)
+
     out = []
     for a, b in zip(samples, samples[1:]):
-        a, b = np.asarray(a, float), np.asarray(b, float)
+        a, b = arr(a), arr(b)
+        if a.size != b.size:
+            raise ValueError(f"paired_steps: {a.size} and {b.size} starts; give every level the same starts "
+                             "(None where a run failed)")
+        keep = np.isfinite(a) & np.isfinite(b)
+        a, b = a[keep], b[keep]
         d = b - a
-        se = float(d.std(ddof=1) / np.sqrt(d.size)) if d.size > 1 else float("nan")
-        if d.size > 1 and np.ptp(d) > 0:
+        if d.size < 2:
+            out.append({"difference": float(d.mean()) if d.size else float("nan"), "se": float("nan"),
+                        "p": float("nan"), "pairs": int(d.size), "verdict": "within noise"})
+            continue
+        se = float(d.std(ddof=1) / np.sqrt(d.size))
+        if np.ptp(d) > 0:
             p = float(stats.ttest_rel(b, a).pvalue)
-        else:
-            p = 0.0 if d.size and float(d.mean()) != 0 else 1.0
+        else:  # every start moved by the same amount: exact, beyond any noise unless it is zero
+            p = 0.0 if float(d.mean()) != 0 else 1.0
         m = float(d.mean())
-        out.append({"difference": m, "se": se, "p": p,
+        out.append({"difference": m, "se": se, "p": p, "pairs": int(d.size),
                     "verdict": ("up" if m > 0 else "down") if p < alpha else "within noise"})
     return out
 

@@ -17,7 +17,7 @@ starts are then extended until every harvest response's mean is known to ``harve
 (:data:`berryshaker.experiment.replicates.TIERED_RULE`): harvest indexes first, machine loads where the
 harvest indexes do not differ, and the configured clearance where nothing differs.  The tiered choice is then
 confirmed against the trade-off table of the runs (:data:`CONFIRMATION_RULE`), whose dominance test uses the
-ANOVA's pure error with Tukey-Kramer simultaneous margins, so the table cannot call a noise-sized difference
+ANOVA's error (blocked) with Tukey-Kramer simultaneous margins, so the table cannot call a noise-sized difference
 dominance that the ANOVA calls no effect; a tested run that still dominates the choice becomes the
 recommendation.
 
@@ -286,7 +286,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
         ``runs`` (levels, clearances, replicate means of efficiency/unripe/damage and ``replicates``: every
         response's mean, sd, ci), ``responses`` (range analysis of the replicate means, as the study's Table
         8), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against
-        pure error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
+        the blocked error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
         recommended and ``tiered_levels``, the tiered rule's), ``recommended`` (levels, code, clearances, mean
         indexes, per-response intervals, ``basis`` per factor, ``rule``, ``statement``, ``check``: the
         confirmation against the trade-off table, :func:`confirm_recommendation`), ``tolerance_check``, ``tradeoff`` (records of the
@@ -408,8 +408,16 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     an["optimum"] = opt
     # the recommended set's starts extended until every harvest response's mean is known to its target; its
     # intervals and SDs come from all of them (the first are the L9's: the same seeds)
-    seq = sequential_starts(machine, runner, best_cl, have=list(rec_cells), data=data,
-                            label="virtual harvest at the recommendation")
+    from berryshaker.errors import SimulationError
+
+    try:
+        seq = sequential_starts(machine, runner, best_cl, have=list(rec_cells), data=data,
+                                label="virtual harvest at the recommendation")
+    except SimulationError as exc:  # a further start failed: the recommendation's numbers rest on the L9's starts
+        seq = {"cells": list(rec_cells), "reached": None, "stopped": f"a further start failed ({exc})",
+               "target": machine.harvest.se_target, "max": machine.harvest.max_replicates,
+               "statement": f"{len(rec_cells)} starts (the L9's): a further start failed, so the recommendation's "
+                            f"intervals rest on these ({exc})"}
     rec_all = {n: np.array([c[n] for c in seq["cells"]]) for n in names}
     vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
           if n in rec_all}
@@ -463,7 +471,7 @@ def paired_summary(rep: dict, pairs) -> dict:
 CONFIRMATION_RULE = ("the tiered choice is confirmed against the trade-off table, judged with the ANOVA's own noise "
                      "model: a candidate dominates another only if it is no worse in every judged response and better "
                      "in at least one by more than the Tukey-Kramer margin q(0.95; candidates, pure-error dof) / "
-                     "sqrt(2) sqrt(MS_PE (1/n_a + 1/n_b)) (the pure error and simultaneous confidence of the level "
+                     "sqrt(2) sqrt(MS_E (1/n_a + 1/n_b)) (the ANOVA's error, blocked on the starts, and simultaneous confidence of the level "
                      "comparisons); if a tested L9 run dominates the tiered choice, the recommendation moves to that "
                      "run (measured evidence outranks the additive main-effect prediction) and the report says so")
 
@@ -485,7 +493,7 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
         The tiered choice.
     rec_y : dict name -> ndarray (replicates,) or None
         Its replicates if it is not an L9 run (None: it is one of them).
-    pe : dict name -> (MS_PE, dof)
+    pe : dict name -> (MS_E, dof)
         Pure error of every response (the ANOVA's).
     pairs : list of str
     confidence : float
@@ -549,7 +557,7 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
                      + ", ".join(doms[tiered_name]) + "; no tested run is undominated among them, so it is kept.")
     else:
         statement = (f"No candidate dominates the tiered choice {code} beyond the noise (Tukey-Kramer margins on the "
-                     "pure error, as the ANOVA): it is confirmed.")
+                     "ANOVA's error, as the ANOVA): it is confirmed.")
     return {"records": records, "columns": columns, "levels": dict(run_levels[final]) if moved else dict(rec_levels),
             "l9_run": None if final is None else final + 1, "moved": moved, "tiered": tiered,
             "dominated_by": doms[tiered_name], "better_in": better, "statement": statement,
@@ -592,7 +600,7 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
     """Whether a response's change between two solver tolerances is within the replicate noise.
 
     ``changes``: the change of the response for each of k replicates re-run at the tighter tolerance (same seeds);
-    ``replicate_sd``: its replicate standard deviation (the L9's pooled sqrt(MS_PE)).  The coupled runs are
+    ``replicate_sd``: its per-start standard deviation (at the recommended set, over all its starts).  The coupled runs are
     chaotic, so a replicate re-run at another tolerance is another draw of the same noise: the change of one
     replicate is then ~sqrt(2) SD at random, and comparing single changes with one SD (this check's first form)
     failed on noise for 48 % of single changes, 73 % of responses with k = 2.  The mean change of the k

@@ -230,11 +230,14 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
     """Per row and pair, the statistics of the per-start collision-force peaks and means over perturbed starts.
 
     ``summaries``: :func:`multibody_row` outputs, row-major (``starts`` per row; a failed run None).  Per row and
-    pair: ``peak`` and ``mean`` each {mean, sd, se, p95 (of the per-start values), values}, ``starts``.
+    pair: ``peak`` and ``mean`` each {mean, sd, se, p95 (of the per-start values that ran), values (one per planned
+    start, in the starts' order, None where the run failed: paired comparisons match starts by position)},
+    ``starts`` (the runs that finished).
     """
     out = {}
     for i, r in enumerate(rows):
-        ss = [x for x in summaries[i * starts:(i + 1) * starts] if x is not None]
+        chunk = summaries[i * starts:(i + 1) * starts]
+        ss = [x for x in chunk if x is not None]
         if len(ss) < 2:
             continue
         per = {}
@@ -243,7 +246,8 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
             for key in ("peak", "mean"):
                 v = np.array([x["collision_force_N"][p][key] for x in ss], float)
                 st[key] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)), "se": float(v.std(ddof=1) / np.sqrt(v.size)),
-                           "p95": float(np.percentile(v, 95)), "values": v.tolist()}
+                           "p95": float(np.percentile(v, 95)),
+                           "values": [None if x is None else float(x["collision_force_N"][p][key]) for x in chunk]}
             per[p] = st
         out[str(r)] = {"pairs": per, "starts": len(ss)}
     return out
@@ -346,15 +350,17 @@ def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
     n = len(outs) // len(keys)
     out = {}
     for i, k in enumerate(keys):
-        envs = [np.array(o["envelope"]) for o in outs[i * n:(i + 1) * n] if o is not None]
-        if len(envs) < 2:
+        envs = [None if o is None else np.array(o["envelope"]) for o in outs[i * n:(i + 1) * n]]
+        if sum(e is not None for e in envs) < 2:
             continue
         per = {}
         for name, z in zip(f.names, f.positions):
-            v = np.array([float(fruit_peak_force(e, np.array([z]), np.array([m0]), m0)[0]) for e in envs])
+            vals = [None if e is None else float(fruit_peak_force(e, np.array([z]), np.array([m0]), m0)[0])
+                    for e in envs]
+            v = np.array([x for x in vals if x is not None])
             per[name] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)), "se": float(v.std(ddof=1) / np.sqrt(v.size)),
-                         "values": v.tolist()}
-        out[k] = {"positions": per, "starts": len(envs)}
+                         "values": vals}  # one per planned start, None where the run failed (pairing by position)
+        out[k] = {"positions": per, "starts": int(sum(e is not None for e in envs))}
     return out
 
 
@@ -528,16 +534,28 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     # response's mean is known to harvest.se_target (study.l9.sequential_starts; identical runs are cached)
     from berryshaker.study.l9 import cells_from_outputs, sequential_starts
 
+    from berryshaker.errors import SimulationError
+
     fit, seq = None, None
     if cal_out is not None and all(v is not None for v in cal_out):
         nc = len(ctx.machine.harvest.branch_classes)
         have_out = [cal_out[k * nc:(k + 1) * nc] for k in range(len(seeds))]
         have = cells_from_outputs(ctx.machine, cal_out, seeds)
-        seq = sequential_starts(ctx.machine, ctx.runner, ctx.machine.clearance_sizes(), have=have, data=ctx.data,
-                                label="calibration starts", have_outputs=have_out)
-        reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
+        try:
+            seq = sequential_starts(ctx.machine, ctx.runner, ctx.machine.clearance_sizes(), have=have, data=ctx.data,
+                                    label="calibration starts", have_outputs=have_out)
+            reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
+        except SimulationError as exc:  # a further start failed: the calibration rests on the first ones, and says so
+            ctx.failures.append({"step": "calibration starts", "run": "", "inputs": "configured clearances",
+                                 "error": str(exc)})
+            reps = replicate_envelopes(ctx.machine, cal_out, seeds)
         fit = calibrate_harvest(ctx.machine, replicates=reps)
-        fit["sequential"] = {k: seq[k] for k in ("reached", "stopped", "target", "max", "statement")}
+        if seq is not None:
+            fit["sequential"] = {k: seq[k] for k in ("reached", "stopped", "target", "max", "statement")}
+    elif cal_out is not None:  # some of the configured speed's starts failed: calibrate on the ones that ran
+        reps = replicate_envelopes(ctx.machine, cal_out, seeds)
+        if len(reps) >= 2:
+            fit = calibrate_harvest(ctx.machine, replicates=reps)
     chosen = (ctx.results.get("fruit_force") or {}).get("chosen") or {}
     data["calibration"] = calibration_table(ctx.machine, chosen.get("summary"), fit)
     return StepResult("harvest_response", data, figs)
