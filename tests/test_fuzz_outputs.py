@@ -33,7 +33,6 @@ from berryshaker.outputs import MARKER_NAME, read_output_marker, staged_director
 runner = CliRunner()
 WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-outputs-"))
 set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
-#: longest a refusal may take (it comes before any work)
 #: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
 EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
 

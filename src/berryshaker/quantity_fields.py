@@ -25,12 +25,11 @@ from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
 from berryshaker.units import (
-    DIMENSIONS,
     bare_number_message,
     check_limits,
     parse_quantity,
-    parse_unit,
     plausibility_warning,
+    unit_dimension,
 )
 
 
@@ -283,13 +282,8 @@ def field_dimension(info: FieldInfo) -> str | None:
             if not extra and isinstance(m, FieldInfo) and isinstance(m.json_schema_extra, dict):
                 extra = m.json_schema_extra
     unit = extra.get("display")
-    if isinstance(unit, str):
-        for dim in DIMENSIONS:
-            try:
-                parse_unit(unit, dim)
-            except ConfigError:
-                continue
-            return dim
+    if isinstance(unit, str) and unit_dimension(unit) is not None:
+        return unit_dimension(unit)
     shape = _number_shape(info.annotation)
     if shape is not None and shape[0] == "scalar":
         return "dimensionless"
