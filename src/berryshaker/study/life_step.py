@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from berryshaker.study.step_result import StepResult
+
 HORIZON_H = 2000.0
 
 
@@ -33,7 +35,6 @@ def step_life(ctx):
         force_fall_notes,
         response_grid,
     )
-    from berryshaker.study.pipeline import StepResult
 
     m = ctx.machine
     joints = list(m.pair_names)

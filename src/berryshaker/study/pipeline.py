@@ -31,6 +31,8 @@ from berryshaker.plant.pedicel import compile_peak_stem_force
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
 from berryshaker.runs.runner import usable_cores
 from berryshaker.study.claims import check_claims
+from berryshaker.study.life_step import step_life
+from berryshaker.study.step_result import StepResult
 from berryshaker.study.l9 import virtual_l9
 from berryshaker.study.runs import (
     fruit_force_run,
@@ -41,18 +43,6 @@ from berryshaker.study.runs import (
     replicate_run,
     warm_worker,
 )
-
-
-@dataclass
-class StepResult:
-    """What one study step produced: JSON-able data, figure files (relative names) and a note for the report
-    (e.g. why a step was skipped)."""
-
-    name: str
-    data: dict | None
-    figures: list[str] = field(default_factory=list)
-    note: str = ""
-    seconds: float = 0.0
 
 
 @dataclass
@@ -563,8 +553,6 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
 
 def step_clearance_life(ctx: StudyContext) -> StepResult:
     """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/)."""
-    from berryshaker.study.life_step import step_life
-
     ctx.say("clearance life (wear, fits)")
     try:
         return step_life(ctx)
