@@ -375,7 +375,9 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         parts.append("<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
                      "from every comparison.  Per-start SD: the spread of one run's starts; blocked error SD: what "
                      "effects are tested against (the run x start interaction); paired differences: the extreme levels "
-                     "of each factor compared start by start, +- one standard error.</p>")
+                     "of each factor compared start by start, +- one standard error, marked (noise) where that "
+                     "contrast's own paired t test over the starts (r - 1 dof) cannot tell them apart; the "
+                     "significant factors come from the F test, which pools the error of every contrast.</p>")
         parts.append(_table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
                              "significant factors", "paired differences (last - first level)"],
                             rows, left=(0, 1, 6, 7)))

@@ -86,7 +86,8 @@ def _cell(machine, outs: list[dict], pop) -> dict[str, float]:
 
 
 def interval(y, pooled: tuple[float, int] | None = None) -> dict:
-    """Mean, replicate standard deviation and 95 % t-interval of the mean of one run's replicates.
+    """Mean, replicate standard deviation and 95 % t-interval of the mean of one run's replicates (clipped at 0
+    when no replicate is negative: every response of the L9 is a rate, a mass or a magnitude).
 
     ``pooled`` = (pure-error mean square, its dof) of the whole test: the interval is then
     t(dof) sqrt(MS_PE / n), the error model of the ANOVA (the run's own SD, with n - 1 dof, is still
@@ -98,7 +99,8 @@ def interval(y, pooled: tuple[float, int] | None = None) -> dict:
     m, sd = float(np.mean(y)), float(np.std(y, ddof=1))
     s, dof = (sd, y.size - 1) if pooled is None else (math.sqrt(pooled[0]), int(pooled[1]))
     hw = float(stats.t.ppf(0.5 + CONFIDENCE / 2, dof)) * s / math.sqrt(y.size)
-    return {"mean": m, "sd": sd, "ci": [m - hw, m + hw], "n": int(y.size), "interval_from": (
+    lo = m - hw if np.any(y < 0) else max(m - hw, 0.0)  # a response that cannot be negative (a rate, a force peak)
+    return {"mean": m, "sd": sd, "ci": [lo, m + hw], "n": int(y.size), "interval_from": (
         f"pooled replicate error ({dof} dof)" if pooled is not None else f"this run's replicates ({dof} dof)")}
 
 
