@@ -50,3 +50,25 @@ def test_reference_swing_and_transmission_angle(machine):
     assert 8.5 < right.max() < 9.0 and -9.0 < right.min() < -8.5
     mu = np.degrees(k.transmission_angle)
     assert 80.0 <= mu.min() and mu.max() <= 98.5
+
+
+def test_crank_rocker_transmission_angle_is_the_unfolded_law_of_cosines_angle():
+    """The rod-rocker transmission angle is the angle at R between rod and rocker arm, 0..180 deg (not folded
+    to 0..90): law of cosines on the triangle crank pin P - rocker pin R - shaft D, an independent closed form."""
+    from pathlib import Path
+
+    from berryshaker.config import load_machine
+    from berryshaker.drives.crank_rocker.kinematics import cycle_kinematics as cr_kinematics, kinematics_summary
+
+    m = load_machine(Path(__file__).parents[1] / "examples" / "crank_rocker_harvester.toml")
+    k = cr_kinematics(m, 720)
+    phi = -k.phi  # the crank pin angle
+    px, py = m.crank.radius * np.cos(phi), m.crank.radius * np.sin(phi)
+    xd, yd = m.shaft_D
+    l_rod, b = m.rod.length, m.rocker.arm_R
+    pd2 = (xd - px) ** 2 + (yd - py) ** 2
+    mu = np.degrees(np.arccos((l_rod**2 + b**2 - pd2) / (2 * l_rod * b)))
+    np.testing.assert_allclose(np.degrees(k.rod_transmission_angle), mu, atol=1e-9)
+    assert mu.max() > 100.0 and mu.min() > 80.0  # the example passes 90 deg: a folded angle would hide it
+    ta = kinematics_summary(m, k)["crank"]["rod_transmission_angle_deg"]
+    assert ta["min"] == pytest.approx(80.1, abs=0.05) and ta["max"] == pytest.approx(100.5, abs=0.05)

@@ -34,7 +34,7 @@ class CrankRockerKinematics:
     omega_e: np.ndarray
     alpha_e: np.ndarray
     assembled: np.ndarray
-    rod_transmission_angle: np.ndarray  # angle between rod and rocker arm DR (rad)
+    rod_transmission_angle: np.ndarray  # angle at R between the rod R->P and the rocker arm R->D (rad, 0..pi)
     transmission_angle: np.ndarray  # four-bar D-C-F-E (rad)
 
 
@@ -60,6 +60,18 @@ def rocker_position(phi, machine):
     return rx, ry, px, py, theta_d
 
 
+def rod_transmission_angle(px, py, rx, ry, xd, yd):
+    """Transmission angle of the crank-rocker (rad, 0..pi): the angle at the rocker pin R between the rod R->P
+    and the rocker arm R->D, not folded (90 deg is ideal; near 0 or 180 deg the rod toggles with the arm).
+
+    Computed from the directions (atan2 of the cross and dot products), so it is the same as the law of
+    cosines on the triangle P-R-D, cos mu = (l^2 + b^2 - |PD|^2) / (2 l b), at every crank angle.
+    """
+    ax, ay = px - rx, py - ry
+    bx, by = xd - rx, yd - ry
+    return np.abs(np.arctan2(ax * by - ay * bx, ax * bx + ay * by))
+
+
 def _d_dt(y, dt):
     return (np.roll(y, -1) - np.roll(y, 1)) / (2 * dt)
 
@@ -83,8 +95,7 @@ def cycle_kinematics(machine, n: int = 3600) -> CrankRockerKinematics:
     al_d = (np.roll(th_d_u, -1) - 2 * th_d_u + np.roll(th_d_u, 1)) / dt**2
     al_e = (np.roll(th_e_u, -1) - 2 * th_e_u + np.roll(th_e_u, 1)) / dt**2
     th_rod = np.arctan2(ry - py, rx - px)
-    th_arm = np.arctan2(ry - yd, rx - xd)
-    mu = np.abs(np.arcsin(np.clip(np.sin(th_rod - th_arm), -1, 1)))
+    mu = rod_transmission_angle(px, py, rx, ry, xd, yd)
     return CrankRockerKinematics(-phi, t, th_rod, th_d, om_d, al_d, th4, th_e, om_e, al_e, ok,
                                  mu, transmission_angle(th4, th_e))
 
@@ -105,7 +116,8 @@ def check_machine(machine, allow_undercut: bool = False) -> CrankRockerKinematic
         raise GeometryError(f"the crank-rocker cannot assemble at crank angle {math.degrees(-kin.phi[i]) % 360:.1f} "
                             "deg: the rod cannot reach the rocker (check crank.radius, rod.length, rocker.arm_R and "
                             "the position of shaft D: the crank must be the shortest link, Grashof)")
-    if np.min(kin.rod_transmission_angle) < math.radians(5):
+    mu = kin.rod_transmission_angle
+    if np.min(np.minimum(mu, math.pi - mu)) < math.radians(5):
         raise GeometryError("the rod and the rocker arm come within 5 deg of alignment (toggle); change the "
                             "geometry")
     sin_tm = np.abs(np.sin(kin.theta_4 - kin.theta_e))
