@@ -3,6 +3,7 @@ and the printable sheet."""
 
 import re
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -328,3 +329,23 @@ def test_sheet_cells_with_units_use_the_strict_parser():
     df["A_mm"] = "0.05 cm*5"
     with pytest.raises(ConfigError, match="A_mm"):
         read_results(_csv(df), ["efficiency"])
+
+
+def test_sheet_writer_and_reader_import_each_other_nowhere_inside_functions():
+    """Issue 46: field_sheet forwarded read_results through an import placed inside a function, to dodge the cycle
+    with field_results (which imported field_sheet).  The shared columns and records live in field_columns now."""
+    import ast
+
+    import berryshaker.experiment.field_results as fr
+    import berryshaker.experiment.field_sheet as fs
+
+    for mod in (fs, fr):
+        tree = ast.parse(Path(mod.__file__).read_text(encoding="utf-8"))
+        for fn in (n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))):
+            for node in ast.walk(fn):
+                if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("berryshaker.experiment.field"):
+                    raise AssertionError(f"{mod.__name__}.{fn.name} imports {node.module} inside the function")
+    top = [n.module for n in ast.parse(Path(fr.__file__).read_text(encoding="utf-8")).body
+           if isinstance(n, ast.ImportFrom)]
+    assert "berryshaker.experiment.field_sheet" not in top
+    assert fs.read_results is fr.read_results

@@ -20,8 +20,10 @@ import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
-from berryshaker.experiment.field_sheet import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
-                                                Factor, FieldResults, _reserved_columns, compute_indexes)
+from berryshaker.experiment.designs import is_orthogonal
+from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
+                                                  Factor, FieldResults, compute_indexes, reserved_columns)
+from berryshaker.units import unit_dimension, unit_factor
 
 _MISSING = {"", "na", "n/a", "nan", "none", "-"}
 _CELL = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z%µμ/^*·0-9_]*)\s*$")
@@ -90,8 +92,6 @@ def _unit_factor(unit: str, target: str, where: str) -> float:
         return 1.0
     if not target:
         raise ConfigError(f"{where}: unit {unit!r} given, but the factor has no unit; write the plain number")
-    from berryshaker.units import unit_factor  # the strict grammar: no expression evaluation
-
     return unit_factor(unit, target, where)
 
 
@@ -145,8 +145,6 @@ def _split_unit(col: str) -> tuple[str, str] | None:
         return None
     if unit in ("%", "pct"):
         return name, "%"
-    from berryshaker.units import unit_dimension  # the strict grammar: no expression evaluation
-
     return (name, unit) if unit_dimension(unit) is not None else None
 
 
@@ -306,7 +304,7 @@ def _check_orphan_values(cols: list[str], names: set[str], reserved: set[str]) -
 def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: set[str]):
     """(name, code column, value column, unit, given Factor) per factor, and the columns ignored."""
     cols = list(sheet.df.columns)
-    reserved = _reserved_columns() | response_cols | ({block_column(sheet.df)} - {None})
+    reserved = reserved_columns() | response_cols | ({block_column(sheet.df)} - {None})
     meta = {c for c in cols if c.lower() in META_COLUMNS}
     found = []
     if factors is not None:
@@ -502,8 +500,6 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
             col = next(c for f in found if f[0] == name for c in (f[1], f[2]) if c)
             raise ConfigError(f"{sheet.where(i, col)}: the levels differ from replicate 1 of run {run_i + 1}; the "
                               "replicates of a run repeat the same settings - correct the level or the run number")
-    from berryshaker.experiment.designs import is_orthogonal
-
     if levels.shape[1] > 1 and not is_orthogonal(levels):
         raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
                           + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")

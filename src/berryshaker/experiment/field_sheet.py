@@ -1,7 +1,8 @@
 """Field sheets: writing a test plan (CSV + printable HTML) and reading it back with results.
 
 Reading a filled sheet back (strict: issue "never compute on a misread input") lives in
-:mod:`berryshaker.experiment.field_results`; :func:`read_results` here forwards to it.  Units (of a
+:mod:`berryshaker.experiment.field_results` (:func:`read_results`, re-exported here); the columns and records both
+share are in :mod:`berryshaker.experiment.field_columns`.  Units (of a
 ``--factor``, of a sheet's ``A_mm`` column, in a cell) are read by the one strict quantity grammar of
 :mod:`berryshaker.units`, never by pint's expression evaluator.
 """
@@ -11,7 +12,6 @@ from __future__ import annotations
 import html
 import math
 import re
-from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -19,35 +19,10 @@ import pandas as pd
 from berryshaker import __version__
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import ARRAYS, assign_factors, orthogonal_array
+from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
+                                                  Factor, FieldResults, compute_indexes, reserved_columns)
+from berryshaker.experiment.field_results import read_results
 from berryshaker.units import MAX_LIST_CHARS, unit_dimension
-
-RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
-INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
-INDEX_NAMES = {"efficiency": "efficiency_kg_min", "unripe": "unripe_rate_pct", "damage": "damage_rate_pct"}
-#: free-text columns a crew may add (never read as numbers, never taken as factors)
-META_COLUMNS = ("date", "time", "operator", "weather", "notes", "note", "comment", "comments", "remarks", "crew",
-                "observer", "site")
-#: largest sheet read; the analysis is linear in the rows, the limit only guards against a wrong file
-MAX_ROWS = 1_000_000
-
-
-@dataclass(frozen=True)
-class Factor:
-    """A test factor: name, level values (in ``unit``, in the order level 1, 2, ...) and unit ('' if none)."""
-
-    name: str
-    levels: tuple[float, ...]  # in ``unit``
-    unit: str
-
-    @property
-    def column(self) -> str:
-        """Column of the level values in the field sheet: ``<name>_<unit>`` or ``<name>`` without a unit."""
-        return f"{self.name}_{self.unit}" if self.unit else self.name
-
-
-def _reserved_columns() -> set[str]:
-    return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
-
 
 def _short(text: str, limit: int = 60) -> str:
     text = repr(text)
@@ -100,7 +75,7 @@ def parse_factor(spec: str) -> Factor:
 
 
 def _check_factor_name(f: Factor) -> None:
-    reserved = _reserved_columns()
+    reserved = reserved_columns()
     for col in (f.name, f.column, f"{f.name}_level"):
         if col in reserved:
             raise ConfigError(f"factor {f.name!r}: its column {col!r} is a reserved field-sheet column (run, order, "
@@ -241,55 +216,5 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
             f"<p style='font-size:8pt'>berryshaker {html.escape(__version__)}</p></body></html>")
 
 
-# ------------------------------------------------------------------------------------------ reading
-@dataclass
-class FieldResults:
-    """A filled field sheet, read and checked.
-
-    ``table`` is the sheet sorted by run (and replicate), with ``<factor>_level`` columns holding the 1-based
-    level numbers whatever coding the sheet used (added when the sheet had only value columns).  ``levels``
-    (runs x factors, int, one row per run) is the design as an array; ``values`` holds the level values (in
-    ``units``) where the sheet or the given factors state them and the level number otherwise;
-    ``level_values[name]`` is the tuple of level values (level 1, 2, ...) or None when the sheet gives only
-    level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
-    ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
-    and ``responses_replicated`` is None.  A ``block`` (or ``blocks``) column takes the replicate column's role and
-    names the blocks of the analysis (``block_column``: each run once per block).
-    """
-
-    table: pd.DataFrame
-    factors: list[str]  # level-number columns of ``table``
-    factor_names: list[str]
-    responses: dict[str, np.ndarray]  # response name -> values per run (in run order)
-    levels: np.ndarray | None = None
-    values: np.ndarray | None = None
-    level_values: dict[str, tuple[float, ...] | None] = field(default_factory=dict)
-    units: dict[str, str] = field(default_factory=dict)
-    ignored_columns: list[str] = field(default_factory=list)
-    replicates: int = 1
-    responses_replicated: dict[str, np.ndarray] | None = None
-    #: the column whose numbers are the blocks of the replicated analysis (``block``/``blocks``, else ``replicate``)
-    block_column: str | None = None
-
-
-def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:
-    """Read a filled field sheet (see :func:`berryshaker.experiment.field_results.read_results`)."""
-    from berryshaker.experiment.field_results import read_results as _read
-
-    return _read(path_or_text, responses, factors)
-
-
-def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, np.ndarray]:
-    """Study's test indexes: picked mass per minute, unripe and damaged mass as % of the picked mass."""
-    duration_s = np.asarray(duration_s, float)
-    picked = np.asarray(picked_kg, float)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return {
-            "efficiency_kg_min": picked / (duration_s / 60.0),
-            "unripe_rate_pct": 100.0 * np.asarray(unripe_kg, float) / picked,
-            "damage_rate_pct": 100.0 * np.asarray(damaged_kg, float) / picked,
-        }
-
-
-__all__ = ["ARRAYS", "Factor", "FieldResults", "MAX_ROWS", "META_COLUMNS", "parse_factor", "plan_table", "plan_html",
-           "read_results", "compute_indexes"]
+__all__ = ["ARRAYS", "Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
+           "parse_factor", "plan_table", "plan_html", "read_results", "compute_indexes"]

@@ -1,0 +1,87 @@
+"""The field sheet's columns and the two records read from or written to it: a test factor (:class:`Factor`) and a
+filled sheet, read and checked (:class:`FieldResults`), and the study's test indexes from raw masses.
+
+Shared by the writer of a plan (:mod:`berryshaker.experiment.field_sheet`) and the reader of a filled sheet
+(:mod:`berryshaker.experiment.field_results`), so neither imports the other's internals.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
+INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
+INDEX_NAMES = {"efficiency": "efficiency_kg_min", "unripe": "unripe_rate_pct", "damage": "damage_rate_pct"}
+#: free-text columns a crew may add (never read as numbers, never taken as factors)
+META_COLUMNS = ("date", "time", "operator", "weather", "notes", "note", "comment", "comments", "remarks", "crew",
+                "observer", "site")
+#: largest sheet read; the analysis is linear in the rows, the limit only guards against a wrong file
+MAX_ROWS = 1_000_000
+
+
+@dataclass(frozen=True)
+class Factor:
+    """A test factor: name, level values (in ``unit``, in the order level 1, 2, ...) and unit ('' if none)."""
+
+    name: str
+    levels: tuple[float, ...]  # in ``unit``
+    unit: str
+
+    @property
+    def column(self) -> str:
+        """Column of the level values in the field sheet: ``<name>_<unit>`` or ``<name>`` without a unit."""
+        return f"{self.name}_{self.unit}" if self.unit else self.name
+
+
+def reserved_columns() -> set[str]:
+    """Columns of a field sheet that are never a factor: run, replicate, order, raw masses, indexes, notes."""
+    return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
+
+
+@dataclass
+class FieldResults:
+    """A filled field sheet, read and checked.
+
+    ``table`` is the sheet sorted by run (and replicate), with ``<factor>_level`` columns holding the 1-based
+    level numbers whatever coding the sheet used (added when the sheet had only value columns).  ``levels``
+    (runs x factors, int, one row per run) is the design as an array; ``values`` holds the level values (in
+    ``units``) where the sheet or the given factors state them and the level number otherwise;
+    ``level_values[name]`` is the tuple of level values (level 1, 2, ...) or None when the sheet gives only
+    level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
+    ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
+    and ``responses_replicated`` is None.  A ``block`` (or ``blocks``) column takes the replicate column's role and
+    names the blocks of the analysis (``block_column``: each run once per block).
+    """
+
+    table: pd.DataFrame
+    factors: list[str]  # level-number columns of ``table``
+    factor_names: list[str]
+    responses: dict[str, np.ndarray]  # response name -> values per run (in run order)
+    levels: np.ndarray | None = None
+    values: np.ndarray | None = None
+    level_values: dict[str, tuple[float, ...] | None] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    ignored_columns: list[str] = field(default_factory=list)
+    replicates: int = 1
+    responses_replicated: dict[str, np.ndarray] | None = None
+    #: the column whose numbers are the blocks of the replicated analysis (``block``/``blocks``, else ``replicate``)
+    block_column: str | None = None
+
+
+def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, np.ndarray]:
+    """Study's test indexes: picked mass per minute, unripe and damaged mass as % of the picked mass."""
+    duration_s = np.asarray(duration_s, float)
+    picked = np.asarray(picked_kg, float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return {
+            "efficiency_kg_min": picked / (duration_s / 60.0),
+            "unripe_rate_pct": 100.0 * np.asarray(unripe_kg, float) / picked,
+            "damage_rate_pct": 100.0 * np.asarray(damaged_kg, float) / picked,
+        }
+
+
+__all__ = ["Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
+           "compute_indexes", "reserved_columns"]
