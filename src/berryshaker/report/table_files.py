@@ -1,0 +1,129 @@
+"""Table files: one writer puts a table on disk as CSV and, beside it, as an Excel workbook (.xlsx, openpyxl), so the
+study's tables and those of ``doe analyze`` open in a spreadsheet with numbers as numbers.
+
+Cells: booleans as yes/no, non-finite numbers as empty cells, numpy scalars as Python numbers; the header row is
+bold and frozen in the workbook.  Both files are written atomically (a temporary file renamed into place).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+
+def table_cell(v) -> object:
+    """A cell as written to both files: yes/no for booleans, None (empty) for NaN/inf, Python numbers for numpy's."""
+    if isinstance(v, (bool, np.bool_)):
+        return "yes" if v else "no"
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        v = float(v)
+        return v if math.isfinite(v) else None
+    if v is None or isinstance(v, (int, str)):
+        return v
+    return str(v)
+
+
+def _replace_atomic(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
+    """The table as UTF-8 CSV with a header row (empty cell for None)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow([str(h) for h in header])
+    for r in rows:
+        w.writerow(["" if c is None else c for c in (table_cell(v) for v in r)])
+    return buf.getvalue().encode("utf-8")
+
+
+def xlsx_bytes(header: Sequence[str], rows: Iterable[Sequence], sheet: str = "table") -> bytes:
+    """The table as an .xlsx workbook of one sheet (bold, frozen header; columns sized to their text)."""
+    from openpyxl import Workbook
+    from openpyxl.styles import Font
+
+    wb = Workbook()
+    ws = wb.active
+    ws.title = (sheet or "table")[:31]
+    ws.append([str(h) for h in header])
+    for c in ws[1]:
+        c.font = Font(bold=True)
+    widths = [len(str(h)) for h in header]
+    for r in rows:
+        cells = [table_cell(v) for v in r]
+        ws.append(cells)
+        for j, c in enumerate(cells[:len(widths)]):
+            widths[j] = max(widths[j], len(f"{c:.6g}" if isinstance(c, float) else str(c if c is not None else "")))
+    ws.freeze_panes = "A2"
+    from openpyxl.utils import get_column_letter
+
+    for j, w in enumerate(widths):
+        ws.column_dimensions[get_column_letter(j + 1)].width = min(60, w + 2)
+    buf = io.BytesIO()
+    wb.save(buf)
+    return buf.getvalue()
+
+
+def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence], *,
+                sheet: str | None = None) -> tuple[Path, Path]:
+    """Write a table as ``<stem>.csv`` and ``<stem>.xlsx`` (same rows, same header).
+
+    Parameters
+    ----------
+    path : path
+        The CSV file (``.csv``) or the stem; the workbook goes beside it with the suffix ``.xlsx``.
+    header : sequence of str
+        Column names (with units, e.g. ``"peak_N"`` or ``"efficiency (kg/min)"``).
+    rows : iterable of sequences
+        One sequence per row; see :func:`table_cell` for how cells are written.
+    sheet : str, optional
+        Worksheet name (default: the file stem, at most 31 characters).
+
+    Returns
+    -------
+    (Path, Path)
+        The CSV and the workbook written.
+    """
+    path = Path(path)
+    csv_path = path if path.suffix.lower() == ".csv" else path.with_name(path.name + ".csv")
+    xlsx_path = csv_path.with_suffix(".xlsx")
+    rows = [list(r) for r in rows]
+    _replace_atomic(csv_path, csv_bytes(header, rows))
+    _replace_atomic(xlsx_path, xlsx_bytes(header, rows, sheet or csv_path.stem))
+    return csv_path, xlsx_path
+
+
+def read_xlsx(path: str | Path) -> tuple[list[str], list[list]]:
+    """Header and rows of the first sheet of a workbook written by :func:`write_table` (for checks and tests)."""
+    from openpyxl import load_workbook
+
+    ws = load_workbook(path, read_only=True, data_only=True).active
+    values = [list(r) for r in ws.iter_rows(values_only=True)]
+    return [str(h) for h in values[0]], values[1:]
+
+
+__all__ = ["csv_bytes", "read_xlsx", "table_cell", "write_table", "xlsx_bytes"]
