@@ -14,7 +14,6 @@ from berryshaker.life.fits import parse_fit
 from berryshaker.life.tolerance import (
     ClearanceResponse,
     compromise_index,
-    default_clearance_limits,
     evaluate_designs,
     fit_cost,
     joint_candidates,
@@ -47,7 +46,7 @@ def test_hours_to_limit_closed_forms():
 def _synthetic(joints):
     m = load_machine(None)
     cands = joint_candidates(m, joints)
-    lim = default_clearance_limits(m, joints)
+    lim = {j: max(m.clearance_levels()[j]) for j in joints}  # synthetic: the front's size is fixed by these
     resp = {j: ClearanceResponse(j, np.array([2.5e-5, 1e-4, lim[j]]), np.array([2000.0, 2400.0 + 100 * k, 3500.0]),
                                  np.array([4e-8, 6e-8, 9e-8 + 1e-8 * k]))
             for k, j in enumerate(joints)}

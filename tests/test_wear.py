@@ -228,3 +228,53 @@ def test_clearance_size_from_fit():
     assert clearance_size_from_fit(fit, "revolute", "min") == pytest.approx(10e-6)
     assert clearance_size_from_fit(fit, "point-line", "max") == pytest.approx(62e-6)
     assert clearance_size_from_fit(parse_fit("25 H7/p6"), "revolute", "max") == 0.0
+
+
+# ----------------------------------------------------------------------------------------------- service limit
+def test_one_service_limit_rule_for_every_caller():
+    """max(largest test level, 2 x design size): F of the reference machine (size = largest level, 0.2 mm) gets
+    0.4 mm, never a limit equal to its size ("service now" on a new machine); the tolerance design and the study's
+    name for the default limits give the same numbers."""
+    from berryshaker.config import load_machine
+    from berryshaker.life.service import service_limit, service_limits
+    from berryshaker.life.tolerance import default_clearance_limits
+
+    m = load_machine(None)
+    lim = service_limits(m)
+    assert lim == pytest.approx({"A": 7.5e-4, "B": 6e-4, "C": 2e-4, "F": 4e-4})
+    sizes = m.clearance_sizes()
+    assert all(lim[j] > sizes[j] for j in lim)
+    assert default_clearance_limits(m, list(lim)) == lim  # the study's life step calls this name
+    assert service_limit(2e-4, 1e-4) == 2e-4 and service_limit(2e-4, 1.5e-4) == pytest.approx(3e-4)
+    with pytest.raises(ConfigError, match="not a clearance pair"):
+        service_limits(m, ["Z"])
+
+
+def test_machine_wear_is_the_one_loop_and_lists_every_joint_with_its_keys():
+    """The library wear loop (``berryshaker wear`` is a thin call to it) defaults to the service limits and gives
+    every joint, worn or not, the per-joint keys the terminal table and the plot read (a stub runner stands in
+    for the multibody runs: constant 300 N at 0.01 m/s on every joint)."""
+    import inspect
+
+    from berryshaker.cli import life as cli_life
+    from berryshaker.config import load_machine
+    from berryshaker.life.service import machine_wear, service_limits
+
+    class StubRunner:
+        stats = {"cached": 0}
+
+        def values(self, fn, jobs, label):
+            t = np.linspace(0.0, 0.5, 11)
+            return [{"loads": {j: {"t": t.tolist(), "force": [300.0] * 11, "speed": [0.01] * 11}
+                               for j in job["clearance"]}, "outputs": {}} for job in jobs]
+
+    assert "wear_life(" not in inspect.getsource(cli_life)  # no second loop in the CLI
+    m = load_machine(None)
+    res = machine_wear(m, 50.0, runner=StubRunner(), joints=["C"], from_fit=True)
+    assert res["limits_si"] == {"clearance:C": service_limits(m, ["C"])["C"]}
+    for j, d in res["joints"].items():
+        assert {"maintenance_interval_h", "size_convention", "material_pair", "limits"} <= set(d), j
+    assert res["joints"]["C"]["clearance_mm"][0] == pytest.approx(0.0235)
+    assert res["joints"]["C"]["size_convention"] == "radial" and res["simulations"] >= 2
+    with pytest.raises(ConfigError, match=r"clearance\.A\.fit is not set"):
+        machine_wear(m, 5.0, runner=StubRunner(), joints=["A"], from_fit=True)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import re
-import time
 from pathlib import Path
 from typing import Optional
 
@@ -125,74 +124,6 @@ def fits_cmd(
 
 
 # ---- wear ------------------------------------------------------------------------------------------------
-def wear_report(machine, hours: float, limits: dict[str, float], revolutions: int = 2, runner=None,
-                load_direction: str = "fixed", slip: float | None = None, joints=None, from_fit: bool = False,
-                say=None) -> dict:
-    """Run the wear loop on the machine's multibody dynamics (one cached run per state) and return its JSON.
-
-    Every simulation goes through ``runner`` (:func:`berryshaker.life.runs.joint_loads_run`, one job at a time:
-    each state depends on the previous), so a repeated command is served from the cache.
-    """
-    from berryshaker.life.joint_loads import DEFAULT_SLIP, joint_geometry, joint_wear_models
-    from berryshaker.life.runs import joint_loads_run, loads_from_json
-    from berryshaker.life.wear import clearance_size_from_fit, wear_life
-    from berryshaker.life.fits import parse_fit
-
-    slip = DEFAULT_SLIP if slip is None else slip
-    joints = list(joints) if joints else list(machine.pair_names)
-    models = joint_wear_models(machine, joints, load_direction)
-    geos = {j: joint_geometry(machine, j) for j in joints}
-    initial = {}
-    if from_fit:
-        for j in joints:
-            if not geos[j].fit:
-                raise ConfigError(f"--from-fit: clearance.{j}.fit is not set in the machine description")
-            fit = parse_fit(geos[j].fit, geos[j].diameter * 1e3)
-            initial[j] = clearance_size_from_fit(fit, "revolute" if geos[j].is_pin else "point-line", "mean")
-    data = machine.model_dump(mode="json")
-    count = {"n": 0, "cached": 0}
-    t0 = time.perf_counter()
-
-    def simulate(c):
-        count["n"] += 1
-        if say:
-            say(f"simulation {count['n']}: " + ", ".join(f"{k} {v * 1e3:.4g} mm" for k, v in c.items()))
-        before = runner.stats["cached"]
-        value = runner.values(joint_loads_run, [dict(machine_data=data, clearance={k: float(v) for k, v in c.items()},
-                                                     revolutions=int(revolutions), slip=float(slip))], "wear state")[0]
-        count["cached"] += runner.stats["cached"] - before
-        return loads_from_json(value)
-
-    life = wear_life(machine, hours, limits, simulate=simulate, joints=models, initial_clearances=initial or None)
-    res = life.to_dict()
-    for j in res["joints"]:  # the joints that do not wear (not in --joint) are listed too, at their size
-        keys = [k for k in life.limits if k.partition(":")[2] == j]
-        hits = [life.limits[k]["hours"] for k in keys if life.limits[k]["hours"] is not None]
-        g = geos[j] if j in geos else joint_geometry(machine, j)
-        res["joints"][j].update(
-            maintenance_interval_h=min(hits) if hits else None,
-            limits=keys, diameter_mm=g.diameter * 1e3, bearing_length_mm=g.bearing_length * 1e3,
-            material_pair=g.material_pair, fit=g.fit, assumed_defaults=list(g.assumed),
-            size_convention="radial" if g.is_pin else "free travel")
-    res.update(machine=machine.machine.name, drive=machine.DRIVE, horizon_h=float(hours), simulations=count["n"],
-               simulations_from_cache=count["cached"], revolutions=int(revolutions), slip=slip,
-               load_direction=load_direction, wall_time_s=time.perf_counter() - t0, version=__version__,
-               limits_si={k: v for k, v in limits.items()})
-    return res
-
-
-def _default_wear_limits(machine, joints) -> dict[str, float]:
-    """Default service limit per joint: its largest test level, but never below twice its present size.
-
-    A joint whose size already is its largest level (F on the reference machine) would otherwise start at
-    its limit and report a 0 h interval; "replace when the clearance has doubled" is a common workshop
-    rule for pin joints [assumed].
-    """
-    levels = machine.clearance_levels()
-    now = machine.clearance_sizes()
-    return {f"clearance:{j}": float(max(max(levels[j]), 2.0 * now[j])) for j in joints}
-
-
 def _plot_wear(res: dict, folder: Path) -> list[str]:
     import matplotlib
 
@@ -222,8 +153,8 @@ def _plot_wear(res: dict, folder: Path) -> list[str]:
 def wear_cmd(
     hours: float = typer.Option(2000.0, "--hours", help="Operating hours to simulate."),
     limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, "
-                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each pair's largest test level, at least twice its "
-                                    "present size."),
+                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test "
+                                    "level or twice its size in the description, whichever is larger (docs/life.md)."),
     joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
     revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200,
                                      help="Drive revolutions per simulation (2..200)."),
@@ -240,19 +171,22 @@ def wear_cmd(
     Simulates the multibody drive, wears the joints (adaptive steps in hours), re-simulates; each simulation is
     cached.  JSON: joints.<name>.hours[], .clearance_mm[], .maintenance_interval_h (null if not reached).
     """
+    from berryshaker.life.service import machine_wear
+
     if not (math.isfinite(hours) and 0 < hours <= 1e7):
         raise ConfigError(f"--hours {hours!r}: expected operating hours in (0, 1e7]")
     _check_plot(plot, "wear --plot")
     machine = _load(config)
     joints = _check_joints(machine, joint)
-    limits = dict(parse_limit(s) for s in limit) if limit else _default_wear_limits(machine, joints)
+    limits = dict(parse_limit(s) for s in limit) if limit else None
     runner = _runner(1, None, cache, progress=False)
     status = None if as_json else err.status("wear: starting")
     if status is not None:
         status.start()
     try:
-        res = wear_report(machine, hours, limits, revolutions, runner, load_direction, slip, joints, from_fit,
-                          say=(lambda m: status.update(f"wear: {m}")) if status is not None else None)
+        res = machine_wear(machine, hours, limits, runner=runner, revolutions=revolutions,
+                           load_direction=load_direction, slip=slip, joints=joints, from_fit=from_fit,
+                           say=(lambda m: status.update(f"wear: {m}")) if status is not None else None)
     finally:
         if status is not None:
             status.stop()
@@ -394,7 +328,7 @@ def tolerance_cmd(
                              help="Candidate fits, comma-separated."),
     joint: list[str] = typer.Option([], "--joint", help="Joints to design (repeatable; default all pairs)."),
     limit: list[str] = typer.Option([], "--limit", help="Clearance limit for the life objective, clearance:C=0.3mm "
-                                    "(repeatable; default each pair's largest test level)."),
+                                    "(repeatable; default each joint's service limit, docs/life.md)."),
     points: int = typer.Option(4, "--points", help="Surrogate grid clearances per joint (multibody runs each)."),
     revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200, help="Drive revolutions per run (2..200)."),
     pop_size: int = typer.Option(60, "--pop-size"),

@@ -1,8 +1,10 @@
 """Clearance over the machine's life: ISO 286 fits (the clearance a new machine leaves the shop with) and
 the wear loop that grows it towards the study's levels (:mod:`berryshaker.life.fits`,
-:mod:`berryshaker.life.wear`; Archard's law is in :mod:`berryshaker.contact.wear`).  See docs/life.md."""
+:mod:`berryshaker.life.wear`; the service limit and the machine's wear loop in
+:mod:`berryshaker.life.service`; Archard's law is in :mod:`berryshaker.contact.wear`).  See docs/life.md."""
 
 from berryshaker.life.fits import Fit, ToleranceZone, fit_summary, iso_fit, parse_fit, tolerance_zone
+from berryshaker.life.service import machine_wear, service_limits
 from berryshaker.life.wear import JointWear, WearLife, clearance_size_from_fit, wear_life
 
 __all__ = [
@@ -13,7 +15,9 @@ __all__ = [
            "clearance_size_from_fit",
            "fit_summary",
            "iso_fit",
+           "machine_wear",
            "parse_fit",
+           "service_limits",
            "tolerance_zone",
            "wear_life",
 ]

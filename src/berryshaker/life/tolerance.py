@@ -229,9 +229,11 @@ class ClearanceResponse:
 
 
 def default_clearance_limits(machine, joints) -> dict[str, float]:
-    """Clearance limit per joint (m): the largest test level of the pair (the study's worst level)."""
-    levels = machine.clearance_levels()
-    return {j: float(max(levels[j])) for j in joints}
+    """Clearance limit per joint (m): the service limit, :func:`berryshaker.life.service.service_limits` (the one
+    rule; this name stays for callers that have not moved to it yet)."""
+    from berryshaker.life.service import service_limits
+
+    return service_limits(machine, joints)
 
 
 def response_grid(machine, joints, limits: dict[str, float], lo: dict[str, float], n_points: int = 4) -> dict:
@@ -416,7 +418,8 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
     fits : sequence of str
         Candidate fits (default :data:`CANDIDATE_FITS`).
     limits : dict, optional
-        Clearance limit per joint (m) for the life objective (default :func:`default_clearance_limits`).
+        Clearance limit per joint (m) for the life objective (default the service limit,
+        :func:`berryshaker.life.service.service_limits`).
     n_points : int
         Grid clearances per joint (runs = joints x n_points).
     revolutions : int
@@ -435,7 +438,9 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
     unknown = [j for j in joints if j not in machine.pair_names]
     if unknown:
         raise ConfigError(f"unknown joint(s) {', '.join(unknown)}; pairs: {', '.join(machine.pair_names)}")
-    lim = default_clearance_limits(machine, joints)
+    from berryshaker.life.service import service_limits
+
+    lim = service_limits(machine, joints)
     lim.update({k: float(v) for k, v in (limits or {}).items() if k in joints})
     cands = joint_candidates(machine, joints, fits)
     grid = response_grid(machine, joints, lim, {j: float(cands[j].size.min()) for j in joints}, n_points)
