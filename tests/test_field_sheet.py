@@ -349,3 +349,102 @@ def test_sheet_writer_and_reader_import_each_other_nowhere_inside_functions():
            if isinstance(n, ast.ImportFrom)]
     assert "berryshaker.experiment.field_sheet" not in top
     assert fs.read_results is fr.read_results
+
+
+# ---- statistics packages' worksheets (issue 45): Minitab's bookkeeping columns, runs told apart by their settings
+MINITAB = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+SENSES = {"efficiency": True, "unripe": False, "damage": False}
+
+
+def _plan_format_of_minitab(tmp_path) -> Path:
+    """The Minitab sheet's numbers written into the plan's field sheet (`doe plan --replicates 3`): replicate k of
+    a run is its k-th row in Minitab's standard order (StdOrder)."""
+    mt = pd.read_csv(MINITAB)
+    factors = [parse_factor(s) for s in ("A=0.25,0.5,0.75mm", "B=0.2,0.4,0.6mm", "C=0.1,0.2,0.3mm",
+                                         "F=0.2,0.35,0.5mm")]
+    plan = plan_table("L9", factors, replicates=3)
+    mt = mt.sort_values("StdOrder")
+    mt["k"] = mt.groupby(["A (mm)", "B (mm)", "C (mm)", "F (mm)"]).cumcount() + 1
+    for i, row in plan.iterrows():
+        hit = mt[(mt["A (mm)"] == row["A_mm"]) & (mt["B (mm)"] == row["B_mm"]) & (mt["C (mm)"] == row["C_mm"])
+                 & (mt["F (mm)"] == row["F_mm"]) & (mt["k"] == row["replicate"])]
+        assert len(hit) == 1
+        for col, src in (("efficiency_kg_min", "Efficiency (kg/min)"), ("unripe_rate_pct", "Unripe (%)"),
+                         ("damage_rate_pct", "Damage (%)")):
+            plan.loc[i, col] = float(hit[src].iloc[0])
+    path = tmp_path / "plan_format.csv"
+    plan.to_csv(path, index=False)
+    return path
+
+
+def _assert_same(a, b, where="res"):
+    if isinstance(a, dict):
+        assert set(a) == set(b), f"{where}: keys {sorted(set(a) ^ set(b))}"
+        for k in a:
+            _assert_same(a[k], b[k], f"{where}[{k!r}]")
+    elif isinstance(a, (list, tuple, np.ndarray)) and not isinstance(a, str):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b)):
+            _assert_same(x, y, f"{where}[{i}]")
+    elif isinstance(a, float):
+        assert b == pytest.approx(a, rel=1e-12, abs=1e-12, nan_ok=True), where
+    else:
+        assert a == b, where
+
+
+def test_a_minitab_worksheet_is_read_with_its_bookkeeping_columns_units_and_replicates():
+    from berryshaker.experiment.field_results import analyze_sheet
+
+    fr, res = analyze_sheet(MINITAB, SENSES)
+    # StdOrder, RunOrder, PtType and Blocks are bookkeeping, never factors
+    assert fr.factor_names == ["A", "B", "C", "F"]
+    assert fr.units == {f: "mm" for f in "ABCF"} and fr.level_values["C"] == (0.1, 0.2, 0.3)
+    # repeated settings are the replicates of one run: 9 runs x 3
+    assert fr.replicates == 3 and fr.levels.shape == (9, 4) and fr.responses_replicated["efficiency"].shape == (9, 3)
+    assert fr.response_units == {"efficiency": "kg/min", "unripe": "%", "damage": "%"}
+    assert res["response_units"] == fr.response_units and "StdOrder" in fr.runs_identified_by
+    assert fr.block_column is None  # Minitab's Blocks = 1 everywhere numbers no blocks
+
+
+def test_plan_format_and_minitab_format_of_the_same_data_give_the_same_analysis(tmp_path):
+    from berryshaker.experiment.field_results import analyze_sheet
+
+    fr_p, plan = analyze_sheet(_plan_format_of_minitab(tmp_path), SENSES)
+    fr_m, mini = analyze_sheet(MINITAB, SENSES)
+    np.testing.assert_array_equal(fr_p.levels, fr_m.levels)
+    for name in SENSES:
+        np.testing.assert_array_equal(fr_p.responses_replicated[name], fr_m.responses_replicated[name])
+    for key in ("block_column", "runs_identified_by", "text"):
+        plan.pop(key), mini.pop(key)
+    _assert_same(plan, mini)
+    assert plan["optimum"]["levels"]["C"] == mini["optimum"]["levels"]["C"]
+
+
+def test_units_from_brackets_or_a_units_row_and_blocks_as_the_block_column():
+    from berryshaker.experiment.field_results import analyze_sheet
+
+    text = MINITAB.read_text(encoding="utf-8").splitlines()
+    body = [ln.split(",") for ln in text[1:]]
+    # Blocks numbered 1..3 by StdOrder (a field day per replicate); units in square brackets
+    for row in body:
+        row[3] = str((int(row[0]) - 1) // 9 + 1)
+    head = "StdOrder,RunOrder,PtType,Blocks,A [mm],B [mm],C [mm],F [mm],Efficiency [kg/min],Unripe [%],Damage [%]"
+    fr_b, res_b = analyze_sheet("\n".join([head] + [",".join(r) for r in body]) + "\n", SENSES)
+    _, res_m = analyze_sheet(MINITAB, SENSES)
+    assert fr_b.block_column == "Blocks" and fr_b.units["A"] == "mm" and fr_b.response_units["efficiency"] == "kg/min"
+    for key in ("block_column", "runs_identified_by", "text"):
+        res_b.pop(key), res_m.pop(key)
+    _assert_same(res_m, res_b)  # the blocks number the repeats as StdOrder did
+    # a units row under the header; a factor with a speed unit
+    head = "StdOrder,RunOrder,PtType,Blocks,A,B,Speed,F,Efficiency,Unripe,Damage"
+    units = ",,,,mm,mm,r/min,mm,kg/min,%,%"
+    fr_u = analyze_sheet("\n".join([head, units] + text[1:]) + "\n", SENSES)[0]
+    assert fr_u.factor_names == ["A", "B", "Speed", "F"] and fr_u.units["Speed"] == "r/min"
+    assert fr_u.response_units == {"efficiency": "kg/min", "unripe": "%", "damage": "%"}
+
+
+def test_a_worksheet_with_a_missing_replicate_names_both_settings():
+    text = MINITAB.read_text(encoding="utf-8").splitlines()
+    with pytest.raises(ConfigError, match=r"the settings A = 0.5 mm, B = 0.2 mm, C = 0.2 mm, F = 0.5 mm occur in 2 "
+                                          r"row\(s\).* in 3; rows with the same factor settings are replicates"):
+        read_results("\n".join(text[:1] + text[2:]) + "\n", list(SENSES))

@@ -15,6 +15,8 @@ import pandas as pd
 RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
 INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
 INDEX_NAMES = {"efficiency": "efficiency_kg_min", "unripe": "unripe_rate_pct", "damage": "damage_rate_pct"}
+#: unit of each index column (the column names carry them: picked mass per minute, mass percentages)
+INDEX_UNITS = {"efficiency_kg_min": "kg/min", "unripe_rate_pct": "%", "damage_rate_pct": "%"}
 #: free-text columns a crew may add (never read as numbers, never taken as factors)
 META_COLUMNS = ("date", "time", "operator", "weather", "notes", "note", "comment", "comments", "remarks", "crew",
                 "observer", "site")
@@ -53,7 +55,9 @@ class FieldResults:
     level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
     ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
     and ``responses_replicated`` is None.  A ``block`` (or ``blocks``) column takes the replicate column's role and
-    names the blocks of the analysis (``block_column``: each run once per block).
+    names the blocks of the analysis (``block_column``: each run once per block).  A sheet without a ``run`` column
+    (Minitab's worksheet, a statistics package's export) has its runs told apart by their factor settings: rows with
+    the same settings are replicates of one run (``runs_identified_by`` says how they were numbered).
     """
 
     table: pd.DataFrame
@@ -69,6 +73,10 @@ class FieldResults:
     responses_replicated: dict[str, np.ndarray] | None = None
     #: the column whose numbers are the blocks of the replicated analysis (``block``/``blocks``, else ``replicate``)
     block_column: str | None = None
+    #: unit per response (from the header, "Efficiency (kg/min)", a units row, or the index column's name)
+    response_units: dict[str, str] = field(default_factory=dict)
+    #: how the runs were told apart: "run column", or "factor settings" with how the repeats were numbered
+    runs_identified_by: str = "run column"
 
 
 def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, np.ndarray]:
@@ -83,5 +91,5 @@ def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, n
         }
 
 
-__all__ = ["Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
+__all__ = ["Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "INDEX_UNITS", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
            "compute_indexes", "reserved_columns"]

@@ -21,7 +21,8 @@ import pandas as pd
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import is_orthogonal
-from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
+from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, INDEX_UNITS, MAX_ROWS, META_COLUMNS,
+                                                  RAW_COLUMNS,
                                                   Factor, FieldResults, compute_indexes, reserved_columns)
 from berryshaker.units import unit_dimension, unit_factor
 
@@ -36,11 +37,26 @@ class _Sheet:
         self.df = df
         self.decimal_comma = decimal_comma
         self.sep = sep
-        self.run_label = [str(i + 1) for i in range(len(df))]
+        self.run_label: list[str | None] = [None] * len(df)
         self.adopted_units: dict[str, str] = {}
+        #: units read from the header ("Speed (rpm)", "Speed [r/min]") or a units row, per (bare) column name
+        self.header_units: dict[str, str] = {}
+        #: the header as written, per (bare) column name
+        self.original: dict[str, str] = {c: c for c in df.columns}
+        #: line of the file of data row 0 (header = line 1; a units row below it moves the data one line down)
+        self.first_line = 2
+
+    def line(self, i: int) -> int:
+        """Line of the file of data row ``i`` (header = line 1)."""
+        return i + self.first_line
+
+    def row(self, i: int) -> str:
+        """"results CSV row N (run R...)" of data row ``i``."""
+        label = self.run_label[i] if i < len(self.run_label) else None
+        return f"results CSV row {self.line(i)}" + (f" ({label})" if label else "")
 
     def where(self, i: int, col: str) -> str:
-        return f"results CSV row {i + 2} (run {self.run_label[i]}), column {col!r}"
+        return f"{self.row(i)}, column {self.original.get(col, col)!r}"
 
     def text(self, col: str) -> pd.Series:
         return self.df[col]
@@ -133,7 +149,82 @@ def _load_sheet(path_or_text) -> _Sheet:
         s = df[c].astype(str).str.strip()
         df[c] = s.where(~s.str.lower().isin(_MISSING), None)
     df = df.dropna(how="all").reset_index(drop=True)
-    return _Sheet(df, decimal_comma=sep != ",", sep=sep)
+    units_row = _units_row(df)
+    if units_row is not None:
+        df = df.iloc[1:].reset_index(drop=True)
+    bare, header_units, original = [], {}, {}
+    for c in df.columns:
+        name, unit = _header_unit(c)
+        if units_row is not None and units_row.get(c) is not None:
+            if unit is not None and _same_unit(unit, units_row[c]) is False:
+                raise ConfigError(f"results CSV column {c!r}: the header says {unit!r}, the units row "
+                                  f"{units_row[c]!r}; keep one unit")
+            unit = units_row[c]
+        if name in original:
+            raise ConfigError(f"results CSV: columns {original[name]!r} and {c!r} both name {name!r}; keep one")
+        original[name] = c
+        bare.append(name)
+        if unit is not None:
+            header_units[name] = unit
+    df.columns = bare
+    sheet = _Sheet(df, decimal_comma=sep != ",", sep=sep)
+    sheet.header_units, sheet.original = header_units, original
+    sheet.first_line = 3 if units_row is not None else 2
+    return sheet
+
+
+#: Bookkeeping columns of statistics packages (Minitab: StdOrder, RunOrder, CenterPt, PtType, Blocks; JMP: Pattern;
+#: Design-Expert: Std, Space Type): never a factor, never a response; compared without case, spaces or '_'.
+BOOKKEEPING_COLUMNS = ("stdorder", "runorder", "centerpt", "pttype", "blocks", "block", "pattern", "std", "spacetype",
+                       "standardorder")
+
+_HEADER_UNIT = re.compile(r"^(.*?\S)\s*(?:\(([^()]*)\)|\[([^\[\]]*)\])\s*$")
+
+
+def _unit_or_none(text: str) -> str | None:
+    """The unit a header or units-row cell names ('' for dimensionless: '-', '1'), or None if it names none."""
+    u = text.strip()
+    if u in ("-", "1", "", "—"):
+        return "" if u else None
+    if u in ("%", "pct"):
+        return "%"
+    return u if unit_dimension(u) is not None else None
+
+
+def _header_unit(col: str) -> tuple[str, str | None]:
+    """``"Speed (rpm)"`` / ``"Speed [r/min]"`` -> ("Speed", unit); a header without a unit in brackets: (col, None).
+    A bracket that names no unit ("Run (first)") stays part of the name."""
+    m = _HEADER_UNIT.match(col)
+    if not m:
+        return col, None
+    unit = _unit_or_none(m.group(2) if m.group(2) is not None else m.group(3))
+    return (m.group(1).strip(), unit) if unit is not None else (col, None)
+
+
+def _same_unit(a: str, b: str) -> bool:
+    return a.strip() == b.strip()
+
+
+def _units_row(df: pd.DataFrame) -> dict[str, str] | None:
+    """A units row under the header (every filled cell of the first data row names a unit, at least one is not
+    '-'), as column -> unit ('' dimensionless; None where the cell is empty); else None."""
+    if len(df) < 2:
+        return None
+    first = df.iloc[0]
+    filled = {c: str(v) for c, v in first.items() if not pd.isna(v) and str(v).strip()}
+    if not filled:
+        return None
+    units = {c: _unit_or_none(v) for c, v in filled.items()}
+    if any(u is None for u in units.values()) or not any(units.values()):
+        return None
+    if any(_CELL.match(v) and not _CELL.match(v).group(2) for v in filled.values()):  # a bare number: data
+        return None
+    return {c: units.get(c) for c in df.columns}
+
+
+def is_bookkeeping(col: str) -> bool:
+    """True for a statistics package's bookkeeping column (:data:`BOOKKEEPING_COLUMNS`), e.g. Minitab's RunOrder."""
+    return re.sub(r"[\s_.]", "", str(col)).lower() in BOOKKEEPING_COLUMNS
 
 
 def _split_unit(col: str) -> tuple[str, str] | None:
@@ -304,7 +395,8 @@ def _check_orphan_values(cols: list[str], names: set[str], reserved: set[str]) -
 def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: set[str]):
     """(name, code column, value column, unit, given Factor) per factor, and the columns ignored."""
     cols = list(sheet.df.columns)
-    reserved = reserved_columns() | response_cols | ({block_column(sheet.df)} - {None})
+    reserved = (reserved_columns() | response_cols | ({block_column(sheet.df)} - {None})
+                | {c for c in cols if is_bookkeeping(c)})
     meta = {c for c in cols if c.lower() in META_COLUMNS}
     found = []
     if factors is not None:
@@ -325,19 +417,21 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
                 if len(cand) > 1:
                     raise ConfigError(f"results CSV: factor {name!r} has several value columns {cand}; keep one")
                 value = cand[0] if cand else None
-                unit = (_split_unit(value) or (name, ""))[1] if value and value != name else ""
+                unit = (sheet.header_units.get(value) if value in sheet.header_units else
+                        (_split_unit(value) or (name, ""))[1] if value and value != name else "")
                 found.append((name, code, value, unit, None))
             _check_orphan_values(cols, {f[0] for f in found}, reserved | meta)
         else:
             for c in cols:
                 if c in reserved or c in meta:
                     continue
-                su = _split_unit(c)
+                su = (c, sheet.header_units[c]) if c in sheet.header_units else _split_unit(c)
                 name, unit = su if su else (c, "")
                 found.append((name, None, c, unit, None))
             if not found:
                 raise ConfigError("results CSV: no factor columns found (<FACTOR>_level columns as written by "
-                                  "`berryshaker doe plan`, or plain factor columns such as A, B holding level values)")
+                                  "`berryshaker doe plan`, or plain factor columns such as A, B or 'Speed (rpm)' "
+                                  "holding level values)")
     names = [f[0] for f in found]
     if len(set(names)) != len(names):
         raise ConfigError(f"results CSV: factor names {names} are not distinct")
@@ -370,14 +464,14 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
     runs, empty = sheet.numbers("run")
     if empty.any():
         i = int(np.argmax(empty))
-        raise ConfigError(f"results CSV row {i + 2}, column 'run': empty run number; fill it in")
+        raise ConfigError(f"results CSV row {sheet.line(i)}, column 'run': empty run number; fill it in")
     bad = ~np.isfinite(runs) | (runs != np.round(runs)) | (runs < 1)
     if bad.any():
         i = int(np.argmax(bad))
-        raise ConfigError(f"results CSV row {i + 2}, column 'run': {sheet.df['run'].iloc[i]!r} is not a run "
+        raise ConfigError(f"results CSV row {sheet.line(i)}, column 'run': {sheet.df['run'].iloc[i]!r} is not a run "
                           "number (1, 2, 3, ...)")
     runs = runs.astype(np.int64)
-    sheet.run_label = [str(r) for r in runs]
+    sheet.run_label = [f"run {r}" for r in runs]
     reps = None
     col = block_column(sheet.df)
     what = "block" if col != "replicate" else "replicate"
@@ -386,39 +480,140 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
         bad = empty | ~np.isfinite(reps) | (reps != np.round(reps)) | (reps < 1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise ConfigError(f"results CSV row {i + 2} (run {runs[i]}), column {col!r}: "
+            raise ConfigError(f"results CSV row {sheet.line(i)} (run {runs[i]}), column {col!r}: "
                               f"{sheet.df[col].iloc[i]!r} is not a {what} number (1, 2, 3, ...); fill it in")
         reps = reps.astype(np.int64)
         if reps.max() > 1:
-            sheet.run_label = [f"{r}, {what} {k}" for r, k in zip(runs, reps)]
-    key = runs if reps is None else runs * (int(reps.max()) + 1) + reps
-    _, counts = np.unique(key, return_counts=True)
-    if (counts > 1).any():
-        dup = int(np.unique(key)[np.argmax(counts > 1)])
-        rows = (np.flatnonzero(key == dup) + 2).tolist()
-        if reps is None:
-            raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
-                              "keep one row per run, or number the repeats of a run in a 'replicate' column "
-                              "(`doe plan --replicates`)")
-        i = rows[0] - 2
-        raise ConfigError(f"results CSV: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
-                          f"as {what} {reps[i]}; keep one row per run and {what}")
+            sheet.run_label = [f"run {r}, {what} {k}" for r, k in zip(runs, reps)]
+    _check_repeats(sheet, runs, reps, what)
     n = int(runs.max())
     present = set(runs.tolist())
     if len(present) != n:
         missing = sorted(set(range(1, n + 1)) - present)[:10]
         raise ConfigError(f"results CSV: runs must be numbered 1..{n} once each"
                           + (f"; missing run(s) {missing}" if missing else ""))
+    return runs, reps
+
+
+def _check_repeats(sheet: _Sheet, runs: np.ndarray, reps: np.ndarray | None, what: str) -> None:
+    """Each run once (per repeat), and with repeats every run has the repeats 1..R once each, the same R for all."""
+    key = runs if reps is None else runs * (int(reps.max()) + 1) + reps
+    _, counts = np.unique(key, return_counts=True)
+    if (counts > 1).any():
+        dup = int(np.unique(key)[np.argmax(counts > 1)])
+        rows = [sheet.line(int(i)) for i in np.flatnonzero(key == dup)]
+        if reps is None:
+            raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
+                              "keep one row per run, or number the repeats of a run in a 'replicate' column "
+                              "(`doe plan --replicates`)")
+        i = int(np.flatnonzero(key == dup)[0])
+        raise ConfigError(f"results CSV: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
+                          f"as {what} {reps[i]}; keep one row per run and {what}")
     if reps is not None:
         r = int(reps.max())
-        for run in range(1, n + 1):
+        for run in sorted(set(runs.tolist())):
             have = sorted(reps[runs == run].tolist())
             if have != list(range(1, r + 1)):
                 missing = sorted(set(range(1, r + 1)) - set(have))
                 raise ConfigError(f"results CSV: run {run} has {what}(s) {have}, other runs go up to {r}; every "
                                   f"run needs {what}s 1..{r} once each (missing {missing}) - fill in the missing "
                                   f"rows or delete the extra {what}s of the other runs")
-    return runs, reps
+
+
+def _settings_text(names: list[str], levels_row, level_values: dict, units: dict) -> str:
+    """"A = 0.25 mm, B = 2" of one run's settings (level values where known, else level numbers)."""
+    out = []
+    for name, k in zip(names, levels_row):
+        lv = level_values.get(name)
+        out.append(f"{name} = {lv[int(k) - 1]:g}{(' ' + units[name]) if units.get(name) else ''}" if lv is not None
+                   else f"{name} level {int(k)}")
+    return ", ".join(out)
+
+
+def _bookkeeping_column(sheet: _Sheet, *keys: str) -> str | None:
+    """The first column whose normalised name is one of ``keys`` (e.g. "stdorder", "runorder")."""
+    for key in keys:
+        for c in sheet.df.columns:
+            if re.sub(r"[\s_.]", "", str(c)).lower() == key:
+                return c
+    return None
+
+
+def _runs_from_settings(sheet: _Sheet, levels: np.ndarray, names: list[str], level_values: dict,
+                        units: dict) -> tuple[np.ndarray, np.ndarray | None, str]:
+    """Run and repeat numbers per row of a sheet without a ``run`` column (Minitab's worksheet, a statistics
+    package's export): a run is a distinct combination of factor levels, and rows with the same settings are its
+    replicates.
+
+    Runs are numbered in the design's standard order: by the smallest StdOrder (Minitab's standard order) of their
+    rows where the sheet has that column, else by their levels (an orthogonal array's standard order).  Repeats
+    are numbered by the block column where it holds more than one block (Minitab's Blocks: each run once per block),
+    else in standard order (StdOrder), else in test order (RunOrder), else in the order of the rows; every run needs
+    the same number of them.
+    """
+    keys = [tuple(int(v) for v in row) for row in levels]
+    std = _bookkeeping_column(sheet, "stdorder", "standardorder", "std")
+    test = _bookkeeping_column(sheet, "runorder")
+    order_of = {}
+    for name, col in (("std", std), ("test", test)):
+        if col is None:
+            continue
+        v, empty = sheet.numbers(col)
+        bad = empty | ~np.isfinite(v)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(f"{sheet.where(i, col)}: empty or not a number; fill in the order (1, 2, 3, ...) or "
+                              "delete the column")
+        order_of[name] = v
+    settings = sorted(set(keys))
+    if "std" in order_of:
+        first = {k: min(order_of["std"][i] for i, kk in enumerate(keys) if kk == k) for k in settings}
+        settings.sort(key=lambda k: (first[k], k))
+    run_of = {k: i + 1 for i, k in enumerate(settings)}
+    runs = np.array([run_of[k] for k in keys], dtype=np.int64)
+    sheet.run_label = [f"run {r}" for r in runs]
+    counts = np.bincount(runs)[1:]
+    blk = block_column(sheet.df)
+    blocks = None
+    if blk is not None:
+        b, empty = sheet.numbers(blk)
+        bad = empty | ~np.isfinite(b) | (b != np.round(b)) | (b < 1)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ConfigError(f"{sheet.where(i, blk)}: {sheet.df[blk].iloc[i]!r} is not a block number (1, 2, 3, "
+                              "...); fill it in")
+        if len(np.unique(b)) > 1:
+            blocks = b.astype(np.int64)
+    if blocks is not None:
+        reps, how = blocks, f"factor settings; repeats numbered by the blocks in {sheet.original.get(blk, blk)!r}"
+        what = "block"
+    else:
+        by = order_of.get("std", order_of.get("test"))
+        col = std if "std" in order_of else test
+        rank = np.arange(len(keys), dtype=float) if by is None else by
+        reps = np.zeros(len(keys), dtype=np.int64)
+        for run in range(1, len(settings) + 1):
+            rows = np.flatnonzero(runs == run)
+            reps[rows[np.argsort(rank[rows], kind="stable")]] = np.arange(1, len(rows) + 1)
+        how = ("factor settings; repeats numbered in " + (f"the order of {sheet.original.get(col, col)!r}"
+                                                          if col else "the order of the rows"))
+        what = "replicate"
+        if counts.max() != counts.min():
+            few = int(np.argmin(counts)) + 1
+            many = int(np.argmax(counts)) + 1
+            i = int(np.flatnonzero(runs == few)[0])
+            j = int(np.flatnonzero(runs == many)[0])
+            raise ConfigError(
+                f"results CSV: the settings {_settings_text(names, levels[i], level_values, units)} occur in "
+                f"{counts[few - 1]} row(s), the settings {_settings_text(names, levels[j], level_values, units)} in "
+                f"{counts[many - 1]}; rows with the same factor settings are replicates of one run, and every run "
+                "needs the same number of them - add the missing replicates or delete the extra rows (a typo in a "
+                "factor cell also makes a new setting)")
+    if counts.max() == 1 and blocks is None:
+        return runs, None, "factor settings (one row per run)"
+    sheet.run_label = [f"run {r}, {what} {k}" for r, k in zip(runs, reps)]
+    _check_repeats(sheet, runs, reps, what)
+    return runs, reps, how
 
 
 def _orthogonality_problem(levels: np.ndarray, names: list[str]) -> str:
@@ -468,13 +663,17 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     df = sheet.df
     if len(df) == 0:
         raise ConfigError("results CSV has a header but no rows; fill in the field sheet (one row per run)")
-    runs, reps = _check_runs(sheet)
-    response_cols = {INDEX_NAMES.get(r, r) for r in responses} | set(responses)
+    has_run = "run" in df.columns
+    runs = reps = None
+    if has_run:
+        runs, reps = _check_runs(sheet)
+    resp_col = {r: _response_column(sheet, r) for r in responses}
+    response_cols = set(resp_col.values()) | set(responses)
     found, ignored = _find_factors(sheet, factors, response_cols)
     # responses named like a factor column
     factor_cols = {c for f in found for c in (f[0], f[1], f[2]) if c}
     for r in responses:
-        if r in factor_cols or INDEX_NAMES.get(r, r) in factor_cols:
+        if r in factor_cols or resp_col[r] in factor_cols:
             raise ConfigError(f"response {r!r} is also a factor column of the sheet; analyse another column or "
                               "rename the factor")
     names, codes, level_values, units, values = [], [], {}, {}, []
@@ -487,6 +686,9 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
         values.append(v if v is not None else c.astype(float))
     levels = np.column_stack(codes).astype(int)
     valuearr = np.column_stack(values).astype(float)
+    how = "run column"
+    if not has_run:
+        runs, reps, how = _runs_from_settings(sheet, levels, names, level_values, units)
     r = 1 if reps is None else int(reps.max())
     order = np.lexsort((np.ones_like(runs) if reps is None else reps, runs))  # by run, then replicate
     levels, valuearr = levels[order], valuearr[order]
@@ -503,7 +705,7 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     if levels.shape[1] > 1 and not is_orthogonal(levels):
         raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
                           + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")
-    out = {resp: _response(sheet, resp, factor_cols)[order] for resp in responses}
+    out = {resp: _response(sheet, resp, factor_cols, resp_col[resp])[order] for resp in responses}
     # the table: sorted by run (and replicate), numbers where the sheet's cells are numbers, level numbers
     # normalised
     table = df.iloc[order].reset_index(drop=True).copy()
@@ -531,18 +733,48 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     per_run = slice(None, None, r)
     replicated = {k: v.reshape(-1, r) for k, v in out.items()} if reps is not None else None
     means = {k: v.mean(axis=1) for k, v in replicated.items()} if replicated is not None else out
+    blk = block_column(df) if reps is not None else None
+    if not has_run and reps is not None and not how.startswith("factor settings; repeats numbered by the blocks"):
+        blk = None  # a constant Blocks column (Minitab's 1 everywhere) numbers no blocks
     return FieldResults(table, level_cols, names, means, levels[per_run], valuearr[per_run], level_values, units,
-                        ignored, replicates=r, responses_replicated=replicated,
-                        block_column=block_column(df) if reps is not None else None)
+                        ignored, replicates=r, responses_replicated=replicated, block_column=blk,
+                        response_units={resp: _response_unit(sheet, resp_col[resp]) for resp in responses},
+                        runs_identified_by=how)
 
 
-def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.ndarray:
+def _response_column(sheet: _Sheet, r: str) -> str:
+    """The column of response ``r``: the index column of an index name (``efficiency`` -> efficiency_kg_min), the
+    column of that name, else the one column named so without regard to case ("Efficiency (kg/min)" for
+    ``efficiency``); the index column name when none is there (the index is then computed from raw masses)."""
+    cols = list(sheet.df.columns)
+    if r in INDEX_NAMES and INDEX_NAMES[r] in cols:
+        return INDEX_NAMES[r]
+    if r in cols:
+        return r
+    same = [c for c in cols if c.lower() == r.lower()]
+    if len(same) == 1:
+        return same[0]
+    return INDEX_NAMES.get(r, r)
+
+
+def _response_unit(sheet: _Sheet, col: str) -> str:
+    """Unit of a response column: from the header or the units row, else the index column's, else a ``_unit``
+    suffix; '' when none is given."""
+    if col in sheet.header_units:
+        return sheet.header_units[col]
+    if col in INDEX_UNITS:
+        return INDEX_UNITS[col]
+    su = _split_unit(col) if col in sheet.df.columns else None
+    return su[1] if su else ""
+
+
+def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: str | None = None) -> np.ndarray:
     """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
     df = sheet.df
     blk = block_column(df)
     numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order", blk) and c.lower() not in META_COLUMNS
-                    and c not in factor_cols and c not in RAW_COLUMNS]
-    col = INDEX_NAMES.get(r, r)
+                    and c not in factor_cols and c not in RAW_COLUMNS and not is_bookkeeping(c)]
+    col = col or _response_column(sheet, r)
     if r not in INDEX_NAMES and col not in df.columns:
         raise ConfigError(f"unknown response {r!r}; valid: {', '.join(INDEX_NAMES)} (indexes or raw masses) or a "
                           f"column of the sheet ({', '.join(c for c in numeric_cols if not c.endswith('_level'))})")
@@ -565,7 +797,7 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.
             miss = need[e[need]]
             if len(miss):
                 i = int(miss[0])
-                raise ConfigError(f"results CSV run {sheet.run_label[i]} (row {i + 2}): response {r!r} is empty and "
+                raise ConfigError(f"{sheet.row(i)}: response {r!r} is empty and "
                                   f"cannot be computed from {', '.join(RAW_COLUMNS)}: {c!r} is empty; fill in "
                                   f"{col!r} or the raw measurements")
             raw[c] = v
@@ -587,7 +819,7 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset()) -> np.
         vals = np.where(empty, computed, vals)
     elif empty.any():
         i = int(np.argmax(empty))
-        raise ConfigError(f"results CSV run {sheet.run_label[i]} (row {i + 2}): response {r!r} is empty; fill in "
+        raise ConfigError(f"{sheet.row(i)}: response {r!r} is empty; fill in "
                           f"{col!r}")
     return vals
 
@@ -610,4 +842,51 @@ def _check_range(sheet: _Sheet, col: str, vals: np.ndarray, filled: np.ndarray) 
             raise ConfigError(f"{sheet.where(i, col)}: {sheet.df[col].iloc[i]!r}: {msg}")
 
 
-__all__ = ["read_results"]
+
+
+def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, float] | None = None,
+                  factors: list[Factor] | None = None) -> tuple[FieldResults, dict]:
+    """Read a filled sheet (:func:`read_results`) and analyse it as ``doe analyze`` does.
+
+    A sheet with repeats (a ``replicate`` or ``block`` column, or repeated factor settings) is analysed as
+    randomised complete blocks (:func:`berryshaker.experiment.replicates.analyze_replicated`), one without by range
+    analysis with the weakest factor pooled (:func:`berryshaker.experiment.analysis.analyze`).  The plan's format
+    and a statistics package's worksheet of the same data give the same analysis.
+
+    Parameters
+    ----------
+    path_or_text : path or str
+        The sheet (CSV) or its text.
+    senses : dict response -> bool
+        True where larger is better; the keys are the responses analysed.
+    weights : dict response -> float, optional
+        Weights of the composite score (default equal).
+    factors : list of Factor, optional
+        The plan's factors (default: found in the sheet).
+
+    Returns
+    -------
+    (FieldResults, dict)
+        The sheet as read, and the analysis with ``replicates``, ``weights_given``, ``response_units`` (unit per
+        response, '' where the sheet gives none), ``block_column`` (replicated) and ``runs_identified_by``.
+    """
+    from berryshaker.experiment.analysis import analyze
+    from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
+
+    fr = read_results(path_or_text, list(senses), factors)
+    if fr.replicates >= 2:
+        res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses, weights,
+                                 level_values=fr.level_values, units=fr.units, blocks=True)
+        res["block_column"] = fr.block_column
+        res["text"] = describe_replicated(res)
+    else:
+        res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, weights,
+                      level_values=fr.level_values, units=fr.units)
+    res["replicates"] = fr.replicates
+    res["weights_given"] = weights is not None
+    res["response_units"] = dict(fr.response_units)
+    res["runs_identified_by"] = fr.runs_identified_by
+    return fr, res
+
+
+__all__ = ["BOOKKEEPING_COLUMNS", "analyze_sheet", "is_bookkeeping", "read_results"]
