@@ -46,15 +46,18 @@ def blas_threads(x: float) -> dict:
     import scipy.linalg  # noqa: F401
     from threadpoolctl import threadpool_info
 
-    from berryshaker.runs.runner import _BLAS_BEFORE
+    from berryshaker.runs.local_pool import _BLAS_BEFORE
 
     return {"threads": sorted({int(i["num_threads"]) for i in threadpool_info()}),
             "libraries": len(threadpool_info()), "before": dict(_BLAS_BEFORE), "x": x}
 
 
-def logged(x: float, log: str, tag: str, delay: float = 0.0) -> dict:
+def logged(x: float, log: str, tag: str, delay: float = 0.0, gate: str | None = None) -> dict:
     """``{"y": x**2}`` after ``delay`` seconds, appending ``tag`` to the file ``log`` when it ends (the order in
-    which runs finished)."""
+    which runs finished); with ``gate``, it first waits (at most 60 s) until the file ``gate`` exists."""
+    t0 = time.monotonic()
+    while gate is not None and not os.path.exists(gate) and time.monotonic() - t0 < 60.0:
+        time.sleep(0.01)
     time.sleep(delay)
     with open(log, "a") as fh:
         fh.write(f"{tag}\n")

@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+import berryshaker.runs.cache as C
+import berryshaker.runs.jobs as JOBS
 import berryshaker.runs.runner as R
 import runner_jobs as J
 from berryshaker.errors import ConfigError
@@ -32,11 +34,17 @@ def _calls(log: Path) -> int:
     return len(log.read_text().splitlines()) if log.exists() else 0
 
 
+def _code_fingerprint(monkeypatch, fp: str) -> None:
+    """As if the package's code had the fingerprint ``fp``: in the keys (runs.cache) and in the maps (runs.runner)."""
+    monkeypatch.setattr(C, "code_fingerprint", lambda: fp)
+    monkeypatch.setattr(R, "code_fingerprint", lambda: fp)
+
+
 def test_key_covers_function_arguments_and_code(monkeypatch):
     k = run_key(J.square, {"x": 1.0})
     assert k == run_key(J.square, {"x": 1.0}) and len(k) == 64
     assert k != run_key(J.square, {"x": 2.0}) and k != run_key(J.slow_square, {"x": 1.0})
-    monkeypatch.setattr(R, "code_fingerprint", lambda: "0" * 64)
+    _code_fingerprint(monkeypatch, "0" * 64)
     assert run_key(J.square, {"x": 1.0}) != k
 
 
@@ -59,7 +67,7 @@ def test_code_change_invalidates_the_cache(tmp_path, monkeypatch):
     assert _runner(tmp_path).values(J.counted, jobs) == [{"y": float(i * i)} for i in range(3)]
     _runner(tmp_path).values(J.counted, jobs)
     assert _calls(log) == 3  # repeated: all from the cache
-    monkeypatch.setattr(R, "code_fingerprint", lambda: "f" * 64)  # as if a model file had been edited
+    _code_fingerprint(monkeypatch, "f" * 64)  # as if a model file had been edited
     r = _runner(tmp_path)
     r.values(J.counted, jobs)
     assert _calls(log) == 6 and r.stats["cached"] == 0
@@ -135,7 +143,8 @@ def test_runner_rechecks_the_cache_after_its_first_look(tmp_path, monkeypatch):
             return None, None
         return real(path, key, fingerprint)
 
-    monkeypatch.setattr(R, "read_cache_entry", first_look_misses)
+    monkeypatch.setattr(R, "read_cache_entry", first_look_misses)  # the map's look ...
+    monkeypatch.setattr(JOBS, "read_cache_entry", first_look_misses)  # ... and the run's (runs.jobs.run_jobs)
     out = r.map(J.counted, jobs)
     assert [o.value for o in out] == [{"y": -1.0}] * 2 and all(o.cached for o in out)
     assert _calls(log) == 0 and r.stats["cached"] == 2 and r.stats["computed"] == 0
@@ -193,12 +202,29 @@ def test_prefetched_runs_are_taken_by_the_map_not_run_again(tmp_path, use_cache)
 
 
 def test_a_maps_own_runs_go_before_queued_prefetched_ones(tmp_path):
-    log = tmp_path / "order.log"
-    ahead = [dict(x=float(i), log=str(log), tag=f"ahead{i}", delay=0.1) for i in range(40)]
+    """Deterministic on a busy machine: the prefetched runs wait at a gate until the map has sent its own runs (had
+    the chunks in flight finished before, the feeder would rightly have sent more), and the map sends its runs and
+    counts them in flight under the lock the feeder takes (it cannot slip a queued chunk in between)."""
+    import threading
+
+    log, gate = tmp_path / "order.log", tmp_path / "gate"
+    ahead = [dict(x=float(i), log=str(log), tag=f"ahead{i}", delay=0.1, gate=str(gate)) for i in range(40)]
     own = [dict(x=float(i), log=str(log), tag=f"own{i}") for i in range(4)]
     with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
+        sent = threading.Event()
+
+        def open_gate():  # once two prefetched chunks and the map's four are in flight (or the map went first)
+            _wait_for(lambda: sent.is_set() or len(r._local._live) >= 2 + 4, 60)
+            gate.touch()
+
+        opener = threading.Thread(target=open_gate, daemon=True)
         r.prefetch(J.logged, ahead)  # chunks of 5: at most one chunk per worker in flight
-        assert [o.value["y"] for o in r.map(J.logged, own)] == [0.0, 1.0, 4.0, 9.0]
+        opener.start()
+        try:
+            assert [o.value["y"] for o in r.map(J.logged, own)] == [0.0, 1.0, 4.0, 9.0]
+        finally:
+            sent.set()
+            opener.join()
         done = log.read_text().split()
         last_own = max(done.index(f"own{i}") for i in range(4))
         assert last_own < 4 + 2 * 5, done  # only the chunks already in flight finished first
@@ -253,7 +279,7 @@ def test_a_pool_that_breaks_while_runs_are_sent_does_not_end_the_map(tmp_path, m
     from concurrent.futures.process import BrokenProcessPool
 
     with SweepRunner(workers=2, cache_dir=tmp_path / "cache", progress=False) as r:
-        pool, _ = r._pool()
+        pool, _ = r._local.pool()
         real, calls = pool.submit, []
 
         def breaks_once(*args, **kwargs):
@@ -390,9 +416,10 @@ def test_unreachable_scheduler_is_a_quick_config_error(tmp_path):
 _SCRIPT = textwrap.dedent("""
     import sys
     sys.path.insert(0, {tests!r})
+    import berryshaker.runs.local_pool as L
     import berryshaker.runs.runner as R
     import runner_jobs as J
-    R._USE_PDEATHSIG = {pdeathsig!r}
+    L._USE_PDEATHSIG = {pdeathsig!r}
     if __name__ == "__main__":
         r = R.SweepRunner(workers=2, cache_dir={cache!r}, progress=False)
         try:
@@ -462,7 +489,7 @@ def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
     fps = {e["fingerprint"] for e in entries}
     assert len(fps) == 1
     fp = fps.pop()
-    monkeypatch.setattr(R, "code_fingerprint", lambda: fp)
+    _code_fingerprint(monkeypatch, fp)
     done = [kw for kw in jobs if any(e["value"]["y"] == kw["x"] ** 2 for e in entries)]
     r = SweepRunner(workers=1, cache_dir=cache, progress=False)
     r.map(J.slow_square, done)

@@ -1,0 +1,197 @@
+"""The sweep runner's on-disk cache: every finished run stored under the hash of what computed it.
+
+A run's key (:func:`run_key`) is the sha256 of the run function's dotted name, its resolved arguments and a
+fingerprint of the berryshaker source code (:func:`~berryshaker.outputs.code_fingerprint`), so an interrupted study
+resumes where it stopped, a repeated one is instant, and a changed model is never served a stale result.
+
+Cache entries are JSON files written atomically (no pickle) as each run finishes (:func:`write_cache_entry`); each
+holds its key, the code fingerprint, the function name, a hash of the arguments, the value, the run's wall time and
+a checksum of the value.  An entry that fails validation (:func:`read_cache_entry`: truncated, hand-edited, ``{}``)
+is not used: the runner recomputes and overwrites it, with a one-line warning naming it.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Callable
+
+from berryshaker import __version__
+from berryshaker.outputs import code_fingerprint
+
+#: Version of the cache-entry layout; part of every key.
+CACHE_SCHEMA = 2
+
+
+def default_cache_dir() -> Path:
+    """``runs/`` in the package's cache folder (:func:`berryshaker.compiled_cache.cache_home`:
+    ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, ``~/.cache/berryshaker``), created private (mode
+    0700; :func:`berryshaker.compiled_cache.private_folder`).
+
+    Raises
+    ------
+    ConfigError
+        The folder is not private (another user owns it or may write it) or cannot be created; ``--cache`` names
+        another.
+    """
+    from berryshaker.compiled_cache import cache_home, private_folder
+    from berryshaker.errors import ConfigError
+
+    top = cache_home()
+    try:
+        return private_folder(top / "runs", top)
+    except OSError as exc:
+        raise ConfigError(f"run cache {top / 'runs'}: {exc.strerror or exc}; it must be a folder of yours that "
+                          "nobody else can write (give another with --cache or BERRYSHAKER_CACHE)") from None
+
+
+def _jsonable(obj):
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.floating, np.integer, np.bool_)):
+        return obj.item()
+    return obj
+
+
+def _not_json(obj):
+    import numpy as np
+
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    raise TypeError(f"{type(obj).__name__} is not JSON-compatible (use numbers, strings, lists, dicts)")
+
+
+def _canonical(obj) -> str:
+    """Canonical JSON text of ``obj`` (sorted keys, no spaces): the input of every hash here."""
+    try:  # fast path: json walks dicts and lists itself, numpy values go through _not_json
+        return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_not_json)
+    except TypeError:  # e.g. keys of mixed types: normalise first
+        return json.dumps(_jsonable(obj), sort_keys=True, separators=(",", ":"), default=_not_json)
+
+
+def _sha256(text: str) -> str:
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+@functools.lru_cache(maxsize=None)
+def _file_sha256(path: str) -> str:
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return ""
+
+
+def function_name(fn: Callable) -> str:
+    """Dotted name ``module.qualname`` of a run function."""
+    return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
+
+
+def _outside_source(fn: Callable) -> str:
+    """Content hash of the module file of a run function that lives outside the berryshaker package (its
+    code is not covered by :func:`code_fingerprint`); empty for berryshaker's own functions."""
+    mod = sys.modules.get(getattr(fn, "__module__", "") or "")
+    return _module_file_sha256(getattr(mod, "__file__", None) or "")
+
+
+@functools.lru_cache(maxsize=None)
+def _module_file_sha256(path: str) -> str:
+    import berryshaker
+
+    if not path:
+        return ""
+    root = Path(berryshaker.__file__).resolve().parent
+    p = Path(path).resolve()
+    return "" if root in p.parents else _file_sha256(str(p))
+
+
+def run_key(fn: Callable, kwargs: dict) -> str:
+    """sha256 of the function's dotted name, its resolved arguments and the code that computes the run
+    (:func:`code_fingerprint`, plus the module file of a function outside the package).
+
+    Arguments a run function names in its ``cache_key_ignores`` attribute (a tuple of names) are left out: they
+    choose how the value is computed, not the value (the multibody kernel of ``runs.sweep.model_run``, bitwise
+    the same either way), so a run computed one way is found in the cache when asked for the other way."""
+    ignored = getattr(fn, "cache_key_ignores", ())
+    if ignored:
+        kwargs = {k: v for k, v in kwargs.items() if k not in ignored}
+    payload = {"fn": function_name(fn), "kwargs": kwargs, "code": code_fingerprint(),
+               "module": _outside_source(fn), "schema": CACHE_SCHEMA}
+    return _sha256(_canonical(payload))
+
+
+def cache_entry_path(cache_dir: str | Path, key: str) -> Path:
+    """Where the cache entry of ``key`` lives: ``cache_dir/ab/abcdef....json``."""
+    return Path(cache_dir) / key[:2] / f"{key}.json"
+
+
+_ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwargs_sha256": str,
+                "value_sha256": str, "wall_s": (int, float)}
+
+
+def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None) -> tuple[dict | None, str | None]:
+    """Read and validate one cache entry.
+
+    Returns ``(entry, None)`` for a valid entry, ``(None, None)`` when there is none, and
+    ``(None, reason)`` when the file exists but must not be used (not JSON, wrong schema, wrong key or
+    code fingerprint, value checksum mismatch).
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return None, None
+    except (OSError, UnicodeDecodeError) as exc:
+        return None, f"unreadable ({type(exc).__name__})"
+    try:
+        entry = json.loads(text)
+    except ValueError:
+        return None, "not valid JSON (truncated or edited)"
+    if not isinstance(entry, dict):
+        return None, "not a JSON object"
+    for name, typ in _ENTRY_TYPES.items():
+        if not isinstance(entry.get(name), typ) or isinstance(entry.get(name), bool):
+            return None, f"field {name!r} missing or of the wrong type"
+    if "value" not in entry:
+        return None, "field 'value' missing"
+    if entry["schema"] != CACHE_SCHEMA:
+        return None, f"schema {entry['schema']} (expected {CACHE_SCHEMA})"
+    if entry["key"] != key:
+        return None, "key does not match its file name"
+    if fingerprint is not None and entry["fingerprint"] != fingerprint:
+        return None, "written by other code"
+    if not math.isfinite(entry["wall_s"]) or entry["wall_s"] < 0:
+        return None, "impossible wall time"
+    try:
+        ok = _sha256(_canonical(entry["value"])) == entry["value_sha256"]
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        return None, "value checksum mismatch (edited or damaged)"
+    return entry, None
+
+
+def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dict, value, wall_s: float,
+                      fingerprint: str) -> Path:
+    """Write one cache entry atomically (temporary file and rename); return its path."""
+    from berryshaker.outputs import write_text_atomic
+
+    entry = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,
+             "kwargs_sha256": _sha256(_canonical(kwargs)), "version": __version__,
+             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": float(wall_s),
+             "value_sha256": _sha256(_canonical(value)), "value": value}
+    path = cache_entry_path(cache_dir, key)
+    write_text_atomic(path, json.dumps(entry, separators=(",", ":")))
+    return path

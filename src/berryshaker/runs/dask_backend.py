@@ -1,0 +1,119 @@
+"""The sweep runner's Dask backend: runs on a Dask distributed cluster when a scheduler address is given.
+
+Runs go to the cluster as tasks (chunks of runs for a run function with a batched twin); the workers read the cache
+(a shared disk, if any) but do not write it: the client stores every finished run (:class:`DaskBackend`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable
+from urllib.parse import urlsplit
+
+from berryshaker.runs.jobs import BATCH_SIZE, CHUNKS_PER_WORKER, batchable, failed_outcome, run_jobs
+
+#: Seconds to wait for a Dask scheduler before giving up with a ConfigError.
+SCHEDULER_TIMEOUT_S = 5.0
+_DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
+
+
+def check_scheduler_address(address: str) -> str:
+    """Validate a Dask scheduler address without connecting (``tcp://host:port``, ``host:port``, ``tls://``,
+    ``inproc://...``); return it normalised or raise :class:`~berryshaker.errors.ConfigError`."""
+    from berryshaker.errors import ConfigError
+
+    addr = (address or "").strip()
+    hint = "give the scheduler as tcp://HOST:PORT (e.g. tcp://10.0.0.5:8786), or omit --scheduler to run locally"
+    if not addr:
+        raise ConfigError(f"--scheduler is empty; {hint}")
+    full = addr if "://" in addr else f"tcp://{addr}"
+    try:
+        parts = urlsplit(full)
+        port = parts.port
+    except ValueError:
+        raise ConfigError(f"--scheduler {address!r} is not a valid address; {hint}") from None
+    if parts.scheme not in _DASK_SCHEMES:
+        raise ConfigError(f"--scheduler {address!r}: unknown protocol {parts.scheme!r} "
+                          f"(use one of {', '.join(_DASK_SCHEMES)}); {hint}")
+    if parts.scheme != "inproc" and (not parts.hostname or port is None or parts.path not in ("", "/")
+                                     or parts.query or parts.fragment):
+        raise ConfigError(f"--scheduler {address!r} needs a host and a port; {hint}")
+    return full
+
+
+def connect(scheduler: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S):
+    """A :class:`distributed.Client` for the scheduler; a :class:`~berryshaker.errors.ConfigError` within
+    ``timeout_s`` when it cannot be reached (or none is given, or dask.distributed is not installed)."""
+    from berryshaker.errors import ConfigError
+
+    if scheduler is None:
+        raise ConfigError("no --scheduler given")
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ConfigError("--scheduler needs dask.distributed (pip install 'dask[distributed]')") from None
+    import logging
+
+    quiet = [logging.getLogger(n) for n in ("distributed.client", "distributed.comm.core", "distributed.core")]
+    levels = [lg.level for lg in quiet]
+    for lg in quiet:
+        lg.setLevel(logging.CRITICAL)
+    try:
+        return Client(scheduler, timeout=f"{timeout_s}s")
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ConfigError(f"--scheduler {scheduler}: no Dask scheduler answered within "
+                          f"{timeout_s:g} s ({type(exc).__name__}); check that `dask scheduler` "
+                          "runs there and the host and port, or omit --scheduler to run locally") from None
+    finally:
+        for lg, lv in zip(quiet, levels):
+            lg.setLevel(lv)
+
+
+def dask_cores(client) -> int:
+    """Threads across the cluster's workers (at least 1)."""
+    try:
+        return max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
+    except Exception:  # noqa: BLE001 - a scheduler that does not say: assume one
+        return 1
+
+
+class DaskBackend:
+    """Runs a map's jobs on a Dask cluster; ``connect()`` returns a client (:func:`connect`), closed after the map."""
+
+    def __init__(self, connect: Callable):
+        self._connect = connect
+
+    def run(self, ctx: dict, finish: Callable) -> None:
+        """Run every job of the map (``ctx``, see :mod:`berryshaker.runs.jobs`) on the cluster, calling
+        ``finish(outcome)`` for each as it completes; Ctrl-C or an error cancels the tasks sent."""
+        from distributed import as_completed
+
+        client = self._connect()
+        futs = {}
+        try:
+            keys = list(ctx["jobs"])
+            # a run function with a batched twin: chunks of runs per task (one compiled call each)
+            size = 1
+            if batchable(ctx["fn"]):
+                size = min(BATCH_SIZE, max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * dask_cores(client)))))
+            for k0 in range(0, len(keys), size):
+                chunk = keys[k0:k0 + size]
+                f = client.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
+                                  False, key=f"berryshaker-{chunk[0]}-{len(chunk)}", pure=False, retries=3)
+                futs[f] = chunk
+            for f in as_completed(list(futs)):
+                chunk = futs[f]
+                try:
+                    outs = f.result()
+                except Exception as exc:  # noqa: BLE001 - lost beyond its retries
+                    outs = [failed_outcome(k, f"{type(exc).__name__}: {exc}") for k in chunk]
+                for out in outs:
+                    finish(out)
+        except BaseException:
+            try:
+                client.cancel(list(futs), force=True)
+            except Exception:  # noqa: BLE001 - best effort while stopping
+                pass
+            raise
+        finally:
+            client.close(timeout=2)

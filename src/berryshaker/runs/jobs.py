@@ -1,0 +1,178 @@
+"""The job protocol of the sweep runner: how one run, or a chunk of runs, is executed in this process, in a local
+pool worker or on a Dask worker, and what comes back.
+
+A run function is module-level (so it pickles) and returns a JSON-compatible value (dicts, lists, numbers,
+strings); :func:`run_jobs` executes a chunk of ``(key, kwargs)`` jobs against the cache (:mod:`berryshaker.runs.cache`)
+and returns one outcome per job: a dict with ``key``, ``value``, ``error``, ``wall_s``, ``cached``, ``stored`` and
+``problem`` (why an existing cache entry was unusable).
+
+Every backend of :class:`berryshaker.runs.runner.SweepRunner` has one method, ``run(ctx, finish)``: it runs the jobs
+of one map and calls ``finish(outcome)`` (``finish(outcome, advance)`` for the local pool, which moves the progress
+bar itself) once per outcome.  ``ctx`` is the map's state, a dict: ``fn``, ``jobs`` (key -> kwargs of the runs to
+compute), ``todo`` (key -> input positions), ``done`` (keys recorded), ``ok_elsewhere`` (keys a worker reported
+finished), ``bar`` (``(rich progress, task)`` or None), ``cache`` (folder or None), ``fp`` (code fingerprint).
+Backends: :class:`InProcess` (here), :class:`berryshaker.runs.local_pool.LocalPool`,
+:class:`berryshaker.runs.dask_backend.DaskBackend`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from berryshaker.runs.cache import _canonical, _jsonable, cache_entry_path, function_name, read_cache_entry, \
+    write_cache_entry
+
+#: Local jobs are sent to the pool in about this many chunks per worker (fewer round trips for short runs,
+#: still balanced across workers when run times differ).
+CHUNKS_PER_WORKER = 4
+
+
+@dataclass
+class RunResult:
+    """One run of a sweep: its position, cache key, value or error, whether it came from the cache, and the
+    seconds of compute it took (for a cached run: when it was computed)."""
+
+    index: int
+    key: str
+    value: Any = None
+    error: str | None = None
+    cached: bool = False
+    wall_s: float = 0.0
+
+
+def execute_job(fn: Callable, kwargs: dict) -> dict:
+    """Run one job and wrap the outcome ``{"value", "error", "wall_s"}``; module-level so processes and
+    Dask workers can import it.  A value that is not JSON-compatible is an error of the run."""
+    t0 = time.perf_counter()
+    try:
+        raw = fn(**kwargs)
+        wall = time.perf_counter() - t0
+        value = _jsonable(raw)
+        _canonical(value)
+        return {"value": value, "error": None, "wall_s": wall}
+    except Exception as exc:  # noqa: BLE001 - recorded per run, reported by the caller
+        return {"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}
+
+
+def failed_outcome(key: str, error: str) -> dict:
+    """The outcome of a run that did not finish (its worker or task was lost): ``error`` and no value."""
+    return {"key": key, "value": None, "error": error, "wall_s": 0.0, "cached": False, "stored": False}
+
+
+_PROGRESS = None  # a multiprocessing queue in pool workers: the key of every finished run
+#: Most runs one batched call takes (a run function with a ``batch`` twin, see :func:`run_jobs`); bounds the
+#: memory of the stacked output series and keeps the progress bar moving.
+BATCH_SIZE = 16
+
+
+def batch_threads() -> int:
+    """Threads of a batched compiled call: ``BERRYSHAKER_BATCH_THREADS`` (default 1: the local pool's worker
+    processes, or Dask's worker threads, already use every core)."""
+    try:
+        return max(1, int(os.environ.get("BERRYSHAKER_BATCH_THREADS", "1")))
+    except ValueError:
+        return 1
+
+
+def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
+    """Run jobs through ``fn.batch`` (one call for all; it returns per job a value or the exception the job
+    raised) and wrap each outcome like :func:`execute_job`; the call's wall time is shared out equally.  If
+    the batched call itself fails, the jobs are run one by one."""
+    import numba
+
+    numba.set_num_threads(min(batch_threads(), numba.config.NUMBA_NUM_THREADS))
+    t0 = time.perf_counter()
+    try:
+        raws = fn.batch(kwargs_list)
+        if len(raws) != len(kwargs_list):
+            raise ValueError(f"batch returned {len(raws)} results for {len(kwargs_list)} runs")
+    except Exception:  # noqa: BLE001 - fall back to single runs, which record their own errors
+        return [execute_job(fn, kw) for kw in kwargs_list]
+    wall = (time.perf_counter() - t0) / max(len(kwargs_list), 1)
+    outs = []
+    for raw in raws:
+        if isinstance(raw, BaseException):
+            outs.append({"value": None, "error": f"{type(raw).__name__}: {raw}", "wall_s": wall})
+            continue
+        try:
+            value = _jsonable(raw)
+            _canonical(value)
+            outs.append({"value": value, "error": None, "wall_s": wall})
+        except Exception as exc:  # noqa: BLE001 - as in execute_job
+            outs.append({"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": wall})
+    return outs
+
+
+def chunk_size(fn: Callable, n: int, workers: int) -> int:
+    """Runs per chunk of a local sweep of ``n`` runs: about :data:`CHUNKS_PER_WORKER` chunks per worker, at most
+    :data:`BATCH_SIZE` for a batchable run function."""
+    size = max(1, math.ceil(n / (CHUNKS_PER_WORKER * max(1, workers))))
+    return min(size, BATCH_SIZE) if batchable(fn) else size
+
+
+def batchable(fn: Callable) -> bool:
+    """True when ``fn`` has a batched twin ``fn.batch(kwargs_list) -> list`` (e.g.
+    :func:`berryshaker.runs.sweep.model_run`, :func:`berryshaker.study.runs.multibody_row`)."""
+    return callable(getattr(fn, "batch", None))
+
+
+def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, fingerprint: str,
+             store: bool) -> list[dict]:
+    """Run a chunk of jobs ``(key, kwargs)``; module-level so pool and Dask workers can import it.
+
+    Right before each job the cache is read again (another sweep sharing the cache may have finished it);
+    a computed run is stored at once when ``store`` (local workers share the parent's disk).  Returns one
+    outcome per job: key, value, error, wall_s, cached, stored, problem (why an existing entry was unusable).
+    """
+    batched: dict[str, dict] = {}
+    if batchable(fn) and len(jobs) > 1:
+        # a run function with a batched twin: the chunk's runs not in the cache go through one call
+        todo = [(key, kw) for key, kw in jobs if not (cache_dir and read_cache_entry(
+            cache_entry_path(cache_dir, key), key, fingerprint)[0] is not None)]
+        if len(todo) > 1:
+            batched = dict(zip([k for k, _ in todo], execute_batch(fn, [kw for _, kw in todo])))
+    outs = []
+    for key, kw in jobs:
+        out = None
+        problem = None
+        if cache_dir and key not in batched:
+            entry, problem = read_cache_entry(cache_entry_path(cache_dir, key), key, fingerprint)
+            if entry is not None:
+                out = {"key": key, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
+                       "cached": True, "stored": True, "problem": None}
+        if out is None:
+            res = batched[key] if key in batched else execute_job(fn, kw)
+            out = {"key": key, **res, "cached": False, "stored": False, "problem": problem}
+            if store and cache_dir and res["error"] is None:
+                try:
+                    write_cache_entry(cache_dir, key, function_name(fn), kw, res["value"], res["wall_s"],
+                                      fingerprint)
+                    out["stored"] = True
+                except OSError as exc:
+                    out["store_error"] = f"{type(exc).__name__}: {exc}"
+        outs.append(out)
+        if _PROGRESS is not None:
+            try:
+                _PROGRESS.put((key, out["error"] is None))
+            except (OSError, ValueError):
+                pass
+    return outs
+
+
+
+class InProcess:
+    """The backend of one worker: runs in this process, in chunks of :data:`BATCH_SIZE` for a batchable function
+    (one compiled call each), else one by one."""
+
+    def run(self, ctx: dict, finish: Callable) -> None:
+        """Run every job of the map (``ctx``, see the module docstring) here, calling ``finish(outcome)`` for each."""
+        keys = list(ctx["jobs"])
+        size = BATCH_SIZE if batchable(ctx["fn"]) else 1
+        for k0 in range(0, len(keys), size):
+            for out in run_jobs(ctx["fn"], [(k, ctx["jobs"][k]) for k in keys[k0:k0 + size]], ctx["cache"],
+                                ctx["fp"], True):
+                finish(out)
