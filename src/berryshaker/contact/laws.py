@@ -21,7 +21,7 @@ v_imp     approach speed at the onset of this contact (for restitution laws)    
 k         stiffness                                                              N/m^n
 n         exponent                                                               1
 e         coefficient of restitution                                             1
-c         damping coefficient (viscous laws; cmax of IMPACT), or, for the         N s/m,
+c         damping coefficient (viscous laws; cmax of IMPACT), or, for the        N s/m,
           hysteresis laws, the restitution velocity v_ref (they have no          or m/s
           viscous coefficient; :func:`slot_c` fills the slot)
 d         penetration at which full damping is reached (IMPACT)                  m

@@ -2,7 +2,7 @@
 
 Everything is reflected to the cam shaft (``reflect_to_cam``), which makes the multibody integration one
 extra rotor body with a torque-speed curve, a torsional spring-damper (the belt, with creep and a gross
-slip cap) and a ratio coupling with direction-dependent efficiency (CVT + worm) into the cam:
+slip cap) and a ratio coupling with direction-dependent efficiency (CVT + worm) into the cam::
 
     rotor   J_r w_r'        = T_r(w_r) - T_b                     (T_b: belt torque at cam scale)
     belt    T_b = k_t psi + c_t psi',  psi' = w_r - w_c - creep(T_b) w_r  (0 while slipping)

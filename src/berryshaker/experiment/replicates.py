@@ -101,7 +101,7 @@ def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) 
 def block_error(y: np.ndarray) -> tuple[float, int]:
     """Run x block interaction sum of squares and degrees of freedom of a (runs, blocks) array.
 
-    SS_E = sum_i sum_k (y_ik - ybar_i. - ybar_.k + ybar_..)^2 with (n - 1)(r - 1) degrees of freedom: the error of a
+    ``SS_E = sum_i sum_k (y_ik - ybar_i. - ybar_.k + ybar_..)^2`` with (n - 1)(r - 1) degrees of freedom: the error of a
     randomised complete block design with the n runs as treatments and the r blocks (Montgomery 2013, sec. 4.1,
     eq. 4.7).  Block effects (a start, a field day, a row of bushes shared by every run) cancel from it.
     """
@@ -119,7 +119,7 @@ def error_term(y: np.ndarray, blocks: bool) -> tuple[float, int]:
 def block_variance(y: np.ndarray) -> dict:
     """Variance components of a blocked (runs, blocks) array: y_ik = mu + tau_i + beta_k + e_ik.
 
-    ``ms_block`` = n sum_k (ybar_.k - ybar_..)^2 / (r - 1) estimates sigma^2 + n sigma_beta^2, ``ms_error`` (the
+    ``ms_block = n sum_k (ybar_.k - ybar_..)^2 / (r - 1)`` estimates sigma^2 + n sigma_beta^2, ``ms_error`` (the
     interaction, :func:`block_error`) estimates sigma^2, so sigma_beta^2 = max((ms_block - ms_error) / n, 0)
     (method of moments, Montgomery 2013, sec. 13.1).  ``per_start_sd`` = sqrt(sigma_beta^2 + sigma^2): the spread of
     one run's replicates, block included.
