@@ -4,7 +4,7 @@ numba's on-disk cache (``@njit(cache=True)``) checks only the source file of the
 calls a compiled function of *another* file carries that callee's machine code in its own cache entry and keeps
 using it after the callee's file changes (numba issue #6845).  The package has such calls (``multibody.kernel`` ->
 ``kinematics.cam`` and ``contact.friction``, ``multibody.batch.integrate_sets`` -> ``multibody.kernel.integrate``,
-``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``, ``drives.groove_cam.mlsd`` ->
+``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``, ``drives.groove_cam.mlsd_kernel`` ->
 ``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...; tests/test_compiled_cache.py finds them), and a
 stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path still ran
 the old one from ``integrate_sets``' entry (benchmarks/HISTORY.md sec. 21).
