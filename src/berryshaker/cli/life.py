@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import re
 from pathlib import Path
 from typing import Optional
 
@@ -125,27 +124,14 @@ def fits_cmd(
 
 # ---- wear ------------------------------------------------------------------------------------------------
 def _plot_wear(res: dict, folder: Path) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from berryshaker.report.plots.life import plot_clearance_growth
 
     folder.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for j, d in res["joints"].items():
-        line, = ax.plot(d["hours"], d["clearance_mm"], marker=".", label=f"{j} ({d['size_convention']})")
-        lim = res["limits_si"].get(f"clearance:{j}")
-        if lim is not None:
-            ax.axhline(lim * 1e3, color=line.get_color(), ls=":", lw=1)
-    ax.set_xlabel("operating hours (h)")
-    ax.set_ylabel("clearance (mm)")
-    ax.set_title(f"Clearance growth by wear (interval {res['maintenance_interval_h'] or 'not reached'} h)")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
     name = "wear_clearance.png"
-    fig.savefig(folder / name, dpi=120)
-    plt.close(fig)
+    plot_clearance_growth(res["joints"], {j: (lim * 1e3 if (lim := res["limits_si"].get(f"clearance:{j}")) is not None
+                                              else None) for j in res["joints"]}, folder / name,
+                          f"Clearance growth by wear (interval {res['maintenance_interval_h'] or 'not reached'} h)",
+                          labels={j: f"{j} ({d['size_convention']})" for j, d in res["joints"].items()}, markers=True)
     return [name]
 
 
@@ -215,30 +201,13 @@ def wear_cmd(
 
 # ---- sensitivity -----------------------------------------------------------------------------------------
 def _plot_sobol(res: dict, folder: Path) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
+    from berryshaker.report.plots.life import plot_sobol, sobol_file_name
 
     folder.mkdir(parents=True, exist_ok=True)
     names = []
     for o, ind in res["indices"].items():
-        keys = list(ind)
-        x = np.arange(len(keys))
-        fig, ax = plt.subplots(figsize=(max(4, 1.3 * len(keys) + 2), 4))
-        for off, (s, lab) in zip((-0.2, 0.2), (("S1", "first order S1"), ("ST", "total ST"))):
-            v = [ind[k][s] if ind[k][s] is not None else 0.0 for k in keys]
-            e = [ind[k][s + "_conf"] if ind[k][s + "_conf"] is not None else 0.0 for k in keys]
-            ax.bar(x + off, v, 0.4, yerr=e, capsize=3, label=lab)
-        ax.set_xticks(x, keys, rotation=20, ha="right")
-        ax.set_ylabel("Sobol index (share of variance, 1)")
-        ax.set_title(f"Sensitivity of {o} (95 % CI)")
-        ax.legend()
-        fig.tight_layout()
-        name = f"sobol_{re.sub(r'[^A-Za-z0-9_]+', '_', o)}.png"
-        fig.savefig(folder / name, dpi=120)
-        plt.close(fig)
+        name = sobol_file_name(o)
+        plot_sobol(ind, o, folder / name)
         names.append(name)
     return names
 
@@ -296,29 +265,11 @@ def sensitivity_cmd(
 
 # ---- tolerance -------------------------------------------------------------------------------------------
 def _plot_front(res: dict, folder: Path) -> list[str]:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from berryshaker.report.plots.life import plot_fit_front
 
     folder.mkdir(parents=True, exist_ok=True)
-    fr = res["front"]
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    sc = ax.scatter([d["cost"] for d in fr], [d["peak_force_N"] for d in fr], c=[d["life_h"] for d in fr],
-                    cmap="viridis")
-    rec = res["recommended"]
-    ax.scatter([rec["cost"]], [rec["peak_force_N"]], s=160, facecolors="none", edgecolors="red",
-               label="recommended: " + ", ".join(f"{j} {f}" for j, f in rec["fits"].items()))
-    fig.colorbar(sc, label="maintenance interval (h)")
-    ax.set_xlabel("manufacturing cost (relative units)")
-    ax.set_ylabel("peak collision force (N)")
-    ax.set_title("Pareto front of fit choices (NSGA-II on the surrogate)")
-    ax.legend(fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
     name = "tolerance_pareto.png"
-    fig.savefig(folder / name, dpi=120)
-    plt.close(fig)
+    plot_fit_front(res["front"], res["recommended"], folder / name)
     return [name]
 
 

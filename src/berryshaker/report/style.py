@@ -11,7 +11,8 @@ The rules (issue "A report and a command line an engineer is glad to hand on"):
 * long series are thinned by :func:`decimate_minmax`, which keeps each bin's minimum and maximum so the
   drawn peak equals the data peak exactly (plain striding drops impact peaks);
 * tick labels never use an offset or a hidden power of ten (:func:`plain_ticks`);
-* layout is matplotlib's constrained layout, so outside legends and colour bars are not cut off.
+* layout is matplotlib's constrained layout, so outside legends and colour bars are not cut off, and the canvas
+  grows where anything still reaches beyond it (:func:`fit_canvas`); PNGs are saved at 300 dpi with an SVG beside.
 
 :func:`audit_figure` checks a drawn figure against these rules; the figure tests use it.
 """
@@ -310,9 +311,56 @@ def audit_figure(fig) -> list[str]:
     return problems
 
 
-def finish(fig, path, *, dpi: int = 110, keep: bool = False):
-    """Save ``fig`` to ``path`` (PNG) and close it unless ``keep``; returns the figure if kept, else None."""
+#: Resolution of every PNG figure: print quality at the figure's size in inches (the report embeds them; an SVG of the
+#: same figure is written beside each PNG).
+PRINT_DPI = 300
+
+
+def canvas_overflow(fig) -> tuple[float, float, float, float]:
+    """How far the drawn artists (labels, titles, legends outside, colour bars) reach beyond the canvas, in inches:
+    (left, bottom, right, top), each >= 0; all zero when nothing is cut."""
+    fig.canvas.draw()
+    bb = fig.get_tightbbox(fig.canvas.get_renderer())
+    w, h = fig.get_size_inches()
+    return (max(0.0, -bb.x0), max(0.0, -bb.y0), max(0.0, bb.x1 - w), max(0.0, bb.y1 - h))
+
+
+def fit_canvas(fig, *, pad: float = 0.05) -> bool:
+    """Grow the canvas so every artist lies inside it with ``pad`` inches to spare; returns True if it grew.
+
+    The layout (constrained layout) is drawn first; what still reaches beyond the edge (an equal-aspect axes'
+    outside legend, a long title) is given room by freezing the layout and widening the canvas on that side, every
+    axes and figure-level text keeping its size in inches.
+    """
+    over = canvas_overflow(fig)
+    if max(over) <= 1e-3:
+        return False
+    left, bottom, right, top = (o + pad if o > 1e-3 else 0.0 for o in over)
+    w, h = fig.get_size_inches()
+    W, H = w + left + right, h + bottom + top
+    boxes = [(ax, ax.get_position()) for ax in fig.axes]
+    texts = [(t, t.get_position()) for t in fig.texts]
+    fig.set_layout_engine("none")
+    fig.set_size_inches(W, H)
+    for ax, b in boxes:
+        ax.set_position([(b.x0 * w + left) / W, (b.y0 * h + bottom) / H, b.width * w / W, b.height * h / H])
+    for t, (x, y) in texts:
+        t.set_position(((x * w + left) / W, (y * h + bottom) / H))
+    for leg in fig.legends:
+        leg.set_bbox_to_anchor(None)
+    return True
+
+
+def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = True):
+    """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it; close it unless
+    ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
+    figure if kept, else None."""
+    from pathlib import Path
+
+    fit_canvas(fig)
     fig.savefig(path, dpi=dpi)
+    if svg:
+        fig.savefig(Path(path).with_suffix(".svg"))
     if keep:
         return fig
     pyplot().close(fig)

@@ -62,28 +62,15 @@ def step_life(ctx):
                       "(2 revolutions each); growth integrated on the interpolated rate (no re-simulation per state)",
                       *force_fall_notes(resp, m),
                       "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"]}
+    from berryshaker.report.plots.life import plot_clearance_growth
+
     figs = []
     try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, ax = plt.subplots(figsize=(7, 4.5))
-        for j in joints:
-            line, = ax.plot(hours, growth[j]["clearance_mm"], label=j)
-            ax.axhline(limits[j] * 1e3, color=line.get_color(), ls=":", lw=1)
-        ax.set_xlabel("operating hours (h)")
-        ax.set_ylabel("clearance (mm)")
-        ax.set_title("Clearance growth by wear (coarse surrogate; dotted: limits)")
-        ax.grid(alpha=0.3)
-        ax.legend()
-        fig.tight_layout()
         ctx.figs.mkdir(parents=True, exist_ok=True)
-        fig.savefig(ctx.figs / "life_clearance_growth.png", dpi=120)
-        plt.close(fig)
+        plot_clearance_growth(growth, {j: v * 1e3 for j, v in limits.items()}, ctx.figs / "life_clearance_growth.png",
+                              "Clearance growth by wear (coarse surrogate; dotted: limits)")
         figs.append("life_clearance_growth.png")
-    except OSError:
+    except OSError:  # a folder that cannot be written: the step's numbers stand without the figure
         pass
     return StepResult("clearance_life", data, figs,
                       "coarse surrogate of the wear and the fit choice; run `berryshaker wear` and "
