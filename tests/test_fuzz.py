@@ -7,35 +7,22 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import re
-import tempfile
 import tomllib
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
-from hypothesis.configuration import set_hypothesis_home_dir
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
-from berryshaker.config import load_machine, machine_warnings, reference_toml_text, validate_machine
+from berryshaker.config import load_machine, machine_warnings, validate_machine
 from berryshaker.errors import ConfigError, GeometryError
+from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 
 runner = CliRunner()
-WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-"))
-set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
-#: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
-EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
-
-
-def fuzz(n: int) -> settings:
-    """Settings of a fuzz test: ``n`` fixed examples in CI, or ``EXPLORE`` random ones."""
-    return settings(deadline=None, max_examples=EXPLORE or n, derandomize=not EXPLORE, database=None,
-                    suppress_health_check=[HealthCheck.too_slow])
-
-
+WORK = work_dir("descriptions")
 FUZZ = fuzz(200)
 
 
@@ -77,22 +64,8 @@ def toml_literal(v) -> str:
     return "{ " + ", ".join(f"{k} = {toml_literal(x)}" for k, x in v.items()) + " }"
 
 
-def _leaves(text: str) -> list[tuple[int, str]]:
-    """(line number, dotted key) of every `key = value` line of a TOML text."""
-    out, section = [], ""
-    for i, line in enumerate(text.splitlines()):
-        m = re.match(r"^\[([^\]]+)\]", line)
-        if m:
-            section = m.group(1)
-            continue
-        m = re.match(r"^([A-Za-z0-9_]+)\s*=", line)
-        if m:
-            out.append((i, f"{section}.{m.group(1)}"))
-    return out
-
-
-REFERENCE = {d: reference_toml_text(d) for d in ("groove_cam", "crank_rocker")}
-LEAVES = {d: _leaves(t) for d, t in REFERENCE.items()}
+#: (line number, dotted key) of every `key = value` line of each reference description
+LEAVES = {d: [(i, k) for i, k, _ in toml_leaves(t)] for d, t in REFERENCE.items()}
 
 
 def mangle(original: str, how: int, value) -> str:

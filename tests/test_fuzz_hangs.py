@@ -16,33 +16,23 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import textwrap
 from pathlib import Path
 
 import pytest
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import example, given
 from hypothesis import strategies as st
-from hypothesis.configuration import set_hypothesis_home_dir
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import machine_from_dict, reference_machine, validate_machine
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
+from fuzzing import fuzz, work_dir
 
 runner = CliRunner()
-WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-hangs-"))
-set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
-#: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
-EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
+WORK = work_dir("hangs")
 #: the hang guard of a subprocess (s): generous; a hang is minutes
 HANG_GUARD_S = 60
-
-
-def fuzz(n: int) -> settings:
-    """Settings of a fuzz test: ``n`` fixed examples in CI, or ``EXPLORE`` random ones."""
-    return settings(deadline=None, max_examples=EXPLORE or n, derandomize=not EXPLORE, database=None,
-                    suppress_health_check=[HealthCheck.too_slow])
 
 
 def _child_env() -> dict:

@@ -24,23 +24,10 @@ from berryshaker.errors import ConfigError, GeometryError
 from berryshaker.experiment.field_sheet import parse_factor, plan_table, read_results
 from berryshaker.quantity_fields import field_dimension, field_info_at
 from berryshaker.units import LIMITS, parse_quantity
-from test_fuzz import REFERENCE, WORK, fuzz
+from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 
 runner = CliRunner()
-
-
-def _leaves(text: str) -> list[tuple[int, str, str]]:
-    """(line number, dotted key, value text) of every scalar ``key = value`` line of a TOML text."""
-    out, section = [], ""
-    for i, line in enumerate(text.splitlines()):
-        m = re.match(r"^\[([^\]]+)\]", line)
-        if m:
-            section = m.group(1)
-            continue
-        m = re.match(r"^([A-Za-z0-9_]+)\s*=\s*([^#\[]+?)\s*(#.*)?$", line)
-        if m:
-            out.append((i, f"{section}.{m.group(1)}", m.group(2)))
-    return out
+WORK = work_dir("input")
 
 
 def _dimension(drive: str, key: str) -> str | None:
@@ -57,7 +44,8 @@ def _dimension(drive: str, key: str) -> str | None:
 
 
 #: (drive, line, dotted key, value text, dimension) of every scalar leaf with a unit / a plain number
-LEAVES = [(d, i, k, v, _dimension(d, k)) for d, t in REFERENCE.items() for i, k, v in _leaves(t)]
+LEAVES = [(d, i, k, v, _dimension(d, k)) for d, t in REFERENCE.items()
+          for i, k, v in toml_leaves(t, scalars_only=True)]
 DIMENSIONAL = [leaf for leaf in LEAVES if leaf[4] not in (None, "dimensionless") and leaf[3].startswith('"')]
 PLAIN = [leaf for leaf in LEAVES if leaf[4] == "dimensionless" and re.fullmatch(r"[-+0-9.eE]+", leaf[3])]
 

@@ -17,30 +17,20 @@ import hashlib
 import json
 import os
 import stat
-import tempfile
 from pathlib import Path, PurePosixPath
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
-from hypothesis.configuration import set_hypothesis_home_dir
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.errors import OutputError
 from berryshaker.outputs import MARKER_NAME, read_output_marker, staged_directory
+from fuzzing import fuzz, work_dir
 
 runner = CliRunner()
-WORK = Path(tempfile.mkdtemp(prefix="berryshaker-fuzz-outputs-"))
-set_hypothesis_home_dir(WORK / "hypothesis")  # hypothesis's caches outside the repository
-#: BERRYSHAKER_FUZZ_EXAMPLES=5000 explores further with random seeds (CI runs the fixed, derandomised examples)
-EXPLORE = int(os.environ.get("BERRYSHAKER_FUZZ_EXAMPLES", "0"))
-
-
-def fuzz(n: int) -> settings:
-    """Settings of a fuzz test: ``n`` fixed examples in CI, or ``EXPLORE`` random ones."""
-    return settings(deadline=None, max_examples=EXPLORE or n, derandomize=not EXPLORE, database=None,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
+WORK = work_dir("outputs")
 
 
 _counter = iter(range(10**9))
@@ -239,7 +229,7 @@ earlier_outputs = st.one_of(st.none(), st.tuples(st.sampled_from(KINDS),
                                                           unique=True)))
 
 
-@fuzz(150)
+@fuzz(150, HealthCheck.function_scoped_fixture)
 @given(earlier=earlier_outputs, extra=st.lists(entry, max_size=4), data=st.data(), same_kind=st.booleans(),
        new=st.lists(st.sampled_from(NAMES), min_size=1, max_size=4, unique=True))
 def test_a_writer_changes_only_its_own_files(earlier, extra, data, same_kind, new):
@@ -288,7 +278,7 @@ def _cheap_command(which: str, folder: Path, force: bool) -> tuple[list[str], st
             str(folder / "notes.html"), *f], "", {"notes.html", "notes.csv"}
 
 
-@fuzz(8)
+@fuzz(8, HealthCheck.function_scoped_fixture)
 @given(earlier=earlier_outputs, extra=st.lists(entry, max_size=4), mutations=st.lists(mutation, max_size=2),
        which=st.sampled_from(["kinematics", "plant", "config init", "cam-profile", "doe plan"]),
        force=st.booleans())
@@ -415,7 +405,7 @@ FLAGS = {  # command, flag, invalid values
 }
 
 
-@fuzz(40)
+@fuzz(40, HealthCheck.function_scoped_fixture)
 @given(which=st.sampled_from(sorted(FLAGS)), data=st.data())
 def test_out_of_range_flags_are_one_message_before_any_work(which, data):
     head, flag, values = FLAGS[which]
@@ -430,7 +420,7 @@ def test_out_of_range_flags_are_one_message_before_any_work(which, data):
     assert not (case / "cam.csv").exists()
 
 
-@fuzz(20)
+@fuzz(20, HealthCheck.function_scoped_fixture)
 @given(where=st.sampled_from(["file_parent", "fifo", "folder", "device", "proc", "proc_self", "deep_new"]),
        force=st.booleans(), command=st.sampled_from(["config init", "kinematics --plot", "plant --plot",
                                                      "cam-profile", "doe plan"]))
