@@ -77,6 +77,9 @@ def test_tiny_machine_run_completes_and_is_cached(tmp_path):
     for o in ("collision_force_A_peak", "collision_force_C_peak"):
         for p in ("clearance.A.size", "clearance.C.size"):
             assert np.isfinite(res["indices"][o][p]["ST"])
+        assert res["output_unit"][o] == "N"
+        rz = res["resolution"][o]  # N = 8 resolves nothing useful: it says so and what N to try
+        assert rz["unresolved"] and rz["suggested_samples"] > 8
     for p in ("clearance.A.size", "clearance.C.size"):  # the same runs (cached), the same estimates
         for k in ("S1", "ST"):
             assert again["indices"]["collision_force_A_peak"][p][k] == res["indices"]["collision_force_A_peak"][p][k]
@@ -97,3 +100,19 @@ def test_bootstrap_intervals_do_not_depend_on_numpys_global_state():
         np.random.seed(state)
         out.append(sobol_analyze(problem, y, seed=0))
     assert out[0] == out[1]
+
+
+def test_unresolved_and_negative_indices_are_named_with_the_n_to_try():
+    from berryshaker.life.sensitivity import output_unit, resolution
+
+    ind = {"a": {"S1": -0.3, "S1_conf": 0.2, "ST": 0.5, "ST_conf": 0.04},   # S1 below 0 beyond its interval
+           "b": {"S1": 0.4, "S1_conf": 0.2, "ST": 0.45, "ST_conf": 0.05},   # interval too wide
+           "c": {"S1": -0.01, "S1_conf": 0.03, "ST": 0.02, "ST_conf": 0.01}}  # negative, but 0 within its interval
+    r = resolution(ind, 32)
+    assert [u.split(":")[0] for u in r["unresolved"]] == ["S1 of a", "S1 of b"]
+    assert r["negative_within_noise"] == ["S1 of c: -0.010 +- 0.030"]
+    assert r["suggested_samples"] == 512  # widest 0.2 -> 32 (0.2 / 0.05)^2 = 512
+    ok = resolution({"a": {"S1": 0.5, "S1_conf": 0.02, "ST": 0.6, "ST_conf": 0.03}}, 1024)
+    assert ok["unresolved"] == [] and ok["suggested_samples"] is None
+    assert [output_unit(n) for n in ("collision_force_A_peak", "load_moment_left_rms", "sliding_speed_C_mean",
+                                     "comb_swing_left_deg", "efficiency")] == ["N", "N m", "m/s", "deg", ""]

@@ -105,6 +105,25 @@ def _print_json(obj) -> None:
 
 
 
+def table_width(console: Console | None = None) -> int:
+    """Terminal width (cells) for tables: ``COLUMNS`` when set (read at every call, so a test or a resized shell
+    is honoured), else the console's."""
+    import os
+
+    cols = os.environ.get("COLUMNS", "")
+    return int(cols) if cols.isdigit() and int(cols) > 0 else (console or out).width
+
+
+def print_table(header, rows, title: str | None = None, justify=None, console: Console | None = None,
+                digits: int = 4) -> None:
+    """Print rows through the one terminal table writer, :func:`berryshaker.report.tables.rich_table` (no number
+    or word ever split; headers wrap at word and dot boundaries; rows stacked when the terminal is too narrow)."""
+    from berryshaker.report.tables import rich_table
+
+    console = console or out
+    console.print(rich_table(header, rows, title=title, digits=digits, justify=justify, width=table_width(console)))
+
+
 def command(parent: typer.Typer, name: str | None = None, **kwargs):
     """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
     message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the

@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
@@ -19,6 +18,7 @@ from berryshaker.cli.app import (
     doe_app,
     err,
     out,
+    print_table,
     _fail,
     _load,
     _print_json,
@@ -90,7 +90,7 @@ def _check_replicates(replicates: int, what: str) -> None:
 @command(doe_app, "plan")
 def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
-    factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3\\[unit], e.g. A=0.25,0.5,0.75mm; "
+    factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; "
                                      "repeat."),
     randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of all runs x replicates "
                                    "(needs --seed)."),
@@ -273,14 +273,8 @@ def weights_text(res: dict) -> str:
 def _print_doe(res: dict) -> None:
     factors_rep = res.get("factors") or {}
     for name, ra in res["responses"].items():
-        t = Table(title=f"{name}{_unit(name)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis",
-                  header_style="bold")
-        t.add_column("factor")
         nlev = len(next(iter(ra["factors"].values()))["level_means"])
-        for j in range(nlev):
-            t.add_column(f"k{j + 1}", justify="right")
-        for col in ("R", "best", "ANOVA F", "p"):
-            t.add_column(col, justify="right")
+        rows = []
         an = ra["anova"]["factors"]
         dec = _decimals([v for d in ra["factors"].values() for v in d["level_means"]])
         for f, d in ra["factors"].items():
@@ -288,9 +282,10 @@ def _print_doe(res: dict) -> None:
             labels = (factors_rep.get(f) or {}).get("labels")
             best = str(d["best_level"]) + (f" ({labels[d['best_level'] - 1]})" if labels and (factors_rep[f].get(
                 "values") is not None) else "")
-            t.add_row(f, *[f"{v:.{dec}f}" for v in d["level_means"]], f"{d['range']:.{dec}f}", best,
-                      f"{a['f']:.3g}" if a else "pooled", f"{a['p']:.3g}" if a else "")
-        out.print(t)
+            rows.append([f, *[f"{v:.{dec}f}" for v in d["level_means"]], f"{d['range']:.{dec}f}", best,
+                         f"{a['f']:.3g}" if a else "pooled", f"{a['p']:.3g}" if a else ""])
+        print_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best", "ANOVA F", "p"], rows,
+                    title=f"{name}{_unit(name)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis")
         reg = ra["regression"]
         out.print(f"  ranking {' > '.join(ra['ranking'])}; eq. 19 full quadratic: rank {reg['full_model_rank']} "
                   f"of {len(reg['full_model_terms'])} terms, aliased: {', '.join(reg['aliased_terms']) or 'none'}; "
@@ -409,14 +404,11 @@ def doe_virtual(
     if as_json:
         _print_json(res)
         return
-    t = Table(title="Virtual L9 field test", header_style="bold")
     pairs = list(res["runs"][0]["clearance_mm"])
-    for col in ("run", *[f"{p} (mm)" for p in pairs], "efficiency", "unripe", "damage"):
-        t.add_column(col, justify="right")
-    for r in res["runs"]:
-        t.add_row(str(r["run"]), *[f"{r['clearance_mm'][p]:g}" for p in pairs], f"{r['efficiency']:.3f} kg/min",
-                  f"{r['unripe']:.2f} %", f"{r['damage']:.2f} %")
-    out.print(t)
+    rows = [[str(r["run"]), *[f"{r['clearance_mm'][p]:g}" for p in pairs], f"{r['efficiency']:.3f} kg/min",
+             f"{r['unripe']:.2f} %", f"{r['damage']:.2f} %"] for r in res["runs"]]
+    print_table(("run", *[f"{p} (mm)" for p in pairs], "efficiency", "unripe", "damage"), rows,
+                title="Virtual L9 field test", justify=("right",) * (len(pairs) + 4))
     _print_doe(res)
     _print_tradeoff(res)
     rec = res["recommended"]
@@ -457,11 +449,6 @@ def _print_tradeoff(res: dict) -> None:
         return
     cols = [c for c in res.get("tradeoff_columns", []) if c in recs[0] and not c.endswith(("_lo", "_hi", "_noise"))
             and not c.startswith("clearance") and c not in ("name", "dominated", "dominated_by", "unripe_shed")]
-    t = Table(title="Trade-off (mean [95 % interval]); * = dominated beyond noise", header_style="bold")
-    t.add_column("candidate")
-    for c in cols:
-        t.add_column(c, justify="right")
-    for r in recs:
-        t.add_row(r["name"] + (" *" if r.get("dominated") else ""),
-                  *[f"{r[c]:.4g} [{r.get(c + '_lo', r[c]):.4g}, {r.get(c + '_hi', r[c]):.4g}]" for c in cols])
-    out.print(t)
+    rows = [[r["name"] + (" *" if r.get("dominated") else ""),
+             *[f"{r[c]:.4g} [{r.get(c + '_lo', r[c]):.4g}, {r.get(c + '_hi', r[c]):.4g}]" for c in cols]] for r in recs]
+    print_table(["candidate", *cols], rows, title="Trade-off (mean [95 % interval]); * = dominated beyond noise")

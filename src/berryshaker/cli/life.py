@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from berryshaker import __version__
-from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out
+from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out, print_table
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import ConfigError
 
@@ -107,16 +106,14 @@ def fits_cmd(
     if as_json:
         _print_json(s)
         return
-    t = Table(title=f"fit {s['designation']}" + (f" at {s['nominal_mm']:g} mm" if s["nominal_mm"] else ""),
-              header_style="bold")
-    for col in ("part", "upper", "lower", "tolerance", "max size", "min size"):
-        t.add_column(col, justify="left" if col == "part" else "right")
+    rows = []
     for part in ("hole", "shaft"):
         z = s[part]
         if z:
-            t.add_row(f"{part} {z['class']}", f"{z['upper_deviation_um']:+g} µm", f"{z['lower_deviation_um']:+g} µm",
-                      f"{z['tolerance_um']:g} µm", f"{z['max_size_mm']:.3f} mm", f"{z['min_size_mm']:.3f} mm")
-    out.print(t)
+            rows.append([f"{part} {z['class']}", f"{z['upper_deviation_um']:+g} µm", f"{z['lower_deviation_um']:+g} µm",
+                         f"{z['tolerance_um']:g} µm", f"{z['max_size_mm']:.3f} mm", f"{z['min_size_mm']:.3f} mm"])
+    print_table(("part", "upper", "lower", "tolerance", "max size", "min size"), rows,
+                title=f"fit {s['designation']}" + (f" at {s['nominal_mm']:g} mm" if s["nominal_mm"] else ""))
     out.print(f"{s['kind']} fit ({s['basis']} basis): diametral clearance {s['clearance_min_mm']:.4g} .. "
               f"{s['clearance_max_mm']:.4g} mm (mean {s['clearance_mean_mm']:.4g}); radial "
               f"{s['radial_clearance_min_mm']:.4g} .. {s['radial_clearance_max_mm']:.4g} mm")
@@ -182,16 +179,15 @@ def wear_cmd(
     if as_json:
         _print_json(res)
         return
-    t = Table(title=f"clearance over {hours:g} h - {machine.machine.name}", header_style="bold")
-    for col in ("joint", "material", "start", "end", "growth rate (start)", "maintenance interval"):
-        t.add_column(col, justify="left" if col in ("joint", "material") else "right")
+    rows = []
     for j, d in res["joints"].items():
         rate = d.get("growth_rate_um_per_h", [math.nan])[0]
         mi = d["maintenance_interval_h"]
-        t.add_row(j, d["material_pair"], f"{d['clearance_mm'][0]:.4g} mm", f"{d['clearance_mm'][-1]:.4g} mm",
-                  f"{rate:.3g} µm/h" if d["wears"] else "does not wear",
-                  "" if not d["wears"] else "not reached" if mi is None else f"{mi:.0f} h")
-    out.print(t)
+        rows.append([j, d["material_pair"], f"{d['clearance_mm'][0]:.4g} mm", f"{d['clearance_mm'][-1]:.4g} mm",
+                     f"{rate:.3g} µm/h" if d["wears"] else "does not wear",
+                     "" if not d["wears"] else "not reached" if mi is None else f"{mi:.0f} h"])
+    print_table(("joint", "material", "start", "end", "growth rate (start)", "maintenance interval"), rows,
+                title=f"clearance over {hours:g} h - {machine.machine.name}", justify=("left",) * 2 + ("right",) * 4)
     mi = res["maintenance_interval_h"]
     out.print(f"maintenance interval: {'not reached within the horizon' if mi is None else f'{mi:.0f} h'}"
               + (f" ({res['governing_limit']})" if res["governing_limit"] else "")
@@ -251,15 +247,28 @@ def sensitivity_cmd(
         _print_json(res)
         return
     for o, ind in res["indices"].items():
-        t = Table(title=f"{o}: mean {res['output_mean'][o]:.4g}, sd {res['output_std'][o]:.3g}", header_style="bold")
-        for col in ("parameter", "S1", "± 95 %", "ST", "± 95 % "):
-            t.add_column(col, justify="left" if col == "parameter" else "right")
-        for k, v in ind.items():
-            def f(x):
-                return "n/a" if x is None else f"{x:.3f}"
+        unit = res["output_unit"].get(o, "")
+        u = f" {unit}" if unit else " (unit not known from the name)"
 
-            t.add_row(k, f(v["S1"]), f(v["S1_conf"]), f(v["ST"]), f(v["ST_conf"]))
-        out.print(t)
+        def f(x):
+            return "n/a" if x is None else f"{x:.3f}"
+
+        print_table(("parameter", "S1 (1)", "± 95 %", "ST (1)", "± 95 % "),
+                    [[k, f(v["S1"]), f(v["S1_conf"]), f(v["ST"]), f(v["ST_conf"])] for k, v in ind.items()],
+                    title=f"{o}: mean {res['output_mean'][o]:.4g}{u}, sd {res['output_std'][o]:.3g}{u}")
+        rz = res["resolution"][o]
+        if rz["unresolved"]:
+            err.print(f"warning: N = {samples} does not resolve {len(rz['unresolved'])} index(es) of {o} (95 % "
+                      f"half-width above 0.1, or the estimate outside 0..1 beyond its interval): "
+                      f"{'; '.join(rz['unresolved'])}. Try -N {rz['suggested_samples']} "
+                      f"({rz['suggested_samples'] * (len(res['parameters']) + 2)} runs).", markup=False, highlight=False)
+        if rz["negative_within_noise"]:
+            err.print(f"note: negative estimates of {o} are sampling noise around 0 (a Sobol index is >= 0): "
+                      f"{'; '.join(rz['negative_within_noise'])}.", markup=False, highlight=False)
+    out.print("S1, ST and their 95 % bootstrap half-widths are shares of the output's variance (1, dimensionless); "
+              "parameters are sampled uniformly over: " + ", ".join(
+                  f"{p['key']} {p['lo_display']:g}..{p['hi_display']:g} {p['unit']}".rstrip()
+                  for p in res["parameters"]), markup=False, highlight=False)
     out.print(f"{res['runs']} {model} runs (N = {samples}); {res['runner']}")
 
 
@@ -320,22 +329,17 @@ def tolerance_cmd(
     if as_json:
         _print_json(res)
         return
-    t = Table(title="Pareto front (cost, peak collision force, maintenance interval)", header_style="bold")
-    for col in ["#"] + design.joints + ["cost", "peak force", "interval"]:
-        t.add_column(col, justify="right")
-    for k, d in enumerate(res["front"]):
-        mark = " *" if k == res["recommended"]["index"] else ""
-        t.add_row(f"{k + 1}{mark}", *[d["fits"][j] for j in design.joints], f"{d['cost']:.2f}",
-                  f"{d['peak_force_N']:.0f} N", f"{d['life_h']:.0f} h")
-    out.print(t)
-    s = Table(title="recommended fit specification (*)", header_style="bold")
-    for col in ("joint", "fit", "clearance (diametral)", "size", "peak force", "interval to limit"):
-        s.add_column(col, justify="left" if col in ("joint", "fit") else "right")
-    for j, d in res["recommended"]["joints"].items():
-        s.add_row(j, f"Ø{d['diameter_mm']:g} {d['fit']}", f"{d['clearance_min_mm']:.3f}..{d['clearance_max_mm']:.3f} mm",
-                  f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['peak_force_N']:.0f} N",
-                  f"{d['maintenance_interval_h']:.0f} h to {d['clearance_limit_mm']:g} mm")
-    out.print(s)
+    rows = [[f"{k + 1}" + (" *" if k == res["recommended"]["index"] else ""), *[d["fits"][j] for j in design.joints],
+             f"{d['cost']:.2f}", f"{d['peak_force_N']:.0f} N", f"{d['life_h']:.0f} h"] for k, d in enumerate(res["front"])]
+    print_table(["#"] + design.joints + ["cost", "peak force", "interval"], rows,
+                title="Pareto front (cost, peak collision force, maintenance interval)",
+                justify=["right"] * (len(design.joints) + 4))
+    rows = [[j, f"Ø{d['diameter_mm']:g} {d['fit']}", f"{d['clearance_min_mm']:.3f}..{d['clearance_max_mm']:.3f} mm",
+             f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['peak_force_N']:.0f} N",
+             f"{d['maintenance_interval_h']:.0f} h to {d['clearance_limit_mm']:g} mm"]
+            for j, d in res["recommended"]["joints"].items()]
+    print_table(("joint", "fit", "clearance (diametral)", "size", "peak force", "interval to limit"), rows,
+                title="recommended fit specification (*)", justify=("left",) * 2 + ("right",) * 4)
     for n in res["notes"]:
         out.print(f"- {n}", markup=False)
     out.print(res["runner"])

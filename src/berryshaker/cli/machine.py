@@ -7,7 +7,6 @@ from typing import Optional
 
 import typer
 from rich.markup import escape
-from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
@@ -21,6 +20,7 @@ from berryshaker.cli.app import (
     config_app,
     err,
     out,
+    print_table,
     _fail,
     _load,
     _print_json,
@@ -68,17 +68,22 @@ def kinematics(
     _print_kinematics(summary)
 
 
+class _Rows(list):
+    """Rows collected for :func:`berryshaker.cli.app.print_table` by helpers that add them one at a time."""
+
+    def add_row(self, *cells) -> None:
+        """Append one row."""
+        self.append(list(cells))
+
+
 def _print_kinematics(s: dict) -> None:
-    t = Table(title=f"Kinematics - {s['machine']}", show_header=True, header_style="bold")
-    t.add_column("quantity")
-    t.add_column("value", justify="right")
-    t.add_column("closed form", justify="right")
+    t = _Rows()
     for key, val in (s.get("drive_specific") or {}).items():
         t.add_row(key.replace("_", " "), str(val), "")
     if "cam" in s:
         _print_cam_rows(t, s["cam"])
     _print_comb_rows(t, s)
-    out.print(t)
+    print_table(("quantity", "value", "closed form"), t, title=f"Kinematics - {s['machine']}")
     for p in s.get("plots", []):
         out.print(f"wrote {p}")
 
@@ -191,12 +196,9 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     if as_json:
         _print_json({"machine_si": machine.model_dump(mode="json"), "version": __version__})
         return
-    t = Table(title=f"{machine.machine.name} ({machine.DRIVE} drive)", header_style="bold")
-    t.add_column("key")
-    t.add_column("value", justify="right")
-    t.add_column("source")
+    t = _Rows()
     for k, v, tag in machine_table(machine):
-        t.add_row(k, v, f"\\[{tag}]")
+        t.add_row(k, v, f"[{tag}]")
     xd, yd = machine.shaft_D
     t.add_row("(derived) shaft D", f"({xd * 1e3:.3f}, {yd * 1e3:.3f}) mm")
     t.add_row("(derived) shaft E", f"({machine.shaft_E[0] * 1e3:.3f}, {machine.shaft_E[1] * 1e3:.3f}) mm")
@@ -205,16 +207,17 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     from berryshaker.config import pair_contact_rows
 
     for key, value, tag in pair_contact_rows(machine):
-        t.add_row(key, value, f"\\[{tag}]")
-    out.print(t)
+        t.add_row(key, value, f"[{tag}]")
+    print_table(("key", "value", "source"), t, title=f"{machine.machine.name} ({machine.DRIVE} drive)",
+                justify=("left", "right", "left"))
 
 
 @command(config_app, "init")
 def config_init(path: Path = typer.Argument(..., help="Where to write the editable copy."),
                 force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
                 drive: str = typer.Option("groove_cam", "--drive", help="Comb drive: groove_cam or crank_rocker.")):
-    """Write an editable copy of a drive's reference machine (each value annotated \\[study], \\[assumed] or
-    \\[calibrated])."""
+    """Write an editable copy of a drive's reference machine (each value annotated [study], [assumed] or
+    [calibrated])."""
     from berryshaker.config import reference_toml_text
     from berryshaker.errors import OutputError
     from berryshaker.outputs import check_output_file, write_text_atomic

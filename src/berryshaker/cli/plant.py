@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
@@ -19,6 +18,7 @@ from berryshaker.cli.app import (
     command,
     err,
     out,
+    print_table,
     _fail,
     _load,
     _print_json,
@@ -91,14 +91,12 @@ def plant(
     if as_json:
         _print_json(res)
         return
-    t = Table(title=f"Branch modes (alpha = {res['alpha']:.3f}, mass {res['branch_mass_kg'] * 1e3:.1f} g)",
-              header_style="bold")
-    for col in ("mode", "Bessel (eq. 15)", "finite elements", "difference"):
-        t.add_column(col, justify="right")
-    for i, (a, f) in enumerate(zip(res["modes"], res["modes_fe"])):
-        t.add_row(str(i + 1), f"{a['frequency_hz']:.4f} Hz", f"{f['frequency_hz']:.4f} Hz",
-                  f"{abs(f['frequency_hz'] - a['frequency_hz']) / a['frequency_hz']:.1e}")
-    out.print(t)
+    rows = [[str(i + 1), f"{a['frequency_hz']:.4f} Hz", f"{f['frequency_hz']:.4f} Hz",
+             f"{abs(f['frequency_hz'] - a['frequency_hz']) / a['frequency_hz']:.1e}"]
+            for i, (a, f) in enumerate(zip(res["modes"], res["modes_fe"]))]
+    print_table(("mode", "Bessel (eq. 15)", "finite elements", "relative difference (1)"), rows,
+                title=f"Branch modes (alpha = {res['alpha']:.3f}, mass {res['branch_mass_kg'] * 1e3:.1f} g)",
+                justify=("right",) * 4)
     _print_written(res)
 
 
@@ -133,10 +131,7 @@ def _convergence(config, as_json: bool, modes_text: str, replicates, separate_ru
         return
     ref = max(r["n_modes"] for r in res["rows"])
     names = [k[:-len("_stem_N")] for k in res["rows"][0] if k.endswith("_stem_N")]
-    t = Table(title=f"Peak stem force against branch modes: mean of {res['replicates']} replicates from perturbed "
-                    f"starts ({res['load_model']} load)", header_style="bold")
-    for col in ("modes", "top mode", "fruit", "mean ± SE (N)", f"vs {ref}", "SE diff.", "verdict"):
-        t.add_column(col, justify="right", no_wrap=col.startswith(("mean", "verdict")))
+    rows = []
     for r in res["rows"]:
         for i, name in enumerate(names):
             first = i == 0
@@ -145,9 +140,11 @@ def _convergence(config, as_json: bool, modes_text: str, replicates, separate_ru
             verdict = "" if r["n_modes"] == ref else (
                 "no difference" if r[name + "_verdict"] == "converged" and r[name + "_no_difference"] else
                 r[name + "_verdict"] + (" (inside SE)" if r[name + "_no_difference"] else ""))
-            t.add_row(str(r["n_modes"]) if first else "", f"{r['highest_mode_hz']:.0f} Hz" if first else "", name,
-                      f"{r[name + '_stem_N']:.4f} ± {r[name + '_stem_se_N']:.4f}", rel, se_d, verdict)
-    out.print(t)
+            rows.append([str(r["n_modes"]) if first else "", f"{r['highest_mode_hz']:.0f} Hz" if first else "", name,
+                         f"{r[name + '_stem_N']:.4f} ± {r[name + '_stem_se_N']:.4f}", rel, se_d, verdict])
+    print_table(("modes", "top mode", "fruit", "mean ± SE (N)", f"vs {ref}", "SE diff.", "verdict"), rows,
+                title=f"Peak stem force against branch modes: mean of {res['replicates']} replicates from perturbed "
+                      f"starts ({res['load_model']} load)", justify=("right",) * 7)
     out.print(f"{res['method']}.  converged: |difference| + {res['t_factor']:.2f} SE(difference) <= "
               f"{100 * res['tolerance']:g} % ({100 * res['confidence']:g} % t bound); no difference: converged, and "
               "the difference is inside the replicate mean's standard error (the harvest statistic's own noise)")
@@ -219,14 +216,13 @@ def fruit_force_cmd(
     if as_json:
         _print_json(summary)
         return
-    t = Table(title="Fruit harvesting force (eq. 16-17)", header_style="bold")
-    for col in ("fruit", "z", "peak", "study range", "ripe fruit", "unripe fruit"):
-        t.add_column(col, justify="right")
+    rows = []
     for name, p in summary["positions"].items():
         rng = p.get("study_range_N")
-        t.add_row(name, f"{p['z_m']:.2f} m", f"{p['peak_force_N']:.3f} N",
-                  f"{rng[0]}-{rng[1]} N" if rng else "", p["eq17"]["ripe"], p["eq17"]["unripe"])
-    out.print(t)
+        rows.append([name, f"{p['z_m']:.2f} m", f"{p['peak_force_N']:.3f} N",
+                     f"{rng[0]}-{rng[1]} N" if rng else "", p["eq17"]["ripe"], p["eq17"]["unripe"]])
+    print_table(("fruit", "z", "peak", "study range", "ripe fruit", "unripe fruit"), rows,
+                title="Fruit harvesting force (eq. 16-17)", justify=("right",) * 6)
     out.print(f"force rises from root to end: {'yes' if summary['rises_root_to_end'] else 'no'}; "
               f"{summary['steps']} steps in {summary['wall_time_s']:.2f} s")
     _print_written(summary)

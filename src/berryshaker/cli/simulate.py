@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
@@ -18,6 +17,7 @@ from berryshaker.cli.app import (
     app,
     command,
     out,
+    print_table,
     _fail,
     _load,
     _print_json,
@@ -116,22 +116,21 @@ def simulate(
     if as_json:
         _print_json(summary)
         return
-    t = Table(title=f"{model} model - {machine.machine.name}", header_style="bold")
-    for col in ("quantity", "clearance", "peak", "mean", "rms"):
-        t.add_column(col, justify="right" if col != "quantity" else "left")
+    rows = []
     for pair, st in summary["collision_force_N"].items():
-        t.add_row(f"collision force {pair}", f"{summary['clearance_mm'][pair]:.3g} mm", f"{st['peak']:.1f} N",
-                  f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
+        rows.append([f"collision force {pair}", f"{summary['clearance_mm'][pair]:.3g} mm", f"{st['peak']:.1f} N",
+                     f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for side, st in summary["load_moment_Nm"].items():
-        t.add_row(f"{side} comb load moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
+        rows.append([f"{side} comb load moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
+                     f"{st['rms']:.2f} N·m"])
     st = summary["drive_moment_Nm"]
-    t.add_row("cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m")
+    rows.append(["cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
     for b, st in summary.get("bearing_reaction_N", {}).items():
-        t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
+        rows.append([f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for b, st in summary.get("guide_reaction_N", {}).items():
         if isinstance(st, dict):
-            t.add_row(f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N")
-    out.print(t)
+            rows.append([f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
+    print_table(("quantity", "clearance", "peak", "mean", "rms"), rows, title=f"{model} model - {machine.machine.name}")
     if summary.get("driveline_mode") == "powered":
         sp = summary["cam_speed_rpm"]
         out.print(f"powered driveline: drive-shaft speed {sp['min']:.2f} .. {sp['max']:.2f} r/min (mean {sp['mean']:.2f}), "
@@ -194,13 +193,10 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
     if as_json:
         _print_json(summary)
         return
-    t = Table(title=f"multibody - {spec.mechanism.name}", header_style="bold")
-    for col in ("joint", "type", "peak", "mean", "rms", "p95"):
-        t.add_column(col, justify="left" if col in ("joint", "type") else "right")
-    for name, j in summary["joints"].items():
-        f = j["force_N"]
-        t.add_row(name, j["type"], f"{f['peak']:.1f} N", f"{f['mean']:.1f} N", f"{f['rms']:.1f} N", f"{f['p95']:.1f} N")
-    out.print(t)
+    rows = [[name, j["type"], *(f"{j['force_N'][k]:.1f} N" for k in ("peak", "mean", "rms", "p95"))]
+            for name, j in summary["joints"].items()]
+    print_table(("joint", "type", "peak", "mean", "rms", "p95"), rows, title=f"multibody - {spec.mechanism.name}",
+                justify=("left",) * 2 + ("right",) * 4)
     for name, j in summary["joints"].items():
         if "first_impact" in j:
             fi = j["first_impact"]
@@ -317,30 +313,26 @@ def compare(
     if as_json:
         _print_json(res)
         return
-    tb = Table(title="MLSD vs multibody, centred runs (study eq. 18)", header_style="bold")
-    for col in ("pair", "F", "F crit", "eq. 18 agrees", "NRMSE", "corr", "peak ratio"):
-        tb.add_column(col, justify="right")
-    for p, r in res["pairs"].items():
-        tb.add_row(p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["eq18_agree"] else "no",
-                   f"{r['nrmse']:.3f}", f"{r['correlation']:.3f}", f"{r['peak_ratio']:.3f}")
-    out.print(tb)
+    rows = [[p, f"{r['f_statistic']:.3f}", f"{r['f_critical']:.3f}", "yes" if r["eq18_agree"] else "no",
+             f"{r['nrmse']:.3f}", f"{r['correlation']:.3f}", f"{r['peak_ratio']:.3f}"] for p, r in res["pairs"].items()]
+    print_table(("pair", "F", "F crit", "eq. 18 agrees", "NRMSE", "corr", "peak ratio"), rows,
+                title="MLSD vs multibody, centred runs (study eq. 18)", justify=("right",) * 7)
     check = res.get("model_check")
     if check is None:
         out.print("no verdict on the statistics: one run per model is one draw of a chaotic impact sequence "
                   "(give --starts >= 2)")
         return
     st = check["starts"]
-    tb = Table(title=f"Verdict: means over {st['multibody']} multibody / {st['reduced']} MLSD starts (+- SE), "
-                     "difference +- its 95 % band against the tolerance", header_style="bold")
-    for col in ("pair", "statistic", "multibody [N]", "MLSD [N]", "difference", "tolerance", "verdict"):
-        tb.add_column(col, justify="right")
+    rows = []
     for p, c in check["pairs"].items():
         for k in c["tolerance"]:
-            tb.add_row(p, k, f"{c['a'][k]['mean']:.1f} +- {c['a'][k]['se']:.1f}",
+            rows.append([p, k, f"{c['a'][k]['mean']:.1f} +- {c['a'][k]['se']:.1f}",
                        f"{c['b'][k]['mean']:.1f} +- {c['b'][k]['se']:.1f}",
                        f"{100 * c['relative_difference'][k]:.1f} +- {100 * c['noise'][k]:.1f} %",
-                       f"{100 * c['tolerance'][k]:.0f} %", c["verdicts"][k])
-    out.print(tb)
+                         f"{100 * c['tolerance'][k]:.0f} %", c["verdicts"][k]])
+    print_table(("pair", "statistic", "multibody [N]", "MLSD [N]", "difference", "tolerance", "verdict"), rows,
+                title=f"Verdict: means over {st['multibody']} multibody / {st['reduced']} MLSD starts (+- SE), "
+                      "difference +- its 95 % band against the tolerance", justify=("right",) * 7)
 
 
 def _write_simulation(out_dir: Path, result, summary: dict) -> None:
@@ -395,13 +387,10 @@ def compare_machines_cmd(
         _print_json(res_out)
         return
     labels = list(res)
-    t = Table(title="Machines side by side (multibody, configured clearances)", header_style="bold")
-    t.add_column("quantity")
-    for lab in labels:
-        t.add_column(f"{lab}\n({res[lab]['drive']})", justify="right", overflow="fold")
-    t.add_row("comb swing left / right", *[f"{r['comb_swing_deg']['left']:.2f} / {r['comb_swing_deg']['right']:.2f} deg"
-                                           for r in res.values()])
-    t.add_row("comb frequency", *[f"{r['comb_frequency_hz']:.3f} Hz" for r in res.values()])
+    rows = []
+    rows.append(["comb swing left / right", *[f"{r['comb_swing_deg']['left']:.2f} / {r['comb_swing_deg']['right']:.2f} deg"
+                                           for r in res.values()]])
+    rows.append(["comb frequency", *[f"{r['comb_frequency_hz']:.3f} Hz" for r in res.values()]])
     n_pairs = max(len(r["collision_force_N"]) for r in res.values())
     for k in range(n_pairs):
         cells = []
@@ -412,13 +401,14 @@ def compare_machines_cmd(
                 cells.append(f"{p} ({r['clearance_mm'][p]:g} mm): peak {st['peak']:.0f} N, mean {st['mean']:.0f} N")
             else:
                 cells.append("")
-        t.add_row(f"clearance pair {k + 1} (in chain order)", *cells)
-    t.add_row("drive moment peak / rms", *[f"{r['drive_moment_Nm']['peak']:.1f} / {r['drive_moment_Nm']['rms']:.1f} N m"
-                                           for r in res.values()])
-    t.add_row("comb load moment rms L / R", *[f"{r['load_moment_Nm']['left']:.1f} / {r['load_moment_Nm']['right']:.1f} N m"
-                                              for r in res.values()])
+        rows.append([f"clearance pair {k + 1} (in chain order)", *cells])
+    rows.append(["drive moment peak / rms", *[f"{r['drive_moment_Nm']['peak']:.1f} / {r['drive_moment_Nm']['rms']:.1f} N m"
+                                              for r in res.values()]])
+    rows.append(["comb load moment rms L / R", *[f"{r['load_moment_Nm']['left']:.1f} / {r['load_moment_Nm']['right']:.1f} N m"
+                                                 for r in res.values()]])
     if fruit_force:
         for pos in ("root", "middle", "end"):
-            t.add_row(f"fruit force peak, {pos}", *[f"{r.get('fruit_force_peak_N', {}).get(pos, float('nan')):.3f} N"
-                                                   for r in res.values()])
-    out.print(t)
+            rows.append([f"fruit force peak, {pos}", *[f"{r.get('fruit_force_peak_N', {}).get(pos, float('nan')):.3f} N"
+                                                      for r in res.values()]])
+    print_table(["quantity"] + [f"{lab}\n({res[lab]['drive']})" for lab in labels], rows,
+                title="Machines side by side (multibody, configured clearances)")

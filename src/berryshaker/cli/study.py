@@ -7,7 +7,6 @@ from typing import Optional
 
 import typer
 from rich.markup import escape
-from rich.table import Table
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
@@ -19,6 +18,7 @@ from berryshaker.cli.app import (
     command,
     err,
     out,
+    print_table,
     _fail,
     _load,
     _print_json,
@@ -87,14 +87,12 @@ def study(
     if as_json:
         _print_json(summary)
         return
-    t = Table(title="Claims of the study", header_style="bold")
-    t.add_column("#")
-    t.add_column("verdict")
-    t.add_column("claim")
-    for c in summary["claims"]:
-        color = {"reproduced": "green", "not reproduced": "red"}.get(c["verdict"], "yellow")
-        t.add_row(str(c["id"]), f"[{color}]{c['verdict']}[/]", c["claim"])
-    out.print(t)
+    from rich.text import Text
+
+    rows = [[str(c["id"]), Text(c["verdict"], style={"reproduced": "green", "not reproduced": "red"}.get(c["verdict"],
+                                                                                                         "yellow")),
+             c["claim"]] for c in summary["claims"]]
+    print_table(("#", "verdict", "claim"), rows, title="Claims of the study", justify=("left",) * 3)
     o = summary["optimum"]
     if o is not None:
         fitted = set(o.get("fitted") or [])
@@ -252,13 +250,11 @@ def sweep(
                      **({"kernel": "specialised" if specialised else "generic", "kernel_reason": kernel_why}
                         if kernel_why else {})})
         return
-    from berryshaker.report.tables import rich_table
-
     show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
     show += [c for c in ("speed_ripple_percent", "input_power_W") if c in header]
     shown = [[dict(zip(header, row))[c] for c in show] for row in rows[:40]]
-    # headers such as "clearance.A.size[mm]" fold, never cut (rich_table escapes markup)
-    out.print(rich_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed"))
+    # headers such as "clearance.A.size[mm]" wrap at dots, numbers are never split (the one table writer)
+    print_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed")
     if len(rows) > 40:
         out.print(f"(first 40 of {len(rows)} runs; --out writes them all)")
     if failed:

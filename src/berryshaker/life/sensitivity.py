@@ -147,6 +147,61 @@ def sobol_analyze(problem: dict, y, seed: int | None = 0, second_order: bool = F
                 "ST_conf": num(res["ST_conf"][k])} for k, n in enumerate(names)}
 
 
+#: largest 95 % half-width (share of the variance) at which an index counts as resolved
+RESOLVED_HALF_WIDTH = 0.1
+#: half-width to aim for when suggesting a larger N (the intervals shrink as 1 / sqrt(N))
+TARGET_HALF_WIDTH = 0.05
+
+
+def output_unit(name: str) -> str:
+    """SI unit of a flat output name (:func:`berryshaker.life.joint_loads.flat_outputs` and ``joint_loads``):
+    forces "N", moments "N m", sliding speeds "m/s", swings "deg"; "" if the name does not say."""
+    if name.endswith("_deg"):
+        return "deg"
+    if "moment" in name:
+        return "N m"
+    if "force" in name:
+        return "N"
+    if "speed" in name:
+        return "m/s"
+    return ""
+
+
+def resolution(indices: dict[str, dict[str, float | None]], n: int) -> dict:
+    """Which Sobol indices the sample resolves, and the base sample N to try if some are not.
+
+    An index is *not resolved* when its 95 % bootstrap half-width exceeds :data:`RESOLVED_HALF_WIDTH` (0.1 of
+    the variance) or its estimate lies outside [0, 1] beyond its interval (a negative S1 is sampling noise:
+    the true index is >= 0).  The intervals shrink as 1/sqrt(N), so the suggested N is the next power of two
+    above N (w / :data:`TARGET_HALF_WIDTH`)^2 for the widest interval w [assumed scaling].
+
+    Returns
+    -------
+    dict
+        ``unresolved``: list of "S1 of clearance.A.size: -0.12 +- 0.35" strings; ``negative_within_noise``: the
+        resolved indices estimated below 0 (their interval includes 0: read them as 0); ``suggested_samples``: int
+        or None; ``widest_half_width``: float or None.
+    """
+    bad, negative, widest = [], [], 0.0
+    for key, ind in indices.items():
+        for s in ("S1", "ST"):
+            v, c = ind.get(s), ind.get(s + "_conf")
+            if v is None:
+                continue
+            c = 0.0 if c is None else float(c)
+            widest = max(widest, c)
+            if c > RESOLVED_HALF_WIDTH or v + c < 0.0 or v - c > 1.0:
+                bad.append(f"{s} of {key}: {v:.3f} +- {c:.3f}")
+            elif v < 0.0:
+                negative.append(f"{s} of {key}: {v:.3f} +- {c:.3f}")
+    suggested = None
+    if bad:
+        need = n * max(widest / TARGET_HALF_WIDTH, 1.0) ** 2
+        suggested = max(2 * n, 1 << math.ceil(math.log2(need)))
+    return {"unresolved": bad, "negative_within_noise": negative, "suggested_samples": suggested,
+            "widest_half_width": widest if indices else None}
+
+
 def sobol_indices(fn: Callable[[np.ndarray], np.ndarray], problem: dict, n: int, seed: int | None = 0) -> dict:
     """Sobol indices of a vectorised function ``fn(X) -> y`` (X of shape (runs, D)): sample, evaluate, analyse.
 
@@ -182,8 +237,9 @@ def machine_sobol(machine, params: list[SobolParameter], outputs: list[str], n: 
     Returns
     -------
     dict
-        ``indices[output][param] = {S1, S1_conf, ST, ST_conf}``, ``output_mean``/``output_std``, ``runs``,
-        ``parameters`` (key, SI bounds, unit), ``model``, ``samples``, ``seed``.
+        ``indices[output][param] = {S1, S1_conf, ST, ST_conf}``, ``output_mean``/``output_std`` (SI, in
+        ``output_unit[output]``), ``resolution[output]`` (:func:`resolution`: the indices N does not resolve and
+        the N to try), ``runs``, ``parameters`` (key, SI bounds, unit), ``model``, ``samples``, ``seed``.
     """
     from berryshaker.life.runs import summary_outputs_run
 
@@ -211,4 +267,6 @@ def machine_sobol(machine, params: list[SobolParameter], outputs: list[str], n: 
         result["indices"][o] = sobol_analyze(problem, y, seed)
         result["output_mean"][o] = float(np.mean(y))
         result["output_std"][o] = float(np.std(y))
+        result.setdefault("output_unit", {})[o] = output_unit(o)
+        result.setdefault("resolution", {})[o] = resolution(result["indices"][o], int(n))
     return result
