@@ -124,17 +124,29 @@ def print_table(header, rows, title: str | None = None, justify=None, console: C
     console.print(rich_table(header, rows, title=title, digits=digits, justify=justify, width=table_width(console)))
 
 
+def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A Python warning (pandas, statsmodels, SciPy ... or ours) as one clean line on stderr: ``warning: <message>``,
+    without the file, line number and source line Python prints by default."""
+    text = " ".join(str(message).split())
+    err.print(f"warning: {text}", markup=False, highlight=False, soft_wrap=True)
+
+
 def command(parent: typer.Typer, name: str | None = None, **kwargs):
     """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
     message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the
-    cache)."""
+    cache); a Python warning raised while the command runs is one line, ``warning: <message>``
+    (:func:`show_warning`)."""
     import functools
 
     def deco(fn):
         @functools.wraps(fn)
         def wrapped(*args, **kw):
+            import warnings
+
             try:
-                return fn(*args, **kw)
+                with warnings.catch_warnings():  # restores the previous handler when the command ends
+                    warnings.showwarning = show_warning
+                    return fn(*args, **kw)
             except BerryshakerError as exc:
                 _fail(exc)
             except KeyboardInterrupt:
