@@ -20,12 +20,15 @@ from berryshaker.units import format_tolerance
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
 color:#1d2330;line-height:1.45}h1{font-size:1.7em}h2{border-bottom:2px solid #c9d3e0;padding-bottom:.2em;margin-top:2em}
-table{border-collapse:collapse;margin:.8em 0;font-size:.92em}td,th{border:1px solid #c9d3e0;padding:4px 9px;
-text-align:right;vertical-align:top}th{background:#eef2f7}td.l,th.l{text-align:left}
+table{border-collapse:collapse;margin:.8em 0;font-size:.92em;max-width:100%}td,th{border:1px solid #c9d3e0;
+padding:4px 9px;text-align:right;vertical-align:top}th{background:#eef2f7}td.l,th.l{text-align:left}
 figure{margin:1em 0}figure img{max-width:100%;border:1px solid #dde3eb}figcaption{font-size:.9em;color:#4a5568}
 .v-reproduced{background:#e3f6e8}.v-not{background:#fbe4e4}.v-partly{background:#fff5d6}.v-nc{background:#eef}
 .small{font-size:.85em;color:#4a5568}code{background:#f3f5f8;padding:0 3px}
 .wrap{max-width:100%;overflow-x:auto}td,th{overflow-wrap:break-word}thead{display:table-header-group}
+.wide table{font-size:.78em}.wide td,.wide th{padding:2px 4px;overflow-wrap:anywhere}
+table.fixed{table-layout:fixed;width:100%}td .ci{display:block;font-size:.85em;color:#4a5568}pre.text{white-space:pre-wrap;overflow-wrap:anywhere;font-size:.8em;background:#f7f9fb;
+padding:.5em;max-width:100%;box-sizing:border-box}img,svg{max-width:100%}.nw{white-space:nowrap}
 span[class^="v-"]{white-space:nowrap}
 @page{size:A4;margin:14mm 12mm}
 @media print{
@@ -33,7 +36,7 @@ body{max-width:none;margin:0;padding:0;font-size:9.5pt}h1{font-size:15pt}h2{font
 h1,h2,h3{page-break-after:avoid;break-after:avoid}
 table{page-break-inside:auto;font-size:8pt;max-width:100%}tr{page-break-inside:avoid;break-inside:avoid}
 td,th{padding:2px 4px;-webkit-print-color-adjust:exact;print-color-adjust:exact}
-.wrap{overflow:visible}.wide table{font-size:7pt}.wide td,.wide th{padding:1px 3px}
+.wrap{overflow:visible}pre.text{font-size:7pt}.wide table{font-size:7pt}.wide td,.wide th{padding:1px 3px}
 figure{page-break-inside:avoid;break-inside:avoid}figure img{max-width:100%;max-height:23cm;border:none}
 span[class^="v-"]{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
 """
@@ -53,15 +56,21 @@ def _maybe_img(parts: list, path: Path, caption: str) -> None:
         parts.append(_img(path, caption))
 
 
-def _table(header, rows, left=(0,)) -> str:
-    h = "".join(f'<th class="{"l" if i in left else ""}">{html.escape(str(c))}</th>' for i, c in enumerate(header))
+def _table(header, rows, left=(0,), widths=None) -> str:
+    """A table in a div that never gets wider than the page: ``widths`` (percent per column) fixes the columns'
+    shares (long texts wrap inside them); tables of :data:`WIDE_COLUMNS` columns or more print smaller."""
+    cols = "" if widths is None else "<colgroup>" + "".join(f"<col style='width:{w:g}%'>" for w in widths) + "</colgroup>"
+    h = "".join(f'<th class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html.escape(str(c))}</th>'
+                for i, c in enumerate(header))
     body = []
     for r in rows:
         body.append("<tr>" + "".join(
             f'<td class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html.escape(_fmt(c))}</td>'
             for i, c in enumerate(r)) + "</tr>")
     wide = " wide" if len(header) >= WIDE_COLUMNS else ""
-    return f"<div class='wrap{wide}'><table><thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody></table></div>"
+    cls = " class='fixed'" if widths is not None else ""
+    return (f"<div class='wrap{wide}'><table{cls}>{cols}<thead><tr>{h}</tr></thead><tbody>{''.join(body)}</tbody>"
+            "</table></div>")
 
 
 class _Raw(str):
@@ -107,7 +116,8 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
              *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
             for c in res["claims"]]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
-                         "our numbers"], rows, left=(1, 2, 3, 4)))
+                         "our numbers"], rows, left=(1, 2, 3, 4),
+                        widths=(4, 22, 11, 27, 36) if with_criterion else (4, 32, 12, 52)))
     fails = summary.get("failures") or []
     parts.append("<h2>Failed runs</h2>")
     if fails:
@@ -281,7 +291,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
         parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
-        parts.append(f"<pre>{html.escape(rep.get('text', ''))}</pre>")
+        parts.append(f"<pre class='text'>{html.escape(rep.get('text', ''))}</pre>")
         parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
@@ -341,6 +351,19 @@ def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
                  "damping and friction, integrated with the motion; the audit residual is the largest over the "
                  "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
                  f"2-3.{rep_text}</p>")
+
+
+def _num(v: float) -> str:
+    """Four significant digits, whole numbers from 10 000 on (no "1.005e+04" in a table)."""
+    return f"{v:.0f}" if abs(v) >= 1e4 else f"{v:.4g}"
+
+
+def _short_candidate(name: str) -> str:
+    """A trade-off candidate's short label: "run 3 (A1B3C3F3)" -> "3", "recommended (A1B1C1F3)" -> "rec."."""
+    m = re.match(r"run (\d+)\b", name)
+    if m:
+        return m.group(1)
+    return "rec." if name.startswith("recommended") else name
 
 
 def _ci_text(est: dict | None, digits: int = 4) -> str:
@@ -403,7 +426,7 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         fmt = [format_tolerance(x) for x in rt]
         rule = "within 2 x noise" if all("mean_change" in v for v in tc["responses"].values()) else \
             "within 1 SD (a summary from before 2026-11-23)"
-        parts.append(_table(["response", f"mean change {fmt[0]} -> {fmt[1]}", "largest change", "replicate SD",
+        parts.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
                              "noise of the mean (SD)", rule],
                             [[n, v.get("mean_change", float("nan")), v["max_abs_change"], v["replicate_sd"],
                               v.get("noise_sd", float("nan")), v["within_replicate_spread"]]
@@ -417,15 +440,26 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         idx = [n for n in ("efficiency", "ripe_removal", "unripe", "damage") if n in recs[0]]
         tq = [c for c in ("drive_torque_peak_Nm", "drive_torque_rms_Nm") if c in recs[0]]
 
-        def cell(r, c):
-            return _ci_text({"mean": r[c], "ci": [r.get(f"{c}_lo", r[c]), r.get(f"{c}_hi", r[c])]})
+        def cell(r, c):  # the mean, its interval on a second line: narrow columns, short rows
+            lo, hi = r.get(f"{c}_lo", r[c]), r.get(f"{c}_hi", r[c])
+            return _Raw(f"{_num(r[c])}<span class='ci'>[{_num(lo)}, {_num(hi)}]</span>")
 
-        header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx]
-                  + [f"peak force {c.split(':')[1]} (N)" for c in forces]
-                  + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)] + ["dominated by"])
-        body = [[r["name"]] + [cell(r, c) for c in idx + forces + tq] + [r.get("dominated_by") or "-"] for r in recs]
+        short = {r["name"]: _short_candidate(r["name"]) for r in recs}
+
+        def beaten_by(r):
+            names = [n.strip() for n in re.split(r",\s*(?=run |recommended)", r.get("dominated_by") or "") if n.strip()]
+            return ", ".join(short.get(n, n) for n in names) or "-"
+
+        header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
+        body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
         parts.append(_table(header, body, left=(0, len(header) - 1)))
-        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean].  A candidate is "
+        loads = (["candidate"] + [f"peak force {c.split(':')[1]} (N)" for c in forces]
+                 + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)])
+        if len(loads) > 1:
+            parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
+        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
+                     "of the same candidates in the second table; 'dominated by' names the dominating candidates by "
+                     "run number ('rec.': the recommended set).  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
                      "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's pure error, simultaneous over "
                      "all candidates (experiment/tradeoff.py, study/l9.py); clearances are descriptive.  The tiered "
@@ -494,6 +528,7 @@ def doe_report(res: dict, title: str) -> str:
     from berryshaker.report.style import RESPONSE_UNITS
 
     factors = res.get("factors") or {}
+    units = {**RESPONSE_UNITS, **(res.get("response_units") or {})}  # the sheet's units first (issue 45)
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
              f"<p>Results file <code>{html.escape(str(res.get('results_file', '')))}</code>; berryshaker "
@@ -517,11 +552,11 @@ def doe_report(res: dict, title: str) -> str:
         parts.append(f"<p class='small'>{res['runs']} runs x {res['replicates']} replicates.  "
                      f"{html.escape(res['significance_rule'])}</p>")
     parts.append(_table(["response", "predicted at the optimum", "unit"],
-                        [[r, _fixed([v])[0], RESPONSE_UNITS.get(r, "")] for r, v in o["values"].items()],
+                        [[r, _fixed([v])[0], units.get(r, "")] for r, v in o["values"].items()],
                         left=(0, 2)))
     parts.append(f"<p class='small'>{html.escape(o.get('prediction', ''))}</p>")
     for name, ra in res["responses"].items():
-        unit = RESPONSE_UNITS.get(name)
+        unit = units.get(name)
         parts.append(f"<h2>{html.escape(name)}{f' ({unit})' if unit else ''}: range analysis "
                      f"({'maximise' if ra['maximize'] else 'minimise'})</h2>")
         an = ra["anova"]["factors"]
