@@ -368,3 +368,55 @@ def test_tradeoff_labels_clear_of_markers_and_each_other_and_a_torque_legend(tmp
     assert torque_colours.isdisjoint({c.lower() for c in PAIR_COLOURS.values()} | set(PAIR_COLOURS.values()))
     assert not audit_figure(fig)
     _close(data)
+
+
+# ---- print resolution, SVG beside, nothing cut at the canvas' edge (issue 45) ------------------------------------
+def _inside_canvas(fig) -> list[str]:
+    """Texts (axis labels, tick labels, titles) and legends whose drawn extent leaves the canvas."""
+    fig.canvas.draw()
+    r = fig.canvas.get_renderer()
+    W, H = fig.canvas.get_width_height()
+    out = []
+    artists = [*fig.legends, *fig.texts]
+    for ax in fig.axes:
+        artists += [ax.xaxis.label, ax.yaxis.label, ax.title, ax._left_title, ax._right_title, *ax.texts]
+        for axis in (ax.xaxis, ax.yaxis):  # the tick labels drawn: those inside the axis' view
+            lo, hi = sorted(axis.get_view_interval())
+            artists += [tk.label1 for tk in axis.get_major_ticks() if lo - 1e-9 * abs(hi - lo) <= tk.get_loc() <= hi
+                        + 1e-9 * abs(hi - lo)]
+        if ax.get_legend() is not None:
+            artists.append(ax.get_legend())
+    for a in artists:
+        if not a.get_visible() or (hasattr(a, "get_text") and not a.get_text()):
+            continue
+        b = a.get_window_extent(r)
+        if b.x0 < -0.5 or b.y0 < -0.5 or b.x1 > W + 0.5 or b.y1 > H + 0.5:
+            out.append(f"{type(a).__name__} {getattr(a, 'get_text', lambda: '')()!r}: {b}")
+    return out
+
+
+def test_figures_print_at_300_dpi_with_an_svg_beside_and_nothing_cut(tmp_path):
+    from PIL import Image
+
+    from berryshaker.report.style import PRINT_DPI, canvas_overflow
+
+    t = np.linspace(0, 2 * np.pi, 400)
+    pitch = np.array([0.1 * np.cos(t), 0.08 * np.sin(t)])
+    res, _, _ = _l9_analysis()
+    drawn = [P.plot_groove(pitch, pitch * 0.9, pitch * 1.1, 0.07, tmp_path / "groove_profile.png",
+                           return_figure=True),
+             P.plot_main_effects(res, tmp_path / "me.png", "Virtual L9", return_figure=True),
+             P.plot_bars({"multibody peak": [1.0, 2.0]}, ["none", "0.25 mm"], "collision force at joint A [N]",
+                         tmp_path / "bars.png", pair="A", reference_index=0, return_figure=True)]
+    assert PRINT_DPI == 300
+    for data in drawn:
+        fig = data["figure"]
+        assert _inside_canvas(fig) == [], data["path"]
+        assert max(canvas_overflow(fig)) == 0.0
+        png = Image.open(data["path"])
+        assert png.info["dpi"] == pytest.approx((300, 300), abs=0.5)
+        w, h = fig.get_size_inches()
+        assert png.size == (round(w * 300), round(h * 300))
+        svg = tmp_path / (data["path"].rsplit("/", 1)[1].replace(".png", ".svg"))
+        assert svg.is_file() and svg.read_text(encoding="utf-8").lstrip().startswith("<?xml")
+        _close(data)
