@@ -10,7 +10,24 @@ from berryshaker.contact.force_laws import broadcasting
 
 @njit(cache=True, error_model="numpy")
 def coulomb_friction_kernel(v_t, normal_force, mu, v0, v1):
-    """Kernel of :func:`coulomb_friction` (scalar, for compiled code; arrays go through the wrapper)."""
+    """Kernel of :func:`coulomb_friction` (scalar, for compiled code; arrays go through the wrapper).
+
+    Parameters
+    ----------
+    v_t : float
+        Relative tangential (sliding) velocity (m/s).
+    normal_force : float
+        Normal force (N); its magnitude is used.
+    mu : float
+        Coefficient of friction (1).
+    v0, v1 : float
+        Velocities of the regularised transition (m/s), 0 <= v0 < v1.
+
+    Returns
+    -------
+    float
+        Friction force F_t (N), opposite to ``v_t``.
+    """
     av = abs(v_t)
     if av <= v0:
         return 0.0
@@ -32,7 +49,7 @@ def coulomb_friction(v_t, normal_force, mu, v0=1e-4, v1=1e-3):
     normal_force : array_like
         Normal force magnitude (N).
     mu : float
-        Coefficient of friction.
+        Coefficient of friction (1).
     v0, v1 : float
         Below |v_t| = v0 no friction (avoids the sticking discontinuity); full Coulomb friction above v1
         (m/s); linear in between.
@@ -54,5 +71,18 @@ def coulomb_friction(v_t, normal_force, mu, v0=1e-4, v1=1e-3):
 
 
 def viscous_friction(v_t, coefficient):
-    """Viscous friction F_t = -c v_t (N), c in N s/m."""
+    """Viscous friction F_t = -c v_t.
+
+    Parameters
+    ----------
+    v_t : array_like
+        Relative tangential (sliding) velocity (m/s).
+    coefficient : float
+        Viscous coefficient c (N s/m).
+
+    Returns
+    -------
+    ndarray
+        Friction force F_t (N).
+    """
     return -float(coefficient) * np.asarray(v_t, float)

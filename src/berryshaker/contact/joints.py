@@ -13,7 +13,21 @@ import numpy as np
 
 @dataclass(frozen=True)
 class ContactKinematics:
-    """Kinematic state of a clearance joint."""
+    """Kinematic state of a clearance joint.
+
+    Attributes
+    ----------
+    penetration : ndarray
+        Penetration delta beyond the clearance (m), > 0 in contact.
+    normal : ndarray (..., 2)
+        Unit normal (dimensionless): direction of the force on the moving element (pin / roller).
+    normal_velocity : ndarray
+        d(delta)/dt (m/s), > 0 while approaching.
+    tangential_velocity : ndarray
+        Sliding velocity along t = rot90(normal) (m/s).
+    eccentricity : ndarray (..., 2)
+        Vector from the bore centre / groove centre line to the pin / roller centre (m).
+    """
 
     penetration: np.ndarray  # delta (m), > 0 in contact
     normal: np.ndarray  # unit normal (..., 2): direction of the force on the moving element (pin / roller)
@@ -84,7 +98,7 @@ def point_line_clearance(point, point_velocity, line_point, line_direction, line
     line_point : array_like (..., 2)
         A point of the slot centre line (m), moving with velocity ``line_velocity``.
     line_direction : array_like (..., 2)
-        Unit direction of the centre line.
+        Unit direction of the centre line (dimensionless).
     line_velocity : array_like (..., 2)
         Velocity of the material point of the slot body at ``line_point`` (m/s).
     line_omega : array_like
@@ -132,7 +146,7 @@ def closest_point_on_curve(points, curve):
     points : array_like (m, 2)
         Query points (m), e.g. roller centres in the cam frame.
     curve : array_like (n, 2)
-        Closed polyline (first point may repeat as last).
+        Closed polyline (m; the first point may repeat as last).
 
     Returns
     -------

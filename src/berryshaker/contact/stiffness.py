@@ -11,6 +11,18 @@ STEEL_NU = 0.3
 def effective_modulus(e1, nu1, e2, nu2):
     """Combined elastic modulus E* = 1 / [(1 - nu1^2)/E1 + (1 - nu2^2)/E2] (Pa).
 
+    Parameters
+    ----------
+    e1, e2 : float
+        Young's moduli of the two bodies (Pa), > 0.
+    nu1, nu2 : float
+        Their Poisson ratios (1), in (-1, 0.5).
+
+    Returns
+    -------
+    float
+        E* (Pa).
+
     References
     ----------
     K. L. Johnson, *Contact Mechanics*, Cambridge University Press, 1985, ch. 4.
@@ -37,7 +49,7 @@ def pin_in_bore_stiffness(e_pin, nu_pin, e_bore, nu_bore, pin_radius, bore_radiu
     Returns
     -------
     float
-        K = (4/3) E* sqrt(R*), R* = R_pin R_bore / (R_bore - R_pin) (conformal contact: the bore is
+        K = (4/3) E* sqrt(R*) (N/m^1.5), R* = R_pin R_bore / (R_bore - R_pin) (conformal contact: the bore is
         concave).
 
     Notes

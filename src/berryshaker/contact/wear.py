@@ -159,7 +159,7 @@ def archard_wear_depth(force, sliding_speed, t, wear_coefficient, hardness, cont
     Returns
     -------
     numpy.ndarray, shape (n,)
-        Depth from t[0], non-decreasing, m.  For constant F, v_s: h = k p v_s t / H exactly.
+        Depth from t[0] (m), non-decreasing.  For constant F, v_s: h = k p v_s t / H exactly.
 
     Notes
     -----
@@ -196,7 +196,7 @@ def pin_in_bore_clearance_growth(force, sliding_speed, t, wear_coefficient, hard
     Returns
     -------
     numpy.ndarray, shape (n,)
-        Clearance growth from t[0], m; non-decreasing.
+        Clearance growth from t[0] (m); non-decreasing.
 
     Notes
     -----
@@ -238,7 +238,7 @@ class MaterialPair:
     hardness : float
         Hardness H of the softer member (Pa).
     wear_coefficient_range : (float, float)
-        Plausible range of k for design studies.
+        Plausible range of k for design studies (dimensionless).
     source : str
         Where the numbers come from; "[assumed]" marks values that are engineering assumptions.
     assumed : bool
@@ -296,7 +296,18 @@ MATERIAL_PAIRS: dict[str, MaterialPair] = {
 
 
 def material_pair(name: str) -> MaterialPair:
-    """Look up a :class:`MaterialPair` by name, with the list of names in the error."""
+    """Look up a :class:`MaterialPair` by name, with the list of names in the error.
+
+    Parameters
+    ----------
+    name : str
+        A key of ``MATERIAL_PAIRS``, e.g. "steel-steel-lubricated".
+
+    Returns
+    -------
+    MaterialPair
+        Its Archard data.
+    """
     try:
         return MATERIAL_PAIRS[name]
     except KeyError:

@@ -25,7 +25,18 @@ def _stats_rows(series: list[np.ndarray], sel: np.ndarray, peaks: list[float]) -
 
 def drive_moment(result: MultibodyResult) -> np.ndarray:
     """Moment on the drive shaft in its direction of rotation (clockwise), N m: the imposed-speed driver's, or with
-    a powered driveline the mesh's (drives/powered.py)."""
+    a powered driveline the mesh's (drives/powered.py).
+
+    Parameters
+    ----------
+    result : MultibodyResult
+        A harvester run (:func:`simulate_multibody`).
+
+    Returns
+    -------
+    ndarray
+        The moment at each written sample (N m).
+    """
     if "drive" in result.compiled.con_names:
         return -result.reaction("drive")
     return -result.element_force("mesh")
@@ -41,6 +52,18 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     signed mean over revolutions 2..N (mean drive power / speed), ``mean_abs`` the mean of its magnitude, as in
     the MLSD summary.  ``contact_onsets``: impacts per pair (:func:`contact_onsets`), ``contact_onsets_located``
     their total; ``event_cuts``: integrator steps cut back to an onset (the whole run).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description the run was made from.
+    result : MultibodyResult
+        The run.
+
+    Returns
+    -------
+    dict
+        The summary (JSON-ready; units in the key names: ``_N``, ``_Nm``, ``_mm``).
     """
     cm = result.compiled
     sel = result.t >= result.stats_from - 1e-12
@@ -96,6 +119,18 @@ def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:
     integrator's located contact onsets closing at 1 mm/s or faster, counted on every accepted step, so
     independent of ``output_step``; not the engine's count of step cut-backs to an onset (``event_cuts``), which
     counts every refinement.  An ideal joint (zero clearance) has none.
+
+    Parameters
+    ----------
+    result : MultibodyResult
+        The run.
+    pairs : iterable of str
+        Clearance pair names.
+
+    Returns
+    -------
+    dict pair -> int
+        Impacts per pair.
     """
     return result.contact_onsets(list(pairs))
 
@@ -158,8 +193,30 @@ def simulate_multibody_batch(machines: list, clearances: list[dict[str, float] |
     """:func:`simulate_multibody` for many (machine, clearance) pairs in batched compiled calls
     (:func:`berryshaker.multibody.batch.simulate_mechanisms`: runs of one mechanism structure share a call).
 
-    Returns, per pair, ``(MultibodyResult, summary)`` exactly as :func:`simulate_multibody` gives it, or the
-    :class:`~berryshaker.errors.BerryshakerError` that pair raised.
+    Parameters
+    ----------
+    machines : list of MachineBase
+        The machine descriptions.
+    clearances : list of dict or None
+        Clearance sizes (m) per pair name for each machine (None: the description's).
+    revolutions : int
+        Drive-shaft revolutions (>= 2; statistics exclude the first).
+    rtol : float
+        Relative tolerance of the integrator (dimensionless).
+    output_step : float
+        Spacing of the written series (s).
+    driveline : {"imposed", "powered"}, optional
+        Override of ``[driveline] mode`` (as :func:`simulate_multibody`).
+    series : {"whole", "statistics"}
+        What the written series cover (as :func:`simulate_multibody`).
+    specialised : bool, optional
+        The kernel (as :func:`simulate_multibody`).
+
+    Returns
+    -------
+    list
+        Per pair, ``(MultibodyResult, summary)`` exactly as :func:`simulate_multibody` gives it, or the
+        :class:`~berryshaker.errors.BerryshakerError` that pair raised.
     """
     from berryshaker.drives.powered import with_driveline_mode
     from berryshaker.errors import BerryshakerError

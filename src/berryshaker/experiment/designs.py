@@ -42,7 +42,18 @@ def _l27() -> np.ndarray:
 
 
 def orthogonal_array(name: str) -> np.ndarray:
-    """The array (runs x columns, levels 0-based) by short (``"L9"``) or full (``"L9(3^4)"``) name."""
+    """The array (runs x columns, levels 0-based) by short (``"L9"``) or full (``"L9(3^4)"``) name.
+
+    Parameters
+    ----------
+    name : str
+        L4, L8, L9, L16, L18 or L27, with or without its full designation.
+
+    Returns
+    -------
+    ndarray of int, shape (runs, columns)
+        Level codes 0, 1, 2... of each run in each column.
+    """
     key = name.strip().upper().split("(")[0]
     if key not in ARRAYS:
         raise ConfigError(f"unknown orthogonal array {name!r}; choose one of {', '.join(ARRAYS)}")
@@ -60,7 +71,18 @@ def orthogonal_array(name: str) -> np.ndarray:
 
 
 def is_orthogonal(array) -> bool:
-    """Strength-2 orthogonality: in every pair of columns every level combination occurs equally often."""
+    """Strength-2 orthogonality: in every pair of columns every level combination occurs equally often.
+
+    Parameters
+    ----------
+    array : array_like of int, shape (runs, columns)
+        Level codes.
+
+    Returns
+    -------
+    bool
+        True when the array is orthogonal.
+    """
     a = np.asarray(array)
     n = a.shape[0]
     for i, j in itertools.combinations(range(a.shape[1]), 2):
@@ -74,7 +96,20 @@ def is_orthogonal(array) -> bool:
 
 
 def assign_factors(array_name: str, levels: list[int]) -> list[int]:
-    """Columns for factors with the given numbers of levels (first matching columns, left to right)."""
+    """Columns for factors with the given numbers of levels (first matching columns, left to right).
+
+    Parameters
+    ----------
+    array_name : str
+        The orthogonal array (:func:`orthogonal_array`).
+    levels : list of int
+        Number of levels of each factor, in order.
+
+    Returns
+    -------
+    list of int
+        The column of each factor.
+    """
     a = orthogonal_array(array_name)
     col_levels = [len(np.unique(a[:, j])) for j in range(a.shape[1])]
     used, out = set(), []

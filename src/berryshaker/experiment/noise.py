@@ -37,9 +37,9 @@ def sd_standard_error(x, kurtosis: float | None = None) -> float:
     Parameters
     ----------
     x : array_like
-        Replicate values (at least 2).
+        Replicate values (at least 2), in any unit.
     kurtosis : float, optional
-        Excess kurtosis g2 of the population; default the sample's own (scipy.stats.kurtosis, bias-corrected,
+        Excess kurtosis g2 of the population (dimensionless); default the sample's own (scipy.stats.kurtosis, bias-corrected,
         0 for fewer than 4 values).  Give a better-founded value (from more replicates) when you have one.
 
     Returns
@@ -144,7 +144,7 @@ def standard_error_reached(samples: dict[str, np.ndarray], relative: float, floo
     Parameters
     ----------
     samples : dict name -> ndarray (n,)
-        Replicates at one setting (n >= 2).
+        Replicates at one setting (n >= 2), each response in its unit.
     relative : float
         Target standard error as a fraction of the mean's magnitude.
     floors : dict name -> float, optional
@@ -177,7 +177,20 @@ def standard_error_reached(samples: dict[str, np.ndarray], relative: float, floo
 
 
 def describe_convergence(res: dict, units: dict[str, str] | None = None) -> str:
-    """Plain-text table of :func:`spread_convergence`: mean +- SE and SD +- SE(SD) per response and count."""
+    """Plain-text table of :func:`spread_convergence`: mean +- SE and SD +- SE(SD) per response and count.
+
+    Parameters
+    ----------
+    res : dict
+        The result of :func:`spread_convergence`.
+    units : dict name -> str, optional
+        Unit of each response, printed beside its values.
+
+    Returns
+    -------
+    str
+        The table, one line per response and count, and the chosen count.
+    """
     units = units or {}
     lines = [f"Replicates: {res['replicates']}; rule: {res['rule']}."]
     for name, t in res["table"].items():

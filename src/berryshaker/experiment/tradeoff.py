@@ -38,6 +38,18 @@ def column_sense(column: str, senses: dict[str, bool | None] | None = None) -> b
     """Whether larger is better (True), smaller (False) or the column is descriptive (None).
 
     ``senses`` (exact column or its group, the part before ':') overrides :data:`SENSE_PATTERNS`.
+
+    Parameters
+    ----------
+    column : str
+        The column name.
+    senses : dict, optional
+        Overrides: column or group name -> True / False / None.
+
+    Returns
+    -------
+    bool or None
+        True: larger is better; False: smaller is better; None: descriptive.
     """
     senses = senses or {}
     for key in (column, column.split(":")[0]):
@@ -158,7 +170,22 @@ def _column_comparisons(df: pd.DataFrame, senses, rtol: float):
 
 def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = None,
                      rtol: float = 0.01) -> np.ndarray:
-    """``D[i, j]`` True where candidate i dominates candidate j beyond noise (see the module docstring)."""
+    """``D[i, j]`` True where candidate i dominates candidate j beyond noise (see the module docstring).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The trade-off table (:func:`tradeoff_table`), one row per candidate.
+    senses : dict, optional
+        Overrides of :func:`column_sense`.
+    rtol : float
+        Relative noise of columns without intervals (dimensionless).
+
+    Returns
+    -------
+    ndarray of bool, shape (n, n)
+        The dominance matrix.
+    """
     n = len(df)
     no_worse = np.ones((n, n), bool)
     better = np.zeros((n, n), bool)
@@ -173,7 +200,24 @@ def dominance_matrix(df: pd.DataFrame, senses: dict[str, bool | None] | None = N
 def better_columns(df: pd.DataFrame, i: int, j: int, senses: dict[str, bool | None] | None = None,
                    rtol: float = 0.01) -> list[str]:
     """The judged columns in which row i of a trade-off table is better than row j beyond noise (the same
-    margins as :func:`dominance_matrix`)."""
+    margins as :func:`dominance_matrix`).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The trade-off table.
+    i, j : int
+        Row positions of the two candidates.
+    senses : dict, optional
+        Overrides of :func:`column_sense`.
+    rtol : float
+        Relative noise of columns without intervals (dimensionless).
+
+    Returns
+    -------
+    list of str
+        The columns in which row i is better.
+    """
     return [col for col, d, margin in _column_comparisons(df, senses, rtol) if d[i, j] > margin[i, j]]
 
 
@@ -184,6 +228,20 @@ def mark_dominated(df: pd.DataFrame, senses: dict[str, bool | None] | None = Non
     unripe and damage rates, forces, torque, energy smaller is better; clearances descriptive).  Columns
     ``<col>_lo`` / ``<col>_hi`` are the interval of ``<col>``, ``<col>_noise`` (if present) the comparison
     half-width that replaces the interval's half-width in the margin; without either ``rtol`` is the noise.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The trade-off table.
+    senses : dict, optional
+        Overrides of :func:`column_sense`.
+    rtol : float
+        Relative noise of columns without intervals (dimensionless), in [0, 1).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The copy with the two columns added.
     """
     if not 0 <= rtol < 1:
         raise ConfigError(f"rtol={rtol!r}: give a relative tolerance between 0 and 1")
@@ -209,7 +267,7 @@ def tradeoff_table(candidates: list[dict], senses: dict[str, bool | None] | None
     senses : dict, optional
         Overrides of :func:`column_sense` (column or group name -> True / False / None).
     rtol : float
-        Relative noise of columns without intervals (deterministic model outputs).
+        Relative noise of columns without intervals (deterministic model outputs; dimensionless).
 
     Returns
     -------

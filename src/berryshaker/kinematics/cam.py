@@ -96,8 +96,9 @@ def follower_law(x, law="3-4-5"):
     Parameters
     ----------
     x : array_like
-        Fraction of the rise, 0..1 (clipped).
+        Fraction of the rise, 0..1 (clipped; dimensionless).
     law : {"3-4-5", "cycloidal", "4-5-6-7"}
+        The follower law.
 
     Returns
     -------
@@ -259,6 +260,21 @@ def pressure_angle(s, ds, s0, e):
 
 def pitch_curve_curvature(s, ds, d2s, s0, e):
     """Signed curvature of the pitch curve (1/m); positive where it is convex.
+
+    Parameters
+    ----------
+    s, ds, d2s : array_like
+        Follower displacement s (m) and its first and second derivatives with respect to the cam angle,
+        s' (m/rad) and s'' (m/rad^2).
+    s0 : float
+        Distance from the cam centre's foot on the push-rod axis to the roller centre at s = 0 (m).
+    e : float
+        Offset of the push-rod axis from the cam centre (m).
+
+    Returns
+    -------
+    ndarray
+        Signed curvature kappa of the pitch curve (1/m), the shape of ``s``.
 
     Notes
     -----

@@ -163,8 +163,10 @@ def four_bar_rates(theta_c, omega_c, alpha_c, theta_4, theta_e, l_cd, l_cf, l_fe
 
     Returns
     -------
-    omega_4, omega_e, alpha_4, alpha_e : ndarray
-        rad/s and rad/s^2.
+    omega_4, omega_e : ndarray
+        Angular velocities of coupler and right arm (rad/s).
+    alpha_4, alpha_e : ndarray
+        Their angular accelerations (rad/s^2).
 
     Notes
     -----
@@ -188,6 +190,16 @@ def four_bar_rates(theta_c, omega_c, alpha_c, theta_4, theta_e, l_cd, l_cf, l_fe
 
 def transmission_angle(theta_4, theta_e):
     """Transmission angle of the four-bar: the angle at F between coupler F->C and arm F->E (rad, 0..pi).
+
+    Parameters
+    ----------
+    theta_4, theta_e : array_like
+        Coupler and right-arm angles (rad), from :func:`four_bar_position`.
+
+    Returns
+    -------
+    ndarray
+        Transmission angle mu (rad), in 0..pi.
 
     Notes
     -----

@@ -31,7 +31,27 @@ from berryshaker.plant.modes import Modes, cached_analytic_modes
 
 @dataclass(frozen=True)
 class BushBranch:
-    """One member of the bush population (SI units)."""
+    """One member of the bush population (SI units).
+
+    Attributes
+    ----------
+    name : str
+        The member's name.
+    branch : Branch
+        Its geometry and material.
+    base_height : float
+        Where it leaves the crown, above the reference base (m).
+    lean : float
+        Signed angle of its axis from vertical in the combs' plane (rad), > 0 towards +x.
+    row_offset : float
+        Position along the row relative to the instrumented branch (m).
+    lateral_offset : float
+        Its surface relative to the finger's mid-stroke position (m), > 0: overlap.
+    comb : {"left", "right"}
+        The comb that strikes it.
+    station : float or None
+        Fraction of its length where the fingers meet it; None: out of their reach.
+    """
 
     name: str
     branch: Branch  # geometry and material
@@ -97,19 +117,55 @@ def sample_bush(plant) -> list[BushBranch]:
 def member_weight(bush_spec) -> float:
     """Branches of the bush each simulated member stands for in the comb's load: branches / members (the
     instrumented fruit branch is one of the bush's branches, represented by the sample like the others; it
-    is driven by the combs without acting back); 0 without members."""
+    is driven by the combs without acting back); 0 without members.
+
+    Parameters
+    ----------
+    bush_spec : BushSpec
+        The ``[plant.bush]`` section (``branches``, ``members``).
+
+    Returns
+    -------
+    float
+        Branches per simulated member (1).
+    """
     return bush_spec.branches / bush_spec.members if bush_spec.members else 0.0
 
 
 def member_modes(member: BushBranch, n_modes: int) -> Modes:
-    """Analytic modes (study eq. 15) of one member, cached per process (the same seed repeats them)."""
+    """Analytic modes (study eq. 15) of one member, cached per process (the same seed repeats them).
+
+    Parameters
+    ----------
+    member : BushBranch
+        The member.
+    n_modes : int
+        Number of bending modes.
+
+    Returns
+    -------
+    Modes
+        Its mass-normalised modes.
+    """
     b = member.branch
     key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
     return cached_analytic_modes(key, n_modes)
 
 
 def bush_table(members: list[BushBranch]) -> list[dict]:
-    """The population as rows (mm, deg, fractions) for reports and the ``plant`` command."""
+    """The population as rows (mm, deg, fractions) for reports and the ``plant`` command.
+
+    Parameters
+    ----------
+    members : list of BushBranch
+        The population (:func:`sample_bush`).
+
+    Returns
+    -------
+    list of dict
+        One row per member: name, comb, root diameter (mm), length (m), base height (mm), lean (deg), row and
+        lateral offsets (mm), station (fraction of its length).
+    """
     return [{"name": m.name, "comb": m.comb, "root_diameter_mm": 1e3 * m.branch.root_diameter,
              "length_m": m.branch.length, "base_height_mm": 1e3 * m.base_height, "lean_deg": math.degrees(m.lean),
              "row_offset_mm": 1e3 * m.row_offset, "lateral_offset_mm": 1e3 * m.lateral_offset,

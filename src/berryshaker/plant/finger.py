@@ -40,6 +40,11 @@ def cantilever_stiffness(elastic_modulus: float, diameter: float, free_length: f
         d (m).
     free_length : float
         L, clamp to the load (m).
+
+    Returns
+    -------
+    float
+        k (N/m).
     """
     for name, v in (("elastic_modulus", elastic_modulus), ("diameter", diameter), ("free_length", free_length)):
         if not v > 0:
@@ -52,6 +57,20 @@ def hertz_crossed_cylinders(e1: float, nu1: float, d1: float, e2: float, nu2: fl
     """Hertz constant K (N/m^1.5) of two round bars crossed at right angles, F = K delta^1.5.
 
     K = (4/3) E* sqrt(R), R = sqrt(R1 R2) (Johnson 1985, sec. 4.2), 1/E* = (1-nu1^2)/E1 + (1-nu2^2)/E2.
+
+    Parameters
+    ----------
+    e1, e2 : float
+        Young's moduli of the bars (Pa).
+    nu1, nu2 : float
+        Their Poisson ratios (1).
+    d1, d2 : float
+        Their diameters (m).
+
+    Returns
+    -------
+    float
+        K (N/m^1.5).
     """
     estar = 1.0 / ((1 - nu1**2) / e1 + (1 - nu2**2) / e2)
     r = math.sqrt(d1 / 2 * d2 / 2)

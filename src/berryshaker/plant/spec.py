@@ -108,7 +108,19 @@ class CombContactSpec(_Strict):
     n_modes: int = Field(8, ge=1, le=64)
 
     def impact_stiffness(self, branch_diameter: float | None = None) -> tuple[float, float]:
-        """(K, exponent) of the IMPACT law: the explicit ``stiffness`` if given, else the finger's."""
+        """(K, exponent) of the IMPACT law: the explicit ``stiffness`` if given, else the finger's.
+
+        Parameters
+        ----------
+        branch_diameter : float, optional
+            Branch diameter at the struck station (m), for the finger's Hertz contact; default 8 mm.
+
+        Returns
+        -------
+        (K, exponent) : tuple of float
+            F = K delta^exponent: K in N/m^exponent, the exponent dimensionless (1 for the finger's series
+            stiffness).
+        """
         if self.stiffness is not None:
             return float(self.stiffness), float(1.5 if self.exponent is None else self.exponent)
         from berryshaker.plant.finger import finger_contact

@@ -27,6 +27,18 @@ def harvester_mechanism(machine: Machine, revolutions: int = 2) -> MechanismSpec
 
     Each clearance pair's contact law and parameters are resolved from the machine description
     (``[clearance.<pair>]``; :meth:`~berryshaker.drives.base.MachineBase.pair_contact`).
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description (SI inside).
+    revolutions : int
+        Cam revolutions to simulate (>= 1): the mechanism's duration is ``revolutions`` cam periods.
+
+    Returns
+    -------
+    MechanismSpec
+        Bodies, joints (the clearance pairs with their contact laws), drivers and forces, in SI units.
     """
     require_buildable(machine)
     g = geometry_vector(machine)

@@ -15,7 +15,20 @@ from berryshaker.outputs import _umask, write_text_atomic
 
 
 def groove_csv_text(machine: Machine, n: int = 721) -> str:
-    """CSV with cam angle and the pitch, inner and outer wall coordinates (mm), one row per angle."""
+    """CSV with cam angle and the pitch, inner and outer wall coordinates (mm), one row per angle.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    n : int
+        Number of cam angles over one revolution (the first repeated as the last).
+
+    Returns
+    -------
+    str
+        The CSV text: cam angle (deg), pitch, inner-wall and outer-wall x, y (mm).
+    """
     phi, pitch, inner, outer = cam_groove(machine, n)
     buf = io.StringIO()
     buf.write("cam_angle_deg,pitch_x_mm,pitch_y_mm,inner_x_mm,inner_y_mm,outer_x_mm,outer_y_mm\n")
@@ -30,6 +43,15 @@ def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
 
     The duplicated end point (phi = 2 pi) is dropped and each polyline is flagged closed, so CAM
     software sees two closed contours ready for a pocketing toolpath.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    path : str or Path
+        The DXF file to write (atomically; its folder is created).
+    n : int
+        Number of cam angles over one revolution.
     """
     import ezdxf
     from ezdxf import units
@@ -58,5 +80,15 @@ def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
 
 
 def write_groove_csv(machine: Machine, path: str | Path, n: int = 721) -> None:
-    """Write the groove walls as CSV (cam angle in deg, pitch/inner/outer wall x, y in mm), atomically."""
+    """Write the groove walls as CSV (cam angle in deg, pitch/inner/outer wall x, y in mm), atomically.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    path : str or Path
+        The CSV file to write.
+    n : int
+        Number of cam angles over one revolution.
+    """
     write_text_atomic(path, groove_csv_text(machine, n))
