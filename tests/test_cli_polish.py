@@ -75,6 +75,8 @@ def test_simulate_multibody_shows_guide_reaction_and_plots_joint_panels(tmp_path
     r = _run(["simulate", "--model", "multibody", "--revolutions", "2", "--out", str(tmp_path / "sim")])
     assert r.exit_code == 0, r.output
     assert "revolutions 2..2" in r.output and "..N" not in r.output
+    flat = " ".join(r.output.split())  # the comb load moment says what it is: per comb, which load model (issue 45)
+    assert "one comb at a time; load model: the aggregate bush spring-damper" in flat
     assert re.search(r"guide reaction G\+H \(net normal\)\s*│?\s*│?\s*[\d.]+ N", r.output)
     header = (tmp_path / "sim" / "timeseries.csv").read_text().splitlines()[0]
     assert "guide_normal_N" in header.split(",")

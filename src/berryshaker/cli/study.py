@@ -115,6 +115,39 @@ def study(
     out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
 
 
+#: the harvest indexes a ``--model harvest`` sweep prints per point: column, header (unit)
+HARVEST_SHOWN = (("ripe_removal_pct", "ripe removal (%)"), ("unripe_shed_pct", "unripe shedding (%)"),
+                 ("damage_rate_pct", "damage (%)"), ("efficiency_kg_min", "efficiency (kg/min)"))
+
+
+def sweep_display(header: list[str], rows: list[list], n_params: int) -> tuple[list[str], list[list]]:
+    """The terminal table of a sweep: run, parameters, status, then the outputs that matter for its model.
+
+    Harvest runs (their columns present) show each point's ripe removal, unripe shedding, damage and efficiency as
+    "mean ± SD over its replicate starts"; dynamics runs show up to four peak collision forces and the powered
+    driveline's speed ripple and input power.
+    """
+    base = header[: n_params + 2]
+    cols = [c for c in header if c.endswith("_peak_N")][:4]
+    cols += [c for c in ("speed_ripple_percent", "input_power_W") if c in header]
+    harvest = [(k, h) for k, h in HARVEST_SHOWN if k in header]
+    if not harvest:
+        show = base + cols
+        return show, [[dict(zip(header, row))[c] for c in show] for row in rows]
+
+    def cell(d, k):
+        v, sd = d.get(k, ""), d.get(k + "_sd", "")
+        if not isinstance(v, (int, float)):
+            return ""
+        return f"{v:.3g} ± {sd:.2g}" if isinstance(sd, (int, float)) else f"{v:.3g}"
+
+    shown = []
+    for row in rows:
+        d = dict(zip(header, row))
+        shown.append([d[c] for c in base] + [cell(d, k) for k, _ in harvest])
+    return base + [h for _, h in harvest], shown
+
+
 def _harvest_figure(param, points, results, path: Path) -> None:
     """The removal figure of a ``--model harvest`` sweep over one parameter (failed points left out)."""
     from berryshaker.report.plots import plot_harvest_response
@@ -250,9 +283,7 @@ def sweep(
                      **({"kernel": "specialised" if specialised else "generic", "kernel_reason": kernel_why}
                         if kernel_why else {})})
         return
-    show = header[: len(params) + 2] + [c for c in header if c.endswith("_peak_N")][:4]
-    show += [c for c in ("speed_ripple_percent", "input_power_W") if c in header]
-    shown = [[dict(zip(header, row))[c] for c in show] for row in rows[:40]]
+    show, shown = sweep_display(header, rows[:40], len(params))
     # headers such as "clearance.A.size[mm]" wrap at dots, numbers are never split (the one table writer)
     print_table(show, shown, title=f"sweep: {len(rows)} runs, {failed} failed")
     if len(rows) > 40:
