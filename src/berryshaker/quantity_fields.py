@@ -36,7 +36,17 @@ from berryshaker.units import (
 @dataclasses.dataclass(frozen=True, slots=True)
 class QuantityValidator(BeforeValidator):
     """The before-validator of a quantity field; it also records the field's physical ``dimension``
-    (read back by :func:`field_dimension` for plausibility checks and sweep value lists)."""
+    (read back by :func:`field_dimension` for plausibility checks and sweep value lists).
+
+    Attributes
+    ----------
+    func : callable
+        The conversion to SI, ``func(value, info) -> float`` (pydantic's before-validator function).
+    json_schema_input_type : Any
+        The input type shown in the JSON schema (pydantic's; default Any).
+    dimension : str
+        The field's physical dimension, a key of :data:`berryshaker.units.DIMENSIONS`.
+    """
 
     dimension: str = "dimensionless"
 
@@ -48,7 +58,18 @@ UNITS_REQUIRED = "units_required"
 
 
 def units_required(info: ValidationInfo | None) -> bool:
-    """True when the validation context says the values are a user's (see :data:`UNITS_REQUIRED`)."""
+    """True when the validation context says the values are a user's (see :data:`UNITS_REQUIRED`).
+
+    Parameters
+    ----------
+    info : ValidationInfo or None
+        pydantic's validation info (its ``context``).
+
+    Returns
+    -------
+    bool
+        Whether a bare number in a dimensional field is an error.
+    """
     ctx = getattr(info, "context", None)
     return bool(isinstance(ctx, dict) and ctx.get(UNITS_REQUIRED))
 
@@ -56,6 +77,22 @@ def units_required(info: ValidationInfo | None) -> bool:
 def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None, display: str | None = None) -> float:
     """One quantity of a description field: parsed strictly, bounded by :data:`berryshaker.units.LIMITS`
     (a user's value both ways, :func:`units_required`; one computed inside the package from above only).
+
+    Parameters
+    ----------
+    v : Any
+        The value: a number (SI) or a text with its unit ("80 mm").
+    dimension : str
+        Its physical dimension, a key of :data:`berryshaker.units.DIMENSIONS`.
+    info : ValidationInfo, optional
+        pydantic's validation info (field name, context).
+    display : str, optional
+        The unit a bare number's error message suggests, e.g. "mm".
+
+    Returns
+    -------
+    float
+        The value in SI units of its dimension.
 
     Raises
     ------
@@ -237,7 +274,20 @@ def _clip(line: str, limit: int = MAX_MESSAGE_LINE) -> str:
 
 def format_validation_error(err: ValidationError, source: str) -> str:
     """pydantic's errors as one message, a line per error, each starting with the dotted key of the field
-    (``cam.stroke: must be > 0 ...``); each line at most :data:`MAX_MESSAGE_LINE` characters, at most 20 lines."""
+    (``cam.stroke: must be > 0 ...``); each line at most :data:`MAX_MESSAGE_LINE` characters, at most 20 lines.
+
+    Parameters
+    ----------
+    err : pydantic.ValidationError
+        The errors of one validation.
+    source : str
+        Where the description came from (a file name), named in the message.
+
+    Returns
+    -------
+    str
+        The message.
+    """
     lines = []
     for e in err.errors():
         loc = ".".join(str(p) for p in e["loc"]) or "(top level)"
@@ -270,6 +320,16 @@ def field_dimension(info: FieldInfo) -> str | None:
     A quantity field (declared with one of the types above) carries it; a plain float with a ``display``
     unit in its schema gets the dimension of that unit; a plain number without one is ``"dimensionless"``;
     anything else (lists, text, flags, sections) is None.
+
+    Parameters
+    ----------
+    info : pydantic.fields.FieldInfo
+        The field.
+
+    Returns
+    -------
+    str or None
+        Its dimension.
     """
     for m in info.metadata:
         if isinstance(m, QuantityValidator):
@@ -308,6 +368,18 @@ def _section_class(annotation: Any) -> tuple[type[BaseModel] | None, bool]:
 def field_info_at(model_class: type[BaseModel], key: str) -> FieldInfo:
     """The pydantic field of a dotted key of a description class (``clearance.A.size``, ``cam.speed``).
 
+    Parameters
+    ----------
+    model_class : type of pydantic.BaseModel
+        The description class, e.g. the groove-cam machine's.
+    key : str
+        The dotted key.
+
+    Returns
+    -------
+    pydantic.fields.FieldInfo
+        The field.
+
     Raises
     ------
     ConfigError
@@ -338,7 +410,20 @@ def field_info_at(model_class: type[BaseModel], key: str) -> FieldInfo:
 def plausibility_warnings(model: BaseModel, prefix: str = "") -> list[str]:
     """Warnings for every quantity of a description whose value lies orders of magnitude outside
     engineering ranges (:func:`berryshaker.units.plausibility_warning`, e.g. a length in metres written
-    for millimetres), walking the nested sections; one message per field, naming its dotted key."""
+    for millimetres), walking the nested sections; one message per field, naming its dotted key.
+
+    Parameters
+    ----------
+    model : pydantic.BaseModel
+        A validated description or one of its sections.
+    prefix : str
+        Dotted key of ``model`` in the whole description ("" at the top, "cam." for a section).
+
+    Returns
+    -------
+    list of str
+        The warnings.
+    """
     out: list[str] = []
     for name, info in type(model).model_fields.items():
         value = getattr(model, name)
@@ -372,6 +457,13 @@ DRIVE_SPEED_RANGE_RPM = (1.0, 1.0e5)
 
 def check_drive_speed(speed: float, field: str) -> None:
     """Refuse a drive-shaft speed (rad/s) outside :data:`DRIVE_SPEED_RANGE_RPM`.
+
+    Parameters
+    ----------
+    speed : float
+        The speed (rad/s).
+    field : str
+        Its dotted key, named in the message.
 
     Raises
     ------

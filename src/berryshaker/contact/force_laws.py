@@ -31,7 +31,20 @@ def broadcasting(kernel, n_args: int):
 # --------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
 def mlsd_kernel(r, r_dot, stiffness, damping):
-    """Kernel of :func:`mlsd`."""
+    """Kernel of :func:`mlsd` (scalars, for compiled code).
+
+    Parameters
+    ----------
+    r, r_dot : float
+        Deformation beyond the clearance (m) and its rate (m/s).
+    stiffness, damping : float
+        K_i (N/m) and C_i (N s/m).
+
+    Returns
+    -------
+    float
+        |F_i| (N).
+    """
     if r <= 0.0:
         return 0.0
     f = stiffness * r + damping * r_dot
@@ -76,7 +89,22 @@ def mlsd(r, r_dot, stiffness, damping):
 # --------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
 def hertz_kernel(delta, stiffness, exponent):
-    """Kernel of :func:`hertz`."""
+    """Kernel of :func:`hertz` (scalars, for compiled code).
+
+    Parameters
+    ----------
+    delta : float
+        Penetration (m).
+    stiffness : float
+        K (N/m^n).
+    exponent : float
+        n (dimensionless).
+
+    Returns
+    -------
+    float
+        Force (N).
+    """
     if delta <= 0.0:
         return 0.0
     return stiffness * delta**exponent
@@ -92,7 +120,7 @@ def hertz(delta, stiffness, exponent=1.5):
     stiffness : float
         K (N/m^n), e.g. from :func:`berryshaker.contact.stiffness.pin_in_bore_stiffness`.
     exponent : float
-        n; 1.5 for point (Hertz) contact and the usual choice for journal bearings.
+        n (dimensionless); 1.5 for point (Hertz) contact and the usual choice for journal bearings.
 
     Returns
     -------
@@ -109,7 +137,26 @@ def hertz(delta, stiffness, exponent=1.5):
 # --------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
 def hysteresis_kernel(delta, delta_dot, impact_velocity, stiffness, factor, exponent):
-    """F = K delta^n (1 + factor * delta_dot / impact_velocity), clamped >= 0 (shared by HC, LN, Flores)."""
+    """F = K delta^n (1 + factor * delta_dot / impact_velocity), clamped >= 0 (shared by HC, LN, Flores).
+
+    Parameters
+    ----------
+    delta, delta_dot : float
+        Penetration (m) and its rate (m/s, > 0 approaching).
+    impact_velocity : float
+        The velocity the hysteresis factor divides by (m/s); floored at 1e-12 m/s.
+    stiffness : float
+        K (N/m^n).
+    factor : float
+        The law's hysteresis factor, e.g. 3(1 - e)/2 for Hunt-Crossley (dimensionless).
+    exponent : float
+        n (dimensionless).
+
+    Returns
+    -------
+    float
+        Force (N), >= 0.
+    """
     if delta <= 0.0:
         return 0.0
     v0 = abs(impact_velocity)
@@ -144,9 +191,9 @@ def hunt_crossley(delta, delta_dot, stiffness, restitution, exponent=1.5, *, imp
     stiffness : float
         K (N/m^n).
     restitution : float
-        Coefficient of restitution e (0 < e <= 1).
+        Coefficient of restitution e (dimensionless, 0 < e <= 1).
     exponent : float
-        n.
+        n (dimensionless).
     impact_velocity : float
         Normal approach velocity at the onset of this impact, delta_dot(-) (m/s).  Required: the
         hysteresis factor that reproduces a given e depends on it (as for Lankarani-Nikravesh and
@@ -194,9 +241,9 @@ def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitutio
     stiffness : float
         K (N/m^n).
     restitution : float
-        e, valid for e close to 1.
+        e (dimensionless), valid for e close to 1.
     exponent : float
-        n.
+        n (dimensionless).
     restitution_velocity : float
         v_ref (m/s), as in :func:`hunt_crossley`; 0: the published law.
 
@@ -219,6 +266,21 @@ def lankarani_nikravesh(delta, delta_dot, impact_velocity, stiffness, restitutio
 def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1.5, restitution_velocity=0.0):
     """Flores et al. (2011) dissipative contact force, valid over the whole range of restitution.
 
+    Parameters
+    ----------
+    delta, delta_dot : array_like
+        Penetration (m), its rate (m/s, > 0 approaching).
+    impact_velocity : array_like
+        delta_dot(-), normal approach velocity at contact onset (m/s).
+    stiffness : float
+        K (N/m^n).
+    restitution : float
+        e (dimensionless, 0 < e <= 1).
+    exponent : float
+        n (dimensionless).
+    restitution_velocity : float
+        v_ref (m/s), as in :func:`hunt_crossley`; 0: the published law.
+
     Returns
     -------
     ndarray
@@ -238,7 +300,20 @@ def flores(delta, delta_dot, impact_velocity, stiffness, restitution, exponent=1
 # --------------------------------------------------------------------------------------------
 @njit(cache=True, error_model="numpy")
 def adams_step_kernel(x, x0, h0, x1, h1):
-    """Kernel of :func:`adams_step`."""
+    """Kernel of :func:`adams_step` (scalars, for compiled code).
+
+    Parameters
+    ----------
+    x, x0, x1 : float
+        The variable and the ends of the step (any unit, the same for the three).
+    h0, h1 : float
+        The values before and after the step, in their unit.
+
+    Returns
+    -------
+    float
+        STEP(x, x0, h0, x1, h1), in the unit of h0 and h1.
+    """
     if x <= x0:
         return h0
     if x >= x1:
@@ -251,6 +326,20 @@ def adams_step(x, x0, h0, x1, h1):
     """The cubic STEP function of MSC ADAMS: h0 for x <= x0, h1 for x >= x1, and
     h0 + (h1 - h0) D^2 (3 - 2 D) with D = (x - x0)/(x1 - x0) in between.
 
+    Parameters
+    ----------
+    x : array_like
+        The variable, in any unit.
+    x0, x1 : float
+        The ends of the step, in the unit of x (x0 < x1).
+    h0, h1 : float
+        The values before and after the step (any unit, the same for both).
+
+    Returns
+    -------
+    ndarray
+        The step, in the unit of h0 and h1.
+
     References
     ----------
     MSC Software, *Adams Solver: Function reference*, "STEP".
@@ -260,7 +349,28 @@ def adams_step(x, x0, h0, x1, h1):
 
 @njit(cache=True, error_model="numpy")
 def impact_kernel(x, x_dot, x1, k, e, cmax, d):
-    """Kernel of :func:`impact`."""
+    """Kernel of :func:`impact` (scalars, for compiled code).
+
+    Parameters
+    ----------
+    x, x_dot : float
+        Distance variable (m) and its rate (m/s).
+    x1 : float
+        Free length (m).
+    k : float
+        Stiffness (N/m^e).
+    e : float
+        Force exponent (dimensionless).
+    cmax : float
+        Maximum damping coefficient (N s/m).
+    d : float
+        Penetration of full damping (m).
+
+    Returns
+    -------
+    float
+        Force (N), >= 0.
+    """
     if x >= x1:
         return 0.0
     f = k * (x1 - x) ** e - adams_step_kernel(x, x1 - d, cmax, x1, 0.0) * x_dot
@@ -281,7 +391,7 @@ def impact(x, x_dot, x1, k, e, cmax, d):
     k : float
         Stiffness (N/m^e).
     e : float
-        Force exponent (> 0; 1.5 for Hertz-like contact).
+        Force exponent (dimensionless, > 0; 1.5 for Hertz-like contact).
     cmax : float
         Maximum damping coefficient (N s/m).
     d : float

@@ -62,7 +62,18 @@ class MachineDriveline(DrivelineSpec):
         return data
 
     def driveline_spec(self, shaft_inertia: float) -> DrivelineSpec:
-        """The plain :class:`DrivelineSpec` with the drive shaft's inertia (kg m^2)."""
+        """The plain :class:`DrivelineSpec` with the drive shaft's inertia.
+
+        Parameters
+        ----------
+        shaft_inertia : float
+            Inertia of the drive shaft (the cam or crank with its train) about its axis (kg m^2).
+
+        Returns
+        -------
+        DrivelineSpec
+            The driveline without the machine-level settings (mode, speed matching, mesh).
+        """
         data = self.model_dump(exclude={"mode", "match_speed", "mesh_stiffness", "mesh_damping_ratio",
                                         "cam_inertia"})
         return DrivelineSpec.model_validate({**data, "cam_inertia": shaft_inertia})
@@ -72,6 +83,18 @@ def with_driveline_mode(machine, mode: str | None):
     """A validated copy of ``machine`` whose driveline runs in ``mode`` ("imposed" or "powered"); None: as is.
 
     A machine without a ``[driveline]`` section gets the documented defaults ([assumed]) when powered.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    mode : {"imposed", "powered"} or None
+        The driveline mode; None keeps the description's.
+
+    Returns
+    -------
+    MachineBase
+        The machine (itself when nothing changes, else a validated copy with its provenance tags).
     """
     if mode is None:
         return machine
@@ -89,7 +112,18 @@ def with_driveline_mode(machine, mode: str | None):
 
 
 def is_powered(machine) -> bool:
-    """True when the machine's drive shaft is driven by its driveline (``[driveline] mode = "powered"``)."""
+    """True when the machine's drive shaft is driven by its driveline (``[driveline] mode = "powered"``).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+
+    Returns
+    -------
+    bool
+        Whether the driveline is powered.
+    """
     return getattr(machine, "driveline", None) is not None and machine.driveline.mode == "powered"
 
 
@@ -99,6 +133,7 @@ def rotor_torque_table(red, n_points: int = 64) -> tuple[np.ndarray, np.ndarray,
     Parameters
     ----------
     red : ReflectedDriveline
+        The driveline reflected to the drive shaft (:func:`berryshaker.drives.driveline.reflect_to_cam`).
     n_points : int
         Table size (the engine holds at most ``kernel.MAX_TABLE`` = 64).
 
@@ -141,6 +176,11 @@ def mean_drive_torque(spec_data: dict) -> float:
     spec_data : dict
         A drive's mechanism description (SI) with the imposed-speed driver ``drive``.
 
+    Returns
+    -------
+    float
+        The mean drive torque (N m), positive when it resists the rotation.
+
     Notes
     -----
     Clearance joints become their ideal counterparts, so the mechanism has no free motion and one revolution
@@ -162,7 +202,27 @@ def mean_drive_torque(spec_data: dict) -> float:
 
 def cvt_for_speed(spec: DrivelineSpec, load_torque: float, target_speed: float) -> DrivelineSpec:
     """The driveline with its CVT ratio set so that the steady state under ``load_torque`` runs at
-    ``target_speed`` (rad/s): root of steady_state_speed(cvt).cam_speed - target (Brent)."""
+    ``target_speed`` (rad/s): root of steady_state_speed(cvt).cam_speed - target (Brent).
+
+    Parameters
+    ----------
+    spec : DrivelineSpec
+        The driveline.
+    load_torque : float
+        Mean load torque on the drive shaft (N m, resisting).
+    target_speed : float
+        Drive-shaft speed to run at (rad/s).
+
+    Returns
+    -------
+    DrivelineSpec
+        A copy with ``cvt_ratio`` set (dimensionless).
+
+    Raises
+    ------
+    ConfigError
+        If no ratio near the present one reaches the speed.
+    """
     from scipy.optimize import brentq
 
     def speed(c: float) -> float:
@@ -190,7 +250,8 @@ def driveline_elements(dspec: DrivelineSpec, load_torque: float, driven_body: st
     driven_body : str
         Name of the body the mesh turns.
     direction : float
-        +1 or -1: the sense in which the driven body turns (the rotor and input shaft turn positive).
+        +1 or -1 (dimensionless): the sense in which the driven body turns (the rotor and input shaft turn
+        positive).
     mesh_stiffness, mesh_damping_ratio : float
         Mesh stiffness (N m/rad at the driven body) and the damping ratio of the mesh mode (J_s against J_c).
     bearings : bool

@@ -16,12 +16,36 @@ from berryshaker.units import parse_quantity
 
 
 def n_rows(machine) -> int:
-    """Number of rows of the Table 5 layout for the machine's pairs (16 for four pairs)."""
+    """Number of rows of the Table 5 layout for the machine's pairs (16 for four pairs).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its clearance pairs).
+
+    Returns
+    -------
+    int
+        1 (no clearance) + 3 per pair (each alone at its three levels) + 3 (all pairs at each level).
+    """
     return 1 + 3 * len(machine.pair_names) + 3
 
 
 def clearance_row(machine, row: int) -> dict[str, float]:
-    """Clearance sizes (m) of row 1..n_rows(machine) of the Table 5 layout."""
+    """Clearance sizes (m) of row 1..n_rows(machine) of the Table 5 layout.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its pairs and their test levels).
+    row : int
+        The row, 1 .. :func:`n_rows`.
+
+    Returns
+    -------
+    dict pair -> float
+        Clearance size of each pair (m).
+    """
     pairs = machine.pair_names
     levels = machine.clearance_levels()
     last = n_rows(machine)
@@ -38,14 +62,40 @@ def clearance_row(machine, row: int) -> dict[str, float]:
 
 
 def level_set(machine, level: int) -> dict[str, float]:
-    """Every pair at test level 1, 2 or 3 (m)."""
+    """Every pair at test level 1, 2 or 3 (m).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its pairs' test levels).
+    level : {1, 2, 3}
+        The level.
+
+    Returns
+    -------
+    dict pair -> float
+        Clearance size of each pair (m).
+    """
     if level not in (1, 2, 3):
         raise ConfigError(f"level{level}: levels are 1, 2 and 3")
     return {p: v[level - 1] for p, v in machine.clearance_levels().items()}
 
 
 def l9_runs(machine) -> tuple[list[dict[str, float]], list[dict[str, int]]]:
-    """Clearance sets (m) and level codes of the L9 runs over the machine's (up to four) pairs."""
+    """Clearance sets (m) and level codes of the L9 runs over the machine's (up to four) pairs.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its pairs' test levels).
+
+    Returns
+    -------
+    sets : list of dict pair -> float
+        Clearance size of each pair in each of the 9 runs (m).
+    codes : list of dict pair -> int
+        Level 1, 2 or 3 of each pair in each run.
+    """
     pairs = machine.pair_names
     if len(pairs) > 4:
         raise ConfigError("the L9 array takes at most four factors; this drive has more clearance pairs")
@@ -57,7 +107,18 @@ def l9_runs(machine) -> tuple[list[dict[str, float]], list[dict[str, int]]]:
 
 
 def level_code(levels: dict[str, int]) -> str:
-    """``{"A": 1, "B": 1, ...}`` -> ``"A1B1..."``."""
+    """``{"A": 1, "B": 1, ...}`` -> ``"A1B1..."``.
+
+    Parameters
+    ----------
+    levels : dict pair -> int
+        Level of each pair.
+
+    Returns
+    -------
+    str
+        The run's code.
+    """
     return "".join(f"{p}{v}" for p, v in levels.items())
 
 
@@ -67,6 +128,18 @@ def parse_clearance_spec(spec: str | None, machine) -> dict[str, float]:
     Plain numbers without a unit are refused (a clearance of "0.25" is ambiguous between m and mm); a pair
     named twice is refused.  The sizes are validated against the geometry when they are applied
     (:meth:`~berryshaker.drives.base.MachineBase.with_clearances`).
+
+    Parameters
+    ----------
+    spec : str or None
+        The ``--clearance`` text; None or blank gives no change.
+    machine : MachineBase
+        The machine description (its pairs and test levels).
+
+    Returns
+    -------
+    dict pair -> float
+        Clearance size of each pair named (m).
     """
     if spec is None or not spec.strip():
         return {}

@@ -37,7 +37,21 @@ from berryshaker.plant.branch import Branch
 
 @dataclass(frozen=True)
 class Modes:
-    """Mass-normalised bending modes: int rho A phi_i phi_j dz = delta_ij."""
+    """Mass-normalised bending modes: int rho A phi_i phi_j dz = delta_ij.
+
+    Attributes
+    ----------
+    branch : Branch
+        The branch.
+    omega : ndarray
+        Natural angular frequencies (rad/s).
+    z : ndarray
+        Sample points along the branch (m from the root).
+    shapes : ndarray, shape (n_modes, n_z)
+        Mode shapes at ``z`` (1/sqrt(kg), mass-normalised).
+    method : str
+        How they were found ("analytic" or "finite elements").
+    """
 
     branch: Branch
     omega: np.ndarray  # rad/s
@@ -47,14 +61,38 @@ class Modes:
 
     @property
     def frequency_hz(self) -> np.ndarray:
+        """Natural frequencies omega / 2 pi (Hz)."""
         return self.omega / (2 * math.pi)
 
     def shape_at(self, z) -> np.ndarray:
-        """Mode shapes at arbitrary positions (linear interpolation of the dense samples)."""
+        """Mode shapes at arbitrary positions (linear interpolation of the dense samples).
+
+        Parameters
+        ----------
+        z : float or array_like
+            Positions along the branch (m from the root).
+
+        Returns
+        -------
+        ndarray, shape (n_modes, ...)
+            phi_k(z) (1/sqrt(kg)).
+        """
         z = self.branch.check_position(z)
         return np.array([np.interp(z, self.z, s) for s in self.shapes])
 
     def slope_at(self, z) -> np.ndarray:
+        """Mode-shape slopes phi_k'(z) at arbitrary positions (interpolated gradient of the samples).
+
+        Parameters
+        ----------
+        z : float or array_like
+            Positions along the branch (m from the root).
+
+        Returns
+        -------
+        ndarray, shape (n_modes, ...)
+            phi_k'(z) (1/(sqrt(kg) m)).
+        """
         z = self.branch.check_position(z)
         return np.array([np.interp(z, self.z, np.gradient(s, self.z)) for s in self.shapes])
 
@@ -137,10 +175,14 @@ def analytic_modes(branch: Branch, n_modes: int = 4, n_points: int = 2001, beta_
     Parameters
     ----------
     branch : Branch
+        The tapered branch (alpha > 0).
     n_modes : int
         Number of modes.
     n_points : int
         Samples of the mode shapes along the branch.
+    beta_l_max : float, optional
+        Upper end of the search for the roots beta l (dimensionless); default 3.2 n_modes + 6, doubled until
+        ``n_modes`` roots are found.
 
     Returns
     -------
@@ -209,6 +251,22 @@ def fe_matrices(branch: Branch, n_elements: int = 120):
     quadrature per element; the root is clamped (its two degrees of freedom removed).  Degrees of
     freedom per node: deflection w (m) and slope w' (rad).
 
+    Parameters
+    ----------
+    branch : Branch
+        The branch.
+    n_elements : int
+        Number of beam elements.
+
+    Returns
+    -------
+    K : ndarray
+        Stiffness matrix (N/m, N/rad and N m/rad by degree of freedom).
+    M : ndarray
+        Mass matrix (kg, kg m and kg m^2 by degree of freedom).
+    nodes : ndarray
+        Node positions (m from the root), the clamped root included.
+
     References
     ----------
     J. S. Przemieniecki, *Theory of Matrix Structural Analysis*, McGraw-Hill, 1968, ch. 5 and 11.
@@ -242,6 +300,20 @@ def fe_modes(branch: Branch, n_modes: int = 4, n_elements: int = 120) -> Modes:
     """Finite-element modes (the open counterpart of the study's ANSYS flexible body), mass-normalised.
 
     Solved with scipy.linalg.eigh on the generalised problem K v = omega^2 M v.
+
+    Parameters
+    ----------
+    branch : Branch
+        The branch.
+    n_modes : int
+        Number of modes.
+    n_elements : int
+        Number of beam elements (:func:`fe_matrices`).
+
+    Returns
+    -------
+    Modes
+        The lowest ``n_modes`` modes, mass-normalised.
     """
     K, M, nodes = fe_matrices(branch, n_elements)
     # symmetric diagonal scaling: same eigenvalues, far better conditioning for fine meshes
@@ -282,7 +354,20 @@ def cached_analytic_modes(key: tuple, n_modes: int) -> Modes:
 
 def branch_modes(branch_spec, n_modes: int) -> Modes:
     """Analytic modes (study eq. 15) of a branch description (:class:`~berryshaker.plant.spec.BranchSpec`),
-    cached per process so sweeps reuse them."""
+    cached per process so sweeps reuse them.
+
+    Parameters
+    ----------
+    branch_spec : BranchSpec
+        The ``[plant.branch]`` section.
+    n_modes : int
+        Number of modes.
+
+    Returns
+    -------
+    Modes
+        The analytic modes.
+    """
     b = branch_spec
     key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
     return cached_analytic_modes(key, n_modes)

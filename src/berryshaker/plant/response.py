@@ -35,6 +35,8 @@ def modal_response(modes: Modes, t, force, z_force, damping_ratio: float | None 
     Returns
     -------
     q, qd, qdd : ndarray, shape (n_modes, n_t)
+        Modal coordinates of the mass-normalised modes (kg^0.5 m), their rates (kg^0.5 m/s) and
+        accelerations (kg^0.5 m/s^2).
 
     Notes
     -----
@@ -69,7 +71,22 @@ def modal_response(modes: Modes, t, force, z_force, damping_ratio: float | None 
 
 
 def deflection(modes: Modes, q, z):
-    """Branch deflection f(z, t) = sum_k phi_k(z) q_k(t) (m) (study eq. 15)."""
+    """Branch deflection f(z, t) = sum_k phi_k(z) q_k(t) (m) (study eq. 15).
+
+    Parameters
+    ----------
+    modes : Modes
+        Mass-normalised modes.
+    q : ndarray, shape (n_modes, n_t)
+        Modal coordinates (kg^0.5 m), e.g. from :func:`modal_response`.
+    z : float or array_like
+        Positions along the branch (m from the root).
+
+    Returns
+    -------
+    ndarray, shape (n_z, n_t)
+        Deflection (m).
+    """
     return modes.shape_at(np.atleast_1d(z)).T @ q
 
 
@@ -79,8 +96,9 @@ def fruit_force(modes: Modes, qdd, z_fruit, fruit_mass):
     Parameters
     ----------
     modes : Modes
+        Mass-normalised modes.
     qdd : ndarray (n_modes, n_t)
-        Modal accelerations.
+        Modal accelerations (kg^0.5 m/s^2).
     z_fruit : float or array_like
         Fruit positions (m from the root).
     fruit_mass : float
@@ -89,7 +107,7 @@ def fruit_force(modes: Modes, qdd, z_fruit, fruit_mass):
     Returns
     -------
     ndarray, shape (n_fruit, n_t)
-        The inertial force the stem must transmit to keep the fruit on the branch.
+        The inertial force the stem must transmit to keep the fruit on the branch (N).
 
     Notes
     -----
@@ -104,12 +122,33 @@ def fruit_force(modes: Modes, qdd, z_fruit, fruit_mass):
 
 @dataclass(frozen=True)
 class HarvestVerdict:
+    """What a peak fruit force does to ripe and unripe fruit (study eq. 17), :func:`harvest_verdict`.
+
+    Attributes
+    ----------
+    peak_force_N : float
+        The peak fruit force (N).
+    ripe : {"picked", "partly picked", "left on the bush"}
+        Ripe fruit.
+    unripe : {"kept", "partly shed", "shed"}
+        Unripe fruit.
+    meets_eq17 : bool
+        F_a(max) <= F < F_b(min): every ripe fruit off, every unripe fruit kept.
+    """
+
     peak_force_N: float
     ripe: str  # "picked", "partly picked", "left on the bush"
     unripe: str  # "kept", "partly shed", "shed"
     meets_eq17: bool  # F_a(max) <= F <= F_b(min): every ripe fruit off, every unripe fruit kept
 
     def as_dict(self) -> dict:
+        """The verdict as JSON.
+
+        Returns
+        -------
+        dict
+            The four attributes by name.
+        """
         return {"peak_force_N": self.peak_force_N, "ripe": self.ripe, "unripe": self.unripe,
                 "meets_eq17": self.meets_eq17}
 
@@ -120,6 +159,18 @@ def harvest_verdict(peak_force, ripe_bond=RIPE_BOND_N, unripe_bond=UNRIPE_BOND_N
     With the bond ranges F_a in [0.26, 0.30] N and F_b in [1.0, 3.6] N [study]: a ripe fruit is picked
     for certain when F >= 0.30 N, possibly when 0.26 <= F < 0.30, and stays when F < 0.26 N; an unripe
     fruit is kept for certain when F < 1.0 N, possibly shed when 1.0 <= F < 3.6 N, and shed above.
+
+    Parameters
+    ----------
+    peak_force : float
+        Peak fruit force F (N).
+    ripe_bond, unripe_bond : (float, float)
+        Ranges of the ripe and unripe fruit's bond force, (F_a min, F_a max) and (F_b min, F_b max) (N).
+
+    Returns
+    -------
+    HarvestVerdict
+        What the force does.
     """
     f = float(peak_force)
     ripe = "picked" if f >= ripe_bond[1] else ("partly picked" if f >= ripe_bond[0] else "left on the bush")
