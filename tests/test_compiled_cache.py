@@ -79,8 +79,9 @@ def test_digest_follows_every_compiled_callee_and_nothing_else(tmp_path):
     # the calls that make the digest necessary (module docstring of berryshaker.compiled_cache): the scan must see
     # them, or it checks nothing
     assert {("berryshaker.multibody.batch", "berryshaker.multibody.kernel"),
-            ("berryshaker.multibody.kernel", "berryshaker.kinematics.cam"),
-            ("berryshaker.multibody.kernel", "berryshaker.contact.friction")} <= calls
+            ("berryshaker.drives.groove_cam.mlsd_kernel", "berryshaker.drives.groove_cam.kinematics")} <= calls
+    for callee in ("berryshaker.kinematics.cam", "berryshaker.contact.friction"):  # from whichever engine module
+        assert any(a.startswith("berryshaker.multibody.") and b == callee for a, b in calls), callee
     pkg = _copy_package(tmp_path)
     d0 = compiled_sources_digest(pkg)
     cli = pkg / "cli" / "app.py"
@@ -248,3 +249,35 @@ def test_generated_kernel_sources_go_only_to_a_private_temp_folder(tmp_path, mon
     with pytest.raises(UnsafeCacheFolder):
         sp.source_folder()
     assert sp.is_compiled((), 1) is False
+
+
+def test_generated_kernel_sources_go_into_numba_s_folder_when_it_has_one(tmp_path, monkeypatch):
+    from berryshaker.compiled_cache import kernel_source_folder
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    assert kernel_source_folder("specialised-x") == tmp_path / "numba" / "specialised-x"
+
+
+def test_one_rule_chooses_the_multibody_kernel(monkeypatch):
+    """What the run asks for, then BERRYSHAKER_KERNEL, then whether this machine compiled it, then the sweep's
+    own rule (or the generic kernel); a rule is asked only when it is reached."""
+    from berryshaker.compiled_cache import COMPILED_ALREADY, resolve_kernel
+    from berryshaker.errors import ConfigError
+
+    def never():
+        raise AssertionError("a rule asked after the choice was made")
+
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "specialised")
+    assert resolve_kernel(False, never, never) == (False, "asked for")
+    assert resolve_kernel(True, never, asked="--specialised") == (True, "--specialised")
+    assert resolve_kernel(None, never, never) == (True, "BERRYSHAKER_KERNEL=specialised")
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", " Generic ")
+    assert resolve_kernel(None, never, never) == (False, "BERRYSHAKER_KERNEL=generic")
+    monkeypatch.delenv("BERRYSHAKER_KERNEL")
+    assert resolve_kernel(None, lambda: True, never) == (True, COMPILED_ALREADY)
+    assert resolve_kernel(None, lambda: False, lambda: (True, "it pays")) == (True, "it pays")
+    assert resolve_kernel(None, lambda: False)[0] is False
+    monkeypatch.setenv("BERRYSHAKER_KERNEL", "fast")
+    with pytest.raises(ConfigError, match="BERRYSHAKER_KERNEL"):
+        resolve_kernel(None, never)
+    assert resolve_kernel(True, never) == (True, "asked for")  # an explicit choice needs no variable

@@ -2,10 +2,11 @@
 
 numba's on-disk cache (``@njit(cache=True)``) checks only the source file of the function it loads: a kernel that
 calls a compiled function of *another* file carries that callee's machine code in its own cache entry and keeps
-using it after the callee's file changes (numba issue #6845).  The package has such calls (``multibody.kernel`` ->
-``kinematics.cam`` and ``contact.friction``, ``multibody.batch.integrate_sets`` -> ``multibody.kernel.integrate``,
-``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``, ``drives.groove_cam.mlsd_kernel`` ->
-``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...; tests/test_compiled_cache.py finds them), and a
+using it after the callee's file changes (numba issue #6845).  The package has such calls (the multibody engine's
+compiled modules -> ``kinematics.cam`` and ``contact.friction``, ``multibody.batch.integrate_sets`` ->
+``multibody.kernel.integrate``, ``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``,
+``drives.groove_cam.mlsd_kernel`` -> ``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...;
+tests/test_compiled_cache.py finds them), and a
 stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path still ran
 the old one from ``integrate_sets``' entry (benchmarks/HISTORY.md sec. 21).
 
@@ -16,7 +17,8 @@ its kernels again.  Where:
 * base folder: ``$NUMBA_CACHE_DIR/berryshaker`` if the user set ``NUMBA_CACHE_DIR``, else
   ``$BERRYSHAKER_CACHE/numba``, else ``$XDG_CACHE_HOME/berryshaker/numba`` (``~/.cache/berryshaker/numba``;
   :func:`cache_home` is the one home of the package's cache, the run cache's too); if it cannot be created or is
-  not private, ``<temp dir>/berryshaker-<uid>/numba``;
+  not private, ``<temp dir>/berryshaker-<uid>/numba``; generated kernel sources go inside the chosen folder
+  (:func:`kernel_source_folder`);
 * private folders only: numba's cache entries are pickles and the generated kernel sources are imported, so a
   folder another local user can write would run their code as you.  Every folder of the cache is created with
   mode 0700 and used only if it is a real folder (not a symlink) owned by this user and not writable by group or
@@ -31,6 +33,10 @@ Side effects of ``import berryshaker`` (stdlib only, before any kernel is decora
 ``BERRYSHAKER_NUMBA_BASE`` (the base, so that a child keeps it), and numba's live ``config.CACHE_DIR`` if numba is
 imported already.  Other numba code in the same process then caches into the same folder.  When no folder can be
 written, a warning says so and numba falls back to its own locations (where stale entries are possible again).
+
+The choice between the generic and a specialised compiled multibody kernel has its one rule here too
+(:func:`resolve_kernel`: what the run asks for, then ``BERRYSHAKER_KERNEL``, then whether this machine has compiled
+it), beside the folders that decide whether it is compiled.
 """
 
 from __future__ import annotations
@@ -44,6 +50,7 @@ import sys
 import tempfile
 import warnings
 from pathlib import Path
+from typing import Callable
 
 #: name of a digest folder: the prefix and 16 hex digits of the digest
 FOLDER_PREFIX = "berryshaker-numba-"
@@ -222,3 +229,64 @@ def kernel_choice() -> str:
                           f"{', '.join(KERNEL_CHOICES)} (the multibody kernel of runs left to choose); unset it for "
                           "auto")
     return choice
+
+
+#: :func:`resolve_kernel`'s reason when this machine has compiled the structure's specialised kernel already
+COMPILED_ALREADY = "compiled on this machine for this structure"
+
+
+def resolve_kernel(explicit: bool | None, compiled: Callable[[], bool],
+                   pays: Callable[[], tuple[bool, str]] | None = None, asked: str = "asked for") -> tuple[bool, str]:
+    """The multibody kernel of a run or a sweep: True for the kernel specialised to the mechanism's structure
+    (:mod:`berryshaker.multibody.specialised`; bitwise the same results), False for the generic one; and why.
+
+    The one precedence of the ways to choose it, first that decides:
+
+    1. ``explicit`` (True or False): what the run or sweep asks for -- ``berryshaker sweep --specialised`` /
+       ``--generic``, the ``specialised=`` argument of ``simulate_mechanism`` / ``simulate_multibody``, else the
+       mechanism description's ``[simulation] specialised`` (the caller passes the first of them given); the reason
+       is ``asked``;
+    2. the environment variable :data:`KERNEL_ENV` set to "generic" or "specialised" (:func:`kernel_choice`);
+    3. "auto" (the default): the specialised kernel when ``compiled()`` says this machine has compiled it for the
+       structure (the marker :func:`berryshaker.multibody.specialised.mark_compiled` writes; a load, not a
+       compilation), :data:`COMPILED_ALREADY`;
+    4. else ``pays()`` when given (a sweep: enough runs per worker to pay for compiling it,
+       :func:`berryshaker.runs.sweep.choose_specialised`), else the generic kernel.
+
+    ``compiled`` and ``pays`` are called only when their rule is reached.
+
+    Raises
+    ------
+    ConfigError
+        A bad :data:`KERNEL_ENV` (:func:`kernel_choice`) when ``explicit`` is None.
+    """
+    if explicit is not None:
+        return bool(explicit), asked
+    choice = kernel_choice()
+    if choice != "auto":
+        return choice == "specialised", f"{KERNEL_ENV}={choice}"
+    if compiled():
+        return True, COMPILED_ALREADY
+    if pays is not None:
+        return pays()
+    return False, "not compiled on this machine for this structure"
+
+
+def kernel_source_folder(name: str) -> Path:
+    """Where generated kernel sources (the specialised multibody kernels) go: the folder ``name`` in numba's cache
+    folder (``$NUMBA_CACHE_DIR``: the digest folder :func:`point_numba_cache` chose, or the user's own), else, when
+    numba has none, in the per-user temporary folder (:func:`temp_cache_home`), created private
+    (:func:`private_folder`).  Generated sources are imported, so a folder someone else made first is refused.
+
+    Raises
+    ------
+    UnsafeCacheFolder
+        The temporary folder is not private (an ``OSError``: callers then run the generic kernel).
+    OSError
+        It cannot be created.
+    """
+    base = os.environ.get("NUMBA_CACHE_DIR")
+    if base:
+        return Path(base) / name
+    top = temp_cache_home()
+    return private_folder(top / name, top)

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
+from berryshaker.compiled_cache import COMPILED_ALREADY as _COMPILED_ALREADY
 from berryshaker.runs.runner import RunResult
 
 #: most points one sweep may have (each is validated before the runner starts): each point is a simulation
@@ -313,34 +314,38 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
 SPECIALISE_FROM_RUNS_PER_WORKER = 600
 #: :func:`choose_specialised`'s reason when the first point's structure is compiled: then every run is left to choose
 #: (each takes the specialised kernel if its own structure is compiled), not forced to compile its structure
-COMPILED_ALREADY = "compiled on this machine for this structure"
+#: (:data:`berryshaker.compiled_cache.COMPILED_ALREADY`)
+COMPILED_ALREADY = _COMPILED_ALREADY
 
 
 def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, driveline: str | None, runs: int,
-                       workers: int) -> tuple[bool, str]:
-    """The multibody kernel for a sweep left to choose (``berryshaker sweep`` without ``--specialised`` or
-    ``--generic``): the specialised one when this machine has compiled it for the sweep's structure (the first
-    point's), or when the sweep has at least :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the
-    generic one; the environment variable ``BERRYSHAKER_KERNEL`` (:func:`berryshaker.compiled_cache.kernel_choice`)
-    set to generic or specialised decides instead.  Returns the choice and why, for the user."""
-    from berryshaker.drives import drive_of
-    from berryshaker.drives.powered import with_driveline_mode
-    from berryshaker.compiled_cache import KERNEL_ENV, kernel_choice
-    from berryshaker.multibody.engine import compile_mechanism
-    from berryshaker.multibody.specialised import is_compiled
+                       workers: int, explicit: bool | None = None) -> tuple[bool, str]:
+    """The multibody kernel of a sweep, by the one rule (:func:`berryshaker.compiled_cache.resolve_kernel`):
+    ``explicit`` (``berryshaker sweep --specialised`` / ``--generic``) if given; else the environment variable
+    ``BERRYSHAKER_KERNEL`` set to generic or specialised; else the specialised kernel when this machine has compiled
+    it for the sweep's structure (the first point's) or when the sweep has at least
+    :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the generic one.  Returns the choice and why, for
+    the user."""
+    from berryshaker.compiled_cache import resolve_kernel
 
-    choice = kernel_choice()
-    if choice != "auto":
-        return choice == "specialised", f"{KERNEL_ENV}={choice}"
-    machine = with_driveline_mode(point_machine(machine_data, overrides, revolutions, check=False), driveline)
-    cm = compile_mechanism(drive_of(machine).mechanism(machine, revolutions=revolutions))
-    if is_compiled(cm.model, cm.n):
-        return True, COMPILED_ALREADY
-    per_worker = runs / max(workers, 1)
-    if per_worker >= SPECIALISE_FROM_RUNS_PER_WORKER:
-        return True, f"{per_worker:.0f} runs per worker pay for its compilation"
-    return False, (f"{per_worker:.0f} runs per worker, fewer than the {SPECIALISE_FROM_RUNS_PER_WORKER} that pay for "
-                   "compiling the specialised kernel (--specialised forces it)")
+    def compiled() -> bool:
+        from berryshaker.drives import drive_of
+        from berryshaker.drives.powered import with_driveline_mode
+        from berryshaker.multibody.engine import compile_mechanism
+        from berryshaker.multibody.specialised import is_compiled
+
+        machine = with_driveline_mode(point_machine(machine_data, overrides, revolutions, check=False), driveline)
+        cm = compile_mechanism(drive_of(machine).mechanism(machine, revolutions=revolutions))
+        return is_compiled(cm.model, cm.n)
+
+    def pays() -> tuple[bool, str]:
+        per_worker = runs / max(workers, 1)
+        if per_worker >= SPECIALISE_FROM_RUNS_PER_WORKER:
+            return True, f"{per_worker:.0f} runs per worker pay for its compilation"
+        return False, (f"{per_worker:.0f} runs per worker, fewer than the {SPECIALISE_FROM_RUNS_PER_WORKER} that pay "
+                       "for compiling the specialised kernel (--specialised forces it)")
+
+    return resolve_kernel(explicit, compiled, pays, asked="--specialised" if explicit else "--generic")
 
 
 def model_runs(kwargs_list: list[dict]) -> list:
