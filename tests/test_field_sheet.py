@@ -404,6 +404,9 @@ def test_a_minitab_worksheet_is_read_with_its_bookkeeping_columns_units_and_repl
     assert fr.response_units == {"efficiency": "kg/min", "unripe": "%", "damage": "%"}
     assert res["response_units"] == fr.response_units and "StdOrder" in fr.runs_identified_by
     assert fr.block_column is None  # Minitab's Blocks = 1 everywhere numbers no blocks
+    # responses not analysed are measurements (a value per row), not factors
+    one = read_results(MINITAB, ["efficiency"])
+    assert one.factor_names == ["A", "B", "C", "F"] and {"Unripe", "Damage"} <= set(one.ignored_columns)
 
 
 def test_plan_format_and_minitab_format_of_the_same_data_give_the_same_analysis(tmp_path):

@@ -420,3 +420,75 @@ def test_figures_print_at_300_dpi_with_an_svg_beside_and_nothing_cut(tmp_path):
         svg = tmp_path / (data["path"].rsplit("/", 1)[1].replace(".png", ".svg"))
         assert svg.is_file() and svg.read_text(encoding="utf-8").lstrip().startswith("<?xml")
         _close(data)
+
+
+# ---- Minitab-style effect figures: they draw the analysis table (issue 45) --------------------------------------
+def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path):
+    from pathlib import Path
+
+    from scipy import stats
+
+    from berryshaker.experiment.analysis import interaction_means, main_effect_residuals, standardized_effects
+    from berryshaker.experiment.field_results import analyze_sheet
+
+    sheet = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+    fr, res = analyze_sheet(sheet, {"efficiency": True, "damage": False})
+    ra = res["responses"]["efficiency"]
+    y = fr.responses_replicated["efficiency"]
+    err = ra["anova"]["error"]
+    eff = standardized_effects(fr.levels, y, fr.factor_names, err["ms"], err["df"])
+    for f in fr.factor_names:  # a factor's contrasts carry its ANOVA F: sum of t^2 = df x F
+        row = ra["anova"]["factors"][f]
+        assert sum(t["t"] ** 2 for t in eff["terms"] if t["factor"] == f) == pytest.approx(row["df"] * row["f"])
+    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, err["df"]))
+    d = P.plot_pareto_effects(eff, tmp_path / "pareto.png", return_figure=True)
+    ax = d["figure"].axes[0]
+    widths = [p.get_width() for p in sorted(ax.patches, key=lambda p: -p.get_y())]  # top to bottom
+    np.testing.assert_allclose(widths, sorted((abs(t["t"]) for t in eff["terms"]), reverse=True))
+    assert d["terms"][0] == "C (linear)" and ax.get_lines()[0].get_xdata()[0] == pytest.approx(eff["critical_t"])
+    assert not audit_figure(d["figure"])
+    _close(d)
+    rr = main_effect_residuals(fr.levels, y, fr.factor_names, blocks=True)
+    assert rr["ss"] == pytest.approx(err["ss"] + ra["anova"]["lack_of_fit"]["ss"])  # error + lack of fit
+    d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", return_figure=True)
+    axn, axf = d["figure"].axes[:2]
+    np.testing.assert_array_equal(axf.get_lines()[0].get_ydata(), rr["residuals"])
+    np.testing.assert_array_equal(axn.get_lines()[0].get_xdata(), np.sort(rr["residuals"]))
+    assert axf.get_ylabel() == "residual [kg/min]" and not audit_figure(d["figure"])
+    _close(d)
+    cells = interaction_means(fr.levels, y, fr.factor_names)
+    d = P.plot_interactions(cells, tmp_path / "int.png", unit="kg/min", level_values=fr.level_values,
+                            factor_units=fr.units, return_figure=True)
+    panel = next(a for a in d["figure"].axes if a.get_title().startswith("A x C"))
+    obs = y.reshape(-1)
+    lv = np.repeat(fr.levels, y.shape[1], axis=0)
+    for b, line in enumerate(panel.get_lines(), start=1):  # one line per level of C, over the levels of A
+        want = [obs[(lv[:, 0] == a) & (lv[:, 2] == b)].mean() for a in (1, 2, 3)]
+        np.testing.assert_allclose(line.get_ydata(), want)
+        np.testing.assert_array_equal(line.get_xdata(), [0.25, 0.5, 0.75])
+    assert panel.get_xlabel() == "A [mm]" and not audit_figure(d["figure"])
+    _close(d)
+
+
+def test_doe_figures_take_the_sheets_units(tmp_path):
+    """`doe analyze --plot` of a Minitab worksheet: axes read the header's units, never "[unit?]"."""
+    from pathlib import Path
+
+    from berryshaker.experiment.field_results import analyze_sheet
+
+    text = (Path(__file__).parent / "data" / "minitab_l9_replicated.csv").read_text(encoding="utf-8")
+    text = text.replace("C (mm)", "Speed (rpm)").replace(",Unripe (%),Damage (%)", "").splitlines()
+    sheet = "\n".join([text[0]] + [",".join(ln.split(",")[:9]) for ln in text[1:]]) + "\n"
+    fr, res = analyze_sheet(sheet, {"efficiency": True})
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a label without unit warns
+        names = P.write_doe_figures(fr, res, tmp_path)
+    assert names == ["main_effects.png", "surface_efficiency.png", "pareto_efficiency.png",
+                     "residuals_efficiency.png", "interactions_efficiency.png"]
+    for n in names:
+        assert (tmp_path / n).is_file() and (tmp_path / n).with_suffix(".svg").is_file()
+    svg = (tmp_path / "main_effects.svg").read_text(encoding="utf-8") + (tmp_path / "surface_efficiency.svg").read_text(
+        encoding="utf-8")
+    assert "unit?" not in svg

@@ -338,3 +338,167 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
     out["optimum"] = {"levels": opt_levels, "settings": labels, "values": values_at,
                       "prediction": "additive main-effects model: mean + sum of level-mean deviations"}
     return out
+
+
+# ---- effects, residuals and interactions as Minitab draws them (issue 45) ---------------------------------------
+def _observations(levels: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Levels per observation (runs x replicates flattened, run by run) and the observations."""
+    y = np.asarray(y, float)
+    levels = np.asarray(levels, int)
+    r = 1 if y.ndim == 1 else y.shape[1]
+    return np.repeat(levels, r, axis=0), y.reshape(-1)
+
+
+def polynomial_contrasts(n_per_level) -> np.ndarray:
+    """Orthogonal polynomial contrasts of k equally spaced levels (rows: linear, quadratic, ... order k - 1).
+
+    Orthogonal in the metric sum_j a_j b_j / n_j of level means with n_j observations each, so the contrasts' sums
+    of squares add up to the factor's; each row sums to zero.  For 3 equally replicated levels: (-1, 0, 1) and
+    (1, -2, 1), scaled.
+    """
+    n = np.asarray(n_per_level, float)
+    k = len(n)
+    x = np.arange(1, k + 1, dtype=float)
+    basis = [np.ones(k)]
+    out = []
+    for order in range(1, k):
+        v = x**order
+        for b in basis:
+            v = v - (np.sum(v * b * n) / np.sum(b * b * n)) * b  # orthogonal to lower orders, weighted by n_j
+        basis.append(v)
+        c = v * n  # a contrast of the level means: sum_j c_j = sum_j n_j v_j = 0
+        out.append(c / np.sqrt(np.sum(c**2 / n)))
+    return np.array(out)
+
+
+def lenth_pse(estimates) -> float:
+    """Lenth's pseudo standard error of contrast estimates of equal standard error (Lenth 1989): s0 = 1.5 median
+    |c|, PSE = 1.5 median of the |c| below 2.5 s0.  Minitab's error for an unreplicated design without error dof."""
+    c = np.abs(np.asarray(estimates, float))
+    s0 = 1.5 * np.median(c)
+    small = c[c < 2.5 * s0]
+    return float(1.5 * np.median(small)) if small.size else float(s0)
+
+
+def standardized_effects(levels: np.ndarray, y: np.ndarray, factor_names: list[str], error_ms: float | None,
+                         error_df: int | None, alpha: float = 0.05) -> dict:
+    """Standardized effects of an orthogonal test: every factor's orthogonal polynomial contrasts (linear, quadratic,
+    ...) as t statistics, for a Pareto chart of standardized effects.
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers.
+    y : ndarray (runs,) or (runs, replicates)
+        Observations.
+    factor_names : list of str
+    error_ms, error_df : float, int
+        The error the analysis tests against (the pooled ANOVA error, or the replicated / blocked error); without
+        degrees of freedom (or a zero mean square) Lenth's pseudo standard error of the contrasts is used, with
+        m / 3 degrees of freedom for m contrasts.
+    alpha : float
+        Significance level of the reference line t(1 - alpha/2, df).
+
+    Returns
+    -------
+    dict
+        ``terms``: per contrast ``term`` ("A (linear)"; a 2-level factor just "A"), ``factor``, ``order``,
+        ``estimate`` (contrast of the level means, unit of y), ``se``, ``t``, ``p``, ``significant``; ``error``
+        {ms, df, method}; ``critical_t``; ``alpha``.  The squared t of a factor's contrasts sum to df x F of its
+        ANOVA row against the same error.
+    """
+    from scipy import stats
+
+    lv, obs = _observations(levels, y)
+    rows = []
+    for j, f in enumerate(factor_names):
+        ks = sorted(int(v) for v in np.unique(lv[:, j]))
+        means = np.array([obs[lv[:, j] == k].mean() for k in ks])
+        n = np.array([np.sum(lv[:, j] == k) for k in ks], float)
+        for order, c in enumerate(polynomial_contrasts(n), start=1):
+            kind = {1: "linear", 2: "quadratic", 3: "cubic"}.get(order, f"order {order}")
+            name = f if len(ks) == 2 else f"{f} ({kind})"
+            rows.append({"term": name, "factor": f, "order": order, "estimate": float(c @ means),
+                         "scale": float(np.sqrt(np.sum(c**2 / n)))})  # 1 by construction
+    have_error = error_ms is not None and error_df and np.isfinite(error_ms) and error_ms > 0
+    if have_error:
+        ms, df, method = float(error_ms), int(error_df), "ANOVA error"
+        se = np.sqrt(ms)
+    else:
+        se = lenth_pse([r["estimate"] for r in rows])
+        ms, df, method = se**2, max(1, len(rows) // 3), "Lenth's pseudo standard error (no error degrees of freedom)"
+    for r in rows:
+        r.pop("scale")
+        r["se"] = float(se)
+        r["t"] = float(r["estimate"] / se) if se > 0 else (float("inf") if r["estimate"] else 0.0)
+        r["p"] = float(2 * stats.t.sf(abs(r["t"]), df))
+        r["significant"] = bool(r["p"] < alpha)
+    return {"terms": rows, "error": {"ms": ms, "df": df, "method": method},
+            "critical_t": float(stats.t.ppf(1 - alpha / 2, df)), "alpha": alpha}
+
+
+def main_effect_residuals(levels: np.ndarray, y: np.ndarray, factor_names: list[str], terms: list[str] | None = None,
+                          blocks: bool = False) -> dict:
+    """Fitted values and residuals of the additive main-effects model the analysis tests (grand mean + the level
+    effects of ``terms``, default every factor; + block effects with ``blocks``: replicate k of every run in block k).
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+    y : ndarray (runs,) or (runs, replicates)
+    terms : list of str, optional
+        Factors in the model (an unreplicated analysis leaves its pooled factor out: it is the error).
+
+    Returns
+    -------
+    dict
+        ``fitted``, ``residuals`` (one per observation, run by run), ``ss`` (sum of squared residuals: the error and
+        lack-of-fit sums of squares of the analysis), ``normal_quantiles`` and ``sorted_residuals`` (Blom's plotting
+        positions (i - 3/8) / (n + 1/4) for a normal probability plot).
+    """
+    from scipy import stats
+
+    y = np.asarray(y, float)
+    lv, obs = _observations(levels, y)
+    grand = obs.mean()
+    fitted = np.full_like(obs, grand)
+    for j, f in enumerate(factor_names):
+        if terms is not None and f not in terms:
+            continue
+        for k in np.unique(lv[:, j]):
+            sel = lv[:, j] == k
+            fitted[sel] += obs[sel].mean() - grand
+    if blocks and y.ndim == 2:
+        fitted += np.tile(y.mean(axis=0) - grand, y.shape[0])
+    res = obs - fitted
+    n = len(res)
+    q = stats.norm.ppf((np.arange(1, n + 1) - 0.375) / (n + 0.25))
+    return {"fitted": fitted, "residuals": res, "ss": float(np.sum(res**2)), "normal_quantiles": q,
+            "sorted_residuals": np.sort(res)}
+
+
+def interaction_means(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> dict:
+    """Mean response at every combination of levels of every pair of factors (interaction plots).
+
+    Returns
+    -------
+    dict
+        ``"A x B"`` -> {"factors": (A, B), "levels": (levels of A, levels of B), "means": array (levels of A,
+        levels of B), NaN where the combination was not run, "n": observations per cell}.
+    """
+    lv, obs = _observations(levels, y)
+    out = {}
+    for i, j in itertools.combinations(range(len(factor_names)), 2):
+        ka, kb = np.unique(lv[:, i]), np.unique(lv[:, j])
+        means = np.full((len(ka), len(kb)), np.nan)
+        count = np.zeros((len(ka), len(kb)), int)
+        for a_, a in enumerate(ka):
+            for b_, b in enumerate(kb):
+                sel = (lv[:, i] == a) & (lv[:, j] == b)
+                count[a_, b_] = int(sel.sum())
+                if sel.any():
+                    means[a_, b_] = obs[sel].mean()
+        out[f"{factor_names[i]} x {factor_names[j]}"] = {"factors": (factor_names[i], factor_names[j]),
+                                                         "levels": (ka.tolist(), kb.tolist()), "means": means,
+                                                         "n": count}
+    return out

@@ -425,6 +425,9 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
             for c in cols:
                 if c in reserved or c in meta:
                     continue
+                cells = sheet.df[c].dropna()
+                if len(sheet.df) >= 4 and cells.nunique() > len(sheet.df) / 2:
+                    continue  # nearly every row differs: a measurement (a response not analysed), not a factor
                 su = (c, sheet.header_units[c]) if c in sheet.header_units else _split_unit(c)
                 name, unit = su if su else (c, "")
                 found.append((name, None, c, unit, None))
@@ -646,8 +649,12 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     factors : list of Factor, optional
         The plan's factors.  Without them the factors are found in the sheet: ``<name>_level`` columns
         (with an optional ``<name>_<unit>`` or ``<name>`` value column), or else every column that is not
-        run, order, a response, a raw measurement or a note (``date``, ``operator``, ``weather``,
-        ``notes``, ...) is a factor holding level values, as statistics packages write them.
+        run, order, a response, a raw measurement, a note (``date``, ``operator``, ``weather``,
+        ``notes``, ...) or a statistics package's bookkeeping (:data:`BOOKKEEPING_COLUMNS`) is a factor holding level
+        values, as statistics packages write them; a column whose values differ in more than half the rows is a
+        measurement (a response not analysed), not a factor.  Without a ``run`` column the runs are told apart by
+        their factor settings (rows with the same settings are replicates).  Units come from the header
+        ("Speed (rpm)", "Speed [r/min]", ``A_mm``) or a units row under it.
 
     Notes
     -----

@@ -468,6 +468,13 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
     _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    for name in sorted(rep.get("responses", {})):  # Minitab's effect figures (report.plots.effects), where drawn
+        for kind, what in (("pareto", "Pareto chart of the standardized effects (t of each factor's linear and "
+                                      "quadratic contrasts against the blocked error)"),
+                           ("residuals", "Residuals of the main-effects model with blocks: normal probability plot "
+                                         "and residuals against fitted values"),
+                           ("interactions", "Interaction plots: mean of the starts at each pair of levels")):
+            _maybe_img(parts, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
     return parts
 
 

@@ -22,6 +22,13 @@ from berryshaker.report.plots.doe import (
     plot_response_surfaces,
     plot_tradeoff,
 )
+from berryshaker.report.plots.effects import (
+    plot_interactions,
+    plot_pareto_effects,
+    plot_residuals,
+    write_doe_figures,
+    write_effect_figures,
+)
 from berryshaker.report.plots.kinematics import (
     plot_comb_angles,
     plot_groove,
@@ -29,6 +36,7 @@ from berryshaker.report.plots.kinematics import (
     plot_svaj,
     write_kinematics_figures,
 )
+from berryshaker.report.plots.life import plot_clearance_growth, plot_fit_front, plot_sobol
 from berryshaker.report.plots.series import (
     HARVEST_RESPONSE_SERIES,
     plot_bars,
@@ -38,7 +46,8 @@ from berryshaker.report.plots.series import (
     plot_time_series,
 )
 
-__all__ = ["HARVEST_RESPONSE_SERIES", "plot_bars", "plot_comb_angles", "plot_fruit_force", "plot_groove",
-           "plot_harvest_response", "plot_joint_forces", "plot_main_effects", "plot_mode_shapes",
-           "plot_replicated_effects", "plot_response_surfaces", "plot_svaj", "plot_time_series", "plot_tradeoff",
-           "write_kinematics_figures"]
+__all__ = ["HARVEST_RESPONSE_SERIES", "plot_bars", "plot_clearance_growth", "plot_comb_angles", "plot_fit_front",
+           "plot_fruit_force", "plot_groove", "plot_harvest_response", "plot_interactions", "plot_joint_forces",
+           "plot_main_effects", "plot_mode_shapes", "plot_pareto_effects", "plot_replicated_effects",
+           "plot_residuals", "plot_response_surfaces", "plot_sobol", "plot_svaj", "plot_time_series",
+           "plot_tradeoff", "write_doe_figures", "write_effect_figures", "write_kinematics_figures"]

@@ -181,6 +181,11 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
     return _out(fig, path, data, return_figure)
 
 
+def _unit_of(factor_unit, name: str) -> str:
+    """The unit of factor ``name``: ``factor_unit`` itself, or its entry when it is a dict per factor ('-' if none)."""
+    return factor_unit if isinstance(factor_unit, str) else (factor_unit.get(name) or "-")
+
+
 def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, unit: str | None = None,
                            factor_unit: str = "mm", margin: float = 0.08, model=None,
                            return_figure: bool = False) -> dict:
@@ -193,7 +198,7 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
     Parameters
     ----------
     values : array (runs, factors)
-        Factor values of the runs [``factor_unit``].
+        Factor values of the runs [``factor_unit``: one unit for all, or a dict factor -> unit].
     y : array (runs,)
         Response per run (not drawn; the model is).
     names : list of str
@@ -244,7 +249,7 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
                    label="test runs")
         ax.set_xlim(A.min(), A.max())
         ax.set_ylim(B.min(), B.max())
-        label_axes(ax, f"{names[a]} [{factor_unit}]", f"{names[b]} [{factor_unit}]")
+        label_axes(ax, f"{names[a]} [{_unit_of(factor_unit, names[a])}]", f"{names[b]} [{_unit_of(factor_unit, names[b])}]")
         data["panels"].append({"x": names[a], "y": names[b], "z_min": float(Z.min()), "z_max": float(Z.max())})
     for ax in axes.ravel()[len(pairs):]:
         ax.set_visible(False)
