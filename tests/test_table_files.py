@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+import pytest
 
 from berryshaker.report.table_files import read_xlsx, write_table
 
@@ -27,3 +28,25 @@ def test_write_table_writes_the_same_rows_as_csv_and_xlsx(tmp_path):
     write_table(tmp_path / "other", ["x"], [[2]])
     assert read_xlsx(x2)[1] == [[2]]
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_doe_analyze_tables_as_csv_and_xlsx(tmp_path):
+    from pathlib import Path
+
+    from berryshaker.experiment.field_results import analyze_sheet
+    from berryshaker.report.table_files import write_doe_tables
+
+    sheet = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+    _, res = analyze_sheet(sheet, {"efficiency": True, "damage": False})
+    files = write_doe_tables(res, tmp_path)
+    assert sorted(f.name for f in files) == sorted(f"{s}.{e}" for s in ("range_efficiency", "range_damage", "optimum")
+                                                   for e in ("csv", "xlsx"))
+    header, rows = read_xlsx(tmp_path / "range_efficiency.xlsx")
+    assert header[:2] == ["factor", "k1 (kg/min)"]
+    ra = res["responses"]["efficiency"]
+    for row in rows:  # the workbook holds the analysis' numbers
+        assert row[1:4] == pytest.approx(ra["factors"][row[0]]["level_means"], rel=1e-14)  # Excel: 15 digits
+        assert row[6] == pytest.approx(ra["anova"]["factors"][row[0]]["f"], rel=1e-14)
+    _, opt = read_xlsx(tmp_path / "optimum.xlsx")
+    pred = next(r for r in opt if r[:2] == ["predicted", "efficiency"])
+    assert pred[2] == pytest.approx(res["optimum"]["values"]["efficiency"], rel=1e-14) and pred[3] == "kg/min"

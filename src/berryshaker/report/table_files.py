@@ -126,4 +126,35 @@ def read_xlsx(path: str | Path) -> tuple[list[str], list[list]]:
     return [str(h) for h in values[0]], values[1:]
 
 
-__all__ = ["csv_bytes", "read_xlsx", "table_cell", "write_table", "xlsx_bytes"]
+def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
+    """The tables of a ``doe analyze`` analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`), as
+    file stem -> (header, rows): per response its range analysis (``range_<response>``: level means k1..kn, range R,
+    best level, ANOVA F and p, or "pooled"), and the weighted optimum (``optimum``: level per factor and the
+    predicted responses with their units)."""
+    out = {}
+    units = res.get("response_units") or {}
+    for name, ra in res["responses"].items():
+        an = (ra.get("anova") or {}).get("factors") or {}
+        nlev = len(next(iter(ra["factors"].values()))["level_means"])
+        header = ["factor", *[f"k{j + 1}" + (f" ({units[name]})" if units.get(name) else "") for j in range(nlev)],
+                  "R", "best level", "ANOVA F", "p"]
+        rows = [[f, *d["level_means"], d["range"], d["best_level"], an[f]["f"] if f in an else "pooled",
+                 an[f]["p"] if f in an else None] for f, d in ra["factors"].items()]
+        out[f"range_{name}"] = (header, rows)
+    o = res["optimum"]
+    rows = [["level", f, n if n is not None else "no meaningful difference", (o.get("settings") or {}).get(f)]
+            for f, n in o["levels"].items()]
+    rows += [["predicted", r, v, units.get(r, "")] for r, v in o["values"].items()]
+    out["optimum"] = (["what", "factor or response", "level or value", "setting or unit"], rows)
+    return out
+
+
+def write_doe_tables(res: dict, folder: str | Path) -> list[Path]:
+    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files."""
+    files = []
+    for stem, (header, rows) in doe_tables(res).items():
+        files += list(write_table(Path(folder) / f"{stem}.csv", header, rows))
+    return files
+
+
+__all__ = ["csv_bytes", "doe_tables", "read_xlsx", "table_cell", "write_doe_tables", "write_table", "xlsx_bytes"]
