@@ -70,11 +70,7 @@ PENDING = {
     "berryshaker.drives",
     "berryshaker.compiled_cache",
     # docstrings being completed by the documentation work (issue 46 item 2)
-    "berryshaker.config",
     "berryshaker.contact.conformal",
-    "berryshaker.contact.laws",
-    "berryshaker.contact.pair_law",
-    "berryshaker.drives.base",
     "berryshaker.drives.driveline",
     "berryshaker.drives.groove_cam.kinematics",
     "berryshaker.experiment.agreement",

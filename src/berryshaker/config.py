@@ -5,7 +5,8 @@ by berryshaker 0.1.0 still load).  Each drive's description class validates ever
 machine is built (units and dimensions, ranges, clearance pairs and their geometric limits); everything
 inside is SI.  A machine file gives every dimensional value with its unit (``speed = "120 rpm"``); a bare number
 there is an error that shows the fix, and only dimensionless values (coefficients, fractions, counts, ratios)
-are plain numbers.  The provenance tags written in the file's comments ([study], [assumed], [calibrated]) are read
+are plain numbers.  The provenance tags written in the file's comments ([study], [assumed], [calibrated], [published]: from a
+publication other than the study) are read
 with the values and travel with them into every view (:func:`machine_table`).
 
 Geometric feasibility over the whole cycle (assembly, undercut) needs the kinematics and is checked by the
@@ -29,7 +30,7 @@ from berryshaker.quantity_fields import UNITS_REQUIRED, format_validation_error,
 #: any drive's machine description
 Machine = MachineBase
 
-_TAG = re.compile(r"\[(study|assumed|calibrated)\b[^\]]*\]")
+_TAG = re.compile(r"\[(study|assumed|calibrated|published)\b[^\]]*\]")
 _MAX_FILE_BYTES = 1_000_000
 
 
@@ -58,6 +59,11 @@ def machine_from_dict(data: dict[str, Any], source: str = "<dict>", provenance: 
     units_required : bool
         The data is a user's file: a bare number in a dimensional field is an error showing the fix.
 
+    Returns
+    -------
+    MachineBase
+        The validated description (SI inside), of the class of its ``[machine] drive``.
+
     Raises
     ------
     ConfigError
@@ -81,6 +87,16 @@ def provenance_tags(text: str) -> dict[str, str]:
     """Provenance tag per dotted key, read from a TOML text's end-of-line comments.
 
     ``stroke = "40 mm"  # h [assumed]`` under ``[cam]`` gives ``{"cam.stroke": "assumed"}``.
+
+    Parameters
+    ----------
+    text : str
+        The TOML text.
+
+    Returns
+    -------
+    dict
+        Dotted key -> tag (study, assumed, calibrated...).
     """
     tags: dict[str, str] = {}
     table = ""
@@ -102,7 +118,18 @@ def provenance_tags(text: str) -> dict[str, str]:
 
 
 def reference_toml_text(drive: str = "groove_cam") -> str:
-    """Text of a drive's built-in reference machine TOML (with its source annotations)."""
+    """Text of a drive's built-in reference machine TOML (with its source annotations).
+
+    Parameters
+    ----------
+    drive : str
+        The drive's name (``berryshaker.drives``), e.g. "groove_cam" or "crank_rocker".
+
+    Returns
+    -------
+    str
+        The TOML text.
+    """
     return get_drive(drive).reference_toml_text()
 
 
@@ -122,6 +149,18 @@ def load_machine(path: str | Path | None = None, drive: str = "groove_cam"):
 
     Every dimensional value must carry its unit (a bare number is an error naming the field and the fix);
     a UTF-8 byte-order mark is accepted.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The TOML file; None: the built-in reference machine.
+    drive : str
+        The drive whose reference machine ``path=None`` gives.
+
+    Returns
+    -------
+    MachineBase
+        The validated description (SI inside), with its provenance tags.
 
     Raises
     ------
@@ -150,7 +189,18 @@ def _short_text(text: str, limit: int = 200) -> str:
 def machine_warnings(machine) -> list[str]:
     """Plausibility warnings of a machine description: one message per value that lies orders of magnitude
     outside engineering ranges (:func:`berryshaker.units.plausibility_warning`; e.g. a damping 10^6 times
-    too large, a base radius in km), each naming its dotted key.  Empty for the reference machines."""
+    too large, a base radius in km), each naming its dotted key.  Empty for the reference machines.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+
+    Returns
+    -------
+    list of str
+        The warnings.
+    """
     return plausibility_warnings(machine)
 
 
@@ -189,18 +239,53 @@ def validate_machine(machine, strict: bool = False, allow_undercut: bool = False
 
 
 def reference_machine(drive: str = "groove_cam"):
-    """The built-in reference machine of a drive (groove cam: docs/study.md, reference machine)."""
+    """The built-in reference machine of a drive (groove cam: docs/study.md, reference machine).
+
+    Parameters
+    ----------
+    drive : str
+        The drive's name.
+
+    Returns
+    -------
+    MachineBase
+        The reference machine.
+    """
     return load_machine(None, drive)
 
 
 def value_tag(machine, key: str) -> str:
-    """Provenance tag of a dotted key: study, assumed, calibrated, or default (not set in the file)."""
+    """Provenance tag of a dotted key: study, assumed, calibrated, or default (not set in the file).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    key : str
+        The dotted key, e.g. "cam.stroke".
+
+    Returns
+    -------
+    str
+        The tag.
+    """
     tags = getattr(machine, "__provenance__", None) or {}
     return tags.get(key, "default")
 
 
 def machine_table(machine) -> list[tuple[str, str, str]]:
-    """(dotted key, value in engineering units, provenance tag) for every field of the machine, in file order."""
+    """(dotted key, value in engineering units, provenance tag) for every field of the machine, in file order.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+
+    Returns
+    -------
+    list of (str, str, str)
+        The rows; each value is text with its engineering unit ("80 mm").
+    """
     from berryshaker.units import ENGINEERING_FACTORS
 
     rows: list[tuple[str, str, str]] = []
@@ -259,6 +344,16 @@ def pair_contact_rows(machine) -> list[tuple[str, str, str]]:
     Per pair: the law, K (N/m^n) and n, the equivalent linear stiffness at the operating load, the damping
     (law and value) and the damping ramp depth, each tagged ``derived`` (from geometry and materials,
     :mod:`berryshaker.contact.pair_law`), ``assumed``/``study`` (the description's tag) or ``default``.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+
+    Returns
+    -------
+    list of (str, str, str)
+        The rows; each value is text with its unit.
     """
     from berryshaker.contact.pair_law import OPERATING_LOAD
 

@@ -70,7 +70,23 @@ SLOT_C_PARAMETERS = ("damping", "restitution_velocity")
 
 @dataclass(frozen=True)
 class ContactLaw:
-    """A registered normal force law."""
+    """A registered normal force law.
+
+    Attributes
+    ----------
+    name : str
+        The name descriptions use.
+    kernel : numba dispatcher
+        The compiled law, with :data:`LAW_SIGNATURE`.
+    uses : tuple of str
+        Which of :data:`LAW_PARAMETERS` it reads.
+    description : str
+        One line for ``config show`` and the docs.
+    code : int
+        Its index in the engine's law table.
+    monotone : bool
+        The force never decreases as pen or pen_dot grows (other inputs fixed).
+    """
 
     name: str
     kernel: object  # numba dispatcher with LAW_SIGNATURE
@@ -90,6 +106,11 @@ class LawEntryPoint(types.WrapperAddressProtocol):
     of them costs nothing per call (a tuple of dispatchers is unified into the same function type at every
     call, by inspecting each dispatcher's overloads).  Inside compiled code the call is the same indirect call
     through the same address; from Python it calls the law's dispatcher.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+        The law's compiled kernel, with :data:`LAW_SIGNATURE`.
     """
 
     def __init__(self, kernel):
@@ -102,6 +123,13 @@ class LawEntryPoint(types.WrapperAddressProtocol):
         return self._address
 
     def signature(self):
+        """The numba signature of every law, :data:`LAW_SIGNATURE`.
+
+        Returns
+        -------
+        numba.core.typing.templates.Signature
+            float64(float64 x 8).
+        """
         return LAW_SIGNATURE
 
     def __call__(self, *args):
@@ -135,6 +163,7 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str, mon
     Returns
     -------
     ContactLaw
+        The registered law (a law registered again keeps its code).
     """
     if not name.isidentifier():
         raise ConfigError(f"contact law name {name!r} must be an identifier (letters, digits, underscores)")
@@ -155,7 +184,13 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str, mon
 
 
 def unregister_law(name: str) -> None:
-    """Remove a law registered at run time (built-in laws cannot be removed)."""
+    """Remove a law registered at run time (built-in laws cannot be removed).
+
+    Parameters
+    ----------
+    name : str
+        The law's name.
+    """
     if name in BUILT_IN:
         raise ConfigError(f"{name!r} is a built-in contact law")
     _LAWS.pop(name, None)
@@ -164,7 +199,18 @@ def unregister_law(name: str) -> None:
 
 
 def get_law(name: str) -> ContactLaw:
-    """The registered law called ``name``; a clear error listing the names otherwise."""
+    """The registered law called ``name``; a clear error listing the names otherwise.
+
+    Parameters
+    ----------
+    name : str
+        The law's name.
+
+    Returns
+    -------
+    ContactLaw
+        The law.
+    """
     try:
         return _LAWS[name]
     except KeyError:
@@ -172,20 +218,47 @@ def get_law(name: str) -> ContactLaw:
 
 
 def law_names() -> tuple[str, ...]:
-    """Names of the registered laws, in registration order."""
+    """Names of the registered laws, in registration order.
+
+    Returns
+    -------
+    tuple of str
+        The names.
+    """
     return tuple(sorted(_LAWS, key=lambda n: _LAWS[n].code))
 
 
 def slot_c(name: str, damping: float, restitution_velocity: float) -> float:
     """The value of the compiled slot ``c`` for law ``name``: ``restitution_velocity`` (m/s) if the law reads
-    it (the hysteresis laws), else ``damping`` (N s/m)."""
+    it (the hysteresis laws), else ``damping`` (N s/m).
+
+    Parameters
+    ----------
+    name : str
+        The law's name.
+    damping : float
+        Damping coefficient (N s/m).
+    restitution_velocity : float
+        Restitution velocity v_ref (m/s).
+
+    Returns
+    -------
+    float
+        The slot's value (m/s or N s/m).
+    """
     return float(restitution_velocity if "restitution_velocity" in get_law(name).uses else damping)
 
 
 def law_table() -> tuple:
     """The compiled kernels' entry points (:class:`LawEntryPoint`) in code order, as the engine's core receives
     them (the dispatchers themselves if this numba has no ``_get_wrapper_address``: the same results, typed at
-    every call)."""
+    every call).
+
+    Returns
+    -------
+    tuple
+        One entry point per law.
+    """
     if _get_wrapper_address is None:  # pragma: no cover
         return tuple(_LAWS[n].kernel for n in law_names())
     out = []
@@ -201,13 +274,59 @@ def law_table() -> tuple:
 # ---- built-in laws ---------------------------------------------------------------------------------
 @njit(LAW_SIGNATURE, cache=True)
 def mlsd_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Linear spring-damper (study eq. 8, consistent reading): max(0, k pen + c pen_dot)."""
+    """Linear spring-damper (study eq. 8, consistent reading): max(0, k pen + c pen_dot).
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
+    """
     return mlsd_kernel(pen, pen_dot, k, c)
 
 
 @njit(LAW_SIGNATURE, cache=True)
 def hertz_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Hertz, elastic: k pen^n."""
+    """Hertz, elastic: k pen^n.
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
+    """
     return k * pen**n
 
 
@@ -219,6 +338,18 @@ def hysteresis_velocity(v_imp, v_ref):
     coefficient alpha = f(e)/v_ref is then a material constant (Hunt & Crossley 1975), so an impact at
     v < v_ref has 1 - e(v)^2 = (1 - e^2) v / v_ref for small damping, and e -> 1 as v -> 0
     (docs/contact.md sec. 6.4).  v_ref = 0: the published laws (f(e)/v_imp at every speed).
+
+    Parameters
+    ----------
+    v_imp : float
+        Approach speed at the onset of the contact (m/s).
+    v_ref : float
+        Restitution velocity (m/s), >= 0.
+
+    Returns
+    -------
+    float
+        max(|v_imp|, v_ref) (m/s).
     """
     v = abs(v_imp)
     return v if v > v_ref else v_ref
@@ -226,7 +357,30 @@ def hysteresis_velocity(v_imp, v_ref):
 
 @njit(LAW_SIGNATURE, cache=True)
 def hunt_crossley_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Hunt & Crossley (1975) with the factor 3(1-e)/2; slot c = restitution velocity v_ref (m/s)."""
+    """Hunt & Crossley (1975) with the factor 3(1-e)/2; slot c = restitution velocity v_ref (m/s).
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
+    """
     return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 1.5 * (1.0 - e), n)
 
 
@@ -236,19 +390,87 @@ def lankarani_nikravesh_law(pen, pen_dot, v_imp, k, n, e, c, d):
 
     F = K delta^n [1 + 3 (1 - e^2) delta_dot / (4 max(v_imp, v_ref))] (N), >= 0: the configured e at impact
     speeds >= v_ref, Hunt & Crossley's material-constant hysteresis below (docs/contact.md sec. 6.4).
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
     """
     return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 0.75 * (1.0 - e * e), n)
 
 
 @njit(LAW_SIGNATURE, cache=True)
 def flores_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """Flores et al. (2011) with the factor 8(1-e)/(5e); slot c = restitution velocity v_ref (m/s)."""
+    """Flores et al. (2011) with the factor 8(1-e)/(5e); slot c = restitution velocity v_ref (m/s).
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
+    """
     return hysteresis_kernel(pen, pen_dot, hysteresis_velocity(v_imp, c), k, 1.6 * (1.0 - e) / e, n)
 
 
 @njit(LAW_SIGNATURE, cache=True)
 def impact_law(pen, pen_dot, v_imp, k, n, e, c, d):
-    """ADAMS IMPACT: k pen^n + STEP(pen, 0, 0, d, cmax) pen_dot."""
+    """ADAMS IMPACT: k pen^n + STEP(pen, 0, 0, d, cmax) pen_dot.
+
+    Parameters
+    ----------
+    pen, pen_dot : float
+        Penetration beyond the clearance (m) and its rate (m/s, > 0 approaching).
+    v_imp : float
+        Approach speed at the onset of this contact (m/s).
+    k : float
+        Stiffness (N/m^n).
+    n : float
+        Exponent (dimensionless).
+    e : float
+        Coefficient of restitution (dimensionless).
+    c : float
+        Slot c: damping (N s/m) or restitution velocity v_ref (m/s), :func:`slot_c`.
+    d : float
+        Penetration of full damping (m; IMPACT).
+
+    Returns
+    -------
+    float
+        Normal force (N), >= 0.
+    """
     return impact_kernel(-pen, -pen_dot, 0.0, k, n, c, d)
 
 

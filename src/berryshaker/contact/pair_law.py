@@ -118,7 +118,28 @@ class PairGeometry:
 def pair_geometry(kind, size, diameter=None, bearing_length=None, material_pair=None,
                   wall_radius=math.inf) -> PairGeometry:
     """:class:`PairGeometry` of a clearance pair, filling in :data:`DEFAULT_DIAMETER`,
-    :data:`DEFAULT_BEARING_LENGTH` and :data:`DEFAULT_MATERIAL_PAIR` where a value is ``None``."""
+    :data:`DEFAULT_BEARING_LENGTH` and :data:`DEFAULT_MATERIAL_PAIR` where a value is ``None``.
+
+    Parameters
+    ----------
+    kind : str
+        "pin-in-bore", "roller-in-groove" or "roller-in-slot".
+    size : float
+        Clearance size (m): radial for a pin in a bore, free travel for a roller.
+    diameter : float, optional
+        Pin or roller diameter (m).
+    bearing_length : float, optional
+        Contact length along the axis (m).
+    material_pair : str, optional
+        Key of :data:`ELASTIC_MATERIALS`.
+    wall_radius : float
+        Radius of curvature of the wall a roller runs on (m); inf for a straight slot or a pin.
+
+    Returns
+    -------
+    PairGeometry
+        The geometry, with the names of the values assumed.
+    """
     given = {"diameter": diameter, "bearing_length": bearing_length, "material_pair": material_pair}
     assumed = [k for k, v in given.items() if v is None]
     diameter = DEFAULT_DIAMETER if diameter is None else diameter
@@ -132,10 +153,17 @@ def fit_range_for(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> tuple[floa
     """The load range (N) Johnson's relation can be fitted over for this pair: ``force_range`` with its top
     lowered to the model's limits where needed.
 
+    Parameters
+    ----------
+    geom : PairGeometry
+        The pair's geometry and materials.
+    force_range : (float, float)
+        The loads wanted (N).
+
     Returns
     -------
     (F_min, F_max)
-        F_max = min(force_range[1], F_lim / 10, F_arc): F_lim = 4 pi L E* dR / e^2 is where the logarithmic
+        The loads (N).  F_max = min(force_range[1], F_lim / 10, F_arc): F_lim = 4 pi L E* dR / e^2 is where the logarithmic
         relation stops being monotone (:func:`~berryshaker.contact.conformal.line_contact_load_limit`) and, for
         a pin, F_arc the load at which the Hertz half-width reaches 0.35 R_pin (a contact arc of about 40 deg,
         a^2 = 4 F R1 R2 / (pi L E* c)), the validity limits :func:`~berryshaker.contact.conformal.pin_in_bore_law`
@@ -232,7 +260,7 @@ class PairContact:
     damping_depth : float
         Penetration at which ``impact`` reaches full damping (m).
     restitution : float
-        Coefficient of restitution of the hysteresis laws.
+        Coefficient of restitution of the hysteresis laws (dimensionless).
     tags : dict
         Provenance tag per parameter (``derived``, ``assumed``, ``study``, ``default``, ...).
     geometry : PairGeometry or None
@@ -240,7 +268,7 @@ class PairContact:
     fit_force_range : (float, float) or None
         Loads of the power-law fit (N).
     fit_error : float or None
-        Worst relative force error of the fit over that range.
+        Worst relative force error of the fit over that range (dimensionless).
     tangent_stiffness, secant_stiffness : float
         dF/d(delta) and F/delta of the law at :data:`OPERATING_LOAD` (N/m): the linear springs it compares with.
     restitution_velocity : float
@@ -263,13 +291,31 @@ class PairContact:
     restitution_velocity: float = 0.0
 
     def engine_contact(self) -> dict:
-        """The ``contact`` table of a clearance joint of :mod:`berryshaker.multibody.spec` (SI)."""
+        """The ``contact`` table of a clearance joint of :mod:`berryshaker.multibody.spec` (SI).
+
+        Returns
+        -------
+        dict
+            law, stiffness (N/m^n), exponent, damping (N s/m), damping_depth (m), restitution,
+            restitution_velocity (m/s).
+        """
         return dict(law=self.law, stiffness=self.stiffness, exponent=self.exponent, damping=self.damping,
                     damping_depth=self.damping_depth, restitution=self.restitution,
                     restitution_velocity=self.restitution_velocity)
 
     def uses(self, parameter: str) -> bool:
-        """True if the law reads ``parameter`` (a key of :data:`berryshaker.contact.laws.LAW_PARAMETERS`)."""
+        """True if the law reads ``parameter`` (a key of :data:`berryshaker.contact.laws.LAW_PARAMETERS`).
+
+        Parameters
+        ----------
+        parameter : str
+            The parameter, e.g. "damping".
+
+        Returns
+        -------
+        bool
+            Whether the law uses it.
+        """
         from berryshaker.contact.laws import get_law
 
         return parameter in get_law(self.law).uses
@@ -333,6 +379,16 @@ def default_restitution_velocity(material_pair: str) -> tuple[float, str]:
       (tests/test_impact_velocity_floor.py, benchmarks/studies/impact_velocity_floor_study.py); tag ``derived``.
     * a dry pair with elastic constants and hardness: :func:`yield_velocity`; tag ``derived``.
     * any other pair: :data:`DEFAULT_RESTITUTION_VELOCITY`; tag ``assumed``.
+
+    Parameters
+    ----------
+    material_pair : str
+        The pair's materials, a key of :data:`ELASTIC_MATERIALS`.
+
+    Returns
+    -------
+    (float, str)
+        v_ref (m/s) and its tag.
     """
     from berryshaker.contact.wear import MATERIAL_PAIRS
 
@@ -367,8 +423,10 @@ def resolve_pair_contact(law, geom: PairGeometry, stiffness=None, exponent=None,
         has n = 1 (the linear springs of 0.1.0 files).  An exponent without a stiffness is refused.
     damping : float or None
         N s/m; required by the laws that use it (``mlsd``, ``impact``).
-    damping_depth, restitution : float
-        As in :class:`berryshaker.drives.base.ClearancePair`.
+    damping_depth : float
+        Penetration at which ``impact`` reaches full damping (m).
+    restitution : float
+        Coefficient of restitution of the hysteresis laws (dimensionless).
     tags : dict, optional
         Provenance of the description's own values, per parameter name.
     field_prefix : str

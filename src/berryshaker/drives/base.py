@@ -133,14 +133,40 @@ class ClearancePair(StrictModel):
         return self
 
     def geometry(self, wall_radius: float = math.inf):
-        """The pair's :class:`~berryshaker.contact.pair_law.PairGeometry` ([assumed] defaults filled in)."""
+        """The pair's :class:`~berryshaker.contact.pair_law.PairGeometry` ([assumed] defaults filled in).
+
+        Parameters
+        ----------
+        wall_radius : float
+            Radius of curvature of the wall a roller runs on (m); inf for a straight slot or a pin.
+
+        Returns
+        -------
+        PairGeometry
+            Kind, clearance, diameter, bearing length, materials and wall radius (SI).
+        """
         from berryshaker.contact.pair_law import pair_geometry
 
         return pair_geometry(self.kind, self.size, self.diameter, self.bearing_length, self.material_pair,
                              wall_radius)
 
     def contact(self, wall_radius: float = math.inf, tags: dict | None = None, field_prefix: str = "clearance"):
-        """The resolved contact law (:class:`~berryshaker.contact.pair_law.PairContact`) at the pair's size."""
+        """The resolved contact law (:class:`~berryshaker.contact.pair_law.PairContact`) at the pair's size.
+
+        Parameters
+        ----------
+        wall_radius : float
+            Radius of curvature of the wall a roller runs on (m); inf for a straight slot or a pin.
+        tags : dict, optional
+            Provenance tags of the pair's fields (field name -> tag).
+        field_prefix : str
+            Dotted key of the pair in the description, named in messages.
+
+        Returns
+        -------
+        PairContact
+            The law, K (N/m^n), n, damping and their provenance.
+        """
         from berryshaker.contact.pair_law import resolve_pair_contact
 
         return resolve_pair_contact(self.law, self.geometry(wall_radius), self.stiffness, self.exponent,
@@ -201,7 +227,21 @@ class MachineInfo(StrictModel):
 
 @dataclass(frozen=True)
 class PairInfo:
-    """A clearance pair of a drive: its name, kind, what it joins, and the geometric limit of its size."""
+    """A clearance pair of a drive: its name, kind, what it joins, and the geometric limit of its size.
+
+    Attributes
+    ----------
+    name : str
+        The pair's name, e.g. "A".
+    kind : str
+        "pin-in-bore", "roller-in-groove" or "roller-in-slot".
+    joins : str
+        What it joins, in words.
+    limit : callable
+        ``limit(machine) -> (largest size in m, what the limit is)``.
+    wall_radius : callable, optional
+        Roller pairs: ``wall_radius(machine)`` -> the wall's radius of curvature (m).
+    """
 
     name: str
     kind: str
@@ -299,6 +339,16 @@ class MachineBase(StrictModel):
         (:class:`~berryshaker.contact.pair_law.PairContact`: law, K, n, damping, with provenance tags).
 
         What the multibody mechanism and the reduced model run with and ``berryshaker config show`` prints.
+
+        Parameters
+        ----------
+        name : str
+            The pair's name.
+
+        Returns
+        -------
+        PairContact
+            The law, K (N/m^n), n, damping and their provenance.
         """
         info = next(p for p in self.PAIRS if p.name == name)
         wall = info.wall_radius(self) if info.wall_radius is not None else math.inf
@@ -313,11 +363,23 @@ class MachineBase(StrictModel):
         return tuple(p.name for p in self.PAIRS)
 
     def clearance_sizes(self) -> dict[str, float]:
-        """Clearance size (m) per pair."""
+        """Clearance size (m) per pair.
+
+        Returns
+        -------
+        dict pair -> float
+            The sizes (m): radial for a pin in a bore, free travel for a roller.
+        """
         return {p: self.clearance[p].size for p in self.pair_names}
 
     def clearance_levels(self) -> dict[str, tuple[float, float, float]]:
-        """Test levels 1/2/3 (m) per pair: ``[clearance.<pair>] levels`` or the drive's defaults."""
+        """Test levels 1/2/3 (m) per pair: ``[clearance.<pair>] levels`` or the drive's defaults.
+
+        Returns
+        -------
+        dict pair -> (float, float, float)
+            The three levels of each pair (m).
+        """
         out = {}
         for p in self.pair_names:
             lv = self.clearance[p].levels
@@ -334,6 +396,16 @@ class MachineBase(StrictModel):
 
         Every clearance a run uses passes through here (or through loading the description): unknown pairs,
         negative or non-finite sizes and sizes the geometry cannot hold are refused with the pair named.
+
+        Parameters
+        ----------
+        sizes : dict pair -> float, optional
+            New sizes (m); None or empty gives the machine itself.
+
+        Returns
+        -------
+        MachineBase
+            The validated copy.
         """
         if not sizes:
             return self
@@ -383,7 +455,31 @@ class MachineBase(StrictModel):
 
 @dataclass(frozen=True)
 class Drive:
-    """A comb drive plug-in (see the module docstring for what each member does)."""
+    """A comb drive plug-in (see the module docstring for what each member does).
+
+    Attributes
+    ----------
+    name : str
+        Registry name, e.g. "groove_cam".
+    title : str
+        Name in words.
+    machine_class : type
+        Its description class (a :class:`MachineBase` subclass).
+    reference_package : str
+        The package holding its ``reference.toml``.
+    check : callable
+        ``check(machine)``: kinematics over one revolution, raising ``GeometryError`` where it cannot run.
+    kinematics_summary : callable
+        ``kinematics_summary(machine, kin)``: the JSON of ``berryshaker kinematics``.
+    mechanism : callable
+        ``mechanism(machine, revolutions)``: the multibody mechanism description.
+    mid_stroke_angles : callable
+        ``mid_stroke_angles(machine)``: the combs' reference angles (rad).
+    reduced_model : callable, optional
+        ``reduced_model(machine, clearance, revolutions, start_angle=0.0)``, or None.
+    reduced_model_name : str
+        Name of the reduced model ("mlsd").
+    """
 
     name: str
     title: str
@@ -402,7 +498,13 @@ class Drive:
         return self.machine_class.PAIRS
 
     def reference_toml_text(self) -> str:
-        """Text of the drive's annotated reference machine."""
+        """Text of the drive's annotated reference machine.
+
+        Returns
+        -------
+        str
+            The ``reference.toml`` text.
+        """
         from importlib import resources
 
         return resources.files(self.reference_package).joinpath("reference.toml").read_text("utf-8")
