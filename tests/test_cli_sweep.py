@@ -23,12 +23,12 @@ def test_harvest_sweep_prints_removal_shedding_damage_and_efficiency_per_point()
     show, shown = sweep_display(header, rows, 1)
     assert show == ["run", "cam.speed[rpm]", "status", "ripe removal (%)", "unripe shedding (%)", "damage (%)",
                     "efficiency (kg/min)"]
-    assert shown[0] == [1, 120.0, "ok", "91.2 ± 1.2", "12.5 ± 0.8", "3.21 ± 0.31", "3.6 ± 0.11"]
+    assert shown[0] == [1, 120.0, "ok", "91.2±1.2", "12.5±0.8", "3.21±0.31", "3.6±0.11"]
     assert shown[1][2] == "failed" and shown[1][3:] == ["", "", "", ""]
     c = Console(width=80, record=True, file=open("/dev/null", "w"))
     c.print(rich_table(show, shown, width=80))
     text = c.export_text()
-    assert "91.2 ± 1.2" in text and "3.6 ± 0.11" in text
+    assert "91.2±1.2" in text and "3.6±0.11" in text and "┃ run" in text  # one row per point, not stacked
 
 
 def test_dynamics_sweep_still_shows_peak_forces():

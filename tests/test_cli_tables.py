@@ -62,3 +62,8 @@ def test_cli_tables_at_80_columns_keep_numbers_whole():
     assert r.exit_code == 0, r.output
     assert max(len(ln) for ln in r.output.splitlines()) <= 80
     assert "[study]" in r.output and "\\[" not in r.output  # brackets as written, no escape left over
+
+
+def test_a_mean_plus_minus_sd_stays_on_one_line():
+    text = _render(rich_table(["quantity", "a", "b"], [["x", "12.5 ± 1.3 N", "0.5 +- 0.25 %"]], width=24))
+    assert "12.5 ± 1.3" in text and "0.5 +- 0.25" in text, text

@@ -124,7 +124,7 @@ def sweep_display(header: list[str], rows: list[list], n_params: int) -> tuple[l
     """The terminal table of a sweep: run, parameters, status, then the outputs that matter for its model.
 
     Harvest runs (their columns present) show each point's ripe removal, unripe shedding, damage and efficiency as
-    "mean ± SD over its replicate starts"; dynamics runs show up to four peak collision forces and the powered
+    "mean±SD over its replicate starts"; dynamics runs show up to four peak collision forces and the powered
     driveline's speed ripple and input power.
     """
     base = header[: n_params + 2]
@@ -139,7 +139,7 @@ def sweep_display(header: list[str], rows: list[list], n_params: int) -> tuple[l
         v, sd = d.get(k, ""), d.get(k + "_sd", "")
         if not isinstance(v, (int, float)):
             return ""
-        return f"{v:.3g} ± {sd:.2g}" if isinstance(sd, (int, float)) else f"{v:.3g}"
+        return f"{v:.3g}±{sd:.2g}" if isinstance(sd, (int, float)) else f"{v:.3g}"  # compact: 7 columns in 80
 
     shown = []
     for row in rows:

@@ -42,6 +42,23 @@ _SEGMENT = re.compile(r"[^._/]*[._/]+|[^._/]+")
 _CELL_SEGMENT = re.compile(r".*?(?:[A-Za-z]-|[A-Za-z0-9)\]][._])(?=[A-Za-z])|.+")
 
 
+#: signs that bind the numbers on either side into one unit: "12.5 ± 1.3" never ends a line at the sign
+_BINDING = ("±", "+-")
+
+
+def _words(line: str) -> list[str]:
+    """The words of a line, a "±" (or "+-") joined with its neighbours into one word: "12.5 ± 1.3"."""
+    out: list[str] = []
+    glue_next = False
+    for w in line.split():
+        if out and (w in _BINDING or glue_next):
+            out[-1] += " " + w
+        else:
+            out.append(w)
+        glue_next = w in _BINDING
+    return out
+
+
 def _header_segments(word: str) -> list[str]:
     """Pieces of one header word that may end a line: after a dot, an underscore or a slash."""
     return _SEGMENT.findall(word) or [word]
@@ -49,7 +66,9 @@ def _header_segments(word: str) -> list[str]:
 
 def _cell_segments(word: str) -> list[str]:
     """Pieces of one cell word that may end a line: after a hyphen between letters, or a dot or underscore
-    before a letter (numbers stay whole)."""
+    before a letter (numbers stay whole; a "mean ± SD" word is never cut)."""
+    if " " in word:
+        return [word]
     return _CELL_SEGMENT.findall(word) or [word]
 
 
@@ -62,7 +81,7 @@ def _wrap_header(header: str, width: int, segments=_header_segments) -> str:
     out = []
     for line in header.split("\n"):
         cur = ""
-        for w, word in enumerate(line.split()):
+        for w, word in enumerate(_words(line)):
             for k, seg in enumerate(segments(word)):
                 glue = " " if (k == 0 and w > 0) else ""
                 if cur and cell_len(cur + glue + seg) > width:
@@ -85,7 +104,7 @@ def _tokens_width(text: str) -> tuple[int, int]:
     from rich.cells import cell_len
 
     lines = text.split("\n")
-    return (max((cell_len(p) for ln in lines for t in ln.split() for p in _cell_segments(t)), default=0),
+    return (max((cell_len(p) for ln in lines for t in _words(ln) for p in _cell_segments(t)), default=0),
             max((cell_len(ln) for ln in lines), default=0))
 
 
