@@ -33,6 +33,11 @@ def default_cache_dir() -> Path:
     ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, ``~/.cache/berryshaker``), created private (mode
     0700; :func:`berryshaker.compiled_cache.private_folder`).
 
+    Returns
+    -------
+    Path
+        The run cache folder, absolute.
+
     Raises
     ------
     ConfigError
@@ -95,7 +100,18 @@ def _file_sha256(path: str) -> str:
 
 
 def function_name(fn: Callable) -> str:
-    """Dotted name ``module.qualname`` of a run function."""
+    """Dotted name ``module.qualname`` of a run function.
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+
+    Returns
+    -------
+    str
+        Its module and qualified name, ``?`` for what it lacks.
+    """
     return f"{getattr(fn, '__module__', '?')}.{getattr(fn, '__qualname__', repr(fn))}"
 
 
@@ -123,7 +139,20 @@ def run_key(fn: Callable, kwargs: dict) -> str:
 
     Arguments a run function names in its ``cache_key_ignores`` attribute (a tuple of names) are left out: they
     choose how the value is computed, not the value (the multibody kernel of ``runs.sweep.model_run``, bitwise
-    the same either way), so a run computed one way is found in the cache when asked for the other way."""
+    the same either way), so a run computed one way is found in the cache when asked for the other way.
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+    kwargs : dict
+        Its arguments (JSON-compatible).
+
+    Returns
+    -------
+    str
+        The key, 64 hex digits.
+    """
     ignored = getattr(fn, "cache_key_ignores", ())
     if ignored:
         kwargs = {k: v for k, v in kwargs.items() if k not in ignored}
@@ -133,7 +162,20 @@ def run_key(fn: Callable, kwargs: dict) -> str:
 
 
 def cache_entry_path(cache_dir: str | Path, key: str) -> Path:
-    """Where the cache entry of ``key`` lives: ``cache_dir/ab/abcdef....json``."""
+    """Where the cache entry of ``key`` lives: ``cache_dir/ab/abcdef....json``.
+
+    Parameters
+    ----------
+    cache_dir : str or Path
+        The cache folder.
+    key : str
+        A run's key (:func:`run_key`).
+
+    Returns
+    -------
+    Path
+        The entry's file (it may not exist).
+    """
     return Path(cache_dir) / key[:2] / f"{key}.json"
 
 
@@ -144,9 +186,22 @@ _ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwarg
 def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None) -> tuple[dict | None, str | None]:
     """Read and validate one cache entry.
 
-    Returns ``(entry, None)`` for a valid entry, ``(None, None)`` when there is none, and
-    ``(None, reason)`` when the file exists but must not be used (not JSON, wrong schema, wrong key or
-    code fingerprint, value checksum mismatch).
+    Parameters
+    ----------
+    path : str or Path
+        The entry's file (:func:`cache_entry_path`).
+    key : str
+        The key it must hold.
+    fingerprint : str, optional
+        The code fingerprint it must have been written by; None accepts any.
+
+    Returns
+    -------
+    entry : dict or None
+        The entry when valid.
+    problem : str or None
+        None when the entry is valid or there is none; else why the existing file must not be used (not JSON, wrong
+        schema, wrong key or code fingerprint, value checksum mismatch).
     """
     path = Path(path)
     try:
@@ -185,7 +240,30 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
 
 def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dict, value, wall_s: float,
                       fingerprint: str) -> Path:
-    """Write one cache entry atomically (temporary file and rename); return its path."""
+    """Write one cache entry atomically (temporary file and rename).
+
+    Parameters
+    ----------
+    cache_dir : str or Path
+        The cache folder.
+    key : str
+        The run's key (:func:`run_key`).
+    fn_name : str
+        The run function's dotted name (:func:`function_name`).
+    kwargs : dict
+        The run's arguments (stored as their hash).
+    value : object
+        The run's JSON-compatible value.
+    wall_s : float
+        Seconds of compute the run took (s).
+    fingerprint : str
+        The code fingerprint that computed it.
+
+    Returns
+    -------
+    Path
+        The entry's file.
+    """
     from berryshaker.outputs import write_text_atomic
 
     entry = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,

@@ -18,8 +18,23 @@ _DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
 def check_scheduler_address(address: str) -> str:
-    """Validate a Dask scheduler address without connecting (``tcp://host:port``, ``host:port``, ``tls://``,
-    ``inproc://...``); return it normalised or raise :class:`~berryshaker.errors.ConfigError`."""
+    """Validate a Dask scheduler address without connecting.
+
+    Parameters
+    ----------
+    address : str
+        ``tcp://host:port``, ``host:port``, ``tls://...``, ``inproc://...``.
+
+    Returns
+    -------
+    str
+        The address with its protocol (``tcp://`` when none is given).
+
+    Raises
+    ------
+    ConfigError
+        Empty, unreadable, an unknown protocol, or no host and port.
+    """
     from berryshaker.errors import ConfigError
 
     addr = (address or "").strip()
@@ -42,8 +57,25 @@ def check_scheduler_address(address: str) -> str:
 
 
 def connect(scheduler: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S):
-    """A :class:`distributed.Client` for the scheduler; a :class:`~berryshaker.errors.ConfigError` within
-    ``timeout_s`` when it cannot be reached (or none is given, or dask.distributed is not installed)."""
+    """A client of the Dask scheduler.
+
+    Parameters
+    ----------
+    scheduler : str or None
+        The scheduler's address (:func:`check_scheduler_address`).
+    timeout_s : float
+        Seconds to wait for it (s).
+
+    Returns
+    -------
+    distributed.Client
+        Connected.
+
+    Raises
+    ------
+    ConfigError
+        No scheduler given, dask.distributed not installed, or no scheduler answered within ``timeout_s``.
+    """
     from berryshaker.errors import ConfigError
 
     if scheduler is None:
@@ -70,7 +102,18 @@ def connect(scheduler: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S):
 
 
 def dask_cores(client) -> int:
-    """Threads across the cluster's workers (at least 1)."""
+    """Threads across the cluster's workers.
+
+    Parameters
+    ----------
+    client : distributed.Client
+        A connected client.
+
+    Returns
+    -------
+    int
+        At least 1 (1 when the scheduler does not say).
+    """
     try:
         return max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
     except Exception:  # noqa: BLE001 - a scheduler that does not say: assume one
@@ -78,14 +121,27 @@ def dask_cores(client) -> int:
 
 
 class DaskBackend:
-    """Runs a map's jobs on a Dask cluster; ``connect()`` returns a client (:func:`connect`), closed after the map."""
+    """Runs a map's jobs on a Dask cluster; the workers read the cache, the client stores each finished run.
+
+    Parameters
+    ----------
+    connect : callable
+        Returns a connected client (:func:`connect`); it is closed after the map.
+    """
 
     def __init__(self, connect: Callable):
         self._connect = connect
 
     def run(self, ctx: dict, finish: Callable) -> None:
-        """Run every job of the map (``ctx``, see :mod:`berryshaker.runs.jobs`) on the cluster, calling
-        ``finish(outcome)`` for each as it completes; Ctrl-C or an error cancels the tasks sent."""
+        """Run every job of the map on the cluster; Ctrl-C or an error cancels the tasks sent.
+
+        Parameters
+        ----------
+        ctx : dict
+            The map's state (see :mod:`berryshaker.runs.jobs`).
+        finish : callable
+            Called with each outcome as its task completes.
+        """
         from distributed import as_completed
 
         client = self._connect()

@@ -34,7 +34,23 @@ CHUNKS_PER_WORKER = 4
 @dataclass
 class RunResult:
     """One run of a sweep: its position, cache key, value or error, whether it came from the cache, and the
-    seconds of compute it took (for a cached run: when it was computed)."""
+    seconds of compute it took (for a cached run: when it was computed).
+
+    Attributes
+    ----------
+    index : int
+        Its position in the map's input.
+    key : str
+        Its cache key (:func:`berryshaker.runs.cache.run_key`).
+    value : object
+        What the run function returned (JSON-compatible); None for a failed run.
+    error : str or None
+        ``"ExceptionType: message"`` of a failed run, else None.
+    cached : bool
+        Served by the cache.
+    wall_s : float
+        Seconds of compute it took (s).
+    """
 
     index: int
     key: str
@@ -45,8 +61,22 @@ class RunResult:
 
 
 def execute_job(fn: Callable, kwargs: dict) -> dict:
-    """Run one job and wrap the outcome ``{"value", "error", "wall_s"}``; module-level so processes and
-    Dask workers can import it.  A value that is not JSON-compatible is an error of the run."""
+    """Run one job and wrap the outcome; module-level so processes and Dask workers can import it.  A value
+    that is not JSON-compatible is an error of the run.
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+    kwargs : dict
+        Its arguments.
+
+    Returns
+    -------
+    dict
+        ``{"value", "error", "wall_s"}``: the JSON-compatible value (None on error), ``"ExceptionType: message"`` or
+        None, and the seconds it took (s).
+    """
     t0 = time.perf_counter()
     try:
         raw = fn(**kwargs)
@@ -59,7 +89,20 @@ def execute_job(fn: Callable, kwargs: dict) -> dict:
 
 
 def failed_outcome(key: str, error: str) -> dict:
-    """The outcome of a run that did not finish (its worker or task was lost): ``error`` and no value."""
+    """The outcome of a run that did not finish (its worker or task was lost): ``error`` and no value.
+
+    Parameters
+    ----------
+    key : str
+        The run's key.
+    error : str
+        Why it did not finish.
+
+    Returns
+    -------
+    dict
+        An outcome as :func:`run_jobs` gives them.
+    """
     return {"key": key, "value": None, "error": error, "wall_s": 0.0, "cached": False, "stored": False}
 
 
@@ -71,7 +114,13 @@ BATCH_SIZE = 16
 
 def batch_threads() -> int:
     """Threads of a batched compiled call: ``BERRYSHAKER_BATCH_THREADS`` (default 1: the local pool's worker
-    processes, or Dask's worker threads, already use every core)."""
+    processes, or Dask's worker threads, already use every core).
+
+    Returns
+    -------
+    int
+        At least 1 (a value that is not an integer counts as 1).
+    """
     try:
         return max(1, int(os.environ.get("BERRYSHAKER_BATCH_THREADS", "1")))
     except ValueError:
@@ -80,8 +129,21 @@ def batch_threads() -> int:
 
 def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
     """Run jobs through ``fn.batch`` (one call for all; it returns per job a value or the exception the job
-    raised) and wrap each outcome like :func:`execute_job`; the call's wall time is shared out equally.  If
-    the batched call itself fails, the jobs are run one by one."""
+    raised) and wrap each outcome like :func:`execute_job`; the call's wall time is shared out equally.  If the
+    batched call itself fails, the jobs are run one by one.
+
+    Parameters
+    ----------
+    fn : callable
+        A run function with a batched twin (:func:`batchable`).
+    kwargs_list : list of dict
+        The jobs' arguments.
+
+    Returns
+    -------
+    list of dict
+        One outcome per job, as :func:`execute_job`'s.
+    """
     import numba
 
     numba.set_num_threads(min(batch_threads(), numba.config.NUMBA_NUM_THREADS))
@@ -108,25 +170,69 @@ def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
 
 
 def chunk_size(fn: Callable, n: int, workers: int) -> int:
-    """Runs per chunk of a local sweep of ``n`` runs: about :data:`CHUNKS_PER_WORKER` chunks per worker, at most
-    :data:`BATCH_SIZE` for a batchable run function."""
+    """Runs per chunk of a local sweep: about :data:`CHUNKS_PER_WORKER` chunks per worker, at most
+    :data:`BATCH_SIZE` for a batchable run function.
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+    n : int
+        Runs to send.
+    workers : int
+        Workers sharing them.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
     size = max(1, math.ceil(n / (CHUNKS_PER_WORKER * max(1, workers))))
     return min(size, BATCH_SIZE) if batchable(fn) else size
 
 
 def batchable(fn: Callable) -> bool:
-    """True when ``fn`` has a batched twin ``fn.batch(kwargs_list) -> list`` (e.g.
-    :func:`berryshaker.runs.sweep.model_run`, :func:`berryshaker.study.runs.multibody_row`)."""
+    """Whether ``fn`` has a batched twin ``fn.batch(kwargs_list) -> list`` (e.g.
+    :func:`berryshaker.runs.sweep.model_run`, :func:`berryshaker.study.runs.multibody_row`).
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+
+    Returns
+    -------
+    bool
+        True when ``fn.batch`` is callable.
+    """
     return callable(getattr(fn, "batch", None))
 
 
 def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, fingerprint: str,
              store: bool) -> list[dict]:
-    """Run a chunk of jobs ``(key, kwargs)``; module-level so pool and Dask workers can import it.
+    """Run a chunk of jobs; module-level so pool and Dask workers can import it.
 
-    Right before each job the cache is read again (another sweep sharing the cache may have finished it);
-    a computed run is stored at once when ``store`` (local workers share the parent's disk).  Returns one
-    outcome per job: key, value, error, wall_s, cached, stored, problem (why an existing entry was unusable).
+    Right before each job the cache is read again (another sweep sharing the cache may have finished it); a computed
+    run is stored at once when ``store`` (local workers share the parent's disk).
+
+    Parameters
+    ----------
+    fn : callable
+        The run function.
+    jobs : list of (str, dict)
+        ``(key, kwargs)`` of each run.
+    cache_dir : str or None
+        The cache folder; None: no cache.
+    fingerprint : str
+        The code fingerprint of the keys.
+    store : bool
+        Write each computed run's cache entry here.
+
+    Returns
+    -------
+    list of dict
+        One outcome per job: key, value, error, wall_s (s), cached, stored, problem (why an existing entry was
+        unusable), and store_error when the entry could not be written.
     """
     batched: dict[str, dict] = {}
     if batchable(fn) and len(jobs) > 1:
@@ -169,7 +275,15 @@ class InProcess:
     (one compiled call each), else one by one."""
 
     def run(self, ctx: dict, finish: Callable) -> None:
-        """Run every job of the map (``ctx``, see the module docstring) here, calling ``finish(outcome)`` for each."""
+        """Run every job of the map here.
+
+        Parameters
+        ----------
+        ctx : dict
+            The map's state (see the module docstring).
+        finish : callable
+            Called with each outcome.
+        """
         keys = list(ctx["jobs"])
         size = BATCH_SIZE if batchable(ctx["fn"]) else 1
         for k0 in range(0, len(keys), size):

@@ -50,7 +50,13 @@ _USE_PDEATHSIG = True
 
 def usable_cores() -> int:
     """The CPU cores this process may run on (its affinity mask where the OS has one, e.g. a container pinned to
-    some of the host's cores; else every core): the default number of local workers."""
+    some of the host's cores; else every core): the default number of local workers.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
     try:
         return len(os.sched_getaffinity(0)) or 1
     except (AttributeError, OSError):
@@ -97,7 +103,12 @@ def one_blas_thread() -> dict[str, int]:
     The unset variables are set first (they stay set for any subprocess a job starts), so a library loaded later in
     the worker starts with one thread; scipy's own OpenBLAS is loaded here (``scipy.linalg``) and the loaded
     libraries are then limited at run time (threadpoolctl), numpy's included, which the fork server may have loaded
-    before the variables were set.  Returns the thread counts before the limit (for tests and diagnostics).
+    before the variables were set.
+
+    Returns
+    -------
+    dict
+        ``{"<api> <library path>": threads}`` before the limit (for tests and diagnostics).
     """
     user = {v for v in BLAS_THREAD_VARIABLES if v in os.environ}
     for v in BLAS_THREAD_VARIABLES:
@@ -178,10 +189,17 @@ def _abort_pool(pool: ProcessPoolExecutor) -> None:
 
 
 class LocalPool:
-    """The local backend: ``workers`` processes started with ``start_method``, kept across maps, and the runs
-    started ahead of the maps that need them.  ``say`` prints a one-line message (a worker that died).
+    """The local backend: worker processes kept across maps, and the runs started ahead of the maps that need
+    them.  A worker calls the ``prime`` given to :meth:`start_workers` once it has started.
 
-    A worker calls ``prime()`` once it has started when one was given (:meth:`start_workers`).
+    Parameters
+    ----------
+    workers : int
+        Worker processes.
+    start_method : str
+        ``forkserver``, ``spawn`` or ``fork``.
+    say : callable
+        Prints a one-line message (a worker that died).
     """
 
     def __init__(self, workers: int, start_method: str, say: Callable[[str], None]):
@@ -202,8 +220,16 @@ class LocalPool:
 
     # ---- the pool ------------------------------------------------------------------------------------
     def pool(self):
-        """The process pool and its progress queue, started on first use and kept for later maps (workers keep
-        their imports and compiled kernels); ended by :meth:`close`, on garbage collection or at exit."""
+        """The process pool, started on first use and kept for later maps (workers keep their imports and compiled
+        kernels); ended by :meth:`close`, on garbage collection or at exit.
+
+        Returns
+        -------
+        pool : ProcessPoolExecutor
+            The running pool.
+        progress : multiprocessing.Queue
+            Where its workers report each finished run.
+        """
         with self._lock:
             return self._pool_locked()
 
@@ -227,7 +253,13 @@ class LocalPool:
         self._close_pool_only()
 
     def abort(self, close_queue: bool = True) -> None:
-        """End the workers now: queued runs are dropped, running ones cancelled (finished runs stay in the cache)."""
+        """End the workers now: queued runs are dropped, running ones cancelled (finished runs stay in the cache).
+
+        Parameters
+        ----------
+        close_queue : bool
+            Close the progress queue too (False while a map still drains it).
+        """
         self._forget_ahead()
         pool, progress = self._executor, self._progress_queue
         self._executor = self._progress_queue = None
@@ -248,7 +280,26 @@ class LocalPool:
     def prefetch(self, fn: Callable, kwargs_list: list[dict], cache: str | None, fp: str,
                  chunks: int | None = None) -> int:
         """Queue the runs of ``fn`` not in the cache, queued or started yet (see
-        :meth:`berryshaker.runs.runner.SweepRunner.prefetch`); returns how many."""
+        :meth:`berryshaker.runs.runner.SweepRunner.prefetch`).
+
+        Parameters
+        ----------
+        fn : callable
+            The run function.
+        kwargs_list : list of dict
+            The runs' arguments.
+        cache : str or None
+            The cache folder; None: no cache.
+        fp : str
+            The code fingerprint.
+        chunks : int, optional
+            Send them in this many chunks.
+
+        Returns
+        -------
+        int
+            The number of runs queued.
+        """
         jobs: dict[str, dict] = {}
         with self._lock:
             known = self.ahead_keys()
@@ -274,8 +325,20 @@ class LocalPool:
         return len(keys)
 
     def warm_up(self, fn: Callable, kwargs: dict | None = None) -> Future | None:
-        """Call ``fn(**kwargs)`` in a worker now, taking it like a chunk started ahead; its future, or None when
-        the pool cannot take work."""
+        """Call ``fn(**kwargs)`` in a worker now, taking it like a chunk started ahead.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level function.
+        kwargs : dict, optional
+            Its arguments.
+
+        Returns
+        -------
+        Future or None
+            The call's future, or None when the pool cannot take work.
+        """
         with self._lock:
             try:
                 pool, _ = self._pool_locked()
@@ -286,8 +349,18 @@ class LocalPool:
         return fut
 
     def start_workers(self, prime: Callable | None = None) -> int:
-        """Start every worker now, each calling ``prime()`` once started; returns the workers started (0 when the
-        pool runs already or cannot start)."""
+        """Start every worker now, each calling ``prime()`` once started.
+
+        Parameters
+        ----------
+        prime : callable, optional
+            A module-level function of no arguments.
+
+        Returns
+        -------
+        int
+            The workers started: 0 when the pool runs already or cannot start.
+        """
         if self._executor is not None:
             return 0
         with self._lock:
@@ -311,12 +384,24 @@ class LocalPool:
                     del self._ahead[k]
 
     def ahead_keys(self) -> set[str]:
-        """Keys of the runs started or queued ahead."""
+        """Keys of the runs started or queued ahead.
+
+        Returns
+        -------
+        set of str
+            Their keys.
+        """
         with self._lock:
             return set(self._ahead).union(k for c in self._queued for k, _ in c.jobs)
 
     def taken(self, key: str) -> None:
-        """A map recorded the run ``key``: it is not started ahead any more."""
+        """A map recorded a run: it is not started ahead any more.
+
+        Parameters
+        ----------
+        key : str
+            The run's key.
+        """
         with self._lock:
             self._ahead.pop(key, None)
             self._reported.discard(key)
@@ -358,9 +443,7 @@ class LocalPool:
 
     # ---- running a map -----------------------------------------------------------------------------------
     def run(self, ctx: dict, finish: Callable) -> None:
-        """Run every job of the map (``ctx``, see :mod:`berryshaker.runs.jobs`) in the pool, calling
-        ``finish(outcome, advance)`` for each (``advance``: move the progress bar); the runs a dying worker took down
-        run again.
+        """Run every job of the map in the pool; the runs a dying worker took down run again.
 
         A worker process that dies (a segfault, an out-of-memory kill) breaks the whole pool, and every run in
         flight in it fails with it, not only the one that killed it.  Those runs (not already in the cache) run
@@ -368,7 +451,15 @@ class LocalPool:
         (runs started ahead for later maps keep the shared pool busy meanwhile, and one of them dying must not be
         blamed on the lone run), so that only a run that kills its worker on its own is recorded as failed
         (:data:`WORKER_DEATH`, with the pool's error).  After three such deaths in a row with nothing finishing,
-        the workers die whatever they run (an environment that cannot start them): the rest fail at once."""
+        the workers die whatever they run (an environment that cannot start them): the rest fail at once.
+
+        Parameters
+        ----------
+        ctx : dict
+            The map's state (see :mod:`berryshaker.runs.jobs`).
+        finish : callable
+            Called as ``finish(outcome, advance)`` for each run (``advance``: move the progress bar).
+        """
         lost = self._run_local(ctx, finish)
         for attempt in (1, 2):
             if not lost:

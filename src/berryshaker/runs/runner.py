@@ -72,6 +72,11 @@ def _say_through(ref: weakref.ref) -> Callable[[str], None]:
 class SweepRunner:
     """Runs ``fn(**kwargs)`` for many argument sets with caching, parallelism and a progress bar.
 
+    ``stats`` counts runs, cached, computed, failed, ``compute_s`` (compute seconds spent now),
+    ``cached_compute_s`` (the stored compute seconds of runs served by the cache) and ``cold_compute_s``
+    (their sum: what the runs cost from a cold cache), ``elapsed_s`` (wall time inside :meth:`map`).
+    ``warnings`` lists the one-line warnings printed (invalid cache entries...).
+
     Parameters
     ----------
     workers : int, optional
@@ -84,13 +89,10 @@ class SweepRunner:
         Read and write the cache.
     progress : bool
         Show a progress bar (rich) on ``console`` or stderr.
+    console : rich.console.Console, optional
+        Where the progress bar and messages go (default stderr).
     start_method : str, optional
         ``forkserver``, ``spawn`` or ``fork`` (default :data:`DEFAULT_START_METHOD`).
-
-    ``stats`` counts runs, cached, computed, failed, ``compute_s`` (compute seconds spent now),
-    ``cached_compute_s`` (the stored compute seconds of runs served by the cache) and ``cold_compute_s``
-    (their sum: what the runs cost from a cold cache), ``elapsed_s`` (wall time inside :meth:`map`).
-    ``warnings`` lists the one-line warnings printed (invalid cache entries...).
     """
 
     def __init__(self, workers: int | None = None, scheduler: str | None = None, cache_dir: Path | str | None = None,
@@ -142,7 +144,13 @@ class SweepRunner:
             self._warn(f"cache entry {cache_entry_path(self.cache_dir, key)} is invalid ({problem}); recomputing it")
 
     def summary_line(self) -> str:
-        """One line for a report: runs, cached, failed, compute now and cold cost."""
+        """One line for a report: runs, cached, failed, compute now and cold cost.
+
+        Returns
+        -------
+        str
+            E.g. ``"40 runs (12 from the cache, 0 failed): 8.1 s now; cold cost 30.2 s of compute"``.
+        """
         s = self.stats
         return (f"{s['runs']} runs ({s['cached']} from the cache, {s['failed']} failed): "
                 f"{s['elapsed_s']:.1f} s now; cold cost {s['cold_compute_s']:.1f} s of compute")
@@ -150,8 +158,18 @@ class SweepRunner:
 
     # ---- dask ----------------------------------------------------------------------------------------
     def connect(self):
-        """A :class:`distributed.Client` for the scheduler; a :class:`~berryshaker.errors.ConfigError` within
-        ``scheduler_timeout_s`` when it cannot be reached (:func:`berryshaker.runs.dask_backend.connect`)."""
+        """A client of the Dask scheduler (:func:`berryshaker.runs.dask_backend.connect`).
+
+        Returns
+        -------
+        distributed.Client
+            Connected within ``scheduler_timeout_s``.
+
+        Raises
+        ------
+        ConfigError
+            No scheduler given or none answered.
+        """
         return dask_backend.connect(self.scheduler, self.scheduler_timeout_s)
 
     def check_scheduler(self) -> None:
@@ -165,6 +183,20 @@ class SweepRunner:
 
         Ctrl-C stops within about a second: pending runs are cancelled, the workers terminated, runs that
         finished stay in the cache, a one-line message says so, and ``KeyboardInterrupt`` is raised again.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level run function returning a JSON-compatible value.
+        kwargs_list : list of dict
+            The runs' arguments (JSON-compatible).
+        label : str
+            Label of the progress bar.
+
+        Returns
+        -------
+        list of RunResult
+            One per input, in input order.
         """
         t_start = time.perf_counter()
         kwargs_list = list(kwargs_list)
@@ -217,7 +249,27 @@ class SweepRunner:
         return results  # type: ignore[return-value]
 
     def values(self, fn: Callable, kwargs_list: list[dict], label: str = "runs") -> list:
-        """Like map, but raise on the first failed run (for steps that cannot do without every run)."""
+        """Like :meth:`map`, but raise on the first failed run (for steps that cannot do without every run).
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level run function.
+        kwargs_list : list of dict
+            The runs' arguments.
+        label : str
+            Label of the progress bar and of the error.
+
+        Returns
+        -------
+        list
+            The runs' values, in input order.
+
+        Raises
+        ------
+        SimulationError
+            A run failed; the message names it and its error.
+        """
         from berryshaker.errors import SimulationError
 
         out = self.map(fn, kwargs_list, label)
@@ -277,8 +329,14 @@ class SweepRunner:
 
     def abort(self, close_queue: bool = True) -> None:
         """End the local workers now: queued runs are dropped, running ones cancelled (finished runs stay in the
-        cache).  For Ctrl-C or an error while runs started ahead (:meth:`prefetch`) may still be running; a
-        later :meth:`map` starts new workers."""
+        cache).  For Ctrl-C or an error while runs started ahead (:meth:`prefetch`) may still be running; a later
+        :meth:`map` starts new workers.
+
+        Parameters
+        ----------
+        close_queue : bool
+            Close the workers' progress queue too.
+        """
         self._local.abort(close_queue)
 
     def prefetch(self, fn: Callable, kwargs_list: list[dict], chunks: int | None = None) -> int:
@@ -310,8 +368,21 @@ class SweepRunner:
                                     code_fingerprint(), chunks)
 
     def all_cached(self, fn: Callable, kwargs_list: list[dict]) -> bool:
-        """True when every run of ``fn`` with these arguments is in the cache (for this code): a :meth:`map` of
-        them would start no worker."""
+        """Whether every run of ``fn`` with these arguments is in the cache (for this code): a :meth:`map` of them
+        would start no worker.
+
+        Parameters
+        ----------
+        fn : callable
+            The run function.
+        kwargs_list : list of dict
+            The runs' arguments.
+
+        Returns
+        -------
+        bool
+            True when all are cached (or there are none); False without a cache.
+        """
         if not self.use_cache:
             return not kwargs_list
         fp = code_fingerprint()
@@ -327,8 +398,20 @@ class SweepRunner:
         on-disk cache while this process compiles others); nothing is cached or counted.
 
         It takes a worker like a chunk of runs started ahead (:meth:`prefetch`), so queued runs wait for another
-        worker.  Returns the call's future (its exception, if any, is the caller's to look at), or None with one
-        worker or a Dask scheduler (nothing to run beside this process).
+        worker.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level function.
+        kwargs : dict, optional
+            Its arguments.
+
+        Returns
+        -------
+        Future or None
+            The call's future (its exception, if any, is the caller's to look at), or None with one worker or a Dask
+            scheduler (nothing to run beside this process).
         """
         if self.scheduler or self.workers <= 1:
             return None
@@ -337,11 +420,21 @@ class SweepRunner:
     def start_workers(self, prime: Callable | None = None) -> int:
         """Start every local worker process now (they are otherwise started with the first runs that need them),
         each calling ``prime()`` once it has started, e.g. to import the modules its runs will need while this
-        process is still busy on its own.  Workers started later (a pool started again after a crash) call it
-        too.  Returns the workers started: 0 with one worker (its runs run in this process), a Dask scheduler or
-        a pool running already.
+        process is still busy on its own.  Workers started later (a pool started again after a crash) call it too.
 
-        A start-up optimisation only: a prime that fails is ignored (the runs meet the same error themselves)."""
+        A start-up optimisation only: a prime that fails is ignored (the runs meet the same error themselves).
+
+        Parameters
+        ----------
+        prime : callable, optional
+            A module-level function of no arguments.
+
+        Returns
+        -------
+        int
+            The workers started: 0 with one worker (its runs run in this process), a Dask scheduler or a pool running
+            already.
+        """
         if self.scheduler or self.workers <= 1 or self._executor is not None:
             return 0
         return self._local.start_workers(prime)

@@ -8,7 +8,22 @@ _TWO_PI = 2.0 * math.pi
 
 
 def format_quantity(value_si: float, unit: str, digits: int = 6) -> str:
-    """Format an SI value in an engineering unit, e.g. ``format_quantity(0.00025, "mm") -> "0.25 mm"``."""
+    """Format an SI value in an engineering unit, e.g. ``format_quantity(0.00025, "mm") -> "0.25 mm"``.
+
+    Parameters
+    ----------
+    value_si : float
+        The value (SI units of the unit's dimension).
+    unit : str
+        A key of :data:`ENGINEERING_FACTORS`.
+    digits : int
+        Significant digits.
+
+    Returns
+    -------
+    str
+        ``"<number> <unit>"``.
+    """
     factor = ENGINEERING_FACTORS[unit]
     return f"{value_si / factor:.{digits}g} {unit}"
 
@@ -65,5 +80,16 @@ ENGINEERING_FACTORS: dict[str, float] = {
 
 
 def format_tolerance(rtol: float) -> str:
-    """A relative tolerance as people write it: ``1e-5``, not ``1e-05``."""
+    """A relative tolerance as people write it: ``1e-5``, not ``1e-05``.
+
+    Parameters
+    ----------
+    rtol : float
+        The tolerance (1).
+
+    Returns
+    -------
+    str
+        One significant digit in exponent form.
+    """
     return f"{rtol:.0e}".replace("e-0", "e-").replace("e+0", "e+")

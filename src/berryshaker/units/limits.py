@@ -71,6 +71,22 @@ def check_limits(value_si: float, dimension: str, field: str = "value", lower: b
     ``lower=False`` checks only the upper limit (values computed inside the package, where a torque table
     may pass within 1e-12 N m of zero; what a user types is checked both ways).
 
+    Parameters
+    ----------
+    value_si : float
+        The value (SI units of ``dimension``).
+    dimension : str
+        One of :data:`~berryshaker.units.DIMENSIONS`.
+    field : str
+        Name used at the start of the error message.
+    lower : bool
+        Check the lower limit too.
+
+    Returns
+    -------
+    float
+        ``value_si`` (SI units of ``dimension``).
+
     Raises
     ------
     ConfigError
@@ -98,16 +114,41 @@ def check_limits(value_si: float, dimension: str, field: str = "value", lower: b
 
 
 def plausible_range(dimension: str) -> tuple[float, float]:
-    """(lo, hi) SI magnitudes plausible for ``dimension`` in a harvester drive (see :data:`PLAUSIBLE`)."""
+    """The SI magnitudes plausible for ``dimension`` in a harvester drive (see :data:`PLAUSIBLE`).
+
+    Parameters
+    ----------
+    dimension : str
+        One of :data:`~berryshaker.units.DIMENSIONS`.
+
+    Returns
+    -------
+    tuple of float
+        (lo, hi), SI units of ``dimension``.
+    """
     _check_dimension(dimension)
     return PLAUSIBLE[dimension]
 
 
 def plausibility_warning(value_si: float, dimension: str, field: str = "value") -> str | None:
-    """A warning when ``|value_si|`` lies outside :func:`plausible_range` (zero is never flagged), else None.
+    """A warning when ``|value_si|`` lies outside :func:`plausible_range` (zero is never flagged).
 
     The message names the field, the value and the range in engineering units, and hints at the likely slip
     (a wrong unit, or a factor of 1000 from a missing/extra prefix).
+
+    Parameters
+    ----------
+    value_si : float
+        The value (SI units of ``dimension``).
+    dimension : str
+        One of :data:`~berryshaker.units.DIMENSIONS`.
+    field : str
+        Name used at the start of the message.
+
+    Returns
+    -------
+    str or None
+        The warning, or None for a plausible value.
     """
     lo, hi = plausible_range(dimension)
     v = abs(float(value_si))

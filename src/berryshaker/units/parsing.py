@@ -285,6 +285,22 @@ def bare_number_message(value: float, dimension: str, key: str, unit: str | None
     The example keeps the number and takes ``unit`` (default: the dimension's display unit,
     :data:`DISPLAY_UNITS`); the SI reading that berryshaker 0.x made of it is shown beside, so an old file's
     author sees both readings.
+
+    Parameters
+    ----------
+    value : float
+        The bare number as written (1: no unit).
+    dimension : str
+        One of :data:`DIMENSIONS`.
+    key : str
+        The field's name in the file (``speed``).
+    unit : str, optional
+        The unit of the example (default: the dimension's display unit).
+
+    Returns
+    -------
+    str
+        The message (without the field's prefix).
     """
     unit = unit or DISPLAY_UNITS[dimension]
     si = DIMENSIONS[dimension][1]
@@ -381,6 +397,20 @@ def parse_unit(unit: str, dimension: str, field: str = "unit") -> float:
     """SI value of one ``unit`` of ``dimension`` (``parse_unit("mm", "length") -> 0.001``), same rules as
     :func:`parse_quantity`; ``""`` is allowed only for ``dimensionless`` (-> 1.0).
 
+    Parameters
+    ----------
+    unit : str
+        A unit of the strict grammar.
+    dimension : str
+        One of :data:`DIMENSIONS`.
+    field : str
+        Name used at the start of error messages.
+
+    Returns
+    -------
+    float
+        The SI value of one ``unit`` (SI units of ``dimension``).
+
     Raises
     ------
     ConfigError
@@ -395,10 +425,21 @@ def parse_unit(unit: str, dimension: str, field: str = "unit") -> float:
 
 
 def unit_dimension(unit: str) -> str | None:
-    """The dimension (a key of :data:`DIMENSIONS`) of a unit written by a user, or None when the text is not
-    one unit of the strict grammar (no expression evaluation, at most :data:`MAX_QUANTITY_CHARS` characters)
-    or measures nothing berryshaker knows.  ``"mm"`` -> ``"length"``, ``"rpm"`` -> ``"angular_speed"``,
-    ``"%"`` -> ``"dimensionless"``; ``"9**9**9"``, ``"kW*1000"`` -> None.
+    """The dimension of a unit written by a user.
+
+    ``"mm"`` -> ``"length"``, ``"rpm"`` -> ``"angular_speed"``, ``"%"`` -> ``"dimensionless"``; ``"9**9**9"``,
+    ``"kW*1000"`` -> None.
+
+    Parameters
+    ----------
+    unit : str
+        The unit's text.
+
+    Returns
+    -------
+    str or None
+        A key of :data:`DIMENSIONS`, or None when the text is not one unit of the strict grammar (no expression
+        evaluation, at most :data:`MAX_QUANTITY_CHARS` characters) or measures nothing berryshaker knows.
     """
     if not isinstance(unit, str) or not unit.strip() or len(unit) > MAX_QUANTITY_CHARS:
         return None
@@ -413,6 +454,20 @@ def unit_dimension(unit: str) -> str | None:
 
 def unit_factor(unit: str, target: str, field: str = "unit") -> float:
     """How many ``target`` one ``unit`` is (``unit_factor("cm", "mm") -> 10``), by the strict grammar.
+
+    Parameters
+    ----------
+    unit : str
+        The unit given.
+    target : str
+        The unit wanted.
+    field : str
+        Name used at the start of error messages.
+
+    Returns
+    -------
+    float
+        The factor (1): a value in ``unit`` times it is the value in ``target``.
 
     Raises
     ------

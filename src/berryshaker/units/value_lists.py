@@ -42,7 +42,13 @@ class ValueSpec:
     dimension: str
 
     def in_unit(self) -> tuple[float, ...]:
-        """The values in the display unit (e.g. mm, rpm)."""
+        """The values in the display unit (e.g. mm, rpm).
+
+        Returns
+        -------
+        tuple of float
+            ``values[i] / unit_si``: in the units of ``unit``, the display unit.
+        """
         return tuple(v / self.unit_si for v in self.values)
 
 
@@ -66,6 +72,7 @@ def parse_value_list(text: str, dimension: str, field: str = "value") -> ValueSp
     Returns
     -------
     ValueSpec
+        The kind of list, its SI values, the display unit and the dimension.
 
     Raises
     ------
