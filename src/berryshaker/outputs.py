@@ -55,7 +55,15 @@ def _absolute(path: str | Path) -> Path:
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write ``text`` to ``path`` via a temporary file in the same folder and an atomic rename."""
+    """Write ``text`` to ``path`` via a temporary file in the same folder and an atomic rename.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (its folder is created).
+    text : str
+        The content (UTF-8).
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
@@ -71,7 +79,15 @@ def write_text_atomic(path: str | Path, text: str) -> None:
 
 
 def write_json_atomic(path: str | Path, obj) -> None:
-    """Write ``obj`` as indented JSON to ``path`` atomically (see :func:`write_text_atomic`)."""
+    """Write ``obj`` as indented JSON to ``path`` atomically (see :func:`write_text_atomic`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    obj : Any
+        A JSON-serialisable object.
+    """
     write_text_atomic(path, json.dumps(obj, indent=2, sort_keys=False) + "\n")
 
 
@@ -124,7 +140,18 @@ def _safe_relpaths(names: Iterable) -> set[str]:
 
 def read_output_marker(folder: str | Path) -> dict | None:
     """The marker of a previous berryshaker output in ``folder`` (kind, version, written, files, outputs), or
-    ``None`` when there is none or it is not a valid berryshaker marker."""
+    ``None`` when there is none or it is not a valid berryshaker marker.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The output folder.
+
+    Returns
+    -------
+    dict or None
+        The marker.
+    """
     p = Path(folder) / MARKER_NAME
     try:
         if p.is_symlink() or not p.is_file():
@@ -146,6 +173,16 @@ def marker_owners(marker: dict | None) -> dict[str, dict[str, str | None]]:
     (``kind`` and ``files`` only) gives its files without digests (``None``): such a file is replaced or
     removed only by the same kind of output and only when it was not modified after the marker was written.
     Entries that are not plain relative paths inside the folder are dropped.
+
+    Parameters
+    ----------
+    marker : dict or None
+        A marker (:func:`read_output_marker`).
+
+    Returns
+    -------
+    dict
+        Command -> {relative path: sha256 or None}.
     """
     if not marker:
         return {}
@@ -167,7 +204,18 @@ def marker_owners(marker: dict | None) -> dict[str, dict[str, str | None]]:
 
 def file_sha256(path: str | Path) -> str | None:
     """sha256 (hex) of the regular file ``path``, or ``None`` if it is not one (a symlink, FIFO, device, folder
-    or nothing); never follows a symlink and never blocks on a FIFO."""
+    or nothing); never follows a symlink and never blocks on a FIFO.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    str or None
+        The digest.
+    """
     flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
         fd = os.open(path, flags)
@@ -264,6 +312,11 @@ def prepare_output_dir(path: str | Path, kind: str = "study") -> Path:
     kind : str
         The command and flag that write there (``"study"``, ``"kinematics --plot"``...): the marker records it,
         and messages name it.
+
+    Returns
+    -------
+    Path
+        The folder as an absolute path.
     """
     from berryshaker.errors import OutputError
 
@@ -306,6 +359,20 @@ def check_output_file(path: str | Path, allowed_suffixes: Iterable[str] | None =
     Refused with :class:`berryshaker.errors.OutputError`: a folder, a suffix not in ``allowed_suffixes``
     (case-insensitive, e.g. ``[".csv", ".parquet"]``), an existing file unless ``overwrite`` (the CLI's
     ``--force``), anything that is not a regular file, a parent folder that cannot be created.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    allowed_suffixes : iterable of str, optional
+        The suffixes accepted (default any).
+    overwrite : bool
+        An existing file may be replaced.
+
+    Returns
+    -------
+    Path
+        The file as an absolute path.
     """
     from berryshaker.errors import OutputError
 
@@ -345,7 +412,22 @@ _STAMP_RE = re.compile(r"<!-- berryshaker ([a-z -]+): sha256=([0-9a-f]{64})((?: 
 def stamp_html(html: str, kind: str, companions: dict[str, str]) -> str:
     """``html`` with a last line (an HTML comment) recording the command that wrote it, the sha256 of the page above
     that line and the sha256 of the files written with it (``companions``: key -> sha256), so that a later
-    ``--force`` can tell its own unchanged outputs from files the user made or changed (:func:`check_forced_pair`)."""
+    ``--force`` can tell its own unchanged outputs from files the user made or changed (:func:`check_forced_pair`).
+
+    Parameters
+    ----------
+    html : str
+        The page.
+    kind : str
+        The command that writes it.
+    companions : dict
+        Key -> sha256 of the files written with it.
+
+    Returns
+    -------
+    str
+        The stamped page.
+    """
     body = html if html.endswith("\n") else html + "\n"
     own = hashlib.sha256(body.encode("utf-8")).hexdigest()
     extra = "".join(f" {k}={d}" for k, d in sorted(companions.items()))
@@ -354,7 +436,20 @@ def stamp_html(html: str, kind: str, companions: dict[str, str]) -> str:
 
 def read_html_stamp(path: str | Path, kind: str) -> dict[str, str] | None:
     """The companions' sha256 recorded by :func:`stamp_html` in the regular file ``path`` written by ``kind``, when
-    the page is unchanged since; else ``None`` (absent, not a regular file, another writer, or edited)."""
+    the page is unchanged since; else ``None`` (absent, not a regular file, another writer, or edited).
+
+    Parameters
+    ----------
+    path : str or Path
+        The page.
+    kind : str
+        The command expected to have written it.
+
+    Returns
+    -------
+    dict or None
+        Key -> sha256 of its companions.
+    """
     if file_sha256(path) is None:
         return None
     try:
@@ -376,7 +471,17 @@ def check_forced_pair(named: Path, csv_path: Path, html_path: Path, kind: str) -
     """``--force`` of a command that writes a CSV and a stamped HTML beside it (``doe plan``): the file the user
     named may be replaced, the other one only if it is this command's own earlier output, unchanged (by sha256,
     :func:`read_html_stamp`).  Raises :class:`~berryshaker.errors.OutputError` naming the file otherwise (a filled
-    field sheet is never replaced because its printable copy was named)."""
+    field sheet is never replaced because its printable copy was named).
+
+    Parameters
+    ----------
+    named : Path
+        The file the user named with ``--out``.
+    csv_path, html_path : Path
+        The pair of files the command writes.
+    kind : str
+        The command.
+    """
     from berryshaker.errors import OutputError
 
     named_csv = _absolute(named).suffix.lower() not in (".html", ".htm")
@@ -398,7 +503,18 @@ def _host_tag() -> str:
 
 def pid_alive(pid: int) -> bool:
     """True while process ``pid`` exists and is not a zombie (a killed process its parent has not reaped yet);
-    used for stale staging folders here and for the sweep runner's parent watch."""
+    used for stale staging folders here and for the sweep runner's parent watch.
+
+    Parameters
+    ----------
+    pid : int
+        The process id.
+
+    Returns
+    -------
+    bool
+        Whether it runs.
+    """
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -418,6 +534,18 @@ def clean_stale_staging(parent: str | Path, max_age_hours: float = STALE_STAGING
     Only hidden folders named by :func:`staged_directory` (``.<name>.berryshaker-staging.<host>-<pid>.<x>``)
     are considered: from this host, when their process is gone or they are older than ``max_age_hours``;
     from another host (a shared disk), when older than :data:`STALE_FOREIGN_STAGING_HOURS`.
+
+    Parameters
+    ----------
+    parent : str or Path
+        The folder to clean.
+    max_age_hours : float
+        Age (h) beyond which a staging folder of this host is stale even if its process runs.
+
+    Returns
+    -------
+    list of Path
+        The folders removed.
     """
     parent = Path(parent)
     removed = []
@@ -566,6 +694,18 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
     :data:`MARKER_NAME` is written last.  On any error or ``KeyboardInterrupt`` the staging folder is removed
     and ``final`` is unchanged.  Staging folders of earlier killed runs are cleaned up
     (:func:`clean_stale_staging`).
+
+    Parameters
+    ----------
+    final : str or Path
+        The output folder.
+    kind : str
+        The command and flag that write there.
+
+    Yields
+    ------
+    Path
+        The staging folder to write the files in.
     """
     from berryshaker.errors import OutputError
 
@@ -589,7 +729,20 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
 
 # ---- provenance ---------------------------------------------------------------------------------------
 def provenance(machine=None, **extra) -> dict:
-    """Package version, code fingerprint and resolved config (SI) recorded with every output."""
+    """Package version, code fingerprint and resolved config (SI) recorded with every output.
+
+    Parameters
+    ----------
+    machine : MachineBase, optional
+        The machine description the output was made from.
+    **extra
+        Further inputs to record.
+
+    Returns
+    -------
+    dict
+        The provenance (JSON-ready).
+    """
     out = {"package": "berryshaker", "version": __version__, "code_sha256": code_fingerprint()}
     if machine is not None:
         out["machine_si"] = machine.model_dump(mode="json")
@@ -598,7 +751,17 @@ def provenance(machine=None, **extra) -> dict:
 
 
 def write_provenance(folder: str | Path, machine=None, **extra) -> None:
-    """``provenance.json`` (package version, resolved config in SI, extra inputs) beside outputs."""
+    """``provenance.json`` (package version, resolved config in SI, extra inputs) beside outputs.
+
+    Parameters
+    ----------
+    folder : str or Path
+        Where to write it.
+    machine : MachineBase, optional
+        The machine description the outputs were made from.
+    **extra
+        Further inputs to record.
+    """
     write_json_atomic(Path(folder) / "provenance.json", provenance(machine, **extra))
 
 

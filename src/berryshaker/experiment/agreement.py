@@ -12,7 +12,7 @@ def f_statistic(a, b):
     Parameters
     ----------
     a, b : array_like
-        Samples of the two curves (the study: a = multibody/ADAMS, b = MLSD/MATLAB).
+        Samples of the two curves in one unit, any (the study: a = multibody/ADAMS, b = MLSD/MATLAB, N).
 
     Returns
     -------
@@ -37,7 +37,20 @@ def f_statistic(a, b):
 
 
 def f_critical(m: int, n: int, alpha: float = 0.05) -> float:
-    """Upper critical value of the F distribution with (m-1, n-1) degrees of freedom (scipy.stats)."""
+    """Upper critical value of the F distribution with (m-1, n-1) degrees of freedom (scipy.stats).
+
+    Parameters
+    ----------
+    m, n : int
+        Sample counts of the two curves.
+    alpha : float
+        Significance level (dimensionless).
+
+    Returns
+    -------
+    float
+        F_(1-alpha)(m-1, n-1) (dimensionless).
+    """
     return float(stats.f.ppf(1.0 - alpha, m - 1, n - 1))
 
 
@@ -48,7 +61,22 @@ STATISTICS_TOLERANCE = {"mean": 0.10, "rms": 0.15, "p95": 0.20, "impulse_per_rev
 
 def impact_statistics(t, f, period: float | None = None) -> dict:
     """Statistics of a collision-force series that suit chaotic impact dynamics: mean, RMS, 95th percentile (N)
-    and the impulse per drive revolution (N s; the time integral of |F| over one period, averaged)."""
+    and the impulse per drive revolution (N s; the time integral of |F| over one period, averaged).
+
+    Parameters
+    ----------
+    t : array_like
+        Times (s).
+    f : array_like
+        Force (N); its magnitude is used.
+    period : float, optional
+        Drive period (s); default the series' span.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``rms``, ``p95`` (N) and ``impulse_per_revolution`` (N s).
+    """
     t = np.asarray(t, float)
     f = np.abs(np.asarray(f, float))
     span = float(t[-1] - t[0]) or 1.0
@@ -62,7 +90,23 @@ def statistics_agreement(t, a, b, period: float | None = None, tolerance: dict |
     """Do two force series agree in the statistics an engineer uses (mean, RMS, p95, impulse per revolution)?
 
     Each relative difference |a - b| / max(|a|, |b|) must be within its tolerance
-    (:data:`STATISTICS_TOLERANCE`).  Returns both statistics, the differences and ``agree``.
+    (:data:`STATISTICS_TOLERANCE`).
+
+    Parameters
+    ----------
+    t : array_like
+        Common times (s).
+    a, b : array_like
+        The two force series on ``t`` (N).
+    period : float, optional
+        Drive period (s), for the impulse per revolution.
+    tolerance : dict, optional
+        Overrides of :data:`STATISTICS_TOLERANCE` (relative, dimensionless).
+
+    Returns
+    -------
+    dict
+        ``a`` and ``b`` (:func:`impact_statistics`), ``relative_difference``, ``tolerance`` and ``agree``.
     """
     tol = dict(STATISTICS_TOLERANCE, **(tolerance or {}))
     sa, sb = impact_statistics(t, a, period), impact_statistics(t, b, period)
@@ -83,7 +127,20 @@ def noise_quantile(sd_a: float, n_a: int, sd_b: float, n_b: int) -> float:
     """Student's t quantile of :data:`NOISE_CONFIDENCE` (two-sided) with the Welch-Satterthwaite degrees of
     freedom of the difference of two means of n_a and n_b runs with standard deviations sd_a and sd_b
     (B. L. Welch, Biometrika 34 (1947) 28-35; scipy.stats.t).  2.0 where neither model spreads (the band is
-    zero then anyway)."""
+    zero then anyway).
+
+    Parameters
+    ----------
+    sd_a, sd_b : float
+        Standard deviations of the two models' runs (any unit, the same for both).
+    n_a, n_b : int
+        Numbers of runs (>= 2).
+
+    Returns
+    -------
+    float
+        The t quantile (dimensionless).
+    """
     va, vb = sd_a * sd_a / n_a, sd_b * sd_b / n_b
     if va + vb <= 0.0:
         return 2.0
@@ -95,7 +152,22 @@ def judged_difference(difference: float, noise: float, tolerance: float) -> str:
     """Verdict on one relative difference against its tolerance, given its noise (the half-width of its
     :data:`NOISE_CONFIDENCE` band, relative): "agree" when even difference + noise is within the tolerance, "differ" when even
     difference - noise exceeds it, else "within noise" (the tolerance lies inside the difference's noise band:
-    the runs cannot tell; guide: a difference smaller than the replicates' spread is no difference)."""
+    the runs cannot tell; guide: a difference smaller than the replicates' spread is no difference).
+
+    Parameters
+    ----------
+    difference : float
+        The relative difference (dimensionless).
+    noise : float
+        Half-width of its noise band (relative, dimensionless).
+    tolerance : float
+        The tolerance (relative, dimensionless).
+
+    Returns
+    -------
+    {"agree", "differ", "within noise"}
+        The verdict.
+    """
     if difference + noise <= tolerance:
         return "agree"
     if difference - noise > tolerance:
@@ -118,6 +190,21 @@ def summary_statistics_agreement(a: dict, b: dict, tolerance: dict | None = None
     statistic gets a :func:`judged_difference` verdict.  Returns ``relative_difference``, ``worst`` (the statistic furthest outside or closest to its
     tolerance), ``verdict`` ("agree", "differ" or "within noise"; without noise "agree" or "differ") and
     ``agree`` (the verdict is "agree").
+
+    Parameters
+    ----------
+    a, b : dict
+        ``mean``, ``rms`` and ``p95`` of the force in each summary (N).
+    tolerance : dict, optional
+        Overrides of :data:`STATISTICS_TOLERANCE` (relative, dimensionless).
+    noise : dict, optional
+        Relative noise band of each statistic's difference (dimensionless).
+
+    Returns
+    -------
+    dict
+        ``relative_difference``, ``worst``, ``verdict``, ``agree``; with ``noise``, also ``noise`` and
+        ``verdicts`` per statistic.
     """
     tol = {k: v for k, v in dict(STATISTICS_TOLERANCE, **(tolerance or {})).items() if k in SUMMARY_STATISTICS}
     diff = {k: abs(a[k] - b[k]) / max(abs(a[k]), abs(b[k]), 1e-300) for k in tol}
@@ -221,7 +308,22 @@ def model_check(mb_runs: list, reduced_runs: list, pairs) -> dict | None:
 def eq18_passes_on_noise(points: int = 10, alpha: float = 0.05, seed: int = 0) -> dict:
     """Show that eq. 18 cannot separate curves: a half-sine pulse train against uniform noise, the same curve
     reversed in time, and the curve divided by 10 all 'agree' by eq. 18 (it compares peak-normalised spreads
-    only).  Returns F and the verdict for each case; the report shows it beside the study's test."""
+    only).  The report shows it beside the study's test.
+
+    Parameters
+    ----------
+    points : int
+        Samples of each curve in the F test.
+    alpha : float
+        Significance level (dimensionless).
+    seed : int
+        Seed of the noise.
+
+    Returns
+    -------
+    dict
+        Per case: ``f_statistic``, ``f_critical``, ``eq18_agree`` and ``statistics_agree``.
+    """
     rng = np.random.default_rng(seed)
     t = np.linspace(0.0, 1.0, 2001)
     ref = np.abs(np.sin(6 * np.pi * t)) ** 3
@@ -246,11 +348,20 @@ def curve_agreement(t, a, b, points: int = 10, alpha: float = 0.05, period: floa
     t : array_like
         Common time base of the two series (s).
     a, b : array_like
-        Multibody (a) and MLSD (b) series on ``t``.
+        Multibody (a) and MLSD (b) force series on ``t`` (N).
     points : int
         Samples used for the F test (the study used about ten).
     alpha : float
-        Significance level.
+        Significance level (dimensionless).
+    period : float, optional
+        Drive period (s), for the impulse per revolution.
+
+    Returns
+    -------
+    dict
+        ``f_statistic``, ``f_critical``, ``alpha``, ``points``, ``eq18_agree``, ``agree``, ``statistics``
+        (:func:`statistics_agreement`), ``nrmse``, ``correlation``, ``peak_ratio`` and ``mean_ratio``
+        (dimensionless).
     """
     t = np.asarray(t, float)
     a = np.asarray(a, float)
@@ -283,6 +394,19 @@ def model_agreement(machine, clearance: dict[str, float] | None = None, revoluti
     collision force of every pair (eq. 18 and plainer measures, :func:`curve_agreement`).
 
     The one comparison used by ``berryshaker compare`` and by the study.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its drive must have a reduced model).
+    clearance : dict pair -> float, optional
+        Clearance sizes (m); missing pairs keep the description's.
+    revolutions : int
+        Drive revolutions (>= 2; statistics exclude the first).
+    points : int
+        Samples of each curve in the F test.
+    alpha : float
+        Significance level (dimensionless).
 
     Returns
     -------

@@ -48,6 +48,16 @@ def pure_error(y: np.ndarray) -> tuple[float, int]:
     """Pure-error sum of squares and degrees of freedom of a (runs, replicates) array.
 
     SS_PE = sum_i sum_j (y_ij - ybar_i)^2 with sum_i (r_i - 1) degrees of freedom (here r_i = r).
+
+    Parameters
+    ----------
+    y : ndarray (runs, replicates)
+        Observations (any unit).
+
+    Returns
+    -------
+    (float, int)
+        SS_PE (the unit of y squared) and its degrees of freedom.
     """
     y = np.asarray(y, float)
     return float(np.sum((y - y.mean(axis=1, keepdims=True)) ** 2)), int(y.shape[0] * (y.shape[1] - 1))
@@ -76,6 +86,24 @@ def comparison_half_width(ms: float, dof: int, k: int, n: int, confidence: float
     pairs, iff |a - b| > sqrt(h_a^2 + h_b^2) = q / sqrt(2) sqrt(MS_E (1/n_a + 1/n_b)), the Tukey-Kramer margin
     of :func:`_tukey_half_width` (Montgomery 2013, sec. 3.5.7) split per mean.  ``ms``, ``dof``: the pure-error
     mean square and its degrees of freedom; nan if k < 2 or dof < 1; 0 if ms = 0.
+
+    Parameters
+    ----------
+    ms : float
+        Error mean square (the response's unit squared).
+    dof : int
+        Its degrees of freedom.
+    k : int
+        Number of means compared.
+    n : int
+        Observations per mean (>= 1).
+    confidence : float
+        Simultaneous confidence (dimensionless).
+
+    Returns
+    -------
+    float
+        h, in the response's unit.
     """
     if n < 1:
         raise ConfigError(f"comparison half-width: n = {n} observations, need >= 1")
@@ -104,6 +132,16 @@ def block_error(y: np.ndarray) -> tuple[float, int]:
     ``SS_E = sum_i sum_k (y_ik - ybar_i. - ybar_.k + ybar_..)^2`` with (n - 1)(r - 1) degrees of freedom: the error of a
     randomised complete block design with the n runs as treatments and the r blocks (Montgomery 2013, sec. 4.1,
     eq. 4.7).  Block effects (a start, a field day, a row of bushes shared by every run) cancel from it.
+
+    Parameters
+    ----------
+    y : ndarray (runs, blocks)
+        Observations (any unit).
+
+    Returns
+    -------
+    (float, int)
+        SS_E (the unit of y squared) and its degrees of freedom.
     """
     y = np.asarray(y, float)
     n, r = y.shape
@@ -112,7 +150,20 @@ def block_error(y: np.ndarray) -> tuple[float, int]:
 
 
 def error_term(y: np.ndarray, blocks: bool) -> tuple[float, int]:
-    """The error that effects are judged against: :func:`block_error` with blocks, else :func:`pure_error`."""
+    """The error that effects are judged against: :func:`block_error` with blocks, else :func:`pure_error`.
+
+    Parameters
+    ----------
+    y : ndarray (runs, replicates)
+        Observations (any unit).
+    blocks : bool
+        Replicate k of every run shares block k.
+
+    Returns
+    -------
+    (float, int)
+        The sum of squares (the unit of y squared) and its degrees of freedom.
+    """
     return block_error(y) if blocks else pure_error(y)
 
 
@@ -123,6 +174,17 @@ def block_variance(y: np.ndarray) -> dict:
     interaction, :func:`block_error`) estimates sigma^2, so sigma_beta^2 = max((ms_block - ms_error) / n, 0)
     (method of moments, Montgomery 2013, sec. 13.1).  ``per_start_sd`` = sqrt(sigma_beta^2 + sigma^2): the spread of
     one run's replicates, block included.
+
+    Parameters
+    ----------
+    y : ndarray (runs, blocks)
+        Observations (any unit).
+
+    Returns
+    -------
+    dict
+        ``ms_block``, ``df_block``, ``ms_error``, ``df_error``, ``var_block`` (the unit of y squared) and
+        ``per_start_sd`` (the unit of y).
     """
     y = np.asarray(y, float)
     n, r = y.shape
@@ -142,10 +204,10 @@ def paired_differences(levels_j: np.ndarray, y: np.ndarray, confidence: float = 
     levels_j : ndarray (runs,)
         The factor's level (1-based) in each run.
     y : ndarray (runs, blocks)
-        Observations; column k is block k, shared by every run (a start drawn once and used for every run: common
-        random numbers; a field day or row in a field test).
+        Observations (any unit); column k is block k, shared by every run (a start drawn once and used for every
+        run: common random numbers; a field day or row in a field test).
     confidence : float
-        Level of the t-intervals.
+        Level of the t-intervals (dimensionless).
 
     Returns
     -------
@@ -193,15 +255,15 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
     Parameters
     ----------
     levels : ndarray (runs, factors)
-        1-based level numbers of an orthogonal array.
+        1-based level numbers of an orthogonal array (dimensionless).
     y : ndarray (runs, replicates)
-        Observations; at least 2 replicates.
+        Observations (any unit); at least 2 replicates.
     factor_names : list of str
         Names of the factors (columns of ``levels``).
     alpha : float
-        Significance level: an effect is significant only if p < alpha.
+        Significance level (dimensionless): an effect is significant only if p < alpha.
     confidence : float
-        Level of the intervals (0.95: 95 %).
+        Level of the intervals (dimensionless; 0.95: 95 %).
     blocks : bool
         Replicate k of every run shares block k (the same start, field day or row): the error is the run x block
         interaction (:func:`block_error`, randomised complete blocks) instead of the pure error, and every
@@ -287,24 +349,25 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
     Parameters
     ----------
     levels : ndarray (runs, factors)
-        1-based level numbers.
+        1-based level numbers (dimensionless).
     values : ndarray (runs, factors)
-        Level values (for the eq. 19 regression of the run means).
+        Level values in each factor's unit (``units``), for the eq. 19 regression of the run means.
     factor_names : list of str
+        Names of the factors (columns of ``levels``).
     responses_replicated : dict name -> ndarray (runs, replicates)
-        At least 2 replicates, the same number for every response.
+        Observations in each response's unit; at least 2 replicates, the same number for every response.
     senses : dict name -> bool
         True where larger is better.
     weights : dict name -> float, optional
-        Priority of the responses (> 0, normalised); default equal.
+        Priority of the responses (dimensionless, > 0, normalised); default equal.
     alpha : float
-        An effect is significant only if its p-value < alpha.
+        An effect is significant only if its p-value < alpha (dimensionless).
     confidence : float
-        Level of the intervals.
+        Level of the intervals (dimensionless).
     level_values, units : dict, optional
         Level values and units per factor (reported, see :func:`factor_levels_report`).
     fallback_weights : dict name -> float, optional
-        Second-tier responses (e.g. machine loads when the primary ones are harvest indexes): they decide a
+        Weights (dimensionless) of second-tier responses (e.g. machine loads when the primary ones are harvest indexes): they decide a
         factor's level only where the weighted (primary) responses show no significant difference, or
         cannot tell the best levels apart (:data:`TIERED_RULE`).
     blocks : bool
@@ -540,7 +603,18 @@ def _tiered_optimum(primary: dict, fallback: dict, factor_names, reps, out, conf
 
 
 def describe_replicated(res: dict) -> str:
-    """Plain-text summary of :func:`analyze_replicated` (rule, per-response table, optimum with reasons)."""
+    """Plain-text summary of :func:`analyze_replicated` (rule, per-response table, optimum with reasons).
+
+    Parameters
+    ----------
+    res : dict
+        The result of :func:`analyze_replicated`.
+
+    Returns
+    -------
+    str
+        The summary, one line per item.
+    """
     lines = [f"Significance rule: {res['significance_rule']}"]
     for name, ra in res["responses"].items():
         pe, e = ra["anova"]["pure_error"], ra["anova"]["error"]
@@ -588,7 +662,7 @@ def replicate_trend(samples: list[list[float]], alpha: float = TREND_ALPHA) -> d
     samples : list of lists
         Replicate values of the response at each level, in level order (at least 2 per level).
     alpha : float
-        Significance level of each two-sided Welch t-test (scipy.stats.ttest_ind, unequal variances) between
+        Significance level (dimensionless) of each two-sided Welch t-test (scipy.stats.ttest_ind, unequal variances) between
         consecutive levels.
 
     Returns
