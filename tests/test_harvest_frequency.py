@@ -83,9 +83,12 @@ def test_calibration_lists_fitted_and_held_out():
     t = calibration_table(m, fruit, fit)
     tags = {p["parameter"]: p["tag"] for p in t["parameters"]}
     calibrated = [p for p in t["parameters"] if p["tag"] == "[calibrated]"]
-    assert {p["parameter"] for p in calibrated} == {"yield per bush", "damage scale a_d"}
+    assert {p["parameter"] for p in calibrated} == {"yield per bush"}  # only what the fit fitted
     assert all("[study]" in p["target_or_source"] for p in calibrated)
     assert tags["unripe fraction"] == "[assumed]"
+    assert tags["ripe pull / shear strength"] == tags["bruising drop height, hard / padded"] == "[published]"
+    # without a fit nothing is calibrated: the description's values come from published data
+    assert not [p for p in calibration_table(m, fruit, {})["parameters"] if p["tag"] == "[calibrated]"]
     held = {h["quantity"]: h for h in t["held_out"]}
     assert held["middle fruit peak force (N)"]["inside"] is True
     assert held["root fruit peak force (N)"]["inside"] is False

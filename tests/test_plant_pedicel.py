@@ -95,6 +95,25 @@ def test_peak_stem_force_is_the_peak_of_stem_response():
             np.testing.assert_allclose(table[:, j], ref, rtol=1e-9)
     with pytest.raises(ConfigError, match="shape"):
         peak_stem_force(t, (y, v), (ya[:, :-1], va[:, :-1]), masses, K, C)
+    # the pull-shear load ratios of the same pass: the peak over time of sqrt((max(F_ax + m g, 0)/P)^2 + (F_lat/S)^2)
+    # from the same series, for two (P, S) pairs; the axial motion is made large enough to compress the pedicel
+    from berryshaker.plant.pedicel import peak_stem_loads
+
+    strengths = [(0.47, 0.23), (2.3, 1.1)]
+    ya, va = 3.0 * y[::-1], 3.0 * v[::-1]
+    loads = peak_stem_loads(t, (y, v), (ya, va), masses, K, C, True, strengths)
+    assert loads.shape == (4, 3, 3)
+    for j, m in enumerate(masses):
+        _, f_lat = stem_response(t, y, v, mass=m, stiffness=K, damping=C)
+        _, f_ax = stem_response(t, ya, va, mass=m, stiffness=K, damping=C)
+        pull = f_ax + m * 9.80665
+        assert np.any(pull < 0)  # compression occurs and must not count as pull
+        np.testing.assert_allclose(loads[:, j, 0], np.max(np.hypot(f_lat, pull), axis=1), rtol=1e-9)
+        for s_, (p_, sh) in enumerate(strengths):
+            ref = np.max(np.hypot(np.maximum(pull, 0.0) / p_, f_lat / sh), axis=1)
+            np.testing.assert_allclose(loads[:, j, 1 + s_], ref, rtol=1e-9)
+    with pytest.raises(ConfigError, match="strengths"):
+        peak_stem_loads(t, (y, v), (ya, va), masses, K, C, True, [(0.47, 0.0)])
 
 
 def test_rigid_stem_limit_is_the_study_eq16():

@@ -114,16 +114,43 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
         ("bush d0, l, lean ranges", f"{bush.root_diameter[0] * 1e3:g}-{bush.root_diameter[1] * 1e3:g} mm, "
          f"{bush.length[0]:g}-{bush.length[1]:g} m, {math.degrees(bush.lean[0]):g}-{math.degrees(bush.lean[1]):g} deg",
          "", "[assumed]", "bush 1.5-1.7 m tall [study]"),
-        ("ripe / unripe bond", f"{RIPE_BOND_N[0]:g}-{RIPE_BOND_N[1]:g} / {UNRIPE_BOND_N[0]:g}-{UNRIPE_BOND_N[1]:g}",
-         "N", "[study]", "eq. 17"),
-        ("yield per bush", h.yield_per_bush, "kg", "[calibrated]",
-         f"efficiency {STUDY_TARGETS['efficiency_kg_min']} kg/min at A1B1C1F3 [study]" + refit("yield_per_bush_kg")),
-        ("damage scale a_d", h.damage_acceleration, "m/s^2", "[calibrated]",
-         f"damage {STUDY_TARGETS['damage_rate_pct']} % at A1B1C1F3 [study]" + refit("damage_acceleration_m_s2")),
+    ]
+    if h.bond_model == "pull_shear":
+        rows += [
+            ("ripe pull / shear strength", f"{h.ripe_pull:g} / {h.ripe_shear:g}", "N", "[published]",
+             "Kong et al. 2014 (docs/harvest.md, Bond)"),
+            ("unripe pull / shear strength", f"{h.unripe_pull:g} / {h.unripe_shear:g}", "N", "[study] / [assumed]",
+             "eq. 17's 1.0-3.6 N as a lognormal's central 90 %; the ripe shear/pull ratio"),
+            ("strength CV ripe / unripe (lognormal)", f"{h.bond_cv:g} / {h.unripe_bond_cv:g}", "1",
+             "[published] / [study]", "Kong et al. 2014 shear 0.22-0.48 N over ripening / eq. 17's band, each as "
+             "a central 90 %"),
+        ]
+    else:
+        rows.append(("ripe / unripe bond", f"{RIPE_BOND_N[0]:g}-{RIPE_BOND_N[1]:g} / "
+                     f"{UNRIPE_BOND_N[0]:g}-{UNRIPE_BOND_N[1]:g}", "N", "[study]", "eq. 17"))
+    yield_tag = "[calibrated]" if "efficiency_kg_min" in fit.get("fitted", {}) else "[published]"
+    rows.append(("yield per bush", h.yield_per_bush, "kg", yield_tag,
+                 (f"efficiency {STUDY_TARGETS['efficiency_kg_min']} kg/min at the chosen clearances [study]"
+                  if yield_tag == "[calibrated]" else "2.3 kg per highbush bush per season over 3 passes "
+                  "(docs/harvest.md, Yield)") + refit("yield_per_bush_kg")))
+    if h.damage_model == "impact":
+        rows += [
+            ("bruising drop height, hard / padded", f"{h.bruise_height_hard:g} / {h.bruise_height_padded:g}", "m",
+             "[published]", "Brown et al. 1996 drop tests (docs/harvest.md, Bruising)"),
+            ("bruising threshold CV, catcher", f"{h.bruise_cv:g}, {h.catcher_surface} at "
+             f"{h.catcher_drop:g} m below the branch root", "", "[assumed]", "docs/harvest.md"),
+        ]
+    else:
+        rows += [
+            ("damage scale a_d", h.damage_acceleration, "m/s^2", "[calibrated]",
+             f"damage {STUDY_TARGETS['damage_rate_pct']} % at the chosen clearances [study]"
+             + refit("damage_acceleration_m_s2")),
+            ("damage shape", h.damage_shape, "1", "[assumed]", "docs/harvest.md"),
+        ]
+    rows += [
         ("unripe fraction", h.unripe_fraction, "1", "[assumed]",
          f"not fitted: the unripe rate ({STUDY_TARGETS['unripe_rate_pct']} % [study]) is held out"),
-        ("damage shape, fruit-mass CV", f"{h.damage_shape:g}, {h.fruit_mass_cv:g}", "1", "[assumed]",
-         "docs/harvest.md"),
+        ("fruit-mass CV", h.fruit_mass_cv, "1", "[assumed]", "docs/harvest.md"),
     ]
     params = [{"parameter": r[0], "value": r[1], "unit": r[2], "tag": r[3], "target_or_source": r[4]} for r in rows]
     held = []

@@ -2,27 +2,32 @@
 
 Chain (docs/harvest.md):
 1. For each branch class (the reference branch with its diameters scaled), one coupled drive-past
-   simulation (berryshaker.harvest.coupled) gives the peak acceleration envelope a_peak(z) of the branch.
+   simulation (berryshaker.harvest.coupled) gives a table of peak stem loads over position and fruit mass.
 2. Bushes carry ``branches_per_bush`` branches of random class; fruit sit uniformly along the fruit zone
    of each branch, with lognormal masses (mean m0, coefficient of variation ``fruit_mass_cv``), ripe or
-   unripe (mass fraction ``unripe_fraction``), and bond forces drawn uniformly in eq. 17's ranges:
-   ripe 0.26-0.30 N, unripe 1.0-3.6 N [study].
-3. A fruit comes off when its peak stem force reaches its bond (eq. 17).  The stem force is that of a
-   fruit on a compliant pedicel (berryshaker.plant.pedicel; per branch class a table over position
-   and fruit mass, :func:`stem_force_envelope`); with ``plant.fruit.pedicel.rigid`` or with the old
-   1-D acceleration envelopes it is the study's eq. 16, m a_peak(z).  No cumulative (fatigue) damage
-   of the stem: we know no source for blueberry pedicel fatigue under shaking.
-4. Damage: a detached fruit is damaged with probability 1 - exp(-(a_peak/a_d)^k) (Weibull in the
-   acceleration it experienced: harder shaking, more bruising), k = 2 [assumed], a_d calibrated.
+   unripe (mass fraction ``unripe_fraction``), and a lognormal strength factor (mean 1, CV ``bond_cv`` or
+   ``unripe_bond_cv``).
+3. Detachment (``bond_model = "pull_shear"``): a fruit comes off when the peak over the drive-past of its
+   pull-shear load ratio, sqrt((F_pull/P)^2 + (F_shear/S)^2) with its class's mean pull and shear strengths
+   (ripe 0.47 / 0.23 N, Kong et al. 2014 [published]), reaches its strength factor
+   (berryshaker.plant.pedicel.peak_stem_loads); the study's eq. 17 bands on the stem-force magnitude
+   (ripe 0.26-0.30 N, unripe 1.0-3.6 N) are the labelled alternative ``"study_eq17"``.  No cumulative
+   (fatigue) detachment: we know no source for blueberry pedicel fatigue under shaking.
+4. Damage (``damage_model = "impact"``): a detached fruit is bruised by its strike (the fingers' peak speed)
+   or its fall onto the catching surface, against drop-test bruising thresholds (berryshaker.harvest.bruising,
+   Brown et al. 1996); the former Weibull law in the stem force's acceleration is ``"stem_acceleration"``.
    The expected damaged mass is used (no sampling noise in the index).
 5. Indexes as the study defines them: efficiency = picked mass per minute (bushes per minute = walking
    speed / plant spacing), unripe rate = unripe picked mass / picked mass, damage rate = damaged mass /
    picked mass.
 
-Calibrated (only) at the study's chosen clearances (:func:`calibrate_harvest`): ``yield_per_bush`` to
-the efficiency 3.93 kg/min and ``damage_acceleration`` to the damage rate 2.8 % [study]; the unripe
-rate (3.1 %) is held out (``unripe_fraction`` [assumed]), as are the fruit-force ranges and the L9's
-directions (berryshaker.harvest.calibration.calibration_table).
+Nothing is fitted to the study by default: the yield per bush comes from published yields
+(docs/harvest.md, "Yield"), so the study's 3.93 kg/min, 3.1 % and 2.8 % are held-out checks
+(berryshaker.harvest.calibration.calibration_table, ``berryshaker validate``).  :func:`calibrate_harvest` can
+still fit the yield (and, with the Weibull damage, its scale) to a field value, and labels it fitted.
+
+long module: the population, detachment, indexes, replicate statistics and the fit to a field value are one chain
+read together (docs/harvest.md); bruising has its own module (berryshaker.harvest.bruising).
 """
 
 from __future__ import annotations
@@ -39,7 +44,17 @@ from berryshaker.plant.response import RIPE_BOND_N, UNRIPE_BOND_N
 
 STUDY_TARGETS = {"efficiency_kg_min": 3.93, "unripe_rate_pct": 3.1, "damage_rate_pct": 2.8}
 Z_GRID = np.linspace(0.0, 1.0, 41)
-FRUIT_SAMPLES_PER_BUSH = 200  # sampled fruit per bush; each stands for yield/(200 m) real fruit
+#: bounds of the fruit sampled per bush: each bush carries its real number of fruit, yield per bush / mean fruit mass
+#: (:func:`fruit_per_bush`), so the population's sampling noise is that of a real test run of ``harvest.bushes``
+#: bushes; the bounds only keep a description's extreme values tractable
+FRUIT_PER_BUSH_BOUNDS = (50, 20000)
+
+
+def fruit_per_bush(machine: Machine, yield_per_bush: float | None = None) -> int:
+    """Fruit on one bush at a harvest pass: yield per bush / mean fruit mass m0 (428 on the reference machine:
+    0.77 kg of 1.8 g berries), within :data:`FRUIT_PER_BUSH_BOUNDS`."""
+    yb = machine.harvest.yield_per_bush if yield_per_bush is None else yield_per_bush
+    return int(np.clip(round(yb / machine.plant.fruit.mass), *FRUIT_PER_BUSH_BOUNDS))
 
 
 def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
@@ -99,45 +114,79 @@ def branch_class_machine(machine: Machine, scale: float) -> Machine:
     return machine_from_dict(d)
 
 
+#: channels of a stem-force table (last axis): the peak stem-force magnitude (N) and the peak pull-shear load ratio
+#: of the ripe and of the unripe fruit (dimensionless, berryshaker.plant.pedicel.peak_stem_loads)
+CH_FORCE, CH_RIPE, CH_UNRIPE = 0, 1, 2
+
+
+def bond_strengths(machine: Machine) -> list[tuple[float, float]]:
+    """Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (``harvest.ripe_pull`` ... ``unripe_shear``)."""
+    h = machine.harvest
+    return [(h.ripe_pull, h.ripe_shear), (h.unripe_pull, h.unripe_shear)]
+
+
 def stem_force_table(machine: Machine, motion) -> np.ndarray:
-    """Peak stem force (N) of fruit on compliant pedicels over Z_GRID (rows) x MASS_FACTORS * m0 (columns).
+    """Peak stem loads of fruit on compliant pedicels over Z_GRID x MASS_FACTORS * m0 x channels.
 
     ``motion``: the branch's :class:`~berryshaker.harvest.coupled.BranchMotion` of a drive-past.  The fruit
-    is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (the
-    magnitude of berryshaker.harvest.coupled.stem_forces, computed for the whole table at once by
-    berryshaker.plant.pedicel.peak_stem_force).  With ``pedicel.rigid`` the table is m x the peak branch
-    acceleration (study eq. 16).
+    is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (computed for the
+    whole table at once by berryshaker.plant.pedicel.peak_stem_loads).  Channels (:data:`CH_FORCE` ...):
+    max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces) and the peak pull-shear load ratio of
+    the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`).  With ``pedicel.rigid`` the force is m x the peak
+    branch acceleration (study eq. 16), taken as pure shear (lateral) for the load ratios.
     """
-    from berryshaker.plant.pedicel import peak_stem_force
+    from berryshaker.plant.pedicel import peak_stem_loads
 
     pl = machine.plant
     z = Z_GRID * pl.branch.length
     masses = MASS_FACTORS * pl.fruit.mass
+    st = bond_strengths(machine)
     if pl.fruit.pedicel.rigid:
-        a = np.max(np.abs(motion.lateral(z)[2]), axis=1)
-        return np.outer(a, masses)
+        force = np.outer(np.max(np.abs(motion.lateral(z)[2]), axis=1), masses)
+        return np.stack([force, force / st[0][1], force / st[1][1]], axis=-1)
     y, v, _ = motion.lateral(z, acceleration=False)
     ped = pl.fruit.pedicel
-    # the peak over time of stem_forces' magnitude for every (position, mass), in one compiled pass
-    return peak_stem_force(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping, ped.include_weight)
+    return peak_stem_loads(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping,
+                           ped.include_weight, st)
 
 
-def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
-    """Peak force on fruit at fractions z with masses ``mass`` from one branch class's envelope.
-
-    A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope is a
-    stem-force table over Z_GRID x MASS_FACTORS m0, interpolated linearly in z and in log mass.
-    """
-    env = np.asarray(envelope, float)
-    if env.ndim == 1:
-        return mass * np.interp(z, Z_GRID, env)
-    cols = np.array([np.interp(z, Z_GRID, env[:, j]) for j in range(env.shape[1])])  # (n_mass, n_fruit)
+def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+    """A (Z_GRID x MASS_FACTORS) table at fractions z and masses ``mass``: linear in z and in log mass."""
+    cols = np.array([np.interp(z, Z_GRID, table[:, j]) for j in range(table.shape[1])])  # (n_mass, n_fruit)
     lm = np.log(np.clip(mass / m0, MASS_FACTORS[0], MASS_FACTORS[-1]))
     lg = np.log(MASS_FACTORS)
     j = np.clip(np.searchsorted(lg, lm) - 1, 0, len(lg) - 2)
     w = (lm - lg[j]) / (lg[j + 1] - lg[j])
     idx = np.arange(len(z))
     return (1 - w) * cols[j, idx] + w * cols[j + 1, idx]
+
+
+def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+    """Peak stem force (N) on fruit at fractions z with masses ``mass`` from one branch class's envelope.
+
+    A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope a stem-force table
+    over Z_GRID x MASS_FACTORS m0, a 3-D one the channels of :func:`stem_force_table` (the force channel is read);
+    tables are interpolated linearly in z and in log mass.
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 1:
+        return mass * np.interp(z, Z_GRID, env)
+    return _interp_table(env[..., CH_FORCE] if env.ndim == 3 else env, z, mass, m0)
+
+
+def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
+                    strengths: list[tuple[float, float]]) -> np.ndarray:
+    """Peak pull-shear load ratio (dimensionless) of each fruit against its class's mean strengths.
+
+    From the channels of :func:`stem_force_table` (the ripe or the unripe ratio by ``ripe``).  A table without
+    load channels (1-D acceleration envelope or 2-D force table) is read as pure shear: ratio = peak force / mean
+    shear strength ``strengths[c][1]`` (c = 0 ripe, 1 unripe).
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 3:
+        return np.where(ripe, _interp_table(env[..., CH_RIPE], z, mass, m0),
+                        _interp_table(env[..., CH_UNRIPE], z, mass, m0))
+    return fruit_peak_force(env, z, mass, m0) / np.where(ripe, strengths[0][1], strengths[1][1])
 
 
 @dataclass
@@ -148,20 +197,28 @@ class Population:
     z: np.ndarray  # fraction of branch length
     mass: np.ndarray  # kg
     ripe: np.ndarray  # bool
-    bond: np.ndarray  # N
+    bond: np.ndarray  # N, the study's eq. 17 band draw (bond_model = "study_eq17")
     bushes: int
     weight: float  # real fruit represented by each sampled fruit (yield / (samples x mean mass))
+    strength: np.ndarray | None = None  # strength factor s of a fruit: its pull and shear strengths are s P, s S
 
 
 def sample_population(machine: Machine, seed: int | None = None, unripe_fraction: float | None = None,
                       yield_per_bush: float | None = None) -> Population:
-    """Seeded plant population (deterministic for a seed)."""
+    """Seeded plant population (deterministic for a seed).
+
+    Per fruit: branch class (uniform), position along the branch (uniform over ``harvest.fruit_zone``), mass
+    (lognormal, mean m0, CV ``fruit_mass_cv``), ripe or unripe (unripe with probability ``unripe_fraction``), a
+    strength factor s (lognormal with mean 1 and CV ``bond_cv``, ripe, or ``unripe_bond_cv``: the fruit's pull and
+    shear strengths are s times its class's means, both modes scaled together [assumed]) and an eq. 17 bond
+    (uniform in the study's band).
+    """
     h = machine.harvest
     rng = np.random.default_rng(h.seed if seed is None else seed)
     m0 = machine.plant.fruit.mass
     yb = h.yield_per_bush if yield_per_bush is None else yield_per_bush
     uf = h.unripe_fraction if unripe_fraction is None else unripe_fraction
-    n = FRUIT_SAMPLES_PER_BUSH * h.bushes
+    n = fruit_per_bush(machine) * h.bushes  # the real count at the described yield (a fitted yield keeps the weights)
     sigma = math.sqrt(math.log(1 + h.fruit_mass_cv**2))
     mass = m0 * rng.lognormal(-0.5 * sigma**2, sigma, n)
     ripe = rng.random(n) >= uf
@@ -170,24 +227,45 @@ def sample_population(machine: Machine, seed: int | None = None, unripe_fraction
                     UNRIPE_BOND_N[0] + u_bond * (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]))
     z = rng.uniform(*h.fruit_zone, n)
     cls = rng.integers(0, len(h.branch_classes), n)
+    s_sigma = np.where(ripe, math.sqrt(math.log(1 + h.bond_cv**2)), math.sqrt(math.log(1 + h.unripe_bond_cv**2)))
+    strength = np.exp(-0.5 * s_sigma**2 + s_sigma * rng.standard_normal(n))
     weight = yb * h.bushes / float(mass.sum())
-    return Population(cls, z, mass, ripe, bond, h.bushes, weight)
+    return Population(cls, z, mass, ripe, bond, h.bushes, weight, strength)
 
 
 def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Population,
                     damage_acceleration: float | None = None) -> dict:
-    """Efficiency (kg/min), unripe shedding rate (%), damage rate (%) of a population under envelopes."""
+    """Efficiency (kg/min), unripe rate (%), damage rate (%) and removal fractions of a population under envelopes.
+
+    Detachment (``harvest.bond_model``): "pull_shear" -- a fruit comes off when the peak pull-shear load ratio of
+    its class's mean strengths reaches its strength factor (berryshaker.plant.pedicel.peak_stem_loads); "study_eq17"
+    -- when the peak stem-force magnitude reaches its eq. 17 bond.  Damage (``harvest.damage_model``): "impact" --
+    the probability that a detached fruit is bruised by its impacts (berryshaker.harvest.bruising.impact_damage);
+    "stem_acceleration" -- 1 - exp(-(a/a_d)^k) in the acceleration a = peak stem force / mass.  The expected
+    damaged mass is used (no sampling noise in the index).
+    """
     h = machine.harvest
-    force = np.zeros(len(pop.mass))
+    m0 = machine.plant.fruit.mass
+    strengths = bond_strengths(machine)
+    n = len(pop.mass)
+    force, load = np.zeros(n), np.zeros(n)
     for c, env in enumerate(envelopes):
         sel = pop.branch_class == c
-        force[sel] = fruit_peak_force(env, pop.z[sel], pop.mass[sel], machine.plant.fruit.mass)
-    a = force / pop.mass  # the fruit's own peak acceleration (m/s^2): stem force / mass
-    off = force >= pop.bond
+        force[sel] = fruit_peak_force(env, pop.z[sel], pop.mass[sel], m0)
+        load[sel] = fruit_peak_load(env, pop.z[sel], pop.mass[sel], m0, pop.ripe[sel], strengths)
+    if h.bond_model == "pull_shear" and pop.strength is not None:
+        off = load >= pop.strength
+    else:
+        off = force >= pop.bond
     picked = pop.weight * float(np.sum(pop.mass[off]))
     unripe = pop.weight * float(np.sum(pop.mass[off & ~pop.ripe]))
-    ad = h.damage_acceleration if damage_acceleration is None else damage_acceleration
-    p_damage = 1.0 - np.exp(-(a / ad) ** h.damage_shape)
+    if h.damage_model == "impact":
+        from berryshaker.harvest.bruising import impact_damage
+
+        p_damage = impact_damage(machine, pop.z)
+    else:
+        ad = h.damage_acceleration if damage_acceleration is None else damage_acceleration
+        p_damage = 1.0 - np.exp(-((force / pop.mass) / ad) ** h.damage_shape)
     damaged = pop.weight * float(np.sum((pop.mass * p_damage)[off]))
     bushes_per_min = machine.operation.walking_speed / machine.operation.plant_spacing * 60.0
     per_bush = picked / pop.bushes
@@ -222,7 +300,7 @@ def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None,
     return out
 
 
-def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[str, ...] = ("efficiency", "damage"),
+def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[str, ...] = (),
                       envelopes: list[np.ndarray] | None = None,
                       replicates: list[tuple[list[np.ndarray], int]] | None = None) -> dict:
     """Fit the picking model to some of the study's field values at the machine's (chosen) clearances and hold
@@ -238,7 +316,9 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         What is fitted: "efficiency" -> ``yield_per_bush`` (the efficiency is proportional to it, one step),
         "damage" -> ``damage_acceleration`` (Brent's method), "unripe" -> ``unripe_fraction`` (Brent's
         method, when reachable).  Every value not fitted keeps its description value and its index is
-        reported as a held-out prediction.  Default: efficiency and damage fitted, the unripe rate held out.
+        reported as a held-out prediction.  Default: nothing fitted (the description's values come from published
+        data, docs/harvest.md), every index held out.  "damage" needs ``damage_model = "stem_acceleration"`` (the
+        impact model has no free scale).
     envelopes : list of ndarray, optional
         Stem-force envelopes (:func:`envelopes_for`) already computed at these clearances: one drive-past per
         branch class from the unperturbed start, with the description's population (``harvest.seed``).
@@ -266,6 +346,10 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     if unknown:
         raise ConfigError(f"calibrate_harvest: unknown index {sorted(unknown)} in fit; choose from efficiency, "
                           "unripe, damage")
+    if "damage" in fit and machine.harvest.damage_model != "stem_acceleration":
+        raise ConfigError("calibrate_harvest: damage can only be fitted with harvest.damage_model = "
+                          "\"stem_acceleration\" (its scale damage_acceleration); the impact model's bruise "
+                          "thresholds come from drop tests")
     if replicates is not None:
         if not replicates:
             raise ConfigError("calibrate_harvest: replicates is empty; give at least one (envelopes, seed) pair")

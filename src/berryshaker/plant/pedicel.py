@@ -41,6 +41,9 @@ effective mass of mode k at z_m): a rigidly attached mass lowers mode k by about
 quotient), and a stem oscillator tuned to mode k splits it by about +-sqrt(mu_k)/2 (Den Hartog,
 Mechanical Vibrations, tuned absorber).  :func:`modal_mass_ratio` returns mu_k; the test compares the
 one-way stem force with the two-way coupled frequency response.
+
+long module: the fruit-stem oscillator's closed forms, its compiled peak pass over a branch motion and its two-way
+coupling checks share the same discretisation and parameters.
 """
 
 from __future__ import annotations
@@ -283,6 +286,50 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     F[i] = C_d x[i] + D_d u[i], compiled (numba); the same zero-state response as :func:`stem_response`'s
     second-order sections, equal to round-off (tested).
     """
+    return peak_stem_loads(t, lateral, axial, mass, stiffness, damping, weight)[:, :, 0]
+
+
+def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True, strengths=()):
+    """Peak stem-force magnitude and peak pull-shear load ratios of fruit on compliant pedicels.
+
+    The stem force of :func:`peak_stem_force`, resolved by its mode of loading: the pedicel of a berry on an
+    upright branch hangs along the branch axis, so the axial component F_ax + m0 g (tension > 0) pulls the fruit
+    along its pedicel and the lateral component F_lat bends and shears it across.  A fruit of mean pull strength
+    P and mean shear strength S is loaded to the ratio
+
+        g(t) = sqrt( (max(F_ax + m0 g, 0) / P)^2 + (F_lat / S)^2 ),
+
+    an elliptical pull-shear interaction (the quadratic failure criterion of combined loading; pull alone
+    breaks at P, shear alone at S, as the two test modes of Kong et al. 2014 measure them; the interaction's
+    form is [assumed]: no blueberry test under combined loading is known to us).  A fruit whose own strengths
+    are s P and s S comes off when max_t g >= s (berryshaker.harvest.virtual).  Compression along the pedicel
+    does not load the abscission zone in pull.
+
+    Parameters
+    ----------
+    t : ndarray (n_t,)
+        Uniformly spaced times (s); the fruit starts at rest relative to the branch at t[0].
+    lateral, axial : tuple of ndarray (n_z, n_t)
+        Branch displacement (m) and velocity (m/s) at each fruit position, lateral and axial.
+    mass : array_like (n_mass,)
+        Fruit masses m0 (kg).
+    stiffness, damping : float
+        Pedicel stiffness k (N/m) and damping c (N s/m).
+    weight : bool
+        Add the fruit's weight m0 g to the axial force (upright branch, axis vertical).
+    strengths : sequence of (float, float)
+        Mean pull and shear strengths (P, S) (N) of each fruit class (e.g. ripe, unripe).
+
+    Returns
+    -------
+    ndarray (n_z, n_mass, 1 + n_strengths)
+        [..., 0]: max_t |F| (N); [..., 1 + s]: max_t g for strengths s (dimensionless).
+
+    References
+    ----------
+    Kong, Y., et al. (2014).  Journal of Northeast Agricultural University 45(4): blueberry fruit detachment by
+    pull along the pedicel and by shear across it (docs/harvest.md, "Bond").
+    """
     h = _uniform_step(t)
     masses = np.atleast_1d(np.asarray(mass, float))
     m, k, c = _check(masses, stiffness, damping)
@@ -292,6 +339,9 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     if not (y.shape == v.shape == ya.shape == va.shape and y.ndim == 2 and y.shape[1] == len(t)):
         raise ConfigError("peak_stem_force needs lateral and axial (displacement, velocity) arrays of shape "
                           "(positions, len(t))")
+    st = np.asarray(strengths, float).reshape(-1, 2)
+    if np.any(~(st > 0)):
+        raise ConfigError(f"pull and shear strengths must be > 0 N, got {strengths}")
     ad, bd = np.zeros((len(m), 2, 2)), np.zeros((len(m), 2, 2))
     cd, dd = np.zeros((len(m), 2)), np.zeros((len(m), 2))
     for j, mj in enumerate(m):
@@ -299,8 +349,9 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
         b = np.array([[0.0, 0.0], [k / mj, c / mj]])
         ad[j], bd[j], cdj, ddj = discretise_foh(a, b, np.array([[-k, -c]]), np.array([[k, c]]), h)
         cd[j], dd[j] = cdj[0], ddj[0]
-    out = np.zeros((y.shape[0], len(m)))
-    _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)), out)
+    out = np.zeros((y.shape[0], len(m), 1 + len(st)))
+    _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)),
+                            np.ascontiguousarray(1.0 / st[:, 0]), np.ascontiguousarray(1.0 / st[:, 1]), out)
     return out
 
 
@@ -308,21 +359,23 @@ def compile_peak_stem_force() -> None:
     """Compile (or load from numba's on-disk cache) the kernel of :func:`peak_stem_force`: one call on four
     samples of a branch at rest.  Lets an idle process compile it before the runs that need it."""
     rest = np.zeros((1, 4))
-    peak_stem_force(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3])
+    peak_stem_loads(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3], strengths=[(0.47, 0.23)])
 
 
 @njit(cache=True)
-def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, out):
-    """out[i, j] = max over time of |(F_lat, F_ax + weight[j])| for the discretised oscillators of
-    :func:`peak_stem_force` (mass j at position i; the maximum is taken on the squared magnitude).
+def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_shear, out):
+    """out[i, j, 0] = max over time of |(F_lat, F_ax + weight[j])| and out[i, j, 1 + s] = max over time of the
+    pull-shear load ratio g_s of :func:`peak_stem_loads` for the discretised oscillators (mass j at position i;
+    the maxima are taken on the squares).
 
     Time outermost, positions innermost: at each time the positions' inputs are gathered into contiguous rows and
     every (mass, position) oscillator advances one step, the positions side by side (the loop vectorises; each
     oscillator's arithmetic is that of its own recursion, so the numbers do not depend on the order)."""
     n_z, n_t = y.shape
     n_m = ad.shape[0]
+    n_s = inv_pull.shape[0]
     x0, x1, w0, w1 = np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z))
-    best = np.zeros((n_m, n_z))
+    best = np.zeros((n_m, n_z, 1 + n_s))
     u0r, u1r, s0r, s1r = np.empty(n_z), np.empty(n_z), np.empty(n_z), np.empty(n_z)
     for n in range(n_t):
         for i in range(n_z):
@@ -338,15 +391,22 @@ def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, out):
                 f_lat = c0 * p0 + c1 * p1 + d0 * u0 + d1 * u1
                 f_ax = c0 * q0 + c1 * q1 + d0 * s0 + d1 * s1 + wt
                 f2 = f_lat * f_lat + f_ax * f_ax
-                b = best[j, i]
-                best[j, i] = f2 if f2 > b else b
+                b = best[j, i, 0]
+                best[j, i, 0] = f2 if f2 > b else b
+                pull = f_ax if f_ax > 0.0 else 0.0
+                for s in range(n_s):
+                    gp, gs = pull * inv_pull[s], f_lat * inv_shear[s]
+                    g2 = gp * gp + gs * gs
+                    b = best[j, i, 1 + s]
+                    best[j, i, 1 + s] = g2 if g2 > b else b
                 x0[j, i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
                 x1[j, i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
                 w0[j, i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
                 w1[j, i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
     for j in range(n_m):
         for i in range(n_z):
-            out[i, j] = math.sqrt(best[j, i])
+            for s in range(1 + n_s):
+                out[i, j, s] = math.sqrt(best[j, i, s])
 
 
 def modal_mass_ratio(modes, z, mass):

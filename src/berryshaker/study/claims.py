@@ -318,5 +318,8 @@ def _claim8(res):
                "the match with A1B1C1F3 is not counted" if kept and l9["recommended"]["same_as_study"] else "")
             + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min"
               f"{fit('efficiency')}, {vh['unripe_rate_pct']:.2f} %{fit('unripe')}, {vh['damage_rate_pct']:.2f} %"
-              f"{fit('damage')} (fitted: the harvest model is calibrated to the study's values at the configured "
-              "clearances, so those values are no evidence, docs/harvest.md)")
+              f"{fit('damage')}"
+            + (" (fitted: the harvest model was calibrated to the study's values at the configured clearances, so "
+               "those values are no evidence, docs/harvest.md)" if fitted else
+               " (predictions: nothing is fitted to the study; berryshaker validate compares them with the study's "
+               "field values, docs/harvest.md)"))

@@ -551,6 +551,27 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     return StepResult("harvest_response", data, figs)
 
 
+def plan_validation(ctx: StudyContext) -> list[PlannedRuns]:
+    """The replicated drive-pasts of the validation cases (berryshaker.study.validation.case_jobs); the reference
+    case's are the calibration's (cached)."""
+    from berryshaker.study.runs import replicate_run
+    from berryshaker.study.validation import case_jobs
+
+    return [PlannedRuns(replicate_run, jobs, f"validation: {case.name}")
+            for case, m, jobs, _ in case_jobs(ctx.machine, data=ctx.data) if jobs]
+
+
+def step_validation(ctx: StudyContext) -> StepResult:
+    """The harvest model against the published record (berryshaker.study.validation.validate: one row per
+    published number with the model's value, interval and verdict; the same table as ``berryshaker validate``)."""
+    from berryshaker.study.validation import validate
+
+    ctx.say("harvest model against the published record")
+    res = validate(ctx.machine, ctx.runner, data=ctx.data,
+                   collect=lambda fn, jobs, label: ctx.collect(fn, jobs, label, lambda j: f"seed {j['seed']}"))
+    return StepResult("validation", res)
+
+
 def step_clearance_life(ctx: StudyContext) -> StepResult:
     """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/)."""
     ctx.say("clearance life (wear, fits)")
@@ -647,12 +668,12 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
 
 STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), ("clearance_rows", step_rows),
          ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("harvest_response", step_harvest_response),
-         ("clearance_life", step_clearance_life), ("powered_drive", step_powered_drive))
+         ("validation", step_validation), ("clearance_life", step_clearance_life), ("powered_drive", step_powered_drive))
 
 
 #: the runs each step will ask for, known before it starts (:class:`PlannedRuns`), by step name
 PLANS = {"clearance_rows": plan_rows, "fruit_force": plan_fruit_force, "virtual_l9": plan_l9,
-         "harvest_response": plan_harvest_response, "powered_drive": plan_powered_drive}
+         "harvest_response": plan_harvest_response, "validation": plan_validation, "powered_drive": plan_powered_drive}
 #: the step that compiles the multibody engine in this process (its first multibody run)
 ENGINE_STEP = "model_agreement"
 

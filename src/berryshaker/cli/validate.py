@@ -1,0 +1,74 @@
+"""The harvest model against the published record: ``validate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from berryshaker import __version__
+from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
+from berryshaker.cli.app import ConfigOpt, JsonOpt, _fail, _load, _print_json, app, command, err, out
+from berryshaker.cli.study import SCHEDULER_HELP
+from berryshaker.errors import BerryshakerError
+
+
+@command(app, "validate")
+def validate(
+    config: Optional[Path] = ConfigOpt,
+    as_json: bool = JsonOpt,
+    workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process "
+                                          "may run on)."),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
+    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
+    replicates: Optional[int] = typer.Option(None, "--replicates", min=2, max=64,
+                                             help="Starts per case (default harvest.replicates)."),
+):
+    """The harvest model against published numbers: one row per number, its source, the model's value with an
+    interval and a verdict.
+
+    Every published number the model can represent is set up as a case on the machine description (its
+    configured clearances and speed for the reference study's field result; the same comb and plant at another
+    shaking speed or on a hard catching surface for other published harvests) and run from harvest.replicates
+    perturbed starts through the cached runner.  A machine result is compared with the 95 % prediction interval
+    of one field result (mean +- t SD sqrt(1 + 1/R)); published model inputs (bond strengths) read "input";
+    numbers the model cannot represent read "not represented" with the reason.  Nothing is fitted to any of these
+    numbers, so every machine result is held out and decides its verdict.  Sources and how far each number can be
+    trusted: docs/published_record.md.
+
+    --json keys: rows (id, quantity, case, source, published, unit, model, lo, hi: the interval the verdict uses,
+    noise_lo, noise_hi: start-to-start noise only, verdict, held_out, how, confidence), replicates, summary (held_out, consistent, not_reproduced, inputs, not_represented), version.
+    """
+    try:
+        from berryshaker.runs.runner import SweepRunner
+        from berryshaker.study.validation import validate as run_validation
+
+        machine = _load(config)
+        if machine.plant is None:
+            raise BerryshakerError("validate needs a [plant] block in the machine description (the harvest model "
+                                   "runs on it); add one, e.g. from the reference machine (config init)")
+        with SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json,
+                         console=err) as runner:
+            res = run_validation(machine, runner, replicates)
+        res["version"] = __version__
+    except BerryshakerError as exc:
+        _fail(exc)
+        return
+    if as_json:
+        _print_json(res)
+        return
+    from berryshaker.report.tables import rich_table
+
+    def num(v):
+        return "" if v is None else f"{v:.3g}"
+
+    rows = [[r["quantity"], r["case"], f"{num(r['published'])} {r['unit']}",
+             "" if r["model"] is None else f"{num(r['model'])} [{num(r['lo'])}, {num(r['hi'])}] {r['unit']}",
+             r["verdict"] + ("" if r["held_out"] else " (not held out)")] for r in res["rows"]]
+    out.print(rich_table(["published number", "case", "published", "model [interval]", "verdict"], rows,
+                         title=f"The harvest model against the published record ({res['replicates']} starts per case)"))
+    s = res["summary"]
+    out.print(f"held out: {s['held_out']} numbers, {s['consistent']} consistent, {s['not_reproduced']} not "
+              f"reproduced; {s['inputs']} model inputs; {s['not_represented']} not represented.  Sources: "
+              "validate --json (source), docs/published_record.md.", markup=False, highlight=False)
