@@ -56,11 +56,8 @@ PENDING = {
     "berryshaker.report",
     "berryshaker.runs",
     "berryshaker.study",
-    "berryshaker.units",
     "berryshaker.plant.pedicel",
     "berryshaker.drives.crank_rocker",
-    "berryshaker.drives.groove_cam.mlsd",
-    "berryshaker.drives.groove_cam.mlsd_kernel",
     # owned by the field-sheet work
     "berryshaker.experiment.analysis",
     "berryshaker.experiment.field_columns",
@@ -68,7 +65,6 @@ PENDING = {
     "berryshaker.experiment.field_sheet",
     # the drive registry and the compiled-kernel cache: not yet given to anyone
     "berryshaker.drives",
-    "berryshaker.compiled_cache",
     # docstrings being completed by the documentation work (issue 46 item 2)
     "berryshaker.contact.conformal",
     "berryshaker.drives.driveline",

@@ -367,9 +367,9 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
     level_values, units : dict, optional
         Level values and units per factor (reported, see :func:`factor_levels_report`).
     fallback_weights : dict name -> float, optional
-        Weights (dimensionless) of second-tier responses (e.g. machine loads when the primary ones are harvest indexes): they decide a
-        factor's level only where the weighted (primary) responses show no significant difference, or
-        cannot tell the best levels apart (:data:`TIERED_RULE`).
+        Weights (dimensionless) of second-tier responses (e.g. machine loads when the primary ones are harvest
+        indexes): they decide a factor's level only where the weighted (primary) responses show no significant
+        difference, or cannot tell the best levels apart (:data:`TIERED_RULE`).
     blocks : bool
         Replicate k of every run shares block k (common random numbers in a simulation: the same start for
         every run; a field day or a row of bushes in a field test): effects are judged against the run x block
