@@ -62,8 +62,19 @@ KEEP_FOLDERS = 4
 
 
 def compiled_sources_digest(root: Path) -> str:
-    """sha256 (hex, first 16 digits) over the ``.py`` files under ``root`` that mention numba (relative path and
-    content, sorted by path): the sources whose change can change compiled code."""
+    """Digest of the sources whose change can change compiled code.
+
+    Parameters
+    ----------
+    root : Path
+        The package folder.
+
+    Returns
+    -------
+    str
+        sha256 (hex, first 16 digits) over the ``.py`` files under ``root`` that mention numba (relative path and
+        content, sorted by path).
+    """
     h = hashlib.sha256()
     for p in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
         if "__pycache__" in p.parts:
@@ -75,18 +86,30 @@ def compiled_sources_digest(root: Path) -> str:
 
 
 def cache_home() -> Path:
-    """The package's cache folder, absolute: ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, else
+    """The package's cache folder: ``$BERRYSHAKER_CACHE``, else ``$XDG_CACHE_HOME/berryshaker``, else
     ``~/.cache/berryshaker`` (an empty variable counts as unset).  The one home of this rule: numba's kernels go
     to ``numba/`` in it (:func:`numba_cache_base`), the sweep runner's results to ``runs/``
-    (:func:`berryshaker.runs.runner.default_cache_dir`)."""
+    (:func:`berryshaker.runs.cache.default_cache_dir`).
+
+    Returns
+    -------
+    Path
+        The folder, absolute (not created here).
+    """
     base = os.environ.get("BERRYSHAKER_CACHE") or os.path.join(
         os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "berryshaker")
     return Path(base).expanduser().resolve()
 
 
 def temp_cache_home() -> Path:
-    """The per-user fallback in the system's temporary folder, ``<temp dir>/berryshaker-<uid>`` (use it only through
-    :func:`private_folder`: anyone may create that name first)."""
+    """The per-user fallback in the system's temporary folder (use it only through :func:`private_folder`:
+    anyone may create that name first).
+
+    Returns
+    -------
+    Path
+        ``<temp dir>/berryshaker-<uid>``, absolute.
+    """
     user = os.getuid() if hasattr(os, "getuid") else "user"
     return Path(tempfile.gettempdir()).resolve() / f"berryshaker-{user}"
 
@@ -109,7 +132,19 @@ def _check_private(path: Path) -> None:
 def private_folder(folder: Path, top: Path) -> Path:
     """Create ``folder`` (and the folders from ``top`` down to it) with mode 0700 and check that every one of them is
     private: a real folder (not a symlink), owned by this user, not writable by group or others; and that ``top``'s
-    parent is not writable by others unless it is sticky (as /tmp).  Returns ``folder``.
+    parent is not writable by others unless it is sticky (as /tmp).
+
+    Parameters
+    ----------
+    folder : Path
+        The folder wanted.
+    top : Path
+        The topmost folder of the package's own above it (or ``folder`` itself).
+
+    Returns
+    -------
+    Path
+        ``folder``.
 
     Raises
     ------
@@ -136,7 +171,13 @@ def private_folder(folder: Path, top: Path) -> Path:
 
 
 def numba_cache_base() -> Path:
-    """The folder holding the digest folders (see the module docstring); absolute."""
+    """The folder holding the digest folders (see the module docstring).
+
+    Returns
+    -------
+    Path
+        The folder, absolute.
+    """
     return _numba_base()[0]
 
 
@@ -167,8 +208,13 @@ def _prepare(folder: Path, top: Path) -> str | None:
 
 
 def point_numba_cache() -> Path | None:
-    """Point numba's cache at this package version's digest folder; returns it (None when no private folder can be
-    written)."""
+    """Point numba's cache at this package version's digest folder.
+
+    Returns
+    -------
+    Path or None
+        The digest folder, None when no private folder can be written (a warning says so).
+    """
     name = FOLDER_PREFIX + compiled_sources_digest(Path(__file__).resolve().parent)
     base, top = _numba_base()
     folder = base / name
@@ -213,8 +259,12 @@ KERNEL_CHOICES = ("auto", "generic", "specialised")
 
 
 def kernel_choice() -> str:
-    """The multibody kernel of runs left to choose, from :data:`KERNEL_ENV`: "auto" (unset or empty), "generic" or
-    "specialised" (any case, spaces ignored).
+    """The multibody kernel of runs left to choose, from :data:`KERNEL_ENV`.
+
+    Returns
+    -------
+    str
+        "auto" (unset or empty), "generic" or "specialised" (any case, spaces ignored).
 
     Raises
     ------
@@ -253,7 +303,24 @@ def resolve_kernel(explicit: bool | None, compiled: Callable[[], bool],
     4. else ``pays()`` when given (a sweep: enough runs per worker to pay for compiling it,
        :func:`berryshaker.runs.sweep.choose_specialised`), else the generic kernel.
 
-    ``compiled`` and ``pays`` are called only when their rule is reached.
+    Parameters
+    ----------
+    explicit : bool or None
+        The choice asked for, None when none is (rule 1).
+    compiled : callable
+        ``compiled() -> bool``: whether this machine has compiled the structure's kernel (rule 3); called only when
+        that rule is reached.
+    pays : callable, optional
+        ``pays() -> (choice, why)``: the sweep's rule (rule 4); called only when that rule is reached.
+    asked : str
+        The reason given for an explicit choice.
+
+    Returns
+    -------
+    specialised : bool
+        True for the specialised kernel.
+    why : str
+        The rule that decided, for the user.
 
     Raises
     ------
@@ -277,6 +344,16 @@ def kernel_source_folder(name: str) -> Path:
     folder (``$NUMBA_CACHE_DIR``: the digest folder :func:`point_numba_cache` chose, or the user's own), else, when
     numba has none, in the per-user temporary folder (:func:`temp_cache_home`), created private
     (:func:`private_folder`).  Generated sources are imported, so a folder someone else made first is refused.
+
+    Parameters
+    ----------
+    name : str
+        The folder's name (a digest of the sources the generated code calls).
+
+    Returns
+    -------
+    Path
+        The folder (created only in the temporary fallback).
 
     Raises
     ------

@@ -87,7 +87,37 @@ MIN_STEP_BUDGET = 200_000
 
 @dataclass
 class MLSDResult:
-    """Time series and statistics of one MLSD simulation (SI)."""
+    """Time series and statistics of one MLSD simulation (SI).
+
+    Attributes
+    ----------
+    t : ndarray
+        (n,) output times (s).
+    state : ndarray
+        (n, 8) x (m), theta_D (rad), u (m), theta_E (rad) and their rates (m/s, rad/s).
+    results : ndarray
+        (n, N_R) results at the output times (SI; :data:`RESULT_COLUMNS`).
+    peaks : ndarray
+        (N_R,) max |.| over accepted steps after the first revolution (SI).
+    clearance : dict
+        Clearance size per pair (m).
+    revolutions : int
+        Cam revolutions simulated.
+    steps : int
+        Accepted integrator steps.
+    rejected : int
+        Rejected integrator steps.
+    wall_time_s : float
+        Wall time of the integration (s).
+    stats_from : float
+        Time from which statistics are taken (s): the end of the first revolution.
+    machine : GrooveCamMachine
+        The machine simulated, its clearances set.
+    onsets : dict
+        Contact onsets per pair after the first revolution, on every accepted step.
+    event_cuts : int
+        Integrator steps cut back to a contact onset (every revolution).
+    """
 
     t: np.ndarray
     state: np.ndarray  # (n, 8): x, theta_D, u, theta_E and their rates
@@ -104,12 +134,30 @@ class MLSDResult:
     event_cuts: int = 0  # integrator steps cut back to a contact onset (every revolution)
 
     def series(self, name: str) -> np.ndarray:
+        """One written time series.
+
+        Parameters
+        ----------
+        name : str
+            A key of :data:`RESULT_COLUMNS`.
+
+        Returns
+        -------
+        ndarray
+            (n,) its values, in the unit :data:`RESULT_COLUMNS` gives (SI).
+        """
         return self.results[:, RESULT_COLUMNS[name][0]]
 
     def series_onsets(self) -> dict[str, int]:
         """Contact onsets per pair over revolutions 2..N: transitions of the written series from |d_i| <= c_i
         (open) to |d_i| > c_i (in contact); a lower bound (an episode between two samples is missed).  The multibody
-        summary counts impacts in its integrator instead (:func:`berryshaker.drives.simulation.contact_onsets`)."""
+        summary counts impacts in its integrator instead (:func:`berryshaker.drives.simulation.contact_onsets`).
+
+        Returns
+        -------
+        dict
+            Onsets per pair name.
+        """
         sel = self.t >= self.stats_from - 1e-12
         out = {}
         for k, name in enumerate(PAIR_NAMES):
@@ -125,6 +173,11 @@ class MLSDResult:
         ``drive_moment_Nm``: the moment the drive applies to the cam in its direction of rotation, eq. 9;
         ``mean`` its signed mean over revolutions 2..N (as the multibody summary), ``mean_abs`` the mean of its
         magnitude.  ``contact_onsets``: impacts per pair on the written series (:meth:`series_onsets`).
+
+        Returns
+        -------
+        dict
+            JSON-compatible: forces in N, moments in N m, clearances in mm, power in W, counts.
         """
         sel = self.t >= self.stats_from - 1e-12
         pk = self.peaks
@@ -178,8 +231,19 @@ JAM_SPEED_RATIO = 0.1
 
 
 def default_step_budget(duration: float) -> int:
-    """The step budget (accepted + rejected steps) of an MLSD run of ``duration`` s of motion:
-    :data:`STEPS_PER_SECOND` per second, at least :data:`MIN_STEP_BUDGET`."""
+    """The step budget (accepted + rejected steps) of an MLSD run: :data:`STEPS_PER_SECOND` per second of
+    motion, at least :data:`MIN_STEP_BUDGET`.
+
+    Parameters
+    ----------
+    duration : float
+        Seconds of motion (s).
+
+    Returns
+    -------
+    int
+        The budget (steps).
+    """
     return max(MIN_STEP_BUDGET, int(math.ceil(STEPS_PER_SECOND * duration)))
 
 
@@ -234,6 +298,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     Parameters
     ----------
     machine : Machine
+        The groove-cam machine.
     clearance : dict, optional
         Clearance sizes (m) per pair name A, B, C, F; missing pairs keep the machine's value (validated by
         :meth:`~berryshaker.drives.base.MachineBase.with_clearances`).
@@ -242,7 +307,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     output_step : float
         Time step of the written series (s); peaks are taken over every integrator step.
     rtol : float
-        Relative tolerance of the adaptive integrator.
+        Relative tolerance of the adaptive integrator (1).
     h_max : float
         Largest integrator step (s).
     start_angle : float
@@ -256,6 +321,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     Returns
     -------
     MLSDResult
+        The time series, peaks and statistics of the run.
 
     Raises
     ------

@@ -68,7 +68,24 @@ RESULT_COLUMNS = {
 
 
 def parameter_vector(machine: Machine) -> np.ndarray:
-    """Dynamic parameters (SI) of the MLSD model for the compiled kernels."""
+    """Dynamic parameters (SI) of the MLSD model for the compiled kernels.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine, its clearances set.
+
+    Returns
+    -------
+    ndarray
+        (:data:`N_P`,), SI values in the layout ``P_*`` (masses kg, inertias kg m^2, lengths m, per pair its
+        clearance, K, C or v_ref, n, law form and hysteresis factor).
+
+    Raises
+    ------
+    ConfigError
+        A pair's law is not one the MLSD model runs (:data:`LAW_FORMS`).
+    """
     p = np.zeros(N_P)
     p[P_M2] = machine.push_rod.mass
     p[P_J3] = machine.combs.left_inertia
@@ -169,8 +186,24 @@ def _pair_force(d, dd, p, k, cst):
 
 @njit(cache=True)
 def evaluate(t, y, g, p, res, cst):
-    """Forces, moments and accelerations of the MLSD model at time t, state y, contact state ``cst``
-    (see :func:`_pair_force`); fills ``res``."""
+    """Forces, moments and accelerations of the MLSD model at one time and state (eq. 4-12).
+
+    Parameters
+    ----------
+    t : float
+        Time (s); the cam angle is omega t.
+    y : ndarray
+        (8,) state: x (m), theta_D (rad), u (m), theta_E (rad) and their rates (m/s, rad/s).
+    g : ndarray
+        Geometry vector of the drive (SI; :func:`berryshaker.drives.groove_cam.kinematics.geometry_vector`).
+    p : ndarray
+        Dynamic parameters (SI; :func:`parameter_vector`).
+    res : ndarray
+        (:data:`N_R`,) filled with the results in the layout ``R_*`` (forces N, moments N m, lengths m, rates m/s,
+        accelerations m/s^2 or rad/s^2).
+    cst : ndarray
+        (8,) contact state: in contact (1) x 4, impact velocity (m/s) x 4 (see :func:`_pair_force`).
+    """
     w = g[G_OMEGA]
     phi = w * t
     ok, s, v, a, thd_i, wd_i, ad_i, th4, w4, a4, the_i, we_i, ae_i = ideal_state(phi, g)
@@ -317,6 +350,37 @@ def integrate(t_out, g, p, rtol, atol, h_max, stats_from, out_y, out_r, peaks, i
     onsets[k] = contact onsets of pair k (transitions from open to in contact over accepted steps) with
     t >= stats_from.  A step in which a pair's penetration goes from <= 0 to more than EVENT_TOL is cut back to
     the crossing, so the hysteresis laws get the impact velocity at first touch.
+
+    Parameters
+    ----------
+    t_out : ndarray
+        Output times (s), increasing.
+    g : ndarray
+        Geometry vector (SI).
+    p : ndarray
+        Dynamic parameters (SI; :func:`parameter_vector`).
+    rtol : float
+        Relative tolerance (1).
+    atol : ndarray
+        (8,) absolute tolerances of the state, in its units (m, rad, m/s, rad/s).
+    h_max : float
+        Largest step (s).
+    stats_from : float
+        Time from which peaks and onsets are counted (s).
+    out_y : ndarray
+        (n_out, 8) filled with the state at each output time (its units).
+    out_r : ndarray
+        (n_out, N_R) filled with the results at each output time (SI, layout ``R_*``).
+    peaks : ndarray
+        (N_R,) running max of |res| (SI).
+    info : ndarray
+        (5,) filled as above (counts, t_fail in s, status).
+    onsets : ndarray
+        (4,) contact onsets per pair: counts (1), as floats.
+    st : ndarray
+        (N_S,) the resumable integrator state (SI; layout ``S_*``).
+    step_limit : int
+        Steps taken from the run's start at which the call returns (status 5).
     """
     n = 8
     k = np.zeros((7, n))
