@@ -206,16 +206,18 @@ def _same_unit(a: str, b: str) -> bool:
 
 
 def _units_row(df: pd.DataFrame) -> dict[str, str] | None:
-    """A units row under the header (every filled cell of the first data row names a unit, at least one is not
-    '-'), as column -> unit ('' dimensionless; None where the cell is empty); else None."""
+    """A units row under the header (every filled cell of the first data row names a unit, at least two are not
+    '-', no note column is filled), as column -> unit ('' dimensionless; None where the cell is empty); else None."""
     if len(df) < 2:
         return None
     first = df.iloc[0]
     filled = {c: str(v) for c, v in first.items() if not pd.isna(v) and str(v).strip()}
     if not filled:
         return None
+    if any(str(c).lower() in META_COLUMNS for c in filled):  # a note is data, never a unit
+        return None
     units = {c: _unit_or_none(v) for c, v in filled.items()}
-    if any(u is None for u in units.values()) or not any(units.values()):
+    if any(u is None for u in units.values()) or sum(1 for u in units.values() if u) < 2:
         return None
     if any(_CELL.match(v) and not _CELL.match(v).group(2) for v in filled.values()):  # a bare number: data
         return None

@@ -4,6 +4,8 @@ resolution and SVG beside it, the canvas grown until no label or legend is cut, 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from berryshaker.report.style import PRINT_DPI, finish
@@ -18,7 +20,7 @@ def _out(fig, path, data: dict, return_figure: bool, dpi: int = PRINT_DPI) -> di
     """Save ``fig`` (:func:`berryshaker.report.style.finish`), record its path (and the SVG's), return ``data``."""
     data["path"] = str(path)
     kept = finish(fig, path, dpi=dpi, keep=return_figure)
-    data["svg"] = str(path.with_suffix(".svg")) if hasattr(path, "with_suffix") else None
+    data["svg"] = str(Path(path).with_suffix(".svg"))
     if kept is not None:
         data["figure"] = kept
     return data
