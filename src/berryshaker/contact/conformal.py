@@ -53,6 +53,7 @@ def material_constants(name: str) -> tuple[float, float]:
     Returns
     -------
     (E, nu) : tuple of float
+        Young's modulus (Pa) and Poisson ratio (dimensionless).
 
     Raises
     ------
@@ -133,10 +134,22 @@ def line_contact_approach(force, length, delta_r, e_star):
 def line_contact_compliance(force, length, delta_r, e_star):
     """Tangent compliance d(delta)/dF of :func:`line_contact_approach` (m/N).
 
+    Parameters
+    ----------
+    force : array_like
+        Normal load F (N), > 0.
+    length : float
+        Contact length L along the axis (m).
+    delta_r : float
+        Radius difference dR (m): R_bore - R_pin for a pin in a bore, R1 + R2 for two convex cylinders
+        (:func:`line_contact_approach`).
+    e_star : float
+        Combined elastic modulus E* (Pa).
+
     Returns
     -------
     ndarray
-        d(delta)/dF = [ln(4 pi L E* dR / F) - 2] / (pi L E*); its inverse is the tangent stiffness.
+        Compliance (m/N): d(delta)/dF = [ln(4 pi L E* dR / F) - 2] / (pi L E*); its inverse is the tangent stiffness.
 
     References
     ----------
@@ -150,10 +163,20 @@ def line_contact_compliance(force, length, delta_r, e_star):
 def line_contact_load_limit(length, delta_r, e_star):
     """Largest load (N) for which Johnson's line-contact relation is monotone.
 
+    Parameters
+    ----------
+    length : float
+        Contact length L along the axis (m).
+    delta_r : float
+        Radius difference dR (m): R_bore - R_pin for a pin in a bore, R1 + R2 for two convex cylinders
+        (:func:`line_contact_approach`).
+    e_star : float
+        Combined elastic modulus E* (Pa).
+
     Returns
     -------
     float
-        F_lim = 4 pi L E* dR / e^2, where d(delta)/dF = 0.  Use the model well below it (the tests and
+        The load limit (N), F_lim = 4 pi L E* dR / e^2, where d(delta)/dF = 0.  Use the model well below it (the tests and
         :func:`fit_power_law` stay under F_lim / 10).
 
     References
@@ -170,13 +193,18 @@ def line_contact_force(penetration, length, delta_r, e_star):
     ----------
     penetration : array_like
         delta (m); <= 0 gives 0.
-    length, delta_r, e_star : float
-        As in :func:`line_contact_approach`.
+    length : float
+        Contact length L along the axis (m).
+    delta_r : float
+        Radius difference dR (m): R_bore - R_pin for a pin in a bore, R1 + R2 for two convex cylinders
+        (:func:`line_contact_approach`).
+    e_star : float
+        Combined elastic modulus E* (Pa).
 
     Returns
     -------
     ndarray
-        F with line_contact_approach(F) = delta, solved by Newton's method on ln F (vectorised,
+        Force (N): F with line_contact_approach(F) = delta, solved by Newton's method on ln F (vectorised,
         quadratically convergent; the relation is monotone below :func:`line_contact_load_limit`).
 
     Raises
@@ -273,11 +301,11 @@ class PowerLawFit:
     stiffness : float
         K (N/m^n).
     exponent : float
-        n.
+        n (dimensionless).
     force_range : tuple of float
         (F_min, F_max) of the fit (N).
     max_relative_error : float
-        max |K delta^n - F| / F over the range (on the fitting grid).
+        max |K delta^n - F| / F over the range (on the fitting grid; dimensionless).
     """
 
     stiffness: float
@@ -286,7 +314,18 @@ class PowerLawFit:
     max_relative_error: float
 
     def force(self, penetration):
-        """F = K max(delta, 0)^n (N)."""
+        """F = K max(delta, 0)^n (N).
+
+        Parameters
+        ----------
+        penetration : array_like
+            delta (m).
+
+        Returns
+        -------
+        ndarray
+            Force (N).
+        """
         d = np.maximum(np.asarray(penetration, float), 0.0)
         return self.stiffness * d**self.exponent
 
@@ -344,19 +383,63 @@ class CylinderContactLaw:
     pereira: tuple[float, float] | None
 
     def approach(self, force):
-        """Johnson's delta(F) (m) for this joint."""
+        """Johnson's delta(F) (m) for this joint.
+
+        Parameters
+        ----------
+        force : array_like
+            Normal load F (N).
+
+        Returns
+        -------
+        ndarray
+            Approach delta (m).
+        """
         return line_contact_approach(force, self.length, self.delta_r, self.e_star)
 
     def force(self, penetration):
-        """Johnson's F(delta) (N) for this joint (numerical inverse)."""
+        """Johnson's F(delta) (N) for this joint (numerical inverse).
+
+        Parameters
+        ----------
+        penetration : array_like
+            delta (m).
+
+        Returns
+        -------
+        ndarray
+            Force (N).
+        """
         return line_contact_force(penetration, self.length, self.delta_r, self.e_star)
 
     def tangent_stiffness(self, force):
-        """Equivalent linear stiffness dF/d(delta) at load F (N/m)."""
+        """Equivalent linear stiffness dF/d(delta) at load F (N/m).
+
+        Parameters
+        ----------
+        force : array_like
+            Normal load F (N).
+
+        Returns
+        -------
+        ndarray
+            Tangent stiffness (N/m).
+        """
         return 1.0 / line_contact_compliance(force, self.length, self.delta_r, self.e_star)
 
     def secant_stiffness(self, force):
-        """F / delta(F) at load F (N/m): the linear spring that gives the same penetration at F."""
+        """F / delta(F) at load F (N/m): the linear spring that gives the same penetration at F.
+
+        Parameters
+        ----------
+        force : array_like
+            Normal load F (N).
+
+        Returns
+        -------
+        ndarray
+            Secant stiffness (N/m).
+        """
         f = np.asarray(force, float)
         return f / self.approach(f)
 
@@ -493,8 +576,9 @@ def hysteresis_factor(restitution, model="flores"):
     Parameters
     ----------
     restitution : array_like
-        Coefficient of restitution e, 0 < e <= 1.
+        Coefficient of restitution e (dimensionless), 0 < e <= 1.
     model : {"hunt_crossley", "lankarani_nikravesh", "flores"}
+        The law.
 
     Returns
     -------
@@ -525,7 +609,7 @@ def hysteresis_damping_coefficient(stiffness, restitution, impact_velocity, mode
     stiffness : float
         K of the power law (N/m^n).
     restitution : float
-        e.
+        e (dimensionless).
     impact_velocity : array_like
         Normal approach speed at contact onset (m/s), > 0.
     model : str
@@ -534,7 +618,7 @@ def hysteresis_damping_coefficient(stiffness, restitution, impact_velocity, mode
     Returns
     -------
     ndarray
-        chi, so that F = K delta^n + chi delta^n delta_dot.
+        chi (N s / m^(n+1)), so that F = K delta^n + chi delta^n delta_dot.
 
     References
     ----------
@@ -556,7 +640,7 @@ def linear_damping_for_restitution(stiffness, effective_mass, restitution):
     effective_mass : float
         m1 m2 / (m1 + m2) of the colliding bodies (kg).
     restitution : float
-        e, 0 < e <= 1.
+        e (dimensionless), 0 < e <= 1.
 
     Returns
     -------
@@ -588,6 +672,15 @@ def linear_damping_for_restitution(stiffness, effective_mass, restitution):
 def restitution_of_linear_damping(stiffness, effective_mass, damping):
     """Coefficient of restitution of a linear spring-dashpot contact (inverse of
     :func:`linear_damping_for_restitution`).
+
+    Parameters
+    ----------
+    stiffness : float
+        k (N/m).
+    effective_mass : float
+        m1 m2 / (m1 + m2) of the colliding bodies (kg).
+    damping : float
+        c (N s/m).
 
     Returns
     -------

@@ -162,7 +162,7 @@ def kloss_torque(omega, synchronous_speed, breakdown_torque, breakdown_slip):
     breakdown_torque : float
         T_b, the pull-out torque (N m).
     breakdown_slip : float
-        s_b, the slip at T_b.
+        s_b, the slip at T_b (dimensionless).
 
     Returns
     -------
@@ -189,10 +189,15 @@ def kloss_torque(omega, synchronous_speed, breakdown_torque, breakdown_slip):
 def induction_breakdown(motor: InductionMotor) -> tuple[float, float, float]:
     """Rated torque, breakdown torque and breakdown slip of an induction motor.
 
+    Parameters
+    ----------
+    motor : InductionMotor
+        The motor's rating (power, synchronous speed, rated slip, breakdown ratio lambda).
+
     Returns
     -------
     (T_rated, T_b, s_b) : tuple of float
-        T_rated = P / (omega_s (1 - s_r)); T_b = lambda T_rated; s_b = s_r (lambda + sqrt(lambda^2 - 1)),
+        Torques (N m) and slip (dimensionless): T_rated = P / (omega_s (1 - s_r)); T_b = lambda T_rated; s_b = s_r (lambda + sqrt(lambda^2 - 1)),
         the Kloss curve through the rated point on its stable branch.
 
     References
@@ -211,8 +216,9 @@ def motor_torque(spec: DrivelineSpec, omega_motor):
     Parameters
     ----------
     spec : DrivelineSpec
+        The driveline (its motor).
     omega_motor : array_like
-        rad/s.
+        Motor speed (rad/s).
 
     Returns
     -------
@@ -242,10 +248,15 @@ def motor_torque(spec: DrivelineSpec, omega_motor):
 def worm_efficiencies(worm: WormSpec) -> tuple[float, float]:
     """Forward (worm driving) and back-driving (wheel driving) efficiencies of a worm set.
 
+    Parameters
+    ----------
+    worm : WormSpec
+        Lead angle lambda, normal pressure angle phi_n and friction coefficient f.
+
     Returns
     -------
     (eta_forward, eta_back) : tuple of float
-        eta_f = (cos phi_n - f tan lambda)/(cos phi_n + f cot lambda),
+        Efficiencies (dimensionless): eta_f = (cos phi_n - f tan lambda)/(cos phi_n + f cot lambda),
         eta_b = (cos phi_n - f cot lambda)/(cos phi_n + f tan lambda);  eta_b <= 0 means self-locking
         (f >= cos phi_n tan lambda).  For phi_n = 0 they reduce to tan(lambda)/tan(lambda + phi) and
         tan(lambda - phi)/tan(lambda), phi = atan f.  Given efficiencies override the formula.
@@ -266,10 +277,21 @@ def worm_efficiencies(worm: WormSpec) -> tuple[float, float]:
 def capstan_force_limit(pretension, friction_coefficient, wrap_angle, groove_angle=0.0):
     """Largest effective belt pull F_e = T1 - T2 before gross slip (N).
 
+    Parameters
+    ----------
+    pretension : float
+        Static tension T0 of each span (N).
+    friction_coefficient : float
+        mu, belt on pulley (dimensionless).
+    wrap_angle : float
+        theta, the wrap on the smaller pulley (rad).
+    groove_angle : float
+        beta, the V-groove angle (rad); 0 for a flat belt.
+
     Returns
     -------
     float
-        F_max = 2 T0 tanh(mu' theta / 2) with mu' = mu / sin(beta/2) for a V-belt of groove angle beta
+        The limit (N): F_max = 2 T0 tanh(mu' theta / 2) with mu' = mu / sin(beta/2) for a V-belt of groove angle beta
         (mu' = mu for a flat belt), from Euler-Eytelwein T1/T2 = exp(mu' theta) and T1 + T2 = 2 T0.
 
     Notes
@@ -294,11 +316,12 @@ class ReflectedDriveline:
     Attributes
     ----------
     ratio : float
-        Motor speed / cam speed without creep, R = (r_n / r_d) i_cvt i_worm.
+        Motor speed / cam speed without creep, R = (r_n / r_d) i_cvt i_worm (dimensionless).
     rotor_inertia : float
         J_r = J_motor R^2 (kg m^2): the extra rotor body.
     shaft_inertia : float
-        J_s = J_input (i_cvt i_worm)^2: the driven pulley, CVT and worm, rigid with the cam through the mesh.
+        J_s = J_input (i_cvt i_worm)^2 (kg m^2): the driven pulley, CVT and worm, rigid with the cam through the
+        mesh.
     cam_inertia : float
         J_c (kg m^2).
     torsional_stiffness, torsional_damping : float
@@ -309,7 +332,8 @@ class ReflectedDriveline:
         Creep fraction per unit belt torque, 1 / (EA r_n N) (1/(N m)): the driven side runs slower by
         this fraction times T_b.
     eta_forward, eta_back : float
-        Efficiency of CVT x worm when driving the cam, and when the cam drives back (<= 0 self-locking).
+        Efficiency of CVT x worm when driving the cam, and when the cam drives back (dimensionless; <= 0
+        self-locking).
     spec : DrivelineSpec
         The source description (for the torque curve).
     """
@@ -327,7 +351,18 @@ class ReflectedDriveline:
     spec: DrivelineSpec
 
     def rotor_torque(self, omega_rotor):
-        """Prime-mover torque at cam scale, R T_m(R omega_r) (N m), for rotor speeds at cam scale (rad/s)."""
+        """Prime-mover torque at cam scale, R T_m(R omega_r) (N m), for rotor speeds at cam scale (rad/s).
+
+        Parameters
+        ----------
+        omega_rotor : array_like
+            Rotor speed at cam scale (rad/s).
+
+        Returns
+        -------
+        ndarray
+            Torque at cam scale (N m).
+        """
         return self.ratio * motor_torque(self.spec, self.ratio * np.asarray(omega_rotor, float))
 
 
@@ -337,6 +372,7 @@ def reflect_to_cam(spec: DrivelineSpec) -> ReflectedDriveline:
     Parameters
     ----------
     spec : DrivelineSpec
+        The driveline description.
 
     Returns
     -------
@@ -380,6 +416,7 @@ def belt_torque(red: ReflectedDriveline, windup, omega_rotor, omega_cam):
     Parameters
     ----------
     red : ReflectedDriveline
+        The driveline reflected to the cam (:func:`reflect_to_cam`).
     windup : array_like
         psi, elastic belt windup at cam scale (rad).
     omega_rotor, omega_cam : array_like
@@ -423,6 +460,7 @@ def mesh_acceleration(red: ReflectedDriveline, belt_torque_cam, load_torque):
     Parameters
     ----------
     red : ReflectedDriveline
+        The driveline reflected to the cam (:func:`reflect_to_cam`).
     belt_torque_cam : array_like
         T_b on the driven shaft at cam scale (N m).
     load_torque : array_like
@@ -478,7 +516,7 @@ class SteadyState:
     belt_torque : float
         At cam scale (N m).
     creep : float
-        Fractional belt speed loss.
+        Fractional belt speed loss (dimensionless).
     input_power, output_power : float
         Prime-mover power and power delivered to the load (W).
     """
@@ -497,6 +535,7 @@ def steady_state_speed(spec: DrivelineSpec, load_torque: float) -> SteadyState:
     Parameters
     ----------
     spec : DrivelineSpec
+        The driveline description.
     load_torque : float
         T_L at the cam (N m).
 
@@ -579,18 +618,21 @@ def simulate_two_inertia(spec: DrivelineSpec, load_torque, revolutions: float = 
     Parameters
     ----------
     spec : DrivelineSpec
+        The driveline description.
     load_torque : callable
         T_L(phi) (N m), vectorised over the cam angle phi (rad); positive resists the motion.
     revolutions : float
-        Cam revolutions to simulate, starting from the steady state under the mean load.
+        Cam revolutions to simulate (dimensionless), starting from the steady state under the mean load.
     revolutions_measured : float
-        Trailing revolutions used for the speed statistics and the mean input power.
+        Trailing revolutions used for the speed statistics and the mean input power (dimensionless).
     rtol : float
-        Relative tolerance of the integrator (DOP853); the energy audit closes to about this level.
+        Relative tolerance of the integrator (DOP853; dimensionless); the energy audit closes to about this
+        level.
 
     Returns
     -------
     DrivelineRun
+        Time series, speed statistics, input power and the energy audit (SI).
 
     Notes
     -----

@@ -34,7 +34,18 @@ N_GEOMETRY = 18
 
 
 def geometry_vector(machine: Machine) -> np.ndarray:
-    """Flat SI parameter vector of the ideal mechanism for the compiled kernels."""
+    """Flat SI parameter vector of the ideal mechanism for the compiled kernels.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+
+    Returns
+    -------
+    ndarray
+        The parameters at the ``G_*`` indices, SI (m, rad, rad/s; the law and the assembly branch as codes).
+    """
     c = machine.cam
     d, e = machine.shaft_D, machine.shaft_E
     g = np.zeros(N_GEOMETRY)
@@ -52,9 +63,19 @@ def geometry_vector(machine: Machine) -> np.ndarray:
 def ideal_state(phi, g):
     """Ideal mechanism at cam angle phi (constant cam speed g[G_OMEGA]).
 
-    Returns a tuple (ok, s, v, a, th_D, w_D, a_D, th_4, w_4, a_4, th_E, w_E, a_E): push-rod
-    displacement (m), velocity (m/s), acceleration (m/s^2); left comb, coupler and right comb angles
-    (rad), rates (rad/s) and accelerations (rad/s^2).  ok is False where the four-bar cannot assemble.
+    Parameters
+    ----------
+    phi : float
+        Cam angle (rad).
+    g : ndarray
+        The geometry vector (:func:`geometry_vector`, SI).
+
+    Returns
+    -------
+    tuple
+        (ok, s, v, a, th_D, w_D, a_D, th_4, w_4, a_4, th_E, w_E, a_E): push-rod displacement (m), velocity
+        (m/s), acceleration (m/s^2); left comb, coupler and right comb angles (rad), rates (rad/s) and
+        accelerations (rad/s^2).  ok is False where the four-bar cannot assemble.
     """
     w = g[G_OMEGA]
     s, s1, s2, s3 = _follower_svaj_scalar(phi, int(g[G_LAW]), g[G_H], g[G_RISE], g[G_FAR], g[G_RET])
@@ -90,7 +111,35 @@ def _cycle_kernel(phi, g, out):
 
 @dataclass(frozen=True)
 class CycleKinematics:
-    """Ideal kinematics of the drive sampled over cam angle (all SI)."""
+    """Ideal kinematics of the drive sampled over cam angle (all SI).
+
+    Attributes
+    ----------
+    phi : ndarray
+        Cam angle (rad).
+    t : ndarray
+        Time at constant cam speed (s).
+    s : ndarray
+        Push-rod displacement (m).
+    ds, d2s, d3s : ndarray
+        Its derivatives with respect to the cam angle (m/rad, m/rad^2, m/rad^3).
+    v, a, j : ndarray
+        Push-rod velocity (m/s), acceleration (m/s^2) and jerk (m/s^3).
+    theta_d, omega_d, alpha_d : ndarray
+        Left comb (rocker about D) angle (rad), rate (rad/s) and acceleration (rad/s^2).
+    theta_4, omega_4, alpha_4 : ndarray
+        Coupler CF angle (rad), rate (rad/s) and acceleration (rad/s^2).
+    theta_e, omega_e, alpha_e : ndarray
+        Right comb (arm about E) angle (rad), rate (rad/s) and acceleration (rad/s^2).
+    assembled : ndarray of bool
+        Whether the four-bar assembles at each angle.
+    pressure_angle : ndarray
+        Cam pressure angle (rad).
+    curvature : ndarray
+        Pitch-curve curvature (1/m).
+    transmission_angle : ndarray
+        Four-bar transmission angle (rad).
+    """
 
     phi: np.ndarray  # cam angle (rad)
     t: np.ndarray  # time (s) at constant cam speed
@@ -121,9 +170,15 @@ def cycle_kinematics(machine: Machine, n: int = 3601) -> CycleKinematics:
 
     Parameters
     ----------
-    machine : Machine
+    machine : GrooveCamMachine
+        The machine description.
     n : int
         Number of samples over [0, 2 pi] (both ends included).
+
+    Returns
+    -------
+    CycleKinematics
+        The sampled kinematics (SI).
     """
     from berryshaker.kinematics.cam import follower_svaj
 
@@ -148,7 +203,22 @@ def cycle_kinematics(machine: Machine, n: int = 3601) -> CycleKinematics:
 
 
 def cam_groove(machine: Machine, n: int = 721):
-    """Pitch curve and groove walls of the machine's cam in the cam frame (m), closed (last = first)."""
+    """Pitch curve and groove walls of the machine's cam in the cam frame (m), closed (last = first).
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    n : int
+        Number of cam angles over one revolution.
+
+    Returns
+    -------
+    phi : ndarray (n,)
+        Cam angles (rad).
+    pitch, inner, outer : ndarray (2, n)
+        x, y of the pitch curve and the inner and outer groove walls (m).
+    """
     from berryshaker.kinematics.cam import follower_svaj
 
     c = machine.cam
@@ -160,7 +230,18 @@ def cam_groove(machine: Machine, n: int = 721):
 
 
 def mid_stroke_angles(machine: Machine) -> tuple[float, float]:
-    """Left and right comb angles (rad) with the push rod at mid-stroke: the swing reference."""
+    """Left and right comb angles (rad) with the push rod at mid-stroke: the swing reference.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+
+    Returns
+    -------
+    (float, float)
+        theta_D and theta_E (rad).
+    """
     g = geometry_vector(machine)
     xb = g[G_S0] + machine.cam.stroke / 2 + g[G_LAB]
     th_d = math.atan2(g[G_E] - g[G_YD], xb - g[G_XD])
@@ -174,6 +255,18 @@ def mid_stroke_angles(machine: Machine) -> tuple[float, float]:
 
 def check_machine(machine: Machine, allow_undercut: bool = False) -> CycleKinematics:
     """Check that the machine can be built and run; return its cycle kinematics.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    allow_undercut : bool
+        Report an undercutting groove instead of refusing it.
+
+    Returns
+    -------
+    CycleKinematics
+        The kinematics over one revolution.
 
     Raises
     ------
@@ -210,7 +303,22 @@ def check_machine(machine: Machine, allow_undercut: bool = False) -> CycleKinema
 
 @dataclass(frozen=True)
 class SelfLocking:
-    """The self-locking limit of the push rod in its guide (:func:`self_locking_limit`; SI)."""
+    """The self-locking limit of the push rod in its guide (:func:`self_locking_limit`; SI).
+
+    Attributes
+    ----------
+    mu_limit : float
+        Guide friction coefficient (dimensionless) at which the cam can no longer drive the push rod (inf:
+        never).
+    cam_angle : float
+        Cam angle where the limit is lowest (rad).
+    pressure_angle : float
+        The pressure angle there (rad).
+    overhang : float
+        Roller A's distance outside the guide there (m; 0: between the bearings).
+    guide_length : float
+        |x_H - x_G| (m).
+    """
 
     mu_limit: float  # guide friction coefficient at which the cam can no longer drive the push rod (inf: never)
     cam_angle: float  # rad, where the limit is lowest
@@ -250,7 +358,8 @@ def self_locking_limit(machine: Machine, n: int = 3601) -> SelfLocking:
 
     Parameters
     ----------
-    machine : Machine
+    machine : GrooveCamMachine
+        The machine description.
     n : int
         Cam angles over one revolution.
 
@@ -288,6 +397,16 @@ def check_self_locking(machine: Machine) -> SelfLocking:
     ConfigError
         ``push_rod.friction_coefficient`` is at or above the limit of this geometry; the message names the
         limit, where it is reached and what to change.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+
+    Returns
+    -------
+    SelfLocking
+        The limit, when the push rod does not self-lock.
     """
     lock = self_locking_limit(machine)
     mu = machine.push_rod.friction_coefficient
@@ -318,6 +437,13 @@ def require_buildable(machine: Machine, allow_undercut: bool = False) -> None:
     model of every run call this: a clearance sweep builds thousands of runs of one geometry, and the check
     (3601 cam angles, ~1 ms) was ~1 % of a multibody run.
 
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    allow_undercut : bool
+        Accept an undercutting groove.
+
     Raises
     ------
     GeometryError
@@ -335,7 +461,21 @@ def require_buildable(machine: Machine, allow_undercut: bool = False) -> None:
 
 
 def kinematics_summary(machine: Machine, kin: CycleKinematics) -> dict:
-    """Engineering summary of the ideal drive (the JSON of ``berryshaker kinematics``)."""
+    """Engineering summary of the ideal drive (the JSON of ``berryshaker kinematics``).
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    kin : CycleKinematics
+        Its kinematics (:func:`check_machine`).
+
+    Returns
+    -------
+    dict
+        ``cam``, ``combs``, ``linkage`` and ``drive`` sections; units in the key names (``_mm``, ``_deg``,
+        ``_m_s``, ``_m_s2``, ``_hz``...).
+    """
     c = machine.cam
     th_d0, th_e0 = mid_stroke_angles(machine)
     L = machine.combs.length
@@ -388,7 +528,18 @@ _LAW_PEAKS = {
 
 
 def closed_form_peaks(machine: Machine) -> dict:
-    """Closed-form peak push-rod velocity, acceleration, jerk of the follower law (rise and return)."""
+    """Closed-form peak push-rod velocity, acceleration, jerk of the follower law (rise and return).
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+
+    Returns
+    -------
+    dict
+        ``max_velocity_m_s`` (m/s), ``max_acceleration_m_s2`` (m/s^2), ``max_jerk_m_s3`` (m/s^3).
+    """
     c = machine.cam
     pv, pa, pj = _LAW_PEAKS[c.law]
     w = c.speed
