@@ -10,6 +10,9 @@ own is recorded as failed (:data:`WORKER_DEATH`).
 
 Runs can be started ahead of the map that needs them (:meth:`LocalPool.prefetch`): they wait in a queue that a
 background thread feeds to the pool while fewer chunks than workers are in flight, so a map's own runs go first.
+
+long module: the pool, its workers' initialisation, the runs started ahead and the crash retries share one lock
+and one set of futures in flight.
 """
 
 from __future__ import annotations

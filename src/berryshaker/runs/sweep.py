@@ -2,6 +2,9 @@
 Monte Carlo), one sweep point (override, validate, simulate, summarise) and the tidy results table.
 
 Runs go through :class:`berryshaker.runs.runner.SweepRunner` (cached, resumable, local or Dask).
+
+long module: its length is numpydoc sections; parsing, sizing, sampling and running a sweep point share the
+SweepParam and the point layout.
 """
 
 from __future__ import annotations
@@ -24,7 +27,23 @@ SWEEP_OUTPUT_STEP = 1e-4
 
 @dataclass(frozen=True)
 class SweepParam:
-    """One swept parameter, read by :func:`parse_param`."""
+    """One swept parameter, read by :func:`parse_param`.
+
+    Attributes
+    ----------
+    key : str
+        Dotted path in the machine description, e.g. ``clearance.A.size``.
+    kind : str
+        "range", "levels" or "normal".
+    values : tuple
+        (lo, hi), the levels or (mean, sd), in the units of ``unit``.
+    unit : str
+        The display unit the user wrote.
+    factor : float
+        SI value of one ``unit`` (SI units of ``dimension``).
+    dimension : str
+        Of the field (a key of :data:`berryshaker.units.DIMENSIONS`).
+    """
 
     key: str  # dotted path in the machine description, e.g. clearance.A.size
     kind: str  # "range", "levels" or "normal"
@@ -58,6 +77,11 @@ def parse_param(spec: str, machine=None) -> SweepParam:
     machine : MachineBase instance or class, optional
         Whose fields KEY names; default the groove-cam drive's description.
 
+    Returns
+    -------
+    SweepParam
+        The key, the kind of list, its values in the user's unit and that unit's SI factor.
+
     Raises
     ------
     ConfigError
@@ -88,9 +112,15 @@ def parse_param(spec: str, machine=None) -> SweepParam:
 def check_params(params: list[SweepParam]) -> None:
     """Refuse a sweep that names a key twice.
 
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+
     Raises
     ------
     ConfigError
+        A key given twice; the message says how to list several values in one ``--param``.
     """
     from berryshaker.errors import ConfigError
 
@@ -104,6 +134,18 @@ def check_params(params: list[SweepParam]) -> None:
 
 def apply_overrides(machine_data: dict, overrides: dict) -> dict:
     """A copy of a machine's dict (as dumped to JSON) with SI values set at dotted keys.
+
+    Parameters
+    ----------
+    machine_data : dict
+        The machine description, as dumped to JSON (SI).
+    overrides : dict
+        Dotted key -> value, in SI units of the key's field.
+
+    Returns
+    -------
+    dict
+        The new description (the input is not changed).
 
     Raises
     ------
@@ -128,8 +170,24 @@ def apply_overrides(machine_data: dict, overrides: dict) -> dict:
 
 def point_machine(machine_data: dict, overrides: dict, revolutions: int = 3, check: bool = True):
     """The validated machine of one sweep point: overrides applied, the description validated like a config
-    file, the drive's check run (geometry over the cycle; ``check=False`` leaves it to the caller) and the run
-    length checked against the engines' output cap (:func:`berryshaker.multibody.engine.check_output_samples`).
+    file, the drive's check run (geometry over the cycle) and the run length checked against the engines' output
+    cap (:func:`berryshaker.multibody.engine.check_output_samples`).
+
+    Parameters
+    ----------
+    machine_data : dict
+        The machine description, as dumped to JSON (SI).
+    overrides : dict
+        Dotted key -> value in SI units of the key's field.
+    revolutions : int
+        Drive-shaft revolutions of the run.
+    check : bool
+        Run the drive's geometry check (False leaves it to the caller).
+
+    Returns
+    -------
+    MachineBase
+        The point's machine.
 
     Raises
     ------
@@ -154,8 +212,22 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
                     limit: int = 8, progress: bool | None = None) -> None:
     """Validate every sweep point's machine before any run starts (values, clearance limits, geometry over
     the cycle, run length); refuse the sweep listing the first ``limit`` bad points with their errors.
-    ``progress``: show a progress bar on stderr (about 2 ms per point); default when there are at least
-    :data:`VALIDATE_PROGRESS_FROM` points and stderr is a terminal.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The swept machine.
+    params : list of SweepParam
+        The swept parameters.
+    points : list of list of float
+        The sampled points, in each parameter's unit.
+    revolutions : int
+        Drive-shaft revolutions per run.
+    limit : int
+        Bad points listed in the message.
+    progress : bool, optional
+        Show a progress bar on stderr (about 2 ms per point); default when there are at least
+        :data:`VALIDATE_PROGRESS_FROM` points and stderr is a terminal.
 
     Raises
     ------
@@ -192,13 +264,41 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
 
 
 def overrides_of(params: list[SweepParam], point: list[float]) -> dict:
-    """SI overrides (dotted key -> value) of one sampled point (values in each parameter's unit)."""
+    """SI overrides of one sampled point.
+
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+    point : list of float
+        One value per parameter, in the units of its ``unit``.
+
+    Returns
+    -------
+    dict
+        Dotted key -> value in SI units of the key's field.
+    """
     return {p.key: float(v) * p.factor for p, v in zip(params, point)}
 
 
 def sweep_size(params: list[SweepParam], method: str, n: int) -> int:
     """Runs of a sweep: ``n`` for lhs / montecarlo; for a grid the product of ``n`` per range and the number of
-    levels of each list (an exact integer, however large)."""
+    levels of each list (an exact integer, however large).
+
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+    method : str
+        "grid", "lhs" or "montecarlo".
+    n : int
+        ``--points``: grid levels per range, or samples.
+
+    Returns
+    -------
+    int
+        The number of runs.
+    """
     if method != "grid":
         return n
     size = 1
@@ -209,7 +309,21 @@ def sweep_size(params: list[SweepParam], method: str, n: int) -> int:
 
 def check_sweep_size(params: list[SweepParam], method: str, n: int) -> int:
     """Refuse a sweep of more than :data:`MAX_SWEEP_POINTS` runs before any work (sampling, validation, runs),
-    with the arithmetic that gives its size; returns the size.
+    with the arithmetic that gives its size.
+
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+    method : str
+        "grid", "lhs" or "montecarlo".
+    n : int
+        ``--points``.
+
+    Returns
+    -------
+    int
+        The number of runs (:func:`sweep_size`).
 
     Raises
     ------
@@ -235,7 +349,24 @@ def check_sweep_size(params: list[SweepParam], method: str, n: int) -> int:
 
 
 def sample_params(params: list[SweepParam], method: str, n: int, seed: int | None) -> list[list[float]]:
-    """Sample points (in each parameter's own unit): full grid, Latin hypercube or Monte Carlo."""
+    """Sample points: full grid, Latin hypercube or Monte Carlo.
+
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+    method : str
+        "grid", "lhs" or "montecarlo".
+    n : int
+        Grid levels per range, or samples.
+    seed : int or None
+        Seed of lhs / montecarlo sampling.
+
+    Returns
+    -------
+    list of list of float
+        The points, each value in its parameter's unit.
+    """
     import itertools
 
     import numpy as np
@@ -282,10 +413,28 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
               driveline: str | None = None, specialised: bool | None = None) -> dict:
     """One sweep point: apply SI overrides (dotted keys) to the machine, validate, simulate, summarise.
 
-    ``driveline`` ("imposed" or "powered") overrides the machine's ``[driveline] mode`` (multibody model only);
-    ``specialised`` integrates the multibody model with the kernel specialised to its structure (the same
-    summary, bitwise; :mod:`berryshaker.multibody.specialised`); False: the generic kernel; None: the specialised
-    one when this machine has compiled it already."""
+    Parameters
+    ----------
+    machine_data : dict
+        The machine description, as dumped to JSON (SI).
+    overrides : dict
+        Dotted key -> value in SI units of the key's field.
+    model : str
+        "mlsd", "multibody" or "harvest".
+    revolutions : int
+        Drive-shaft revolutions of the run.
+    driveline : str, optional
+        "imposed" or "powered": overrides the machine's ``[driveline] mode`` (multibody model only).
+    specialised : bool, optional
+        Integrate the multibody model with the kernel specialised to its structure (the same summary, bitwise;
+        :mod:`berryshaker.multibody.specialised`); False: the generic kernel; None: as
+        :func:`berryshaker.compiled_cache.resolve_kernel` decides.  Not part of the run's cache key.
+
+    Returns
+    -------
+    dict
+        The run's JSON summary (forces in N, moments in N m, as the model's summary gives them).
+    """
     from berryshaker.drives import drive_of
     from berryshaker.errors import ConfigError
 
@@ -324,8 +473,32 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
     ``explicit`` (``berryshaker sweep --specialised`` / ``--generic``) if given; else the environment variable
     ``BERRYSHAKER_KERNEL`` set to generic or specialised; else the specialised kernel when this machine has compiled
     it for the sweep's structure (the first point's) or when the sweep has at least
-    :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the generic one.  Returns the choice and why, for
-    the user."""
+    :data:`SPECIALISE_FROM_RUNS_PER_WORKER` runs per worker; else the generic one.
+
+    Parameters
+    ----------
+    machine_data : dict
+        The machine description, as dumped to JSON (SI).
+    overrides : dict
+        The first point's SI overrides.
+    revolutions : int
+        Drive-shaft revolutions per run.
+    driveline : str or None
+        "imposed" or "powered", None: the machine's.
+    runs : int
+        Runs of the sweep.
+    workers : int
+        Workers sharing them.
+    explicit : bool, optional
+        ``--specialised`` (True) or ``--generic`` (False).
+
+    Returns
+    -------
+    specialised : bool
+        True for the specialised kernel.
+    why : str
+        Why, for the user.
+    """
     from berryshaker.compiled_cache import resolve_kernel
 
     def compiled() -> bool:
@@ -350,7 +523,18 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
 
 def model_runs(kwargs_list: list[dict]) -> list:
     """Batched twin of :func:`model_run` (the sweep runner calls it with a chunk of runs' arguments): multibody
-    points of one mechanism structure share one compiled call; per run its summary or the error it raised."""
+    points of one mechanism structure share one compiled call.
+
+    Parameters
+    ----------
+    kwargs_list : list of dict
+        The runs' arguments, as :func:`model_run` takes them.
+
+    Returns
+    -------
+    list
+        Per run its summary (dict) or the error it raised.
+    """
     from berryshaker.drives.simulation import simulate_multibody_batch
     from berryshaker.errors import BerryshakerError
 
@@ -391,7 +575,24 @@ HARVEST_COLUMNS = ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct", "un
 
 
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
-    """A tidy results table: one row per run, parameter columns (their units), status, outputs."""
+    """A tidy results table: one row per run, parameter columns (their units), status, outputs.
+
+    Parameters
+    ----------
+    params : list of SweepParam
+        The swept parameters.
+    points : list of list of float
+        The sampled points, in each parameter's unit.
+    results : list of RunResult
+        The runs, in the points' order.
+
+    Returns
+    -------
+    header : list of str
+        Column names (parameters with their units, outputs with theirs in the name).
+    rows : list of list
+        One row per run.
+    """
     header = ["run"] + [f"{p.key}[{p.unit}]" if p.unit else p.key for p in params] + ["status", "error"]
     out_cols: list[str] = []
     rows = []
