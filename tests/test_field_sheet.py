@@ -451,3 +451,17 @@ def test_a_worksheet_with_a_missing_replicate_names_both_settings():
     with pytest.raises(ConfigError, match=r"the settings A = 0.5 mm, B = 0.2 mm, C = 0.2 mm, F = 0.5 mm occur in 2 "
                                           r"row\(s\).* in 3; rows with the same factor settings are replicates"):
         read_results("\n".join(text[:1] + text[2:]) + "\n", list(SENSES))
+
+
+def test_a_plain_statistics_package_sheet_has_its_runs_told_apart_by_their_settings():
+    """No run, order or block column at all: four settings of two factors, each twice (file order numbers the
+    repeats); units from the header."""
+    text = ("Speed (rpm),Depth [mm],Yield (kg)\n"
+            "120,10,5.1\n150,10,5.9\n120,20,4.2\n150,20,6.3\n"
+            "120,10,5.3\n150,10,6.1\n120,20,4.0\n150,20,6.6\n")
+    fr = read_results(text, ["Yield"])
+    assert fr.factor_names == ["Speed", "Depth"] and fr.units == {"Speed": "rpm", "Depth": "mm"}
+    assert fr.replicates == 2 and fr.response_units == {"Yield": "kg"}
+    np.testing.assert_array_equal(fr.levels, [[1, 1], [1, 2], [2, 1], [2, 2]])  # standard order of the settings
+    np.testing.assert_allclose(fr.responses_replicated["Yield"], [[5.1, 5.3], [4.2, 4.0], [5.9, 6.1], [6.3, 6.6]])
+    assert fr.runs_identified_by == "factor settings; repeats numbered in the order of the rows"
