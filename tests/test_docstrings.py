@@ -54,6 +54,7 @@ PENDING = {
     "berryshaker.life",
     "berryshaker.multibody",
     "berryshaker.report",
+    "berryshaker.runs",
     "berryshaker.study",
     "berryshaker.plant.pedicel",
     "berryshaker.drives.crank_rocker",
