@@ -305,7 +305,11 @@ class SweepRunner:
             self.stats["compute_s"] += float(out["wall_s"])
             self.stats["cached"] += len(idx) - 1  # duplicates in this sweep
         if advance and ctx["bar"] is not None:
-            ctx["bar"][0].advance(ctx["bar"][1], len(idx))
+            bar, tid = ctx["bar"]
+            if out["cached"]:  # served by the cache (another process stored it): not a run of this rate
+                task = next(t for t in bar.tasks if t.id == tid)
+                bar.update(tid, cached=task.fields.get("cached", 0) + len(idx))
+            bar.advance(tid, len(idx))
 
     def _backend(self, todo: dict, ahead: set):
         """Where a map's runs go: the Dask cluster when a scheduler is given; this process with one worker, or for a
@@ -458,12 +462,19 @@ class SweepRunner:
             def render(self, task):
                 from rich.text import Text
 
-                speed = task.finished_speed or task.speed
-                return Text(f"{speed:.2f} runs/s" if speed else "")
+                # the runs simulated now over the time since the bar started: runs served by the cache are not
+                # counted (they made the rate read "577611.77 runs/s"); nothing in the first second or before the
+                # first simulated run; "s/run" below one run a second
+                simulated = task.completed - task.fields.get("cached", 0)
+                elapsed = task.finished_time if task.finished else task.elapsed
+                if not elapsed or elapsed < 1.0 or simulated <= 0:
+                    return Text("")
+                rate = simulated / elapsed
+                return Text(f"{rate:.2f} runs/s" if rate >= 1.0 else f"{1.0 / rate:.1f} s/run")
 
         p = Progress(TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(), RateColumn(),
                      TextColumn("ETA"), TimeRemainingColumn(), console=self.console or Console(stderr=True),
                      transient=False)
         p.start()
-        tid = p.add_task(label + (f" ({done} cached)" if done else ""), total=total, completed=done)
+        tid = p.add_task(label + (f" ({done} cached)" if done else ""), total=total, completed=done, cached=done)
         return p, tid
