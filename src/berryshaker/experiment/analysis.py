@@ -17,10 +17,11 @@ def range_analysis(levels: np.ndarray, y: np.ndarray, factor_names: list[str], m
     Parameters
     ----------
     levels : ndarray (runs, factors)
-        1-based level numbers.
+        1-based level numbers (1).
     y : ndarray (runs,)
-        Response per run.
+        Response per run (any unit; the level means carry it).
     factor_names : list of str
+        Names of the factors, one per column of ``levels``.
     maximize : bool
         Whether larger is better.
 
@@ -54,6 +55,20 @@ def composite_score(responses: dict[str, np.ndarray], senses: dict[str, bool], w
 
     This is the "comprehensive scoring" used with orthogonal tests when indexes conflict; the weights
     (normalised to sum to 1) encode the priority (the study: efficiency > damage > unripe shedding).
+
+    Parameters
+    ----------
+    responses : dict name -> ndarray (runs,)
+        Response values per run (any unit: each is scaled to 0..1).
+    senses : dict name -> bool
+        True where larger is better.
+    weights : dict name -> float
+        Priority of each response (1; normalised to sum to 1).
+
+    Returns
+    -------
+    ndarray (runs,)
+        The score per run, 0..1 (1), 1 = best in every weighted response.
     """
     total = sum(weights.values())
     if total <= 0:
@@ -70,7 +85,23 @@ def composite_score(responses: dict[str, np.ndarray], senses: dict[str, bool], w
 def anova_pooled(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> dict:
     """Main-effect ANOVA (statsmodels OLS + anova_lm); if no error degrees of freedom remain (a saturated
     array such as L9 with four 3-level factors), the factor with the smallest sum of squares is pooled
-    into the error, as is usual practice (Taguchi; Roy, *A Primer on the Taguchi Method*, ch. 6)."""
+    into the error, as is usual practice (Taguchi; Roy, *A Primer on the Taguchi Method*, ch. 6).
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    y : ndarray (runs,)
+        Response per run (any unit; sums of squares in its square).
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
+
+    Returns
+    -------
+    dict
+        ``factors`` (per tested factor ss, df, ms, f, p), ``error`` {ss, df, ms}, ``pooled`` (the factors pooled
+        into the error), ``ss_all`` (every factor's sum of squares) and ``total_ss``.
+    """
     import statsmodels.formula.api as smf
     from statsmodels.stats.anova import anova_lm
 
@@ -113,6 +144,22 @@ def factor_levels_report(factor_names: list[str], levels: np.ndarray,
 
     Level numbers are never passed off as values: without known values ``values`` is None and
     ``label`` reads "level 1", "level 2", ...
+
+    Parameters
+    ----------
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    level_values : dict factor -> tuple of float or None, optional
+        Value of each level in the factor's unit (its units as ``units`` says).
+    units : dict factor -> str, optional
+        Unit of each factor ('' for none).
+
+    Returns
+    -------
+    dict
+        Per factor ``level_numbers``, ``values`` (None when unknown), ``unit`` and ``labels``.
     """
     out = {}
     for j, f in enumerate(factor_names):
@@ -129,7 +176,18 @@ def factor_levels_report(factor_names: list[str], levels: np.ndarray,
 
 
 def quadratic_terms(names: list[str]) -> list[str]:
-    """Terms of the study's eq. 19: intercept, linear, squares, two-factor interactions (15 for four factors)."""
+    """Terms of the study's eq. 19: intercept, linear, squares, two-factor interactions (15 for four factors).
+
+    Parameters
+    ----------
+    names : list of str
+        Factor names.
+
+    Returns
+    -------
+    list of str
+        "1", the names, "<name>^2" and "<a>*<b>".
+    """
     terms = ["1"] + list(names) + [f"{n}^2" for n in names] + [f"{a}*{b}" for a, b in itertools.combinations(names, 2)]
     return terms
 
@@ -160,6 +218,22 @@ def quadratic_regression(x: np.ndarray, y: np.ndarray, names: list[str]) -> dict
     * Fits the full eq. 19 as a ridge-regularised model (penalty chosen by leave-one-out
       cross-validation on centred and scaled terms), clearly labelled as regularised: its coefficients
       are shrunk, not estimated.
+
+    Parameters
+    ----------
+    x : ndarray (runs, factors)
+        Factor values of the runs (their units; scaled to -1..1 inside).
+    y : ndarray (runs,)
+        Response per run (any unit).
+    names : list of str
+        Factor names, one per column of ``x``.
+
+    Returns
+    -------
+    dict
+        ``full_model_terms``, ``full_model_rank``, ``aliased_terms``, ``main_effects_quadratic`` (terms,
+        coefficients on the scaled factors, r2, residual_df), ``ridge_full`` (the regularised fit) and
+        ``_scaling`` (lo, span per factor, for :func:`predict_main_quadratic`).
     """
     x = np.asarray(x, float)
     y = np.asarray(y, float)
@@ -239,7 +313,22 @@ def quadratic_regression(x: np.ndarray, y: np.ndarray, names: list[str]) -> dict
 
 
 def predict_main_quadratic(reg: dict, x: np.ndarray, names: list[str]) -> np.ndarray:
-    """Predict a response from the main-effects quadratic fit of :func:`quadratic_regression` at points ``x``."""
+    """Predict a response from the main-effects quadratic fit of :func:`quadratic_regression` at points ``x``.
+
+    Parameters
+    ----------
+    reg : dict
+        :func:`quadratic_regression` output (with ``_scaling``).
+    x : ndarray (points, factors)
+        Factor values (the units of the fit's ``x``).
+    names : list of str
+        Factor names, as in the fit.
+
+    Returns
+    -------
+    ndarray (points,)
+        Predicted response (the unit of the fit's ``y``).
+    """
     lo, span = (np.array(v) for v in reg["_scaling"])
     xs = 2 * (np.atleast_2d(x) - lo) / span - 1
     mq = reg["main_effects_quadratic"]
@@ -250,8 +339,19 @@ def predict_main_quadratic(reg: dict, x: np.ndarray, names: list[str]) -> np.nda
 def check_weights(weights: dict[str, float] | None, responses) -> dict[str, float]:
     """Weights of the composite, checked: every name an analysed response, every weight finite and > 0.
 
-    None gives every response the weight 1.  Returns the weights normalised to sum to 1; responses
-    without a weight do not enter the composite.
+    None gives every response the weight 1.  Responses without a weight do not enter the composite.
+
+    Parameters
+    ----------
+    weights : dict name -> float or None
+        Priority of each response (1).
+    responses : iterable of str
+        The analysed responses.
+
+    Returns
+    -------
+    dict name -> float
+        The weights normalised to sum to 1 (1).
     """
     names = list(responses)
     if weights is None:
@@ -277,7 +377,19 @@ def check_weights(weights: dict[str, float] | None, responses) -> dict[str, floa
 
 
 def check_inputs(levels: np.ndarray, factor_names: list[str], responses: dict, senses: dict[str, bool]) -> None:
-    """Shapes, finiteness and senses of an analysis' inputs (ConfigError naming the problem)."""
+    """Shapes, finiteness and senses of an analysis' inputs (ConfigError naming the problem).
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
+    responses : dict name -> ndarray (runs,) or (runs, replicates)
+        Response values (any unit).
+    senses : dict name -> bool
+        True where larger is better; one per response.
+    """
     levels = np.asarray(levels)
     if not responses:
         raise ConfigError("no response to analyse; name one with --maximize or --minimize")
@@ -308,6 +420,32 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
     ``factors`` (value and unit per level number) and ``optimum.settings``; a factor whose values are
     unknown is reported with ``values: null`` and "level N" labels, never as if the numbers were values.
     Weights are checked (:func:`check_weights`), as are the responses' shapes and senses.
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    values : ndarray (runs, factors)
+        Factor values (their units) for the eq. 19 regression.
+    factor_names : list of str
+        Names of the factors, one per column.
+    responses : dict name -> ndarray (runs,)
+        Response per run (any unit).
+    senses : dict name -> bool
+        True where larger is better.
+    weights : dict name -> float, optional
+        Priority of the responses in the composite score (1); default equal.
+    level_values : dict factor -> tuple of float or None, optional
+        Level values (the factor's units).
+    units : dict factor -> str, optional
+        Unit per factor.
+
+    Returns
+    -------
+    dict
+        ``responses`` (per response the range analysis, ``anova`` with pooling, ``regression``), ``weights``,
+        ``factors`` (:func:`factor_levels_report`), ``composite`` and ``optimum`` (levels, settings, predicted
+        values, prediction method).
     """
     check_inputs(levels, factor_names, responses, senses)
     weights_n = check_weights(weights, responses)
@@ -355,6 +493,16 @@ def polynomial_contrasts(n_per_level) -> np.ndarray:
     Orthogonal in the metric sum_j a_j b_j / n_j of level means with n_j observations each, so the contrasts' sums
     of squares add up to the factor's; each row sums to zero.  For 3 equally replicated levels: (-1, 0, 1) and
     (1, -2, 1), scaled.
+
+    Parameters
+    ----------
+    n_per_level : sequence of int
+        Observations at each level (1).
+
+    Returns
+    -------
+    ndarray (k - 1, k)
+        The contrasts (1), each scaled so that sum_j c_j^2 / n_j = 1.
     """
     n = np.asarray(n_per_level, float)
     k = len(n)
@@ -373,7 +521,18 @@ def polynomial_contrasts(n_per_level) -> np.ndarray:
 
 def lenth_pse(estimates) -> float:
     """Lenth's pseudo standard error of contrast estimates of equal standard error (Lenth 1989): s0 = 1.5 median
-    |c|, PSE = 1.5 median of the |c| below 2.5 s0.  Minitab's error for an unreplicated design without error dof."""
+    |c|, PSE = 1.5 median of the |c| below 2.5 s0.  Minitab's error for an unreplicated design without error dof.
+
+    Parameters
+    ----------
+    estimates : array_like
+        Contrast estimates (any unit, the same for all).
+
+    Returns
+    -------
+    float
+        The pseudo standard error (same units as the estimates).
+    """
     c = np.abs(np.asarray(estimates, float))
     s0 = 1.5 * np.median(c)
     small = c[c < 2.5 * s0]
@@ -388,10 +547,11 @@ def standardized_effects(levels: np.ndarray, y: np.ndarray, factor_names: list[s
     Parameters
     ----------
     levels : ndarray (runs, factors)
-        1-based level numbers.
+        1-based level numbers (1).
     y : ndarray (runs,) or (runs, replicates)
-        Observations.
+        Observations (any unit; estimates carry it, t is dimensionless).
     factor_names : list of str
+        Names of the factors, one per column of ``levels``.
     error_ms, error_df : float, int
         The error the analysis tests against (the pooled ANOVA error, or the replicated / blocked error); without
         degrees of freedom (or a zero mean square) Lenth's pseudo standard error of the contrasts is used, with
@@ -445,9 +605,15 @@ def main_effect_residuals(levels: np.ndarray, y: np.ndarray, factor_names: list[
     Parameters
     ----------
     levels : ndarray (runs, factors)
+        1-based level numbers (1).
     y : ndarray (runs,) or (runs, replicates)
+        Observations (any unit; fitted values and residuals carry it).
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
     terms : list of str, optional
         Factors in the model (an unreplicated analysis leaves its pooled factor out: it is the error).
+    blocks : bool
+        Add the block effects (columns of a 2-D ``y``).
 
     Returns
     -------
@@ -479,6 +645,15 @@ def main_effect_residuals(levels: np.ndarray, y: np.ndarray, factor_names: list[
 
 def interaction_means(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> dict:
     """Mean response at every combination of levels of every pair of factors (interaction plots).
+
+    Parameters
+    ----------
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    y : ndarray (runs,) or (runs, replicates)
+        Observations (any unit; the means carry it).
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
 
     Returns
     -------

@@ -26,7 +26,17 @@ MAX_ROWS = 1_000_000
 
 @dataclass(frozen=True)
 class Factor:
-    """A test factor: name, level values (in ``unit``, in the order level 1, 2, ...) and unit ('' if none)."""
+    """A test factor: name, level values (in ``unit``, in the order level 1, 2, ...) and unit ('' if none).
+
+    Attributes
+    ----------
+    name : str
+        Factor name (a word: letters, digits, _).
+    levels : tuple of float
+        Level values, level 1 first (in ``unit``: its units).
+    unit : str
+        Unit of the levels ('' for none).
+    """
 
     name: str
     levels: tuple[float, ...]  # in ``unit``
@@ -39,7 +49,13 @@ class Factor:
 
 
 def reserved_columns() -> set[str]:
-    """Columns of a field sheet that are never a factor: run, replicate, order, raw masses, indexes, notes."""
+    """Columns of a field sheet that are never a factor: run, replicate, order, raw masses, indexes, notes.
+
+    Returns
+    -------
+    set of str
+        The column names.
+    """
     return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
 
 
@@ -58,6 +74,37 @@ class FieldResults:
     names the blocks of the analysis (``block_column``: each run once per block).  A sheet without a ``run`` column
     (Minitab's worksheet, a statistics package's export) has its runs told apart by their factor settings: rows with
     the same settings are replicates of one run (``runs_identified_by`` says how they were numbered).
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        The sheet, sorted by run and replicate, with normalised level columns.
+    factors : list of str
+        The ``<factor>_level`` columns of ``table``.
+    factor_names : list of str
+        The factors.
+    responses : dict name -> ndarray (runs,)
+        Response per run (replicate means), in its sheet's units (``response_units``).
+    levels : ndarray (runs, factors)
+        1-based level numbers (1).
+    values : ndarray (runs, factors)
+        Level values in ``units`` (its units), or the level number where no value is known.
+    level_values : dict name -> tuple of float or None
+        Values of each level (the factor's units).
+    units : dict name -> str
+        Unit per factor.
+    ignored_columns : list of str
+        Columns read as neither factor nor response.
+    replicates : int
+        Replicates per run (1 without).
+    responses_replicated : dict name -> ndarray (runs, replicates) or None
+        Every observation (same units as ``responses``).
+    block_column : str or None
+        The column numbering the blocks.
+    response_units : dict name -> str
+        Unit per response.
+    runs_identified_by : str
+        How the runs were told apart.
     """
 
     table: pd.DataFrame
@@ -80,7 +127,20 @@ class FieldResults:
 
 
 def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, np.ndarray]:
-    """Study's test indexes: picked mass per minute, unripe and damaged mass as % of the picked mass."""
+    """Study's test indexes: picked mass per minute, unripe and damaged mass as % of the picked mass.
+
+    Parameters
+    ----------
+    duration_s : array_like
+        Test duration [s].
+    picked_kg, unripe_kg, damaged_kg : array_like
+        Picked mass (all fruit picked), its unripe and its damaged part [kg].
+
+    Returns
+    -------
+    dict
+        ``efficiency_kg_min`` [kg/min], ``unripe_rate_pct`` and ``damage_rate_pct`` [%].
+    """
     duration_s = np.asarray(duration_s, float)
     picked = np.asarray(picked_kg, float)
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -225,7 +225,18 @@ def _units_row(df: pd.DataFrame) -> dict[str, str] | None:
 
 
 def is_bookkeeping(col: str) -> bool:
-    """True for a statistics package's bookkeeping column (:data:`BOOKKEEPING_COLUMNS`), e.g. Minitab's RunOrder."""
+    """True for a statistics package's bookkeeping column (:data:`BOOKKEEPING_COLUMNS`), e.g. Minitab's RunOrder.
+
+    Parameters
+    ----------
+    col : str
+        Column name (compared without case, spaces, '_' or '.').
+
+    Returns
+    -------
+    bool
+        Whether the column is bookkeeping (never a factor or a response).
+    """
     return re.sub(r"[\s_.]", "", str(col)).lower() in BOOKKEEPING_COLUMNS
 
 
@@ -453,7 +464,18 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
 
 def block_column(df: pd.DataFrame) -> str | None:
     """The column that numbers a run's repeats: ``block`` (or ``blocks``, any case: a field day, a row of bushes
-    shared by every run) if the sheet has one, else ``replicate`` (`doe plan --replicates`), else None."""
+    shared by every run) if the sheet has one, else ``replicate`` (`doe plan --replicates`), else None.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The sheet.
+
+    Returns
+    -------
+    str or None
+        The column's name.
+    """
     for c in df.columns:
         if str(c).strip().lower() in ("block", "blocks"):
             return c
@@ -667,6 +689,11 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     unripe and damaged mass not above the picked mass, rates within 0-100 %, efficiency >= 0, a factor
     that would take a response column, an unknown response name, a header-only sheet.  Every error is a
     :class:`ConfigError` naming the row (line of the file; header = line 1), run and column.
+
+    Returns
+    -------
+    FieldResults
+        The sheet as read and checked.
     """
     sheet = _load_sheet(path_or_text)
     df = sheet.df
@@ -869,7 +896,7 @@ def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, floa
     senses : dict response -> bool
         True where larger is better; the keys are the responses analysed.
     weights : dict response -> float, optional
-        Weights of the composite score (default equal).
+        Weights of the composite score (1; default equal).
     factors : list of Factor, optional
         The plan's factors (default: found in the sheet).
 

@@ -35,6 +35,16 @@ def parse_factor(spec: str) -> Factor:
     The unit is read by the strict quantity grammar (:func:`berryshaker.units.unit_dimension`): a unit name with
     small whole powers, never an expression (``mm*1000``, ``9**9**9`` are refused at once).
 
+    Parameters
+    ----------
+    spec : str
+        ``NAME=v1,v2,...[unit]``.
+
+    Returns
+    -------
+    Factor
+        The factor, its levels in the unit given.
+
     Raises
     ------
     ConfigError
@@ -96,6 +106,24 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
     order.  Without ``randomize`` the order is replicate by replicate (every run once, then again); with it,
     all runs x replicates rows in a random order drawn from ``numpy.random.default_rng(seed)`` (complete
     randomisation, Montgomery 2013 sec. 1.3; with one replicate the order is the one earlier versions drew).
+
+    Parameters
+    ----------
+    array : str
+        Orthogonal array: L4, L8, L9, L16, L18 or L27.
+    factors : list of Factor
+        The factors, assigned to the array's columns in order.
+    randomize : bool
+        Draw a random test order (needs ``seed``).
+    seed : int, optional
+        Seed of the random order.
+    replicates : int
+        Times each run is tested.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per run and replicate.
     """
     names = [f.name for f in factors]
     if len(set(names)) != len(names):
@@ -158,6 +186,18 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
     printer's paper size is kept), the table is fixed-width with narrow design columns and wide, wrapping
     columns for the crew to fill in, the header repeats on every page and rows are not split across pages.
     A block for date, site, operator, weather, machine settings and notes sits above and below the table.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The plan (:func:`plan_table`).
+    title : str
+        Heading of the sheet.
+
+    Returns
+    -------
+    str
+        The HTML document.
     """
     rows = df.sort_values("order" if "order" in df.columns else "run", kind="stable")
     cols = list(rows.columns)
