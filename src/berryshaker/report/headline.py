@@ -8,7 +8,18 @@ VERDICTS = ("reproduced", "partly reproduced", "not reproduced", "undecided", "n
 
 
 def report_title(claims: list[dict]) -> str:
-    """Title of the study report: "reproduced" only when every claim is; otherwise "checked"."""
+    """Title of the study report: "reproduced" only when every claim is; otherwise "checked".
+
+    Parameters
+    ----------
+    claims : list of dict
+        The claims with their ``verdict``.
+
+    Returns
+    -------
+    str
+        The title.
+    """
     verdicts = [c.get("verdict") for c in claims]
     if verdicts and all(v == "reproduced" for v in verdicts):
         return "Blueberry harvester with transmission clearance: the reference study, reproduced"
@@ -16,7 +27,18 @@ def report_title(claims: list[dict]) -> str:
 
 
 def verdict_counts(claims: list[dict]) -> str:
-    """E.g. "5 of 8 claims reproduced, 2 partly reproduced, 1 not reproduced"."""
+    """E.g. "5 of 8 claims reproduced, 2 partly reproduced, 1 not reproduced".
+
+    Parameters
+    ----------
+    claims : list of dict
+        The claims with their ``verdict``.
+
+    Returns
+    -------
+    str
+        The counts in words.
+    """
     order = VERDICTS
     counts = {v: sum(1 for c in claims if c.get("verdict") == v) for v in order}
     others = sum(1 for c in claims if c.get("verdict") not in order)
@@ -30,7 +52,18 @@ def verdict_counts(claims: list[dict]) -> str:
 def runs_text(runs: dict) -> str:
     """The run count for the report header: "N runs (M from the cache; cold compute X s)".  The cold cost
     (:class:`berryshaker.runs.runner.SweepRunner` ``stats["cold_compute_s"]``: compute seconds now plus the
-    stored seconds of the cached runs) stays the same after a cached rerun."""
+    stored seconds of the cached runs) stays the same after a cached rerun.
+
+    Parameters
+    ----------
+    runs : dict
+        The runner's statistics (runs, cached, compute_s, cold_compute_s, failed).
+
+    Returns
+    -------
+    str
+        The text.
+    """
     n = runs.get("runs", 0)
     cached = runs.get("cached", 0)
     cold = runs.get("cold_compute_s")
@@ -46,6 +79,17 @@ def runs_text(runs: dict) -> str:
 
 def verdict_class(verdict: str) -> str:
     """CSS class of a claim's verdict in the report (its colour): "undecided" as "partly"; "not tested" (a claim
-    that holds by construction of the model) as "not comparable"."""
+    that holds by construction of the model) as "not comparable".
+
+    Parameters
+    ----------
+    verdict : str
+        A claim's verdict.
+
+    Returns
+    -------
+    str
+        The CSS class.
+    """
     return {"reproduced": "v-reproduced", "not reproduced": "v-not", "partly reproduced": "v-partly",
             "undecided": "v-partly"}.get(verdict, "v-nc")

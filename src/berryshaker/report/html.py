@@ -92,7 +92,26 @@ def _plain(text: str) -> str:
 
 def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | None = None) -> str:
     """The self-contained HTML report of a study: claims with verdicts, failures, recommendation, one section
-    per step (a step that did not run says why), configuration with provenance tags."""
+    per step (a step that did not run says why), configuration with provenance tags.
+
+    Parameters
+    ----------
+    res : dict
+        The steps' results (SI inside; the report prints units at the edges).
+    summary : dict
+        The head of summary.json (version, timings, runs, failures, optimum).
+    machine : Machine
+        The machine description.
+    figs : Path
+        Folder of the figures (PNG, embedded).
+    steps : dict name -> StepResult, optional
+        The steps, for their notes.
+
+    Returns
+    -------
+    str
+        The HTML document.
+    """
     PAIR_NAMES = machine.pair_names
     steps = steps or {}
 
@@ -376,7 +395,22 @@ def _ci_text(est: dict | None, digits: int = 4) -> str:
 
 def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     """Replicate spread, significance, the recommendation's basis, the solver-tolerance check and the trade-off
-    table of the virtual L9 (study/l9.py), as HTML parts."""
+    table of the virtual L9 (study/l9.py), as HTML parts.
+
+    Parameters
+    ----------
+    l9 : dict
+        The virtual L9 (study/l9.py).
+    figs : Path
+        Folder of the figures.
+    pair_names : sequence of str
+        The clearance pairs (factors).
+
+    Returns
+    -------
+    list of str
+        HTML parts.
+    """
     rep = l9.get("replicated") or {}
     units = l9.get("response_units") or rep.get("units") or {}
     parts = []
@@ -479,7 +513,22 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
 
 
 def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
-    """Section 9: the comb's load (the bush), harvest against shaking frequency, calibration (fitted / held out)."""
+    """Section 9: the comb's load (the bush), harvest against shaking frequency, calibration (fitted / held out).
+
+    Parameters
+    ----------
+    res : dict
+        The study's results.
+    figs : Path
+        Folder of the figures.
+    step : StepResult, optional
+        The step, for its note.
+
+    Returns
+    -------
+    list of str
+        HTML parts.
+    """
     parts = ["<h2>9. The bush as the comb's load; harvest against shaking frequency; calibration</h2>"]
     if step is not None and step.note:
         parts.append(f"<p class='small'><b>Note:</b> {html.escape(step.note)}</p>")
@@ -531,7 +580,20 @@ def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
 def doe_report(res: dict, title: str) -> str:
     """Self-contained, printable HTML of ``doe analyze``: per response the range analysis (level means, range,
     best level with its value), pooled ANOVA and regression notes; the weighted optimum with the weights used
-    and the predicted responses; the factors' level values and units; input file and package version."""
+    and the predicted responses; the factors' level values and units; input file and package version.
+
+    Parameters
+    ----------
+    res : dict
+        The analysis of ``doe analyze``.
+    title : str
+        Title of the page.
+
+    Returns
+    -------
+    str
+        The HTML document.
+    """
     from berryshaker.report.style import RESPONSE_UNITS
 
     factors = res.get("factors") or {}

@@ -19,7 +19,18 @@ import numpy as np
 
 
 def table_cell(v) -> object:
-    """A cell as written to both files: yes/no for booleans, None (empty) for NaN/inf, Python numbers for numpy's."""
+    """A cell as written to both files: yes/no for booleans, None (empty) for NaN/inf, Python numbers for numpy's.
+
+    Parameters
+    ----------
+    v : object
+        A cell value (a number keeps its unit, the column's).
+
+    Returns
+    -------
+    object
+        The cell as written.
+    """
     if isinstance(v, (bool, np.bool_)):
         return "yes" if v else "no"
     if isinstance(v, np.integer):
@@ -52,7 +63,20 @@ def _umask() -> int:
 
 
 def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
-    """The table as UTF-8 CSV with a header row (empty cell for None)."""
+    """The table as UTF-8 CSV with a header row (empty cell for None).
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column names.
+    rows : iterable of sequences
+        One sequence per row (cells: :func:`table_cell`).
+
+    Returns
+    -------
+    bytes
+        The UTF-8 CSV.
+    """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow([str(h) for h in header])
@@ -62,7 +86,22 @@ def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
 
 
 def xlsx_bytes(header: Sequence[str], rows: Iterable[Sequence], sheet: str = "table") -> bytes:
-    """The table as an .xlsx workbook of one sheet (bold, frozen header; columns sized to their text)."""
+    """The table as an .xlsx workbook of one sheet (bold, frozen header; columns sized to their text).
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column names.
+    rows : iterable of sequences
+        One sequence per row (cells: :func:`table_cell`).
+    sheet : str
+        Worksheet name (at most 31 characters are kept).
+
+    Returns
+    -------
+    bytes
+        The workbook.
+    """
     from openpyxl import Workbook
     from openpyxl.styles import Font
 
@@ -118,7 +157,18 @@ def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence
 
 
 def read_xlsx(path: str | Path) -> tuple[list[str], list[list]]:
-    """Header and rows of the first sheet of a workbook written by :func:`write_table` (for checks and tests)."""
+    """Header and rows of the first sheet of a workbook written by :func:`write_table` (for checks and tests).
+
+    Parameters
+    ----------
+    path : path
+        The workbook.
+
+    Returns
+    -------
+    (list of str, list of lists)
+        Header and rows of its first sheet.
+    """
     from openpyxl import load_workbook
 
     ws = load_workbook(path, read_only=True, data_only=True).active
@@ -130,7 +180,18 @@ def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
     """The tables of a ``doe analyze`` analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`), as
     file stem -> (header, rows): per response its range analysis (``range_<response>``: level means k1..kn, range R,
     best level, ANOVA F and p, or "pooled"), and the weighted optimum (``optimum``: level per factor and the
-    predicted responses with their units)."""
+    predicted responses with their units).
+
+    Parameters
+    ----------
+    res : dict
+        The analysis.
+
+    Returns
+    -------
+    dict
+        File stem -> (header, rows).
+    """
     out = {}
     units = res.get("response_units") or {}
     for name, ra in res["responses"].items():
@@ -150,7 +211,20 @@ def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
 
 
 def write_doe_tables(res: dict, folder: str | Path) -> list[Path]:
-    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files."""
+    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files.
+
+    Parameters
+    ----------
+    res : dict
+        The analysis (:func:`doe_tables`).
+    folder : path
+        Where the files go.
+
+    Returns
+    -------
+    list of Path
+        The CSV and .xlsx files written.
+    """
     files = []
     for stem, (header, rows) in doe_tables(res).items():
         files += list(write_table(Path(folder) / f"{stem}.csv", header, rows))

@@ -38,6 +38,12 @@ def plot_pareto_effects(effects: dict, path: Path, title: str = "", *, return_fi
     ----------
     effects : dict
         :func:`berryshaker.experiment.analysis.standardized_effects` output.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -82,6 +88,12 @@ def plot_residuals(resid: dict, path: Path, title: str = "", *, unit: str | None
         :func:`berryshaker.experiment.analysis.main_effect_residuals` output.
     unit : str, optional
         Unit of the response (and so of residuals and fitted values).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -124,6 +136,12 @@ def plot_interactions(cells: dict, path: Path, title: str = "", *, unit: str | N
         Unit of the response.
     level_values, factor_units : dict, optional
         Factor value per level and unit per factor for the x axes and the line labels (default level numbers).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -184,9 +202,11 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
     Parameters
     ----------
     levels : array (runs, factors)
-        1-based level numbers.
+        1-based level numbers (1).
     observations : dict response -> array (runs,) or (runs, replicates)
-        The observations the analysis was made of.
+        The observations the analysis was made of (each in its response's unit, ``units``).
+    factor_names : list of str
+        Names of the factors, one per column of ``levels``.
     analysis : dict
         :func:`berryshaker.experiment.analysis.analyze` or
         :func:`berryshaker.experiment.replicates.analyze_replicated` output: each response's ANOVA error (and
@@ -196,6 +216,8 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         ``<prefix>interactions_<response>.png`` (SVG beside each).
     units : dict response -> unit, optional
         Default :data:`berryshaker.report.style.RESPONSE_UNITS`.
+    level_values, factor_units : dict, optional
+        Level values (the factor's units) and unit per factor, for the interaction plots' axes.
     blocks : bool
         Replicate k of every run in block k: the residuals' model has the block effects (as the analysis).
 
@@ -247,6 +269,8 @@ def write_doe_figures(fr, res: dict, folder: Path) -> list[str]:
         The sheet as read (:func:`berryshaker.experiment.field_results.read_results`).
     res : dict
         Its analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`).
+    folder : Path
+        Where the figures go.
 
     Returns
     -------

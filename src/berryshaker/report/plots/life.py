@@ -34,6 +34,12 @@ def plot_clearance_growth(growth: dict, limits_mm: dict, path: Path, title: str 
         Legend text per joint (default the joint's name).
     markers : bool
         Mark each computed state (``wear`` re-simulates at each).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -67,6 +73,10 @@ def plot_sobol(indices: dict, output: str, path: Path, *, return_figure: bool = 
         Indices (share of the output's variance [-]); a None index is drawn as 0.
     output : str
         Name of the output (title).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -92,7 +102,18 @@ def plot_sobol(indices: dict, output: str, path: Path, *, return_figure: bool = 
 
 def sobol_file_name(output: str) -> str:
     """File name of an output's Sobol figure: ``sobol_<output>.png`` with anything but letters, digits and '_' as
-    '_'."""
+    '_'.
+
+    Parameters
+    ----------
+    output : str
+        Output name.
+
+    Returns
+    -------
+    str
+        The file name.
+    """
     return f"sobol_{re.sub(r'[^A-Za-z0-9_]+', '_', output)}.png"
 
 
@@ -106,6 +127,10 @@ def plot_fit_front(front: list[dict], recommended: dict, path: Path, *, return_f
         Non-dominated fit choices (cost in relative units [-], force [N], interval [h]).
     recommended : dict
         ``cost``, ``peak_force_N`` and ``fits`` (joint -> ISO 286 fit) of the chosen compromise.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
