@@ -54,15 +54,9 @@ PENDING = {
     "berryshaker.life",
     "berryshaker.multibody",
     "berryshaker.report",
-    "berryshaker.runs",
     "berryshaker.study",
     "berryshaker.plant.pedicel",
     "berryshaker.drives.crank_rocker",
-    # owned by the field-sheet work
-    "berryshaker.experiment.analysis",
-    "berryshaker.experiment.field_columns",
-    "berryshaker.experiment.field_results",
-    "berryshaker.experiment.field_sheet",
     # the drive registry (drives/__init__.py): not yet given to anyone
     "berryshaker.drives",
 }
@@ -102,6 +96,8 @@ def public_objects(modname: str) -> list[tuple[str, object]]:
     found = []
     for name, obj in vars(mod).items():
         func = getattr(obj, "py_func", obj)  # a numba dispatcher documents its Python function
+        if callable(func) and hasattr(func, "__wrapped__"):  # functools.cache, lru_cache, wraps
+            func = inspect.unwrap(func)
         if name.startswith("_") or not (inspect.isclass(obj) or inspect.isfunction(func)):
             continue
         if getattr(obj, "__module__", None) != modname:

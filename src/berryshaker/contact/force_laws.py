@@ -24,7 +24,20 @@ from numba import float64, njit, vectorize
 def broadcasting(kernel, n_args: int):
     """The numpy ufunc of scalar kernel ``kernel`` (an ``njit`` function of ``n_args`` float64 arguments
     returning float64): broadcasts its arguments like any ufunc.  Built (compiled) at the first call per kernel
-    and process, not cached on disk (its cache entry would share the kernel's own)."""
+    and process, not cached on disk (its cache entry would share the kernel's own).
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+        The scalar kernel (its ``py_func`` is vectorised).
+    n_args : int
+        Number of its arguments.
+
+    Returns
+    -------
+    numpy.ufunc
+        The broadcasting function.
+    """
     return vectorize([float64(*([float64] * n_args))])(kernel.py_func)
 
 

@@ -348,7 +348,20 @@ def _hermite_sample(nodes, dofs, z):
 def cached_analytic_modes(key: tuple, n_modes: int) -> Modes:
     """:func:`analytic_modes` of ``Branch(*key)``, computed once per process for every user (the fruit branch,
     the bush members, sweeps): key = (root diameter, tip diameter, length, E, density, damping ratio).  The
-    returned :class:`Modes` is shared: read it, never modify it."""
+    returned :class:`Modes` is shared: read it, never modify it.
+
+    Parameters
+    ----------
+    key : tuple of float
+        (root diameter (m), tip diameter (m), length (m), E (Pa), density (kg/m^3), damping ratio (1)).
+    n_modes : int
+        Number of modes.
+
+    Returns
+    -------
+    Modes
+        The shared modes.
+    """
     return analytic_modes(Branch(*key), n_modes)
 
 
