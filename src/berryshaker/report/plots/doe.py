@@ -78,13 +78,21 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
     response_units : dict response -> unit, optional
         Default :data:`berryshaker.report.style.RESPONSE_UNITS` (efficiency kg/min, unripe %, damage %).
     errors : "anova", None, or dict response -> float | list per level | dict factor -> list
-        Error-bar half-widths.  "anova": one standard error of a level mean, sqrt(MS_e / n_j) with the
+        Error-bar half-widths (same units as the response).  "anova": one standard error of a level mean, sqrt(MS_e / n_j) with the
         pooled-ANOVA error mean square; None: no bars.  Explicit values are drawn as given (say what they
         are in ``title``).
     noise_span : float
-        Each row's y range is at least +-``noise_span`` error half-widths about the grand mean, and a
+        Each row's y range is at least +-``noise_span`` error half-widths (1) about the grand mean, and a
         grey band marks grand mean +-1 half-width: differences inside it are not distinguishable from
         noise.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    factor_unit : str
+        Unit of the factors' values when the analysis gives none.
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -198,9 +206,9 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
     Parameters
     ----------
     values : array (runs, factors)
-        Factor values of the runs [``factor_unit``: one unit for all, or a dict factor -> unit].
+        Factor values of the runs (their units: ``factor_unit``, one for all, or a dict factor -> unit).
     y : array (runs,)
-        Response per run (not drawn; the model is).
+        Response per run (its units; not drawn, the model is).
     names : list of str
         Factor names.
     reg : dict
@@ -210,6 +218,16 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
     model : callable, optional
         ``model(X) -> y`` for X (points, factors) in factor units, instead of the main-effects quadratic
         of ``reg`` (``reg`` may then be None).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    unit : str, optional
+        Unit of the response.
+    factor_unit : str or dict factor -> str
+        Unit of the factors' values.
+    margin : float
+        Share of each factor's span drawn beyond the tested levels (1).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -325,6 +343,12 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
         Filled markers: not dominated beyond noise; open: dominated; a star: the recommended candidate (its
         name contains "recommended").  Force panel: colour of the joint with the largest peak force; torque
         panel: one colour.  Labels are placed clear of the markers and of each other.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -397,6 +421,28 @@ def plot_replicated_effects(rep: dict, responses: list[str], path: Path, title: 
     ``rep``: :func:`berryshaker.experiment.replicates.analyze_replicated` output; ``responses``: which rows to
     draw.  Drawn by :func:`plot_main_effects` with the interval half-widths as error bars (the grey band is
     grand mean +- one half-width: level means inside it do not differ from the average beyond noise).
+
+    Parameters
+    ----------
+    rep : dict
+        The replicated analysis.
+    responses : list of str
+        Responses drawn, one row each.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    level_values : dict factor -> list of float, optional
+        Level values (their units: the factors').
+    units : dict response -> str, optional
+        Unit per response.
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        What :func:`plot_main_effects` drew.
     """
     sub = {"responses": {n: rep["responses"][n] for n in responses if n in rep["responses"]},
            "factors": rep.get("factors", {})}

@@ -18,7 +18,24 @@ from berryshaker.report.style import (
 
 
 def plot_svaj(kin, path: Path, title: str = "", *, return_figure: bool = False) -> dict:
-    """Push-rod displacement, velocity, acceleration and jerk over the cam cycle (study eq. 1)."""
+    """Push-rod displacement, velocity, acceleration and jerk over the cam cycle (study eq. 1).
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The drive's kinematics over a cycle (SI).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        What was drawn (see the module docstring), ``path`` and ``svg``.
+    """
     deg = np.degrees(kin.phi)
     fig, axes = new_figure(4, 1, figsize=(8, 9), sharex=True)
     data = {"series": {}}
@@ -36,7 +53,26 @@ def plot_svaj(kin, path: Path, title: str = "", *, return_figure: bool = False) 
 
 def plot_groove(pitch, inner, outer, base_radius: float, path: Path, title: str = "", *,
                 return_figure: bool = False) -> dict:
-    """Cam groove: pitch curve and inner/outer walls (study eq. 2, corrected: docs/study.md, eq. 2)."""
+    """Cam groove: pitch curve and inner/outer walls (study eq. 2, corrected: docs/study.md, eq. 2).
+
+    Parameters
+    ----------
+    pitch, inner, outer : ndarray (2, n)
+        Pitch curve and walls [m].
+    base_radius : float
+        Base-circle radius [m].
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        What was drawn (see the module docstring), ``path`` and ``svg``.
+    """
     fig, ax = new_figure(figsize=(8, 6.5))
     ax.plot(pitch[0] * 1e3, pitch[1] * 1e3, "k--", lw=1, label="pitch curve (roller centre)")
     ax.plot(inner[0] * 1e3, inner[1] * 1e3, lw=1.5, color=PAIR_COLOURS["A"], label="inner wall")
@@ -55,7 +91,26 @@ def plot_groove(pitch, inner, outer, base_radius: float, path: Path, title: str 
 
 def plot_comb_angles(kin, theta_d0: float, theta_e0: float, comb_length: float, path: Path, *,
                      return_figure: bool = False) -> dict:
-    """Comb swing angles, tip speeds and transmission angle over the cycle (study eq. 3)."""
+    """Comb swing angles, tip speeds and transmission angle over the cycle (study eq. 3).
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The drive's kinematics over a cycle (SI).
+    theta_d0, theta_e0 : float
+        Mid-stroke angles of the comb shafts [rad].
+    comb_length : float
+        Comb length [m].
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        What was drawn (see the module docstring), ``path`` and ``svg``.
+    """
     deg = np.degrees(kin.phi)
     fig, axes = new_figure(3, 1, figsize=(9, 8), sharex=True)
     left, right = PAIR_COLOURS["C"], PAIR_COLOURS["F"]
@@ -77,7 +132,24 @@ def plot_comb_angles(kin, theta_d0: float, theta_e0: float, comb_length: float, 
 
 
 def plot_mode_shapes(modes, modes_fe, path: Path, *, return_figure: bool = False) -> dict:
-    """Analytic (lines) and finite-element (dots) mass-normalised mode shapes of the branch (eq. 15)."""
+    """Analytic (lines) and finite-element (dots) mass-normalised mode shapes of the branch (eq. 15).
+
+    Parameters
+    ----------
+    modes : BranchModes
+        Analytic modes (SI).
+    modes_fe : BranchModes
+        Finite-element modes (SI).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        What was drawn (see the module docstring), ``path`` and ``svg``.
+    """
     fig, ax = new_figure(figsize=(10, 4.5))
     for i in range(len(modes.omega)):
         colour = SERIES_COLOURS[i % len(SERIES_COLOURS)]
@@ -96,7 +168,22 @@ def plot_mode_shapes(modes, modes_fe, path: Path, *, return_figure: bool = False
 
 def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     """Kinematics figures of a machine's drive into ``folder`` (comb angles for every drive; SVAJ and the groove
-    profile for a groove cam); returns the file names."""
+    profile for a groove cam); returns the file names.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    kin : Kinematics
+        Its kinematics (SI).
+    folder : Path
+        Where the figures go.
+
+    Returns
+    -------
+    list of str
+        The PNG file names written.
+    """
     from berryshaker.drives import drive_of
 
     d0, e0 = drive_of(machine).mid_stroke_angles(machine)

@@ -69,7 +69,7 @@ def plot_time_series(t, series: dict[str, np.ndarray], ylabel: str, path: Path, 
     t : array_like (n,)
         Time [s].
     series : dict name -> array (n,)
-        Named series.  Names containing "multibody" / "MLSD" get :data:`MODEL_STYLES` (multibody solid,
+        Named series (the units of ``ylabel``).  Names containing "multibody" / "MLSD" get :data:`MODEL_STYLES` (multibody solid,
         thick and underneath; MLSD dashed on top, so neither hides the other); names naming a clearance
         pair ("|F_A|") get that pair's colour.
     ylabel : str
@@ -79,6 +79,16 @@ def plot_time_series(t, series: dict[str, np.ndarray], ylabel: str, path: Path, 
         around the largest |value| of the first series.  The window is shaded on the main panel.
     n_bins : int
         Decimation bins (:func:`berryshaker.report.style.decimate_minmax`).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    xlabel : str
+        Label of the abscissa with unit.
+    colours : dict name -> colour, optional
+        Overrides.
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -131,13 +141,20 @@ def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str =
     t : array_like (n,)
         Time [s].
     forces : dict joint -> array (n,)
-        Keys naming the pair ("A", "|F_A|"...).  Plotted as given (pass magnitudes if wanted).
+        Keys naming the pair ("A", "|F_A|"...), values in ``unit`` (its units).  Plotted as given (pass magnitudes
+        if wanted).
     title : str
         Figure title; put the clearance set here (e.g. "A 0.25 mm, B 0.2 mm, C 0.1 mm, F 0.2 mm").
     quantity, unit : str
         Y labels read "<quantity> at <joint> [<unit>]".
     sharey : bool
         One y scale for all panels (compare magnitudes) or one per panel (default: see each waveform).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    n_bins : int
+        Bins of the peak-preserving decimation (:func:`berryshaker.report.style.decimate_minmax`).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -186,11 +203,19 @@ def plot_fruit_force(distance, forces: dict, ranges: dict, path: Path, title: st
     ranges : dict fruit -> (lo, hi)
         The study's range of peak force [N] per fruit (Sec. 3.4), drawn as shaded bands at +-.
     peaks : dict fruit -> float, optional
-        Peak |force| of the table the figure accompanies.  If the drawn peak differs (the series was
+        Peak |force| [N] of the table the figure accompanies.  If the drawn peak differs (the series was
         thinned before it got here), the legend says so and ``peak_matches_table`` is False.
     bonds : bool
         Draw the ripe bond band Fa and the lower end of the unripe bond Fb (eq. 17; values from
         :mod:`berryshaker.reference_study`).
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    n_bins : int
+        Bins of the peak-preserving decimation (:func:`berryshaker.report.style.decimate_minmax`).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -278,6 +303,7 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
     Parameters
     ----------
     series : dict name -> list (one value per label)
+        Bar heights (the units of ``ylabel``).
     labels : list of str
         Group labels (e.g. "none", "0.25 mm", ...).
     ylabel : str
@@ -293,6 +319,14 @@ def plot_bars(series: dict, labels: list, ylabel: str, path: Path, title: str = 
         "collision force" is the ideal joint's reaction force, a different quantity.
     annotate : bool
         Print each bar's value above it.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    reference_label : str
+        Legend text of the reference group.
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
@@ -347,21 +381,27 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
                           frequency_hz=None, amplitude_mm=None, return_figure: bool = False) -> dict:
     """Ripe removal, unripe shedding and damage against one machine setting (e.g. the cam speed).
 
+    Each index is drawn as its replicate mean with +- one SD bars (the rows' ``<index>_sd``) where present.
+
     Parameters
     ----------
     x : sequence of float
-        The swept values (in the unit named in ``xlabel``).
+        The swept values (their units: those named in ``xlabel``).
     rows : list of dict
         One :func:`berryshaker.harvest.virtual.harvest_response` per value.
     xlabel : str
         Axis label with unit, e.g. ``"cam speed [rpm]"``.
     frequency_hz : sequence of float, optional
-        The shaking frequency of each point: drawn as a second x axis on top (drive speeds only).
+        The shaking frequency of each point [Hz]: drawn as a second x axis on top (drive speeds only).
     amplitude_mm : sequence of float, optional
-        The finger amplitude of each point (:func:`berryshaker.harvest.virtual.shaking_amplitude`): drawn as a
+        The finger amplitude of each point [mm] (:func:`berryshaker.harvest.virtual.shaking_amplitude`): drawn as a
         second x axis on top when it is strictly monotonic in x and no frequency axis is drawn (drive geometry).
-
-    Each index is drawn as its replicate mean with +- one SD bars (the rows' ``<index>_sd``) where present.
+    path : Path
+        PNG file (300 dpi; an SVG of the figure is written beside it).
+    title : str
+        Figure title (a default when empty).
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
