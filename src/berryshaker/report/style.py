@@ -59,7 +59,18 @@ _UNIT_AT_END = re.compile(r"(\[[^\[\]]+\]|\([^()]+\))\s*$")
 
 
 def has_unit(label: str) -> bool:
-    """True if ``label`` ends with a unit in brackets or parentheses, e.g. ``"force [N]"``, ``"s (mm)"``."""
+    """True if ``label`` ends with a unit in brackets or parentheses, e.g. ``"force [N]"``, ``"s (mm)"``.
+
+    Parameters
+    ----------
+    label : str
+        Axis or colour-bar label.
+
+    Returns
+    -------
+    bool
+        Whether it ends with a unit.
+    """
     return bool(_UNIT_AT_END.search(label or ""))
 
 
@@ -73,6 +84,11 @@ def require_unit(label: str, *, strict: bool = True) -> str:
     strict : bool
         True: raise ``ValueError`` for a label without a unit.  False: warn and return the label with
         ``" [unit?]"`` appended, so the omission is visible on the figure instead of silent.
+
+    Returns
+    -------
+    str
+        The label (with " [unit?]" appended when not strict and it had none).
     """
     if has_unit(label):
         return label
@@ -85,7 +101,13 @@ def require_unit(label: str, *, strict: bool = True) -> str:
 
 
 def pyplot():
-    """matplotlib.pyplot on the Agg backend (no display needed)."""
+    """matplotlib.pyplot on the Agg backend (no display needed).
+
+    Returns
+    -------
+    module
+        matplotlib.pyplot.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -98,6 +120,20 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize=(8.0, 4.0), **subplot_
     """A figure with constrained layout (legends outside and colour bars are given room) and its axes.
 
     ``subplot_kw`` goes to :func:`matplotlib.pyplot.subplots` (``sharex``, ``sharey``, ``squeeze``...).
+
+    Parameters
+    ----------
+    nrows, ncols : int
+        Grid of axes.
+    figsize : (float, float)
+        Size in inches (1 in = 25.4 mm).
+    **subplot_kw
+        Passed on to :func:`matplotlib.pyplot.subplots`.
+
+    Returns
+    -------
+    fig, axes : Figure and Axes or a grid of Axes
+        The figure and its axes.
     """
     plt = pyplot()
     fig, axes = plt.subplots(nrows, ncols, figsize=figsize, layout="constrained", **subplot_kw)
@@ -105,7 +141,13 @@ def new_figure(nrows: int = 1, ncols: int = 1, *, figsize=(8.0, 4.0), **subplot_
 
 
 def plain_ticks(ax) -> None:
-    """No offset ("1e-14+2.86") and no hidden power of ten on the numeric axes of ``ax``."""
+    """No offset ("1e-14+2.86") and no hidden power of ten on the numeric axes of ``ax``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    """
     from matplotlib.ticker import ScalarFormatter
 
     for axis in (ax.xaxis, ax.yaxis):
@@ -116,7 +158,17 @@ def plain_ticks(ax) -> None:
 
 
 def label_axes(ax, xlabel: str | None = None, ylabel: str | None = None, *, strict: bool = True) -> None:
-    """Set axis labels after checking each carries a unit (see :func:`require_unit`); plain ticks."""
+    """Set axis labels after checking each carries a unit (see :func:`require_unit`); plain ticks.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    xlabel, ylabel : str, optional
+        Labels, each ending with its unit.
+    strict : bool
+        Refuse a label without unit (else flag it, :func:`require_unit`).
+    """
     if xlabel is not None:
         ax.set_xlabel(require_unit(xlabel, strict=strict))
     if ylabel is not None:
@@ -128,6 +180,24 @@ def legend_outside(ax, *, where: str = "right", handles=None, labels=None, fonts
     """Legend outside the data area of ``ax``: to its right (``where="right"``) or below it ("below").
 
     With constrained layout the figure makes room for it.  Returns the legend (None if nothing to show).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The axes.
+    where : str
+        "right", "below" or "above".
+    handles, labels : list, optional
+        Legend entries (default the axes').
+    fontsize : float
+        Font size in points (1/72 in).
+    **kw
+        Passed on to :meth:`matplotlib.axes.Axes.legend`.
+
+    Returns
+    -------
+    matplotlib.legend.Legend or None
+        The legend.
     """
     if handles is None:
         handles, labels = ax.get_legend_handles_labels()
@@ -148,7 +218,26 @@ def legend_outside(ax, *, where: str = "right", handles=None, labels=None, fonts
 
 
 def colour_bar(fig, mappable, axes, label: str, *, strict: bool = True):
-    """One colour bar for ``axes`` (one Axes or a list), labelled with a unit, ticks without offset."""
+    """One colour bar for ``axes`` (one Axes or a list), labelled with a unit, ticks without offset.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    mappable : ScalarMappable
+        What the bar shows.
+    axes : Axes or list of Axes
+        The axes it serves.
+    label : str
+        Label with unit.
+    strict : bool
+        Refuse a label without unit.
+
+    Returns
+    -------
+    matplotlib.colorbar.Colorbar
+        The colour bar.
+    """
     from matplotlib.ticker import ScalarFormatter
 
     cb = fig.colorbar(mappable, ax=axes)
@@ -164,6 +253,20 @@ def widen_span(lo: float, hi: float, *, rel: float = 1e-3, abs_min: float = 1e-1
     """(lo, hi) widened about its centre so hi - lo is at least ``rel`` x |centre| (and ``abs_min``).
 
     A nearly constant field otherwise gets a colour bar with ticks like 2.86 + 1e-14.
+
+    Parameters
+    ----------
+    lo, hi : float
+        The span (any unit).
+    rel : float
+        Least width relative to |centre| (1).
+    abs_min : float
+        Least width (same units as lo and hi).
+
+    Returns
+    -------
+    (float, float)
+        The widened span (same units as lo and hi).
     """
     lo, hi = float(lo), float(hi)
     need = max(rel * abs(0.5 * (lo + hi)), abs_min)
@@ -205,7 +308,7 @@ def decimate_minmax(x, y, n_bins: int = 2000) -> tuple[np.ndarray, np.ndarray]:
     Returns
     -------
     x_d, y_d : ndarray
-        The kept samples, exactly as in the input (no averaging), so ``max(y_d) == max(y)`` and
+        The kept samples (same units as x and y), exactly as in the input (no averaging), so ``max(y_d) == max(y)`` and
         ``min(y_d) == min(y)``: a plotted peak equals the data peak.
 
     Notes
@@ -231,6 +334,20 @@ def decimate_minmax_shared(x, series: dict, n_bins: int = 2000) -> tuple[np.ndar
     bin extrema, so all series stay on a common (thinned) ``x`` and every series keeps its peaks.
 
     Returns ``(x_d, {name: y_d})``; at most (4 n_bins + 2) points for two series, and so on.
+
+    Parameters
+    ----------
+    x : array_like (n,)
+        Abscissa (its units, e.g. time [s]).
+    series : dict name -> array_like (n,)
+        Values (their units).
+    n_bins : int
+        Number of bins.
+
+    Returns
+    -------
+    (ndarray, dict name -> ndarray)
+        The kept abscissa and series (same units as the input).
     """
     x = np.asarray(x, float)
     ys = {k: np.asarray(v, float) for k, v in series.items()}
@@ -245,13 +362,35 @@ def decimate_minmax_shared(x, series: dict, n_bins: int = 2000) -> tuple[np.ndar
 
 
 def pair_of(name: str) -> str | None:
-    """The clearance pair a series name refers to ("|F_A|", "F_B_N", "A", "pair C") or None."""
+    """The clearance pair a series name refers to ("|F_A|", "F_B_N", "A", "pair C") or None.
+
+    Parameters
+    ----------
+    name : str
+        A series name.
+
+    Returns
+    -------
+    str or None
+        The pair's letter.
+    """
     m = re.search(r"(?:^|[^A-Za-z])([ABCF])(?:$|[^A-Za-z])", name)
     return m.group(1) if m else None
 
 
 def model_of(name: str) -> str | None:
-    """'multibody' or 'mlsd' if a series name names one of the two models, else None."""
+    """'multibody' or 'mlsd' if a series name names one of the two models, else None.
+
+    Parameters
+    ----------
+    name : str
+        A series name.
+
+    Returns
+    -------
+    str or None
+        'multibody', 'mlsd' or None.
+    """
     low = name.lower()
     if "multibody" in low or "multi-body" in low:
         return "multibody"
@@ -261,7 +400,20 @@ def model_of(name: str) -> str | None:
 
 
 def lighter(colour: str, amount: float) -> tuple[float, float, float]:
-    """``colour`` mixed with white: amount 0 = unchanged, 1 = white."""
+    """``colour`` mixed with white: amount 0 = unchanged, 1 = white.
+
+    Parameters
+    ----------
+    colour : str
+        A matplotlib colour.
+    amount : float
+        0 = unchanged, 1 = white (1).
+
+    Returns
+    -------
+    (float, float, float)
+        RGB, each 0..1 (1).
+    """
     from matplotlib.colors import to_rgb
 
     r, g, b = to_rgb(colour)
@@ -274,6 +426,16 @@ def audit_figure(fig) -> list[str]:
     Checks every axes (colour bars included): non-empty axis labels end with a unit; a data axes has a
     y label; numeric x axes whose tick labels show have an x label; no tick-label offset text; no
     legend overlapping any data axes.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+
+    Returns
+    -------
+    list of str
+        The problems found.
     """
     from matplotlib.ticker import ScalarFormatter
 
@@ -318,7 +480,18 @@ PRINT_DPI = 300
 
 def canvas_overflow(fig) -> tuple[float, float, float, float]:
     """How far the drawn artists (labels, titles, legends outside, colour bars) reach beyond the canvas, in inches:
-    (left, bottom, right, top), each >= 0; all zero when nothing is cut."""
+    (left, bottom, right, top), each >= 0; all zero when nothing is cut.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+
+    Returns
+    -------
+    (float, float, float, float)
+        Overflow [in] at the left, bottom, right and top (1 in = 25.4 mm).
+    """
     fig.canvas.draw()
     bb = fig.get_tightbbox(fig.canvas.get_renderer())
     w, h = fig.get_size_inches()
@@ -331,6 +504,18 @@ def fit_canvas(fig, *, pad: float = 0.05) -> bool:
     The layout (constrained layout) is drawn first; what still reaches beyond the edge (an equal-aspect axes'
     outside legend, a long title) is given room by freezing the layout and widening the canvas on that side, every
     axes and figure-level text keeping its size in inches.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    pad : float
+        Room left around the artists [in] (1 in = 25.4 mm).
+
+    Returns
+    -------
+    bool
+        Whether the canvas grew.
     """
     over = canvas_overflow(fig)
     if max(over) <= 1e-3:
@@ -354,7 +539,26 @@ def fit_canvas(fig, *, pad: float = 0.05) -> bool:
 def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = True):
     """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it; close it unless
     ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
-    figure if kept, else None."""
+    figure if kept, else None.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : path
+        PNG file.
+    dpi : int
+        Resolution [1/in] (dots per inch).
+    keep : bool
+        Leave the figure open.
+    svg : bool
+        Write the SVG beside the PNG.
+
+    Returns
+    -------
+    Figure or None
+        The figure if kept.
+    """
     from pathlib import Path
 
     fit_canvas(fig)
