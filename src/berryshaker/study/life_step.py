@@ -20,6 +20,11 @@ HORIZON_H = 2000.0
 def step_life(ctx):
     """Clearance growth over 2000 h and the recommended fits (coarse surrogate; see the module docstring).
 
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and console.
+
     Returns
     -------
     StepResult
