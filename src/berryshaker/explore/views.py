@@ -1,0 +1,261 @@
+"""What the ``berryshaker explore`` page draws and prints from a run: the drive's frames as flat columns for the
+browser's animation (:func:`frame_data`, :data:`ANIMATION_JS`), the tables of peak forces, harvest indexes and
+wear (Markdown, units and provenance tags on every value), and the jobs of the removal-against-frequency runs.
+No Panel here: plain data, so the page and its tests read the same values.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from berryshaker.explore import model as em
+from berryshaker.report.style import PAIR_COLOURS, SERIES_COLOURS
+
+#: colour of the drive's links and combs in the drawing
+LINK_COLOUR = "#555555"
+COMB_COLOUR = "#8C564B"
+#: colour of a joint in contact (and of the impact stars)
+IMPACT_COLOUR = "#D62728"
+
+#: the browser's frame update (a Bokeh CustomJS on the frame slider): links, joints, impacts and the cam's pitch
+#: curve of frame ``frame.value`` from the columns of :func:`frame_data`, and the time marker on the force plot
+ANIMATION_JS = """
+const d = frames.data;
+if (!d.t || d.t.length == 0) { return; }
+const k = Math.min(frame.value, d.t.length - 1);
+const lx = d.lx[k], ly = d.ly[k];
+const xs = [], ys = [];
+for (let i = 0; i < lx.length; i += 2) { xs.push([lx[i], lx[i + 1]]); ys.push([ly[i], ly[i + 1]]); }
+links.data = {xs: xs, ys: ys, colour: Array.from(d.link_colour[0])};
+const names = Array.from(d.joint_name[0]);
+const base = Array.from(d.joint_colour[0]);
+const c = d.jc[k];
+const colour = names.map((_, i) => c[i] > 0.5 ? '""" + IMPACT_COLOUR + """' : base[i]);
+joints.data = {x: Array.from(d.jx[k]), y: Array.from(d.jy[k]), r: Array.from(d.jr[k]), px: Array.from(d.jpx[k]),
+               py: Array.from(d.jpy[k]), colour: colour, name: names};
+const ix = [], iy = [], iname = [];
+for (let i = 0; i < names.length; i++) {
+    if (c[i] > 0.5) { ix.push(d.jx[k][i]); iy.push(d.jy[k][i]); iname.push(names[i]); }
+}
+impacts.data = {x: ix, y: iy, name: iname};
+groove.data = {x: Array.from(d.gx[k]), y: Array.from(d.gy[k])};
+span.location = d.t[k];
+"""
+
+
+def frame_data(frames: dict, magnify: float) -> dict:
+    """The groove-cam drawing (:func:`berryshaker.explore.model.groove_cam_frames`) as the browser's columns, one
+    row per frame, clearances magnified ``magnify`` times (m).
+
+    Each joint is drawn as its housing (a circle of radius free play x ``magnify``: the groove or slot's play
+    about the roller's foot, the bore about its pin) and the element in it (a dot at the housing's centre plus
+    the clearance vector x ``magnify``); the links end at the drawn joints, so the connecting rod and push rod
+    wobble with the magnified play.
+
+    Parameters
+    ----------
+    frames : dict
+        :func:`~berryshaker.explore.model.groove_cam_frames`.
+    magnify : float
+        Magnification of the clearances (1: true scale).
+
+    Returns
+    -------
+    dict
+        Columns ``t`` (s), ``phi_deg`` (deg), ``lx``/``ly`` (link end points, 2 per link, m), ``jx``/``jy``/``jr``
+        (housing centre and radius per joint, m), ``jpx``/``jpy`` (the element in it, m), ``jc`` (1 in contact),
+        ``gx``/``gy`` (the cam's pitch curve, m), and the constant ``link_colour``, ``joint_name``,
+        ``joint_colour`` (repeated per row).
+    """
+    if not (isinstance(magnify, (int, float)) and math.isfinite(magnify) and magnify > 0):
+        magnify = 1.0
+    p, v = frames["points"], frames["clearance_vector"]
+    mag = float(magnify)
+    a_draw = p["A0"] + mag * v["A"]
+    b_foot = p["B"] - v["B"]
+    b_draw = b_foot + mag * v["B"]
+    c_bore = p["C"] + mag * v["C"]
+    f_bore = p["F"] + mag * v["F"]
+    links = [(a_draw, b_draw), (p["D"], p["L"]), (p["D"], p["C"]), (c_bore, f_bore), (p["E"], p["F"]),
+             (p["E"], p["R"])]
+    colours = [LINK_COLOUR, COMB_COLOUR, LINK_COLOUR, LINK_COLOUR, LINK_COLOUR, COMB_COLOUR]
+    n = len(frames["t"])
+    lx = np.stack([np.column_stack([a[:, 0], b[:, 0]]) for a, b in links], axis=1).reshape(n, -1)
+    ly = np.stack([np.column_stack([a[:, 1], b[:, 1]]) for a, b in links], axis=1).reshape(n, -1)
+    names = ["A", "B", "C", "F"]
+    housing = {"A": p["A0"], "B": b_foot, "C": c_bore, "F": f_bore}
+    element = {"A": a_draw, "B": b_draw, "C": p["C"], "F": p["F"]}
+    jx = np.column_stack([housing[j][:, 0] for j in names])
+    jy = np.column_stack([housing[j][:, 1] for j in names])
+    jr = np.tile([frames["free_play"][j] * mag for j in names], (n, 1))
+    jpx = np.column_stack([element[j][:, 0] for j in names])
+    jpy = np.column_stack([element[j][:, 1] for j in names])
+    jc = np.column_stack([frames["contact"][j].astype(float) for j in names])
+    g = frames["groove"]
+    ca, sa = np.cos(frames["cam_angle"]), np.sin(frames["cam_angle"])
+    gx = ca[:, None] * g[0][None, :] - sa[:, None] * g[1][None, :]
+    gy = sa[:, None] * g[0][None, :] + ca[:, None] * g[1][None, :]
+    rows = lambda a: [np.ascontiguousarray(r) for r in a]  # one array per frame (a ragged column)
+    return {"t": np.asarray(frames["t"], float), "phi_deg": np.asarray(frames["phi_deg"], float),
+            "lx": rows(lx), "ly": rows(ly), "jx": rows(jx), "jy": rows(jy), "jr": rows(jr), "jpx": rows(jpx),
+            "jpy": rows(jpy), "jc": rows(jc), "gx": rows(gx), "gy": rows(gy),
+            "link_colour": [colours] * n, "joint_name": [names] * n,
+            "joint_colour": [[PAIR_COLOURS.get(j, SERIES_COLOURS[0]) for j in names]] * n}
+
+
+def frame_at(data: dict, k: int) -> tuple[dict, dict, dict, dict]:
+    """The data of the drawn sources at frame ``k`` (what :data:`ANIMATION_JS` sets in the browser).
+
+    Parameters
+    ----------
+    data : dict
+        :func:`frame_data`.
+    k : int
+        Frame index.
+
+    Returns
+    -------
+    (links, joints, impacts, groove) : dicts of columns
+        The link lines, joint housings and elements, the joints in contact and the cam's pitch curve (m).
+    """
+    lx, ly = data["lx"][k], data["ly"][k]
+    links = dict(xs=[lx[i:i + 2].tolist() for i in range(0, len(lx), 2)],
+                 ys=[ly[i:i + 2].tolist() for i in range(0, len(ly), 2)], colour=list(data["link_colour"][0]))
+    names = list(data["joint_name"][0])
+    c = data["jc"][k] > 0.5
+    colour = [IMPACT_COLOUR if c[i] else data["joint_colour"][0][i] for i in range(len(names))]
+    joints = dict(x=data["jx"][k].tolist(), y=data["jy"][k].tolist(), r=data["jr"][k].tolist(),
+                  px=data["jpx"][k].tolist(), py=data["jpy"][k].tolist(), colour=colour, name=names)
+    impacts = dict(x=data["jx"][k][c].tolist(), y=data["jy"][k][c].tolist(), name=[n for n, ci in zip(names, c) if ci])
+    return links, joints, impacts, dict(x=data["gx"][k].tolist(), y=data["gy"][k].tolist())
+
+
+def clearance_table(base, run: em.MechanismRun, changed: set) -> str:
+    """Markdown table of each joint's clearance and collision force statistics of a mechanism run.
+
+    Parameters
+    ----------
+    base : MachineBase
+        The described machine (provenance tags).
+    run : MechanismRun
+        The mechanism run (:func:`~berryshaker.explore.model.run_mechanism`).
+    changed : set of str
+        Keys the page changed (:func:`~berryshaker.explore.model.changed_keys`).
+
+    Returns
+    -------
+    str
+        One row per pair: clearance (mm, tagged), peak, mean and rms |force| (N), impacts over revolutions 2..N;
+        the drive moment below.
+    """
+    s = run.summary
+    tag = f"[computed: {run.model} model, revolutions 2..{em.REVOLUTIONS}]"
+    lines = ["| joint | clearance | peak force | mean force | rms force | impacts |", "|---|---|---|---|---|---|"]
+    onsets = s.get("contact_onsets", {})
+    for p in run.machine.pair_names:
+        st = s["collision_force_N"][p]
+        size = run.machine.clearance_sizes()[p] * 1e3
+        lines.append(f"| {p} | {size:.3f} mm [{em.provenance_tag(base, f'clearance.{p}.size', changed)}] | "
+                     f"<span class='peak' id='peak-{p}'>{st['peak']:.1f}</span> N | {st['mean']:.1f} N | "
+                     f"{st['rms']:.1f} N | {onsets.get(p, '')} |")
+    out = "\n".join(lines)
+    dm = s.get("drive_moment_Nm", {})
+    if dm:
+        out += f"\n\nDrive moment: peak {dm['peak']:.1f} N m, rms {dm['rms']:.1f} N m.  "
+    out += f"\nForces and impacts {tag}; forces are magnitudes, peaks over every integrator step."
+    return out
+
+
+def harvest_jobs(machine, speed_range_rpm, points: int) -> tuple[list[dict], list[float]]:
+    """The runs of removal against frequency: one ``sweep --model harvest`` point per drive-shaft speed.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The page's machine (its clearances, stroke and travel speed).
+    speed_range_rpm : (float, float)
+        Lowest and highest drive-shaft speed (r/min).
+    points : int
+        Speeds, equally spaced (>= 2).
+
+    Returns
+    -------
+    (jobs, speeds)
+        ``jobs``: keyword arguments of :func:`berryshaker.runs.sweep.model_run`; ``speeds`` in r/min.
+
+    Raises
+    ------
+    ConfigError
+        A speed range that is empty or not positive.
+    """
+    from berryshaker.errors import ConfigError
+
+    lo, hi = (float(v) for v in speed_range_rpm)
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+        raise ConfigError(f"drive-shaft speeds {lo:g}..{hi:g} r/min: give 0 < lowest < highest")
+    if int(points) < 2:
+        raise ConfigError(f"speeds: give at least 2, got {points}")
+    key = em.speed_key(machine)
+    data = machine.model_dump(mode="json")
+    speeds = [float(v) for v in np.linspace(lo, hi, int(points))]
+    return [dict(machine_data=data, overrides={key: v * em.RPM}, model="harvest", revolutions=em.REVOLUTIONS)
+            for v in speeds], speeds
+
+
+def harvest_table(rows: list, settings: em.Settings) -> str:
+    """Markdown table of the harvest indexes against speed (replicate mean ± SD).
+
+    Parameters
+    ----------
+    rows : list of (speed_rpm, result dict, cached)
+        :func:`berryshaker.harvest.virtual.harvest_response` per speed.
+    settings : Settings
+        The page's settings the runs used.
+
+    Returns
+    -------
+    str
+        One row per speed: speed (r/min), frequency (Hz), ripe removal, unripe shed and damage (%), efficiency
+        (kg/min), tagged computed.
+    """
+    if not rows:
+        return ""
+    lines = ["| speed | frequency | ripe removal | unripe shed | damage | efficiency |", "|---|---|---|---|---|---|"]
+    for rpm, v, _cached in rows:
+        cell = lambda k, u: f"{v[k]:.3g} ± {v.get(k + '_sd', float('nan')):.2g} {u}"
+        lines.append(f"| {rpm:.0f} r/min | {v['shaking_frequency_hz']:.2f} Hz | {cell('ripe_removal_pct', '%')} | "
+                     f"{cell('unripe_shed_pct', '%')} | {cell('damage_rate_pct', '%')} | "
+                     f"{cell('efficiency_kg_min', 'kg/min')} |")
+    r = rows[0][1].get("replicates", "")
+    return ("\n".join(lines) + f"\n\n[computed: virtual harvest, mean ± SD over {r} replicate starts; "
+            f"travel speed {settings.walking_speed_m_min:g} m/min, clearances "
+            + ", ".join(f"{p} {c:g} mm" for p, c in settings.clearance_mm) + "]")
+
+
+def wear_table(res: dict) -> str:
+    """Markdown table of the wear result (:func:`berryshaker.life.service.machine_wear`).
+
+    Parameters
+    ----------
+    res : dict
+        The wear result.
+
+    Returns
+    -------
+    str
+        Per joint: material pair, clearance at the start and the end (mm), maintenance interval (h); the
+        machine's interval and its governing limit below.
+    """
+    lines = ["| joint | material | start | end | maintenance interval |", "|---|---|---|---|---|"]
+    for j, d in res["joints"].items():
+        mi = d.get("maintenance_interval_h")
+        lines.append(f"| {j} | {d.get('material_pair', '')} | {d['clearance_mm'][0]:.4g} mm | "
+                     f"{d['clearance_mm'][-1]:.4g} mm | "
+                     f"{'does not wear' if not d.get('wears', True) else 'not reached' if mi is None else f'{mi:.0f} h'} |")
+    mi = res.get("maintenance_interval_h")
+    head = "not reached within the horizon" if mi is None else f"{mi:.0f} h"
+    gov = f" ({res['governing_limit']})" if res.get("governing_limit") else ""
+    return ("\n".join(lines) + f"\n\n**Service interval: {head}**{gov} [computed: Archard wear on the multibody "
+            f"model over {res.get('horizon_h', '')} h]")
