@@ -11,6 +11,7 @@ import socket
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from berryshaker.config import load_machine
@@ -70,6 +71,24 @@ def test_settings_reach_the_machine_with_their_tags_and_errors_name_the_field():
     assert [j["overrides"]["cam.speed"] for j in jobs] == pytest.approx([v * em.RPM for v in speeds])
     assert all(j["model"] == "harvest" and j["machine_data"]["clearance"]["A"]["size"] == pytest.approx(0.3e-3)
                for j in jobs)
+
+
+def test_a_drive_without_a_reduced_model_is_drawn_from_its_multibody_run():
+    from berryshaker.explore import model as em
+    from berryshaker.explore.views import frame_at, frame_data
+
+    base = load_machine(Path(__file__).parents[1] / "examples" / "crank_rocker_harvester.toml")
+    run = em.run_mechanism(em.build_machine(base, em.settings_of(base)), n_frames=12)
+    assert run.model == "multibody" and set(run.forces) == set(base.pair_names)
+    data = frame_data(run.frames, 100.0)
+    links, joints, impacts, groove = frame_at(data, 3)
+    assert joints["name"] == list(base.pair_names) and not groove["x"]
+    assert joints["r"] == pytest.approx([100 * base.clearance_sizes()[p] for p in base.pair_names])
+    # the element sits in its housing: at most the magnified clearance plus the contact's deflection off its centre
+    for x, y, r, px, py in zip(joints["x"], joints["y"], joints["r"], joints["px"], joints["py"]):
+        assert np.hypot(px - x, py - y) <= 1.05 * r
+    left = run.frames["points"]["shaft_D:i"][0]  # the comb shaft stands still
+    assert np.ptp(left[:, 0]) == 0 and np.ptp(left[:, 1]) == 0
 
 
 JS_FORCES = "() => { if (!window.Bokeh || !Bokeh.documents.length) { return null; } " \

@@ -1,8 +1,8 @@
 """``berryshaker explore``: a local web page to explore a machine description interactively (docs/explore.md).
 
 :mod:`.model` holds what the page computes (the settings applied to the machine, the library runs behind each
-view, the drive's drawing), :mod:`.views` what it draws and prints from a run, :mod:`.app` the Panel page and its
-server.  This module holds the checks the command makes before serving (loopback host, free port); it does not
+view), :mod:`.drawing` the drive drawn from a run, :mod:`.views` what the page draws and prints from a run,
+:mod:`.app` the Panel page and its server.  This module holds the checks the command makes before serving (loopback host, free port); it does not
 import Panel, so ``berryshaker --help`` stays fast.
 """
 

@@ -7,8 +7,8 @@ or, for a drive without one, the multibody model (:func:`berryshaker.drives.simu
 removal against frequency is the virtual harvest (:func:`berryshaker.harvest.virtual.harvest_response` through
 :func:`berryshaker.runs.sweep.model_run`, the ``sweep --model harvest`` run, cached by
 :class:`berryshaker.runs.runner.SweepRunner`); wear and the service interval are
-:func:`berryshaker.life.service.machine_wear` (``berryshaker wear``).  The drawing of the groove-cam drive
-(:func:`groove_cam_frames`) places the links from the reduced model's coordinates and magnifies the joints'
+:func:`berryshaker.life.service.machine_wear` (``berryshaker wear``).  The drive's drawing
+(:mod:`berryshaker.explore.drawing`) places the links from the run's coordinates and magnifies the joints'
 clearance vectors.  SI inside; mm, r/min and m/min only in :class:`Settings` (the page's units).
 """
 
@@ -22,15 +22,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from berryshaker.errors import ConfigError
+from berryshaker.explore import drawing
 
-#: the machine-description field that sets the stroke, per drive: (dotted key, label, factor from the field to the
-#: shown value); a drive not listed has no stroke field in the page
+#: the machine-description field that sets the stroke, per drive: (dotted key, label); a drive not listed has no
+#: stroke field in the page
 STROKE_FIELDS: dict[str, tuple[str, str]] = {
     "groove_cam": ("cam.stroke", "cam stroke (push-rod travel)"),
     "crank_rocker": ("crank.radius", "crank radius (sets the stroke)"),
 }
 #: drive-shaft revolutions of a mechanism/force run; statistics over revolutions 2..N (the first is start-up)
-REVOLUTIONS = 3
+REVOLUTIONS = drawing.REVOLUTIONS
 #: mechanism runs kept in memory (a run holds ~15 000 samples x 39 columns, about 5 MB)
 RUN_CACHE_SIZE = 16
 RPM = 2 * math.pi / 60.0  # rad/s per r/min
@@ -274,7 +275,7 @@ class MechanismRun:
     forces : dict
         |collision force| (N) per pair over ``t``.
     frames : dict or None
-        The drawing of the drive (:func:`groove_cam_frames`), None where the drive has no drawing.
+        The drawing of the drive (:mod:`berryshaker.explore.drawing`), None where there is none.
     wall_time_s : float
         Wall time of the run (s).
     """
@@ -315,7 +316,7 @@ def run_mechanism(machine, n_frames: int = 120) -> MechanismRun:
         summary = res.summary()
         sel = res.t >= res.stats_from - 1e-12
         forces = {p: np.abs(res.series(f"F_{p}_N"))[sel] for p in machine.pair_names}
-        frames = groove_cam_frames(res, n_frames) if machine.DRIVE == "groove_cam" else None
+        frames = drawing.groove_cam_frames(res, n_frames) if machine.DRIVE == "groove_cam" else None
         return MechanismRun(drive.reduced_model_name or "reduced", machine, summary, res.t[sel], forces, frames,
                             time.perf_counter() - t0)
     from berryshaker.drives.simulation import simulate_multibody
@@ -325,7 +326,8 @@ def run_mechanism(machine, n_frames: int = 120) -> MechanismRun:
     cm = res.compiled
     forces = {p: np.abs(np.asarray(res.element_force(p) if p in cm.frc_names else res.reaction(p), float))[sel]
               for p in machine.pair_names}
-    return MechanismRun("multibody", machine, summary, res.t[sel], forces, None, time.perf_counter() - t0)
+    return MechanismRun("multibody", machine, summary, res.t[sel], forces, drawing.multibody_frames(machine, res, n_frames),
+                        time.perf_counter() - t0)
 
 
 class RunCache:
@@ -374,71 +376,3 @@ class RunCache:
             while len(self._runs) > self.size:
                 self._runs.popitem(last=False)
         return run, False
-
-
-def groove_cam_frames(result, n_frames: int = 120) -> dict:
-    """The groove-cam drive drawn from an MLSD result over its last revolution: link lines, joint positions and
-    each joint's clearance vector (for magnified drawing), and whether the joint is in contact.
-
-    The points follow docs/mlsd.md: roller A at x = s0 + x on the guide line y = e (its pitch point at
-    s0 + s(phi)); roller B at s0 + x + l_AB; the left comb from D along its angle theta_D, arm DC at theta_D +
-    gamma; pin F at E + l_FE (cos theta_E, sin theta_E), the right comb from E along theta_E; the clearance vectors
-    r_A, r_B (roller minus its foot on the slot line), r_C, r_F (rod bore minus comb pin) are the model's
-    (eq. 4).  A joint is in contact where its link length |d_i| exceeds its free play c_i (half the size for a
-    roller, the radial clearance for a pin).
-
-    Parameters
-    ----------
-    result : MLSDResult
-        A groove-cam MLSD run (:func:`berryshaker.drives.groove_cam.mlsd.simulate_mlsd`).
-    n_frames : int
-        Frames, equally spaced over the last revolution.
-
-    Returns
-    -------
-    dict
-        ``phi_deg`` (cam angle per frame, deg), ``t`` (s), ``points`` (name -> (n_frames, 2) array, m: O, A, B, D,
-        C, F, E, the comb tips L and R), ``clearance_vector`` (pair -> (n_frames, 2), m), ``free_play`` (pair -> m),
-        ``contact`` (pair -> bool per frame), ``groove`` (the cam's pitch curve in the cam frame, (2, n), m) and
-        ``cam_angle`` (rad per frame, the cam turning clockwise).
-    """
-    from berryshaker.drives.groove_cam.kinematics import cam_groove
-    from berryshaker.drives.groove_cam.mlsd_kernel import R_DA, R_RBX, R_RBY, R_RCX, R_RCY, R_RFX, R_RFY
-    from berryshaker.kinematics.cam import follower_svaj
-
-    m = result.machine
-    c = m.cam
-    period = 2 * math.pi / c.speed
-    t_last = result.t[-1] - period
-    idx = np.unique(np.searchsorted(result.t, np.linspace(t_last, result.t[-1], n_frames, endpoint=False)))
-    idx = np.clip(idx, 0, len(result.t) - 1)
-    t = result.t[idx]
-    phi = c.speed * t
-    st, rs = result.state[idx], result.results[idx]
-    x, thd, the = st[:, 0], st[:, 1], st[:, 3]
-    s = follower_svaj(phi % (2 * math.pi), c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law)[0]
-    e, s0, lab = c.offset, c.s0, m.push_rod.length
-    xd, yd = m.shaft_D
-    xe, ye = m.shaft_E
-    lcd, gam, lfe, lc = m.rocker.arm_CD, m.rocker.arm_angle, m.four_bar.arm_FE, m.combs.length
-    n = len(idx)
-    one = np.ones(n)
-    pts = {
-        "O": np.zeros((n, 2)),
-        "A": np.column_stack([s0 + x, e * one]),
-        "A0": np.column_stack([s0 + s, e * one]),  # pitch point of the groove
-        "B": np.column_stack([s0 + x + lab, e * one]),
-        "D": np.column_stack([xd * one, yd * one]),
-        "C": np.column_stack([xd + lcd * np.cos(thd + gam), yd + lcd * np.sin(thd + gam)]),
-        "L": np.column_stack([xd + lc * np.cos(thd), yd + lc * np.sin(thd)]),
-        "E": np.column_stack([xe * one, ye * one]),
-        "F": np.column_stack([xe + lfe * np.cos(the), ye + lfe * np.sin(the)]),
-        "R": np.column_stack([xe + lc * np.cos(the), ye + lc * np.sin(the)]),
-    }
-    vec = {"A": np.column_stack([x - s, 0 * one]), "B": np.column_stack([rs[:, R_RBX], rs[:, R_RBY]]),
-           "C": np.column_stack([rs[:, R_RCX], rs[:, R_RCY]]), "F": np.column_stack([rs[:, R_RFX], rs[:, R_RFY]])}
-    play = {p: result.clearance[p] * (1.0 if m.clearance[p].kind == "pin-in-bore" else 0.5) for p in vec}
-    contact = {p: np.abs(rs[:, R_DA + k]) > play[p] for k, p in enumerate(("A", "B", "C", "F"))}
-    _, pitch, _, _ = cam_groove(m, n=181)
-    return {"phi_deg": np.degrees(phi % (2 * math.pi)), "t": t, "points": pts, "clearance_vector": vec,
-            "free_play": play, "contact": contact, "groove": pitch, "cam_angle": -phi}

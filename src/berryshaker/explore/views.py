@@ -13,9 +13,6 @@ import numpy as np
 from berryshaker.explore import model as em
 from berryshaker.report.style import PAIR_COLOURS, SERIES_COLOURS
 
-#: colour of the drive's links and combs in the drawing
-LINK_COLOUR = "#555555"
-COMB_COLOUR = "#8C564B"
 #: colour of a joint in contact (and of the impact stars)
 IMPACT_COLOUR = "#D62728"
 
@@ -46,8 +43,9 @@ span.location = d.t[k];
 
 
 def frame_data(frames: dict, magnify: float) -> dict:
-    """The groove-cam drawing (:func:`berryshaker.explore.model.groove_cam_frames`) as the browser's columns, one
-    row per frame, clearances magnified ``magnify`` times (m).
+    """A drive's drawing (:func:`berryshaker.explore.drawing.groove_cam_frames`,
+    :func:`~berryshaker.explore.drawing.multibody_frames`) as the browser's columns, one row per frame, clearances
+    magnified ``magnify`` times (m).
 
     Each joint is drawn as its housing (a circle of radius free play x ``magnify``: the groove or slot's play
     about the roller's foot, the bore about its pin) and the element in it (a dot at the housing's centre plus
@@ -57,7 +55,7 @@ def frame_data(frames: dict, magnify: float) -> dict:
     Parameters
     ----------
     frames : dict
-        :func:`~berryshaker.explore.model.groove_cam_frames`.
+        The drawing.
     magnify : float
         Magnification of the clearances (1: true scale).
 
@@ -66,43 +64,38 @@ def frame_data(frames: dict, magnify: float) -> dict:
     dict
         Columns ``t`` (s), ``phi_deg`` (deg), ``lx``/``ly`` (link end points, 2 per link, m), ``jx``/``jy``/``jr``
         (housing centre and radius per joint, m), ``jpx``/``jpy`` (the element in it, m), ``jc`` (1 in contact),
-        ``gx``/``gy`` (the cam's pitch curve, m), and the constant ``link_colour``, ``joint_name``,
-        ``joint_colour`` (repeated per row).
+        ``gx``/``gy`` (the cam's pitch curve, m; empty without a cam), and the constant ``link_colour``,
+        ``joint_name``, ``joint_colour`` (repeated per row).
     """
     if not (isinstance(magnify, (int, float)) and math.isfinite(magnify) and magnify > 0):
         magnify = 1.0
-    p, v = frames["points"], frames["clearance_vector"]
     mag = float(magnify)
-    a_draw = p["A0"] + mag * v["A"]
-    b_foot = p["B"] - v["B"]
-    b_draw = b_foot + mag * v["B"]
-    c_bore = p["C"] + mag * v["C"]
-    f_bore = p["F"] + mag * v["F"]
-    links = [(a_draw, b_draw), (p["D"], p["L"]), (p["D"], p["C"]), (c_bore, f_bore), (p["E"], p["F"]),
-             (p["E"], p["R"])]
-    colours = [LINK_COLOUR, COMB_COLOUR, LINK_COLOUR, LINK_COLOUR, LINK_COLOUR, COMB_COLOUR]
+    drawn = {k: base + mag * vec for k, (base, vec) in frames["points"].items()}
     n = len(frames["t"])
-    lx = np.stack([np.column_stack([a[:, 0], b[:, 0]]) for a, b in links], axis=1).reshape(n, -1)
-    ly = np.stack([np.column_stack([a[:, 1], b[:, 1]]) for a, b in links], axis=1).reshape(n, -1)
-    names = ["A", "B", "C", "F"]
-    housing = {"A": p["A0"], "B": b_foot, "C": c_bore, "F": f_bore}
-    element = {"A": a_draw, "B": b_draw, "C": p["C"], "F": p["F"]}
-    jx = np.column_stack([housing[j][:, 0] for j in names])
-    jy = np.column_stack([housing[j][:, 1] for j in names])
-    jr = np.tile([frames["free_play"][j] * mag for j in names], (n, 1))
-    jpx = np.column_stack([element[j][:, 0] for j in names])
-    jpy = np.column_stack([element[j][:, 1] for j in names])
-    jc = np.column_stack([frames["contact"][j].astype(float) for j in names])
-    g = frames["groove"]
-    ca, sa = np.cos(frames["cam_angle"]), np.sin(frames["cam_angle"])
-    gx = ca[:, None] * g[0][None, :] - sa[:, None] * g[1][None, :]
-    gy = sa[:, None] * g[0][None, :] + ca[:, None] * g[1][None, :]
+    links = frames["links"]
+    lx = np.stack([np.column_stack([drawn[a][:, 0], drawn[b][:, 0]]) for a, b, _ in links], axis=1).reshape(n, -1)
+    ly = np.stack([np.column_stack([drawn[a][:, 1], drawn[b][:, 1]]) for a, b, _ in links], axis=1).reshape(n, -1)
+    joints = frames["joints"]
+    names = [j[0] for j in joints]
+    col = lambda f: np.column_stack([f(j) for j in joints]) if joints else np.zeros((n, 0))
+    jx, jy = col(lambda j: drawn[j[1]][:, 0]), col(lambda j: drawn[j[1]][:, 1])
+    jpx, jpy = col(lambda j: drawn[j[2]][:, 0]), col(lambda j: drawn[j[2]][:, 1])
+    jr = np.tile([j[3] * mag for j in joints], (n, 1))
+    jc = col(lambda j: np.asarray(j[4], float))
+    if frames.get("groove") is not None:
+        g = frames["groove"]
+        ca, sa = np.cos(frames["cam_angle"]), np.sin(frames["cam_angle"])
+        gx = ca[:, None] * g[0][None, :] - sa[:, None] * g[1][None, :]
+        gy = sa[:, None] * g[0][None, :] + ca[:, None] * g[1][None, :]
+    else:
+        gx = gy = np.zeros((n, 0))
     rows = lambda a: [np.ascontiguousarray(r) for r in a]  # one array per frame (a ragged column)
     return {"t": np.asarray(frames["t"], float), "phi_deg": np.asarray(frames["phi_deg"], float),
             "lx": rows(lx), "ly": rows(ly), "jx": rows(jx), "jy": rows(jy), "jr": rows(jr), "jpx": rows(jpx),
             "jpy": rows(jpy), "jc": rows(jc), "gx": rows(gx), "gy": rows(gy),
-            "link_colour": [colours] * n, "joint_name": [names] * n,
-            "joint_colour": [[PAIR_COLOURS.get(j, SERIES_COLOURS[0]) for j in names]] * n}
+            "link_colour": [[c for _, _, c in links]] * n, "joint_name": [names] * n,
+            "joint_colour": [[PAIR_COLOURS.get(j, SERIES_COLOURS[k % len(SERIES_COLOURS)])
+                              for k, j in enumerate(names)]] * n}
 
 
 def frame_at(data: dict, k: int) -> tuple[dict, dict, dict, dict]:
