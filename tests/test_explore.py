@@ -34,6 +34,8 @@ def test_the_command_refuses_a_remote_host_and_a_busy_port():
         check_loopback("0.0.0.0")
     with pytest.raises(ConfigError, match="loopback"):
         check_loopback("192.168.1.10")
+    with pytest.raises(ConfigError, match="IPv6"):
+        check_loopback("::1")
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         s.listen()

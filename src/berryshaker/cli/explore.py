@@ -14,7 +14,7 @@ from berryshaker.cli.app import ConfigOpt, _load, app, command, err, out
 def explore(
     config: Optional[Path] = ConfigOpt,
     port: int = typer.Option(5006, "--port", help="TCP port of the page (1..65535; must be free)."),
-    host: str = typer.Option("127.0.0.1", "--host", help="Loopback address to serve on (127.0.0.1, ::1 or "
+    host: str = typer.Option("127.0.0.1", "--host", help="Loopback address to serve on (127.0.0.1 or "
                              "localhost); any other address is refused."),
     workers: int = typer.Option(1, "--workers", min=1, help="Local processes of the harvest runs (>= 1)."),
     cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder of the harvest and wear runs "
@@ -34,8 +34,7 @@ def explore(
     err.print("loading the web framework and the drive's model ...", highlight=False)
     from berryshaker.explore.app import serve
 
-    shown = f"[{host}]" if ":" in host else host
-    out.print(f"berryshaker explore: open http://{shown}:{port}/explore  (Ctrl-C stops)", markup=False,
+    out.print(f"berryshaker explore: open http://{host}:{port}/explore  (Ctrl-C stops)", markup=False,
               highlight=False)
     try:
         serve(machine, port, host=host, cache_dir=cache, workers=workers, source=source)

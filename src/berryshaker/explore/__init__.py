@@ -23,7 +23,7 @@ def check_loopback(host: str) -> str:
     Parameters
     ----------
     host : str
-        Address to serve on ("127.0.0.1", "::1", "localhost").
+        Address to serve on ("127.0.0.1", "localhost").
 
     Returns
     -------
@@ -33,17 +33,20 @@ def check_loopback(host: str) -> str:
     Raises
     ------
     ConfigError
-        ``host`` is not a loopback address.
+        ``host`` is not an IPv4 loopback address or "localhost".
     """
     if host in LOOPBACK_NAMES:
         return host
     try:
-        ok = ipaddress.ip_address(host).is_loopback
+        address = ipaddress.ip_address(host)
     except ValueError:
-        ok = False
-    if not ok:
+        address = None
+    if address is None or not address.is_loopback:
         raise ConfigError(f"--host {host!r}: explore serves only on this computer (a loopback address such as "
-                          "127.0.0.1, ::1 or localhost); it runs simulations for anyone who can reach it")
+                          "127.0.0.1 or localhost); it runs simulations for anyone who can reach it")
+    if address.version != 4:
+        raise ConfigError(f"--host {host!r}: the page's server (Bokeh) takes no IPv6 address; use 127.0.0.1 or "
+                          "localhost")
     return host
 
 
@@ -69,8 +72,7 @@ def check_port(host: str, port: int) -> int:
     """
     if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
         raise ConfigError(f"--port {port!r}: give a TCP port in 1..65535")
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as s:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
         try:
             s.bind((host, port))
         except OSError as exc:

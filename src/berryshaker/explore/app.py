@@ -22,7 +22,7 @@ from bokeh.layouts import row as bk_row
 from bokeh.models import Button, ColumnDataSource, CustomJS, Slider, Span
 from bokeh.plotting import figure
 
-from berryshaker.errors import BerryshakerError
+from berryshaker.errors import BerryshakerError, ConfigError
 from berryshaker.explore import model as em
 from berryshaker.explore.views import (
     ANIMATION_JS,
@@ -70,6 +70,7 @@ class ExplorePage:
         self.doc = pn.state.curdoc
         self._want = None
         self._busy = False
+        self._closed = False
         self._lock = threading.Lock()
         self._last_run = None
         ref = em.settings_of(base)
@@ -96,6 +97,8 @@ class ExplorePage:
 
     def _later(self, fn) -> None:
         """Run ``fn`` on the session's event loop (the document locked), from any thread."""
+        if self._closed:
+            return
         doc = self.doc
         if doc is not None and doc.session_context is not None:
             doc.add_next_tick_callback(fn)
@@ -420,7 +423,7 @@ class ExplorePage:
 
     def close(self) -> None:
         """The session ended: no page updates any more (runs under way finish into the caches)."""
-        self.doc = None
+        self._closed = True
 
 
 def make_app(base, cache_dir=None, workers: int | None = None, source: str = "built-in reference machine"):
@@ -479,6 +482,10 @@ def serve(base, port: int, host: str = "127.0.0.1", cache_dir=None, workers: int
 
     check_loopback(host)
     pn.extension()
-    return pn.serve({"explore": make_app(base, cache_dir, workers, source)}, port=port, address=host,
-                    websocket_origin=[f"{host}:{port}", f"localhost:{port}"], show=False, start=True,
-                    threaded=threaded, title="berryshaker explore")
+    try:
+        return pn.serve({"explore": make_app(base, cache_dir, workers, source)}, port=port, address=host,
+                        websocket_origin=[f"{host}:{port}", f"localhost:{port}"], show=False, start=True,
+                        threaded=threaded, title="berryshaker explore")
+    except OSError as exc:  # the port taken between the check and the start
+        raise ConfigError(f"the page's server could not start on {host}:{port} ({exc.strerror or exc}): choose "
+                          "another port with --port") from None
