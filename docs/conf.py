@@ -24,10 +24,11 @@ from pathlib import Path
 
 from sphinx.util import logging as sphinx_logging
 
-import berryshaker
-
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "src"))  # a source checkout without installation still documents itself
+if not any(Path(p).resolve() == ROOT / "src" for p in sys.path if p):
+    sys.path.insert(0, str(ROOT / "src"))  # a source checkout without installation still documents itself
+
+import berryshaker  # noqa: E402
 
 project = "berryshaker"
 author = "berryshaker developers"
@@ -46,7 +47,9 @@ extensions = [
 
 source_suffix = {".rst": "restructuredtext", ".md": "markdown"}
 root_doc = "index"
-exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery/*.ipynb", "gallery/*.py", "gallery/*.zip"]
+# sg_execution_times: sphinx-gallery's table of run times, empty while the gallery is not executed
+exclude_patterns = ["_build", "Thumbs.db", ".DS_Store", "gallery/*.ipynb", "gallery/*.py", "gallery/*.zip",
+                    "sg_execution_times.rst"]
 templates_path = ["_templates"]
 
 # Markdown: the pages of docs/ use $...$ maths, tables and ``{eq}``-free plain headings
