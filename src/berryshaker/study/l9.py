@@ -39,6 +39,7 @@ from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEI
 from berryshaker.harvest.spec import COUPLED_RTOL, COUPLED_VELOCITY_SCALE
 from berryshaker.units import format_tolerance
 from berryshaker.study.runs import replicate_run
+from berryshaker.report.design import level_set_name
 
 #: harvest responses: name -> (key of harvest_indexes, factor to the reported unit, unit, larger is better)
 HARVEST_RESPONSES = {
@@ -349,6 +350,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
            for n in names}
     an["runs"] = [{"run": i + 1, "levels": {p: int(a[i, j]) for j, p in enumerate(pairs)},
                    "clearance_mm": {p: float(values[i, j]) for j, p in enumerate(pairs)},
+                   "name": level_set_name({p: float(values[i, j]) for j, p in enumerate(pairs)}),
                    **{n: float(y[n][i].mean()) for n in study_idx},
                    "replicates": {n: interval(y[n][i]) for n in names}} for i in range(len(runs))]
     an["replicated"] = rep
@@ -424,6 +426,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
           if n in rec_all}
     an["recommended"] = {"levels": rec_levels, "code": level_code(rec_levels),
+                         "name": level_set_name({p: best_cl[p] * 1e3 for p in pairs}),
                          "clearance_mm": {p: best_cl[p] * 1e3 for p in pairs}, "l9_run": None if row is None else row + 1,
                          "study": {"code": CHOSEN_CODE}, "same_as_study": rec_levels == CHOSEN_LEVELS,
                          "virtual_harvest": vh, "replicates": {n: interval(rec_all[n]) for n in names},
@@ -436,6 +439,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     an["tolerance_check"] = _tolerance_check(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
                                              {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
     an["paired"] = paired_summary(rep, pairs)
+    an["observations"] = {n: np.asarray(y[n]).tolist() for n in names}  # per run and start: the effect figures' data
     return an
 
 
@@ -547,7 +551,8 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
         elif i == nrun and not moved:
             c["name"] = f"recommended ({code})"
     records, columns = tradeoff_records(cands)
-    tiered = {"code": code, "levels": dict(rec_levels), "l9_run": None if row is None else row + 1}
+    tiered = {"code": code, "name": level_set_name({p: rec_clearance[p] * 1e3 for p in pairs}),
+              "levels": dict(rec_levels), "l9_run": None if row is None else row + 1}
     if moved:
         statement = (f"The tiered choice {code} is dominated beyond the noise by the tested "
                      + ", ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
