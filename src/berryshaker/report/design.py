@@ -21,6 +21,9 @@ section) and provenance tag.  Tags: ``[computed]`` a result of this study's runs
 ``[study]``, ``[published]``, ``[default]`` the inputs' tags (``berryshaker.config.value_tag``) where a number is
 an input.  :func:`design_answers_html` renders the answers as the report's opening section (tables of at most
 :data:`MAX_COLUMNS` columns with fixed widths, so nothing is wider than an A4 page, 794 CSS px).
+
+long module: every answer is read from the same results in the same :func:`quantity` form, and its HTML renders
+them all; splitting it would scatter one section over files.
 """
 
 from __future__ import annotations
@@ -29,9 +32,8 @@ import html
 import math
 
 #: the report's sections the answers come from (berryshaker.report.html.study_report's numbering)
-SECTIONS = {"virtual_l9": "6. Virtual L9 field test", "clearance_life": "7. Clearance life",
-            "powered_drive": "8. Powered drive", "harvest_response": "9. Harvest against shaking frequency",
-            "kinematics": "1. Kinematics of the drive", "machine": "Configuration and provenance"}
+SECTIONS = {"virtual_l9": "6. Virtual L9", "clearance_life": "7. Clearance life", "powered_drive": "8. Powered drive",
+            "harvest_response": "9. Harvest response", "kinematics": "1. Kinematics", "machine": "Configuration"}
 #: widest table of the section (columns); with fixed column widths every table fits an A4 page
 MAX_COLUMNS = 6
 #: default limits of the operating-point rule (replicate means, %): [assumed], ours, not the study's
@@ -53,11 +55,11 @@ def quantity(value, unit: str, lo=None, hi=None, interval: str = "", step: str =
     Parameters
     ----------
     value : float
-        The value (in ``unit``).
+        The value, in ``unit`` (e.g. mm, N, h; dimensionless when ``unit`` is "").
     unit : str
         Its unit ("mm", "N", "h", "kg/min", "%", ...; "" for a dimensionless number).
     lo, hi : float, optional
-        The interval's ends (``unit``); None where there is none (``interval`` then says why).
+        The interval's ends, in ``unit`` (e.g. mm, N, h); None where there is none (``interval`` then says why).
     interval : str
         What the interval is (e.g. "95 % t-interval of the mean of 32 starts").
     step : str
@@ -109,8 +111,19 @@ def level_set_name(clearances_mm: dict, unit: str = "mm") -> str:
 
 
 def claims_apply(machine) -> bool:
-    """True where the reference study's claims can be checked on the machine: its pairs are the study's (A, B, C,
-    F), the rule of :func:`berryshaker.study.claims.check_claims` (elsewhere six of eight are "not comparable")."""
+    """Whether the reference study's claims can be checked on the machine.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine description.
+
+    Returns
+    -------
+    bool
+        True where its pairs are the study's (A, B, C, F), the rule of
+        :func:`berryshaker.study.claims.check_claims` (elsewhere six of eight claims are "not comparable").
+    """
     from berryshaker.reference_study import PAIRS
 
     return tuple(machine.pair_names) == tuple(PAIRS)
@@ -294,7 +307,8 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
     machine : Machine, optional
         For the stroke's note (unused otherwise).
     damage_limit_pct, unripe_limit_pct : float
-        Limits on the mean damage and mean unripe shedding (%) [assumed].
+        Limits on the mean damage and mean unripe shedding, in % of the picked mass and of the unripe mass
+        [assumed].
 
     Returns
     -------
@@ -372,9 +386,19 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
 
 
 def differences(summary: dict) -> list[dict]:
-    """The L9's paired differences (each factor's last minus first level, over the blocked starts) per response:
-    response, unit, factor, levels, difference with its 95 % interval and standard error, p, ``beyond_noise``
-    and the verdict in words ("differs" or "no difference")."""
+    """The L9's paired differences: each factor's last minus first level over the blocked starts, per response.
+
+    Parameters
+    ----------
+    summary : dict
+        The study's summary (or its ``results``).
+
+    Returns
+    -------
+    list of dict
+        ``response``, ``factor``, ``levels``, ``difference`` (a :func:`quantity` in the response's unit with its
+        95 % interval and ``se``), ``p``, ``beyond_noise`` and ``verdict`` ("differs" or "no difference").
+    """
     res = _results(summary)
     l9 = res.get("l9") or {}
     paired = l9.get("paired") or {n: v.get("paired") for n, v in
@@ -454,6 +478,13 @@ def why_efficiency(summary: dict, machine) -> dict | None:
     """Efficiency decomposed: picked mass per minute = (ripe removal x ripe yield + unripe shedding x unripe yield)
     per bush x bushes per minute, with the kinematic quantities that set the removal.
 
+    Parameters
+    ----------
+    summary : dict
+        The study's summary (its ``machine_si`` gives the yield and field settings it ran with).
+    machine : Machine
+        The machine description.
+
     Returns
     -------
     dict or None
@@ -525,7 +556,14 @@ def why_efficiency(summary: dict, machine) -> dict | None:
 
 def compare_efficiency(a: dict, b: dict, name_a: str = "this machine", name_b: str = "the other") -> dict:
     """Why machine a's efficiency differs from machine b's: the ratio split into removal, ripe yield per bush and
-    bushes per minute, and the removal's kinematic drivers side by side (two :func:`why_efficiency` results).
+    bushes per minute, and the removal's kinematic drivers side by side.
+
+    Parameters
+    ----------
+    a, b : dict
+        :func:`why_efficiency` of the two machines.
+    name_a, name_b : str
+        Their names in the statement.
 
     Returns
     -------
@@ -576,7 +614,7 @@ def design_answers(summary: dict, machine, reference: dict | None = None, damage
         :func:`why_efficiency` of another machine's study (e.g. the groove-cam reference) to explain the difference
         of the efficiencies (:func:`compare_efficiency`).
     damage_limit_pct, unripe_limit_pct : float
-        Limits of the operating-point rule (%, [assumed]).
+        Limits of the operating-point rule, in % of the picked mass and of the unripe mass [assumed].
 
     Returns
     -------
@@ -617,7 +655,7 @@ def _num(v) -> str:
     if v is None or (isinstance(v, float) and not math.isfinite(v)):
         return "-"
     v = float(v)
-    return f"{v:.0f}" if abs(v) >= 1e4 else f"{v:.3g}"
+    return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"  # whole newtons and hours, no "9.92e+03"
 
 
 def _cell(q: dict | None):
@@ -689,7 +727,7 @@ def design_answers_html(answers: dict) -> str:
         parts.append("<h3>At the recommended set</h3>")
         parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "tag", "section"],
                             [[q["label"], q["unit"], _cell(q), _num(q.get("sd")), q["tag"], _src(q)] for q in loads],
-                            left=(0, 1, 4, 5), widths=(30, 12, 20, 10, 12, 16)))
+                            left=(0, 1, 4, 5), widths=(28, 10, 20, 10, 15, 17)))
     op = a.get("operating_point")
     if op:
         parts.append("<h3>Operating point</h3>")
@@ -700,7 +738,7 @@ def design_answers_html(answers: dict) -> str:
                                                               "unripe_shed", "damage", "efficiency") if op.get(k)]]
             parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "section"],
                                 [[n, q["unit"], _cell(q), _num(q.get("sd")), _src(q)] for n, q in items],
-                                left=(0, 1, 4), widths=(30, 12, 22, 12, 24)))
+                                left=(0, 1, 4), widths=(30, 12, 22, 14, 22)))
         parts.append(f"<p class='small'>Rule: {html.escape(op['rule'])}; limits: damage "
                      f"{op['limits']['damage_pct']:g} %, unripe shedding {op['limits']['unripe_shed_pct']:g} % "
                      f"{op['limits']['tag']}.</p>")
@@ -720,7 +758,7 @@ def design_answers_html(answers: dict) -> str:
                     continue
                 q = d["difference"]
                 verdict = "<b>differs</b>" if d["beyond_noise"] else "no difference"
-                cells.append(_Raw(html.escape(f"{q['value']:+.3g}") + f"<span class='ci'>[{_num(q['lo'])}, "
+                cells.append(_Raw(html.escape(("+" if q["value"] >= 0 else "") + _num(q["value"])) + f"<span class='ci'>[{_num(q['lo'])}, "
                                   f"{_num(q['hi'])}] {verdict}</span>"))
             rows.append([f"{n} ({unit})" if unit else n, *cells])
         levels = diffs[0]["levels"]
