@@ -187,8 +187,10 @@ def test_virtual_harvest_is_deterministic_for_a_seed(fast_machine, envelopes):
 
 
 def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, envelopes):
-    """Where the coupled model shakes the branch harder (pointwise), more fruit comes off and more of it
-    is damaged.
+    """Where the coupled model shakes the branch harder (pointwise), more fruit comes off and more of it is
+    damaged: every fruit picked before is picked again, and its bruising (its fall and the fingers' strike) does
+    not depend on the stem load, so the damaged mass cannot fall.  The damage *rate* may fall: the extra fruit come
+    from low on the branch, with short falls (measured here: 22.6 % -> 15.9 %).
 
     Between clearance sets the damage rate (damaged / picked mass) need not follow the mean shaking in the fruit
     zone: the envelopes differ in shape, and more shaking also picks more sound fruit.  Measured, rows 16 against
@@ -200,8 +202,9 @@ def test_virtual_indexes_follow_the_shaking_the_model_predicts(fast_machine, env
     base = virtual_harvest(fast_machine, seed=1, envelopes=envelopes[14])
     harder = virtual_harvest(fast_machine, seed=1, envelopes=[e * 1.3 for e in envelopes[14]])
     assert harder["efficiency_kg_min"] > base["efficiency_kg_min"]
-    assert harder["damage_rate_pct"] > base["damage_rate_pct"]
     assert harder["ripe_picked_fraction"] >= base["ripe_picked_fraction"]
+    damaged = {k: r["damage_rate_pct"] * r["efficiency_kg_min"] for k, r in (("base", base), ("harder", harder))}
+    assert damaged["harder"] >= damaged["base"] > 0
 
 
 def test_published_l9_example_yang_el_haik():

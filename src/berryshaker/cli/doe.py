@@ -143,8 +143,10 @@ def doe_plan(
 
 @command(doe_app, "analyze")
 def doe_analyze(
-    results: Path = typer.Argument(..., help="Filled field sheet (CSV): `doe plan` columns, or plain factor "
-                                   "columns holding level values."),
+    results: Path = typer.Argument(..., help="Filled field sheet (CSV): `doe plan` columns, plain factor "
+                                   "columns holding level values, or a statistics package's worksheet (Minitab: "
+                                   "StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated settings are "
+                                   "replicates; units in the header, e.g. 'Speed (rpm)')."),
     maximize: str = typer.Option("", "--maximize", help="Responses where larger is better, e.g. efficiency."),
     minimize: str = typer.Option("", "--minimize", help="Responses where smaller is better, e.g. unripe,damage."),
     weights: Optional[str] = typer.Option(None, "--weights", help="Weights of the composite score, e.g. "
@@ -168,8 +170,7 @@ def doe_analyze(
     Without replicates the weakest factor is pooled into the error.
     """
     try:
-        from berryshaker.experiment.analysis import analyze
-        from berryshaker.experiment.field_sheet import read_results
+        from berryshaker.experiment.field_results import analyze_sheet
 
         if report is not None:
             from berryshaker.outputs import check_output_file
@@ -183,42 +184,18 @@ def doe_analyze(
 
             prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
-        fr = read_results(results, list(senses))
-        if fr.replicates >= 2:
-            from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
-
-            res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses,
-                                     _parse_weights(weights), level_values=fr.level_values, units=fr.units,
-                                     blocks=True)
-            res["block_column"] = fr.block_column
-            res["text"] = describe_replicated(res)
-        else:
-            res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, _parse_weights(weights),
-                          level_values=fr.level_values, units=fr.units)
-        res["replicates"] = fr.replicates
-        res["weights_given"] = weights is not None
+        fr, res = analyze_sheet(results, senses, _parse_weights(weights))
         res["results_file"] = str(results)
         res["version"] = __version__
         if plot is not None:
-            from berryshaker.experiment.analysis import quadratic_regression
             from berryshaker.outputs import staged_directory
-            from berryshaker.report.plots import plot_main_effects, plot_replicated_effects, plot_response_surfaces
+            from berryshaker.report.plots import write_doe_figures
+            from berryshaker.report.table_files import write_doe_tables
 
-            known = {f: v for f, v in fr.level_values.items() if v is not None}
             with staged_directory(plot, kind="doe analyze --plot") as stage:
-                if fr.replicates >= 2:  # error bars: 95 % intervals from the pure error
-                    plot_replicated_effects(res, list(res["responses"]), stage / "main_effects.png",
-                                            level_values=known or None)
-                else:
-                    plot_main_effects(res, stage / "main_effects.png", level_values=known or None, factor_unit="-")
+                write_doe_figures(fr, res, stage)
+                write_doe_tables(res, stage)
                 write_provenance(stage, results_file=str(results))
-                if len(fr.factor_names) >= 2:
-                    units = {u for f, u in fr.units.items() if fr.level_values.get(f) is not None}
-                    unit = units.pop() if len(units) == 1 and "" not in units else "-"
-                    for r, y in fr.responses.items():
-                        plot_response_surfaces(fr.values, y, fr.factor_names,
-                                               quadratic_regression(fr.values, y, fr.factor_names), r,
-                                               stage / f"surface_{r}.png", factor_unit=unit)
             res["plots"] = sorted(str(p) for p in plot.glob("*.png"))
         if report is not None:
             from berryshaker.outputs import provenance, write_json_atomic, write_text_atomic
@@ -255,10 +232,11 @@ def _decimals(values) -> int:
     return max(0, min(6, 3 - int(math.floor(math.log10(top)))))
 
 
-def _unit(response: str) -> str:
+def _unit(response: str, res: dict | None = None) -> str:
+    """" <unit>" of a response: the sheet's own (``res["response_units"]``) before the package's defaults."""
     from berryshaker.report.style import RESPONSE_UNITS
 
-    u = RESPONSE_UNITS.get(response, "")
+    u = {**RESPONSE_UNITS, **{k: v for k, v in ((res or {}).get("response_units") or {}).items() if v}}.get(response, "")
     return f" {u}" if u else ""
 
 
@@ -285,7 +263,7 @@ def _print_doe(res: dict) -> None:
             rows.append([f, *[f"{v:.{dec}f}" for v in d["level_means"]], f"{d['range']:.{dec}f}", best,
                          f"{a['f']:.3g}" if a else "pooled", f"{a['p']:.3g}" if a else ""])
         print_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best", "ANOVA F", "p"], rows,
-                    title=f"{name}{_unit(name)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis")
+                    title=f"{name}{_unit(name, res)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis")
         reg = ra["regression"]
         out.print(f"  ranking {' > '.join(ra['ranking'])}; eq. 19 full quadratic: rank {reg['full_model_rank']} "
                   f"of {len(reg['full_model_terms'])} terms, aliased: {', '.join(reg['aliased_terms']) or 'none'}; "
@@ -296,7 +274,7 @@ def _print_doe(res: dict) -> None:
     lv = " ".join((f"{f}{n}" if n is not None else f"{f}: no meaningful difference")
                   + (f" ({settings[f]})" if n is not None and settings.get(f) and not str(settings[f]).startswith(
                       "level") else "") for f, n in o["levels"].items())
-    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k)}" for k, v in o["values"].items())
+    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k, res)}" for k, v in o["values"].items())
     out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
     out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
     if res.get("significance_rule"):  # replicated sheet: effects judged against the replicate spread

@@ -37,7 +37,7 @@ def validate(
     numbers, so every machine result is held out and decides its verdict.  Sources and how far each number can be
     trusted: docs/published_record.md.
 
-    --json keys: rows (id, quantity, case, source, published, unit, model, lo, hi: the interval the verdict uses,
+    --json keys: rows (id, quantity, case, source (citation), source_key, published, unit, model, lo, hi: the interval the verdict uses,
     noise_lo, noise_hi: start-to-start noise only, verdict, held_out, how, confidence), replicates, summary (held_out, consistent, not_reproduced, inputs, not_represented), version.
     """
     try:

@@ -263,9 +263,10 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     for i, p in enumerate(PAIR_NAMES):
         _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
     parts.append(f"<h2>4. Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)</h2>")
-    parts.append("<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model "
-                 "(a spring-damper about each comb shaft, [assumed]).  The load of an explicit bush of branches is "
-                 "in section 8.</p>")
+    parts.append("<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model (a "
+                 "spring-damper about each comb shaft, 200 N m/rad [assumed]); peak and rms are per comb, about its "
+                 "shaft.  It loads the combs about 40 times more than the explicit bush of branches in section 9 "
+                 "(there about 16 N m peak, 1 N m rms; here about 81 N m peak, 48 N m rms; docs/plant.md).</p>")
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
                         [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
                           mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
@@ -321,7 +322,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     life = res.get("clearance_life")
     if life:
         rec = life["recommended"]
-        parts.append(_table(["joint", "clearance now (mm)", f"after {life['horizon_h']:g} h (mm)", "limit (mm)",
+        parts.append(_table(["joint", "clearance now (mm)", f"after {life['horizon_h']:g} h (mm)", "service limit (mm)",
                              "hours to the limit", "recommended fit"],
                             [[j, g["clearance_mm"][0], g["clearance_mm"][-1], life["clearance_limit_mm"][j],
                               "not reached" if life["hours_to_limit"][j] is None else life["hours_to_limit"][j],
@@ -331,12 +332,14 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     _powered_drive_section(parts, res.get("powered_drive"), PAIR_NAMES, note)
     # config
     parts.extend(harvest_response_section(res, figs, steps.get("harvest_response")))
+    parts.extend(validation_section(res.get("validation"), steps.get("validation")))
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary["timings_s"].items()) + "</p>")
-    parts.append("<p class='small'>Provenance: [study] from the reference study's text, [assumed] our default where its "
-                 "tables were lost, [calibrated] fitted to one published number (docs/plant.md, docs/harvest.md), "
-                 "[default] not set in the file (the description's default).</p>")
+    parts.append("<p class='small'>Provenance: [study] from the reference study's text, [published] from another "
+                 "publication (docs/published_record.md), [assumed] our default where no source gives it, "
+                 "[calibrated] fitted to a measured value (docs/plant.md, docs/harvest.md), [default] not set in the "
+                 "file (the description's default).</p>")
     parts.append(_table(["key", "value", "source"], [[k_, v_, f"[{t_}]"] for k_, v_, t_ in machine_table(machine)],
                         left=(0, 1, 2)))
     parts.append("</body></html>")
@@ -540,7 +543,8 @@ def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
                "instrumented fruit branch)" if chosen.get("load_model") == "branches"
                else "the aggregate spring-damper (combs.load_model = aggregate)")
         parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
-                     "</p>")
+                     " Per comb, about its shaft; compare section 4's aggregate spring-damper, which loads the combs "
+                     "about 40 times more.</p>")
         parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
                             [[side, v["peak"], v["rms"]] for side, v in chosen["load_moment_Nm"].items()]))
     hr = res.get("harvest_response")
@@ -574,6 +578,49 @@ def harvest_response_section(res: dict, figs: Path, step=None) -> list[str]:
         parts.append(_table(["quantity", "model", "study", "inside the study's range"],
                             [[h["quantity"], h["model"], h["study"], "-" if h["inside"] is None else h["inside"]]
                              for h in cal["held_out"]]))
+    return parts
+
+
+def validation_section(val: dict | None, step=None) -> list[str]:
+    """Section 10: the harvest model against the published record (berryshaker.study.validation.validate).
+
+    Parameters
+    ----------
+    val : dict or None
+        The validation step's result: ``rows`` (one per published number), ``summary``, ``replicates``.
+    step : StepResult, optional
+        The step, for its note.
+
+    Returns
+    -------
+    list of str
+        HTML parts: the table (published value, model value with its interval, verdict, held out) and the counts;
+        sources by their key in the record (full citations: docs/published_record.md, ``validate --json``).
+    """
+    parts = ["<h2>10. The harvest model against the published record (docs/harvest.md, Validation)</h2>"]
+    if step is not None and step.note:
+        parts.append(f"<p class='small'><b>Note:</b> {html.escape(step.note)}</p>")
+    if not val:
+        parts.append("<p>Not available (see Failed runs).</p>")
+        return parts
+    s = val["summary"]
+    parts.append(f"<p>Every published number the model can represent, set up on this machine and run from "
+                 f"{val['replicates']} perturbed starts: the model's value with the 95 % prediction interval of one "
+                 "field result (an efficiency's widened by the published yield's range), the verdict, and whether the "
+                 "number was held out (nothing is fitted to any of them; model inputs read 'input').  Held out: "
+                 f"{s['held_out']} numbers, {s['consistent']} consistent, {s['not_reproduced']} not reproduced; "
+                 f"{s['inputs']} inputs; {s['not_represented']} not represented.</p>")
+
+    def model(r):
+        if r["model"] is None:
+            return "-"
+        return _Raw(f"{_num(r['model'])} {html.escape(r['unit'])}<br><span class='small'>[{_num(r['lo'])}, "
+                    f"{_num(r['hi'])}]</span>")
+
+    parts.append(_table(["published number", "source", "published", "model [interval]", "verdict", "held out"],
+                        [[r["quantity"], r.get("source_key", ""), f"{_num(r['published'])} {r['unit']}", model(r),
+                          r["verdict"], "yes" if r["held_out"] else "no"] for r in val["rows"]],
+                        left=(0, 1, 4)))
     return parts
 
 

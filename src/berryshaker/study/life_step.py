@@ -3,7 +3,7 @@
 Three clearances per pair, each from ``harvest.replicates`` perturbed starts (one pair varied at a time, cached
 through the study's runner), give each pair's Archard growth rate and mean peak collision force against its own
 clearance (:mod:`berryshaker.life.tolerance`'s surrogate).  From it: the clearance of every pair over 2000 operating hours from the description's sizes
-(dc/dh = r(c) on the interpolant), the hours to each pair's largest test level, and the fit recommended by
+(dc/dh = r(c) on the interpolant), the hours to each pair's service limit (life.service.service_limits, docs/life.md 4a), and the fit recommended by
 NSGA-II on the surrogate.  Coarse on purpose (3 points per pair, runs of 2 revolutions); ``berryshaker wear``
 re-simulates at every state and ``berryshaker tolerance`` uses a finer grid.
 """
@@ -31,9 +31,9 @@ def step_life(ctx):
         ``data``: ``growth[pair]`` (hours[], clearance_mm[]), ``hours_to_limit[pair]``, ``recommended``
         (fits, cost, peak force, maintenance interval), ``front_size``, ``simulations``, ``notes``; one figure.
     """
+    from berryshaker.life.service import service_limits
     from berryshaker.life.tolerance import (
         clearance_responses,
-        default_clearance_limits,
         joint_candidates,
         nsga2_front,
         compromise_index,
@@ -44,7 +44,7 @@ def step_life(ctx):
     m = ctx.machine
     joints = list(m.pair_names)
     ctx.say("clearance life (wear surrogate and fit choice)")
-    limits = default_clearance_limits(m, joints)
+    limits = service_limits(m, joints)
     sizes = m.clearance_sizes()
     cands = joint_candidates(m, joints)
     lo = {j: min(float(cands[j].size.min()), sizes[j]) for j in joints}

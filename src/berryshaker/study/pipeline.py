@@ -444,6 +444,15 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable) 
         if rows:
             draw(P.plot_replicated_effects, rep, rows, figs / name, title, level_values=levels_mm, units=units)
             out.append(name)
+    # Minitab-style effect figures (Pareto of standardized effects, residuals, interactions) of the harvest indexes
+    obs = l9.get("observations") or {}
+    rows = [n for n in ("efficiency", "ripe_removal", "damage") if n in obs and n in rep.get("responses", {})]
+    if rows:
+        pairs = list(levels_mm)
+        lv = np.array([[r["levels"][p] for p in pairs] for r in l9["runs"]])
+        draw(P.write_effect_figures, lv, {n: np.asarray(obs[n]) for n in rows}, pairs, rep, figs, "l9_",
+             units=units, level_values=levels_mm, factor_units={p: "mm" for p in pairs}, blocks=rep.get("blocks", True))
+        out += [f"l9_{k}_{n}.png" for n in rows for k in ("pareto", "residuals", "interactions")]
     return out
 
 

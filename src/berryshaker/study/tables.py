@@ -18,12 +18,12 @@ def strip_series(res: dict) -> dict:
 
 
 def write_tables(machine, res: dict, tables: Path) -> None:
-    """The study's CSV tables (one writer: :func:`berryshaker.report.tables.write_csv`)."""
+    """The study's tables, each as CSV with an .xlsx beside it (one writer: :func:`berryshaker.report.table_files.write_table`)."""
     pairs = machine.pair_names
-    from berryshaker.report.tables import write_csv
+    from berryshaker.report.table_files import write_table
 
     def write(name, header, rows):
-        write_csv(tables / name, header, rows)
+        write_table(tables / name, header, rows)
 
     rows = []
     for model in ("multibody", "mlsd"):

@@ -127,6 +127,7 @@ def bond_rows(machine: Machine, record) -> list[dict]:
 def _row(row, published: float, model, lo, hi, unit: str, verdict: str, held_out: bool, how: str, case: str,
          noise: tuple | None = None) -> dict:
     return {"id": str(row["id"]), "quantity": str(row["quantity"]), "case": case, "source": str(row["citation"]),
+            "source_key": str(row["source"]),
             "published": published, "unit": unit, "model": model, "lo": lo, "hi": hi,
             "noise_lo": noise[0] if noise else lo, "noise_hi": noise[1] if noise else hi, "verdict": verdict,
             "held_out": held_out, "how": how, "confidence": str(row["confidence"])}
@@ -185,7 +186,8 @@ def validate(machine: Machine, runner, replicates: int | None = None, record=Non
     Returns
     -------
     dict
-        ``rows``: one per published number (id, quantity, case, source, published, unit, model, lo, hi (the
+        ``rows``: one per published number (id, quantity, case, source (the citation), source_key (its key in the
+        record), published, unit, model, lo, hi (the
         interval the verdict uses), noise_lo, noise_hi (start-to-start noise only), verdict, held_out, how,
         confidence); ``replicates``; ``summary`` (counts of verdicts among held-out rows).
     """
