@@ -16,7 +16,23 @@ DRIVE_PACKAGES = {
 
 
 def get_drive(name: str):
-    """The :class:`~berryshaker.drives.base.Drive` registered as ``name``."""
+    """The :class:`~berryshaker.drives.base.Drive` registered as ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A key of :data:`DRIVE_PACKAGES`, e.g. "groove_cam".
+
+    Returns
+    -------
+    Drive
+        The drive's plug-in (its sub-package's ``DRIVE``).
+
+    Raises
+    ------
+    ConfigError
+        If no drive has that name (the message lists the drives).
+    """
     if name not in DRIVE_PACKAGES:
         shown = repr(name) if len(repr(name)) <= 80 else f"{repr(name)[:60]}... ({len(str(name))} characters)"
         raise ConfigError(f"unknown comb drive {shown} in [machine] drive; drives: {', '.join(DRIVE_PACKAGES)}")
@@ -24,5 +40,16 @@ def get_drive(name: str):
 
 
 def drive_of(machine):
-    """The drive of a machine description."""
+    """The drive of a machine description.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its class's ``DRIVE``).
+
+    Returns
+    -------
+    Drive
+        Its drive's plug-in.
+    """
     return get_drive(machine.DRIVE)
