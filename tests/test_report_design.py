@@ -9,6 +9,7 @@ the crank-rocker example's pairs, so it runs in seconds and needs no simulation.
 from __future__ import annotations
 
 import json
+import math
 import re
 import shutil
 from pathlib import Path
@@ -193,6 +194,11 @@ def test_why_this_efficiency_is_computed(reference, crank):
     assert "crank-rocker" in c["statement"] and "x0.50" in c["statement"]
     both = design_answers(half, crank[1], reference=w)
     assert both["comparison"]["dominant"] == "ripe removal"
+    # without a second study: the reference's published efficiency over its description's yield and walking
+    assert a["comparison"] is None  # the reference machine itself
+    pub = crank[2]["comparison"]
+    assert "published field result" in pub["statement"] and "3.93 kg/min" in pub["statement"]
+    assert pub["ratio"] == pytest.approx(math.prod(pub["factors"].values()), rel=0.02)
 
 
 def test_missing_steps_are_named_and_the_section_still_renders(reference):

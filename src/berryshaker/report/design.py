@@ -587,20 +587,62 @@ def compare_efficiency(a: dict, b: dict, name_a: str = "this machine", name_b: s
         va, vb = a["drivers"].get(k), b["drivers"].get(k)
         if va is not None and vb:
             drv[label] = (va, vb, va / vb)
-    ea, eb = a["efficiency"], b["efficiency"]
-    statement = (f"{name_a} {ea['value']:.3g} kg/min [{ea['lo']:.3g}, {ea['hi']:.3g}] against {name_b} "
-                 f"{eb['value']:.3g} [{eb['lo']:.3g}, {eb['hi']:.3g}]: x{ratio:.2f} = "
+    def text(q):
+        iv = "" if q["lo"] is None or q["lo"] == q["hi"] else f" [{q['lo']:.3g}, {q['hi']:.3g}]"
+        return f"{q['value']:.3g} kg/min{iv}"
+
+    close = abs(math.log(ratio)) < math.log(1.05) if ratio > 0 else False
+    statement = (f"{name_a} {text(a['efficiency'])} against {name_b} {text(b['efficiency'])}: x{ratio:.2f} = "
                  + " x ".join(f"{k} x{v:.2f}" for k, v in fac.items())
-                 + f" (the decompositions' product x{math.prod(fac.values()):.2f}); the {dom} makes the difference"
+                 + f" (the decompositions' product x{math.prod(fac.values()):.2f}); "
+                 + ("the efficiencies are within 5 % of each other" if close else f"the {dom} makes the difference")
                  + (".  Its drivers, " + name_a + " / " + name_b + ": " + "; ".join(
                      f"{k} {va:.3g} / {vb:.3g} (x{r:.2f})" for k, (va, vb, r) in drv.items()) + "." if drv else "."))
-    return {"ratio": ratio, "factors": fac, "drivers": drv, "dominant": dom, "statement": statement}
+    return {"ratio": ratio, "factors": fac, "drivers": drv, "dominant": None if close else dom,
+            "statement": statement}
+
+
+def published_reference() -> dict:
+    """The reference machine's efficiency as published, split like :func:`why_efficiency`: the study's field result
+    (3.93 kg/min [study]) over the reference description's ripe yield and bushes per minute gives the ripe removal
+    it implies; the finger's motion from the reference description's kinematics.  What a study of another machine
+    compares itself with when no study of the reference is at hand (:func:`compare_efficiency`).
+
+    Returns
+    -------
+    dict
+        The keys of :func:`why_efficiency` that :func:`compare_efficiency` reads, and ``machine``.
+    """
+    from berryshaker.config import reference_machine, value_tag
+    from berryshaker.reference_study import FIELD_RESULT
+
+    m = reference_machine()
+    walk, spacing, y, uf = (float(m.operation.walking_speed), float(m.operation.plant_spacing),
+                            float(m.harvest.yield_per_bush), float(m.harvest.unripe_fraction))
+    bpm = walk / spacing * 60.0
+    eff = float(FIELD_RESULT["efficiency_kg_min"])
+    removal = 100.0 * eff / (y * (1 - uf) * bpm)
+    ytag = f"[{value_tag(m, 'harvest.yield_per_bush')}]"
+    return {"machine": f"{m.machine.name} (published field result)",
+            "efficiency": quantity(eff, "kg/min", eff, eff, "the study's field result, published without an interval",
+                                   "machine", "reference_study.FIELD_RESULT", "[study]"),
+            "ripe_removal": quantity(removal, "%", removal, removal, "implied: the published efficiency over the "
+                                     "reference description's ripe yield and bushes per minute (unripe shedding "
+                                     "neglected)", "machine", "reference_study.FIELD_RESULT / harvest.yield_per_bush",
+                                     f"[study] / {ytag}"),
+            "yield_per_bush_kg": quantity(y, "kg", y, y, "an input", "machine", "harvest.yield_per_bush", ytag),
+            "unripe_fraction": quantity(uf, "", uf, uf, "an input", "machine", "harvest.unripe_fraction",
+                                        f"[{value_tag(m, 'harvest.unripe_fraction')}]"),
+            "bushes_per_min": quantity(bpm, "1/min", bpm, bpm, "an input: walking speed / plant spacing", "machine",
+                                       "operation", "[study]"),
+            "drivers": _kinematic_drivers(None, m, None)}
 
 
 # ----------------------------------------------------------------------------------------------------- the whole
 
 
-def design_answers(summary: dict, machine, reference: dict | None = None, damage_limit_pct: float = DAMAGE_LIMIT_PCT,
+def design_answers(summary: dict, machine, reference: dict | str | None = "published",
+                   damage_limit_pct: float = DAMAGE_LIMIT_PCT,
                    unripe_limit_pct: float = UNRIPE_LIMIT_PCT) -> dict:
     """The answers an engineer brings to the study of their machine, each number with its interval and source.
 
@@ -610,9 +652,11 @@ def design_answers(summary: dict, machine, reference: dict | None = None, damage
         The study's summary.json (its ``results``, ``optimum`` and ``tradeoff``), or the results dict alone.
     machine : Machine
         The machine description the study ran on.
-    reference : dict, optional
-        :func:`why_efficiency` of another machine's study (e.g. the groove-cam reference) to explain the difference
-        of the efficiencies (:func:`compare_efficiency`).
+    reference : dict or "published" or None
+        What this machine's efficiency is compared with (:func:`compare_efficiency`): :func:`why_efficiency` of
+        another machine's study, "published" (default) for :func:`published_reference` on a machine whose pairs
+        are not the reference study's (:func:`claims_apply`; on the reference machine itself nothing is
+        compared), or None.
     damage_limit_pct, unripe_limit_pct : float
         Limits of the operating-point rule, in % of the picked mass and of the unripe mass [assumed].
 
@@ -642,7 +686,9 @@ def design_answers(summary: dict, machine, reference: dict | None = None, damage
            "operating_point": operating_point(summary, machine, damage_limit_pct, unripe_limit_pct),
            "differences": differences(summary), "tradeoff": _tradeoff(summary), "why_efficiency": why,
            "comparison": None, "missing": missing}
-    if reference is not None and why is not None:
+    if reference == "published":
+        reference = None if claims_apply(machine) or why is None else published_reference()
+    if isinstance(reference, dict) and why is not None:
         out["comparison"] = compare_efficiency(why, reference, machine.machine.name,
                                                reference.get("machine", "the reference"))
     return out
