@@ -166,9 +166,13 @@ def test_operating_point_rule_rests_on_the_replicates():
     rows = [_row(120, 44.0, 0.5), _row(150, 46.0, 0.5)]
     op = operating_point({"harvest_response": {"rows": rows, "configured_rpm": 120.0}})
     assert op["speed"]["value"] == 150.0 and op["no_difference"] == []
-    # nothing within the limits
-    op = operating_point({"harvest_response": {"rows": [_row(180, 70.0, 5.0, damage=9.0)]}}, damage_limit_pct=5.0)
-    assert op["speed"] is None and "no drive speed" in op["statement"]
+    # nothing within the limits: the removal rule among the speeds of least damage (within its noise)
+    rows = [_row(120, 40.0, 1.0, damage=9.0), _row(150, 50.0, 1.0, damage=9.1), _row(180, 70.0, 1.0, damage=15.0)]
+    op = operating_point({"harvest_response": {"rows": rows, "configured_rpm": 120.0}}, damage_limit_pct=5.0)
+    assert not op["within_limits"] and op["speed"]["value"] == 150.0
+    assert op["statement"].startswith("No drive speed keeps damage") and "cannot be met by the speed alone" in \
+        op["statement"]
+    assert [e["speed_rpm"] for e in op["excluded"]] == [180.0]
 
 
 def test_why_this_efficiency_is_computed(reference, crank):

@@ -44,7 +44,8 @@ SPEED_RULE = ("among the drive speeds of the harvest-response step whose mean da
               "within their limits, the one with the highest mean ripe removal; a speed whose removal differs from "
               "it by less than the noise (Welch t test on the replicates, two-sided p >= 0.05) is 'no difference', "
               "and among those the configured speed is kept if it is one of them, else the slowest (least power "
-              "and wear).  The means rest on the replicates of each speed (perturbed starts), with their SD")
+              "and wear).  If no speed is within the limits, the same among the speeds whose damage is within the "
+              "noise of the lowest.  The means rest on the replicates of each speed (perturbed starts), with their SD")
 ALPHA = 0.05
 
 
@@ -285,6 +286,15 @@ def _welch_p(m1, s1, n1, m2, s2, n2) -> float:
     return float(2 * stats.t.sf(abs(t), dof))
 
 
+def _differs(a: dict, b: dict, key: str) -> bool | None:
+    """Whether two harvest-response rows' means of ``key`` differ beyond the noise (Welch, two-sided p < 0.05, on
+    their replicates' SDs); None when a row has fewer than 2 replicates (no noise to judge by)."""
+    n1, n2 = int(a.get("replicates") or 1), int(b.get("replicates") or 1)
+    if n1 < 2 or n2 < 2:
+        return None
+    return _welch_p(a[key], a.get(key + "_sd", 0.0), n1, b[key], b.get(key + "_sd", 0.0), n2) < ALPHA
+
+
 def _row_q(r: dict, key: str, unit: str, where: str) -> dict:
     """One harvest-response row's index: mean with the 95 % t-interval of the mean of its replicates."""
     from scipy import stats
@@ -332,22 +342,21 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
             why.append(f"unripe shedding {r['unripe_shed_pct']:.3g} % > {unripe_limit_pct:g} %")
         (excluded if why else ok).append((r, "; ".join(why)))
     limits = {"damage_pct": damage_limit_pct, "unripe_shed_pct": unripe_limit_pct, "tag": "[assumed]"}
-    if not ok:
-        return {"speed": None, "rule": SPEED_RULE, "limits": limits,
-                "excluded": [{"speed_rpm": r["speed_rpm"], "why": w} for r, w in excluded],
-                "statement": "no drive speed of the harvest-response step keeps damage and unripe shedding within "
-                             "the limits: " + "; ".join(f"{r['speed_rpm']:.0f} r/min: {w}" for r, w in excluded)}
+    within = bool(ok)
+    prefix = ""
+    if not ok:  # no speed within the limits: the removal rule among the speeds of least damage (within its noise)
+        low = min(rows, key=lambda r: r.get("damage_rate_pct", 0.0))
+        ok = [(r, "") for r in rows if r is low or _differs(r, low, "damage_rate_pct") is False]
+        prefix = ("No drive speed keeps damage and unripe shedding within the limits ("
+                  + "; ".join(f"{r['speed_rpm']:.0f} r/min: {w}" for r, w in excluded) + "): the limits cannot be "
+                  "met by the speed alone.  Among the speeds whose damage is within the noise of the lowest ("
+                  f"{low['damage_rate_pct']:.3g} +- {low.get('damage_rate_pct_sd', 0.0):.2g} % at "
+                  f"{low['speed_rpm']:.0f} r/min): ")
+        excluded = [(r, w) for r, w in excluded if all(r is not o for o, _ in ok)]
     ok = [r for r, _ in ok]
     best = max(ok, key=lambda r: r["ripe_removal_pct"])
 
-    def p_of(r):
-        n1, n2 = int(r.get("replicates") or 1), int(best.get("replicates") or 1)
-        if n1 < 2 or n2 < 2:
-            return 0.0 if r is not best else 1.0
-        return _welch_p(r["ripe_removal_pct"], r.get("ripe_removal_pct_sd", 0.0), n1,
-                        best["ripe_removal_pct"], best.get("ripe_removal_pct_sd", 0.0), n2)
-
-    same = [r for r in ok if r is best or p_of(r) >= ALPHA]
+    same = [r for r in ok if r is best or _differs(r, best, "ripe_removal_pct") is False]
     kept = next((r for r in same if own is not None and math.isclose(r["speed_rpm"], own, rel_tol=1e-6)), None)
     chosen = kept or min(same, key=lambda r: r["speed_rpm"])
     w = f"rows[speed_rpm={chosen['speed_rpm']:.0f}]"
@@ -366,6 +375,7 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
             out[key.rsplit("_", 1)[0]] = quantity(
                 v, unit, 0.99 * v, 1.01 * v, "geometric, of the ideal mechanism; the clearances and the bush change "
                 "the swing by under 1 % (harvest.virtual.shaking_amplitude)", "harvest_response", f"{w}.{key}")
+    out["within_limits"] = within
     out["rule"] = SPEED_RULE
     out["limits"] = limits
     out["no_difference"] = [r["speed_rpm"] for r in same if r is not chosen]
@@ -374,12 +384,12 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
     why = ("the configured speed, whose removal is within the noise of the best" if kept is not None and
            kept is not best else "the highest mean removal" if chosen is best else
            "the slowest speed whose removal is within the noise of the best")
-    out["statement"] = (f"Run at {chosen['speed_rpm']:.0f} r/min ({chosen['shaking_frequency_hz']:.3g} Hz): {why} "
+    out["statement"] = prefix + (f"{'Run' if within else 'run'} at {chosen['speed_rpm']:.0f} r/min ({chosen['shaking_frequency_hz']:.3g} Hz): {why} "
                         f"({chosen['ripe_removal_pct']:.3g} +- {sd:.2g} % ripe removal, mean +- SD of "
                         f"{chosen.get('replicates', 1)} replicates)"
                         + (f"; no difference from {', '.join(f'{s:.0f}' for s in out['no_difference'])} r/min"
                            if out["no_difference"] else "")
-                        + ("; over the limits: " + ", ".join(f"{e['speed_rpm']:.0f}" for e in out["excluded"])
+                        + (("; over the limits: " if within else "; damage beyond the noise of the lowest: ") + ", ".join(f"{e['speed_rpm']:.0f}" for e in out["excluded"])
                            + " r/min" if out["excluded"] else "") + ".  The stroke is the drive geometry's (the study does not "
                         "vary it).")
     return out
