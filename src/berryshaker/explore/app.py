@@ -43,6 +43,13 @@ def _colour(pair: str, k: int) -> str:
     return PAIR_COLOURS.get(pair, SERIES_COLOURS[k % len(SERIES_COLOURS)])
 
 
+def _legend_outside(fig) -> None:
+    """The figure's legend to the right of its plot area, off the data (the report's figure rule)."""
+    legend = fig.legend[0]
+    legend.location = "top_left"
+    fig.add_layout(legend, "right")
+
+
 class ExplorePage:
     """One browser session's page on a machine description.
 
@@ -188,27 +195,28 @@ class ExplorePage:
                                        name="explore_joints")
         self.impacts = ColumnDataSource(data=dict(x=[], y=[], name=[]), name="explore_impacts")
         self.groove = ColumnDataSource(data=dict(x=[], y=[]), name="explore_groove")
-        fig = figure(title="Comb drive (clearances magnified)", match_aspect=True, width=620, height=430,
+        fig = figure(title="Comb drive (clearances magnified)", match_aspect=True, width=700, height=430,
                      x_axis_label="x [m]", y_axis_label="y [m]", tools="pan,wheel_zoom,reset,save")
-        fig.line("x", "y", source=self.groove, color="#999999", legend_label="cam pitch curve")
+        if self.base.DRIVE == "groove_cam":
+            fig.line("x", "y", source=self.groove, color="#999999", legend_label="cam pitch curve")
         fig.multi_line("xs", "ys", source=self.links, color="colour", line_width=4)
         fig.circle("x", "y", radius="r", source=self.joints, fill_alpha=0.0, line_color="colour", line_width=3)
         fig.scatter("px", "py", source=self.joints, size=5, color="black")
         fig.scatter("x", "y", source=self.impacts, marker="asterisk", size=16, line_width=2,
                     color="#D62728", legend_label="joint in contact")
-        fig.legend.location = "top_left"
-        self.frame = Slider(start=0, end=1, value=0, step=1, title="frame (cam angle over the last revolution)",
-                            width=600, name="explore_frame")
+        _legend_outside(fig)
+        self.frame = Slider(start=0, end=1, value=0, step=1, title="frame (drive-shaft angle over the last revolution)",
+                            width=540, name="explore_frame")
         self.play = Button(label="► play / pause", width=140, name="explore_play")
         self.span = Span(location=0.0, dimension="height", line_color="#444444", line_dash="dashed")
         self.forces = ColumnDataSource(data={"t": [], **{p: [] for p in self.base.pair_names}}, name="explore_forces")
-        ffig = figure(title="Collision force per joint (revolutions 2..3)", width=620, height=430,
+        ffig = figure(title="Collision force per joint (revolutions 2..3)", width=700, height=430,
                       x_axis_label="time [s]", y_axis_label="|collision force| [N]",
                       tools="pan,box_zoom,wheel_zoom,reset,save")
         for k, p in enumerate(self.base.pair_names):
             ffig.line("t", p, source=self.forces, color=_colour(p, k), legend_label=f"{p}", line_width=1.5)
-        ffig.legend.location = "top_left"
         ffig.legend.click_policy = "hide"
+        _legend_outside(ffig)
         ffig.add_layout(self.span)
         args = dict(frames=self.frames, links=self.links, joints=self.joints, impacts=self.impacts,
                     groove=self.groove, span=self.span, frame=self.frame)
@@ -217,7 +225,9 @@ class ExplorePage:
             if (window._bs_timer) { clearInterval(window._bs_timer); window._bs_timer = null; return; }
             window._bs_timer = setInterval(() => {
                 frame.value = frame.value >= frame.end ? 0 : frame.value + 1; }, 80);"""))
-        self.mech_pane = pn.pane.Bokeh(bk_row(bk_column(fig, bk_row(self.play, self.frame)), ffig))
+        # two panes of one document (the frame slider's callback moves the force plot's marker); they wrap on a
+        # narrow window
+        self.mech_pane = pn.FlexBox(pn.pane.Bokeh(bk_column(fig, bk_row(self.play, self.frame))), pn.pane.Bokeh(ffig))
         self.peaks = pn.pane.Markdown("", sizing_mode="stretch_width", name="explore_peaks")
 
     def on_change(self) -> None:
@@ -298,18 +308,18 @@ class ExplorePage:
         self.h_status = pn.pane.Markdown("Coupled machine-plant runs: several seconds to a minute per speed, "
                                          "cached (a repeated speed is read from the cache).", width=420)
         self.h_src = ColumnDataSource(data=dict(f=[], ripe=[], unripe=[], damage=[]), name="explore_harvest")
-        fig = figure(title="Removal against shaking frequency", width=440, height=320,
+        fig = figure(title="Removal against shaking frequency", width=520, height=320,
                      x_axis_label="shaking frequency [Hz]", y_axis_label="share of the fruit [%]",
                      tools="pan,wheel_zoom,reset,save")
         for k, (col, lab) in enumerate((("ripe", "ripe removal"), ("unripe", "unripe shed"), ("damage", "damage"))):
             fig.line("f", col, source=self.h_src, color=SERIES_COLOURS[k], legend_label=lab, line_width=2)
             fig.scatter("f", col, source=self.h_src, color=SERIES_COLOURS[k], size=7)
-        fig.legend.location = "top_left"
-        self.h_table = pn.pane.Markdown("", width=440)
+        _legend_outside(fig)
+        self.h_table = pn.pane.Markdown("", width=520)
         self.h_run.on_click(lambda _e: self._start_harvest())
         self.harvest_card = pn.Card(self.h_range, self.h_points, self.h_run, self.h_progress, self.h_status,
                                     pn.pane.Bokeh(fig), self.h_table, title="Removal against frequency "
-                                    "(virtual harvest)", width=460)
+                                    "(virtual harvest)", width=560)
 
     def _start_harvest(self) -> None:
         try:
@@ -367,14 +377,14 @@ class ExplorePage:
         self.w_status = pn.pane.Markdown("Archard wear of every joint on the multibody model, re-simulated as the "
                                          "clearances grow (berryshaker wear); each simulation cached.", width=420)
         self.w_src = ColumnDataSource(data=dict(xs=[], ys=[], colour=[], name=[]), name="explore_wear")
-        fig = figure(title="Clearance growth by wear", width=440, height=320, x_axis_label="operating time [h]",
+        fig = figure(title="Clearance growth by wear", width=520, height=320, x_axis_label="operating time [h]",
                      y_axis_label="clearance [mm]", tools="pan,wheel_zoom,reset,save")
         fig.multi_line("xs", "ys", source=self.w_src, color="colour", line_width=2, legend_field="name")
-        fig.legend.location = "top_left"
-        self.w_table = pn.pane.Markdown("", width=440)
+        _legend_outside(fig)
+        self.w_table = pn.pane.Markdown("", width=520)
         self.w_run.on_click(lambda _e: self._start_wear())
         self.wear_card = pn.Card(self.w_hours, self.w_run, self.w_progress, self.w_status, pn.pane.Bokeh(fig),
-                                 self.w_table, title="Wear and service interval", width=460)
+                                 self.w_table, title="Wear and service interval", width=560)
 
     def _start_wear(self) -> None:
         hours = self.w_hours.value
