@@ -53,10 +53,7 @@ PENDING = {
     "berryshaker.harvest",
     "berryshaker.life",
     "berryshaker.multibody",
-    "berryshaker.report",
     "berryshaker.study",
-    "berryshaker.plant.pedicel",
-    "berryshaker.drives.crank_rocker",
 }
 #: a pending package entry does not cover these submodules of it (they are checked now); the nearest entry wins
 PENDING_EXCEPT = set()

@@ -74,13 +74,51 @@ def _check(mass, stiffness, damping):
 
 
 def natural_frequency(mass, stiffness):
-    """Undamped natural frequency of the fruit on its stem, w_n/2pi = sqrt(k/m0)/2pi (Hz)."""
+    """Undamped natural frequency of the fruit on its stem, w_n/2pi = sqrt(k/m0)/2pi (Hz).
+
+    Parameters
+    ----------
+    mass : float or array_like
+        Fruit mass m0 (kg), > 0.
+    stiffness : float or array_like
+        Pedicel stiffness k (N/m), > 0.
+
+    Returns
+    -------
+    ndarray
+        sqrt(k/m0)/2pi (Hz), broadcast over the inputs (0-d for scalars).
+
+    Raises
+    ------
+    ConfigError
+        A mass or stiffness is not > 0.
+    """
     m, k, _ = _check(mass, stiffness, 0.0)
     return np.sqrt(k / m) / (2 * math.pi)
 
 
 def damping_ratio(mass, stiffness, damping):
-    """Damping ratio of the fruit on its stem, zeta = c / (2 sqrt(k m0)) (dimensionless)."""
+    """Damping ratio of the fruit on its stem, zeta = c / (2 sqrt(k m0)) (dimensionless).
+
+    Parameters
+    ----------
+    mass : float or array_like
+        Fruit mass m0 (kg), > 0.
+    stiffness : float or array_like
+        Pedicel stiffness k (N/m), > 0.
+    damping : float or array_like
+        Pedicel damping c (N s/m), >= 0.
+
+    Returns
+    -------
+    ndarray
+        zeta (dimensionless), broadcast over the inputs (0-d for scalars).
+
+    Raises
+    ------
+    ConfigError
+        A mass or stiffness is not > 0, or a damping is negative.
+    """
     m, k, c = _check(mass, stiffness, damping)
     return c / (2 * np.sqrt(k * m))
 
@@ -144,6 +182,24 @@ def discretise_foh(a, b, c, d, h: float) -> tuple[np.ndarray, ...]:
     The same oscillators (fruit masses, pedicel stiffness and damping, output step) are discretised again in every
     replicate run of a virtual test, each a matrix exponential (~1 ms); the memory returns the same numbers
     (fresh arrays) without recomputing them.
+
+    Parameters
+    ----------
+    a, b, c, d : array_like
+        Real continuous-time state-space matrices (the units of the system they describe).
+    h : float
+        Sampling step (s).
+
+    Returns
+    -------
+    tuple of ndarray
+        A_d, B_d, C_d, D_d of the first-order-hold discretisation (fresh, writable arrays; the units of
+        the system they describe).
+
+    Raises
+    ------
+    ValueError
+        A matrix is complex.
     """
     return tuple(_thawed(x) for x in _foh_frozen(*(_frozen(x) for x in (a, b, c, d)), float(h)))
 
@@ -424,7 +480,7 @@ def modal_mass_ratio(modes, z, mass):
     Returns
     -------
     ndarray (n_modes,)
-        mu_k.  One-way coupling (the fruit does not load the branch) shifts mode k by about mu_k / 2
+        mu_k (dimensionless).  One-way coupling (the fruit does not load the branch) shifts mode k by about mu_k / 2
         away from tuning and by about +- sqrt(mu_k) / 2 when the stem is tuned to it.
     """
     phi = modes.shape_at(np.atleast_1d(z))[:, 0]
@@ -493,6 +549,15 @@ def fruit_loaded_modes(modes, z_fruit, masses):
     so that the branch carries its fruit when the fruit is not light against the modes' effective
     mass at its position (:func:`modal_mass_ratio`).
 
+    Parameters
+    ----------
+    modes : Modes
+        Mass-normalised branch modes without fruit.
+    z_fruit : float or array_like
+        Fruit positions (m from the root).
+    masses : float or array_like
+        Fruit masses (kg), one per position or one for all.
+
     Returns
     -------
     Modes
@@ -520,6 +585,24 @@ class FruitBranchModes:
     ``modes`` holds the frequencies and the branch part of each combined mode (dense samples, so
     ``modes.shape_at(z)`` is the branch deflection per unit modal coordinate); ``fruit`` (n_modes,
     n_fruit) the fruit displacement per unit modal coordinate.
+
+    Attributes
+    ----------
+    modes : Modes
+        The combined modes' frequencies and their branch part (1/sqrt(kg), mass-normalised).
+    fruit : ndarray (n_modes, n_fruit)
+        Fruit displacement of each combined mode per unit modal coordinate (1/sqrt(kg)).
+    z_fruit : ndarray (n_fruit,)
+        Fruit positions (m from the root).
+    mass : float
+        Fruit mass m0 (kg).
+    stiffness : float
+        Pedicel stiffness k (N/m).
+    damping : float
+        Pedicel damping c (N s/m).
+    damping_ratios : ndarray (n_modes,)
+        Modal damping ratio of each combined mode, diag(V^T C V) / (2 omega), off-diagonal terms dropped
+        (dimensionless).
     """
 
     modes: object  # berryshaker.plant.modes.Modes (branch part of the combined modes)
@@ -532,7 +615,20 @@ class FruitBranchModes:
 
     def stem_force(self, eta, etad):
         """Lateral stem force on each fruit (N), (n_fruit, n_t): k (y - x) + c (y' - x') from the modal
-        displacements ``eta`` and velocities ``etad`` (n_t, n_modes)."""
+        displacements ``eta`` and velocities ``etad`` (n_t, n_modes).
+
+        Parameters
+        ----------
+        eta : ndarray (n_t, n_modes)
+            Modal coordinates of the combined modes (sqrt(kg) m).
+        etad : ndarray (n_t, n_modes)
+            Their rates (sqrt(kg) m/s).
+
+        Returns
+        -------
+        ndarray (n_fruit, n_t)
+            Stem force on each fruit (N): the force the pedicel exerts on the fruit.
+        """
         rel = self.modes.shape_at(self.z_fruit) - self.fruit  # (n_modes, n_fruit): y - x per unit eta
         return (self.stiffness * (eta @ rel) + self.damping * (etad @ rel)).T
 
@@ -566,6 +662,17 @@ def fruit_branch_modes(modes, z_fruit, mass, stiffness, damping=0.0) -> FruitBra
         m0 (kg), k (N/m), same for every fruit.
     damping : float
         Stem c (N s/m), used for the stem force.
+
+    Returns
+    -------
+    FruitBranchModes
+        The n + n_fruit combined modes (branch part, fruit part, modal damping ratios) and the fruit's
+        parameters.
+
+    Raises
+    ------
+    ConfigError
+        The mass or stiffness is not > 0, or the damping is negative.
     """
     from dataclasses import replace
 

@@ -20,7 +20,21 @@ def _cell(v) -> object:
 
 
 def csv_text(header: Sequence[str], rows: Iterable[Sequence]) -> str:
-    """CSV text with a header row; booleans as yes/no, non-finite numbers as empty cells."""
+    """CSV text with a header row; booleans as yes/no, non-finite numbers as empty cells.
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column headers, written as the first row.
+    rows : iterable of sequences
+        One sequence of cells per row, written as they are except booleans (yes/no) and non-finite floats
+        (empty).
+
+    Returns
+    -------
+    str
+        The CSV text, ``\\n`` line endings, a header row first.
+    """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(header)
@@ -30,7 +44,17 @@ def csv_text(header: Sequence[str], rows: Iterable[Sequence]) -> str:
 
 
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
-    """Write a CSV table atomically (see :func:`csv_text`)."""
+    """Write a CSV table atomically (see :func:`csv_text`).
+
+    Parameters
+    ----------
+    path : str or Path
+        File to write (replaced atomically).
+    header : sequence of str
+        Column headers, written as the first row.
+    rows : iterable of sequences
+        One sequence of cells per row (see :func:`csv_text`).
+    """
     from berryshaker.outputs import write_text_atomic
 
     write_text_atomic(path, csv_text(header, list(rows)))
@@ -146,6 +170,12 @@ def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | Non
         Per column (default the first column left, the others right).
     width : int, optional
         Terminal width in cells (default :class:`rich.console.Console`'s, from ``COLUMNS`` or the terminal).
+
+    Returns
+    -------
+    rich.table.Table
+        One column per header when the columns fit ``width``, otherwise two columns ("column | value") with one
+        section per row.
     """
     from rich.console import Console
     from rich.table import Table

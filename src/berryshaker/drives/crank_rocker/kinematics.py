@@ -21,7 +21,29 @@ from berryshaker.kinematics.linkage import four_bar_position, transmission_angle
 
 @dataclass(frozen=True)
 class CrankRockerKinematics:
-    """Ideal kinematics of the crank-rocker drive sampled over crank angle (SI)."""
+    """Ideal kinematics of the crank-rocker drive sampled over crank angle (SI).
+
+    Attributes
+    ----------
+    phi : ndarray
+        Crank angle turned since t = 0 (rad; the crank turns clockwise, so this is minus its angle).
+    t : ndarray
+        Time at constant crank speed (s).
+    theta_r : ndarray
+        Direction of the rod from the crank pin P to the rocker pin R (rad).
+    theta_d, omega_d, alpha_d : ndarray
+        Left comb (rocker about D) angle (rad), rate (rad/s) and acceleration (rad/s^2).
+    theta_4 : ndarray
+        Coupler CF angle (rad).
+    theta_e, omega_e, alpha_e : ndarray
+        Right comb (arm about E) angle (rad), rate (rad/s) and acceleration (rad/s^2).
+    assembled : ndarray of bool
+        Whether the rod reaches the rocker and the four-bar assembles at each sample.
+    rod_transmission_angle : ndarray
+        Angle at R between the rod R->P and the rocker arm R->D (rad, 0..pi; see :func:`rod_transmission_angle`).
+    transmission_angle : ndarray
+        Transmission angle of the four-bar D-C-F-E (rad).
+    """
 
     phi: np.ndarray  # crank angle turned since t = 0 (rad; the crank turns clockwise)
     t: np.ndarray  # time (s)
@@ -40,7 +62,24 @@ class CrankRockerKinematics:
 
 def rocker_position(phi, machine):
     """Rocker pin R (m) and left comb angle theta_D (rad) at crank angle(s) phi; NaN where the rod cannot
-    reach (the triangle P-R-D does not close)."""
+    reach (the triangle P-R-D does not close).
+
+    Parameters
+    ----------
+    phi : float or array_like
+        Crank angle(s) from the x axis (rad; counter-clockwise positive).
+    machine : CrankRockerMachine
+        The machine description (crank radius, rod length, rocker arm and shaft D, assembly branch).
+
+    Returns
+    -------
+    rx, ry : ndarray
+        Rocker pin R (m), NaN where the rod cannot reach.
+    px, py : ndarray
+        Crank pin P (m).
+    theta_d : ndarray
+        Left comb angle theta_D = arg(R - D) - ``rocker.arm_R_angle`` (rad), NaN where the rod cannot reach.
+    """
     phi = np.atleast_1d(np.asarray(phi, float))
     r, l_rod = machine.crank.radius, machine.rod.length
     ro = machine.rocker
@@ -66,6 +105,20 @@ def rod_transmission_angle(px, py, rx, ry, xd, yd):
 
     Computed from the directions (atan2 of the cross and dot products), so it is the same as the law of
     cosines on the triangle P-R-D, cos mu = (l^2 + b^2 - |PD|^2) / (2 l b), at every crank angle.
+
+    Parameters
+    ----------
+    px, py : float or ndarray
+        Crank pin P (m).
+    rx, ry : float or ndarray
+        Rocker pin R (m).
+    xd, yd : float
+        Rocker shaft D (m).
+
+    Returns
+    -------
+    float or ndarray
+        The transmission angle mu (rad, 0..pi).
     """
     ax, ay = px - rx, py - ry
     bx, by = xd - rx, yd - ry
@@ -77,7 +130,20 @@ def _d_dt(y, dt):
 
 
 def cycle_kinematics(machine, n: int = 3600) -> CrankRockerKinematics:
-    """Ideal kinematics over one crank revolution on ``n`` equally spaced times."""
+    """Ideal kinematics over one crank revolution on ``n`` equally spaced times.
+
+    Parameters
+    ----------
+    machine : CrankRockerMachine
+        The machine description.
+    n : int
+        Number of samples over the revolution (rates by periodic central differences).
+
+    Returns
+    -------
+    CrankRockerKinematics
+        The kinematics; samples where the linkage does not assemble are NaN and ``assembled`` False.
+    """
     w = machine.crank.speed
     period = 2 * math.pi / w
     t = np.arange(n) * period / n
@@ -103,6 +169,18 @@ def cycle_kinematics(machine, n: int = 3600) -> CrankRockerKinematics:
 def check_machine(machine, allow_undercut: bool = False) -> CrankRockerKinematics:
     """Check that the crank-rocker can run through a whole revolution; return its kinematics.
 
+    Parameters
+    ----------
+    machine : CrankRockerMachine
+        The machine description.
+    allow_undercut : bool
+        Ignored (there is no cam); accepted for the drive interface.
+
+    Returns
+    -------
+    CrankRockerKinematics
+        The kinematics over one revolution (:func:`cycle_kinematics`, 3600 samples).
+
     Raises
     ------
     GeometryError
@@ -127,7 +205,23 @@ def check_machine(machine, allow_undercut: bool = False) -> CrankRockerKinematic
 
 
 def mid_stroke_angles(machine) -> tuple[float, float]:
-    """Left and right comb angles (rad) at the middle of the left comb's swing: the swing reference."""
+    """Left and right comb angles (rad) at the middle of the left comb's swing: the swing reference.
+
+    Parameters
+    ----------
+    machine : CrankRockerMachine
+        The machine description.
+
+    Returns
+    -------
+    (float, float)
+        theta_D halfway between its extremes over a revolution, and theta_E of the four-bar there (rad).
+
+    Raises
+    ------
+    GeometryError
+        The four-bar D-C-F-E cannot assemble at mid-swing.
+    """
     kin = cycle_kinematics(machine, 1440)
     th = np.unwrap(kin.theta_d)
     th_mid = 0.5 * (th.min() + th.max())
@@ -140,7 +234,22 @@ def mid_stroke_angles(machine) -> tuple[float, float]:
 
 
 def kinematics_summary(machine, kin: CrankRockerKinematics) -> dict:
-    """Engineering summary of the ideal drive (the JSON of ``berryshaker kinematics``)."""
+    """Engineering summary of the ideal drive (the JSON of ``berryshaker kinematics``).
+
+    Parameters
+    ----------
+    machine : CrankRockerMachine
+        The machine description.
+    kin : CrankRockerKinematics
+        Its kinematics (:func:`check_machine`).
+
+    Returns
+    -------
+    dict
+        ``drive_specific`` (formatted text), ``crank``, ``combs`` (per side: swing about mid-stroke, maximum tip
+        speed and acceleration), ``linkage`` and ``drive`` sections; units in the key names (``_mm``, ``_deg``,
+        ``_m_s``, ``_m_s2``, ``_rpm``, ``_hz``).
+    """
     th_d0, th_e0 = mid_stroke_angles(machine)
     L = machine.combs.length
     w = machine.crank.speed

@@ -18,7 +18,25 @@ from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 
 def crank_rocker_mechanism(machine, revolutions: int = 2) -> MechanismSpec:
-    """Mechanism description of the crank-rocker drive with its clearances (SI numbers)."""
+    """Mechanism description of the crank-rocker drive with its clearances (SI numbers).
+
+    Bodies crank, rod, left comb, coupler and right comb in their positions at crank angle 0; the crank and
+    rocker pins and the four-bar pins C and F are clearance joints where the machine gives them a clearance;
+    the comb loads are rotational spring-dampers about the mid-stroke angles; the crank is driven at its speed
+    (clockwise), or by the driveline when the machine is powered.
+
+    Parameters
+    ----------
+    machine : CrankRockerMachine
+        The machine description (checked with :func:`~berryshaker.drives.crank_rocker.kinematics.check_machine`).
+    revolutions : int
+        Crank revolutions to simulate (sets the simulation duration).
+
+    Returns
+    -------
+    MechanismSpec
+        The validated mechanism description.
+    """
     check_machine(machine)
     cr, rod, ro = machine.crank, machine.rod, machine.rocker
     phi0 = 0.0
