@@ -79,7 +79,7 @@ def test_report_header_and_claims_table(report):
     assert "40 runs (40 from the cache; cold compute 93.4 s)" in text
     assert runs_text({"runs": 3, "cached": 0, "compute_s": 2.0, "cached_compute_s": 0.0}) == \
         "3 runs (0 from the cache; cold compute 2.0 s)"
-    claims = text[text.index("<h2>Claims"):text.index("<h2>Failed runs")]
+    claims = text[text.index("<h2>Appendix: claims"):text.index("<h2>Configuration and provenance")]
     assert not re.search(r"\b(True|False)\b", claims)
     assert "left &gt; right: yes" in claims and "falls with clearance: no" in claims
     # provenance tags of the configuration table

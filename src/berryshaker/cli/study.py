@@ -50,6 +50,25 @@ def study(
     Kinematics; MLSD vs multibody agreement (eq. 18); clearance rows 1-16; comb moments; fruit force;
     the virtual L9 field test with range analysis and regression; a claims table with verdicts.
     Interrupted? Run it again: finished runs come from the cache.
+    \f
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    out_dir : Path
+        ``--out``: Output folder: new, empty, or an earlier study's output (then replaced atomically); any other
+        folder is refused.
+    workers : int, optional
+        ``--workers``: Local processes (default: every core this process may run on, its CPU affinity).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).
+    no_cache : bool
+        ``--no-cache``: Recompute every run.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
     """
     runner = None
     try:
@@ -89,10 +108,12 @@ def study(
         return
     from rich.text import Text
 
-    rows = [[str(c["id"]), Text(c["verdict"], style={"reproduced": "green", "not reproduced": "red"}.get(c["verdict"],
-                                                                                                         "yellow")),
-             c["claim"]] for c in summary["claims"]]
-    print_table(("#", "verdict", "claim"), rows, title="Claims of the study", justify=("left",) * 3)
+    from berryshaker.report.design import claims_apply
+
+    if claims_apply(machine):  # the reference study's claims are about its machine (report: an appendix)
+        rows = [[str(c["id"]), Text(c["verdict"], style={"reproduced": "green", "not reproduced": "red"}.get(
+            c["verdict"], "yellow")), c["claim"]] for c in summary["claims"]]
+        print_table(("#", "verdict", "claim"), rows, title="Claims of the study", justify=("left",) * 3)
     o = summary["optimum"]
     if o is not None:
         fitted = set(o.get("fitted") or [])
@@ -126,6 +147,22 @@ def sweep_display(header: list[str], rows: list[list], n_params: int) -> tuple[l
     Harvest runs (their columns present) show each point's ripe removal, unripe shedding, damage and efficiency as
     "mean±SD over its replicate starts"; dynamics runs show up to four peak collision forces and the powered
     driveline's speed ripple and input power.
+
+    Parameters
+    ----------
+    header : list of str
+        Column names of the sweep table: run, the ``n_params`` parameters, status, then the outputs.
+    rows : list of list
+        The sweep table's rows, one per run, in ``header``'s order.
+    n_params : int
+        Number of swept parameters.
+
+    Returns
+    -------
+    header : list of str
+        The columns shown.
+    rows : list of list
+        The rows with those columns; harvest outputs as "mean±SD" text (three and two significant digits).
     """
     base = header[: n_params + 2]
     cols = [c for c in header if c.endswith("_peak_N")][:4]
@@ -202,6 +239,50 @@ def sweep(
     before the first run starts; a sweep with an invalid point is refused, listing the points.  Points are
     simulated through the cached sweep runner; a run that fails is recorded with its error and the others
     finish.
+    \f
+    Parameters
+    ----------
+    param : list[str]
+        ``--param``: KEY=LO..HI unit, KEY=V1,V2,... unit or KEY=MEAN+-SD unit (units on each item allowed:
+        0.1mm..0.3mm, 0.25mm+-0.05mm); KEY is a dotted path of the machine description, e.g. clearance.A.size, and
+        the values must have its dimension. Repeat for more parameters, each key once.
+    method : str
+        ``--method``: grid (ranges get --points levels), lhs or montecarlo.
+    points : int
+        ``--points``: Grid levels per range, or samples for lhs/montecarlo.
+    seed : int
+        ``--seed``: Seed of lhs / montecarlo sampling.
+    model : str
+        ``--model``: mlsd, multibody, or harvest (virtual harvest: ripe removal, unripe shedding, damage; coupled
+        machine-plant runs).
+    revolutions : int
+        ``--revolutions``: Drive-shaft revolutions per run.
+    driveline : str, optional
+        ``--driveline``: imposed or powered (with --model multibody): powered runs report cam speed ripple, input
+        power and energy lost per revolution per joint. Default: the description's [driveline] mode.
+    specialised : bool, optional
+        ``--specialised/--generic``: With --model multibody: integrate with the engine's kernel written for the
+        mechanism's structure (the same results bit for bit, about a quarter less time per harvester run, 10-20 s of
+        compilation the first time on this machine, cached after that), or with the generic one. Default:
+        specialised when it is compiled already or the sweep has at least 600 runs per worker (the environment
+        variable BERRYSHAKER_KERNEL=generic or specialised decides instead). Each worker runs its chunks on one
+        thread (the default); with BERRYSHAKER_BATCH_THREADS > 1 the parallel batch runs the generic kernel.
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    out_file : Path, optional
+        ``--out``: Tidy results table (CSV).
+    figure : Path, optional
+        ``--figure``: With --model harvest and one --param: ripe removal, unripe shedding and damage against it (PNG
+        or SVG).
+    workers : int, optional
+        ``--workers``: Local processes (>= 1; default: every core this process may run on, its CPU affinity).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
     """
     try:
         from berryshaker.runs.runner import SweepRunner

@@ -13,6 +13,7 @@ import re
 from pathlib import Path
 
 from berryshaker.config import machine_table
+from berryshaker.report.design import claims_apply, design_answers, design_answers_html, level_set_name
 from berryshaker.report.headline import report_title, runs_text, verdict_class, verdict_counts
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, EQ18_F, FIELD_RESULT
 from berryshaker.units import format_tolerance
@@ -121,22 +122,22 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
             parts.append(f"<p class='small'><b>Note:</b> {html.escape(st.note)}</p>")
 
     k = res["kinematics"]
+    reference = claims_apply(machine)  # the study's pairs: its claims can be checked (study/claims.py's rule)
+    title = report_title(res["claims"]) if reference else f"Design study of {machine.machine.name}"
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
-             f"<h1>{html.escape(report_title(res['claims']))}</h1>",
+             f"<h1>{html.escape(title)}</h1>",
              f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary['version'])}. "
              f"Total time {summary['timings_s']['total']:.1f} s; {html.escape(runs_text(summary['runs']))}.  "
-             f"{html.escape(verdict_counts(res['claims']))}.  Values marked [assumed] in the configuration are "
-             "ours, not the study's (its tables were lost): see the end of this report.</p>"]
-    # claims
-    parts.append("<h2>Claims of the study and what our models give</h2>")
-    with_criterion = any(c.get("criterion") for c in res["claims"])
-    rows = [[c["id"], c["claim"], _Raw(f'<span class="{verdict_class(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
-             *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
-            for c in res["claims"]]
-    parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
-                         "our numbers"], rows, left=(1, 2, 3, 4),
-                        widths=(4, 22, 11, 27, 36) if with_criterion else (4, 32, 12, 52)))
+             + (f"{html.escape(verdict_counts(res['claims']))} (appendix).  " if reference else "")
+             + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
+             "the end of this report.</p>"]
+    # the design answers first, for every machine (report/design.py)
+    try:
+        parts.append(design_answers_html(design_answers({**summary, "results": res}, machine)))
+    except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
+        parts.append(f"<p class='small'>Design answers not available: {html.escape(f'{type(exc).__name__}: {exc}')}"
+                     "</p>")
     fails = summary.get("failures") or []
     parts.append("<h2>Failed runs</h2>")
     if fails:
@@ -161,7 +162,7 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
 
         parts.append(_table(["", *[f"{p} (mm)" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)",
                              "damage (%)"], [
-            [f"ours ({opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES],
+            [f"ours ({level_set_name(opt['clearance_mm'])}; {opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES],
              cell("efficiency", opt["efficiency_kg_min"]), cell("unripe", opt["unripe_rate_pct"]),
              cell("damage", opt["damage_rate_pct"])],
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
@@ -333,6 +334,8 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     # config
     parts.extend(harvest_response_section(res, figs, steps.get("harvest_response")))
     parts.extend(validation_section(res.get("validation"), steps.get("validation")))
+    if reference:  # the reference study's claims: an appendix, on its machine only
+        _claims_section(parts, res)
     parts.append("<h2>Configuration and provenance</h2>")
     parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary["timings_s"].items()) + "</p>")
@@ -344,6 +347,18 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
                         left=(0, 1, 2)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def _claims_section(parts: list, res: dict) -> None:
+    """Appendix: the reference study's claims with their verdicts (shown for the study's machine only)."""
+    parts.append("<h2>Appendix: claims of the reference study and what our models give</h2>")
+    with_criterion = any(c.get("criterion") for c in res["claims"])
+    rows = [[c["id"], c["claim"], _Raw(f'<span class="{verdict_class(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
+             *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
+            for c in res["claims"]]
+    parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
+                         "our numbers"], rows, left=(1, 2, 3, 4),
+                        widths=(4, 22, 11, 27, 36) if with_criterion else (4, 32, 12, 52)))
 
 
 def _powered_drive_section(parts: list, pw: dict | None, pairs, note) -> None:
@@ -444,7 +459,8 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     rec = l9.get("recommended") or {}
     if rec.get("statement"):
         parts.append("<h3>Recommendation and its basis</h3>")
-        parts.append(f"<p><b>{html.escape(rec['code'])}</b>: {html.escape(rec['statement'])}</p>")
+        parts.append(f"<p><b>{html.escape(rec.get('name') or level_set_name(rec['clearance_mm']))}</b> "
+                     f"({html.escape(rec['code'])}): {html.escape(rec['statement'])}</p>")
         parts.append(_table(["factor", "level", "basis"], [[p, rec["levels"][p], rec["basis"][p]]
                                                           for p in pair_names if p in rec.get("basis", {})],
                             left=(0, 2)))

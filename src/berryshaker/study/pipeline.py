@@ -806,7 +806,7 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
     if l9 is not None:
         rec = l9["recommended"]
         vh = rec["virtual_harvest"]
-        optimum = {"code": rec["code"], "clearance_mm": rec["clearance_mm"],
+        optimum = {"code": rec["code"], "name": rec.get("name"), "clearance_mm": rec["clearance_mm"],
                    "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
                    "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": CHOSEN_CODE, **FIELD_RESULT},
                    "fitted": rec.get("fitted", []), "starts": rec.get("starts"),
