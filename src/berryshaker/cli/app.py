@@ -69,7 +69,14 @@ def _version_cb(value: bool):
 @app.callback()
 def main(version: bool = typer.Option(False, "--version", callback=_version_cb, is_eager=True,
                                       help="Print the version and exit.")):
-    """berryshaker: harvester drive kinematics, clearance dynamics, plant response and field tests."""
+    """berryshaker: harvester drive kinematics, clearance dynamics, plant response and field tests.
+    \f
+
+    Parameters
+    ----------
+    version : bool
+        ``--version``: Print the version and exit (handled eagerly by its callback).
+    """
     from berryshaker.compiled_cache import kernel_choice
     from berryshaker.errors import BerryshakerError
 
@@ -107,7 +114,18 @@ def _print_json(obj) -> None:
 
 def table_width(console: Console | None = None) -> int:
     """Terminal width (cells) for tables: ``COLUMNS`` when set (read at every call, so a test or a resized shell
-    is honoured), else the console's."""
+    is honoured), else the console's.
+
+    Parameters
+    ----------
+    console : rich.console.Console, optional
+        Console whose width is used when ``COLUMNS`` is not set (default the standard-output console).
+
+    Returns
+    -------
+    int
+        Width in terminal cells.
+    """
     import os
 
     cols = os.environ.get("COLUMNS", "")
@@ -117,7 +135,23 @@ def table_width(console: Console | None = None) -> int:
 def print_table(header, rows, title: str | None = None, justify=None, console: Console | None = None,
                 digits: int = 4) -> None:
     """Print rows through the one terminal table writer, :func:`berryshaker.report.tables.rich_table` (no number
-    or word ever split; headers wrap at word and dot boundaries; rows stacked when the terminal is too narrow)."""
+    or word ever split; headers wrap at word and dot boundaries; rows stacked when the terminal is too narrow).
+
+    Parameters
+    ----------
+    header : sequence of str
+        Column headers.
+    rows : iterable of sequences
+        Cells (see :func:`berryshaker.report.tables.rich_table`).
+    title : str, optional
+        Table title.
+    justify : sequence of {"left", "right", "center"}, optional
+        Per column (default the first column left, the others right).
+    console : rich.console.Console, optional
+        Where to print (default the standard-output console); its width when ``COLUMNS`` is not set.
+    digits : int
+        Significant digits of float cells.
+    """
     from berryshaker.report.tables import rich_table
 
     console = console or out
@@ -126,7 +160,25 @@ def print_table(header, rows, title: str | None = None, justify=None, console: C
 
 def show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """A Python warning (pandas, statsmodels, SciPy ... or ours) as one clean line on stderr: ``warning: <message>``,
-    without the file, line number and source line Python prints by default."""
+    without the file, line number and source line Python prints by default.
+
+    The signature of :func:`warnings.showwarning`, which it replaces while a command runs.
+
+    Parameters
+    ----------
+    message : Warning or str
+        The warning; its text is printed with runs of whitespace collapsed.
+    category : type
+        The warning's class (not printed).
+    filename : str
+        File that raised it (not printed).
+    lineno : int
+        Line that raised it (not printed).
+    file : file-like, optional
+        Ignored: the line goes to the stderr console.
+    line : str, optional
+        Source line (not printed).
+    """
     text = " ".join(str(message).split())
     err.print(f"warning: {text}", markup=False, highlight=False, soft_wrap=True)
 
@@ -135,7 +187,22 @@ def command(parent: typer.Typer, name: str | None = None, **kwargs):
     """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
     message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the
     cache); a Python warning raised while the command runs is one line, ``warning: <message>``
-    (:func:`show_warning`)."""
+    (:func:`show_warning`).
+
+    Parameters
+    ----------
+    parent : typer.Typer
+        The application or command group to register on.
+    name : str, optional
+        Command name (default the function's name, underscores as hyphens).
+    **kwargs
+        Passed to :meth:`typer.Typer.command` (``help``, ``epilog``...).
+
+    Returns
+    -------
+    callable
+        The decorator: it registers the wrapped function and returns what :meth:`typer.Typer.command` returns.
+    """
     import functools
 
     def deco(fn):

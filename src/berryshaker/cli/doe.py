@@ -106,7 +106,31 @@ def doe_plan(
     force: bool = typer.Option(False, "--force", help="Replace existing sheets of that name."),
 ):
     """Write a field sheet: run, replicate, test order, factor levels (units in the header), empty response
-    columns; one row per run and replicate."""
+    columns; one row per run and replicate.
+    \f
+
+    Parameters
+    ----------
+    array : str
+        ``--array``: L4, L8, L9, L16, L18 or L27.
+    factor : list[str]
+        ``--factor``: NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; repeat.
+    randomize : bool
+        ``--randomize``: Randomise the test order of all runs x replicates (needs --seed).
+    replicates : int, optional
+        ``--replicates``: Times each run is tested (rows = runs x replicates, numbered in a 'replicate' column; >= 2
+        lets `doe analyze` judge effects against the replicate spread). Default: harvest.replicates of --config (the
+        virtual harvest's starts), else 3.
+    config : Path, optional
+        ``--config``: Machine description whose harvest.replicates is the default of --replicates.
+    seed : int, optional
+        ``--seed``: Seed of the randomised order (an integer >= 0).
+    out_file : Path
+        ``--out``: Field sheet: NAME.csv, and the printable NAME.html beside it (--out NAME.html gives the same two
+        files).
+    force : bool
+        ``--force``: Replace existing sheets of that name.
+    """
     try:
         import hashlib
 
@@ -168,6 +192,29 @@ def doe_analyze(
     differs significantly (--json: replicated, text, block_column).  Replicate numbers that are not real blocks
     cost the analysis r - 1 error degrees of freedom and nothing else.
     Without replicates the weakest factor is pooled into the error.
+    \f
+
+    Parameters
+    ----------
+    results : Path
+        Argument: Filled field sheet (CSV): `doe plan` columns, plain factor columns holding level values, or a
+        statistics package's worksheet (Minitab: StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated
+        settings are replicates; units in the header, e.g. 'Speed (rpm)').
+    maximize : str
+        ``--maximize``: Responses where larger is better, e.g. efficiency.
+    minimize : str
+        ``--minimize``: Responses where smaller is better, e.g. unripe,damage.
+    weights : str, optional
+        ``--weights``: Weights of the composite score, e.g. efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a
+        response left out gets no weight). Default: equal weights.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Main-effect plots and response surfaces (PNG).
+    report : Path, optional
+        ``--out``: Write the analysis to a file: *.html (printable report) or *.json.
+    force : bool
+        ``--force``: Replace an existing --out file.
     """
     try:
         from berryshaker.experiment.field_results import analyze_sheet
@@ -242,7 +289,19 @@ def _unit(response: str, res: dict | None = None) -> str:
 
 def weights_text(res: dict) -> str:
     """The composite's weights as one line, e.g. "efficiency 0.50, damage 0.30, unripe 0.20 (given, scaled
-    to sum 1)"."""
+    to sum 1)".
+
+    Parameters
+    ----------
+    res : dict
+        A DOE analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`) with ``weights`` (response ->
+        weight, (1)) and ``weights_given``.
+
+    Returns
+    -------
+    str
+        "name weight, ..." with the weights to two decimals, and whether they were given or equal.
+    """
     w = res.get("weights") or {}
     how = "given with --weights, scaled to sum 1" if res.get("weights_given") else "equal: no --weights given"
     return ", ".join(f"{k} {v:.2f}" for k, v in w.items()) + f" ({how})"
@@ -329,6 +388,33 @@ def doe_virtual(
     dominated, dominated_by); tradeoff_columns; response_units.
     Responses: efficiency (kg/min), ripe_removal (%), unripe (% of the picked mass), unripe_shed (% of the unripe
     mass), damage (%), peak_force_<pair> (N), drive_torque_peak and drive_torque_rms (N m).
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    workers : int, optional
+        ``--workers``: Processes (default: every core this process may run on, its CPU affinity).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder.
+    plot : Path, optional
+        ``--plot``: Main-effect plots and response surfaces (PNG).
+    replicates : int, optional
+        ``--replicates``: Starts per run (>= 2; default harvest.replicates in the description, chosen by
+        --convergence).
+    convergence : bool
+        ``--convergence``: Instead of the L9: mean and SD of every harvest response at the configured clearances
+        against the number of starts, with the SD's own sampling error, and the smallest count where both are
+        stable.
+    starts : str
+        ``--starts``: With --convergence: the start counts of the table (comma-separated, nested: the first n of the
+        largest).
     """
     try:
         from berryshaker.runs.runner import SweepRunner

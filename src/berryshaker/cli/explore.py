@@ -24,6 +24,21 @@ def explore(
     sliders; the comb drive animated with its clearances magnified and impacts marked; collision forces per
     joint (reduced model, about a second per change); removal against frequency (virtual harvest) and wear with
     the service interval (background runs, cached).  Serves on 127.0.0.1 only; Ctrl-C stops it.
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    port : int
+        ``--port``: TCP port of the page (1..65535; must be free).
+    host : str
+        ``--host``: Loopback address to serve on (127.0.0.1 or localhost); any other address is refused.
+    workers : int
+        ``--workers``: Local processes of the harvest runs (>= 1).
+    cache : Path, optional
+        ``--cache``: Run cache folder of the harvest and wear runs (default ~/.cache/berryshaker/runs or
+        $BERRYSHAKER_CACHE).
     """
     from berryshaker.explore import check_loopback, check_port
 

@@ -24,7 +24,29 @@ SEED_MAX = 2**32 - 1
 
 def check_range(flag: str, value: int, lo: int, hi: int, what: str) -> int:
     """``value`` if ``lo <= value <= hi``; else a :class:`ConfigError` naming the flag, the range and its meaning
-    (exit code 2 instead of a traceback or a huge allocation deep inside a library)."""
+    (exit code 2 instead of a traceback or a huge allocation deep inside a library).
+
+    Parameters
+    ----------
+    flag : str
+        The command-line flag, named in the message.
+    value : int
+        The value given.
+    lo, hi : int
+        Smallest and largest value accepted.
+    what : str
+        What the value means, named in the message.
+
+    Returns
+    -------
+    int
+        ``value``, unchanged.
+
+    Raises
+    ------
+    ConfigError
+        ``value`` is outside ``lo .. hi``.
+    """
     if not lo <= value <= hi:
         raise ConfigError(f"{flag} {value}: expected a whole number in {lo}..{hi} ({what})")
     return value
@@ -66,7 +88,24 @@ _LIMIT_DIMENSION = {"clearance": "length", "peak_force": "force", "mean_force": 
 
 def parse_limit(spec: str) -> tuple[str, float]:
     """``peak_force:A=8000N``, ``clearance:C=0.5mm`` or ``OUTPUT=VALUE`` -> (key, SI value) for
-    :func:`berryshaker.life.wear.wear_life` (a maximum)."""
+    :func:`berryshaker.life.wear.wear_life` (a maximum).
+
+    Parameters
+    ----------
+    spec : str
+        ``KIND:JOINT=VALUE`` (kinds of ``_LIMIT_DIMENSION``, the value with its unit, e.g. "0.5mm", "8000N") or
+        ``OUTPUT=VALUE`` (a plain number in the output's SI unit).
+
+    Returns
+    -------
+    (str, float)
+        The key (``KIND:JOINT`` or ``OUTPUT``) and the limit in SI (m, N).
+
+    Raises
+    ------
+    ConfigError
+        No ``=``, an unknown kind, or a value that is not a number of the kind's dimension.
+    """
     from berryshaker.units import parse_quantity
 
     if "=" not in spec:
@@ -96,7 +135,18 @@ def fits_cmd(
     diameter: Optional[str] = typer.Option(None, "--diameter", "-d", help="Nominal diameter, e.g. 20mm."),
     as_json: bool = JsonOpt,
 ):
-    """Limits and clearance of an ISO 286 fit (diametral; radial = half, the pin-in-bore 'size')."""
+    """Limits and clearance of an ISO 286 fit (diametral; radial = half, the pin-in-bore 'size').
+    \f
+
+    Parameters
+    ----------
+    spec : str
+        Argument: Fit, e.g. H7/f7 (with --diameter), '20 H7/f7', or a range '0.02..0.06 mm'.
+    diameter : str, optional
+        ``--diameter``: Nominal diameter, e.g. 20mm.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    """
     from berryshaker.life.fits import fit_summary, parse_fit
     from berryshaker.units import parse_quantity
 
@@ -153,6 +203,35 @@ def wear_cmd(
 
     Simulates the multibody drive, wears the joints (adaptive steps in hours), re-simulates; each simulation is
     cached.  JSON: joints.<name>.hours[], .clearance_mm[], .maintenance_interval_h (null if not reached).
+    \f
+
+    Parameters
+    ----------
+    hours : float
+        ``--hours``: Operating hours to simulate (h).
+    limit : list[str]
+        ``--limit``: Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, mean_force:B=900N or
+        OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test level or twice its size in the
+        description, whichever is larger (docs/life.md).
+    joint : list[str]
+        ``--joint``: Joints that wear (repeatable; default all pairs).
+    revolutions : int
+        ``--revolutions``: Drive revolutions per simulation (2..200).
+    load_direction : str
+        ``--load-direction``: Pins: fixed (conservative) or rotating.
+    slip : float, optional
+        ``--slip``: Roller slip ratio (dimensionless) (default 0.05 [assumed]).
+    from_fit : bool
+        ``--from-fit``: Start from each pair's fit (mean clearance), not its size.
+    cache : Path, optional
+        ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Folder for PNG figures: new, empty, or an earlier berryshaker output (only this command's own
+        unchanged figures there are replaced).
     """
     from berryshaker.life.service import machine_wear
 
@@ -225,7 +304,40 @@ def sensitivity_cmd(
     as_json: bool = JsonOpt,
     plot: Optional[Path] = PlotOpt,
 ):
-    """Sobol sensitivity indices (S1, ST with 95 % confidence) of outputs to clearances and named parameters."""
+    """Sobol sensitivity indices (S1, ST with 95 % confidence) of outputs to clearances and named parameters.
+    \f
+
+    Parameters
+    ----------
+    output : list[str]
+        ``--output``: Output name, repeatable (default: every pair's peak collision force,
+        collision_force_<pair>_peak).
+    param : list[str]
+        ``--param``: KEY=LO..HI[unit], repeatable, e.g. clearance.A.size=0.1..0.8mm (default: every pair over its
+        test levels).
+    samples : int
+        ``--samples``: Base sample N (power of two); runs = N (D + 2).
+    model : str, optional
+        ``--model``: mlsd (default where the drive has it) or multibody.
+    revolutions : int
+        ``--revolutions``: Drive revolutions per run (2..200).
+    seed : int
+        ``--seed``: Seed of the Sobol sequence and the bootstrap (0 .. 2**32 - 1).
+    workers : int, optional
+        ``--workers``: Local processes (default: every core this process may run on, its CPU affinity).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Folder for PNG figures: new, empty, or an earlier berryshaker output (only this command's own
+        unchanged figures there are replaced).
+    """
     from berryshaker.drives import drive_of
     from berryshaker.life.sensitivity import default_clearance_params, machine_sobol, parse_sensitivity_param
 
@@ -302,7 +414,43 @@ def tolerance_cmd(
     plot: Optional[Path] = PlotOpt,
 ):
     """Choose a fit per joint: Pareto front of cost, peak collision force and life (NSGA-II on a cached surrogate
-    of a few multibody runs per joint) and the recommended fit specification."""
+    of a few multibody runs per joint) and the recommended fit specification.
+    \f
+
+    Parameters
+    ----------
+    fits : str
+        ``--fits``: Candidate fits, comma-separated.
+    joint : list[str]
+        ``--joint``: Joints to design (repeatable; default all pairs).
+    limit : list[str]
+        ``--limit``: Clearance limit for the life objective, clearance:C=0.3mm (repeatable; default each joint's
+        service limit, docs/life.md).
+    points : int
+        ``--points``: Surrogate grid clearances per joint (multibody runs each).
+    revolutions : int
+        ``--revolutions``: Drive revolutions per run (2..200).
+    pop_size : int
+        ``--pop-size``: NSGA-II population size (2 .. 10000).
+    generations : int
+        ``--generations``: NSGA-II generations (1 .. 100000).
+    seed : int
+        ``--seed``: Seed of NSGA-II (0 .. 2**32 - 1).
+    workers : int, optional
+        ``--workers``: Local processes (default: every core this process may run on, its CPU affinity).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Folder for PNG figures: new, empty, or an earlier berryshaker output (only this command's own
+        unchanged figures there are replaced).
+    """
     from berryshaker.life.tolerance import tolerance_design
 
     check_range("--pop-size", pop_size, 2, 10_000, "the NSGA-II population")

@@ -38,6 +38,18 @@ def kinematics(
     """Kinematics of the ideal drive (study eq. 1-3): cam SVAJ, groove, pressure angle, comb swing.
 
     Checks that the four-bar assembles over the whole cycle and the groove does not undercut.
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Write SVAJ, groove and comb-angle PNGs to DIR.
+    allow_undercut : bool
+        ``--allow-undercut``: Report an undercutting cam instead of refusing it.
     """
     try:
         from berryshaker.drives import drive_of
@@ -152,7 +164,23 @@ def cam_profile(
                                help=f"Points per revolution (90..{CAM_PROFILE_MAX_POINTS})."),
     force: bool = typer.Option(False, "--force", help="Replace an existing file."),
 ):
-    """Export the groove walls of the cam (study eq. 2, corrected) for CAM."""
+    """Export the groove walls of the cam (study eq. 2, corrected) for CAM.
+    \f
+
+    Parameters
+    ----------
+    out_file : Path
+        ``--out``: Output file, *.csv or *.dxf (the extension sets the format).
+    fmt : str, optional
+        ``--format``: csv (angle + pitch/inner/outer in mm) or dxf (closed polylines, mm, layers
+        PITCH/INNER_WALL/OUTER_WALL). Default: from the extension of --out.
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    points : int
+        ``--points``: Points per revolution (90..100000).
+    force : bool
+        ``--force``: Replace an existing file.
+    """
     try:
         import os
 
@@ -185,7 +213,16 @@ def cam_profile(
 
 @command(config_app, "show")
 def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
-    """Print the resolved machine description (engineering units; --json gives SI)."""
+    """Print the resolved machine description (engineering units; --json gives SI).
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    """
     try:
         from berryshaker.config import machine_table
 
@@ -217,7 +254,18 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
                 force: bool = typer.Option(False, "--force", help="Overwrite an existing file."),
                 drive: str = typer.Option("groove_cam", "--drive", help="Comb drive: groove_cam or crank_rocker.")):
     """Write an editable copy of a drive's reference machine (each value annotated [study], [assumed] or
-    [calibrated])."""
+    [calibrated]).
+    \f
+
+    Parameters
+    ----------
+    path : Path
+        Argument: Where to write the editable copy.
+    force : bool
+        ``--force``: Overwrite an existing file.
+    drive : str
+        ``--drive``: Comb drive: groove_cam or crank_rocker.
+    """
     from berryshaker.config import reference_toml_text
     from berryshaker.errors import OutputError
     from berryshaker.outputs import check_output_file, write_text_atomic
@@ -242,7 +290,18 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
                                                 "warnings."),
                     as_json: bool = JsonOpt):
     """Check a machine description: values, units, assembly over the cycle, cam undercut, and values orders of
-    magnitude outside engineering ranges (warnings; errors with --strict)."""
+    magnitude outside engineering ranges (warnings; errors with --strict).
+    \f
+
+    Parameters
+    ----------
+    path : Path
+        Argument: Machine description to check.
+    strict : bool
+        ``--strict``: Implausible values are errors, not warnings.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    """
     try:
         from berryshaker.config import validate_machine
 

@@ -54,6 +54,28 @@ def plant(
     With --convergence: the replicate mean (with its standard error) of the peak stem force at the root, middle
     and end fruit against the number of branch modes kept in the coupled drive-past, the difference from the
     most modes with its noise, the verdict and the smallest converged mode count.
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    n_modes : int
+        ``--modes``: Number of bending modes.
+    plot : Path, optional
+        ``--plot``: Write the mode-shape figure (PNG) to DIR.
+    convergence : bool
+        ``--convergence``: Instead: the peak stem forces against the branch modes kept in the coupled run (replicate
+        means, docs/plant.md).
+    convergence_modes : str
+        ``--convergence-modes``: Mode counts for --convergence, e.g. 4,8,16,32 (the last the reference).
+    replicates : int, optional
+        ``--replicates``: Replicates for --convergence (default: harvest.replicates).
+    separate_runs : bool
+        ``--separate-runs``: --convergence: one run per mode count and seed instead of every mode count as a probe
+        of one run.
     """
     if convergence:
         _convergence(config, as_json, convergence_modes, replicates, separate_runs)
@@ -173,6 +195,20 @@ def fruit_force_cmd(
 
     Fruit harvesting force F = m0 x acceleration (eq. 16) at the root, middle and end fruit against the
     machine-to-plant distance, with the eq. 17 verdict and the study's ranges beside ours.
+    \f
+
+    Parameters
+    ----------
+    clearance : str, optional
+        ``--clearance``: Clearance set, as for simulate.
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Write fruit force vs distance (Figs. 24-26) to DIR.
+    out_dir : Path, optional
+        ``--out``: Write the time series (CSV) and summary.
     """
     try:
         from berryshaker.experiment.clearance_sets import parse_clearance_spec

@@ -62,6 +62,34 @@ def simulate(
 
     Statistics (peak, mean, rms of force magnitudes) are over whole cam revolutions after the first;
     peaks are taken over every integrator step.
+    \f
+
+    Parameters
+    ----------
+    model : str
+        ``--model``: mlsd: the study's massless-link clearance model (eq. 4-12); multibody: the planar contact
+        simulation (the study's ADAMS role).
+    clearance : str, optional
+        ``--clearance``: Clearance sizes, e.g. A=0.25mm,B=0.2mm,C=0.1mm,F=0.2mm (missing pairs keep the config's
+        value); or row1..row16 of the reconstructed Table 5; level1..level3; none.
+    revolutions : int
+        ``--revolutions``: Cam revolutions; statistics use 2..N.
+    mechanism : Path, optional
+        ``--mechanism``: Simulate any mechanism description (TOML) instead of the harvester, e.g.
+        examples/slider_crank_clearance.toml.
+    duration : float, optional
+        ``--duration``: With --mechanism: simulated time (s).
+    driveline : str, optional
+        ``--driveline``: imposed: the drive shaft turns at its nominal speed; powered: the motor, belt, CVT and worm
+        of [driveline] turn it (multibody model; cam speed, ripple, input power, energy lost per joint). Default:
+        the description's [driveline] mode (imposed without one).
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    out_dir : Path, optional
+        ``--out``: Write time series (CSV, units in the header), summary.json with the resolved input and version,
+        and plots.
     """
     try:
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
@@ -151,6 +179,17 @@ def load_moment_note(load_model: str) -> str:
     the combs about 40 times more than the explicit bush of branches (the study report's bush section: peaks
     14-18 N m, about 1 N m rms, against about 81 N m peak and 48 N m rms here; docs/plant.md, "the explicit bush
     loads the combs about 40 times less").
+
+    Parameters
+    ----------
+    load_model : str
+        The run's load model description; one starting with "aggregate" is the aggregate bush spring-damper.
+
+    Returns
+    -------
+    str
+        One line for the terminal naming the load model and, for the aggregate bush, how its moments compare
+        with the explicit bush's.
     """
     if load_model.startswith("aggregate"):
         return ("comb load moment: the load's moment about each comb's shaft, one comb at a time; load model: the "
@@ -288,6 +327,33 @@ def compare(
     --starts replicate starts of each model, their difference within 10 / 15 / 20 % beyond its 95 % noise band
     ('agree'), beyond them outside ('differ'), or 'within noise' (these starts cannot tell).  The replicate runs
     are cached as the study's (berryshaker cache).
+    \f
+
+    Parameters
+    ----------
+    clearance : str, optional
+        ``--clearance``: Clearance set (default level2, the study's model check, Table 3).
+    revolutions : int
+        ``--revolutions``: Cam revolutions (2..200).
+    points : int
+        ``--points``: Samples per curve for the F test (study: about 10; 4..10000).
+    alpha : float
+        ``--alpha``: Significance level of the F test (dimensionless).
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    plot : Path, optional
+        ``--plot``: Write overlay plots (PNG) of both models per pair.
+    starts : int
+        ``--starts``: Replicate starts of each model for the verdict (multibody: clearances eccentric, drive turned;
+        MLSD: cam turned); 0: only the centred runs (one draw of a chaotic impact sequence, no verdict on the
+        statistics).
+    workers : int, optional
+        ``--workers``: Local processes for the replicate starts (default: every core this process may run on).
+    cache : Path, optional
+        ``--cache``: Run cache folder of the replicate starts (default ~/.cache/berryshaker/runs or
+        $BERRYSHAKER_CACHE).
     """
     try:
         from berryshaker.experiment.agreement import model_agreement, model_check
@@ -390,7 +456,20 @@ def compare_machines_cmd(
     as_json: bool = JsonOpt,
 ):
     """Machines side by side: comb swing, collision force per clearance pair, drive moment, comb load moments
-    and fruit force.  The drives may differ, e.g. the groove cam beside examples/crank_rocker_harvester.toml."""
+    and fruit force.  The drives may differ, e.g. the groove cam beside examples/crank_rocker_harvester.toml.
+    \f
+
+    Parameters
+    ----------
+    configs : list[Path]
+        Argument: Two or more machine descriptions (TOML); 'reference' for the built-in groove-cam machine.
+    revolutions : int
+        ``--revolutions``: Drive-shaft revolutions.
+    fruit_force : bool
+        ``--fruit-force/--no-fruit-force``: Also drive each machine past its branch (one coupled run each).
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    """
     from berryshaker.experiment.machine_comparison import compare_machines
 
     if len(configs) < 2:

@@ -39,6 +39,23 @@ def validate(
 
     --json keys: rows (id, quantity, case, source (citation), source_key, published, unit, model, lo, hi: the interval the verdict uses,
     noise_lo, noise_hi: start-to-start noise only, verdict, held_out, how, confidence), replicates, summary (held_out, consistent, not_reproduced, inputs, not_represented), version.
+    \f
+
+    Parameters
+    ----------
+    config : Path, optional
+        ``--config``: Machine description (TOML). Default: built-in reference machine.
+    as_json : bool
+        ``--json``: Print one JSON object on stdout instead of tables.
+    workers : int, optional
+        ``--workers``: Processes (default: every core this process may run on).
+    scheduler : str, optional
+        ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
+        runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
+    cache : Path, optional
+        ``--cache``: Run cache folder.
+    replicates : int, optional
+        ``--replicates``: Starts per case (default harvest.replicates).
     """
     try:
         from berryshaker.runs.runner import SweepRunner
