@@ -1,5 +1,9 @@
 """Analysis of an orthogonal test: range analysis, weighted multi-response optimum, ANOVA with pooling,
-and the study's eq. 19 quadratic regression handled honestly."""
+and the study's eq. 19 quadratic regression handled honestly.
+
+long module: range analysis, the pooled ANOVA, the eq. 19 regression and the standardized effects and residuals
+of the effect figures share one design matrix and one error term.
+"""
 
 from __future__ import annotations
 

@@ -15,6 +15,9 @@ The rules (issue "A report and a command line an engineer is glad to hand on"):
   grows where anything still reaches beyond it (:func:`fit_canvas`); PNGs are saved at 300 dpi with an SVG beside.
 
 :func:`audit_figure` checks a drawn figure against these rules; the figure tests use it.
+
+long module: the style's constants and the checks that hold every figure to them (units, legends, canvas fit,
+decimation) are one contract; split, each check would import the constants it checks.
 """
 
 from __future__ import annotations

@@ -5,6 +5,9 @@ compiled kernels read; :func:`ideal_state` evaluates the whole mechanism at one 
 compiled code; :func:`cycle_kinematics` evaluates it on a grid (numpy arrays); :func:`check_machine`
 refuses a machine whose linkage cannot assemble, whose cam undercuts or whose push rod self-locks in its guide
 (:func:`self_locking_limit`), naming the cam angle.
+
+long module: the groove cam's check, kinematics summary and mid-stroke angles read the same cam-follower
+geometry.
 """
 
 from __future__ import annotations
