@@ -51,6 +51,7 @@ def study(
     the virtual L9 field test with range analysis and regression; a claims table with verdicts.
     Interrupted? Run it again: finished runs come from the cache.
     \f
+
     Parameters
     ----------
     config : Path, optional
@@ -240,6 +241,7 @@ def sweep(
     simulated through the cached sweep runner; a run that fails is recorded with its error and the others
     finish.
     \f
+
     Parameters
     ----------
     param : list[str]

@@ -14,7 +14,7 @@ of the harvester (pairs C and F, :class:`berryshaker.config.ClearancePair`) use 
 (groove width minus roller diameter).
 
 Supported tolerance classes (nominal sizes 0 < D <= 500 mm, grades IT01, IT0, IT1..IT18)
----------------------------------------------------------------------------------------
+----------------------------------------------------------------------------------------
 Holes: A, B, C, D, E, F, G, H, JS, K (IT3..IT8), M, N, P (IT3 and coarser).
 Shafts: a, b, c, d, e, f, g, h, js, k, m, n, p.
 Others (CD, EF, FG, J, R..ZC and their shaft counterparts) are refused with a :class:`ConfigError`.
@@ -102,6 +102,18 @@ def size_range_mm(nominal_mm: float, intermediate: bool = False) -> tuple[float,
 def geometric_mean_size_mm(nominal_mm: float, intermediate: bool = False) -> float:
     """Geometric mean D = sqrt(a b) of the size range containing a nominal size (mm).
 
+    Parameters
+    ----------
+    nominal_mm : float
+        Nominal size (mm), 0 < D <= 500.
+    intermediate : bool
+        Use the intermediate ranges (those of the deviations of a, b, c) instead of the main ranges.
+
+    Returns
+    -------
+    float
+        sqrt(max(a, 1) b) (mm), (a, b] the range of :func:`size_range_mm`.
+
     Notes
     -----
     ISO 286-1 evaluates its formulas at the geometric mean of the range; for the first range
@@ -138,7 +150,7 @@ def standard_tolerance_um(grade: str | int, nominal_mm: float) -> float:
     Returns
     -------
     float
-        ITn in micrometres.
+        ITn (um).
 
     Notes
     -----
@@ -154,6 +166,16 @@ def standard_tolerance_um(grade: str | int, nominal_mm: float) -> float:
 
 def standard_tolerance_factor_um(nominal_mm: float) -> float:
     """Standard tolerance factor i = 0.45 D^(1/3) + 0.001 D (um), D the range's geometric mean (mm).
+
+    Parameters
+    ----------
+    nominal_mm : float
+        Nominal size (mm), 0 < D <= 500.
+
+    Returns
+    -------
+    float
+        i (um), with D from :func:`geometric_mean_size_mm` (main ranges).
 
     Notes
     -----
@@ -383,14 +405,34 @@ class ToleranceZone:
         return (self.nominal_mm + self.lower_um * 1e-3) * 1e-3
 
     def summary(self) -> dict:
-        """JSON-able limits: deviations in um and limit sizes in mm."""
+        """JSON-able limits: deviations in um and limit sizes in mm.
+
+        Returns
+        -------
+        dict
+            ``class``, ``upper_deviation_um``, ``lower_deviation_um``, ``tolerance_um`` (um) and
+            ``max_size_mm``, ``min_size_mm`` (mm, rounded to 1 nm).
+        """
         return {"class": self.designation, "upper_deviation_um": self.upper_um,
                 "lower_deviation_um": self.lower_um, "tolerance_um": self.tolerance_um,
                 "max_size_mm": round(self.max_size * 1e3, 6), "min_size_mm": round(self.min_size * 1e3, 6)}
 
 
 def tolerance_zone(designation: str, nominal_mm: float) -> ToleranceZone:
-    """The :class:`ToleranceZone` of a hole or shaft class at a nominal size (see :func:`limit_deviations_um`)."""
+    """The :class:`ToleranceZone` of a hole or shaft class at a nominal size (see :func:`limit_deviations_um`).
+
+    Parameters
+    ----------
+    designation : str
+        Tolerance class: upper case for a hole ("H7"), lower case for a shaft ("f7").
+    nominal_mm : float
+        Nominal size (mm), 0 < D <= 500.
+
+    Returns
+    -------
+    ToleranceZone
+        Its limit deviations (um) per ISO 286.
+    """
     upper, lower = limit_deviations_um(designation, nominal_mm)
     letter, key = _split_class(designation)
     return ToleranceZone(f"{letter}{key}", float(nominal_mm), upper, lower, letter.isupper())
@@ -427,7 +469,7 @@ class Fit:
         in its zone with standard deviation = tolerance / (6 Cp), independent, truncated at its limits
         because out-of-tolerance parts are rejected at inspection).
     cp : float or None
-        Process capability index Cp for "normal".
+        Process capability index Cp for "normal" (dimensionless).
     """
 
     designation: str
@@ -474,7 +516,25 @@ class Fit:
         return 0.5 * (self.clearance_min + self.clearance_max)
 
     def with_distribution(self, distribution: Distribution, cp: float | None = None) -> Fit:
-        """A copy with another clearance distribution (validated as in :func:`parse_fit`)."""
+        """A copy with another clearance distribution (validated as in :func:`parse_fit`).
+
+        Parameters
+        ----------
+        distribution : {"uniform", "uniform-parts", "normal"}
+            Clearance distribution (see :class:`Fit`); "uniform-parts" needs hole and shaft classes.
+        cp : float, optional
+            Process capability index Cp (dimensionless), required for "normal".
+
+        Returns
+        -------
+        Fit
+            The same limits with the new distribution.
+
+        Raises
+        ------
+        ConfigError
+            An unknown distribution, "normal" without cp > 0, or "uniform-parts" for an explicit range.
+        """
         _check_distribution(distribution, cp, explicit=self.hole is None)
         return replace(self, distribution=distribution, cp=cp)
 
@@ -515,7 +575,20 @@ class Fit:
         return hole - shaft
 
     def sample_radial(self, n: int, rng: np.random.Generator | int | None = None) -> np.ndarray:
-        """Draw n RADIAL clearances (m) = :meth:`sample` / 2."""
+        """Draw n RADIAL clearances (m) = :meth:`sample` / 2.
+
+        Parameters
+        ----------
+        n : int
+            Number of assemblies.
+        rng : numpy Generator, int seed or None
+            Random source.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (n,), radial clearances in m, within [radial_clearance_min, radial_clearance_max].
+        """
         return self.sample(n, rng) / 2.0
 
 
@@ -570,7 +643,29 @@ def iso_fit(hole: str, shaft: str, nominal_mm: float, distribution: Distribution
 
 def clearance_range_fit(clearance_min: float, clearance_max: float, distribution: Distribution = "uniform",
                         cp: float | None = None, designation: str | None = None) -> Fit:
-    """A :class:`Fit` from explicit DIAMETRAL clearance limits (m), without part classes."""
+    """A :class:`Fit` from explicit DIAMETRAL clearance limits (m), without part classes.
+
+    Parameters
+    ----------
+    clearance_min, clearance_max : float
+        Diametral clearance limits (m), finite, min <= max.
+    distribution : {"uniform", "normal"}
+        Clearance distribution within the limits (see :class:`Fit`).
+    cp : float, optional
+        Process capability index Cp (dimensionless), required for "normal".
+    designation : str, optional
+        Text kept as the fit's designation (default "MIN..MAX mm").
+
+    Returns
+    -------
+    Fit
+        A fit without hole, shaft or nominal size.
+
+    Raises
+    ------
+    ConfigError
+        Non-finite limits, min > max, or an invalid distribution.
+    """
     lo, hi = float(clearance_min), float(clearance_max)
     if not (math.isfinite(lo) and math.isfinite(hi)):
         raise ConfigError(f"clearance range: limits must be finite, got {clearance_min!r}..{clearance_max!r}")
@@ -596,11 +691,12 @@ def parse_fit(text: str, nominal_mm: float | None = None, *, distribution: Distr
     distribution : {"uniform", "uniform-parts", "normal"}
         Clearance distribution (see :class:`Fit`).
     cp : float, optional
-        Process capability index, required for "normal".
+        Process capability index (dimensionless), required for "normal".
 
     Returns
     -------
     Fit
+        The ISO fit (:func:`iso_fit`) or the explicit range (:func:`clearance_range_fit`).
 
     Raises
     ------
@@ -639,6 +735,11 @@ def parse_fit(text: str, nominal_mm: float | None = None, *, distribution: Distr
 
 def fit_summary(fit: Fit) -> dict:
     """JSON-able description of a fit.
+
+    Parameters
+    ----------
+    fit : Fit
+        The fit to describe.
 
     Returns
     -------

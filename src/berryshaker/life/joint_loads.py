@@ -82,6 +82,19 @@ class JointGeometry:
 def joint_geometry(machine, pair: str) -> JointGeometry:
     """Wear geometry of a clearance pair from ``[clearance.<pair>]``, with the [assumed] defaults filled in.
 
+    Parameters
+    ----------
+    machine : MachineBase
+        Any drive's machine description.
+    pair : str
+        Clearance pair name (one of ``machine.pair_names``).
+
+    Returns
+    -------
+    JointGeometry
+        Diameter and bearing length (m) and material pair from the description, or :data:`DEFAULT_DIAMETER`,
+        :data:`DEFAULT_BEARING_LENGTH` and :data:`DEFAULT_MATERIAL_PAIR` (named in ``assumed``).
+
     Raises
     ------
     ConfigError
@@ -147,7 +160,22 @@ def joint_wear_model(geometry: JointGeometry, load_direction: str = "fixed") -> 
 
 
 def joint_wear_models(machine, joints=None, load_direction: str = "fixed") -> dict[str, JointWear]:
-    """:func:`joint_wear_model` for the named pairs (default: every pair of the drive)."""
+    """:func:`joint_wear_model` for the named pairs (default: every pair of the drive).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        Any drive's machine description.
+    joints : iterable of str, optional
+        Pair names (default every pair of the drive).
+    load_direction : {"fixed", "rotating"}
+        Pins only (see :func:`joint_wear_model`).
+
+    Returns
+    -------
+    dict of str to JointWear
+        One wear model per pair, in the order given.
+    """
     names = list(joints) if joints else list(machine.pair_names)
     return {j: joint_wear_model(joint_geometry(machine, j), load_direction) for j in names}
 
@@ -176,7 +204,21 @@ def _body_motion(result, body: str):
 
 
 def normal_force(result, pair: str) -> np.ndarray:
-    """Normal contact force series of a pair (N): its clearance element, or the ideal joint's reaction."""
+    """Normal contact force series of a pair (N): its clearance element, or the ideal joint's reaction.
+
+    Parameters
+    ----------
+    result : MultibodyResult
+        The drive's multibody run.
+    pair : str
+        Joint name in the mechanism (= the clearance pair's name).
+
+    Returns
+    -------
+    numpy.ndarray
+        |F_n| (N) over the written samples: the clearance element's normal force, or the magnitude of the
+        ideal joint's reaction when the pair has no clearance element.
+    """
     cm = result.compiled
     if pair in cm.frc_names:
         return np.abs(result.elements[:, cm.frc_names.index(pair), 0])
@@ -200,7 +242,7 @@ def sliding_speed(result, pair: str, diameter: float, slip: float = DEFAULT_SLIP
     Returns
     -------
     numpy.ndarray
-        Pin in a bore: |omega_i - omega_j| d / 2.  Roller: slip * sqrt(|v_rel|^2 - (n . v_rel)^2), with
+        Sliding speed (m/s).  Pin in a bore: |omega_i - omega_j| d / 2.  Roller: slip * sqrt(|v_rel|^2 - (n . v_rel)^2), with
         v_rel the velocity of the roller centre relative to the material point of the other body under it and
         n . v_rel the penetration rate of the contact element (zero for an ideal joint).
     """
@@ -235,6 +277,12 @@ def _comb_swing_deg(result, body: str, sel: np.ndarray) -> float:
 
 def flat_outputs(summary: dict) -> dict[str, float]:
     """Scalar outputs of a drive summary (multibody or reduced model) under flat names.
+
+    Parameters
+    ----------
+    summary : dict
+        A run summary with ``collision_force_N`` (pair -> stat -> N), ``load_moment_Nm`` (side -> stat -> N m)
+        and ``drive_moment_Nm`` (stat -> N m), any of them optional.
 
     Returns
     -------
@@ -273,7 +321,7 @@ def joint_loads(machine, clearances_m: dict[str, float] | None, revolutions: int
     slip : float
         Roller slip ratio [assumed default 5 %].
     rtol : float
-        Integrator tolerance (default: the harvester runs', :data:`berryshaker.drives.base.HARVESTER_RTOL`).
+        Relative integrator tolerance (dimensionless; default: the harvester runs', :data:`berryshaker.drives.base.HARVESTER_RTOL`).
     initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
         Start off centre in the clearances and at another drive phase (a replicate,
         :mod:`berryshaker.multibody.perturbation`); default the centred start.

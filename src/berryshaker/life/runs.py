@@ -16,6 +16,18 @@ from berryshaker.life.joint_loads import DEFAULT_SLIP
 def machine_with_overrides(machine_data: dict, overrides: dict | None = None):
     """A validated machine from its JSON dict with SI overrides at dotted keys (``clearance.A.size``).
 
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``); not modified (a deep copy is changed).
+    overrides : dict, optional
+        Dotted key -> SI value; each key must already exist in the description.
+
+    Returns
+    -------
+    MachineBase
+        The machine description validated with the overrides applied.
+
     Raises
     ------
     ConfigError
@@ -46,6 +58,17 @@ def _finite(x: float) -> float | None:
 def joint_loads_run(machine_data: dict, clearance: dict, revolutions: int = 2, slip: float = DEFAULT_SLIP) -> dict:
     """One multibody run of :func:`berryshaker.life.joint_loads.joint_loads` in JSON form.
 
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+    clearance : dict
+        Clearance size (m) per pair; missing pairs keep the description's value.
+    revolutions : int
+        Drive revolutions (>= 2); loads over revolutions 2..N.
+    slip : float
+        Roller slip ratio (dimensionless).
+
     Returns
     -------
     dict
@@ -61,7 +84,20 @@ def joint_loads_run(machine_data: dict, clearance: dict, revolutions: int = 2, s
 
 
 def loads_from_json(value: dict) -> tuple[dict, dict]:
-    """``(loads, outputs)`` of a :func:`joint_loads_run` value, as the wear loop takes them."""
+    """``(loads, outputs)`` of a :func:`joint_loads_run` value, as the wear loop takes them.
+
+    Parameters
+    ----------
+    value : dict
+        The value of :func:`joint_loads_run`.
+
+    Returns
+    -------
+    loads : dict
+        Pair -> (t, normal_force, sliding_speed) arrays (s, N, m/s).
+    outputs : dict
+        Name -> float, NaN where the run stored None.
+    """
     loads = {j: (np.asarray(d["t"], float), np.asarray(d["force"], float), np.asarray(d["speed"], float))
              for j, d in value["loads"].items()}
     outputs = {k: (math.nan if v is None else float(v)) for k, v in value["outputs"].items()}
@@ -75,6 +111,21 @@ def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, sli
     ``seed``: start from the seeded perturbation (a replicate: clearance eccentricities uniform over
     ``harvest.initial_eccentricity`` of each free radius, drive turned by up to ``harvest.start_phase_spread``,
     :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`); default the centred start.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+    clearance : dict
+        Clearance size (m) per pair; missing pairs keep the description's value.
+    revolutions : int
+        Drive revolutions (>= 2); loads over revolutions 2..N.
+    slip : float
+        Roller slip ratio (dimensionless).
+    load_direction : {"fixed", "rotating"}
+        Pins' wear depth model (:func:`berryshaker.life.joint_loads.joint_wear_model`).
+    seed : list of int, optional
+        Seed sequence of the replicate's perturbation (see above).
 
     Returns
     -------

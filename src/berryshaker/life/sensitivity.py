@@ -49,7 +49,23 @@ class SobolParameter:
 
 
 def parse_sensitivity_param(spec: str) -> SobolParameter:
-    """``KEY=LO..HI[unit]`` (e.g. ``clearance.A.size=0.1..0.8mm``) as a :class:`SobolParameter` (SI bounds)."""
+    """``KEY=LO..HI[unit]`` (e.g. ``clearance.A.size=0.1..0.8mm``) as a :class:`SobolParameter` (SI bounds).
+
+    Parameters
+    ----------
+    spec : str
+        The ``--param`` text (read by :func:`berryshaker.runs.sweep.parse_param`).
+
+    Returns
+    -------
+    SobolParameter
+        Key, SI bounds and the display unit given.
+
+    Raises
+    ------
+    ConfigError
+        The text is not a range (a list or MEAN+-SD).
+    """
     from berryshaker.runs.sweep import parse_param
 
     p = parse_param(spec)
@@ -60,13 +76,40 @@ def parse_sensitivity_param(spec: str) -> SobolParameter:
 
 
 def default_clearance_params(machine) -> list[SobolParameter]:
-    """Every clearance pair's size over its test levels (smallest to largest level), in mm."""
+    """Every clearance pair's size over its test levels (smallest to largest level), in mm.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        Any drive's machine description (its clearance test levels).
+
+    Returns
+    -------
+    list of SobolParameter
+        ``clearance.<pair>.size`` from the pair's smallest to its largest level (SI bounds), displayed in mm.
+    """
     levels = machine.clearance_levels()
     return [SobolParameter(f"clearance.{p}.size", min(lv), max(lv), "mm", 1e-3) for p, lv in levels.items()]
 
 
 def sobol_problem(params: list[SobolParameter]) -> dict:
-    """SALib problem dict (names, SI bounds)."""
+    """SALib problem dict (names, SI bounds).
+
+    Parameters
+    ----------
+    params : list of SobolParameter
+        At least one, each key once, each with finite LO < HI.
+
+    Returns
+    -------
+    dict
+        ``num_vars``, ``names`` (the keys) and ``bounds`` ([lo, hi] per parameter, SI).
+
+    Raises
+    ------
+    ConfigError
+        No parameter, a key given twice, or bounds that are not finite with LO < HI.
+    """
     if not params:
         raise ConfigError("a sensitivity analysis needs at least one --param KEY=LO..HI[unit]")
     names = [p.key for p in params]
@@ -88,6 +131,27 @@ def _check_n(n: int) -> int:
 def sobol_sample(problem: dict, n: int, seed: int | None = 0, second_order: bool = False) -> np.ndarray:
     """Saltelli sample of a problem: shape (N (D + 2), D), or (N (2 D + 2), D) with second order.
 
+    Parameters
+    ----------
+    problem : dict
+        :func:`sobol_problem`.
+    n : int
+        Base sample N, a power of two >= 2.
+    seed : int, optional
+        Seed of the scrambled Sobol sequence.
+    second_order : bool
+        Also sample for second-order indices.
+
+    Returns
+    -------
+    numpy.ndarray
+        One row per run, one column per parameter, within the bounds (SI, the parameters' units).
+
+    Raises
+    ------
+    ConfigError
+        ``n`` is not a power of two >= 2.
+
     Notes
     -----
     ``SALib.sample.sobol.sample`` (scrambled Sobol sequence, Saltelli 2010 cross-sampling matrices).
@@ -106,13 +170,13 @@ def sobol_analyze(problem: dict, y, seed: int | None = 0, second_order: bool = F
     problem : dict
         :func:`sobol_problem`.
     y : array_like
-        Model outputs at :func:`sobol_sample`'s rows, in order.
+        Model outputs at :func:`sobol_sample`'s rows, in order (any unit: the indices are ratios of variances).
     seed : int
         Bootstrap seed (0 included: the same intervals whatever numpy's global state).
     second_order : bool
         As sampled.
     conf_level : float
-        Confidence level of the intervals.
+        Confidence level of the intervals (a fraction, e.g. 0.95).
     num_resamples : int
         Bootstrap resamples.
 
@@ -155,7 +219,18 @@ TARGET_HALF_WIDTH = 0.05
 
 def output_unit(name: str) -> str:
     """SI unit of a flat output name (:func:`berryshaker.life.joint_loads.flat_outputs` and ``joint_loads``):
-    forces "N", moments "N m", sliding speeds "m/s", swings "deg"; "" if the name does not say."""
+    forces "N", moments "N m", sliding speeds "m/s", swings "deg"; "" if the name does not say.
+
+    Parameters
+    ----------
+    name : str
+        Output name, e.g. ``collision_force_A_peak``.
+
+    Returns
+    -------
+    str
+        Its unit ("deg", "N m", "N", "m/s" or "").
+    """
     if name.endswith("_deg"):
         return "deg"
     if "moment" in name:
@@ -174,6 +249,13 @@ def resolution(indices: dict[str, dict[str, float | None]], n: int) -> dict:
     the variance) or its estimate lies outside [0, 1] beyond its interval (a negative S1 is sampling noise:
     the true index is >= 0).  The intervals shrink as 1/sqrt(N), so the suggested N is the next power of two
     above N (w / :data:`TARGET_HALF_WIDTH`)^2 for the widest interval w [assumed scaling].
+
+    Parameters
+    ----------
+    indices : dict
+        Parameter -> {"S1", "S1_conf", "ST", "ST_conf"} (:func:`sobol_analyze`).
+    n : int
+        The base sample N they were estimated from.
 
     Returns
     -------
@@ -206,6 +288,22 @@ def sobol_indices(fn: Callable[[np.ndarray], np.ndarray], problem: dict, n: int,
     """Sobol indices of a vectorised function ``fn(X) -> y`` (X of shape (runs, D)): sample, evaluate, analyse.
 
     Used for analytic checks (e.g. the Ishigami function) of the same plumbing the machine analysis uses.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(X) -> y``, one output per row of X.
+    problem : dict
+        :func:`sobol_problem`.
+    n : int
+        Base sample N (a power of two).
+    seed : int, optional
+        Seed of the sample and of the bootstrap.
+
+    Returns
+    -------
+    dict
+        Parameter -> {"S1", "S1_conf", "ST", "ST_conf"} (:func:`sobol_analyze`).
     """
     x = sobol_sample(problem, n, seed)
     return sobol_analyze(problem, fn(x), seed)
@@ -233,6 +331,8 @@ def machine_sobol(machine, params: list[SobolParameter], outputs: list[str], n: 
         Drive revolutions per run (>= 2).
     seed : int
         Seed of the scrambled Sobol sequence and of the bootstrap.
+    label : str
+        Label of the runs in the runner's progress display.
 
     Returns
     -------

@@ -43,7 +43,25 @@ def service_limit(largest_level: float, design_size: float) -> float:
 
 
 def service_limits(machine, joints: Sequence[str] | None = None) -> dict[str, float]:
-    """Service limit (m) per joint of ``machine`` (default every clearance pair) by :func:`service_limit`."""
+    """Service limit (m) per joint of ``machine`` (default every clearance pair) by :func:`service_limit`.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        Any drive's machine description (its clearance test levels and sizes).
+    joints : sequence of str, optional
+        Clearance pairs (default every pair of the machine).
+
+    Returns
+    -------
+    dict of str to float
+        Joint -> service limit (m): the larger of its largest test level and twice its design size.
+
+    Raises
+    ------
+    ConfigError
+        A joint that is not a clearance pair of the machine.
+    """
     levels = machine.clearance_levels()
     sizes = machine.clearance_sizes()
     joints = list(joints) if joints else list(machine.pair_names)

@@ -79,7 +79,23 @@ def tolerance_cost(tolerance_um, a: float = COST_MODEL["a"], b: float = COST_MOD
 
 
 def fit_cost(fit: Fit) -> float:
-    """Cost of a fit: :func:`tolerance_cost` of the hole's plus the shaft's IT width."""
+    """Cost of a fit: :func:`tolerance_cost` of the hole's plus the shaft's IT width.
+
+    Parameters
+    ----------
+    fit : Fit
+        An ISO fit with hole and shaft classes.
+
+    Returns
+    -------
+    float
+        Cost in relative units (dimensionless; :data:`COST_MODEL`, 2 = the fixed cost of two parts).
+
+    Raises
+    ------
+    ConfigError
+        The fit is an explicit clearance range (no parts).
+    """
     if fit.hole is None or fit.shaft is None:
         raise ConfigError(f"fit {fit.designation!r}: a cost needs hole and shaft classes, not a clearance range")
     return tolerance_cost(fit.hole.tolerance_um) + tolerance_cost(fit.shaft.tolerance_um)
@@ -105,7 +121,7 @@ class JointCandidates:
         Mean clearance of each fit in the machine's convention (m): radial for pins, diametral (free travel)
         for rollers.
     cost : numpy.ndarray
-        :func:`fit_cost` of each.
+        :func:`fit_cost` of each (relative cost units, dimensionless).
     """
 
     joint: str
@@ -116,7 +132,27 @@ class JointCandidates:
 
 
 def joint_candidates(machine, joints, fits=CANDIDATE_FITS) -> dict[str, JointCandidates]:
-    """Candidate fits per joint at its diameter (``[clearance.<pair>] diameter``, else the [assumed] default)."""
+    """Candidate fits per joint at its diameter (``[clearance.<pair>] diameter``, else the [assumed] default).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    joints : iterable of str
+        Clearance pairs.
+    fits : sequence of str
+        Fit designations (at least one), each a clearance fit at every joint's diameter.
+
+    Returns
+    -------
+    dict of str to JointCandidates
+        Per joint: the fits, their mean clearance size (m, machine convention) and cost.
+
+    Raises
+    ------
+    ConfigError
+        No fit given, or a fit that is not a clearance fit at a joint's diameter.
+    """
     from berryshaker.life.joint_loads import joint_geometry
 
     if not fits:
@@ -170,16 +206,53 @@ class ClearanceResponse:
     peak_force_starts: np.ndarray | None = None
 
     def force(self, c):
-        """Peak force (N) at clearance c (m): linear interpolation, constant beyond the grid."""
+        """Peak force (N) at clearance c (m): linear interpolation, constant beyond the grid.
+
+        Parameters
+        ----------
+        c : float or array_like
+            Clearance size (m).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            Mean peak collision force (N).
+        """
         return np.interp(c, self.clearance, self.peak_force)
 
     def rate(self, c):
-        """Growth rate (m/h) at clearance c (m): linear interpolation, constant beyond the grid."""
+        """Growth rate (m/h) at clearance c (m): linear interpolation, constant beyond the grid.
+
+        Parameters
+        ----------
+        c : float or array_like
+            Clearance size (m).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            Clearance growth rate (m/h, per operating hour).
+        """
         return np.interp(c, self.clearance, self.growth_rate)
 
     def hours_to(self, c0: float, c_limit: float, n: int = 400) -> float:
         """Operating hours for the clearance to grow from c0 to c_limit: int_{c0}^{c_limit} dc / r(c) (trapezoid
-        rule on ``n`` points); 0 if c0 >= c_limit, :data:`LIFE_CAP_H` if the rate vanishes."""
+        rule on ``n`` points); 0 if c0 >= c_limit, :data:`LIFE_CAP_H` if the rate vanishes.
+
+        Parameters
+        ----------
+        c0 : float
+            Starting clearance (m).
+        c_limit : float
+            Clearance limit (m).
+        n : int
+            Points of the trapezoid rule.
+
+        Returns
+        -------
+        float
+            Operating hours (h), at most :data:`LIFE_CAP_H`.
+        """
         if c0 >= c_limit:
             return 0.0
         c = np.linspace(c0, c_limit, n)
@@ -190,7 +263,20 @@ class ClearanceResponse:
 
     def grow(self, c0: float, hours) -> np.ndarray:
         """Clearance (m) after each of ``hours`` (increasing, from 0) starting at c0: dc/dh = r(c), solved
-        with scipy's RK45 on the interpolant."""
+        with scipy's RK45 on the interpolant.
+
+        Parameters
+        ----------
+        c0 : float
+            Clearance at 0 h (m).
+        hours : array_like
+            Operating hours (h), increasing from 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            Clearance (m) at each of ``hours``.
+        """
         from scipy.integrate import solve_ivp
 
         hours = np.asarray(hours, float)
@@ -201,7 +287,19 @@ class ClearanceResponse:
     def force_falls(self, alpha: float = 0.05) -> list[dict]:
         """Grid steps where the mean peak force falls as the clearance grows beyond the noise: the paired t test
         over the starts (the same starts at every point), two-sided p < ``alpha``; a property of the dynamics, not
-        noise (empty without per-start peaks)."""
+        noise (empty without per-start peaks).
+
+        Parameters
+        ----------
+        alpha : float
+            Significance level of the test (dimensionless).
+
+        Returns
+        -------
+        list of dict
+            Per falling step: ``from_mm``, ``to_mm`` (mm), ``change_N`` (mean change of the peak, N, < 0),
+            ``se_N`` (its standard error, N) and ``p``.
+        """
         from scipy import stats
 
         if self.peak_force_starts is None or self.starts < 2:
@@ -218,7 +316,14 @@ class ClearanceResponse:
         return out
 
     def to_dict(self) -> dict:
-        """JSON-able grid (mm, N, um/h)."""
+        """JSON-able grid (mm, N, um/h).
+
+        Returns
+        -------
+        dict
+            ``clearance_mm``, ``peak_force_N``, ``growth_rate_um_per_h``, ``starts`` and, when known,
+            ``peak_force_se_N`` and ``peak_force_p95_N``.
+        """
         out = {"clearance_mm": (self.clearance * 1e3).tolist(), "peak_force_N": self.peak_force.tolist(),
                "growth_rate_um_per_h": (self.growth_rate * 1e6).tolist(), "starts": int(self.starts)}
         if self.peak_force_se is not None:
@@ -230,14 +335,51 @@ class ClearanceResponse:
 
 def default_clearance_limits(machine, joints) -> dict[str, float]:
     """Clearance limit per joint (m): the service limit, :func:`berryshaker.life.service.service_limits` (the one
-    rule; this name stays for callers that have not moved to it yet)."""
+    rule; this name stays for callers that have not moved to it yet).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    joints : sequence of str, optional
+        Clearance pairs (default every pair).
+
+    Returns
+    -------
+    dict of str to float
+        Joint -> service limit (m).
+    """
     from berryshaker.life.service import service_limits
 
     return service_limits(machine, joints)
 
 
 def response_grid(machine, joints, limits: dict[str, float], lo: dict[str, float], n_points: int = 4) -> dict:
-    """Grid clearances (m) per joint: ``n_points`` from max(lo, GRID_FLOOR) to the joint's limit."""
+    """Grid clearances (m) per joint: ``n_points`` from max(lo, GRID_FLOOR) to the joint's limit.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (unused; the grid depends on ``lo`` and ``limits`` only).
+    joints : iterable of str
+        Clearance pairs.
+    limits : dict of str to float
+        Clearance limit per joint (m): the grid's upper end (1.5 times the lower end when not above it).
+    lo : dict of str to float
+        Smallest clearance per joint (m), e.g. the tightest candidate fit's mean.
+    n_points : int
+        Grid points per joint (>= 2).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        Joint -> evenly spaced clearances (m).
+
+    Raises
+    ------
+    ConfigError
+        ``n_points`` < 2.
+    """
     if n_points < 2:
         raise ConfigError(f"the surrogate grid needs >= 2 points per joint, got {n_points}")
     out = {}
@@ -256,7 +398,36 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     point from ``starts`` perturbed starts (seeds (seed_k, 0) of
     :func:`berryshaker.harvest.virtual.replicate_seeds`, the same at every point; ``starts = 1``: the centred start
     alone; default ``harvest.replicates``), and build each joint's :class:`ClearanceResponse` from the means over
-    the starts."""
+    the starts.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    joints : iterable of str
+        Clearance pairs.
+    grid : dict of str to numpy.ndarray
+        Clearances (m) per joint (:func:`response_grid`); the other joints keep the description's sizes.
+    runner : SweepRunner
+        Cached runner of the multibody runs.
+    revolutions : int
+        Drive revolutions per run (>= 2).
+    label : str
+        Label of the runs in the runner's progress display.
+    starts : int, optional
+        Perturbed starts per grid point (>= 1; default ``harvest.replicates``).
+
+    Returns
+    -------
+    dict of str to ClearanceResponse
+        Per joint: the grid, mean peak force (N), its standard error and 95th percentile, the mean growth rate
+        (m/h) and the per-start peaks.
+
+    Raises
+    ------
+    ConfigError
+        ``starts`` < 1.
+    """
     from berryshaker.harvest.virtual import replicate_seeds
     from berryshaker.life.runs import wear_rate_run
 
@@ -287,7 +458,27 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
 
 def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCandidates],
                      responses: dict[str, ClearanceResponse], limits: dict[str, float]) -> np.ndarray:
-    """Objectives [cost, peak force (N), -life (h)] of designs (rows of fit indices, one column per joint)."""
+    """Objectives [cost, peak force (N), -life (h)] of designs (rows of fit indices, one column per joint).
+
+    Parameters
+    ----------
+    choice : array_like of int
+        Designs: one row per design, one fit index per joint (a single row may be 1-D).
+    joints : sequence of str
+        Joints in the columns' order.
+    candidates : dict of str to JointCandidates
+        The fits each joint may take.
+    responses : dict of str to ClearanceResponse
+        The surrogate per joint.
+    limits : dict of str to float
+        Clearance limit per joint (m).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (designs, 3): summed cost (relative units), largest peak force over the joints (N) at the fits'
+        mean clearances, minus the shortest hours to a joint's limit (h).
+    """
     choice = np.atleast_2d(np.asarray(choice, int))
     out = np.zeros((choice.shape[0], 3))
     for r, row in enumerate(choice):
@@ -303,7 +494,18 @@ def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCand
 
 
 def non_dominated(f: np.ndarray) -> np.ndarray:
-    """Boolean mask of the rows of f (minimised objectives) that no other row dominates."""
+    """Boolean mask of the rows of f (minimised objectives) that no other row dominates.
+
+    Parameters
+    ----------
+    f : array_like
+        Objectives, one row per point (any units, all minimised).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        True for the non-dominated rows.
+    """
     f = np.asarray(f, float)
     keep = np.ones(len(f), bool)
     for i in range(len(f)):
@@ -313,7 +515,18 @@ def non_dominated(f: np.ndarray) -> np.ndarray:
 
 
 def compromise_index(f: np.ndarray) -> int:
-    """Index of the point nearest the ideal point, objectives normalised to [0, 1] over the given set."""
+    """Index of the point nearest the ideal point, objectives normalised to [0, 1] over the given set.
+
+    Parameters
+    ----------
+    f : array_like
+        Objectives, one row per point (any units, all minimised).
+
+    Returns
+    -------
+    int
+        Row nearest (Euclidean, normalised) to the per-objective minima.
+    """
     f = np.asarray(f, float)
     lo, hi = f.min(axis=0), f.max(axis=0)
     span = np.where(hi > lo, hi - lo, 1.0)
@@ -340,6 +553,8 @@ class ToleranceDesign:
         Clearance limit per joint (m).
     runs : int
         Multibody runs of the grid.
+    seed : int
+        NSGA-II seed.
     notes : list of str
         Assumptions of this design.
     """
@@ -354,7 +569,14 @@ class ToleranceDesign:
     notes: list[str] = field(default_factory=list)
 
     def to_dict(self) -> dict:
-        """JSON-able result."""
+        """JSON-able result.
+
+        Returns
+        -------
+        dict
+            ``joints``, ``front``, ``recommended``, ``surrogate`` (per joint, :meth:`ClearanceResponse.to_dict`),
+            ``clearance_limit_mm`` (mm), ``simulations``, ``seed``, ``cost_model`` and ``notes``.
+        """
         return {"joints": self.joints, "front": self.front, "recommended": self.recommended,
                 "surrogate": {j: r.to_dict() for j, r in self.responses.items()},
                 "clearance_limit_mm": {j: v * 1e3 for j, v in self.limits_m.items()},
@@ -369,6 +591,30 @@ def nsga2_front(joints, candidates, responses, limits, pop_size: int = 60, gener
     polynomial mutation with rounding repair (pymoo's recipe for discrete variables).  Duplicate offspring are
     allowed (the design space is small, and eliminating them makes pymoo's mating loop retry for long); the
     returned set is de-duplicated and filtered to the non-dominated designs.
+
+    Parameters
+    ----------
+    joints : sequence of str
+        Joints designed.
+    candidates : dict of str to JointCandidates
+        The fits each joint may take.
+    responses : dict of str to ClearanceResponse
+        The surrogate per joint.
+    limits : dict of str to float
+        Clearance limit per joint (m).
+    pop_size : int
+        NSGA-II population size.
+    generations : int
+        NSGA-II generations.
+    seed : int
+        Seed of pymoo's random sampling and operators.
+
+    Returns
+    -------
+    designs : numpy.ndarray of int
+        Non-dominated designs (fit index per joint), sorted by cost, then peak force.
+    objectives : numpy.ndarray
+        Their objectives (:func:`evaluate_designs`: cost, N, -h).
     """
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.core.problem import Problem
@@ -433,6 +679,12 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
     Returns
     -------
     ToleranceDesign
+        The Pareto front, the recommended (compromise) design per joint, the surrogate and the notes.
+
+    Raises
+    ------
+    ConfigError
+        An unknown joint, or invalid fits, grid or starts.
     """
     joints = list(joints) if joints else list(machine.pair_names)
     unknown = [j for j in joints if j not in machine.pair_names]
@@ -490,7 +742,20 @@ def force_fall_notes(responses: dict[str, ClearanceResponse], machine=None) -> l
     c (Johnson's internal line contact, :func:`berryshaker.contact.conformal.pin_in_bore_law`): the smaller c, the
     more conformal and the stiffer the contact, so an impact at a given approach speed peaks higher.  On the
     reference machine C and F fall from 0.025 to 0.083 mm by 5 and 4 standard errors of the difference over 8
-    starts."""
+    starts.
+
+    Parameters
+    ----------
+    responses : dict of str to ClearanceResponse
+        The surrogate per joint.
+    machine : MachineBase, optional
+        Tells pins from rollers (without it every joint is explained as a pin).
+
+    Returns
+    -------
+    list of str
+        One note per falling grid step, with the fall, its standard error, p and why.
+    """
     out = []
     for j, r in responses.items():
         pin = machine is None or _joint_kind(machine, j) == "revolute"

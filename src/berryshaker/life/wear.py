@@ -55,7 +55,7 @@ class JointWear:
         volume / area.  For a roller in a groove (free travel = groove width - roller diameter) use the
         track area of ONE flank: contacts on either flank then add their depths to the free travel.
     pin_diameter, bearing_length : float
-        m, for "pin-in-bore".
+        Pin diameter d and bush contact length L (m), for "pin-in-bore".
     load_direction : {"fixed", "rotating"}
         For "pin-in-bore" (see the contact function).
     wear_area : float
@@ -101,6 +101,20 @@ class JointWear:
         -----
         Archard volume over the window (trapezoid rule) times :attr:`depth_per_volume`, divided by the
         window length t[-1] - t[0]: the window is taken as representative of steady operation.
+
+        Parameters
+        ----------
+        t : array_like
+            Times of the window (s), increasing.
+        normal_force : array_like
+            Normal contact force at those times (N).
+        sliding_speed : array_like
+            Sliding speed at the contact (m/s).
+
+        Returns
+        -------
+        float
+            Clearance growth rate (m/s: m per operating second).
         """
         m = self.material
         volume = archard_wear_volume(normal_force, sliding_speed, t, m.wear_coefficient, m.hardness)
@@ -144,16 +158,16 @@ class WearLife:
     Attributes
     ----------
     hours : numpy.ndarray
-        Operating hours of the simulated states (0 first).
+        Operating hours of the simulated states (h; 0 first).
     clearance, peak_force, mean_force, growth_rate : dict joint -> numpy.ndarray
         Clearance size (m), peak and time-mean |normal force| (N) over the simulated window, and the wear
         growth rate of the clearance (m per operating hour) at each state.
     outputs : dict name -> numpy.ndarray
-        Scalar outputs of the simulator at each state.
+        Scalar outputs of the simulator at each state (SI, the units of each output, e.g. N for a force).
     limits : dict key -> dict
         Each limit: {"max" or "min": value, "hours": first crossing (h) or None}.
     maintenance_interval_hours : float or None
-        Earliest crossing over all limits, None if none was reached within the horizon.
+        Earliest crossing over all limits (h), None if none was reached within the horizon.
     governing_limit : str or None
         The limit that sets the interval.
     completed : bool
@@ -176,7 +190,16 @@ class WearLife:
 
     def to_dict(self) -> dict:
         """JSON-able result: per joint hours[], clearance_mm[] and, for wearing joints, peak_force_N[],
-        mean_force_N[], growth_rate_um_per_h[]; outputs over hours; limits and the maintenance interval."""
+        mean_force_N[], growth_rate_um_per_h[]; outputs over hours; limits and the maintenance interval.
+
+        Returns
+        -------
+        dict
+            ``hours`` (h), ``joints`` (per joint ``hours``, ``wears``, ``clearance_mm`` and, if it wears,
+            ``peak_force_N``, ``mean_force_N``, ``growth_rate_um_per_h``), ``outputs`` (name -> values over
+            hours), ``limits``, ``maintenance_interval_h`` (h or None), ``governing_limit``, ``completed``,
+            ``message`` and a ``clearance_convention`` note.
+        """
         hours = self.hours.tolist()
         return {
             "hours": hours,
@@ -278,7 +301,7 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
         Gives the initial clearance sizes (``machine.clearance_sizes()``, m); may be None when
         ``initial_clearances`` names every joint.
     hours : float
-        Horizon in operating hours (> 0).
+        Horizon (h, operating hours; > 0).
     limits : dict, optional
         Service limits.  Keys: a scalar output name of the simulator, ``"clearance:<joint>"`` (m),
         ``"peak_force:<joint>"`` or ``"mean_force:<joint>"`` (N).  Values: a number (a maximum) or
@@ -305,6 +328,8 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
     Returns
     -------
     WearLife
+        The clearances, forces, growth rates and outputs at each simulated state, each limit's first
+        crossing and the maintenance interval.
 
     Notes
     -----
