@@ -53,7 +53,7 @@ def bruise_probability(drop_height, median_height: float, cv: float):
     median_height : float
         Median bruise-threshold drop height h_50 of the surface (m).
     cv : float
-        Coefficient of variation of the thresholds over fruit (lognormal).
+        Coefficient of variation of the thresholds over fruit (lognormal; dimensionless).
 
     Returns
     -------
@@ -79,7 +79,18 @@ def _finger_speed(machine_json: str) -> float:
 
 def finger_speed(machine: Machine) -> float:
     """Peak speed of the striking fingers (m/s): omega x the finger amplitude of the drive geometry
-    (berryshaker.harvest.virtual.shaking_amplitude), the peak speed of a harmonic swing."""
+    (berryshaker.harvest.virtual.shaking_amplitude), the peak speed of a harmonic swing.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (drive speed and geometry).
+
+    Returns
+    -------
+    float
+        Finger amplitude (m) times the drive speed (rad/s): the peak finger speed (m/s).
+    """
     return _finger_speed(machine.model_dump_json())
 
 

@@ -34,6 +34,30 @@ def calibrate_contact_damping(machine: Machine, target_end_force: float = 1.0, b
 
     Brent's method on log10(cmax); each evaluation is one coupled drive-past simulation (about 3 s).
     Returns the damping and the summary of the final run.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block; its ``plant.contact.damping`` is replaced in each run.
+    target_end_force : float
+        Peak force at the end fruit to reach (N).
+    bracket : (float, float)
+        Lowest and highest contact damping searched (N s/m); the end force minus the target must change sign
+        between them.
+    rel_tol : float
+        Relative tolerance of the damping (dimensionless): Brent's step tolerance is log10(1 + rel_tol).
+
+    Returns
+    -------
+    damping : float
+        The contact damping (N s/m).
+    summary : dict
+        :meth:`berryshaker.harvest.coupled.FruitForceResult.summary` of the run at that damping.
+
+    Raises
+    ------
+    ConfigError
+        The end fruit's peak force does not cross the target within the bracket.
     """
     cache: dict[float, dict] = {}
 

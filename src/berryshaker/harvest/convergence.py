@@ -79,14 +79,15 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     clearance : dict, optional
         Clearance sizes (m) for the runs.
     rtol : float
-        Integrator tolerance.
+        Relative integrator tolerance (dimensionless).
     replicates : int, optional
         R, default ``harvest.replicates`` (the calibration's count); at least 2.
     shared_run : bool
         True (default): one run per replicate carrying every mode count as a probe (truncation alone);
         False: one run per replicate and mode count (truncation plus the step-sequence sensitivity).
     tolerance, confidence : float
-        The convergence tolerance (relative) and the confidence of the t bound.
+        The convergence tolerance (a relative difference, dimensionless) and the confidence of the t bound (a
+        fraction, e.g. 0.95).
 
     Returns
     -------
@@ -165,7 +166,25 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
 def smallest_converged_modes(table: dict) -> int:
     """Smallest mode count from which on every row below the most modes is ``converged`` at every fruit position
     (:func:`fruit_force_convergence`: the replicate-mean difference from the most modes, with its noise, inside
-    the tolerance).  Raises when none is."""
+    the tolerance).  Raises when none is.
+
+    Parameters
+    ----------
+    table : dict
+        :func:`fruit_force_convergence`'s result (its ``rows``, each with ``n_modes`` and ``verdict``, and
+        ``tolerance``).
+
+    Returns
+    -------
+    int
+        The smallest mode count n such that every row from n on, up to (not including) the most modes, is
+        ``converged``.
+
+    Raises
+    ------
+    ConfigError
+        No mode count below the most converged.
+    """
     from berryshaker.errors import ConfigError
 
     rows = sorted(table["rows"], key=lambda r: r["n_modes"])[:-1]

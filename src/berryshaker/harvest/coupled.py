@@ -41,6 +41,19 @@ def plant_modes(machine: Machine):
     stems inside the modal model (berryshaker.plant.pedicel.fruit_branch_modes: n_modes branch modes
     + one mode per fruit); ``fruit_branch`` then gives the fruit displacements.  Otherwise the branch's
     own modes (study eq. 15) and ``None``.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+
+    Returns
+    -------
+    modes : Modes
+        The modes integrated: the branch's ``plant.contact.n_modes`` modes, or the combined branch-and-fruit
+        modes (branch part, mass-normalised).
+    fruit_branch : FruitBranchModes or None
+        The combined modes with their fruit part (two-way pedicel), else None.
     """
     pl = machine.plant
     modes = branch_modes(pl.branch, pl.contact.n_modes)
@@ -54,7 +67,7 @@ def plant_modes(machine: Machine):
     return fb.modes, fb
 
 
-#: names of the aggregate bush spring-dampers every drive's mechanism carries (drives/*/mechanism.py)
+#: names of the aggregate bush spring-dampers every drive's mechanism carries (``drives/*/mechanism.py``)
 AGGREGATE_LOAD_FORCES = ("bush_left", "bush_right")
 
 
@@ -76,8 +89,17 @@ def _finger_points(machine, drive, ct):
 def bush_members(machine: Machine):
     """The reached members of the machine's bush population (berryshaker.plant.bush), with their modes.
 
-    Returns a list of ``(member, modes)`` for the members the fingers reach, in drawing order; empty when
-    ``combs.load_model = "aggregate"`` or ``plant.bush.members = 0``.
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+
+    Returns
+    -------
+    list of (BushBranch, Modes)
+        The members the fingers reach (a station on the branch), in drawing order, each with its
+        ``plant.bush.n_modes`` modes; empty when ``combs.load_model = "aggregate"`` or
+        ``plant.bush.members = 0``.
     """
     from berryshaker.plant.bush import member_modes, sample_bush
 
@@ -109,6 +131,29 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     back, the combs' motion is the same for all of them, so the probes differ only by their own modal
     model: a comparison of modal models (convergence in modes, two-way against one-way fruit) free of the
     clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    clearance : dict of str to float, optional
+        Clearance sizes (m) per pair; missing pairs keep the description's.
+    margin : float
+        Distance before and after the instrumented branch's span covered by the run (m).
+    probes : tuple of Machine
+        Further descriptions whose instrumented branch is carried as a probe (see above).
+
+    Returns
+    -------
+    spec : MechanismSpec
+        The validated mechanism description with its modal plant body and comb-branch contacts.
+    machine : Machine
+        ``machine`` with the clearances applied.
+
+    Raises
+    ------
+    ConfigError
+        The description has no [plant] block.
     """
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
@@ -208,6 +253,19 @@ def comb_load_moment(res: MultibodyResult, machine: Machine) -> dict[str, np.nda
     contact's reaction weight (branches / members for a sampled member, 0 for the instrumented fruit
     branch, which is driven without acting back).  ``"aggregate"``: the spring-damper's moment
     (``bush_left``, ``bush_right``).
+
+    Parameters
+    ----------
+    res : MultibodyResult
+        A coupled run (:func:`coupled_mechanism`).
+    machine : Machine
+        Its machine description (load model and shaft positions).
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        ``left`` and ``right`` -> moment on the comb (N m) at each output time (a side without contacts or
+        spring-damper is absent).
     """
     cm = res.compiled
     spec = cm.spec
@@ -244,6 +302,37 @@ class FruitForceResult:
     (default) the magnitude of the in-plane stem force (lateral and axial, the fruit's weight included
     when ``plant.fruit.pedicel.include_weight``), with ``pedicel.rigid = true`` the study's eq. 16,
     m0 x branch acceleration (signed).  ``rigid_force`` is always eq. 16.
+
+    Attributes
+    ----------
+    distance : numpy.ndarray
+        Machine-to-plant distance along the row at each output time (m), negative before the comb centre.
+    t : numpy.ndarray
+        Output times (s).
+    fruit_force : dict of str to numpy.ndarray
+        Per fruit name: the force compared with the bond (N; stem force magnitude, or eq. 16 when rigid).
+    z : dict of str to float
+        Fruit positions (m from the root).
+    contact_force : dict of str to numpy.ndarray
+        Comb-branch normal contact forces on this branch (N), per contact.
+    deflection : dict of str to numpy.ndarray
+        Lateral branch deflection at each fruit (m).
+    result : MultibodyResult
+        The multibody run.
+    machine : Machine
+        The machine description (clearances applied).
+    rigid_force : dict of str to numpy.ndarray
+        Eq. 16, m0 x lateral branch acceleration at each fruit (N).
+    stem_lateral : dict of str to numpy.ndarray
+        Lateral stem force on each fruit (N); empty when rigid.
+    stem_axial : dict of str to numpy.ndarray
+        Axial stem force on each fruit, weight included when configured (N); empty when rigid.
+    motion : BranchMotion or None
+        The branch's modal solution, for post-processing.
+    load_moment : dict of str to numpy.ndarray
+        Moment of the bush on each comb about its shaft (N m; :func:`comb_load_moment`).
+    probes : list of FruitForceResult
+        The result of each probe carried in the same run.
     """
 
     distance: np.ndarray  # machine-to-plant distance along the row (m), negative before the comb centre
@@ -262,7 +351,19 @@ class FruitForceResult:
     probes: list = field(default_factory=list, repr=False)  # FruitForceResult of each probe of the same run
 
     def summary(self) -> dict:
-        """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics."""
+        """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics.
+
+        Returns
+        -------
+        dict
+            ``positions`` (per fruit: ``z_m``, ``peak_force_N``, ``rms_force_N``, ``peak_at_distance_m``,
+            ``eq17`` verdict, ``rigid_peak_force_N`` and, where the study gives one, ``study_range_N`` and
+            ``within_study_range``), ``study_ranges_N``, ``fruit_model``, ``pedicel`` (stiffness N/m, damping
+            N s/m, natural frequency Hz, damping ratio...; not when rigid), ``contact`` (per contact ``peak_N`` and
+            ``impacts``), ``rises_root_to_end``, ``load_model``, ``load_moment_Nm`` (per comb peak, rms and mean
+            |M| while the bush is inside the comb, N m), ``bush`` (branches load model), ``steps``,
+            ``wall_time_s`` (s) and ``clearance_mm`` (mm).
+        """
         out = {"positions": {}, "study_ranges_N": STUDY_FRUIT_FORCE_N, "contact": {}}
         ped = self.machine.plant.fruit.pedicel
         out["fruit_model"] = "rigid (eq. 16)" if ped.rigid else "pedicel"
@@ -325,7 +426,23 @@ class BranchMotion:
     """Modal solution of a coupled run, ready for evaluation anywhere on the branch.
 
     Frozen: :attr:`_rows` keeps per-mode copies of the series, so the series must not change after construction
-    (``eta`` and ``etad`` are views of the run's state array: do not write into ``res.y`` either)."""
+    (``eta`` and ``etad`` are views of the run's state array: do not write into ``res.y`` either).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Output times (s), uniform.
+    modes : Modes
+        The branch's mass-normalised modes (shapes 1/sqrt(kg)).
+    eta : numpy.ndarray
+        Modal displacements, (n_t, n_modes) (sqrt(kg) m).
+    etad : numpy.ndarray
+        Modal velocities (sqrt(kg) m/s).
+    etadd : numpy.ndarray
+        Modal accelerations from the branch's stiffness, damping and the comb contacts (sqrt(kg) m/s^2).
+    contact_force : dict of str to numpy.ndarray
+        Normal force of each comb contact that loads this branch (N).
+    """
 
     t: np.ndarray
     modes: object  # berryshaker.plant.modes.Modes
@@ -335,7 +452,18 @@ class BranchMotion:
     contact_force: dict[str, np.ndarray]
 
     def every(self, n: int) -> "BranchMotion":
-        """Every n-th sample (for post-processing on a coarser, still uniform, time grid)."""
+        """Every n-th sample (for post-processing on a coarser, still uniform, time grid).
+
+        Parameters
+        ----------
+        n : int
+            Keep samples 0, n, 2n, ...
+
+        Returns
+        -------
+        BranchMotion
+            The same motion on the coarser grid.
+        """
         return BranchMotion(self.t[::n], self.modes, self.eta[::n], self.etad[::n], self.etadd[::n],
                             {k: v[::n] for k, v in self.contact_force.items()})
 
@@ -354,7 +482,24 @@ class BranchMotion:
     def lateral(self, z, acceleration: bool = True):
         """Lateral displacement (m), velocity (m/s), acceleration (m/s^2) at positions z, each (n_z, n_t).
 
-        ``acceleration=False``: the third is None (not computed: the stem forces need only the first two)."""
+        ``acceleration=False``: the third is None (not computed: the stem forces need only the first two).
+
+        Parameters
+        ----------
+        z : float or array_like
+            Positions along the branch (m from the root).
+        acceleration : bool
+            Also compute the acceleration.
+
+        Returns
+        -------
+        displacement : numpy.ndarray
+            (n_z, n_t) lateral displacement (m).
+        velocity : numpy.ndarray
+            (n_z, n_t) lateral velocity (m/s).
+        acceleration : numpy.ndarray or None
+            (n_z, n_t) lateral acceleration (m/s^2), or None.
+        """
         phi_t = self.modes.shape_at(np.atleast_1d(z)).T  # (n_z, n_modes)
         e, ed = self._rows
         return phi_t @ e, phi_t @ ed, (phi_t @ self._acceleration_rows if acceleration else None)
@@ -364,6 +509,18 @@ class BranchMotion:
 
         u(z, t) = -1/2 int_0^z (dw/ds)^2 ds = -1/2 eta^T G(z) eta,  G_ij(z) = int_0^z phi_i' phi_j' ds
         (second order in the deflection; the Euler-Bernoulli branch has no first-order axial motion).
+
+        Parameters
+        ----------
+        z : float or array_like
+            Positions along the branch (m from the root).
+
+        Returns
+        -------
+        displacement : numpy.ndarray
+            (n_z, n_t) axial displacement u (m), <= 0 (towards the root).
+        velocity : numpy.ndarray
+            (n_z, n_t) axial velocity (m/s).
         """
         zs = np.atleast_1d(np.asarray(z, float))
         m = self.modes
@@ -415,7 +572,23 @@ def branch_motion(res: MultibodyResult, modes, offset: int = 0) -> BranchMotion:
     """Modal displacements, velocities and accelerations of the branch from a coupled multibody result
     (``modes``: the :class:`~berryshaker.plant.modes.Modes` the run was built with; ``offset``: index of its
     first modal coordinate in the plant's block-diagonal modal body, 0 for the instrumented branch, another for
-    a probe of :func:`coupled_mechanism`)."""
+    a probe of :func:`coupled_mechanism`).
+
+    Parameters
+    ----------
+    res : MultibodyResult
+        A coupled run.
+    modes : Modes
+        The modes the branch was built with.
+    offset : int
+        Index of the branch's first modal coordinate in the plant's modal body.
+
+    Returns
+    -------
+    BranchMotion
+        Modal displacements and velocities from the run's state, accelerations from the modal equations
+        (stiffness, damping and the contacts that load this branch), and those contacts' normal forces.
+    """
     cm = res.compiled
     spec = cm.spec
     nb3 = 3 * len(spec.bodies)
@@ -445,10 +618,25 @@ def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.
 
     ``z``: positions (m), or a tuple (y, v, y_axial, v_axial) of branch motions already evaluated there
     (BranchMotion.lateral / axial), to reuse them for several masses.
-    Returns (lateral, axial, magnitude), each (n_z, n_t), N.  The axial force includes the weight m0 g
-    when ``pedicel.include_weight`` (upright branch: its axis is vertical).  Lateral: driven by the
-    branch's lateral displacement and velocity (absolute-coordinate form, smooth inputs); axial: by the
-    foreshortening displacement and velocity (BranchMotion.axial).
+    The axial force includes the weight m0 g when ``pedicel.include_weight`` (upright branch: its axis is
+    vertical).  Lateral: driven by the branch's lateral displacement and velocity (absolute-coordinate form,
+    smooth inputs); axial: by the foreshortening displacement and velocity (BranchMotion.axial).
+
+    Parameters
+    ----------
+    motion : BranchMotion
+        The branch's modal solution (its time grid, and the motion when ``z`` is positions).
+    z : array_like or tuple
+        Fruit positions (m from the root), or (y, v, y_axial, v_axial) already evaluated there (m, m/s).
+    mass : float
+        Fruit mass m0 (kg).
+    pedicel : PedicelSpec
+        The pedicel description (``stiffness`` N/m, ``damping`` N s/m, ``include_weight``).
+
+    Returns
+    -------
+    lateral, axial, magnitude : numpy.ndarray
+        Stem force on the fruit, each (n_z, n_t) (N): lateral, axial and the in-plane magnitude.
     """
     from berryshaker.plant.pedicel import GRAVITY, stem_response
 
@@ -480,6 +668,31 @@ def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = 
     ``probes``: machine descriptions differing from ``machine`` only in the instrumented branch's modal model
     (``plant.contact.n_modes``) or its fruit (``plant.fruit``), carried in the same run as further probes
     (:func:`coupled_mechanism`); their results, in order, are in the returned result's ``probes``.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    clearance : dict of str to float, optional
+        Clearance sizes (m) per pair; missing pairs keep the description's.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+    output_step : float
+        Output sampling step (s).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start off centre and at another drive phase (default the centred start).
+    probes : tuple of Machine
+        Descriptions carried as probes (see above).
+
+    Returns
+    -------
+    FruitForceResult
+        Fruit forces, contact forces, deflections and comb load moments of the run, with the probes' results.
+
+    Raises
+    ------
+    ConfigError
+        A probe differs from ``machine`` elsewhere than ``plant.contact.n_modes`` and ``plant.fruit``.
     """
     for i, p in enumerate(probes):
         same = p.model_dump()
@@ -510,6 +723,26 @@ def drive_past(machine: Machine, clearance: dict[str, float] | None = None, rtol
     the whole fruit zone, berryshaker.harvest.virtual.stem_force_envelope_run).  The same run, step for
     step, as :func:`simulate_fruit_force` with the same arguments (no probes): the fruit forces, the comb load
     moments and their summary are left out (~40 ms of a replicate's ~0.5 s, benchmarks/HISTORY.md sec. 22).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    clearance : dict of str to float, optional
+        Clearance sizes (m) per pair; missing pairs keep the description's.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+    output_step : float
+        Output sampling step (s).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start off centre and at another drive phase (default the centred start).
+
+    Returns
+    -------
+    result : MultibodyResult
+        The multibody run.
+    motion : BranchMotion
+        The instrumented branch's modal solution.
     """
     spec, machine = coupled_mechanism(machine, clearance)
     res = simulate_mechanism(spec, rtol=rtol, output_step=output_step, initial_perturbation=initial_perturbation)

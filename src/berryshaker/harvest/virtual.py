@@ -52,13 +52,41 @@ FRUIT_PER_BUSH_BOUNDS = (50, 20000)
 
 def fruit_per_bush(machine: Machine, yield_per_bush: float | None = None) -> int:
     """Fruit on one bush at a harvest pass: yield per bush / mean fruit mass m0 (428 on the reference machine:
-    0.77 kg of 1.8 g berries), within :data:`FRUIT_PER_BUSH_BOUNDS`."""
+    0.77 kg of 1.8 g berries), within :data:`FRUIT_PER_BUSH_BOUNDS`.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest] (fruit mass m0, ``harvest.yield_per_bush``).
+    yield_per_bush : float, optional
+        Yield per bush (kg), default ``harvest.yield_per_bush``.
+
+    Returns
+    -------
+    int
+        round(yield / m0), clipped to :data:`FRUIT_PER_BUSH_BOUNDS`.
+    """
     yb = machine.harvest.yield_per_bush if yield_per_bush is None else yield_per_bush
     return int(np.clip(round(yb / machine.plant.fruit.mass), *FRUIT_PER_BUSH_BOUNDS))
 
 
 def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
-    """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class."""
+    """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak lateral acceleration (m/s^2) over the drive-past at each fraction of :data:`Z_GRID`.
+    """
     from berryshaker.harvest.coupled import drive_past
 
     m = branch_class_machine(machine, scale)
@@ -74,7 +102,23 @@ MASS_FACTORS = np.exp(np.linspace(math.log(0.4), math.log(2.5), 9))
 
 def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
     """Peak stem force (N) of fruit on compliant pedicels, table over Z_GRID (rows) x MASS_FACTORS * m0
-    (:func:`stem_force_envelope_run` from the centred initial state)."""
+    (:func:`stem_force_envelope_run` from the centred initial state).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        The table of :func:`stem_force_table`: (Z_GRID, MASS_FACTORS, channels), force in N and load ratios
+        dimensionless.
+    """
     return stem_force_envelope_run(machine, clearance, scale)[0]
 
 
@@ -97,6 +141,26 @@ def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None
     (:func:`berryshaker.harvest.coupled.drive_past`, the run of
     :func:`berryshaker.harvest.coupled.simulate_fruit_force` without its named fruit): a replicate starts the
     machine off centre in its clearances and at another drive phase.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start of a replicate (default the centred start).
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+
+    Returns
+    -------
+    table : numpy.ndarray
+        :func:`stem_force_table` (N for the force channel, dimensionless load ratios).
+    result : MultibodyResult
+        The coupled run, written every :data:`ENVELOPE_OUTPUT_STEP`.
     """
     from berryshaker.harvest.coupled import drive_past
 
@@ -107,7 +171,20 @@ def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None
 
 
 def branch_class_machine(machine: Machine, scale: float) -> Machine:
-    """The machine with its branch's root and tip diameters scaled by ``scale`` (one branch class)."""
+    """The machine with its branch's root and tip diameters scaled by ``scale`` (one branch class).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    scale : float
+        Diameter scale (dimensionless).
+
+    Returns
+    -------
+    Machine
+        A validated copy with ``plant.branch.root_diameter`` and ``tip_diameter`` multiplied by ``scale``.
+    """
     d = machine.model_dump()
     d["plant"]["branch"]["root_diameter"] *= scale
     d["plant"]["branch"]["tip_diameter"] *= scale
@@ -120,7 +197,18 @@ CH_FORCE, CH_RIPE, CH_UNRIPE = 0, 1, 2
 
 
 def bond_strengths(machine: Machine) -> list[tuple[float, float]]:
-    """Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (``harvest.ripe_pull`` ... ``unripe_shear``)."""
+    """Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (``harvest.ripe_pull`` ... ``unripe_shear``).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+
+    Returns
+    -------
+    list of (float, float)
+        [(ripe pull, ripe shear), (unripe pull, unripe shear)] (N).
+    """
     h = machine.harvest
     return [(h.ripe_pull, h.ripe_shear), (h.unripe_pull, h.unripe_shear)]
 
@@ -134,6 +222,19 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
     max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces) and the peak pull-shear load ratio of
     the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`).  With ``pedicel.rigid`` the force is m x the peak
     branch acceleration (study eq. 16), taken as pure shear (lateral) for the load ratios.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (the branch class's) with [plant] and [harvest].
+    motion : BranchMotion
+        The branch's modal solution of a drive-past.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (len(Z_GRID), len(MASS_FACTORS), 3): channel :data:`CH_FORCE` peak |F| (N), :data:`CH_RIPE` and
+        :data:`CH_UNRIPE` peak pull-shear load ratios (dimensionless).
     """
     from berryshaker.plant.pedicel import peak_stem_loads
 
@@ -167,6 +268,22 @@ def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: 
     A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope a stem-force table
     over Z_GRID x MASS_FACTORS m0, a 3-D one the channels of :func:`stem_force_table` (the force channel is read);
     tables are interpolated linearly in z and in log mass.
+
+    Parameters
+    ----------
+    envelope : numpy.ndarray
+        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
+    z : numpy.ndarray
+        Fruit positions, fractions of the branch length (dimensionless).
+    mass : numpy.ndarray
+        Fruit masses (kg).
+    m0 : float
+        Mean fruit mass of the table's mass factors (kg).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak stem force of each fruit (N); masses outside the table's range take its nearest column.
     """
     env = np.asarray(envelope, float)
     if env.ndim == 1:
@@ -181,6 +298,26 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
     From the channels of :func:`stem_force_table` (the ripe or the unripe ratio by ``ripe``).  A table without
     load channels (1-D acceleration envelope or 2-D force table) is read as pure shear: ratio = peak force / mean
     shear strength ``strengths[c][1]`` (c = 0 ripe, 1 unripe).
+
+    Parameters
+    ----------
+    envelope : numpy.ndarray
+        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
+    z : numpy.ndarray
+        Fruit positions, fractions of the branch length (dimensionless).
+    mass : numpy.ndarray
+        Fruit masses (kg).
+    m0 : float
+        Mean fruit mass of the table's mass factors (kg).
+    ripe : numpy.ndarray of bool
+        Whether each fruit is ripe.
+    strengths : list of (float, float)
+        Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak load ratio of each fruit (dimensionless); it comes off when this reaches its strength factor.
     """
     env = np.asarray(envelope, float)
     if env.ndim == 3:
@@ -191,7 +328,27 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
 
 @dataclass
 class Population:
-    """Fruit of the sampled bushes (flat arrays)."""
+    """Fruit of the sampled bushes (flat arrays).
+
+    Attributes
+    ----------
+    branch_class : numpy.ndarray of int
+        Index into ``harvest.branch_classes`` of each fruit's branch.
+    z : numpy.ndarray
+        Position along the branch, fraction of its length (dimensionless).
+    mass : numpy.ndarray
+        Fruit mass (kg).
+    ripe : numpy.ndarray of bool
+        Whether the fruit is ripe.
+    bond : numpy.ndarray
+        Bond drawn uniformly in the study's eq. 17 band (N; used with ``bond_model = "study_eq17"``).
+    bushes : int
+        Bushes sampled.
+    weight : float
+        Real fruit represented by each sampled fruit (dimensionless): yield per bush x bushes / sampled mass.
+    strength : numpy.ndarray or None
+        Strength factor s of each fruit (dimensionless): its pull and shear strengths are s P, s S.
+    """
 
     branch_class: np.ndarray  # index into branch_classes
     z: np.ndarray  # fraction of branch length
@@ -212,6 +369,23 @@ def sample_population(machine: Machine, seed: int | None = None, unripe_fraction
     strength factor s (lognormal with mean 1 and CV ``bond_cv``, ripe, or ``unripe_bond_cv``: the fruit's pull and
     shear strengths are s times its class's means, both modes scaled together [assumed]) and an eq. 17 bond
     (uniform in the study's band).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    seed : int, optional
+        Seed of the population (default ``harvest.seed``).
+    unripe_fraction : float, optional
+        Probability that a fruit is unripe (dimensionless; default ``harvest.unripe_fraction``).
+    yield_per_bush : float, optional
+        Yield per bush (kg) that sets ``weight`` (default ``harvest.yield_per_bush``); the number of fruit
+        sampled stays that of the described yield.
+
+    Returns
+    -------
+    Population
+        :func:`fruit_per_bush` x ``harvest.bushes`` fruit.
     """
     h = machine.harvest
     rng = np.random.default_rng(h.seed if seed is None else seed)
@@ -243,6 +417,26 @@ def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Populati
     the probability that a detached fruit is bruised by its impacts (berryshaker.harvest.bruising.impact_damage);
     "stem_acceleration" -- 1 - exp(-(a/a_d)^k) in the acceleration a = peak stem force / mass.  The expected
     damaged mass is used (no sampling noise in the index).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation] (walking speed, plant spacing).
+    envelopes : list of numpy.ndarray
+        One envelope per branch class (:func:`stem_force_table`, or the 1-D / 2-D forms of
+        :func:`fruit_peak_force`; N, m/s^2 for the 1-D form).
+    pop : Population
+        The sampled fruit.
+    damage_acceleration : float, optional
+        Weibull scale a_d (m/s^2) of the "stem_acceleration" damage model (default
+        ``harvest.damage_acceleration``).
+
+    Returns
+    -------
+    dict
+        ``efficiency_kg_min`` (kg/min), ``unripe_rate_pct`` and ``damage_rate_pct`` (% of the picked mass; NaN
+        when nothing is picked), ``ripe_picked_fraction`` and ``unripe_shed_fraction`` (fractions of the ripe and
+        unripe mass), ``fruit_sampled``, ``yield_per_bush_kg`` (kg), ``bushes`` and ``bushes_per_min`` (1/min).
     """
     h = machine.harvest
     m0 = machine.plant.fruit.mass
@@ -285,13 +479,44 @@ def harvest_indexes(machine: Machine, envelopes: list[np.ndarray], pop: Populati
 
 
 def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:
-    """Stem-force envelopes (:func:`stem_force_envelope`) of every branch class."""
+    """Stem-force envelopes (:func:`stem_force_envelope`) of every branch class.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One :func:`stem_force_table` per ``harvest.branch_classes`` entry (N, dimensionless load ratios).
+    """
     return [stem_force_envelope(machine, clearance, s) for s in machine.harvest.branch_classes]
 
 
 def virtual_harvest(machine: Machine, clearance: dict[str, float] | None = None, seed: int | None = None,
                     envelopes: list[np.ndarray] | None = None) -> dict:
-    """Indexes of one virtual field test run at the given clearances (seeded, deterministic)."""
+    """Indexes of one virtual field test run at the given clearances (seeded, deterministic).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float, optional
+        Clearance sizes (m) per pair.
+    seed : int, optional
+        Population seed (default ``harvest.seed``).
+    envelopes : list of numpy.ndarray, optional
+        Envelopes already computed at these clearances (N, dimensionless load ratios; default
+        :func:`envelopes_for`).
+
+    Returns
+    -------
+    dict
+        :func:`harvest_indexes` with ``clearance_mm`` (mm per pair).
+    """
     env = envelopes if envelopes is not None else envelopes_for(machine, clearance)
     pop = sample_population(machine, seed)
     out = harvest_indexes(machine, env, pop)
@@ -320,7 +545,8 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         data, docs/harvest.md), every index held out.  "damage" needs ``damage_model = "stem_acceleration"`` (the
         impact model has no free scale).
     envelopes : list of ndarray, optional
-        Stem-force envelopes (:func:`envelopes_for`) already computed at these clearances: one drive-past per
+        Stem-force envelopes (:func:`envelopes_for`; N, dimensionless load ratios) already computed at these
+        clearances: one drive-past per
         branch class from the unperturbed start, with the description's population (``harvest.seed``).
     replicates : list of (envelopes, population_seed), optional
         Replicates of the virtual test run at these clearances (the replicated L9's statistic,
@@ -427,7 +653,20 @@ def replicate_seeds(machine: Machine, replicates: int | None = None) -> list[int
     """Seeds of the replicates of a virtual test run (docs/harvest.md, "Replicates"): ``harvest.seed + 1000 k``,
     k = 0 .. R - 1, R = ``replicates`` or ``harvest.replicates``; replicate k's drive-past of branch class c
     starts from the perturbation seeded (seed_k, c), its population is seeded seed_k (the calibration's and
-    the virtual L9's seeds: berryshaker.study.l9 uses this function)."""
+    the virtual L9's seeds: berryshaker.study.l9 uses this function).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+    replicates : int, optional
+        R (default ``harvest.replicates``).
+
+    Returns
+    -------
+    list of int
+        ``harvest.seed + 1000 k`` for k = 0 .. R - 1.
+    """
     h = machine.harvest
     r = int(h.replicates if replicates is None else replicates)
     return [h.seed + 1000 * k for k in range(r)]
@@ -439,7 +678,23 @@ def replicate_envelopes_run(machine: Machine, clearance: dict | None = None, rep
     the ``replicates`` of :func:`calibrate_harvest` and :func:`replicate_response`.  Replicate k's run of
     class c starts from :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` ((seed_k, c),
     ``harvest.initial_eccentricity``, ``harvest.start_phase_spread``), as the calibration's and the L9's
-    (berryshaker.study.runs.replicate_run)."""
+    (berryshaker.study.runs.replicate_run).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict, optional
+        Clearance sizes (m) per pair.
+    replicates : int, optional
+        R (default ``harvest.replicates``).
+
+    Returns
+    -------
+    list of (list of numpy.ndarray, int)
+        Per replicate: one :func:`stem_force_table` per branch class (N, dimensionless load ratios) and the
+        population seed.
+    """
     from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
     h = machine.harvest
@@ -457,7 +712,26 @@ def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray]
     I = (1/R) sum_k I_k with I_k the indexes of envelopes_k on the population seeded seed_k (the statistic the
     calibration fits, :func:`calibrate_harvest`).  Keys: every index (mean), ``<index>_sd`` (sample SD over
     the replicates, ddof 1; 0 for one replicate), ``replicates`` (R), ``shaking_frequency_hz`` and the shaking
-    amplitude (:func:`shaking_amplitude`)."""
+    amplitude (:func:`shaking_amplitude`).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    replicates : list of (list of numpy.ndarray, int)
+        Per replicate its envelopes (N, dimensionless load ratios) and population seed.
+
+    Returns
+    -------
+    dict
+        The keys above: index means (%, kg/min), ``<index>_sd`` (same units), ``replicates``,
+        ``shaking_frequency_hz`` (Hz), ``comb_swing_deg`` (deg) and ``finger_amplitude_mm`` (mm).
+
+    Raises
+    ------
+    ConfigError
+        No replicate given.
+    """
     from berryshaker.errors import ConfigError
 
     if not replicates:
@@ -492,7 +766,6 @@ def harvest_response(machine: Machine, clearance: dict | None = None, replicates
         population included, as described.
     clearance : dict, optional
         Clearance sizes (m).
-
     replicates : int, optional
         Replicates R, default ``harvest.replicates`` (the calibration's count and seeds).
 
@@ -541,7 +814,23 @@ def shaking_amplitude(machine: Machine) -> dict:
 
 def response_indexes(machine: Machine, envelopes: list[np.ndarray], seed: int | None = None) -> dict:
     """The indexes of :func:`harvest_response` from stem-force envelopes already computed (one per branch
-    class), on the population seeded ``seed`` (default ``harvest.seed``): one replicate."""
+    class), on the population seeded ``seed`` (default ``harvest.seed``): one replicate.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    envelopes : list of numpy.ndarray
+        One envelope per branch class (N, dimensionless load ratios).
+    seed : int, optional
+        Population seed (default ``harvest.seed``).
+
+    Returns
+    -------
+    dict
+        ``ripe_removal_pct``, ``unripe_shed_pct``, ``damage_rate_pct``, ``unripe_rate_pct`` (%),
+        ``efficiency_kg_min`` (kg/min), ``shaking_frequency_hz`` (Hz) and :func:`shaking_amplitude`'s keys.
+    """
     idx = harvest_indexes(machine, envelopes, sample_population(machine, seed))
     return {"ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
             "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
@@ -551,7 +840,25 @@ def response_indexes(machine: Machine, envelopes: list[np.ndarray], seed: int | 
 
 def with_drive_speed(machine_data: dict, speed: float) -> dict:
     """A machine description (dict, SI) with the drive shaft's speed replaced (rad/s), for any drive: the
-    section whose ``speed`` is the machine's drive speed (``cam.speed``, ``crank.speed``, ...)."""
+    section whose ``speed`` is the machine's drive speed (``cam.speed``, ``crank.speed``, ...).
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``); not modified.
+    speed : float
+        New drive speed (rad/s), > 0.
+
+    Returns
+    -------
+    dict
+        A shallow copy with the drive section's ``speed`` replaced.
+
+    Raises
+    ------
+    ConfigError
+        ``speed`` is not > 0, or no section's speed is the drive speed.
+    """
     from berryshaker.errors import ConfigError
 
     if not speed > 0:
@@ -595,7 +902,22 @@ def removal_at_speed(machine_data: dict, speed_rpm: float, clearance: dict | Non
 
 
 def removal_vs_frequency(machine: Machine, speeds_rpm, clearance: dict | None = None) -> list[dict]:
-    """Ripe removal, unripe shedding and damage against cam speed (one :func:`removal_at_speed` row each)."""
+    """Ripe removal, unripe shedding and damage against cam speed (one :func:`removal_at_speed` row each).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [cam] section, [plant] and [harvest].
+    speeds_rpm : iterable of float
+        Cam shaft speeds (rpm).
+    clearance : dict, optional
+        Clearance sizes (m) per pair.
+
+    Returns
+    -------
+    list of dict
+        One :func:`removal_at_speed` row per speed.
+    """
     data = machine.model_dump(mode="json")
     return [removal_at_speed(data, s, clearance) for s in speeds_rpm]
 
