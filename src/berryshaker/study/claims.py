@@ -52,7 +52,22 @@ def _code(levels: dict) -> str:
 
 
 def check_claims(res: dict, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
-    """Verdict and detail for each claim, from the study's results dict."""
+    """Verdict and detail for each claim, from the study's results dict.
+
+    Parameters
+    ----------
+    res : dict
+        The study's results (``rows``, ``agreement`` ... as the pipeline collects them).
+    pair_names : tuple of str
+        The machine's clearance pairs; a claim about the study's pairs A, B, C, F is "not comparable" for
+        other pairs (except the drive-independent claims).
+
+    Returns
+    -------
+    list of dict
+        One per claim: ``id``, ``claim``, ``verdict`` (e.g. "reproduced", "not reproduced", "not comparable"),
+        ``detail`` and ``criterion``; a claim whose runs are missing is "not comparable".
+    """
     claims = []
     checkers = (_claim1, _claim2, _claim3, _claim4, _claim5, _claim6, _claim7, _claim8)
     for cid, fn in enumerate(checkers, start=1):
@@ -125,6 +140,23 @@ def paired_steps(samples: list, alpha: float = 0.05) -> list[dict]:
     both its levels).  Per step (level i -> i + 1): ``difference`` (mean of b - a), ``se``, ``p`` (two-sided,
     scipy.stats.ttest_rel), ``pairs`` (starts used) and ``verdict`` "up", "down" or "within noise" (p >= alpha;
     fewer than two pairs is no evidence: "within noise", p NaN).
+
+    Parameters
+    ----------
+    samples : list of sequences
+        Per level, the per-start values (any unit; None or NaN for a failed start).
+    alpha : float
+        Significance level of the test (dimensionless).
+
+    Returns
+    -------
+    list of dict
+        One per step, with the keys above (``difference`` and ``se`` in the samples' units).
+
+    Raises
+    ------
+    ValueError
+        Two levels have different numbers of starts.
     """
     import numpy as np
     from scipy import stats

@@ -58,12 +58,34 @@ CONFIDENCE = 0.95
 
 
 def load_responses(pairs) -> list[str]:
-    """Names of the machine-load responses: peak collision force per pair, drive torque peak and RMS."""
+    """Names of the machine-load responses: peak collision force per pair, drive torque peak and RMS.
+
+    Parameters
+    ----------
+    pairs : iterable of str
+        The machine's clearance pairs.
+
+    Returns
+    -------
+    list of str
+        ``peak_force_<pair>`` per pair, then ``drive_torque_peak`` and ``drive_torque_rms``.
+    """
     return [f"peak_force_{p}" for p in pairs] + ["drive_torque_peak", "drive_torque_rms"]
 
 
 def response_units(pairs) -> dict[str, str]:
-    """Unit of every response of the replicated L9."""
+    """Unit of every response of the replicated L9.
+
+    Parameters
+    ----------
+    pairs : iterable of str
+        The machine's clearance pairs.
+
+    Returns
+    -------
+    dict of str to str
+        Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for peak forces, "N m" for torques.
+    """
     return {**{k: v[2] for k, v in HARVEST_RESPONSES.items()}, **{f"peak_force_{p}": "N" for p in pairs},
             "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
 
@@ -93,6 +115,18 @@ def interval(y, pooled: tuple[float, int] | None = None) -> dict:
     ``pooled`` = (pure-error mean square, its dof) of the whole test: the interval is then
     t(dof) sqrt(MS_PE / n), the error model of the ANOVA (the run's own SD, with n - 1 dof, is still
     reported as ``sd``); without it t(n - 1) sd / sqrt(n).
+
+    Parameters
+    ----------
+    y : array_like
+        The run's replicate values (the response's unit).
+    pooled : (float, int), optional
+        Pure-error mean square (the response's unit squared) and its degrees of freedom.
+
+    Returns
+    -------
+    dict
+        ``mean``, ``sd``, ``ci`` ([lo, hi], the response's unit), ``n`` and ``interval_from`` (which error).
     """
     from scipy import stats
 
@@ -117,7 +151,26 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
     """Keyword arguments of :func:`berryshaker.study.runs.replicate_run` for one clearance set: for every seed,
     one coupled drive-past per branch class (seed ``[seed, class index]``), replicate-major.  ``data``: the
     machine as JSON (``machine.model_dump(mode="json")``) when the caller already has it (identical jobs are
-    shared through the runner's cache)."""
+    shared through the runner's cache).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest] (its branch classes).
+    clearance : dict
+        Clearance size (m) per pair.
+    seeds : list of int
+        Start seeds.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+    data : dict, optional
+        The machine as JSON, if the caller has it.
+
+    Returns
+    -------
+    list of dict
+        One keyword-argument dict per (seed, branch class), seed-major.
+    """
     data = machine.model_dump(mode="json") if data is None else data
     return [dict(machine_data=data, clearance=clearance, scale=s, seed=[sd, c], rtol=rtol)
             for sd in seeds for c, s in enumerate(machine.harvest.branch_classes)]
@@ -126,7 +179,22 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
 def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[list[np.ndarray], int]]:
     """(stem-force envelopes of every branch class, population seed) per replicate from the outputs of
     :func:`replicate_jobs` (in their order), the ``replicates`` of
-    :func:`berryshaker.harvest.virtual.calibrate_harvest`; a replicate with a failed run (None) is left out."""
+    :func:`berryshaker.harvest.virtual.calibrate_harvest`; a replicate with a failed run (None) is left out.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (its number of branch classes).
+    outs : list
+        Outputs of :func:`replicate_run` in :func:`replicate_jobs`' order (None for a failed run).
+    seeds : list of int
+        The start seeds of those jobs.
+
+    Returns
+    -------
+    list of (list of numpy.ndarray, int)
+        Per complete replicate: its envelopes (N, dimensionless load ratios) and seed.
+    """
     nc = len(machine.harvest.branch_classes)
     out = []
     for k, sd in enumerate(seeds):
@@ -140,7 +208,32 @@ def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict |
                 rtol: float = RTOL_RUN, outputs: list | None = None) -> list[dict[str, float]]:
     """Every response (:func:`_cell`: harvest indexes, machine loads) of one clearance set at each start seed: one
     coupled drive-past per branch class and start through the runner (cached), the start's own population.
-    ``outputs``: a list that receives each start's run outputs (one per branch class, :func:`replicate_run`)."""
+    ``outputs``: a list that receives each start's run outputs (one per branch class, :func:`replicate_run`).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    runner : SweepRunner
+        Runs the coupled drive-pasts (cached).
+    clearance : dict
+        Clearance size (m) per pair.
+    seeds : list of int
+        Start seeds.
+    data : dict, optional
+        The machine as JSON, if the caller has it.
+    label : str
+        Progress label.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+    outputs : list, optional
+        Receives each start's run outputs.
+
+    Returns
+    -------
+    list of dict
+        Per start: every response (harvest indexes in their units, peak forces N, torques N m).
+    """
     nc = len(machine.harvest.branch_classes)
     o = runner.values(replicate_run, replicate_jobs(machine, clearance, seeds, rtol, data), label)
     if outputs is not None:
@@ -149,7 +242,22 @@ def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict |
 
 
 def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, float]]:
-    """:func:`_cell` of each start from the outputs of :func:`replicate_jobs` (start-major, one per branch class)."""
+    """:func:`_cell` of each start from the outputs of :func:`replicate_jobs` (start-major, one per branch class).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    outs : list
+        Outputs of :func:`replicate_run`, start-major.
+    seeds : list of int
+        The starts' seeds (each start's population is seeded with its seed).
+
+    Returns
+    -------
+    list of dict
+        Per start: every response (harvest indexes in their units, peak forces N, torques N m).
+    """
     from berryshaker.harvest.virtual import sample_population
 
     nc = len(machine.harvest.branch_classes)
@@ -209,7 +317,9 @@ def sequential_starts(machine, runner, clearance: dict, have: list[dict] | None 
     Parameters
     ----------
     machine : Machine
+        With ``[plant]`` and ``[harvest]`` (``replicates``, ``max_replicates``, ``se_target``).
     runner : SweepRunner
+        Runs the coupled drive-pasts (cached).
     clearance : dict
         Clearance sizes (m).
     have : list of dict, optional
@@ -258,7 +368,29 @@ def sequential_starts(machine, runner, clearance: dict, have: list[dict] | None 
 def l9_jobs(machine, replicates: int | None = None, data: dict | None = None) -> tuple[list[dict], str]:
     """The replicated L9's coupled drive-pasts: keyword arguments of
     :func:`berryshaker.study.runs.replicate_run` (run-major, then :func:`replicate_jobs`' order) and the label
-    of their sweep; what :func:`virtual_l9` runs first (the study starts them ahead, ``SweepRunner.prefetch``)."""
+    of their sweep; what :func:`virtual_l9` runs first (the study starts them ahead, ``SweepRunner.prefetch``).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    replicates : int, optional
+        Replicates per run (>= 2; default ``harvest.replicates``).
+    data : dict, optional
+        The machine as JSON, if the caller has it.
+
+    Returns
+    -------
+    jobs : list of dict
+        Keyword arguments of :func:`replicate_run`.
+    label : str
+        Label of the sweep.
+
+    Raises
+    ------
+    ConfigError
+        Fewer than 2 replicates.
+    """
     from berryshaker.errors import ConfigError
 
     runs, _codes = l9_runs(machine)
@@ -447,7 +579,20 @@ def fitted_here(machine, clearance: dict) -> list[str]:
     """The harvest responses (names of :data:`HARVEST_RESPONSES`) whose value at ``clearance`` was fitted: the
     description's calibrated parameters (``harvest.yield_per_bush`` -> efficiency, ``harvest.damage_acceleration``
     -> damage, ``harvest.unripe_fraction`` -> unripe) were fitted at the configured clearances, so their indexes
-    there reproduce the calibration target and are not evidence."""
+    there reproduce the calibration target and are not evidence.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (its clearances and the provenance tags of its harvest parameters).
+    clearance : dict
+        Clearance size (m) per pair.
+
+    Returns
+    -------
+    list of str
+        The responses fitted at ``clearance`` (empty when it is not the configured set).
+    """
     from berryshaker.config import value_tag
 
     own = machine.clearance_sizes()
@@ -460,7 +605,21 @@ def fitted_here(machine, clearance: dict) -> list[str]:
 
 def paired_summary(rep: dict, pairs) -> dict:
     """Per response and factor, the paired difference of its extreme levels (last minus first, e.g. A3 - A1) over
-    the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`)."""
+    the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`).
+
+    Parameters
+    ----------
+    rep : dict
+        The replicated analysis (:func:`berryshaker.experiment.replicates.analyze_replicated`).
+    pairs : iterable of str
+        The factors (clearance pairs).
+
+    Returns
+    -------
+    dict
+        Response -> pair -> ``levels``, ``difference``, ``se``, ``ci`` (the response's unit), ``p`` and
+        ``beyond_noise``.
+    """
     out = {}
     for n, ra in rep["responses"].items():
         per = {}
@@ -494,14 +653,15 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
     run_levels, run_clearance : list of dict
         Per L9 run: levels (1-based) and clearances (m) per pair.
     y : dict name -> ndarray (runs, replicates)
-        Every response's replicates.
+        Every response's replicates (its unit: :func:`response_units`).
     rec_levels, rec_clearance : dict
         The tiered choice.
     rec_y : dict name -> ndarray (replicates,) or None
-        Its replicates if it is not an L9 run (None: it is one of them).
+        Its replicates if it is not an L9 run (None: it is one of them); units of :func:`response_units`.
     pe : dict name -> (MS_E, dof)
         Pure error of every response (the ANOVA's).
     pairs : list of str
+        The clearance pairs (factors).
     confidence : float
         Simultaneous confidence of the comparisons (the ANOVA's).
 
@@ -596,7 +756,20 @@ TRADEOFF_SENSES = {"ripe_removal": True}
 
 def tradeoff_records(candidates: list[dict]) -> tuple[list[dict], list[str]]:
     """The trade-off table (:func:`berryshaker.experiment.tradeoff.tradeoff_table`) as JSON records and its
-    column order (ripe removal larger is better; efficiency larger, the rest smaller)."""
+    column order (ripe removal larger is better; efficiency larger, the rest smaller).
+
+    Parameters
+    ----------
+    candidates : list of dict
+        Trade-off candidates (name, clearances, harvest and load estimates with intervals).
+
+    Returns
+    -------
+    records : list of dict
+        The table's rows as JSON records.
+    columns : list of str
+        Its column order.
+    """
     from berryshaker.experiment.tradeoff import tradeoff_table
 
     df = tradeoff_table(candidates, senses=TRADEOFF_SENSES, rtol=0.01)
@@ -616,6 +789,19 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
     flagged, noise is not (:func:`tests.test_replicated_l9.test_tolerance_verdict_is_noise_aware`).  With k = 2
     that resolves a bias of ~2 SD only; the tolerance itself is validated on 16 replicates by
     tests/test_coupled_tolerance.py.
+
+    Parameters
+    ----------
+    changes : array_like
+        The response's change per replicate (the response's unit).
+    replicate_sd : float
+        Its per-start standard deviation (the response's unit).
+
+    Returns
+    -------
+    dict
+        ``changes``, ``max_abs_change``, ``mean_change``, ``replicate_sd``, ``noise_sd`` (sqrt(2/k) SD) in the
+        response's unit, and ``within_replicate_spread`` (|mean change| <= 2 noise_sd).
     """
     d = np.asarray(changes, float)
     k = d.size

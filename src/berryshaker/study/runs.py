@@ -13,7 +13,24 @@ from berryshaker.harvest.spec import COUPLED_RTOL
 def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
     """Multibody summary of one clearance set.  ``seed``: start from the seeded perturbation (clearance
     eccentricities uniform over ``harvest.initial_eccentricity`` of each free radius, drive turned by up to
-    ``harvest.start_phase_spread``: berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate."""
+    ``harvest.start_phase_spread``: berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+    clearance : dict
+        Clearance size (m) per pair; missing pairs keep the description's.
+    revolutions : int
+        Drive revolutions; statistics over 2..N.
+    seed : list of int, optional
+        Seed sequence of the replicate's perturbation (default the centred start).
+
+    Returns
+    -------
+    dict
+        The multibody summary (:func:`berryshaker.drives.simulation.simulate_multibody`, statistics only).
+    """
     from berryshaker.drives.simulation import simulate_multibody
     from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
@@ -27,7 +44,18 @@ def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3, see
 
 def multibody_rows(kwargs_list: list[dict]) -> list:
     """Batched twin of :func:`multibody_row` (the sweep runner calls it with a chunk of runs' arguments): one
-    compiled call per mechanism structure; per run its summary or the error it raised."""
+    compiled call per mechanism structure; per run its summary or the error it raised.
+
+    Parameters
+    ----------
+    kwargs_list : list of dict
+        Keyword arguments of :func:`multibody_row`, one dict per run.
+
+    Returns
+    -------
+    list
+        Per run, in order: its summary dict, or the exception it raised.
+    """
     from berryshaker.drives.simulation import simulate_multibody_batch
 
     out: list = [None] * len(kwargs_list)
@@ -60,7 +88,24 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
     """Multibody summary of one clearance set with the powered driveline turning the drive shaft
     (drives/powered.py: cam speed, ripple, input power, energy lost per revolution in each joint).  ``seed``:
     start from the seeded perturbation (clearance eccentricities uniform over ``harvest.initial_eccentricity`` of
-    each free radius, berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate."""
+    each free radius, berryshaker.multibody.perturbation.RandomInitialPerturbation), a replicate.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+    clearance : dict
+        Clearance size (m) per pair; missing pairs keep the description's.
+    revolutions : int
+        Drive revolutions; statistics over 2..N.
+    seed : list of int, optional
+        Seed sequence of the replicate's perturbation (default the centred start).
+
+    Returns
+    -------
+    dict
+        The multibody summary with the driveline's statistics.
+    """
     from berryshaker.drives.simulation import simulate_multibody
     from berryshaker.multibody.perturbation import RandomInitialPerturbation
 
@@ -74,7 +119,29 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
 def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3) -> list[dict]:
     """Arguments of :func:`multibody_row` and :func:`reduced_row` for the model check's replicate starts (claim 1;
     ``berryshaker compare``): seeds (seed_k, MODEL_CHECK_LEVEL) with seed_k of
-    :func:`berryshaker.harvest.virtual.replicate_seeds`, at ``clearance``."""
+    :func:`berryshaker.harvest.virtual.replicate_seeds`, at ``clearance``.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description.
+    clearance : dict
+        Clearance size (m) per pair.
+    starts : int
+        Number of replicate starts.
+    revolutions : int
+        Drive revolutions per run.
+
+    Returns
+    -------
+    list of dict
+        One keyword-argument dict per start (``machine_data``, ``clearance``, ``revolutions``, ``seed``).
+
+    Raises
+    ------
+    ConfigError
+        ``harvest.start_phase_spread`` is 0 (every start would be the same run).
+    """
     from berryshaker.errors import ConfigError
     from berryshaker.harvest.virtual import replicate_seeds
     from berryshaker.reference_study import MODEL_CHECK_LEVEL
@@ -91,7 +158,24 @@ def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
     """Summary of the drive's reduced model (the groove cam's MLSD) for one clearance set.  ``seed``: a replicate,
     started at a cam angle drawn uniform in +-``harvest.start_phase_spread`` (numpy's generator seeded with it; the
-    reduced model's joints start centred)."""
+    reduced model's joints start centred).
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+    clearance : dict
+        Clearance size (m) per pair; missing pairs keep the description's.
+    revolutions : int
+        Drive revolutions; statistics over 2..N.
+    seed : list of int, optional
+        Seed sequence of the replicate's perturbation (default the centred start).
+
+    Returns
+    -------
+    dict
+        The reduced model's summary.
+    """
     from berryshaker.drives import drive_of
 
     machine = machine_from_dict(machine_data)
@@ -104,7 +188,21 @@ def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
 
 def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
     """Coupled drive-past run: summary, force series thinned by peak-preserving min-max decimation for figures,
-    exact peaks."""
+    exact peaks.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``) with a [plant] block.
+    clearance : dict
+        Clearance size (m) per pair.
+
+    Returns
+    -------
+    dict
+        ``summary`` (:meth:`berryshaker.harvest.coupled.FruitForceResult.summary`), ``distance`` (m) and
+        ``forces`` (N per fruit) decimated to about 2000 points, ``peaks_exact`` (N per fruit).
+    """
     from berryshaker.harvest.coupled import simulate_fruit_force
     from berryshaker.report.style import decimate_minmax_shared
 
@@ -117,7 +215,22 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
 
 
 def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
-    """Peak stem-force table along one branch class (virtual harvest input; fruit on compliant pedicels)."""
+    """Peak stem-force table along one branch class (virtual harvest input; fruit on compliant pedicels).
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``) with [plant] and [harvest].
+    clearance : dict
+        Clearance size (m) per pair.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+
+    Returns
+    -------
+    list
+        :func:`berryshaker.harvest.virtual.stem_force_envelope` as nested lists (N, dimensionless load ratios).
+    """
     from berryshaker.harvest.virtual import stem_force_envelope
 
     return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
@@ -133,6 +246,24 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     clearance pair over the statistics window (``peak_force_N``, N: contact force of a clearance joint,
     reaction of an ideal one) and the drive torque (``drive_torque_Nm``: peak and RMS, N m; absent for a
     torque-driven machine).
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``) with [plant] and [harvest].
+    clearance : dict
+        Clearance size (m) per pair.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+    seed : list of int
+        Seed sequence of the perturbation.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+
+    Returns
+    -------
+    dict
+        :func:`replicate_record` of the run.
     """
     from berryshaker.harvest.virtual import stem_force_envelope_run
     from berryshaker.multibody.perturbation import RandomInitialPerturbation
@@ -146,7 +277,23 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
 def replicate_record(machine, table, res) -> dict:
     """What :func:`replicate_run` keeps of one drive-past: the peak stem-force table ``table`` and, from the
-    run ``res``, the peak force of every clearance pair and the drive torque's peak and RMS."""
+    run ``res``, the peak force of every clearance pair and the drive torque's peak and RMS.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its pair names).
+    table : numpy.ndarray
+        Peak stem-force table of the run (N, dimensionless load ratios).
+    res : MultibodyResult
+        The coupled run.
+
+    Returns
+    -------
+    dict
+        ``envelope`` (the table as nested lists), ``peak_force_N`` (N per pair) and, for a speed-driven
+        machine, ``drive_torque_Nm`` (``peak`` and ``rms``, N m).
+    """
     s = res.summary()
     out = {"envelope": table.tolist(),
            "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
@@ -172,7 +319,18 @@ def warm_worker(machine_data: dict) -> dict:
     element and contact law) and the step helpers that evaluate the laws
     (:func:`berryshaker.multibody.engine.compile_engine`, parts ``"forces"`` and ``"step_forces"``) while the
     study's process compiles the projection and the event helpers: both land in numba's on-disk cache, and the
-    study's process then compiles the right-hand side and the integrator on top of them.  Returns CPU seconds."""
+    study's process then compiles the right-hand side and the integrator on top of them.  Returns CPU seconds.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``): its drive's mechanism is compiled.
+
+    Returns
+    -------
+    dict
+        CPU seconds (s) per compiled part (:func:`berryshaker.multibody.engine.compile_engine`).
+    """
     from berryshaker.drives import drive_of
     from berryshaker.multibody.engine import compile_engine
 

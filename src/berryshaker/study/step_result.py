@@ -10,7 +10,21 @@ from dataclasses import dataclass, field
 @dataclass
 class StepResult:
     """What one study step produced: JSON-able data, figure files (relative names) and a note for the report
-    (e.g. why a step was skipped)."""
+    (e.g. why a step was skipped).
+
+    Attributes
+    ----------
+    name : str
+        The step's name.
+    data : dict or None
+        Its JSON-able results (None when it produced none).
+    figures : list of str
+        Figure files it wrote, relative to the output folder.
+    note : str
+        A note for the report (e.g. why the step was skipped).
+    seconds : float
+        Wall time of the step (s).
+    """
 
     name: str
     data: dict | None

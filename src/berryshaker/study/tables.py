@@ -6,7 +6,18 @@ from pathlib import Path
 
 
 def strip_series(res: dict) -> dict:
-    """Results without the plotted series (summary.json keeps numbers, figures keep curves)."""
+    """Results without the plotted series (summary.json keeps numbers, figures keep curves).
+
+    Parameters
+    ----------
+    res : dict
+        The study's results; not modified.
+
+    Returns
+    -------
+    dict
+        A shallow copy whose ``fruit_force`` rows (and chosen row) drop their ``distance`` and ``forces`` series.
+    """
     out = dict(res)
     ff = dict(out.get("fruit_force") or {})
     if ff:
@@ -18,7 +29,17 @@ def strip_series(res: dict) -> dict:
 
 
 def write_tables(machine, res: dict, tables: Path) -> None:
-    """The study's tables, each as CSV with an .xlsx beside it (one writer: :func:`berryshaker.report.table_files.write_table`)."""
+    """The study's tables, each as CSV with an .xlsx beside it (one writer: :func:`berryshaker.report.table_files.write_table`).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine (its clearance pair names).
+    res : dict
+        The study's results.
+    tables : Path
+        Folder the tables are written to (collision forces and load moments per row, model agreement ...).
+    """
     pairs = machine.pair_names
     from berryshaker.report.table_files import write_table
 

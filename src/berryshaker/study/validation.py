@@ -47,7 +47,24 @@ class Case:
     ``changes``: dotted description keys -> SI values applied to the description; ``post``: keys changed after the
     runs (they do not change the coupled runs: bruising, catcher); ``numbers``: record id -> response name of
     :data:`RESPONSES` (and a factor from the published unit's meaning to the response, e.g. 100 - x);
-    ``reason``: why the case cannot be set up (then nothing runs)."""
+    ``reason``: why the case cannot be set up (then nothing runs).
+
+    Attributes
+    ----------
+    name : str
+        The case as the report names it.
+    numbers : dict of str to (str, str)
+        Record id -> (response name of :data:`RESPONSES`, how the published value reads: "value" or
+        "100 - value").
+    changes : dict of str to float
+        Description changes before the runs (SI; e.g. ``drive_speed`` in rad/s).
+    post : dict of str to object
+        ``harvest`` keys changed after the runs (bruising, catcher).
+    reason : str
+        Why the case cannot be set up (empty when it can).
+    note : str
+        How the case represents the published machine.
+    """
 
     name: str
     numbers: dict[str, tuple[str, str]]
@@ -59,7 +76,19 @@ class Case:
 
 def cases(machine: Machine) -> list[Case]:
     """The validation cases of the published record for this machine description (module docstring).  The
-    reference study's field result is a case only for a groove-cam machine (the study's drive)."""
+    reference study's field result is a case only for a groove-cam machine (the study's drive).
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine description (its drive decides whether the reference study's case applies).
+
+    Returns
+    -------
+    list of Case
+        The reference study's case (groove cam only), the GYL062 picker, conventional harvesters on a hard
+        surface and Chen et al.'s picker (not set up: its reason).
+    """
     own = [] if getattr(machine, "DRIVE", "") != "groove_cam" else [
         Case("reference study at its chosen clearances (A1B1C1F3), 120 r/min, 30 m/min",
              {"machine.lyu2024.optimum.efficiency": ("efficiency", "value"),
@@ -108,7 +137,21 @@ def _published(row, how: str) -> float:
 
 def bond_rows(machine: Machine, record) -> list[dict]:
     """The bond strengths taken from the record: the model's lognormal (mean, central 90 %) beside the published
-    value; verdict "input" (used to set the model up, not held out)."""
+    value; verdict "input" (used to set the model up, not held out).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block (ripe pull and shear strengths, ``bond_cv``, ``bond_model``).
+    record : pandas.DataFrame
+        The published record, indexed by id.
+
+    Returns
+    -------
+    list of dict
+        One validation row per bond strength in the record (none unless ``bond_model = "pull_shear"``): the
+        published and model values and the interval (N).
+    """
     h = machine.harvest
     s = math.sqrt(math.log1p(h.bond_cv**2))
     q05, q95 = (math.exp(-0.5 * s * s + z * s) for z in (-1.6448536269514722, 1.6448536269514722))
@@ -135,7 +178,18 @@ def _row(row, published: float, model, lo, hi, unit: str, verdict: str, held_out
 
 def yield_factors(record) -> tuple[float, float]:
     """(low / typical, high / typical) of the published yield per bush (:data:`YIELD_RANGE_ID`); (1, 1) if the record
-    has no such entry."""
+    has no such entry.
+
+    Parameters
+    ----------
+    record : pandas.DataFrame
+        The published record, indexed by id.
+
+    Returns
+    -------
+    (float, float)
+        range_low / value and range_high / value of the entry (dimensionless).
+    """
     if YIELD_RANGE_ID not in record.index:
         return 1.0, 1.0
     r = record.loc[YIELD_RANGE_ID]
@@ -147,7 +201,23 @@ def case_jobs(machine: Machine, replicates: int | None = None, data: dict | None
     """Per case of :func:`cases`: the case, its machine (None if it cannot be set up), the jobs of
     :func:`berryshaker.study.runs.replicate_run` (:func:`berryshaker.study.l9.replicate_jobs`: its starts at its
     clearances; the reference case's are the calibration's and the L9's, shared through the runner's cache) and the
-    start seeds."""
+    start seeds.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine description.
+    replicates : int, optional
+        Starts per case (default ``harvest.replicates``).
+    data : dict, optional
+        The machine as JSON when the caller has it, so identical runs share the cache.
+
+    Returns
+    -------
+    list of (Case, Machine or None, list of dict, list of int)
+        Per case: the case, its machine (``changes`` applied; None when it has a ``reason``), its run jobs
+        (empty when it cannot be set up) and the start seeds.
+    """
     from berryshaker.study.l9 import replicate_jobs
 
     data = machine.model_dump(mode="json") if data is None else data
