@@ -47,7 +47,28 @@ from berryshaker.study.runs import (
 
 @dataclass
 class StudyContext:
-    """What every step gets: the machine, its drive, the runner, the figure folder and the failure log."""
+    """What every step gets: the machine, its drive, the runner, the figure folder and the failure log.
+
+    Attributes
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    runner : SweepRunner
+        Runs the steps' runs (cached).
+    figs : Path
+        Folder the figures are written to.
+    failures : list of dict
+        Failed runs (step, run, inputs, error), for the report.
+    say : callable
+        ``say(msg)``: progress messages (default silent).
+    results : dict
+        Data of the steps run so far, by step name.
+    drawing : list
+        Figures being drawn in pool workers: (future, pickled call).
+    engine_compiled : callable
+        Called by the step that compiles the multibody engine once it has (then the planned runs that need it
+        start).
+    """
 
     machine: object
     runner: object
@@ -76,7 +97,17 @@ class StudyContext:
         virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
         benchmarks/HISTORY.md sec. 22.)  The figure functions set their whole style themselves
         (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
-        by a program that calls :func:`run_study` does not reach the workers."""
+        by a program that calls :func:`run_study` does not reach the workers.
+
+        Parameters
+        ----------
+        fn : callable
+            The figure function.
+        *args
+            Its positional arguments (pickled now).
+        **kwargs
+            Its keyword arguments (pickled now).
+        """
         import pickle
 
         # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
@@ -103,7 +134,24 @@ class StudyContext:
                 draw_figure(payload)
 
     def collect(self, fn, jobs, label, describe):
-        """Run jobs through the sweep runner; failed runs are logged and come back as None."""
+        """Run jobs through the sweep runner; failed runs are logged and come back as None.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level run function.
+        jobs : list of dict
+            Its keyword arguments, one dict per run.
+        label : str
+            Progress label, and the failure log's step.
+        describe : callable
+            ``describe(job) -> str``: the inputs of a failed run, for the log.
+
+        Returns
+        -------
+        list
+            Each run's value in the jobs' order, None where it failed.
+        """
         outs = self.runner.map(fn, jobs, label)
         for o in outs:
             if o.error:
@@ -114,7 +162,13 @@ class StudyContext:
 
 def draw_figure(payload: bytes) -> None:
     """Draw a figure of :meth:`StudyContext.draw` in a pool worker: ``payload`` is the pickled call
-    ``(fn, args, kwargs)``."""
+    ``(fn, args, kwargs)``.
+
+    Parameters
+    ----------
+    payload : bytes
+        The pickled call.
+    """
     import pickle
 
     fn, args, kwargs = pickle.loads(payload)
@@ -125,7 +179,19 @@ def draw_figure(payload: bytes) -> None:
 class PlannedRuns:
     """Runs a step will ask the runner for, known before it starts: the study starts them ahead in idle workers
     (``SweepRunner.prefetch``) and the step's own map takes their results.  ``engine``: they need the compiled
-    multibody engine (started only once this process has compiled it, so workers do not compile it too)."""
+    multibody engine (started only once this process has compiled it, so workers do not compile it too).
+
+    Attributes
+    ----------
+    fn : callable
+        The module-level run function.
+    jobs : list of dict
+        Its keyword arguments, one dict per run.
+    label : str
+        The step's label of these runs.
+    engine : bool
+        Whether the runs need the compiled multibody engine.
+    """
 
     fn: Callable
     jobs: list[dict]
@@ -139,7 +205,18 @@ def _describe(clearance: dict) -> str:
 
 # ---- steps ---------------------------------------------------------------------------------------------
 def step_kinematics(ctx: StudyContext) -> StepResult:
-    """Ideal kinematics over one drive-shaft revolution (study eq. 1-3) and its figures."""
+    """Ideal kinematics over one drive-shaft revolution (study eq. 1-3) and its figures.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``kinematics``: the drive's kinematics summary (units in the key names) and its figures.
+    """
     from berryshaker.report import plots as P
 
     ctx.say("kinematics")
@@ -150,7 +227,19 @@ def step_kinematics(ctx: StudyContext) -> StepResult:
 
 
 def step_agreement(ctx: StudyContext) -> StepResult:
-    """Reduced model vs multibody at the study's model-check level (Table 3, eq. 18)."""
+    """Reduced model vs multibody at the study's model-check level (Table 3, eq. 18).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``agreement``: the model-check level's clearances (mm) and the per-pair agreement statistics, with
+        one figure per pair; no data (a note) when the drive has no reduced model.
+    """
     from berryshaker.experiment.agreement import model_agreement
     from berryshaker.report import plots as P
 
@@ -184,7 +273,19 @@ def _model_check_jobs(ctx: StudyContext) -> list[dict]:
 
 def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
     """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions);
-    with a reduced model also :data:`MODEL_CHECK_STARTS` replicate starts of each at the model-check level."""
+    with a reduced model also :data:`MODEL_CHECK_STARTS` replicate starts of each at the model-check level.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        Multibody rows, their perturbed starts and, with a reduced model, its rows and the model check's
+        starts of both models (the reduced model's runs do not need the engine).
+    """
     last = n_rows(ctx.machine)
     jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3)
             for r in range(1, last + 1)]
@@ -223,6 +324,23 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
     pair: ``peak`` and ``mean`` each {mean, sd, se, p95 (of the per-start values that ran), values (one per planned
     start, in the starts' order, None where the run failed: paired comparisons match starts by position)},
     ``starts`` (the runs that finished).
+
+    Parameters
+    ----------
+    summaries : list
+        :func:`multibody_row` outputs (forces in N), row-major; None for a failed run.
+    pairs : iterable of str
+        Clearance pairs.
+    rows : list of int
+        The rows, in the summaries' order.
+    starts : int
+        Starts per row.
+
+    Returns
+    -------
+    dict
+        Row (as text) -> ``pairs`` (the statistics above, N) and ``starts``; rows with fewer than two finished
+        starts are left out.
     """
     out = {}
     for i, r in enumerate(rows):
@@ -244,7 +362,19 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
 
 
 def step_rows(ctx: StudyContext) -> StepResult:
-    """Every clearance row (single-factor sweeps and level sets) in the multibody and the reduced model."""
+    """Every clearance row (single-factor sweeps and level sets) in the multibody and the reduced model.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``rows``: per row the multibody and reduced-model summaries (forces N, moments N m), the perturbed
+        starts' statistics (``starts``), the model check and per-row agreement; the row figures and a note.
+    """
     last = n_rows(ctx.machine)
     ctx.say(f"clearance rows 1-{last} (single-factor sweeps and level sets)")
     rows = list(range(1, last + 1))
@@ -301,7 +431,19 @@ def step_rows(ctx: StudyContext) -> StepResult:
 
 
 def plan_fruit_force(ctx: StudyContext) -> list[PlannedRuns]:
-    """Drive-pasts at the configured clearances and at the three level sets (the last three clearance rows)."""
+    """Drive-pasts at the configured clearances and at the three level sets (the last three clearance rows).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        The drive-pasts (:func:`berryshaker.study.runs.fruit_force_run`) and their perturbed starts
+        (:func:`berryshaker.study.runs.replicate_run`).
+    """
     last = n_rows(ctx.machine)
     jobs = [dict(machine_data=ctx.data, clearance={})] + [
         dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r)) for r in (last - 2, last - 1, last)]
@@ -332,7 +474,23 @@ def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
     """Peak stem force of the named fruit (``plant.fruit``: root, middle, end; mass m0) per perturbed start, read
     from each start's stem-force table (:func:`berryshaker.harvest.virtual.fruit_peak_force`), and its mean, SD and
     SE per set.  ``outs``: :func:`replicate_run` outputs, set-major (equal counts per set; a failed run None);
-    ``keys``: the sets' names."""
+    ``keys``: the sets' names.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its [plant] fruit).
+    outs : list
+        :func:`replicate_run` outputs, set-major; None for a failed run.
+    keys : list of str
+        The sets' names.
+
+    Returns
+    -------
+    dict
+        Set -> ``positions`` (fruit name -> ``mean``, ``sd``, ``se`` in N and ``values`` per start, N or None) and
+        ``starts``; sets with fewer than two finished starts are left out.
+    """
     from berryshaker.harvest.virtual import fruit_peak_force
 
     f = machine.plant.fruit
@@ -356,7 +514,19 @@ def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
 
 def step_fruit_force(ctx: StudyContext) -> StepResult:
     """The machine drives past a branch (rigid-flexible coupling): fruit force at the configured clearances and
-    at the level sets."""
+    at the level sets.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``fruit_force``: the drive-pasts at the configured clearances (``chosen``) and the level sets
+        (``rows``), the perturbed starts' peak stem forces (N) per set and the branch class; the fruit-force figures.
+    """
     from berryshaker.report import plots as P
 
     ctx.say("fruit force (rigid-flexible coupling)")
@@ -387,7 +557,19 @@ def step_fruit_force(ctx: StudyContext) -> StepResult:
 
 
 def step_l9(ctx: StudyContext) -> StepResult:
-    """The study's L9 field test through the virtual harvest, analysed like field data."""
+    """The study's L9 field test through the virtual harvest, analysed like field data.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``l9``: the virtual L9 (:func:`berryshaker.study.l9.virtual_l9`) and its figures (drawn in workers);
+        no data (a note, and a failure logged) when it fails.
+    """
     from berryshaker.errors import SimulationError
     from berryshaker.experiment.analysis import quadratic_regression
     from berryshaker.report import plots as P
@@ -415,7 +597,18 @@ def step_l9(ctx: StudyContext) -> StepResult:
 
 
 def plan_l9(ctx: StudyContext) -> list[PlannedRuns]:
-    """The replicated L9's coupled drive-pasts (not the runs at the recommendation: they depend on the analysis)."""
+    """The replicated L9's coupled drive-pasts (not the runs at the recommendation: they depend on the analysis).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        One: the replicated L9's :func:`berryshaker.study.runs.replicate_run` jobs.
+    """
     from berryshaker.study.l9 import l9_jobs
     from berryshaker.study.runs import replicate_run
 
@@ -425,7 +618,24 @@ def plan_l9(ctx: StudyContext) -> list[PlannedRuns]:
 
 def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable) -> list[str]:
     """Trade-off plot and main effects with 95 % intervals (harvest indexes; machine loads) of the replicated L9,
-    each drawn by ``draw(fn, *args, **kwargs)`` (:meth:`StudyContext.draw`)."""
+    each drawn by ``draw(fn, *args, **kwargs)`` (:meth:`StudyContext.draw`).
+
+    Parameters
+    ----------
+    l9 : dict
+        The virtual L9 (:func:`berryshaker.study.l9.virtual_l9`).
+    levels_mm : dict of str to list of float
+        Clearance levels per pair (mm).
+    figs : Path
+        Folder of the figures.
+    draw : callable
+        Draws one figure.
+
+    Returns
+    -------
+    list of str
+        File names of the figures asked for.
+    """
     from berryshaker.report import plots as P
     from berryshaker.study.l9 import HARVEST_RESPONSES
 
@@ -483,7 +693,18 @@ def _response_runs(ctx: StudyContext) -> tuple[list[float], list, list[list[dict
 
 
 def plan_harvest_response(ctx: StudyContext) -> list[PlannedRuns]:
-    """The replicated drive-pasts at every drive speed of the harvest-response step."""
+    """The replicated drive-pasts at every drive speed of the harvest-response step.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        One: the replicate jobs of every drive speed.
+    """
     from berryshaker.study.runs import replicate_run
 
     _, _, per_speed = _response_runs(ctx)
@@ -494,7 +715,20 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     """Ripe removal, unripe shedding and damage against the shaking frequency at the configured clearances, and
     the calibration: both on the statistic the virtual L9 reports, the replicate mean over perturbed starts
     (``harvest.replicates`` replicates, the same seeds; at the configured speed the runs are the calibration's,
-    shared through the cache), with the SD over the replicates; what is fitted, what is held out."""
+    shared through the cache), with the SD over the replicates; what is fitted, what is held out.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``harvest_response``: ``rows`` (the harvest indexes at each drive speed, rpm: replicate means and SDs),
+        ``configured_rpm`` and ``calibration`` (:func:`berryshaker.harvest.calibration.calibration_table`), with
+        the figure.
+    """
     import math
 
     from berryshaker.config import machine_from_dict
@@ -562,7 +796,18 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
 
 def plan_validation(ctx: StudyContext) -> list[PlannedRuns]:
     """The replicated drive-pasts of the validation cases (berryshaker.study.validation.case_jobs); the reference
-    case's are the calibration's (cached)."""
+    case's are the calibration's (cached).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        One per validation case that can be set up.
+    """
     from berryshaker.study.runs import replicate_run
     from berryshaker.study.validation import case_jobs
 
@@ -572,7 +817,18 @@ def plan_validation(ctx: StudyContext) -> list[PlannedRuns]:
 
 def step_validation(ctx: StudyContext) -> StepResult:
     """The harvest model against the published record (berryshaker.study.validation.validate: one row per
-    published number with the model's value, interval and verdict; the same table as ``berryshaker validate``)."""
+    published number with the model's value, interval and verdict; the same table as ``berryshaker validate``).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``validation``: :func:`berryshaker.study.validation.validate`'s rows, replicates and summary.
+    """
     from berryshaker.study.validation import validate
 
     ctx.say("harvest model against the published record")
@@ -582,7 +838,19 @@ def step_validation(ctx: StudyContext) -> StepResult:
 
 
 def step_clearance_life(ctx: StudyContext) -> StepResult:
-    """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/)."""
+    """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``clearance_life``: :func:`berryshaker.study.life_step.step_life`'s result; no data (a note, and a
+        failure logged) when it fails.
+    """
     ctx.say("clearance life (wear, fits)")
     try:
         return step_life(ctx)
@@ -620,7 +888,19 @@ POWERED_LEVELS = (1, 2, 3)
 
 
 def plan_powered_drive(ctx: StudyContext) -> list[PlannedRuns]:
-    """Powered-drive runs: levels 1-3, :data:`POWERED_REPLICATES` seeded perturbed starts each (3 revolutions)."""
+    """Powered-drive runs: levels 1-3, :data:`POWERED_REPLICATES` seeded perturbed starts each (3 revolutions).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        One: :func:`berryshaker.study.runs.powered_row` at levels 1-3 x :data:`POWERED_REPLICATES`
+        starts.
+    """
     from berryshaker.harvest.virtual import replicate_seeds
 
     seeds = replicate_seeds(ctx.machine, POWERED_REPLICATES)
@@ -633,7 +913,20 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
     """Powered drive: speed ripple, input power and energy lost per joint against clearance (levels 1-3), the
     driveline of ``[driveline]`` (or its defaults) turning the drive shaft (docs/driveline.md sec. 5).  Each
     level is run from :data:`POWERED_REPLICATES` seeded perturbed starts; the table shows replicate means and
-    a trend is stated only where the level-to-level step exceeds the replicate spread (:func:`replicate_trend`)."""
+    a trend is stated only where the level-to-level step exceeds the replicate spread (:func:`replicate_trend`).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``powered_drive``: per level the replicate means (speed ripple %, input power W, energy per
+        revolution J, drive moment N m) with their SDs, the trends and the finding; no data when fewer than two
+        levels ran.
+    """
     from berryshaker.harvest.virtual import replicate_seeds
 
     ctx.say(f"powered drive at clearance levels 1-3, {POWERED_REPLICATES} perturbed starts each")
@@ -689,7 +982,18 @@ ENGINE_STEP = "model_agreement"
 
 def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
     """Every step's :data:`PLANS`, in step order; a step whose plan fails is left out (the step itself reports
-    the error when it runs)."""
+    the error when it runs).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        Every step's planned runs, in step order.
+    """
     out = []
     for key, _ in STEPS:
         if key in PLANS:
@@ -711,6 +1015,20 @@ def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
     built) the first run compiles what is missing and meets any real error itself; the reason is returned for
     the log (None when all went well).  When the projection was in the cache already, so is the rest (one source
     file), and nothing is waited for.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (its drive's mechanism is compiled).
+    warm : Future
+        The worker's :func:`berryshaker.study.runs.warm_worker`.
+    timeout : float
+        Longest wait for the worker (s).
+
+    Returns
+    -------
+    str or None
+        Why it did not work ("<exception type>: <message>"), or None.
     """
     try:
         spec = drive_of(machine).mechanism(machine, revolutions=2)
@@ -736,6 +1054,28 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     figures), so the workers load the compiled engine instead of compiling it as well.  While this
     process plots and analyses a step, the workers are already running the next steps' runs.  Results are the
     same as without it (each step's map takes the same runs).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    runner : SweepRunner
+        Runs the steps' runs (cached).
+    figs : Path
+        Folder the figures are written to.
+    console : rich.console.Console, optional
+        Where progress is printed (default silent).
+
+    Returns
+    -------
+    results : dict
+        Each step's data by step name, with ``claims`` and ``failures``.
+    steps : dict of str to StepResult
+        Each step's result.
+    failures : list of dict
+        Failed runs.
+    timings : dict of str to float
+        Seconds per step and ``total`` (s).
     """
 
     def say(msg):
@@ -800,7 +1140,28 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
 
 
 def study_summary(machine, results: dict, failures: list, timings: dict, runner_stats: dict) -> dict:
-    """The head of summary.json: claims, the recommended clearances, failures, timings, run counts."""
+    """The head of summary.json: claims, the recommended clearances, failures, timings, run counts.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    results : dict
+        The steps' data with ``claims`` (:func:`run_steps`).
+    failures : list of dict
+        Failed runs.
+    timings : dict of str to float
+        Seconds per step (s).
+    runner_stats : dict
+        The runner's run counts.
+
+    Returns
+    -------
+    dict
+        ``package``, ``version``, ``machine``, ``drive``, ``claims``, ``optimum`` (the L9's recommendation: code,
+        clearances in mm, efficiency kg/min, unripe and damage rates %, the study's field result...; None without
+        an L9), ``failures``, ``timings_s`` (s), ``runs`` and :func:`l9_summary`'s entries.
+    """
     optimum = None
     l9 = results.get("l9")
     if l9 is not None:
@@ -822,7 +1183,18 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
 
 def l9_summary(l9: dict | None) -> dict:
     """summary.json entries of the replicated L9: ``l9_replicates`` (pooled replicate SD, dof and significant
-    factors per response; the solver-tolerance check) and ``tradeoff`` (the trade-off table's rows)."""
+    factors per response; the solver-tolerance check) and ``tradeoff`` (the trade-off table's rows).
+
+    Parameters
+    ----------
+    l9 : dict or None
+        The virtual L9 (:func:`berryshaker.study.l9.virtual_l9`).
+
+    Returns
+    -------
+    dict
+        ``l9_replicates``, ``tradeoff`` and ``tradeoff_columns``; empty without a replicated L9.
+    """
     if not l9 or "replicated" not in l9:
         return {}
     rep = l9["replicated"]
@@ -842,6 +1214,22 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
 
     The destination is checked before any work (:func:`berryshaker.outputs.prepare_output_dir`: a new or
     empty folder, or a previous berryshaker output); outputs are staged and moved in atomically.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    out_dir : Path
+        Output folder.
+    runner : SweepRunner
+        Runs the steps' runs (cached).
+    console : rich.console.Console, optional
+        Where progress is printed (default silent).
+
+    Returns
+    -------
+    dict
+        :func:`study_summary`.
     """
     from berryshaker.outputs import staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.html import study_report
