@@ -212,7 +212,7 @@ def doe_analyze(
     plot : Path, optional
         ``--plot``: Main-effect plots and response surfaces (PNG).
     report : Path, optional
-        ``--out``: Write the analysis to a file: *.html (printable report) or *.json.
+        ``--out``: Write the analysis to a file: ``*.html`` (printable report) or ``*.json``.
     force : bool
         ``--force``: Replace an existing --out file.
     """

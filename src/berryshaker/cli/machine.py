@@ -170,7 +170,7 @@ def cam_profile(
     Parameters
     ----------
     out_file : Path
-        ``--out``: Output file, *.csv or *.dxf (the extension sets the format).
+        ``--out``: Output file, ``*.csv`` or ``*.dxf`` (the extension sets the format).
     fmt : str, optional
         ``--format``: csv (angle + pitch/inner/outer in mm) or dxf (closed polylines, mm, layers
         PITCH/INNER_WALL/OUTER_WALL). Default: from the extension of --out.

@@ -1,6 +1,7 @@
 """Virtual harvest: a seeded population of bushes run through the coupled machine-plant simulation.
 
 Chain (docs/harvest.md):
+
 1. For each branch class (the reference branch with its diameters scaled), one coupled drive-past
    simulation (berryshaker.harvest.coupled) gives a table of peak stem loads over position and fruit mass.
 2. Bushes carry ``branches_per_bush`` branches of random class; fruit sit uniformly along the fruit zone

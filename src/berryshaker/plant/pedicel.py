@@ -637,7 +637,7 @@ def fruit_branch_modes(modes, z_fruit, mass, stiffness, damping=0.0) -> FruitBra
     """Modes of the branch with fruit on stems attached (Rayleigh-Ritz on the branch's own modes).
 
     Coordinates: the branch's mass-normalised modal coordinates q (n) and the fruit displacements x_j.
-    With phi_j = phi(z_j) (n-vector),
+    With phi_j = phi(z_j) (n-vector)::
 
         M = diag(I_n, m0 I),
         K = [[diag(omega^2) + k sum_j phi_j phi_j^T,  -k phi_j],
