@@ -330,8 +330,8 @@ def test_analyze_field_sheet_refuses_with_the_argument_named():
 
 # ---- validate --------------------------------------------------------------------------------------------
 def test_validate_lays_out_the_librarys_rows(machine, monkeypatch):
-    """The layout of the validation's rows; its coupled runs (minutes) are the library's own test's
-    exercised by tests/test_harvest_validation.py), replaced here by a recorded result."""
+    """The layout of the validation's rows; its coupled runs (minutes, exercised by
+    tests/test_harvest_validation.py) are replaced here by a recorded result."""
     import berryshaker.study.validation as validation
 
     res = {"rows": [
