@@ -95,6 +95,16 @@ def _escape_bars(app, what, name, obj, options, lines):
             lines[i] = line.replace("\\|", "|").replace("|", "\\|")
 
 
+def _typer_app(app, what, name, obj, options, lines):
+    """The command-line application object (``berryshaker.cli.app``, a :class:`typer.Typer`) carries Typer's own
+    Markdown docstring, which is not reStructuredText: describe it in one line instead."""
+    import typer
+
+    if isinstance(obj, typer.Typer):
+        lines[:] = ["The ``berryshaker`` command-line application (a Typer app); its commands are listed by",
+                    "``berryshaker --help``."]
+
+
 def _pending() -> tuple[frozenset[str], frozenset[str]]:
     """``PENDING`` and ``PENDING_EXCEPT`` of tests/test_docstrings.py (the one list of modules being rewritten)."""
     import ast
@@ -133,6 +143,7 @@ class _PendingMarkup(logging.Filter):
 
 
 def setup(app):
+    app.connect("autodoc-process-docstring", _typer_app, priority=90)
     app.connect("autodoc-process-docstring", _escape_bars, priority=100)  # before numpydoc (500) parses it
     held = _PendingMarkup()
     for handler in logging.getLogger("sphinx").handlers:

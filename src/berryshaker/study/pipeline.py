@@ -45,6 +45,20 @@ from berryshaker.study.runs import (
 )
 
 
+def _silent(msg: str) -> None:
+    """A progress message nobody reads (the default ``StudyContext.say``).
+
+    Parameters
+    ----------
+    msg : str
+        The message (ignored).
+    """
+
+
+def _nothing() -> None:
+    """No action (the default ``StudyContext.engine_compiled``)."""
+
+
 @dataclass
 class StudyContext:
     """What every step gets: the machine, its drive, the runner, the figure folder and the failure log.
@@ -74,12 +88,19 @@ class StudyContext:
     runner: object
     figs: Path
     failures: list = field(default_factory=list)
-    say: Callable[[str], None] = lambda msg: None
+    say: Callable[[str], None] = field(default=None)
     results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
     drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
     # called by the step that compiles the multibody engine once it has (run_steps then starts the planned runs
     # that need it, while that step still plots)
-    engine_compiled: Callable[[], None] = lambda: None
+    engine_compiled: Callable[[], None] = field(default=None)
+
+    def __post_init__(self):
+        """Silent defaults for the callbacks (``say``, ``engine_compiled``) not given."""
+        if self.say is None:
+            self.say = _silent
+        if self.engine_compiled is None:
+            self.engine_compiled = _nothing
 
     @property
     def drive(self):
