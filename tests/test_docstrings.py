@@ -50,7 +50,6 @@ RULES = {
 PENDING = {
     # being re-cut by other work (issue 46)
     "berryshaker.multibody",
-    # StudyContext.say and .engine_compiled: lambda defaults numpydoc cannot read (a code change, not a docstring)
 }
 #: a pending package entry does not cover these submodules of it (they are checked now); the nearest entry wins
 PENDING_EXCEPT = set()
