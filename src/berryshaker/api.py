@@ -6,20 +6,20 @@ carry their units in brackets, e.g. ``"peak_force [N]"`` or ``"clearance.A.size 
 names an engineering unit (mm, deg, um, h, %, kg/min).  ``[1]`` is a dimensionless number; a column without
 brackets holds names, flags or counts.  Nothing here computes physics of its own.
 
-========================  =============================  ===================================================
-function                  command                        cost
-========================  =============================  ===================================================
-:func:`load_machine`      ``--config FILE``              milliseconds
-:func:`kinematics`        ``kinematics``                 about 0.1 s
-:func:`simulate`          ``simulate``                   about 0.2 s per revolution (mlsd); seconds (multibody)
-:func:`sweep`             ``sweep``                      one simulation per point, cached, in parallel
-:func:`fit_table`         ``fits``                       milliseconds
-:func:`service_limits`    (``wear``'s default limits)    milliseconds
-:func:`wear`              ``wear``                       several multibody runs (cached): tens of seconds
-:func:`plan_field_sheet`  ``doe plan``                   milliseconds
-:func:`analyze_field_sheet`  ``doe analyze``             under a second
-:func:`validate`          ``validate``                   coupled machine-plant runs: minutes
-========================  =============================  ===================================================
+===========================  ===========================  ======================================================
+function                     command                      cost
+===========================  ===========================  ======================================================
+:func:`load_machine`         ``--config FILE``            milliseconds
+:func:`kinematics`           ``kinematics``               about 0.1 s
+:func:`simulate`             ``simulate``                 about 0.2 s per revolution (mlsd); seconds (multibody)
+:func:`sweep`                ``sweep``                    one simulation per point, cached, in parallel
+:func:`fit_table`            ``fits``                     milliseconds
+:func:`service_limits`       (``wear``'s default limits)  milliseconds
+:func:`wear`                 ``wear``                     several multibody runs (cached): tens of seconds
+:func:`plan_field_sheet`     ``doe plan``                 milliseconds
+:func:`analyze_field_sheet`  ``doe analyze``              under a second
+:func:`validate`             ``validate``                 coupled machine-plant runs: minutes
+===========================  ===========================  ======================================================
 
 Docs: docs/python_api.md; a worked example: examples/gallery/plot_05_python_api.py.
 
