@@ -174,6 +174,10 @@ def _clearance_spec(clearance, machine) -> dict[str, float]:
     return parse_clearance_spec(",".join(parts), machine) if parts else {}
 
 
+#: the multibody summary's ``pair_state`` -> the summary table's ``kind``
+_PAIR_KIND = {"clearance": "clearance pair", "ideal joint (reaction force)": "ideal joint (reaction force)"}
+
+
 def _joint_summary(summary: dict) -> pd.DataFrame:
     """The per-joint table of a simulation summary (``simulate --json``)."""
     rows = []
@@ -184,7 +188,7 @@ def _joint_summary(summary: dict) -> pd.DataFrame:
             if not isinstance(st, dict):
                 continue
             rows.append({"joint": joint,
-                         "kind": states.get(joint, kind) if group == "collision_force_N" else kind,
+                         "kind": _PAIR_KIND.get(states.get(joint), states.get(joint)) or kind,
                          "clearance [mm]": (summary.get("clearance_mm") or {}).get(joint, math.nan),
                          "peak_force [N]": st["peak"], "mean_force [N]": st["mean"], "rms_force [N]": st["rms"],
                          "p95_force [N]": st.get("p95", math.nan),
@@ -255,7 +259,8 @@ def simulate(machine, clearance=None, model: str = "mlsd", revolutions: int = 3,
     -------
     summary : pandas.DataFrame
         One row per joint (index ``joint``): the clearance pairs, then for the MLSD the guide bearings G and H.
-        Columns: ``kind``, ``clearance [mm]`` (NaN for a bearing), ``peak_force [N]``, ``mean_force [N]``,
+        Columns: ``kind`` ("clearance pair", "guide bearing", or "ideal joint (reaction force)" for a pair of zero
+        clearance in the multibody model), ``clearance [mm]`` (NaN for a bearing), ``peak_force [N]``, ``mean_force [N]``,
         ``rms_force [N]``, ``p95_force [N]`` (magnitudes) and ``contact_onsets`` (impacts per pair).  The
         command's whole summary (drive and comb load moments in N m, integrator statistics) is in
         ``summary.attrs["summary"]``.
@@ -438,7 +443,7 @@ def sweep(machine, params: Mapping[str, Any], model: str = "mlsd", revolutions: 
              + [_unit_name(c) for c in header[n_fixed:]])
     df = pd.DataFrame(rows, columns=names)
     for c in names[n_fixed:]:
-        df[c] = pd.to_numeric(df[c].replace("", np.nan))
+        df[c] = pd.to_numeric(df[c], errors="coerce")  # a failed point's "" -> NaN
     return df
 
 
