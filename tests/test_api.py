@@ -103,6 +103,20 @@ def test_simulate_mlsd_is_the_reduced_model(machine):
     assert series["cam_angle [deg]"].iloc[-1] == pytest.approx(720.0)
 
 
+def test_the_multibody_summary_reads_the_same_way():
+    """The multibody summary (berryshaker.drives.simulation.multibody_summary: pair_state, no guide bearings) gives
+    the same columns; a pair of zero clearance is an ideal joint reporting its reaction force."""
+    st = {"peak": 10.0, "mean": 2.0, "rms": 3.0, "p95": 5.0}
+    summary = {"clearance_mm": {"A": 0.25, "B": 0.0}, "collision_force_N": {"A": st, "B": st},
+               "pair_state": {"A": "clearance", "B": "ideal joint (reaction force)"},
+               "contact_onsets": {"A": 7, "B": 0}, "drive_moment_Nm": st}
+    df = api._joint_summary(summary)
+    assert list(df.columns) == SUMMARY_COLUMNS and list(df.index) == ["A", "B"]
+    assert list(df["kind"]) == ["clearance pair", "ideal joint (reaction force)"]
+    assert df.loc["A", "peak_force [N]"] == 10.0 and df.loc["A", "contact_onsets"] == 7
+    assert df.attrs["summary"] is summary
+
+
 def test_simulate_takes_the_clearance_texts_of_the_command(machine):
     by_text, _ = api.simulate(machine, clearance="A=0.3mm,C=0.15mm", revolutions=2)
     by_dict, _ = api.simulate(machine, clearance={"A": 0.3e-3, "C": "0.15 mm"}, revolutions=2)
