@@ -1,7 +1,11 @@
 """Rigid-flexible coupling: the multibody harvester drives past a branch whose modal coordinates are part
 of the same integrated state; the combs strike it through the IMPACT law and it pushes back (study
 sec. 2.5, Figs. 24-26).  Output: fruit harvesting force at the root, middle and end of the branch against
-the machine-to-plant distance, and the eq. 17 verdict per position."""
+the machine-to-plant distance, and the eq. 17 verdict per position.
+
+long module: the coupled machine-plant mechanism, its drive-past run, the branch motion and the fruit forces
+read from it are one model; split, each part would import the others' layouts.
+"""
 
 from __future__ import annotations
 

@@ -27,6 +27,9 @@ Pareto front nearest the ideal point in objectives normalised to [0, 1] over the
 
 NSGA-II: K. Deb, A. Pratap, S. Agarwal and T. Meyarivan, "A fast and elitist multiobjective genetic algorithm:
 NSGA-II", IEEE Trans. Evol. Comput. 6 (2002) 182-197; pymoo: J. Blank and K. Deb, IEEE Access 8 (2020).
+
+long module: the clearance response surrogate over perturbed starts, the NSGA-II fit design on it and the
+notes that explain its decisions share the same grid and statistics.
 """
 
 from __future__ import annotations
