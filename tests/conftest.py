@@ -82,3 +82,21 @@ def linear_spring_toml_text(text: str) -> str:
     out, n = re.subn(r'law = "lankarani_nikravesh".*\n', 'stiffness = "1e8 N/m"\ndamping = "2000 N*s/m"\n', text)
     assert n >= 4, "the reference machine no longer names its clearance law as expected"
     return out
+
+
+@pytest.fixture(scope="session")
+def validation_cache(tmp_path_factory):
+    """One run cache for the small validation machine's coupled runs, shared by tests/test_harvest_validation.py and
+    tests/test_api.py (the same jobs, so the second caller reads them)."""
+    return tmp_path_factory.mktemp("validation-cache")
+
+
+@pytest.fixture(scope="session")
+def small_harvest_machine():
+    """The reference machine with one branch class and four bushes: the cheapest description the virtual harvest and
+    the validation run on."""
+    from berryshaker.config import load_machine, machine_from_dict
+
+    d = load_machine(None).model_dump()
+    d["harvest"].update(branch_classes=(1.0,), bushes=4)
+    return machine_from_dict(d)

@@ -248,39 +248,26 @@ def test_wear_refuses_before_any_run(machine):
         api.wear(machine, joints=["Z"])
 
 
-def test_wear_lays_out_the_librarys_result(machine, monkeypatch):
-    """The layout of machine_wear's result (its numbers are its own: tests/test_wear.py runs it); the library call
-    is replaced by a recorded result so this test needs no multibody run."""
-    import berryshaker.life.service as service
+def test_wear_is_machine_wear(machine, tmp_path):
+    """api.wear over 20 h of joint C: machine_wear's result laid out as two DataFrames, the same numbers (the library
+    call on the same runs, read from the cache the API call filled)."""
+    from berryshaker.life.service import machine_wear
+    from berryshaker.runs.runner import SweepRunner
 
-    res = {"joints": {
-        "C": {"hours": [0.0, 100.0], "wears": True, "clearance_mm": [0.1, 0.12], "peak_force_N": [9e3, 9.5e3],
-              "mean_force_N": [300.0, 310.0], "growth_rate_um_per_h": [0.2, 0.21], "maintenance_interval_h": 480.0,
-              "material_pair": "steel-bronze", "size_convention": "radial", "fit": "H8/f7", "diameter_mm": 20.0,
-              "bearing_length_mm": 25.0},
-        "A": {"hours": [0.0, 100.0], "wears": False, "clearance_mm": [0.25, 0.25], "maintenance_interval_h": None,
-              "material_pair": "steel-steel", "size_convention": "free travel", "fit": None, "diameter_mm": 30.0,
-              "bearing_length_mm": 10.0}},
-        "maintenance_interval_h": 480.0}
-    seen = {}
-
-    def fake(machine_, hours, limits, **kw):
-        seen.update(hours=hours, limits=limits, **kw)
-        return res
-
-    monkeypatch.setattr(service, "machine_wear", fake)
-    joints, history = api.wear(machine, hours=100.0, joints=["C"], limits={"clearance:C": 0.2e-3})
-    assert seen["hours"] == 100.0 and seen["joints"] == ["C"] and seen["limits"] == {"clearance:C": 0.2e-3}
+    joints, history = api.wear(machine, hours=20.0, joints=["C"], cache=tmp_path)
+    with SweepRunner(workers=1, cache_dir=tmp_path, progress=False) as r:
+        res = machine_wear(machine, 20.0, runner=r, joints=["C"])
     assert list(joints.columns) == ["wears", "material_pair", "size_convention", "fit", "diameter [mm]",
                                     "bearing_length [mm]", "start_clearance [mm]", "end_clearance [mm]",
                                     "maintenance_interval [h]"]
-    assert joints.loc["C", "maintenance_interval [h]"] == 480.0 and np.isnan(joints.loc["A", "maintenance_interval [h]"])
-    assert joints.loc["C", "end_clearance [mm]"] == 0.12 and joints.attrs["result"] is res
+    c = res["joints"]["C"]
+    assert joints.loc["C", "start_clearance [mm]"] == c["clearance_mm"][0]
+    assert joints.loc["C", "end_clearance [mm]"] == c["clearance_mm"][-1] > c["clearance_mm"][0]
     assert list(history.columns) == ["joint", "hours [h]", "clearance [mm]", "peak_force [N]", "mean_force [N]",
                                      "growth_rate [um/h]"]
-    c = history[history["joint"] == "C"]
-    assert list(c["clearance [mm]"]) == [0.1, 0.12] and list(c["growth_rate [um/h]"]) == [0.2, 0.21]
-    assert history[history["joint"] == "A"]["peak_force [N]"].isna().all()
+    hc = history[history["joint"] == "C"]
+    assert list(hc["clearance [mm]"]) == c["clearance_mm"] and list(hc["hours [h]"]) == c["hours"]
+    assert history[history["joint"] == "A"]["peak_force [N]"].isna().all()  # not worn: no force recorded
 
 
 # ---- field tests -----------------------------------------------------------------------------------------
@@ -343,33 +330,24 @@ def test_analyze_field_sheet_refuses_with_the_argument_named():
 
 
 # ---- validate --------------------------------------------------------------------------------------------
-def test_validate_lays_out_the_librarys_rows(machine, monkeypatch):
-    """The layout of the validation's rows; its coupled runs (minutes, exercised by
-    tests/test_harvest_validation.py) are replaced here by a recorded result."""
-    import berryshaker.study.validation as validation
+def test_validate_is_the_librarys_rows(small_harvest_machine, validation_cache):
+    """api.validate on the small machine (one branch class, four bushes, two starts): the rows of
+    berryshaker.study.validation.validate as a DataFrame indexed by id.  Its coupled runs are the same jobs as
+    tests/test_harvest_validation.py's and come from the shared cache when that ran first."""
+    from berryshaker.runs.runner import SweepRunner
+    from berryshaker.study.validation import validate
 
-    res = {"rows": [
-        {"id": "r1", "quantity": "ripe removal", "case": "reference", "source": "Study 2023", "source_key": "s1",
-         "published": 92.0, "unit": "%", "model": 90.5, "lo": 85.0, "hi": 96.0, "noise_lo": 88.0, "noise_hi": 93.0,
-         "verdict": "consistent", "held_out": True, "how": "value", "confidence": "high"},
-        {"id": "r2", "quantity": "pull force", "case": "-", "source": "Lab 2019", "source_key": "s2",
-         "published": 1.2, "unit": "N", "model": None, "lo": None, "hi": None, "noise_lo": None, "noise_hi": None,
-         "verdict": "not represented", "held_out": False, "how": "value", "confidence": "medium"}],
-        "replicates": 4, "summary": {"held_out": 1, "consistent": 1}}
-    seen = {}
-
-    def fake(machine_, runner, replicates=None):
-        seen.update(replicates=replicates, workers=runner.workers)
-        return res
-
-    monkeypatch.setattr(validation, "validate", fake)
-    df = api.validate(machine, replicates=4, workers=1)
-    assert seen == {"replicates": 4, "workers": 1}
-    assert df.index.name == "id" and list(df.index) == ["r1", "r2"]
+    df = api.validate(small_harvest_machine, replicates=2, workers=1, cache=validation_cache)
+    with SweepRunner(workers=1, cache_dir=validation_cache, progress=False) as r:
+        res = validate(small_harvest_machine, r, replicates=2)
+    assert df.index.name == "id" and list(df.index) == [row["id"] for row in res["rows"]]
     assert list(df.columns) == ["quantity", "case", "source", "source_key", "unit", "published", "model", "lo", "hi",
                                 "noise_lo", "noise_hi", "verdict", "held_out", "how", "confidence"]
-    assert df.loc["r1", "model"] == 90.5 and np.isnan(df.loc["r2", "model"]) and df["lo"].dtype == float
-    assert df.attrs["summary"] == res["summary"] and df.attrs["replicates"] == 4
+    for row in res["rows"]:
+        got = df.loc[row["id"]]
+        assert got["verdict"] == row["verdict"] and bool(got["held_out"]) == row["held_out"]
+        assert (np.isnan(got["model"]) if row["model"] is None else got["model"] == row["model"])
+    assert df["lo"].dtype == float and df.attrs["summary"] == res["summary"] and df.attrs["replicates"] == 2
 
 
 def test_validate_needs_a_plant(machine):

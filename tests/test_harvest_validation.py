@@ -7,23 +7,21 @@ import json
 import numpy as np
 import pytest
 
-from berryshaker.config import load_machine, machine_from_dict
+from berryshaker.config import load_machine
 from berryshaker.harvest.published_record import load_record
 from berryshaker.study.validation import cases, validate, yield_factors
 
 
 @pytest.fixture(scope="module")
-def small(tmp_path_factory):
-    d = load_machine(None).model_dump()
-    d["harvest"].update(branch_classes=(1.0,), bushes=4)
-    return machine_from_dict(d)
+def small(small_harvest_machine):
+    return small_harvest_machine
 
 
 @pytest.fixture(scope="module")
-def runner(tmp_path_factory):
+def runner(validation_cache):
     from berryshaker.runs.runner import SweepRunner
 
-    with SweepRunner(workers=1, cache_dir=tmp_path_factory.mktemp("validation-cache"), progress=False) as r:
+    with SweepRunner(workers=1, cache_dir=validation_cache, progress=False) as r:
         yield r
 
 
