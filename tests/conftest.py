@@ -86,7 +86,7 @@ def linear_spring_toml_text(text: str) -> str:
 
 @pytest.fixture(scope="session")
 def validation_cache(tmp_path_factory):
-    """One run cache for the small validation machine's coupled runs, shared by tests/test_harvest_validation.py and
+    """One run cache for the small validation machine's coupled runs, shared by tests/study/test_validation.py and
     tests/test_api.py (the same jobs, so the second caller reads them)."""
     return tmp_path_factory.mktemp("validation-cache")
 

@@ -333,7 +333,7 @@ def test_analyze_field_sheet_refuses_with_the_argument_named():
 def test_validate_is_the_librarys_rows(small_harvest_machine, validation_cache):
     """api.validate on the small machine (one branch class, four bushes, two starts): the rows of
     berryshaker.study.validation.validate as a DataFrame indexed by id.  Its coupled runs are the same jobs as
-    tests/test_harvest_validation.py's and come from the shared cache when that ran first."""
+    tests/study/test_validation.py's and come from the shared cache when that ran first."""
     from berryshaker.runs.runner import SweepRunner
     from berryshaker.study.validation import validate
 

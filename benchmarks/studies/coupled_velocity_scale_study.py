@@ -1,13 +1,13 @@
 """The convergence study behind ``harvest.spec.COUPLED_VELOCITY_SCALE`` (1 m/s), the velocity scale of every coupled
 machine-plant run's error control.  Cited by ``src/berryshaker/harvest/spec.py`` (``COUPLED_VELOCITY_SCALE``),
-docs/harvest.md ("Solver tolerance of the coupled runs") and tests/test_coupled_tolerance.py; its history is
+docs/harvest.md ("Solver tolerance of the coupled runs") and tests/harvest/test_coupled_tolerance.py; its history is
 benchmarks/HISTORY.md sec. 28.  Writes benchmarks/studies/results/coupled_velocity_scale.json (``--out``).
 
 The coupled machine-plant runs (the virtual L9's replicates, the calibration, the harvest against frequency) hold
 a velocity's error absolutely below rtol x the velocity scale.  For each candidate scale, 16 replicates of the
 recommended clearances (A1B1C1F3, the L9's seeds and perturbed starts, 3 branch classes each) are run at
 ``COUPLED_RTOL`` and compared with the same replicates at rtol 1e-7 and the engine's 0.1 m/s, response by
-response, as in tests/test_coupled_tolerance.py: the mean of the paired differences in replicate SDs (pooled
+response, as in tests/harvest/test_coupled_tolerance.py: the mean of the paired differences in replicate SDs (pooled
 over the two settings) and its standard error.  Responses: what a replicate reports (harvest indexes, peak force
 of every clearance pair, drive torque peak and RMS) and, finer than the indexes, the mean of each branch
 class's peak stem-force table.  Printed per scale: step attempts and CPU per replicate job, the responses beyond

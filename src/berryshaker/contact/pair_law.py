@@ -56,7 +56,7 @@ DEFAULT_RESTITUTION_VELOCITY = 0.05
 #: drive-past fruit forces and harvest indexes (12 replicates) show no difference beyond the replicates' noise;
 #: from 3 mm/s up the 95th percentiles of the collision forces rise (benchmarks/studies/impact_velocity_floor_study.py;
 #: its measurement: benchmarks/HISTORY.md sec. 9).
-#: tests/test_impact_velocity_floor.py checks this value against a 10x smaller one and fails at 10 mm/s.
+#: tests/contact/test_pair_law_velocity_floor.py checks this value against a 10x smaller one and fails at 10 mm/s.
 LUBRICATED_RESTITUTION_VELOCITY = 1.0e-3
 #: density of the pin or roller (kg/m^3) in the yield velocity: steel [typical]
 PIN_DENSITY = 7850.0
@@ -376,7 +376,7 @@ def default_restitution_velocity(material_pair: str) -> tuple[float, str]:
       the wrong trend.  The published law's damping, which grows as the impact speed falls, has the right trend
       (not the squeeze film's magnitude, which is not modelled).  Its damping coefficient ~1/v_imp is bounded at
       1 mm/s, a numerical regularisation below which the statistics are shown independent of the value
-      (tests/test_impact_velocity_floor.py, benchmarks/studies/impact_velocity_floor_study.py); tag ``derived``.
+      (tests/contact/test_pair_law_velocity_floor.py, benchmarks/studies/impact_velocity_floor_study.py); tag ``derived``.
     * a dry pair with elastic constants and hardness: :func:`yield_velocity`; tag ``derived``.
     * any other pair: :data:`DEFAULT_RESTITUTION_VELOCITY`; tag ``assumed``.
 

@@ -11,7 +11,7 @@ from berryshaker.quantity_fields import NonNegAngle, _d, _q
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 #: default relative tolerance of every coupled machine-plant run (fruit force, stem-force envelopes, the
-#: virtual harvest's replicates), chosen by the ensemble study in tests/test_coupled_tolerance.py: over 16
+#: virtual harvest's replicates), chosen by the ensemble study in tests/harvest/test_coupled_tolerance.py: over 16
 #: replicates (3 branch classes each) at the recommended clearances, the loosest rtol at which no harvest
 #: index or machine load of a replicate differs from rtol 1e-7 beyond 2 standard errors of the paired
 #: difference (docs/harvest.md, "Solver tolerance of the coupled runs"); it was 1e-6.  The test keeps it by its own
@@ -79,7 +79,7 @@ class HarvestSpec(_Strict):
     # starts of each virtual test run (docs/harvest.md, "Replicates"): start k uses seed + 1000 k for its bushes and
     # for its machine's initial state (clearance eccentricities, drive phase at the bush); 8 = the count at which the
     # spread of every harvest response is known to 30 % (berryshaker doe virtual --convergence; the test
-    # tests/test_replicate_convergence.py holds it)
+    # tests/study/test_l9_convergence.py holds it)
     replicates: int = Field(8, ge=2, le=MAX_COUNT)
     # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of
     # ``replicates`` until every harvest response's standard error is at most se_target x its mean, or max_replicates

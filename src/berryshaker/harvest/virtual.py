@@ -125,7 +125,7 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
 
 #: output step (s) of the coupled drive-past behind a stem-force envelope (and a replicate's drive torque):
 #: the integrator's step cap, so at most one written sample per step.  Chosen by
-#: tests/test_harvest_sampling.py: on one trajectory (the engine's steps do not depend on the output grid)
+#: tests/harvest/test_virtual_sampling.py: on one trajectory (the engine's steps do not depend on the output grid)
 #: the envelope at 1e-4 s is within 1.2e-4 of a 1e-5 s grid (1.2e-4 of 2e-5 s) and the sampled drive-torque peak and RMS within
 #: 0.7 %, far inside a replicate's scatter (drive torque peak: SD ~7 %); 5e-4 s misses (torque RMS 3 %).
 #: It was 2e-5 s with every 5th sample used: the same envelope, 14 % more CPU per run.

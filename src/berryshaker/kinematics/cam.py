@@ -35,7 +35,7 @@ def _svaj_unit(x, law):
     cycloidal: P = x - sin(2 pi x)/(2 pi)
     4-5-6-7: P = 35x^4 - 84x^5 + 70x^6 - 20x^7
     (all three: Norton, *Cam Design and Manufacturing Handbook*, 2nd ed., 2009; their boundary
-    conditions and peak coefficients are checked in tests/test_cam.py)
+    conditions and peak coefficients are checked in tests/kinematics/test_cam.py)
     """
     if x <= 0.0:
         x = 0.0

@@ -2,7 +2,7 @@
 
 The published tables, not the derivation formulas, are the source of truth: ISO rounds the formula
 results in a way that simple rounding does not reproduce (see :mod:`berryshaker.life.fits` for the
-formulas and ``tests/test_fits.py`` for how far they are from these tables).
+formulas and ``tests/life/test_fits.py`` for how far they are from these tables).
 
 Sources
 -------

@@ -104,7 +104,7 @@ class CombContactSpec(_Strict):
                              "linear (exponent 1); give both stiffness and exponent, or neither")
         return self
 
-    # branch modes (two-way fruit add one mode each); 8: the smallest converged count (tests/test_plant_coupled.py)
+    # branch modes (two-way fruit add one mode each); 8: the smallest converged count (tests/harvest/test_coupled.py)
     n_modes: int = Field(8, ge=1, le=64)
 
     def impact_stiffness(self, branch_diameter: float | None = None) -> tuple[float, float]:

@@ -788,7 +788,7 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
     the harvest indexes do), so "within" is |mean change| <= 2 sqrt(2 / k) SD: a solver bias that large is
     flagged, noise is not (:func:`tests.test_replicated_l9.test_tolerance_verdict_is_noise_aware`).  With k = 2
     that resolves a bias of ~2 SD only; the tolerance itself is validated on 16 replicates by
-    tests/test_coupled_tolerance.py.
+    tests/harvest/test_coupled_tolerance.py.
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Fuzzing (hypothesis) of the classes of bad input of issue #42, "Nothing silently misread": a bare number
 where a unit belongs, unit text that pint's expression evaluator would compute (or hang on), values outside
 physical bounds, NaN on the way to an output, a byte-order mark, and messages that echo or decorate the
-input.  Same mechanism as tests/test_fuzz.py: fixed derandomised examples in CI, ``BERRYSHAKER_FUZZ_EXAMPLES=5000``
+input.  Same mechanism as tests/fuzz/test_field_sheet_fuzz.py: fixed derandomised examples in CI, ``BERRYSHAKER_FUZZ_EXAMPLES=5000``
 explores with random seeds.  About 30 s in all."""
 
 from __future__ import annotations

@@ -60,7 +60,7 @@ def test_crank_rocker_transmission_angle_is_the_unfolded_law_of_cosines_angle():
     from berryshaker.config import load_machine
     from berryshaker.drives.crank_rocker.kinematics import cycle_kinematics as cr_kinematics, kinematics_summary
 
-    m = load_machine(Path(__file__).parents[1] / "examples" / "crank_rocker_harvester.toml")
+    m = load_machine(Path(__file__).parents[2] / "examples" / "crank_rocker_harvester.toml")
     k = cr_kinematics(m, 720)
     phi = -k.phi  # the crank pin angle
     px, py = m.crank.radius * np.cos(phi), m.crank.radius * np.sin(phi)

@@ -352,7 +352,7 @@ def test_sheet_writer_and_reader_import_each_other_nowhere_inside_functions():
 
 
 # ---- statistics packages' worksheets (issue 45): Minitab's bookkeeping columns, runs told apart by their settings
-MINITAB = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+MINITAB = Path(__file__).parents[1] / "data" / "minitab_l9_replicated.csv"
 SENSES = {"efficiency": True, "unripe": False, "damage": False}
 
 

@@ -22,7 +22,7 @@ import runner_jobs as J
 from berryshaker.errors import ConfigError
 from berryshaker.runs.runner import SweepRunner, cache_entry_path, read_cache_entry, run_jobs, run_key
 
-TESTS = Path(__file__).resolve().parent
+TESTS = Path(__file__).resolve().parents[1]
 
 
 def _runner(tmp_path, **kw):

@@ -431,7 +431,7 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     from berryshaker.experiment.analysis import interaction_means, main_effect_residuals, standardized_effects
     from berryshaker.experiment.field_results import analyze_sheet
 
-    sheet = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+    sheet = Path(__file__).parents[1] / "data" / "minitab_l9_replicated.csv"
     fr, res = analyze_sheet(sheet, {"efficiency": True, "damage": False})
     ra = res["responses"]["efficiency"]
     y = fr.responses_replicated["efficiency"]
@@ -476,7 +476,7 @@ def test_doe_figures_take_the_sheets_units(tmp_path):
 
     from berryshaker.experiment.field_results import analyze_sheet
 
-    text = (Path(__file__).parent / "data" / "minitab_l9_replicated.csv").read_text(encoding="utf-8")
+    text = (Path(__file__).parents[1] / "data" / "minitab_l9_replicated.csv").read_text(encoding="utf-8")
     text = text.replace("C (mm)", "Speed (rpm)").replace(",Unripe (%),Damage (%)", "").splitlines()
     sheet = "\n".join([text[0]] + [",".join(ln.split(",")[:9]) for ln in text[1:]]) + "\n"
     fr, res = analyze_sheet(sheet, {"efficiency": True})

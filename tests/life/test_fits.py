@@ -232,7 +232,7 @@ def test_independent_transcription_pressfit_agrees():
     """pressfit (PyPI, hand-entered ISO 286 tables: holes H5..H11, shafts c..u IT5..IT11) as an oracle.
 
     An optional second transcription, skipped unless pressfit is installed (it is not a dependency): the full-table
-    oracle that always runs is tests/test_iso286_oracle.py (ISO 286-1 arithmetic, every entry)."""
+    oracle that always runs is tests/life/test_iso286_data.py (ISO 286-1 arithmetic, every entry)."""
     pressfit = pytest.importorskip("pressfit")
     sizes = [2, 3, 4.5, 8, 10, 14, 20, 30, 45, 60, 80, 110, 130, 150, 170, 190, 240, 260, 300, 350, 420, 500]
     for hole_grade in (6, 7, 8, 11):

@@ -56,7 +56,7 @@ def test_restitution_is_the_configured_one_at_and_above_v_ref(law):
         # the published law (v_ref = 0) at the same speed: identical
         assert _restitution(law, v, v_ref) == pytest.approx(_restitution(law, v, 0.0), abs=1e-9)
         assert _restitution(law, v, v_ref) == pytest.approx(e_ref, abs=1e-7)
-    assert e_ref == pytest.approx(0.9, abs=0.02)  # these laws hit e = 0.9 within 2 % (tests/test_contact.py)
+    assert e_ref == pytest.approx(0.9, abs=0.02)  # these laws hit e = 0.9 within 2 % (tests/contact/test_force_laws.py)
 
 
 @pytest.mark.parametrize("law", ["lankarani_nikravesh", "hunt_crossley", "flores"])
@@ -99,7 +99,7 @@ def test_pair_resolution_and_the_compiled_slot():
     from berryshaker.contact.wear import MATERIAL_PAIRS
 
     # a dry pair: the yield velocity; a lubricated pair: the published law (squeeze film) with its numerical floor
-    # of 1 mm/s (tests/test_impact_velocity_floor.py shows the statistics independent of it)
+    # of 1 mm/s (tests/contact/test_pair_law_velocity_floor.py shows the statistics independent of it)
     dry = resolve_pair_contact("lankarani_nikravesh", PairGeometry("pin-in-bore", 1e-4, 0.02, 0.02, "mild-steel-dry"))
     assert dry.restitution_velocity == pytest.approx(yield_velocity("mild-steel-dry"))
     assert dry.tags["restitution_velocity"] == "derived"

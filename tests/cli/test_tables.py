@@ -48,7 +48,7 @@ def test_too_many_columns_stack_instead_of_splitting():
 
 
 def test_every_cli_table_goes_through_the_one_writer():
-    src = Path(__file__).parents[1] / "src" / "berryshaker" / "cli"
+    src = Path(__file__).parents[2] / "src" / "berryshaker" / "cli"
     direct = [f"{p.name}:{i + 1}" for p in sorted(src.glob("*.py"))
               for i, ln in enumerate(p.read_text("utf-8").splitlines()) if re.search(r"\bTable\(", ln)]
     assert not direct, f"rich Table( built directly, not through print_table/rich_table: {direct}"

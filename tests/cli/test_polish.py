@@ -191,7 +191,7 @@ def test_doe_analyze_clean_errors(filled, extra, message):
 def test_readme_command_table_is_one_table_and_cites_docs_study():
     from pathlib import Path
 
-    text = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     section = text.split("## Commands", 1)[1].split("\n## ", 1)[0]
     lines = section.strip().splitlines()
     start = next(i for i, ln in enumerate(lines) if ln.startswith("| command"))

@@ -107,7 +107,7 @@ def _window(force: float, speed: float, n: int = 51, period: float = 0.5):
 def _rate_per_hour(force, speed, joint: JointWear) -> float:
     """Closed form, not the joint's own depth_per_volume: the radial clearance of a pin in a bore grows by
     4 V / (pi d L) with the load fixed in direction and V / (pi d L) with it rotating (contact/wear.py), V = k F s / H
-    (worked numbers: tests/test_wear_closed_form.py)."""
+    (worked numbers: tests/life/test_wear_closed_form.py)."""
     factor = 4.0 if joint.load_direction == "fixed" else 1.0
     return factor / (math.pi * D * L) * PAIR.wear_coefficient * force * speed / PAIR.hardness * 3600.0
 

@@ -20,8 +20,8 @@ from berryshaker.config import load_machine
 from berryshaker.report.design import (MAX_COLUMNS, SECTIONS, claims_apply, compare_efficiency, design_answers,
                                        design_answers_html, level_set_name, operating_point, why_efficiency)
 
-DATA = Path(__file__).parent / "data" / "report_sections.json"
-CRANK = Path(__file__).parent.parent / "examples" / "crank_rocker_harvester.toml"
+DATA = Path(__file__).parents[1] / "data" / "report_sections.json"
+CRANK = Path(__file__).parents[1].parent / "examples" / "crank_rocker_harvester.toml"
 #: the comb kinematics of the reference machine (kinematics step: left comb, 120 r/min)
 KINEMATICS = {"combs": {"left": {"swing_deg": {"min": -9.4623, "max": 9.4623}, "max_tip_speed_m_s": 2.25,
                                  "max_tip_acceleration_m_s2": 41.25},

@@ -10,7 +10,7 @@ from berryshaker.cli import app
 from berryshaker.drives.simulation import simulate_multibody
 from berryshaker.experiment.agreement import curve_agreement, f_critical, f_statistic
 
-from test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
+from drives.groove_cam.test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
 
 
 def test_ideal_multibody_harvester_equals_newton_euler(machine):

@@ -78,7 +78,7 @@ def test_a_drive_without_a_reduced_model_is_drawn_from_its_multibody_run():
     from berryshaker.explore import model as em
     from berryshaker.explore.views import frame_at, frame_data
 
-    base = load_machine(Path(__file__).parents[1] / "examples" / "crank_rocker_harvester.toml")
+    base = load_machine(Path(__file__).parents[2] / "examples" / "crank_rocker_harvester.toml")
     run = em.run_mechanism(em.build_machine(base, em.settings_of(base)), n_frames=12)
     assert run.model == "multibody" and set(run.forces) == set(base.pair_names)
     data = frame_data(run.frames, 100.0)

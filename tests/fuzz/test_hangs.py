@@ -1,4 +1,4 @@
-"""Nothing hangs: property-based fuzzing (hypothesis, in the style of tests/test_fuzz.py) of the inputs that used to
+"""Nothing hangs: property-based fuzzing (hypothesis, in the style of tests/fuzz/test_field_sheet_fuzz.py) of the inputs that used to
 make a run loop for ever or work for minutes without a bound, and the subprocess tests of Ctrl-C.
 
 * a push rod that self-locks in its guide is refused by ``config validate`` naming push_rod.friction_coefficient
@@ -37,7 +37,7 @@ HANG_GUARD_S = 60
 
 def _child_env() -> dict:
     """The environment of a child python: this checkout's sources first (as the tests import them)."""
-    src = str(Path(__file__).resolve().parents[1] / "src")
+    src = str(Path(__file__).resolve().parents[2] / "src")
     return dict(os.environ, PYTHONPATH=src + os.pathsep + os.environ.get("PYTHONPATH", ""))
 
 

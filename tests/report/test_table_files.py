@@ -36,7 +36,7 @@ def test_doe_analyze_tables_as_csv_and_xlsx(tmp_path):
     from berryshaker.experiment.field_results import analyze_sheet
     from berryshaker.report.table_files import write_doe_tables
 
-    sheet = Path(__file__).parent / "data" / "minitab_l9_replicated.csv"
+    sheet = Path(__file__).parents[1] / "data" / "minitab_l9_replicated.csv"
     _, res = analyze_sheet(sheet, {"efficiency": True, "damage": False})
     files = write_doe_tables(res, tmp_path)
     assert sorted(f.name for f in files) == sorted(f"{s}.{e}" for s in ("range_efficiency", "range_damage", "optimum")
