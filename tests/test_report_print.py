@@ -16,6 +16,7 @@ import pytest
 
 from berryshaker.config import load_machine, machine_table
 from berryshaker.report.html import report_title, runs_text, study_report
+from berryshaker.study.pipeline import report_sections
 
 PAIRS = ("A", "B", "C", "F")
 #: the virtual L9 (replicated, with its significance text and trade-off table), the powered drive, the clearance
@@ -65,7 +66,7 @@ def report(tmp_path_factory):
                "runs": {"runs": 40, "cached": 40, "computed": 0, "failed": 0, "compute_s": 0.0,
                         "cached_compute_s": 93.4, "cold_compute_s": 93.4, "elapsed_s": 0.5},
                "failures": [], "optimum": None}
-    text = study_report(res, summary, machine, figs)
+    text = study_report(res, summary, machine, figs, sections=report_sections())
     out = tmp_path_factory.mktemp("report") / "report.html"
     out.write_text(text, encoding="utf-8")
     return out, text, res, machine

@@ -238,6 +238,35 @@ def test_workers_started_before_the_geometry_check_are_ended_when_it_fails(fast_
     assert not (tmp_path / "o").exists() and not list((tmp_path).glob("*staging*"))
 
 
+def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config):
+    """Each step names the renderers of its report sections (pipeline.STEPS, report/sections.py); the report
+    numbers them 1, 2, ... in the steps' order, so no title carries a number, and the design answers' references
+    to sections (report.design.SECTIONS) are the numbers the report gives."""
+    import html as H
+    import re
+
+    from berryshaker.config import load_machine
+    from berryshaker.report.design import SECTIONS
+    from berryshaker.report.sections import SectionInput, section_numbers
+    from berryshaker.study.pipeline import STEPS, report_sections
+
+    out, _, _ = study_out
+    text = (out / "report.html").read_text()
+    saved = json.loads((out / "summary.json").read_text())
+    steps = report_sections()
+    numbers = section_numbers(steps)
+    inp = SectionInput(saved["results"], load_machine(fast_config), out / "figures", numbers)
+    titles = [render(inp)[0] for _, renderers in steps for render in renderers]
+    assert not [t for t in titles if re.match(r"\s*\d", t)], "a section title with a typed number"
+    headings = re.findall(r"<h2>(\d+)\. ([^<]*)</h2>", text)
+    assert headings == [(str(i + 1), H.escape(t, quote=False)) for i, t in enumerate(titles)]
+    assert len(re.findall(r"<h2>\s*\d", text)) == len(titles)  # no other numbered heading
+    first = {s.key: numbers[s.sections[0]] for s in STEPS if s.sections}
+    for key, label in SECTIONS.items():
+        if key in first:
+            assert label.startswith(f"{first[key]}. "), (key, label)
+
+
 def test_report_renders_in_headless_chromium(study_out):
     out, _, _ = study_out
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")

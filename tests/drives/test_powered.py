@@ -166,7 +166,7 @@ def test_sweep_runs_the_powered_drive_and_reports_ripple(tmp_path):
 def test_study_step_powered_drive(tmp_path):
     """The study's powered-drive step at levels 1-3, replicated from perturbed starts: ripple and energy lost
     per joint, trends judged against the replicate spread, and its report section."""
-    from berryshaker.report.html import _powered_drive_section
+    from berryshaker.report.sections import SectionInput, powered_drive_section
     from berryshaker.runs.runner import SweepRunner
     from berryshaker.study.pipeline import POWERED_REPLICATES, StudyContext, step_powered_drive
 
@@ -189,10 +189,9 @@ def test_study_step_powered_drive(tmp_path):
     assert r.data["ripple_grows_with_clearance"] == all(s["verdict"] == "up" for s in rt["steps"])
     assert rt["mean"] == [lv[k]["speed_ripple_percent"] for k in ("1", "2", "3")]
     assert ("grows" in r.data["finding"]) and f"{rt['mean'][2]:.3g} +- {rt['sd'][2]:.2g} %" in r.data["finding"]
-    parts = []
-    _powered_drive_section(parts, r.data, machine.pair_names, lambda name: None)
-    assert "Powered drive" in parts[0] and "ripple (%)" in parts[1] and "+-" in parts[1]
-    assert f"mean of {POWERED_REPLICATES} runs" in parts[2]
+    title, parts = powered_drive_section(SectionInput({"powered_drive": r.data}, machine, tmp_path))
+    assert "Powered drive" in title and "ripple (%)" in parts[0] and "+-" in parts[0]
+    assert f"mean of {POWERED_REPLICATES} runs" in parts[1]
 
 
 def test_replicate_trend_says_no_difference_for_noise():

@@ -1,7 +1,9 @@
 """The whole reference study as a pipeline of steps: kinematics, model agreement, clearance rows, fruit force,
-the virtual L9 field test, claims.  Each step returns a typed :class:`StepResult` (its data, figures and
-tables) that the report renders as its own section; :func:`run_study` runs the steps, writes the outputs
-atomically into a checked destination and returns the summary.
+the virtual L9 field test, clearance life, powered drive, harvest against frequency, validation, claims.  Each step
+(:data:`STEPS`) returns a typed :class:`StepResult` (its data, figures and tables) and names the renderers of its
+report sections (:mod:`berryshaker.report.sections`), which the report numbers in the steps' order;
+:func:`run_study` runs the steps, writes the outputs atomically into a checked destination and returns the
+summary.
 
 Every multi-run step goes through :class:`berryshaker.runs.runner.SweepRunner` (cached, resumable, local
 processes or a Dask cluster); the run functions are in :mod:`berryshaker.study.runs`.  A step whose runs are
@@ -29,6 +31,7 @@ from berryshaker.experiment.replicates import replicate_trend
 from berryshaker.multibody.engine import compile_engine
 from berryshaker.plant.pedicel import compile_peak_stem_force
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT, FRUIT_FORCE_N, MODEL_CHECK_LEVEL
+from berryshaker.report import sections as S
 from berryshaker.runs.runner import usable_cores
 from berryshaker.study.claims import check_claims
 from berryshaker.study.life_step import step_life
@@ -989,9 +992,52 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
                                         "energy_grows_with_clearance": lost_tr["grows"], "finding": verdict})
 
 
-STEPS = (("kinematics", step_kinematics), ("model_agreement", step_agreement), ("clearance_rows", step_rows),
-         ("fruit_force", step_fruit_force), ("virtual_l9", step_l9), ("harvest_response", step_harvest_response),
-         ("validation", step_validation), ("clearance_life", step_clearance_life), ("powered_drive", step_powered_drive))
+@dataclass(frozen=True)
+class Step:
+    """One step of the study: what runs it and what renders it.
+
+    Attributes
+    ----------
+    key : str
+        Its name in the timings (``summary.json``'s ``timings_s``) and in :data:`PLANS`.
+    run : callable
+        ``run(ctx) -> StepResult``.
+    result : str
+        Its :class:`StepResult`'s name: the key of its data in the results, and of its note.
+    sections : tuple of callable
+        The renderers of its report sections, in order (:mod:`berryshaker.report.sections`); the report numbers
+        them in the steps' order.
+    """
+
+    key: str
+    run: Callable[[StudyContext], StepResult]
+    result: str
+    sections: tuple = ()
+
+
+#: the study's steps, in the order they run and their sections stand in the report (the machine's own steps,
+#: then the harvest against frequency and the published record); only ``harvest_response`` reads an earlier
+#: step's results (``fruit_force``)
+STEPS = (Step("kinematics", step_kinematics, "kinematics", (S.kinematics_section,)),
+         Step("model_agreement", step_agreement, "agreement", (S.model_agreement_section,)),
+         Step("clearance_rows", step_rows, "rows", (S.collision_force_section, S.comb_load_section)),
+         Step("fruit_force", step_fruit_force, "fruit_force", (S.fruit_force_section,)),
+         Step("virtual_l9", step_l9, "l9", (S.virtual_l9_section,)),
+         Step("clearance_life", step_clearance_life, "clearance_life", (S.clearance_life_section,)),
+         Step("powered_drive", step_powered_drive, "powered_drive", (S.powered_drive_section,)),
+         Step("harvest_response", step_harvest_response, "harvest_response", (S.harvest_response_section,)),
+         Step("validation", step_validation, "validation", (S.validation_section,)))
+
+
+def report_sections() -> list[tuple[str, tuple]]:
+    """The steps' report sections in the steps' order: what :func:`berryshaker.report.html.study_report` renders.
+
+    Returns
+    -------
+    list of (str, tuple of callable)
+        Per step with sections: its result's name and its section renderers.
+    """
+    return [(s.result, s.sections) for s in STEPS if s.sections]
 
 
 #: the runs each step will ask for, known before it starts (:class:`PlannedRuns`), by step name
@@ -1016,10 +1062,10 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
         Every step's planned runs, in step order.
     """
     out = []
-    for key, _ in STEPS:
-        if key in PLANS:
+    for step in STEPS:
+        if step.key in PLANS:
             try:
-                out += PLANS[key](ctx)
+                out += PLANS[step.key](ctx)
             except Exception:  # noqa: BLE001 - the step will meet (and report) the same error
                 continue
     return out
@@ -1122,7 +1168,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
             for p in plans:
                 if not p.engine:
                     runner.prefetch(p.fn, p.jobs, chunks=1)
-        engine_ready = not any(key == ENGINE_STEP for key, _ in STEPS)
+        engine_ready = not any(step.key == ENGINE_STEP for step in STEPS)
 
         def start_planned():
             nonlocal plans
@@ -1131,7 +1177,8 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
             plans = []
 
         ctx.engine_compiled = start_planned
-        for key, fn in STEPS:
+        for step in STEPS:
+            key = step.key
             if engine_ready and plans:
                 start_planned()
             t0 = time.perf_counter()
@@ -1144,7 +1191,9 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
                         if not p.engine:
                             runner.prefetch(p.fn, p.jobs, chunks=1)
                 runner.warm_up(compile_peak_stem_force)  # the replicate runs' stem-force kernel, in an idle worker
-            r = fn(ctx)
+            r = step.run(ctx)
+            if r.name != step.result:  # the report finds a step's note by this name
+                raise RuntimeError(f"step {key} returned a StepResult named {r.name!r}, not {step.result!r}")
             engine_ready = engine_ready or key == ENGINE_STEP
             r.seconds = time.perf_counter() - t0
             steps[r.name] = r
@@ -1266,7 +1315,8 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
         write_tables(machine, results, tables)
         write_json_atomic(stage / "summary.json", {**summary, "results": strip_series(results),
                                                    "machine_si": machine.model_dump(mode="json")})
-        write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps))
+        write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps,
+                                                              sections=report_sections()))
     return summary
 
 
