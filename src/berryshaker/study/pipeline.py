@@ -11,7 +11,7 @@ known before it starts has a plan (``plan_<step>``, :data:`PLANS`) from which it
 starts the planned runs ahead in idle workers, so they run while this process compiles, plots and analyses.
 
 long module: each step sits beside its plan and its figures, so what a step asks the runner for and what was
-started ahead for it cannot drift apart (tests/test_study.py checks that no planned run goes unused).
+started ahead for it cannot drift apart (tests/study/test_pipeline.py checks that no planned run goes unused).
 """
 
 from __future__ import annotations

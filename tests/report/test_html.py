@@ -22,7 +22,7 @@ PAIRS = ("A", "B", "C", "F")
 #: the virtual L9 (replicated, with its significance text and trade-off table), the powered drive, the clearance
 #: life and the harvest response of a reference study run, trimmed to what the report reads (so the report's widest
 #: sections are rendered without running the study)
-SECTIONS = Path(__file__).parent / "data" / "report_sections.json"
+SECTIONS = Path(__file__).parents[1] / "data" / "report_sections.json"
 
 
 def _row(r: int) -> dict:
