@@ -65,7 +65,7 @@ def test_bush_ranges_are_checked():
 def _comb_moments_from_the_kernel(spec, t, y):
     """Moment about each comb's shaft of every applied force on the comb, from the engine's own generalised
     forces Q at state y (centre-of-mass force and moment moved to the shaft), and the contact forces there."""
-    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody import dynamics as mb
     from berryshaker.multibody.engine import _state_and_work, compile_mechanism
 
     cm = compile_mechanism(spec)

@@ -17,7 +17,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import cam_pitch as mb
 
 RISE, FAR, RET = 2.0943951, 1.04719755, 2.0943951
 

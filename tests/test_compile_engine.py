@@ -18,18 +18,27 @@ from berryshaker.multibody.engine import ENGINE_PARTS, compile_engine
 # for the harvester, count every compiled function's specialisations, then run a harvester, a harvester with the
 # bush's modes, the powered drive and both on the crank-rocker drive, and count again
 SCRIPT = textwrap.dedent("""
+    import importlib
     import json
+    import pkgutil
     import numba
+    import berryshaker.multibody as package
     from berryshaker.config import reference_machine
     from berryshaker.drives import drive_of
     from berryshaker.drives.simulation import simulate_multibody
     from berryshaker.harvest.coupled import coupled_mechanism
-    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody import kernel
     from berryshaker.multibody.engine import ENGINE_PARTS, compile_engine, simulate_mechanism
 
     m = reference_machine()
     seconds = compile_engine(drive_of(m).mechanism(m, revolutions=2), ENGINE_PARTS)
-    fns = {name: f for name, f in vars(mb).items() if isinstance(f, numba.core.registry.CPUDispatcher)}
+    fns = {}
+    for info in pkgutil.iter_modules(package.__path__):
+        mod = importlib.import_module(f"berryshaker.multibody.{info.name}")
+        for name, f in vars(mod).items():
+            if isinstance(f, numba.core.registry.CPUDispatcher) and f.py_func.__module__ == mod.__name__:
+                assert name not in fns, name
+                fns[name] = f
     before = {name: len(f.signatures) for name, f in fns.items()}
     simulate_multibody(m, revolutions=2)
     simulate_mechanism(coupled_mechanism(m)[0], duration=0.01)
@@ -38,7 +47,10 @@ SCRIPT = textwrap.dedent("""
     simulate_multibody(crank, revolutions=2)
     simulate_multibody(crank, revolutions=2, driveline="powered")
     after = {name: len(f.signatures) for name, f in fns.items()}
-    print(json.dumps({"seconds": seconds, "before": before, "after": after}))
+    g = kernel.integrate_resumable.py_func.__globals__
+    callees = sorted({n for n in kernel.integrate_resumable.py_func.__code__.co_names
+                      if isinstance(g.get(n), numba.core.registry.CPUDispatcher)})
+    print(json.dumps({"seconds": seconds, "before": before, "after": after, "callees": callees}))
 """)
 
 
@@ -51,11 +63,18 @@ def counts(tmp_path_factory):
 
 
 def test_compiled_parts_are_what_runs_use(counts):
-    parts = {"project", "forces", "accelerations", "fint_is_contact", "_onset_fraction", "_crossing_rate",
-             "_step_force_bound", "_interior_peak", "_dense_state", "_write_sample"}
-    assert all(counts["before"][f] == 1 for f in parts), counts["before"]
+    compiled = {f for f, n in counts["before"].items() if n}
+    parts = {"project", "constraint_residuals", "forces", "accelerations", "rk_step", "write_state_sample",
+             "write_step_samples", "fint_is_contact", "_onset_fraction", "_crossing_rate", "first_onset_fraction",
+             "error_norm", "dense_coefficients", "_dense_state", "_write_sample", "rejected_step_size",
+             "onset_cut_size", "next_step_size", "record_step_size", "save_resume", "load_resume",
+             "_step_force_bound", "_interior_peak", "record_contacts"}
+    assert parts <= compiled, parts - compiled
+    # the parts compile everything the integrator's loop calls, so that a run compiles only the loop itself
+    assert set(counts["callees"]) - {"integrate_resumable"} <= compiled, set(counts["callees"]) - compiled
+    assert all(counts["before"][f] == 1 for f in compiled), counts["before"]
     # every run (harvester, with modal plant, powered, crank-rocker) used those same specialisations: none was added
-    assert {f: counts["after"][f] for f in parts} == {f: 1 for f in parts}, counts["after"]
+    assert {f: counts["after"][f] for f in compiled} == {f: 1 for f in compiled}, counts["after"]
     assert counts["after"]["integrate_resumable"] == 1  # what every run integrates with (in chunks)
     assert set(counts["seconds"]) == set(ENGINE_PARTS)
 

@@ -74,7 +74,7 @@ def test_the_interior_peak_skip_changes_nothing():
 
 
 def _slider_crank_model():
-    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody import layout as mb
     from berryshaker.multibody.engine import compile_mechanism
     from berryshaker.multibody.spec import load_mechanism
 
@@ -91,7 +91,7 @@ _MODEL = []
        d1=st.floats(-2.0, 2.0, **finite), h=st.floats(1e-8, 1e-5, **finite), v_imp=st.floats(1e-3, 3.0, **finite))
 def test_step_bound_covers_the_interpolated_force(p0, p1, d0, d1, h, v_imp):
     """The bound is at least the force anywhere on the step's cubic Hermite penetration (1 001 points)."""
-    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody import contact_events as mb
 
     if not _MODEL:
         _MODEL.append(_slider_crank_model())

@@ -1,4 +1,4 @@
-"""The engine's direct calls of compiled specialisations (multibody.engine.call_compiled) and the per-run
+"""The engine's direct calls of compiled specialisations (multibody.dispatch.call_compiled) and the per-run
 memos of the sweep path (groove-cam geometry check, geometric contact laws): same results, errors every time."""
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from berryshaker.contact.pair_law import _geometric_contact_law, geometric_conta
 from berryshaker.drives.groove_cam.kinematics import require_buildable
 from berryshaker.drives.groove_cam.mechanism import harvester_mechanism
 from berryshaker.errors import GeometryError
-from berryshaker.multibody import engine, kernel
-from berryshaker.multibody.engine import _type_key, call_compiled
+from berryshaker.multibody import dispatch, engine, kernel
+from berryshaker.multibody.dispatch import _type_key, call_compiled
 
 
 @njit
@@ -45,8 +45,8 @@ def test_call_compiled_keeps_layouts_apart():
         ro = x.copy()
         ro.flags.writeable = False
         assert call_compiled(_strided_sum, ro) == 45.0
-    assert (_strided_sum, _type_key((x,))) in engine._ENTRY_POINTS
-    assert (_strided_sum, _type_key((x[::2],))) in engine._ENTRY_POINTS
+    assert (_strided_sum, _type_key((x,))) in dispatch._ENTRY_POINTS
+    assert (_strided_sum, _type_key((x[::2],))) in dispatch._ENTRY_POINTS
 
 
 def test_call_compiled_tuples_and_scalars():
@@ -106,7 +106,7 @@ def test_harvester_run_through_entry_points_is_the_dispatchers():
 
     kernel.integrate(*args(runs[0]))
     call_compiled(kernel.integrate, *args(runs[1]))  # the dispatcher, or the entry point if a run came first
-    assert (kernel.integrate, _type_key(args(runs[2]))) in engine._ENTRY_POINTS
+    assert (kernel.integrate, _type_key(args(runs[2]))) in dispatch._ENTRY_POINTS
     call_compiled(kernel.integrate, *args(runs[2]))  # the entry point
     for r in runs[1:]:
         for name in ("out_y", "out_e", "out_lam", "peaks", "first", "info"):
@@ -147,4 +147,4 @@ def test_call_compiled_passes_plain_functions_through():
 
     for _ in range(2):
         assert call_compiled(plain, 1.0, 2.0) == 3.0
-    assert len(calls) == 2 and not any(k[0] is plain for k in engine._ENTRY_POINTS)
+    assert len(calls) == 2 and not any(k[0] is plain for k in dispatch._ENTRY_POINTS)

@@ -299,3 +299,58 @@ def test_chunked_integration_is_bitwise_one_call(machine, monkeypatch, specialis
     assert parts.info[0] + parts.info[1] > 10 * 173
     for name in ("y", "elements", "multipliers", "peaks", "first", "info"):
         assert np.array_equal(getattr(whole, name), getattr(parts, name)), name
+
+
+def test_parameter_records_do_not_overlap_and_cover_every_slot():
+    """Each element type's record (multibody/layout.py) holds every slot once: no two of its slots share an index
+    (a table slot spans MAX_TABLE), and every named slot belongs to some record."""
+    from berryshaker.multibody import layout as lay
+
+    slots = {n for n in vars(lay) if n[:3] in ("FF_", "FI_", "CF_", "CI_")}
+    used = set()
+    for records in (lay.FORCE_RECORDS, lay.CONSTRAINT_RECORDS):
+        for typ, names in records.items():
+            assert len(set(names)) == len(names), (typ, names)
+            used |= set(names)
+            for arr in ("F", "I"):  # the float and the integer row apart
+                cells = [c for n in names if n[1] == arr
+                         for c in range(getattr(lay, n), getattr(lay, n) + lay.SLOT_WIDTH.get(n, 1))]
+                assert len(cells) == len(set(cells)), f"type {typ}: two slots at one index: {names}"
+                width = {"FF": lay.N_FF, "FI": lay.N_FI, "CF": lay.N_CF, "CI": lay.N_CI}
+                assert all(c < width[n[:2]] for n in names if n[1] == arr for c in cells)
+    assert slots == used, slots ^ used
+    with pytest.raises(ValueError, match="no slot 'bore_x'"):
+        lay.force_record(lay.FRC_SLOT_CL, bore_x=1.0)  # a slot of another element type
+    ints, flts = lay.force_record(lay.FRC_TORQUE_SPEED, body_i=2, table_n=2, table_speeds=[1.0, 2.0],
+                                 table_torques=[3.0, 4.0])
+    assert ints[lay.FI_BODY_I] == 2 and flts[lay.FF_TABLE_TORQUES + 1] == 4.0
+
+
+def test_each_force_element_reads_only_its_own_record():
+    """The compiled element functions (multibody/force_elements.py) read the slots of their own type's record only,
+    the helpers they call included: a slot name that another type uses for something else fails here."""
+    import types
+
+    from berryshaker.multibody import force_elements as fe
+    from berryshaker.multibody import layout as lay
+
+    functions = {lay.FRC_REV_CL: fe.pin_in_bore, lay.FRC_SLOT_CL: fe.pin_in_slot,
+                 lay.FRC_GROOVE_CL: fe.roller_in_groove, lay.FRC_BRANCH: fe.branch_contact,
+                 lay.FRC_ROT_SD: fe.rotational_spring_damper, lay.FRC_TORQUE: fe.constant_torque,
+                 lay.FRC_FORCE: fe.constant_force, lay.FRC_TORQUE_SPEED: fe.torque_speed_source,
+                 lay.FRC_GEAR_SD: fe.geared_spring_damper}
+    assert set(functions) == set(lay.FORCE_RECORDS)
+
+    def names(fn, seen):
+        code = fn.py_func.__code__
+        out = set(code.co_names).union(*(c.co_names for c in code.co_consts if isinstance(c, types.CodeType)))
+        for n in list(out):
+            callee = vars(fe).get(n)
+            if hasattr(callee, "py_func") and callee.py_func.__module__ == fe.__name__ and n not in seen:
+                seen.add(n)
+                out |= names(callee, seen)
+        return out
+
+    for typ, fn in functions.items():
+        read = {n for n in names(fn, set()) if n[:3] in ("FF_", "FI_")}
+        assert read and read <= set(lay.FORCE_RECORDS[typ]), (fn.py_func.__name__, read - set(lay.FORCE_RECORDS[typ]))

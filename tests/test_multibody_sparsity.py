@@ -13,8 +13,11 @@ import pytest
 
 from berryshaker.config import reference_machine
 from berryshaker.drives import drive_of
-from berryshaker.multibody import kernel as mb
-from berryshaker.multibody.engine import _state_and_work, compile_mechanism
+from berryshaker.multibody import layout as L
+from berryshaker.multibody.compiled import _state_and_work, compile_mechanism
+from berryshaker.multibody.constraint_rows import constraints
+from berryshaker.multibody.dynamics import project
+from berryshaker.multibody.linear_solve import _constrained_solve, _schur, _spd_solve
 from berryshaker.multibody.sparsity import driven_bodies, jacobian_pattern, solve_plan
 from berryshaker.multibody.spec import load_mechanism
 
@@ -60,7 +63,7 @@ def test_pattern_contains_every_nonzero_and_solve_matches_dense(name, spec, idea
     seen = np.zeros((m, n), dtype=bool)
     for _ in range(40):
         q, qd = _random_state(cm, rng)
-        mb.constraints(0.3, q, qd, ctype, cint, cflt, crow, cams, state[2], phi, jac, nu, gam)
+        constraints(0.3, q, qd, ctype, cint, cflt, crow, cams, state[2], phi, jac, nu, gam)
         nz = jac != 0.0
         seen |= nz
         assert not (nz & ~pattern).any(), f"{name}: nonzero Jacobian entries outside the pattern: " \
@@ -73,12 +76,12 @@ def test_pattern_contains_every_nonzero_and_solve_matches_dense(name, spec, idea
         gone = plan[:m, 2] == 1
         reduced_w = (jr * minv) @ jr.T + np.diag(gone.astype(float))
         W[:] = 0.0
-        mb._schur(plan, jac, minv, W, m)
+        _schur(plan, jac, minv, W, m)
         np.testing.assert_allclose(np.triu(W), np.triu(reduced_w), rtol=1e-13,
                                    atol=1e-13 * np.abs(reduced_w).max())
         x = rng.normal(size=m)
         b = reduced_w @ x
-        mb._spd_solve(plan, W, b, m)
+        _spd_solve(plan, W, b, m)
         np.testing.assert_allclose(b, x, rtol=1e-8, atol=1e-10 * np.abs(x).max())
         # the constrained solve against the dense KKT system [M J^T; J 0] [x; lam] = [M u; g]
         u = rng.normal(size=n)
@@ -88,7 +91,7 @@ def test_pattern_contains_every_nonzero_and_solve_matches_dense(name, spec, idea
         ref = np.linalg.solve(kkt, np.concatenate([mdiag * u, g]))
         out, lam, rhs_w = np.concatenate([np.zeros(3), u]), np.zeros(m), np.zeros(m)
         W[:] = 0.0
-        mb._constrained_solve(plan, cm.model[0], cm.model[1], cint, crow, jac, minv, W, rhs_w, out, 3, g, lam, m)
+        _constrained_solve(plan, cm.model[0], cm.model[1], cint, crow, jac, minv, W, rhs_w, out, 3, g, lam, m)
         np.testing.assert_allclose(out[3:], ref[:n], rtol=1e-8, atol=1e-10 * np.abs(ref[:n]).max())
         np.testing.assert_allclose(lam, ref[n:], rtol=1e-8, atol=1e-10 * np.abs(ref[n:]).max())
     # and not a trivially full pattern: every entry it keeps is met at some state
@@ -128,10 +131,10 @@ def test_driven_body_needs_exactly_a_ground_revolute_and_a_driver():
     """A body pinned to the ground, driven and holding another body is eliminated; not without its driver, with a
     second constraint to the ground (over-constrained), or when nothing else holds it (already a block of its
     own)."""
-    rev, drv, pri = mb.CON_REVOLUTE, mb.CON_DRIVER, mb.CON_PRISMATIC
+    rev, drv, pri = L.CON_REVOLUTE, L.CON_DRIVER, L.CON_PRISMATIC
 
     def driven(types, bodies):
-        rows = np.cumsum([0] + [mb.CON_ROWS[t] for t in types[:-1]])
+        rows = np.cumsum([0] + [L.CON_ROWS[t] for t in types[:-1]])
         cint = np.array([[i, j, 0, 0] for i, j in bodies], dtype=np.int64)
         return driven_bodies(np.array(types, dtype=np.int64), cint, rows.astype(np.int64))
 
@@ -146,7 +149,7 @@ def test_cases_cover_every_constraint_type():
     types = set()
     for _, spec, ideal in CASES:
         types |= {int(t) for t in compile_mechanism(spec, ideal_clearances=ideal).model[3]}
-    assert types == set(mb.CON_ROWS)
+    assert types == set(L.CON_ROWS)
 
 
 def test_remembered_plan_is_a_copy_per_call():
@@ -159,7 +162,7 @@ def test_remembered_plan_is_a_copy_per_call():
     first[:] = -7
     np.testing.assert_array_equal(solve_plan(ctype, cint, cflt, crow, cm.m, cm.n), expected)
     moved = cflt.copy()
-    moved[1, mb.CF_SJX] = 0.0  # the rod's pin at its origin: its angle column, and W[2, 3], leave the pattern
+    moved[1, L.CF_SJX] = 0.0  # the rod's pin at its origin: its angle column, and W[2, 3], leave the pattern
     assert not np.array_equal(solve_plan(ctype, cint, moved, crow, cm.m, cm.n), expected)
 
 
@@ -167,19 +170,19 @@ def _synthetic(cons, nb, n_extra=0):
     """Constraint arrays of a mechanism given as (type, body_i, body_j, s_ix, s_iy, s_jx, s_jy) per joint."""
     ctype, cint, cflt, crow, row = [], [], [], [], 0
     for typ, bi, bj, six, siy, sjx, sjy in cons:
-        f = np.zeros(mb.N_CF)
-        f[[mb.CF_SIX, mb.CF_SIY, mb.CF_SJX, mb.CF_SJY]] = six, siy, sjx, sjy
-        f[mb.CF_UX], f[mb.CF_SPEED] = 1.0, 3.0
+        f = np.zeros(L.N_CF)
+        f[[L.CF_SIX, L.CF_SIY, L.CF_SJX, L.CF_SJY]] = six, siy, sjx, sjy
+        f[L.CF_UX], f[L.CF_SPEED] = 1.0, 3.0
         ctype.append(typ)
         cint.append([bi, bj, 0])
         cflt.append(f)
         crow.append(row)
-        row += mb.CON_ROWS[typ]
+        row += L.CON_ROWS[typ]
     return (np.array(ctype, np.int64), np.array(cint, np.int64), np.array(cflt), np.array(crow, np.int64), row,
             3 * nb + n_extra)
 
 
-_R, _P, _L, _D = mb.CON_REVOLUTE, mb.CON_PRISMATIC, mb.CON_POINT_LINE, mb.CON_DRIVER
+_R, _P, _L, _D = L.CON_REVOLUTE, L.CON_PRISMATIC, L.CON_POINT_LINE, L.CON_DRIVER
 _SC = [(_R, -1, 0, 0, 0, -.025, 0), (_R, 0, 1, .025, 0, -.06, 0), (_P, -1, 2, 0, 0, 0, 0), (_R, 1, 2, .06, 0, 0, 0),
        (_D, 0, -1, 0, 0, 0, 0)]
 _SYNTHETIC = {
@@ -209,14 +212,13 @@ def test_constrained_solve_matches_dense_kkt_on_synthetic_mechanisms(name):
     phi, jac, nu, gam = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
     for _ in range(10):
         q, qd = rng.normal(0, 0.3, n), rng.normal(0, 1, n)
-        mb.constraints(0.1, q, qd, ctype, cint, cflt, crow, np.zeros((1, 8)), np.zeros(len(ctype)), phi, jac, nu,
-                       gam)
+        constraints(0.1, q, qd, ctype, cint, cflt, crow, np.zeros((1, 8)), np.zeros(len(ctype)), phi, jac, nu, gam)
         u, g = rng.normal(size=n), rng.normal(size=m)
         kkt = np.block([[np.diag(1 / minv), jac.T], [jac, np.zeros((m, m))]])
         ref = np.linalg.solve(kkt, np.concatenate([u / minv, g]))
         x, lam = u.copy(), np.zeros(m)
-        mb._constrained_solve(plan, mass, inertia, cint, crow, jac, minv, np.zeros((m, m)), np.zeros(m), x, 0, g,
-                              lam, m)
+        _constrained_solve(plan, mass, inertia, cint, crow, jac, minv, np.zeros((m, m)), np.zeros(m), x, 0, g,
+                           lam, m)
         np.testing.assert_allclose(x, ref[:n], rtol=1e-9, atol=1e-11 * np.abs(ref[:n]).max())
         np.testing.assert_allclose(lam, ref[n:], rtol=1e-9, atol=1e-11 * np.abs(ref[n:]).max())
 
@@ -244,12 +246,12 @@ def test_projection_matches_dense_mass_weighted_projection(crank_as, tmp_path):
     phi, jac, nu, gam = np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m)
 
     def at(q, qd):
-        mb.constraints(0.01, q, qd, md[3], md[4], md[5], md[6], md[10], state[2].copy(), phi, jac, nu, gam)
+        constraints(0.01, q, qd, md[3], md[4], md[5], md[6], md[10], state[2].copy(), phi, jac, nu, gam)
         return (jac * minv) @ jac.T
 
     q, qd = y[:n].copy(), y[n:].copy()
     q -= minv * (jac.T @ np.linalg.solve(at(q, qd), phi))
     w = at(q, qd)
     qd -= minv * (jac.T @ np.linalg.solve(w, jac @ qd - nu))
-    mb.project(0.01, y, md, state, work, np.int64(1))
+    project(0.01, y, md, state, work, np.int64(1))
     np.testing.assert_allclose(y, np.concatenate([q, qd]), rtol=1e-9, atol=1e-12)

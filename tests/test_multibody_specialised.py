@@ -19,9 +19,12 @@ from test_multibody_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
 
 from berryshaker.config import reference_machine
 from berryshaker.drives.simulation import simulate_multibody
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import kernel
 from berryshaker.multibody import specialised as sp
-from berryshaker.multibody.engine import _state_and_work, compile_mechanism, integrator, simulate_mechanism
+from berryshaker.multibody.compiled import _state_and_work, compile_mechanism
+from berryshaker.multibody.constraint_rows import constraints
+from berryshaker.multibody.engine import integrator, simulate_mechanism
+from berryshaker.multibody.linear_solve import _constrained_solve
 from berryshaker.multibody.sparsity import solve_plan
 
 
@@ -37,7 +40,7 @@ def _check(mod, ctype, cint, cflt, crow, cams, plan, mass, inertia, minv, m, n, 
     for _ in range(states):
         q, qd = q_of(rng)
         outs = []
-        for fn in (mb.constraints, gen_c):
+        for fn in (constraints, gen_c):
             arrs = (np.zeros(m), np.zeros((m, n)), np.zeros(m), np.zeros(m))
             psi = np.full(len(ctype), np.nan)
             fn(0.3, q, qd, ctype, cint, cflt, crow, cams, psi, *arrs)
@@ -47,7 +50,7 @@ def _check(mod, ctype, cint, cflt, crow, cams, plan, mass, inertia, minv, m, n, 
         jac = outs[0][1]
         u, g = rng.normal(size=n), rng.normal(size=m)
         sol = []
-        for fn in (mb._constrained_solve, gen_s):
+        for fn in (_constrained_solve, gen_s):
             x, lam = u.copy(), np.zeros(m)
             fn(plan, mass, inertia, cint, crow, jac, minv, np.zeros((m, m)), np.zeros(m), x, np.int64(0), g, lam,
                np.int64(m))
@@ -114,8 +117,8 @@ def test_specialised_slider_crank_run_is_bitwise_the_generic_run():
     duration = 2 * math.pi / abs(spec.drivers[0].speed)
     a = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=False)  # not "auto": it may be compiled
     b = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=True)
-    assert integrator(compile_mechanism(spec), True) is not mb.integrate
-    assert integrator(compile_mechanism(spec), False) is mb.integrate
+    assert integrator(compile_mechanism(spec), True) is not kernel.integrate
+    assert integrator(compile_mechanism(spec), False) is kernel.integrate
     for x, y in ((a.y, b.y), (a.elements, b.elements), (a.multipliers, b.multipliers), (a.peaks, b.peaks), (a.first, b.first), (a.info, b.info)):
         np.testing.assert_array_equal(x, y)
 
@@ -145,7 +148,7 @@ def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(
 
     def spy(cm, specialised=False):
         fn = integrator(cm, specialised)
-        used.append((specialised, fn is not mb.integrate))
+        used.append((specialised, fn is not kernel.integrate))
         return fn
 
     threads = numba.get_num_threads()
@@ -165,7 +168,7 @@ def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(
 
 
 def test_generated_row_product_counts_a_body_once_when_a_block_joins_it_to_itself():
-    # kernel._row_dot_at adds body j's columns only when it differs from body i (solve_plan allows the case)
+    # linear_solve._row_dot_at adds body j's columns only when it differs from body i (solve_plan allows the case)
     src = "\n".join(sp._solve_source(np.array([[0, 0, 0]]), np.array([0]), np.array([[0, 0, 0, 1], [0, 0, 0, -1]]),
                                       1))
     assert src.count("jac[0, 0] * u[off + 0]") == 1
@@ -204,18 +207,18 @@ def test_a_run_left_to_choose_takes_the_specialised_kernel_once_this_machine_com
     cm = compile_mechanism(spec)
     assert spec.simulation.specialised is None  # the default: left to choose
     _markers_in(tmp_path, monkeypatch)  # a machine that has compiled nothing
-    assert integrator(cm, None) is integrator(cm) is mb.integrate
+    assert integrator(cm, None) is integrator(cm) is kernel.integrate
     simulate_mechanism(spec, duration=1e-4, specialised=False)
     assert not sp.is_compiled(cm.model, cm.n)  # a generic run marks nothing
     simulate_mechanism(spec, duration=1e-4, specialised=True)  # compiled (or loaded), then marked for later runs
     assert sp.is_compiled(cm.model, cm.n)
-    assert integrator(cm, None) is integrator(cm, True) is not mb.integrate
-    assert integrator(cm, False) is mb.integrate  # asked for explicitly: always the generic one
+    assert integrator(cm, None) is integrator(cm, True) is not kernel.integrate
+    assert integrator(cm, False) is kernel.integrate  # asked for explicitly: always the generic one
     monkeypatch.setenv("BERRYSHAKER_KERNEL", "Generic ")
-    assert integrator(cm, None) is mb.integrate
+    assert integrator(cm, None) is kernel.integrate
     _markers_in(tmp_path / "none", monkeypatch)
     monkeypatch.setenv("BERRYSHAKER_KERNEL", "specialised")  # whether compiled or not
-    assert integrator(cm, None) is not mb.integrate
+    assert integrator(cm, None) is not kernel.integrate
     monkeypatch.setenv("BERRYSHAKER_KERNEL", "fast")
     with pytest.raises(ConfigError, match="BERRYSHAKER_KERNEL='fast'.*auto, generic, specialised.*unset it"):
         integrator(cm, None)
@@ -246,3 +249,23 @@ def test_the_run_cache_finds_a_sweep_point_whichever_kernel_computed_it():
     keys = {run_key(model_run, dict(kw, **extra)) for extra in ({}, {"specialised": True}, {"specialised": False})}
     assert len(keys) == 1  # the kernel does not change the value (bitwise), so not the key
     assert run_key(model_run, dict(kw, revolutions=3)) not in keys  # what does change it still does
+
+
+def test_generated_module_calls_its_own_right_hand_side_everywhere(monkeypatch):
+    """Every generic function on the integrator's path that calls the right-hand side is compiled again in the
+    generated module, calling the generated constraint rows and solve; the generator refuses a list that misses
+    one (the specialised integrator would quietly run the generic right-hand side there)."""
+    cons, nb, n_extra, _ = _SYNTHETIC["crank body_j"]
+    ctype, cint, cflt, crow, m, n = _synthetic(cons, nb, n_extra)
+    model = _model(ctype, cint, crow, solve_plan(ctype, cint, cflt, crow, m, n))
+    mod = sp.specialised_module(model, n, m)
+    for fn in sp.GENERIC_SOURCES:
+        own = getattr(mod, fn.py_func.__name__)
+        assert own is not fn and own.py_func.__globals__ is vars(mod), fn.py_func.__name__
+    assert mod.accelerations.py_func.__globals__["constraints"] is mod.constraints
+    assert mod.rk_step.py_func.__globals__["accelerations"] is mod.accelerations
+    assert mod.integrate_resumable.py_func.__globals__["write_step_samples"] is mod.write_step_samples
+    without_step = tuple(fn for fn in sp.GENERIC_SOURCES if fn.py_func.__name__ != "rk_step")
+    monkeypatch.setattr(sp, "GENERIC_SOURCES", without_step)
+    with pytest.raises(RuntimeError, match="integrate_resumable calls rk_step.*GENERIC_SOURCES"):
+        sp.specialised_source(model, n, m)

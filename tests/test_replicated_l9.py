@@ -113,7 +113,7 @@ def test_perturbed_start_sits_inside_the_clearances_and_changes_the_impacts(mach
     """A seeded perturbation starts every clearance joint at its drawn eccentricity (pin in bore: penetration
     |e| - c; slot and groove: inside half their free travel) with the driver turned by its drawn phase; the
     impact-by-impact force history then differs from the centred start while the same seed repeats exactly."""
-    from berryshaker.multibody import kernel as mb
+    from berryshaker.multibody import layout as mb
     from berryshaker.multibody.engine import simulate_mechanism
     from berryshaker.multibody.perturbation import InitialPerturbation, RandomInitialPerturbation
 

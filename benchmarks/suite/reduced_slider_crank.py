@@ -38,7 +38,8 @@ import numpy as np
 from numba import njit
 
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
-from berryshaker.multibody.kernel import BETA, EVENT_TOL, EXPO1, SAFETY, _onset_fraction
+from berryshaker.multibody.contact_events import EVENT_TOL, _onset_fraction
+from berryshaker.multibody.step_control import BETA, EXPO1, SAFETY
 
 _A = np.asarray(DOPRI_A, float)
 _C = np.asarray(DOPRI_C, float)
@@ -103,7 +104,7 @@ def _rhs(t, y, p, v_imp, in_contact, dy):
 
 @njit(cache=True)
 def _dense(th, h, k, y1, y0, bspl, rc5, out):
-    """DOPRI5 continuous extension (as berryshaker.multibody.kernel._dense_state)."""
+    """DOPRI5 continuous extension (as berryshaker.multibody.dopri._dense_state)."""
     th1 = 1.0 - th
     for i in range(out.shape[0]):
         yd = y1[i] - y0[i]
@@ -117,8 +118,9 @@ def integrate_reduced(y0, p, t_out, rtol, h_max, out_f, info):
 
     The integrator features are the engine's (berryshaker.multibody.kernel.integrate): steps do not stop at
     output times (samples from the continuous extension of order 4), a step across a contact onset is cut back
-    to the crossing located on the cubic Hermite interpolant of the penetration (kernel._onset_fraction) before
-    the error test and the step size is then resumed, PI step-size control with no growth after a rejection."""
+    to the crossing located on the cubic Hermite interpolant of the penetration (contact_events._onset_fraction)
+    before the error test and the step size is then resumed, PI step-size control with no growth after a
+    rejection."""
     ny = 4
     atol = np.empty(ny)
     atol[0] = 1e-3 * rtol

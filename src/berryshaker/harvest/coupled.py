@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from berryshaker.config import Machine
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import layout as mb
 from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError

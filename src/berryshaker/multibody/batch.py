@@ -23,6 +23,7 @@ from numba import njit, prange
 
 from berryshaker.compiled_cache import kernel_choice
 from berryshaker.errors import BerryshakerError
+from berryshaker.multibody import engine
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import (MultibodyResult, PreparedRun, finish_run, integrate_in_chunks, prepare_run,
                                           resumable)
@@ -78,12 +79,10 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     """
     import numba
 
-    from berryshaker.multibody.engine import integrator
-
     if numba.get_num_threads() == 1 or len(runs) == 1:
         t0 = time.perf_counter()
         for r in runs:
-            integrate = resumable(integrator(r.cm, r.specialised))
+            integrate = resumable(engine.integrator(r.cm, r.specialised))  # looked up at the call (tests patch it)
             integrate_in_chunks(integrate, r)  # in chunks: Ctrl-C stops it (the parallel call below cannot)
             if integrate is not mb.integrate_resumable:
                 mark_compiled(r.cm.model, r.cm.n, integrate)  # later runs of the structure take it by default

@@ -1,7 +1,7 @@
 """Energy audit of a multibody run: work of every force element against the change of kinetic and stored energy.
 
 With ``simulation.energy_audit`` on, the compiled core integrates the power of every force element with the
-state (``kernel.accumulator_start``): element k's work W_k(t) = int sum_i dQ_i q'_i dt is an auxiliary coordinate,
+state (``force_elements.accumulator_start``): element k's work W_k(t) = int sum_i dQ_i q'_i dt is an auxiliary coordinate,
 so it is the Runge-Kutta quadrature of the same stage values that advance the motion (5th order, no trapezoid over
 output samples).  Between two output samples, the balance
 
@@ -21,14 +21,14 @@ import math
 
 import numpy as np
 
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import layout as L
 
 #: Gauss-Legendre nodes and weights on [0, 1] for a contact's elastic energy int_0^delta F(p, 0) dp
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 _GL_X, _GL_W = 0.5 * (_GL_X + 1.0), 0.5 * _GL_W
 
-_CONTACTS = (mb.FRC_REV_CL, mb.FRC_SLOT_CL, mb.FRC_GROOVE_CL, mb.FRC_BRANCH)
-_SOURCES = (mb.FRC_TORQUE, mb.FRC_TORQUE_SPEED)
+_CONTACTS = L.CONTACT_TYPES
+_SOURCES = (L.FRC_TORQUE, L.FRC_TORQUE_SPEED)
 
 
 def kinetic_energy(cm, y: np.ndarray) -> np.ndarray:
@@ -61,9 +61,9 @@ def _elastic_contact_energy(cm, k: int, pen: float) -> float:
     if pen <= 0.0:
         return 0.0
     fint, fflt, laws = cm.model[8], cm.model[9], cm.model[15]
-    law = laws[int(fint[k, 3])]
+    law = laws[int(fint[k, L.FI_LAW])]
     p = fflt[k]
-    f = [law(float(pen * x), 0.0, 1.0, p[mb.FF_K], p[mb.FF_N], p[mb.FF_E], p[mb.FF_C], p[mb.FF_D]) for x in _GL_X]
+    f = [law(float(pen * x), 0.0, 1.0, p[L.FF_K], p[L.FF_N], p[L.FF_E], p[L.FF_C], p[L.FF_D]) for x in _GL_X]
     return float(pen * np.dot(_GL_W, f))
 
 
@@ -91,19 +91,19 @@ def stored_energy(cm, y: np.ndarray, elements: np.ndarray) -> tuple[dict[str, fl
     ang = lambda b: q[3 * b + 2] if b >= 0 else 0.0
     out = {}
     for k, name in enumerate(cm.frc_names):
-        typ, bi, bj = ftype[k], fint[k, 0], fint[k, 1]
+        typ, bi, bj = ftype[k], fint[k, L.FI_BODY_I], fint[k, L.FI_BODY_J]
         u = 0.0
-        if typ == mb.FRC_ROT_SD:
-            u = 0.5 * fflt[k, mb.FF_K] * (ang(bi) - ang(bj) - fflt[k, mb.FF_PHI0]) ** 2
-        elif typ == mb.FRC_GEAR_SD:
-            u = 0.5 * fflt[k, mb.FF_K] * y[n + fint[k, 2]] ** 2
+        if typ == L.FRC_ROT_SD:
+            u = 0.5 * fflt[k, L.FF_RSD_K] * (ang(bi) - ang(bj) - fflt[k, L.FF_RSD_ANGLE0]) ** 2
+        elif typ == L.FRC_GEAR_SD:
+            u = 0.5 * fflt[k, L.FF_GEAR_K] * y[n + fint[k, L.FI_WINDUP]] ** 2
         elif typ in _CONTACTS:
-            u = _elastic_contact_energy(cm, k, float(elements[k, mb.EO_PEN]))
-        elif typ == mb.FRC_FORCE:
+            u = _elastic_contact_energy(cm, k, float(elements[k, L.EO_PEN]))
+        elif typ == L.FRC_FORCE:
             c, s = math.cos(q[3 * bi + 2]), math.sin(q[3 * bi + 2])
-            sx, sy = fflt[k, mb.FF_SIX], fflt[k, mb.FF_SIY]
+            sx, sy = fflt[k, L.FF_POINT_X], fflt[k, L.FF_POINT_Y]
             px, py = q[3 * bi] + c * sx - s * sy, q[3 * bi + 1] + s * sx + c * sy
-            u = -(fflt[k, mb.FF_UX] * px + fflt[k, mb.FF_UY] * py)
+            u = -(fflt[k, L.FF_FORCE_X] * px + fflt[k, L.FF_FORCE_Y] * py)
         out[name] = float(u)
     w = cm.model[11]
     modal = float(0.5 * np.sum((w * q[3 * nb:3 * nb + len(w)]) ** 2)) if len(w) else 0.0
@@ -157,14 +157,14 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
         else:
             dissipated[name] = float(-d_w[k] - (u1[name] - u0[name]))
     cflt = cm.model[5]
-    if np.any((cm.model[3] == mb.CON_PRISMATIC) & (cflt[:, mb.CF_MU] > 0)):
+    if np.any((cm.model[3] == L.CON_PRISMATIC) & (cflt[:, L.CF_MU] > 0)):
         dissipated["guide friction"] = float(-d_w[nf])  # prismatic joints' Coulomb friction (all of them)
     if len(cm.model[11]):
         dissipated["modal damping"] = float(-d_w[nf + 1] - (m1 - m0))
     d_pot = (g1 - g0) + sum(u1.values()) - sum(u0.values()) + (m1 - m0)
     d_ke = float(ke[1] - ke[0])
     residual = w_in - d_ke - d_pot - sum(dissipated.values())
-    imposed = any(typ == mb.CON_DRIVER for typ in cm.model[3])
+    imposed = any(typ == L.CON_DRIVER for typ in cm.model[3])
     out = {"window_s": [float(t[i0]), float(t[i1])], "input_work_J": w_in, "kinetic_change_J": d_ke,
            "potential_change_J": float(d_pot), "dissipated_J": dissipated}
     if imposed:

@@ -3,7 +3,11 @@ integrators (Hairer, Norsett & Wanner, *Solving Ordinary Differential Equations 
 Row 7 of A is the 5th-order solution (FSAL); E holds b - b* for the embedded 4th-order error estimate; D the
 coefficients of the continuous extension of order 4 (dense output; Hairer, Norsett & Wanner sec. II.6, as in
 their code DOPRI5: y(t0 + th h) = y0 + th (dy + (1 - th) (b + th (dy - h k7 - b + (1 - th) h sum_i D_i k_i)))
-with dy = y1 - y0 and b = h k1 - dy)."""
+with dy = y1 - y0 and b = h k1 - dy).
+
+numba freezes these arrays into the compiled integrators as constants: this file's mention of numba puts it in
+the compiled sources' digest (:func:`berryshaker.compiled_cache.compiled_sources_digest`), so a change of the
+tableau recompiles them."""
 
 import numpy as np
 

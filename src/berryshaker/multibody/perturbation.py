@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from berryshaker.errors import ConfigError
-from berryshaker.multibody.engine import initial_state
-from berryshaker.multibody.spec import MechanismSpec
+from berryshaker.multibody.assembly import initial_state
+from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 
 #: largest driver rotation (rad) between two Newton assemblies when a perturbation turns a driver's start angle
@@ -65,8 +65,6 @@ class InitialPerturbation:
         """``spec`` with every perturbed driver's start angle ``angle0`` turned by its ``driver_phases`` entry."""
         if not self.driver_phases:
             return spec
-        from berryshaker.multibody.spec import mechanism_from_dict
-
         data = spec.model_dump()
         for d, b in zip(data["drivers"], spec.drivers):
             if b.name in self.driver_phases:
@@ -81,8 +79,6 @@ class InitialPerturbation:
         centre sits A_i d from the bore centre); the driver turn is followed by continuation from the
         unperturbed assembly (Newton from the previous configuration at each step).
         """
-        from berryshaker.multibody.spec import mechanism_from_dict
-
         data = spec.model_dump()
         for j in data["joints"]:
             if j["name"] in self.joint_offsets:

@@ -24,12 +24,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import layout as L
 
 
 def jacobian_pattern(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.ndarray, m: int,
                      n: int) -> np.ndarray:
-    """Where the constraint Jacobian Phi_q can be nonzero, by constraint type (kernel ``constraints``).
+    """Where the constraint Jacobian Phi_q can be nonzero, by constraint type (``constraint_rows.constraints``).
 
     Parameters
     ----------
@@ -69,26 +69,26 @@ def jacobian_pattern(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow
         bi, bj = int(cint[k, 0]), int(cint[k, 1])
         f = cflt[k]
         typ = int(ctype[k])
-        if typ == mb.CON_REVOLUTE:
+        if typ == L.CON_REVOLUTE:
             for row in (r, r + 1):
                 if bi >= 0:
                     pat[row, 3 * bi + (row - r)] = True
-                    pat[row, 3 * bi + 2] = off_origin(f[mb.CF_SIX], f[mb.CF_SIY])
+                    pat[row, 3 * bi + 2] = off_origin(f[L.CF_SIX], f[L.CF_SIY])
                 if bj >= 0:
                     pat[row, 3 * bj + (row - r)] = True
-                    pat[row, 3 * bj + 2] = off_origin(f[mb.CF_SJX], f[mb.CF_SJY])
-        elif typ == mb.CON_PRISMATIC:
+                    pat[row, 3 * bj + 2] = off_origin(f[L.CF_SJX], f[L.CF_SJY])
+        elif typ == L.CON_PRISMATIC:
             for b in (bi, bj):  # the relative-angle row
                 if b >= 0:
                     pat[r, 3 * b + 2] = True
             # slider j's point on the line of body i
-            on_line(r + 1, bi, bj, off_origin(f[mb.CF_SJX], f[mb.CF_SJY]), f[mb.CF_UX], f[mb.CF_UY])
-        elif typ == mb.CON_POINT_LINE:  # pin of body i in a slot of body j
-            on_line(r, bj, bi, off_origin(f[mb.CF_SIX], f[mb.CF_SIY]), f[mb.CF_UX], f[mb.CF_UY])
-        elif typ == mb.CON_CAM_ROLLER:
-            xyz(r, bi, off_origin(f[mb.CF_SIX], f[mb.CF_SIY]))
+            on_line(r + 1, bi, bj, off_origin(f[L.CF_SJX], f[L.CF_SJY]), f[L.CF_UX], f[L.CF_UY])
+        elif typ == L.CON_POINT_LINE:  # pin of body i in a slot of body j
+            on_line(r, bj, bi, off_origin(f[L.CF_SIX], f[L.CF_SIY]), f[L.CF_UX], f[L.CF_UY])
+        elif typ == L.CON_CAM_ROLLER:
+            xyz(r, bi, off_origin(f[L.CF_SIX], f[L.CF_SIY]))
             xyz(r, bj)
-        elif typ == mb.CON_DRIVER:
+        elif typ == L.CON_DRIVER:
             pat[r, 3 * bi + 2] = True
         else:
             raise ValueError(f"constraint type {typ} has no Jacobian pattern in multibody.sparsity")
@@ -101,7 +101,7 @@ def driven_bodies(ctype: np.ndarray, cint: np.ndarray, crow: np.ndarray) -> list
     A body with a revolute joint to the ground (rows r, r + 1) and an angle driver (row d), and no other
     constraint to the ground, has J_bb x_b = g_b with J_bb = [[s, 0, j], [0, s, j'], [0, 0, 1]], s = +-1, always
     invertible: its accelerations (and projection corrections) follow from its own rows, and the kernel
-    eliminates those rows before the multiplier solve (:func:`berryshaker.multibody.kernel._constrained_solve`).
+    eliminates those rows before the multiplier solve (:func:`berryshaker.multibody.linear_solve._constrained_solve`).
     Only a body that some other joint also holds is returned: otherwise its rows are a block of W of their own
     already and eliminating them would only add work (the groove cam, whose groove is a contact).  The crank of
     the slider-crank, the crank of the crank-rocker drive with ideal pins and the cam with an ideal groove are
@@ -115,18 +115,18 @@ def driven_bodies(ctype: np.ndarray, cint: np.ndarray, crow: np.ndarray) -> list
     blocks: dict[int, list[int]] = {}
     for k in range(len(ctype)):
         bi, bj = int(cint[k, 0]), int(cint[k, 1])
-        if int(ctype[k]) == mb.CON_DRIVER:
+        if int(ctype[k]) == L.CON_DRIVER:
             blocks.setdefault(bi, []).append(k)
         elif (bi < 0) != (bj < 0):  # a joint between a body and the ground
             blocks.setdefault(max(bi, bj), []).append(k)
     for b, ks in sorted(blocks.items()):
         types = sorted(int(ctype[k]) for k in ks)
-        if types != sorted((mb.CON_REVOLUTE, mb.CON_DRIVER)):
+        if types != sorted((L.CON_REVOLUTE, L.CON_DRIVER)):
             continue
         if not any(b in (int(cint[k, 0]), int(cint[k, 1])) for k in range(len(ctype)) if k not in ks):
             continue  # no other joint holds it: its rows are a block of W of their own already
-        kr = next(k for k in ks if int(ctype[k]) == mb.CON_REVOLUTE)
-        kd = next(k for k in ks if int(ctype[k]) == mb.CON_DRIVER)
+        kr = next(k for k in ks if int(ctype[k]) == L.CON_REVOLUTE)
+        kd = next(k for k in ks if int(ctype[k]) == L.CON_DRIVER)
         out.append((b, int(crow[kr]), int(crow[kd])))
     return out
 

@@ -37,6 +37,7 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 from berryshaker.quantity_fields import UNITS_REQUIRED, Angle, Coefficient, SignedLength, _q, _what, read_quantity
 from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
+from berryshaker.multibody.layout import MAX_TABLE
 
 Mass = Annotated[float, _q("mass"), Field(gt=0)]
 Inertia = Annotated[float, _q("inertia"), Field(gt=0)]
@@ -165,8 +166,6 @@ class DriverSpec(_Strict):
     @model_validator(mode="after")
     def _table(self) -> "DriverSpec":
         if self.type == "torque_speed":
-            from berryshaker.multibody.kernel import MAX_TABLE
-
             n = len(self.speeds)
             if n < 2 or n != len(self.torques) or n > MAX_TABLE:
                 raise ValueError(f"driver {self.name!r}: a torque_speed driver needs speeds and torques of the same "

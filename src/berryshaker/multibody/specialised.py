@@ -8,16 +8,22 @@ dependent operations that bounds each stage (benchmarks/HISTORY.md sec. 24, 27):
 right-hand side with the same arithmetic ran the step 38 % faster (sec. 29).  This module writes that code for any
 mechanism, from the structure alone:
 
-* ``constraints``: per constraint block, :func:`~berryshaker.multibody.kernel.block_start` and the block type's
-  ``kernel.*_rows`` function with its rows and bodies as literals (the generic loop of ``kernel.constraints``
-  calls the same functions: one home for the formulas);
+* ``constraints``: per constraint block, :func:`~berryshaker.multibody.constraint_rows.block_start` and the block
+  type's ``constraint_rows.*_rows`` function with its rows and bodies as literals (the generic loop of
+  ``constraint_rows.constraints`` calls the same functions: one home for the formulas);
 * ``_constrained_solve``: the driven bodies' substitution, the Schur complement's structurally nonzero entries,
   its L D L^T factorisation over each row's envelope, the driven rows' multipliers and Phi_q^T lambda, in the
-  same operations and order as the generic :func:`~berryshaker.multibody.kernel._constrained_solve` (so the
+  same operations and order as the generic :func:`~berryshaker.multibody.linear_solve._constrained_solve` (so the
   results are bitwise those of the generic kernel; tests/test_multibody_specialised.py), with every index a
   literal and every entry of W a local variable;
-* ``accelerations`` and ``integrate``: the generic kernel's own source, compiled in the generated module so that
-  they call the two functions above (the constraint projection after a step stays generic; sec. 29).
+* the right-hand side ``dynamics.accelerations`` and everything on the integrator's path that calls it
+  (:data:`GENERIC_SOURCES`: the step ``dopri.rk_step``, the output samples of ``sampling``, the loop
+  ``kernel.integrate_resumable`` and ``kernel.integrate``): the generic kernel's own source, compiled in the
+  generated module so that they call the two functions above; every other name they use is imported from its
+  generic module (the constraint projection after a step stays generic; sec. 29).  The generator refuses to
+  write a module in which a generic function it imports would reach the generic constraints or solve
+  (:func:`_check_generic_sources`), so a new caller of ``accelerations`` cannot leave the specialised kernel
+  quietly running the generic one.
 
 Every sum of the solve is emitted as a sequence of statements, one term each, in the generic loops' order (no
 expression nests deeper than one term, whatever the structure's size).
@@ -41,14 +47,23 @@ import inspect
 import os
 import sys
 import tempfile
+import types
 from pathlib import Path
 
 import numpy as np
 
-from berryshaker.multibody import kernel as mb
+from berryshaker.multibody import constraint_rows, dopri, dynamics, kernel, linear_solve, sampling
+from berryshaker.multibody.layout import CON_CAM_ROLLER, CON_DRIVER, CON_POINT_LINE, CON_PRISMATIC, CON_REVOLUTE
 
 #: the generated module's format; part of every structure key, so a change of the generator starts new files
-GENERATOR_VERSION = 2
+GENERATOR_VERSION = 3
+#: the generic functions compiled again in the generated module (their source as it is): every function of the
+#: integrator's path that calls ``accelerations`` (and so the constraint rows and the solve), callers after callees
+GENERIC_SOURCES = (dynamics.accelerations, dopri.rk_step, sampling.write_state_sample, sampling.write_step_samples,
+                   kernel.integrate_resumable, kernel.integrate)
+#: the generic functions that call the constraint rows or the solve and stay generic in the generated module: the
+#: projection after a step (specialising it cost 3.8 s more compilation for little, benchmarks/HISTORY.md sec. 29)
+GENERIC_KEPT = (dynamics.project,)
 
 _LOADED: dict[str, object] = {}
 
@@ -67,22 +82,22 @@ def structure_key(model: tuple, n: int) -> str:
 def _constraints_source(ctype, cint, crow, m: int) -> list[str]:
     lines = ["@njit(cache=True, _nrt=False, inline=\"always\")",
              "def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, gam):",
-             "    \"\"\"kernel.constraints with this structure's blocks as literals.\"\"\""]
+             "    \"\"\"constraint_rows.constraints with this structure's blocks as literals.\"\"\""]
     nc = len(ctype)
     for k in range(nc):
         r, r_end = int(crow[k]), (int(crow[k + 1]) if k + 1 < nc else m)
         bi, bj, typ = int(cint[k, 0]), int(cint[k, 1]), int(ctype[k])
         i64 = "np.int64"
         lines.append(f"    block_start({i64}({r}), {i64}({r_end}), {i64}({bi}), {i64}({bj}), jac, nu, gam)")
-        if typ == mb.CON_REVOLUTE:
+        if typ == CON_REVOLUTE:
             call = f"revolute_rows({i64}({k}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cflt, phi, jac, nu, gam)"
-        elif typ in (mb.CON_PRISMATIC, mb.CON_POINT_LINE):
+        elif typ in (CON_PRISMATIC, CON_POINT_LINE):
             call = (f"line_rows({i64}({k}), {i64}({typ}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cflt, phi, "
                     "jac, nu, gam)")
-        elif typ == mb.CON_CAM_ROLLER:
+        elif typ == CON_CAM_ROLLER:
             call = (f"cam_roller_rows({i64}({k}), {i64}({r}), {i64}({bi}), {i64}({bj}), q, qd, cint, cflt, cams, "
                     "psi_mem, phi, jac, nu, gam)")
-        elif typ == mb.CON_DRIVER:
+        elif typ == CON_DRIVER:
             call = f"driver_rows({i64}({k}), {i64}({r}), {i64}({bi}), t, q, cflt, phi, jac, nu)"
         else:
             raise ValueError(f"constraint block {k}: unknown constraint type {typ}")
@@ -93,7 +108,7 @@ def _constraints_source(ctype, cint, crow, m: int) -> list[str]:
 
 
 def _solve_source(cint, crow, plan, m: int) -> list[str]:
-    """The generic ``kernel._constrained_solve`` (with ``_row_dot_at``, ``_schur``, ``_spd_solve`` and
+    """The generic ``linear_solve._constrained_solve`` (with ``_row_dot_at``, ``_schur``, ``_spd_solve`` and
     ``_add_jac_t``) unrolled for one plan: the same floating-point operations in the same order."""
     nc = len(crow)
     ne = int(plan[0, 3]) if m > 0 else 0
@@ -102,7 +117,7 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
               for k in range(nc)]
     L = ["@njit(cache=True, _nrt=False, inline=\"always\")",
          "def _constrained_solve(plan, mass, inertia, cint, crow, jac, minv, W, rhs, u, off, g, lam, m):",
-         "    \"\"\"kernel._constrained_solve unrolled for this structure (same operations, same order).\"\"\""]
+         "    \"\"\"linear_solve._constrained_solve unrolled for this structure (same operations, same order).\"\"\""]
     if m == 0:
         return L + ["    return"]
     # driven bodies: accelerations by substitution; the residuals u - x kept for their multipliers
@@ -121,7 +136,7 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
     # every sum is a sequence of statements (x = x + term), as the generic loops accumulate: the same operations
     # in the same order, and no expression nests deeper than one term (Python's parser limits nesting)
     for r0, r1, bi, bj in blocks:
-        bodies = ([bi] if bi >= 0 else []) + ([bj] if bj >= 0 and bj != bi else [])  # as kernel._row_dot_at
+        bodies = ([bi] if bi >= 0 else []) + ([bj] if bj >= 0 and bj != bi else [])  # as linear_solve._row_dot_at
         for a in range(r0, r1):
             L.append(f"    b_{a} = 0.0")
             for body in bodies:
@@ -129,7 +144,7 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
                 L.append(f"    b_{a} = b_{a} + (jac[{a}, {c}] * u[off + {c}] + jac[{a}, {c + 1}] * u[off + {c + 1}] "
                          f"+ jac[{a}, {c + 2}] * u[off + {c + 2}])")
             L.append(f"    b_{a} = b_{a} - g[{a}]")
-    # Schur complement: structurally nonzero entries of the upper triangle (kernel._schur)
+    # Schur complement: structurally nonzero entries of the upper triangle (linear_solve._schur)
     wnz = set()
     for e in range(m, m + ne):
         a, b, b1, b2 = (int(v) for v in plan[e])
@@ -148,7 +163,7 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
         return f"W_{j}_{i}" if (j, i) in wnz else "0.0"
 
     # L D L^T row by row over the envelopes, forward substitution per row, then back substitution
-    # (kernel._spd_solve; L_i_k holds c_ik, then L_ik; D_i = 1 / d_i)
+    # (linear_solve._spd_solve; L_i_k holds c_ik, then L_ik; D_i = 1 / d_i)
     for i in range(m):
         lo = int(plan[i, 0])
         for j in range(lo, i):
@@ -180,7 +195,7 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
         L += [f"    b_{r} = t0_{b} * jac[{r}, {cj}]",
               f"    b_{r + 1} = t1_{b} * jac[{r + 1}, {cj + 1}]",
               f"    b_{d} = t2_{b} - jac[{r}, {cj + 2}] * b_{r} - jac[{r + 1}, {cj + 2}] * b_{r + 1}"]
-    # x = u - M^-1 Phi_q^T lambda over the other bodies (kernel._add_jac_t; a driven body keeps its x from the
+    # x = u - M^-1 Phi_q^T lambda over the other bodies (linear_solve._add_jac_t; a driven body keeps its x from the
     # substitution, which the generic code writes back over its update)
     gone = {b for b, _, _ in driven}
     nb = 0
@@ -207,7 +222,7 @@ def specialised_integrator(model: tuple, n: int, m: int):
     Parameters
     ----------
     model : tuple
-        A compiled mechanism's model tuple (:attr:`berryshaker.multibody.engine.CompiledMechanism.model`).
+        A compiled mechanism's model tuple (:attr:`berryshaker.multibody.compiled.CompiledMechanism.model`).
     n, m : int
         Its coordinates and constraint rows.
 
@@ -220,9 +235,9 @@ def specialised_integrator(model: tuple, n: int, m: int):
 
 
 def specialised_module(model: tuple, n: int, m: int):
-    """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve``,
-    ``accelerations``, ``integrate_resumable`` and ``integrate``), written to :func:`source_folder` if missing or different and imported
-    once per process."""
+    """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve`` and
+    those of :data:`GENERIC_SOURCES`), written to :func:`source_folder` if missing or different and imported once
+    per process."""
     key = structure_key(model, n)
     mod = _LOADED.get(key)
     if mod is None:
@@ -318,7 +333,7 @@ _DIGEST: list[str] = []
 
 def _package_digest(digest_of) -> str:
     if not _DIGEST:
-        _DIGEST.append(digest_of(Path(mb.__file__).resolve().parents[1]))
+        _DIGEST.append(digest_of(Path(kernel.__file__).resolve().parents[1]))
     return _DIGEST[0]
 
 
@@ -342,20 +357,98 @@ def write_source(path: Path, source: str) -> Path:
     return path
 
 
+def _global_names(code: types.CodeType) -> list[str]:
+    names = list(code.co_names)
+    for c in code.co_consts:
+        if isinstance(c, types.CodeType):
+            names += _global_names(c)
+    return names
+
+
+def _globals_used(fn) -> dict[str, object]:
+    """The module-level objects a compiled function's source names (its module's globals it reads)."""
+    g = fn.py_func.__globals__
+    return {name: g[name] for name in _global_names(fn.py_func.__code__) if name in g}
+
+
+def _among(obj, objs: tuple) -> bool:
+    return any(obj is o for o in objs)
+
+
+def _reaches(fn, targets: tuple, seen: set) -> bool:
+    """True when the compiled function ``fn`` calls one of ``targets``, directly or through other compiled
+    functions."""
+    if _among(fn, targets):
+        return True
+    if id(fn) in seen or not hasattr(fn, "py_func"):
+        return False
+    seen.add(id(fn))
+    return any(_reaches(obj, targets, seen) for obj in _globals_used(fn).values() if hasattr(obj, "py_func"))
+
+
+def _check_generic_sources() -> None:
+    """Refuse to generate a module in which a function of :data:`GENERIC_SOURCES` would call, through a generic
+    function it imports (other than :data:`GENERIC_KEPT`), the generic constraint rows or solve: that function must
+    be in :data:`GENERIC_SOURCES` too."""
+    targets = (constraint_rows.constraints, linear_solve._constrained_solve)
+    for fn in GENERIC_SOURCES:
+        for name, obj in _globals_used(fn).items():
+            if _among(obj, targets + GENERIC_SOURCES + GENERIC_KEPT) or not hasattr(obj, "py_func"):
+                continue  # (the generated module's own constraint rows and solve, its other copies, the kept)
+            if _reaches(obj, targets, set()):
+                raise RuntimeError(f"specialised kernels: {fn.py_func.__name__} calls {name}, which reaches the generic "
+                                   "constraint rows or solve; add it to GENERIC_SOURCES (or GENERIC_KEPT)")
+
+
+def _imports(defined: set[str]) -> list[str]:
+    """Import lines for what the functions of :data:`GENERIC_SOURCES` use, each name from the module of the
+    function that uses it (the names the generated module defines itself excepted)."""
+    found: dict[str, tuple[str, object]] = {}
+    for fn in GENERIC_SOURCES:
+        for name, obj in _globals_used(fn).items():
+            if name in defined:
+                continue
+            if inspect.ismodule(obj):
+                home = obj.__name__
+            else:  # a compiled function from its own module, a constant from the module that uses it
+                home = getattr(getattr(obj, "py_func", None), "__module__", None) or fn.py_func.__module__
+            if name in found and found[name][1] is not obj:
+                raise RuntimeError(f"specialised kernels: {name!r} means two things in the generic sources")
+            found[name] = (home, obj)
+    modules = sorted(f"import {home}" if home == name else f"import {home} as {name}"
+                     for name, (home, obj) in found.items() if inspect.ismodule(obj))
+    by_home: dict[str, list[str]] = {}
+    for name, (home, obj) in found.items():
+        if not inspect.ismodule(obj):
+            by_home.setdefault(home, []).append(name)
+    lines = list(modules)
+    for home, names in sorted(by_home.items()):
+        line = f"from {home} import ("
+        for i, name in enumerate(sorted(names)):
+            item = name + (", " if i + 1 < len(names) else ")")
+            if len(line) + len(item.rstrip()) > 116:
+                lines.append(line.rstrip())
+                line = " " * 4
+            line += item
+        lines.append(line)
+    return lines
+
+
 def specialised_source(model: tuple, n: int, m: int) -> str:
     """The Python source of the specialised module for ``model`` (a compiled mechanism's model tuple) with ``n``
     coordinates and ``m`` constraint rows."""
+    _check_generic_sources()
     ctype, cint, crow, plan = (np.asarray(model[i]) for i in (3, 4, 6, 16))
+    defined = {"constraints", "_constrained_solve"} | {fn.py_func.__name__ for fn in GENERIC_SOURCES}
     head = [f'"""Generated by berryshaker.multibody.specialised (structure {structure_key(model, n)}, generator '
             f'{GENERATOR_VERSION}); do not edit: it is rewritten when it differs."""',
-            "import math  # noqa: F401",
             "import numpy as np",
             "from numba import njit",
-            "from berryshaker.multibody import kernel as _kernel",
-            "globals().update({k: v for k, v in vars(_kernel).items() if not k.startswith('__')})",
-            "", ""]
+            "from berryshaker.multibody.constraint_rows import (block_start, cam_roller_rows, driver_rows, line_rows,",
+            "                                                   revolute_rows)"]
+    head += _imports(defined | {"np", "njit"}) + ["", ""]
     body = _constraints_source(ctype, cint, crow, m) + ["", ""] + _solve_source(cint, crow, plan, m)
     generic = []
-    for fn in (mb.accelerations, mb.integrate_resumable, mb.integrate):
+    for fn in GENERIC_SOURCES:
         generic += ["", ""] + inspect.getsource(fn.py_func).rstrip("\n").split("\n")
     return "\n".join(head + body + generic) + "\n"

@@ -1,0 +1,99 @@
+"""The initial state of a mechanism: positions assembled onto the constraints (Newton, mass-weighted) with every
+clearance joint centred, and consistent velocities.  A perturbed start (:mod:`berryshaker.multibody.perturbation`)
+assembles through the same function.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from berryshaker.errors import GeometryError
+from berryshaker.multibody.compiled import _state_and_work, compile_mechanism
+from berryshaker.multibody.constraint_rows import constraints
+from berryshaker.multibody.dispatch import call_compiled
+from berryshaker.multibody.dynamics import project
+from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
+
+
+def initial_state(spec: MechanismSpec, q_start: np.ndarray | None = None) -> np.ndarray:
+    """Assembled positions and consistent velocities with every clearance joint centred (ideal).
+
+    Torque-driven bodies start at their driver's ``speed``.  Powered drives: a ``torque_speed`` driver's body
+    starts at its ``speed``, and a body driven through a geared spring-damper at the speed that keeps the windup
+    constant, omega_j = omega_i (1 - creep k psi0) / ratio (propagated along the chain of gears); every windup
+    starts at its ``windup0`` and every energy accumulator at zero.
+    ``q_start``: positions the Newton assembly starts from (default: the bodies' positions and angles in
+    ``spec``; the body coordinates only).
+    """
+    ideal = compile_mechanism(spec, ideal_clearances=True)
+    target = compile_mechanism(spec) if ideal.n > ideal.n_base else ideal  # layout of the auxiliary coordinates
+    # temporary speed constraints for torque-driven bodies, so that the velocity projection is determined
+    data = _speed_driver_spec(spec)
+    if data is not None:
+        ideal = compile_mechanism(mechanism_from_dict(data), ideal_clearances=True)
+    state, work = _state_and_work(ideal)
+    y = np.concatenate([ideal.q0 if q_start is None else np.array(q_start, float), np.zeros(ideal.n)])
+    res = 0.0
+    if ideal.m:
+        res = call_compiled(project, 0.0, y, ideal.model, state, work, 60)
+        if not (res < 1e-9):
+            constraints(0.0, y[:ideal.n], y[ideal.n:], *ideal.model[3:7], ideal.model[10], state[2], work[0],
+                        work[1], work[2], work[3])
+            worst = int(np.argmax(np.abs(work[0])))
+            name = next(n for n, (r0, nr) in zip(ideal.con_names, ideal.con_rows) if r0 <= worst < r0 + nr)
+            raise GeometryError(f"the mechanism cannot assemble: joint {name!r} stays {abs(work[0][worst]):.3g} "
+                                "(m or rad) from closing; check its points and the bodies' initial positions")
+    if ideal.n != target.n or target.state_windup0:
+        # the temporary mechanism has no energy accumulators (they come last): pad, then set the windups
+        n_t, n = ideal.n, target.n
+        full = np.zeros(2 * n)
+        full[:n_t] = y[:n_t]
+        full[n:n + n_t] = y[n_t:]
+        for i, psi0 in enumerate(target.state_windup0):
+            full[n + target.n_base + i] = psi0
+        y = full
+    return y
+
+
+def _speed_driver_spec(spec: MechanismSpec) -> dict | None:
+    """The description as a dict with temporary ``angle`` drivers that fix the initial speeds (see
+    :func:`initial_state`), energy audit off; None when no driver needs it.
+
+    Speeds come from the ``angle`` and ``torque_speed`` drivers first, spread along the geared spring-dampers,
+    then from ``torque`` drivers on bodies still without a speed (a torque driver on a body that already has one
+    is a load and is left out of the temporary description)."""
+    if not any(d.type in ("torque", "torque_speed") for d in spec.drivers):
+        return None
+    data = spec.model_dump()
+    data["simulation"]["energy_audit"] = False
+    speeds: dict[str, float] = {}
+    drivers = []
+    geared = [f for f in spec.forces if f.type == "geared_spring_damper"]
+
+    def spread():
+        changed = True
+        while changed:
+            changed = False
+            for f in geared:
+                drift = 1.0 - f.creep_compliance * f.stiffness * f.windup0
+                if f.body_i in speeds and f.body_j not in speeds and f.body_j != "ground":
+                    new, speeds[f.body_j] = f.body_j, speeds[f.body_i] * drift / f.ratio
+                elif f.body_j in speeds and f.body_i not in speeds and f.body_i != "ground":
+                    new, speeds[f.body_i] = f.body_i, speeds[f.body_j] * f.ratio / drift
+                else:
+                    continue
+                drivers.append(dict(name=f"initial speed of {new}", type="angle", body=new, speed=speeds[new]))
+                changed = True
+
+    for d in data["drivers"]:
+        if d["type"] in ("angle", "torque_speed") and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle", speeds=[], torques=[]))
+    spread()
+    for d in data["drivers"]:
+        if d["type"] == "torque" and d["body"] not in speeds:
+            speeds[d["body"]] = d["speed"]
+            drivers.append(dict(d, type="angle"))
+            spread()
+    data["drivers"] = drivers
+    return data

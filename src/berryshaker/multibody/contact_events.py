@@ -1,0 +1,300 @@
+"""Contact events inside an integrator step: onsets located on the interpolated penetration (the step is cut back
+to them so that the hysteresis laws get the true impact velocity), and the per-step record of every contact: the
+contact state and impact velocity, first impacts, counted impacts and peak forces, interior peaks included
+(docs/multibody.md, "Impacts" and "Peaks").
+
+Each contact's penetration over a step is the cubic Hermite interpolant of its values and rates at the step's ends
+(error O(h^4)); the force at an interior peak is evaluated from the step's dense output.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from berryshaker.contact.pair_law import LUBRICATED_RESTITUTION_VELOCITY
+from berryshaker.multibody.dopri import _dense_state
+from berryshaker.multibody.force_elements import _law, fint_is_contact, forces
+from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, FF_C, FF_D, FF_E, FF_K, FF_MONOTONE, FF_N,
+                                          FI_LAW, FIRST_DONE, FIRST_IMPACTS, FIRST_PEAK, FIRST_TIME, FIRST_V_IMP,
+                                          N_EO)
+
+EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
+#: approach speed (m/s) from which a located contact onset counts as an impact (``first[:, FIRST_IMPACTS]``): the
+#: greased pairs' impact-velocity floor (contact.pair_law.LUBRICATED_RESTITUTION_VELOCITY).  Slower closings are a
+#: pin settling into its bore (down to 1 um/s): their number depends on the tolerance and on how the chatter of a
+#: loaded roller is resolved, the faster ones' does not (benchmarks/HISTORY.md sec. 16)
+IMPACT_COUNT_SPEED = LUBRICATED_RESTITUTION_VELOCITY
+# relative margin of the interior-peak skip (record_contacts: a monotone law's step bound below every maximum it
+# feeds)
+PEAK_BOUND_MARGIN = 0.01
+
+
+@njit(cache=True, _nrt=False)
+def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
+    """Largest contact force inside a step from a cubic Hermite interpolation of the penetration
+    (p0, d0) -> (p1, d1) over h (O(h^4) in the penetration, O(h^3) in its rate), sampled at 15 interior
+    points, and the fraction of the step where it occurs (refined by a parabola through the samples around
+    the largest).  :func:`record_contacts` re-evaluates the force at that fraction from the dense output."""
+    fint, fflt = model[8], model[9]
+    best = 0.0
+    s_best = 0
+    f_prev = 0.0
+    f_left = 0.0
+    f_right = 0.0
+    for s in range(1, 16):
+        u = s / 16.0
+        h00 = 2 * u**3 - 3 * u**2 + 1
+        h10 = u**3 - 2 * u**2 + u
+        h01 = -2 * u**3 + 3 * u**2
+        h11 = u**3 - u**2
+        pen = h00 * p0 + h10 * h * d0 + h01 * p1 + h11 * h * d1
+        dh00 = (6 * u**2 - 6 * u) / h
+        dh10 = 3 * u**2 - 4 * u + 1
+        dh01 = (-6 * u**2 + 6 * u) / h
+        dh11 = 3 * u**2 - 2 * u
+        pd = dh00 * p0 + dh10 * d0 + dh01 * p1 + dh11 * d1
+        f = 0.0
+        if pen > 0.0:
+            f = _law(model[15], fint[j, FI_LAW], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
+                     fflt[j, FF_D])
+        if s == s_best + 1 and s_best > 0:
+            f_right = f
+        if f > best:
+            best = f
+            s_best = s
+            f_left = f_prev
+            f_right = 0.0
+        f_prev = f
+    u_best = s_best / 16.0
+    if 1 < s_best < 15:
+        den = f_left - 2.0 * best + f_right
+        if den < 0.0:
+            shift = 0.5 * (f_left - f_right) / den
+            if -1.0 < shift < 1.0:
+                u_best += shift / 16.0
+    return best, u_best
+
+
+@njit(cache=True, _nrt=False)
+def _step_force_bound(model, j, v_imp, h, p0, d0, p1, d1):
+    """Upper bound (N) of a monotone law's force over a step: the law at the largest penetration and the largest
+    rate that the cubic Hermite interpolation of :func:`_interior_peak` reaches inside the step.
+
+    p(u) = a u^3 + b u^2 + c u + p0 on u in [0, 1] with c = h d0, b = 3 (p1 - p0) - h (2 d0 + d1),
+    a = 2 (p0 - p1) + h (d0 + d1); its largest value is at an end or at a root of p'(u) = 3 a u^2 + 2 b u + c,
+    and the largest rate p'(u) / h at an end or, where a < 0, at the vertex u = -b / (3 a).  Valid only where
+    the force does not decrease with the penetration or its rate (registry flag ``monotone``)."""
+    p_max = p0 if p0 > p1 else p1
+    d_max = d0 if d0 > d1 else d1
+    # the cubic's coefficients in units of its largest term (no underflow of b^2 for tiny penetrations)
+    sc = max(abs(p0), abs(p1), h * abs(d0), h * abs(d1))
+    if sc > 0.0:
+        q0 = p0 / sc
+        c = h * d0 / sc
+        b = (3.0 * (p1 - p0) - h * (2.0 * d0 + d1)) / sc
+        a = (2.0 * (p0 - p1) + h * (d0 + d1)) / sc
+        if a != 0.0:
+            disc = b * b - 3.0 * a * c
+            if disc >= 0.0:
+                r = math.sqrt(disc)
+                for u in ((-b + r) / (3.0 * a), (-b - r) / (3.0 * a)):
+                    if 0.0 < u < 1.0:
+                        pu = sc * (((a * u + b) * u + c) * u + q0)
+                        if pu > p_max:
+                            p_max = pu
+            if a < 0.0:
+                u = -b / (3.0 * a)
+                if 0.0 < u < 1.0:
+                    du = sc * ((3.0 * a * u + 2.0 * b) * u + c) / h
+                    if du > d_max:
+                        d_max = du
+        elif b != 0.0:
+            u = -c / (2.0 * b)
+            if 0.0 < u < 1.0:
+                pu = sc * ((b * u + c) * u + q0)
+                if pu > p_max:
+                    p_max = pu
+    fint, fflt = model[8], model[9]
+    return _law(model[15], fint[j, FI_LAW], p_max, d_max, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E],
+                fflt[j, FF_C], fflt[j, FF_D])
+
+
+@njit(cache=True, _nrt=False)
+def _hermite_crossing(p0, d0, p1, d1, h, target, iterations):
+    """Bracket (lo, hi), as fractions of a step of length h, of the first upward crossing of ``target`` by the
+    cubic Hermite interpolant of a penetration with values p0, p1 and rates d0, d1 at the step's ends (error
+    O(h^4), as in :func:`_interior_peak`): bracketed on 16 sub-intervals, refined by at most ``iterations``
+    bisections (or until the bracket is shorter than 1e-16 s).  The one home of the onset search of
+    :func:`_onset_fraction` and :func:`_crossing_rate`."""
+    lo = 0.0
+    hi = 1.0
+    prev = p0 - target
+    for s in range(1, 17):
+        u = s / 16.0
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1 - target
+        if v > 0.0 and prev <= 0.0:
+            lo = u - 1.0 / 16.0
+            hi = u
+            break
+        prev = v
+    for _ in range(iterations):
+        u = 0.5 * (lo + hi)
+        v = (2 * u**3 - 3 * u**2 + 1) * p0 + (u**3 - 2 * u**2 + u) * h * d0 + (-2 * u**3 + 3 * u**2) * p1 \
+            + (u**3 - u**2) * h * d1 - target
+        if v > 0.0:
+            hi = u
+        else:
+            lo = u
+        if (hi - lo) * h < 1e-16:
+            break
+    return lo, hi
+
+
+@njit(cache=True, _nrt=False)
+def _onset_fraction(p0, d0, p1, d1, h):
+    """Fraction of a step of length h at which a contact's penetration reaches EVENT_TOL / 2 (the onset).
+
+    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0, p1 > EVENT_TOL
+    and rates d0, d1 at the ends (:func:`_hermite_crossing`); the end of its bracket of the first crossing of
+    EVENT_TOL / 2.  A step that ends there takes the onset with a penetration inside (0, EVENT_TOL], so the
+    impact velocity is that at first contact.  (A straight line through p0 and p1 lags the crossing of a
+    converging contact, so the cut step ends short of it and the next tries again: several wasted steps per
+    impact.)
+    """
+    return _hermite_crossing(p0, d0, p1, d1, h, 0.5 * EVENT_TOL, np.int64(40))[1]
+
+
+@njit(cache=True, _nrt=False)
+def _crossing_rate(p0, d0, p1, d1, h):
+    """Penetration rate at the first zero of a contact's penetration inside a step of length h (the impact
+    velocity of the normal laws, docs/contact.md: the approach speed at first contact, penetration 0).
+
+    The penetration over the step is the cubic Hermite interpolant of its values p0 <= 0 < p1 and rates d0, d1
+    at the ends; its first upward crossing of 0 (:func:`_hermite_crossing`) and the interpolant's derivative
+    there, dp/dt = [6(u^2 - u)(p0 - p1) / h + (3u^2 - 4u + 1) d0 + (3u^2 - 2u) d1].  The step that takes an
+    onset ends at a penetration of up to EVENT_TOL (1 nm); for a slow approach that is decelerated by the load
+    (a graze, v^2 ~ 2 a EVENT_TOL) the rate there is well below the rate at first contact, and the hysteresis
+    laws, whose damping is ~ 1 / v_imp, would take a far too small impact velocity.
+    """
+    lo, hi = _hermite_crossing(p0, d0, p1, d1, h, 0.0, np.int64(50))
+    u = 0.5 * (lo + hi)
+    return ((6 * u**2 - 6 * u) * p0 + (6 * u**2 - 6 * u) * -p1) / h + (3 * u**2 - 4 * u + 1) * d0 \
+        + (3 * u**2 - 2 * u) * d1
+
+
+@njit(cache=True, _nrt=False)
+def first_onset_fraction(model, state, work, pen_start, pdot_start, h):
+    """Fraction of a step of length h at which the first contact closes that was open at its start and is deeper
+    than EVENT_TOL at its end (:func:`_onset_fraction`), or 2.0 when there is none.  The element outputs in the
+    work arrays are those at the step's end."""
+    in_contact = state[0]
+    eout = work[5]
+    frac = 2.0
+    for j in range(eout.shape[0]):
+        pe = eout[j, EO_PEN]
+        if (not in_contact[j]) and pen_start[j] <= 0.0 and pe > EVENT_TOL and fint_is_contact(model, j):
+            f = _onset_fraction(pen_start[j], pdot_start[j], pe, eout[j, EO_PENDOT], h)
+            if f < frac:
+                frac = f
+    return frac
+
+
+@njit(cache=True, _nrt=False)
+def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old, bspl, rc5, y_out, e_save,
+                    psi_f_keep, pen_start, f_start, pdot_start, peaks, first):
+    """Record every force element's contact state at the end t of an accepted step of size h from t_old; returns
+    True when a contact closed (an onset).
+
+    A closing contact gets its impact velocity (the approach rate at first contact, :func:`_crossing_rate`) and
+    may start its first episode or count as an impact (``first``); ``peaks`` (over t >= stats_from) and the first
+    episode's peak take the larger of the step-end force and any peak inside the step (:func:`_interior_peak`,
+    evaluated from the dense output: ``k``, ``ytmp``, ``y_old``, ``bspl``, ``rc5``; skipped where a monotone law's
+    bound shows that nothing inside the step can raise them).  Such an evaluation leaves the element outputs and
+    the groove contacts' foot memory as they were at the step's end (``e_save``, ``psi_f_keep``: work space and
+    the memory after the step).  The penetrations, forces and rates at the step's end become the next step's start
+    values (``pen_start``, ``f_start``, ``pdot_start``)."""
+    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p, laws, plan) = model
+    (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
+    Q, eout = work[4], work[5]
+    nf = eout.shape[0]
+    n_q = y_out.shape[0] // 2
+    onset = False
+    for j in range(nf):
+        pe = eout[j, EO_PEN]
+        fn = eout[j, EO_FN]
+        if pe > 0.0:
+            if not in_contact[j]:
+                onset = True
+                in_contact[j] = True
+                vi = eout[j, EO_PENDOT]
+                if pen_start[j] <= 0.0 and fint_is_contact(model, j):
+                    # the approach rate at first contact (penetration 0), not at the step's end (up to
+                    # EVENT_TOL deep: for a slow approach decelerated by the load, far below it)
+                    vi = _crossing_rate(pen_start[j], pdot_start[j], pe, vi, h)
+                v_imp[j] = vi if vi > 1e-6 else 1e-6
+                if t >= stats_from and vi >= IMPACT_COUNT_SPEED and fint_is_contact(model, j):
+                    first[j, FIRST_IMPACTS] += 1.0
+                if first[j, FIRST_DONE] == 0.0:
+                    first[j, FIRST_TIME] = t
+                    first[j, FIRST_V_IMP] = vi
+                    first[j, FIRST_DONE] = 1.0
+        else:
+            if in_contact[j] and first[j, FIRST_DONE] == 1.0:
+                first[j, FIRST_DONE] = 2.0  # first episode finished
+            in_contact[j] = False
+        # the interior-peak search only feeds peaks (t >= stats_from) and the first episode's peak: skipped
+        # elsewhere (its force evaluation leaves the integration state and the output samples alone: psi restored)
+        search = in_contact[j] and pen_start[j] > 0.0 and fint_is_contact(model, j) and (
+            t >= stats_from or first[j, FIRST_DONE] == 1.0)
+        if search and fflt[j, FF_MONOTONE] > 0.0:
+            # nothing inside the step can raise a maximum it feeds when even the bound of a monotone law
+            # stays a margin below them (the margin covers the gap between the interpolated penetration and
+            # the dense-output state the search evaluates the force at)
+            low = np.inf
+            if first[j, FIRST_DONE] == 1.0:
+                low = first[j, FIRST_PEAK]
+            if t >= stats_from and peaks[j] < low:
+                low = peaks[j]
+            if (1.0 + PEAK_BOUND_MARGIN) * _step_force_bound(model, j, v_imp[j], h, pen_start[j],
+                                                             pdot_start[j], pe, eout[j, EO_PENDOT]) <= low:
+                search = False
+        if search:
+            fi, u_pk = _interior_peak(model, j, v_imp[j], h, pen_start[j], pdot_start[j], pe, eout[j, EO_PENDOT])
+            # worth the force evaluation only above both ends of the step: the start's force is already in
+            # every maximum the step feeds (the first episode's peak: the contact was closed at the start;
+            # peaks: when the step started inside the statistics window), so a force falling through the
+            # step (the interior samples above the end, below the start) cannot raise them
+            f_thr = abs(fn)
+            if (t < stats_from or t_old >= stats_from) and f_start[j] > f_thr:
+                f_thr = f_start[j]
+            if fi > f_thr:
+                # the peak is inside the step: the force there, from the dense-output state (the
+                # interpolated penetration only locates it); the step-end element values are kept
+                _dense_state(u_pk, h, k, ytmp, y_old, bspl, rc5, y_out)
+                for jj in range(nf):
+                    for c in range(N_EO):
+                        e_save[jj, c] = eout[jj, c]
+                forces(t_old + u_pk * h, y_out[:n_q], y_out[n_q:], mass, gravity, ftype, fint, fflt, cams,
+                       in_contact, v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z,
+                       phi_tab, plant_p, Q, eout, laws)
+                f_in = abs(eout[j, EO_FN])
+                for jj in range(nf):
+                    for c in range(N_EO):
+                        eout[jj, c] = e_save[jj, c]
+                for i in range(psi_f.shape[0]):
+                    psi_f[i] = psi_f_keep[i]
+                if f_in > abs(fn):
+                    fn = f_in
+        if first[j, FIRST_DONE] == 1.0 and abs(fn) > first[j, FIRST_PEAK]:
+            first[j, FIRST_PEAK] = abs(fn)
+        if t >= stats_from and abs(fn) > peaks[j]:
+            peaks[j] = abs(fn)
+        pen_start[j] = pe
+        f_start[j] = abs(eout[j, EO_FN])
+        pdot_start[j] = eout[j, EO_PENDOT]
+    return onset

@@ -1,0 +1,85 @@
+"""The integrator's step: one Dormand-Prince 5(4) step of the equations of motion, its error estimate and its
+continuous extension (Hairer, Norsett & Wanner, *Solving Ordinary Differential Equations I*, 2nd ed., sec. II.4-6;
+the tableau is :mod:`berryshaker.multibody.integrators`).
+
+What to do with a step (accept or reject it, cut it back to a contact onset, choose the next size) is the step
+control's (:mod:`berryshaker.multibody.step_control`, :mod:`berryshaker.multibody.kernel`), as SciPy separates
+``rk_step`` from its controller (``scipy/integrate/_ivp/rk.py``).  The state y = (q, q') and the stage
+derivatives ``k`` (7 rows, state index innermost: contiguous rows, the loops vectorise) are the loop's arrays.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from berryshaker.multibody.dynamics import accelerations
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
+
+_C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
+
+
+@njit(cache=True, _nrt=False)
+def rk_step(t, h, y, k, ytmp, model, state, work):
+    """One DOPRI5 step of size h from (t, y) with k[0] = f(t, y): the stages k[1] .. k[6] and the 5th-order
+    solution in ``ytmp``, whose derivative is k[6] (first same as last).  The last stage leaves the work arrays
+    (constraint rows, element outputs, multipliers) at (t + h, ytmp).  The step's error is :func:`error_norm`'s
+    (the controller's, as SciPy's solver estimates it apart from ``rk_step``)."""
+    ny = y.shape[0]
+    # the stages' states, state index innermost (contiguous rows of k: the loops vectorise); each element
+    # sums its terms in stage order, as a loop over stages per element would
+    for s in range(1, 7):
+        for i in range(ny):
+            ytmp[i] = y[i]
+        for mm in range(s):
+            a_h = h * _A[s, mm]
+            for i in range(ny):
+                ytmp[i] += a_h * k[mm, i]
+        accelerations(t + _C[s] * h, ytmp, model, state, work, k[s])
+
+
+@njit(cache=True, _nrt=False)
+def error_norm(h, y, ytmp, k, e_vec, rtol, atol):
+    """The error of a step of size h from y to ytmp with stages k (:func:`rk_step`): the RMS over the states of
+    h sum_i E_i k_i (the difference of the 5th- and 4th-order solutions, into ``e_vec``) scaled by
+    atol + rtol max(|y|, |ytmp|); <= 1 passes."""
+    ny = y.shape[0]
+    for i in range(ny):
+        e_vec[i] = 0.0
+    for mm in range(7):
+        e_m = _E[mm]
+        for i in range(ny):
+            e_vec[i] += e_m * k[mm, i]
+    err = 0.0
+    for i in range(ny):
+        ei = e_vec[i] * h
+        sc = atol[i] + rtol * max(abs(y[i]), abs(ytmp[i]))
+        err += (ei / sc) ** 2
+    return math.sqrt(err / ny)
+
+
+@njit(cache=True, _nrt=False)
+def dense_coefficients(h, k, y0, y1, bspl, rc5, e_vec):
+    """The continuous extension's coefficients of an accepted step y0 -> y1 of size h (before k[0] is replaced by
+    the derivative at y1): bspl = h k1 - (y1 - y0) and rc5 = h sum_i D_i k_i (``e_vec`` is work space)."""
+    ny = y0.shape[0]
+    for i in range(ny):
+        bspl[i] = h * k[0, i] - (y1[i] - y0[i])
+        e_vec[i] = 0.0
+    for mm in range(7):
+        d_m = _D[mm]
+        for i in range(ny):
+            e_vec[i] += d_m * k[mm, i]
+    for i in range(ny):
+        rc5[i] = h * e_vec[i]
+
+
+@njit(cache=True, _nrt=False)
+def _dense_state(th, h, k, y1, y0, bspl, rc5, out):
+    """State at t0 + th h inside an accepted DOPRI5 step y0 -> y1 (continuous extension of order 4;
+    bspl = h k1 - (y1 - y0), rc5 = h sum_i D_i k_i; Hairer, Norsett & Wanner sec. II.6)."""
+    th1 = 1.0 - th
+    for i in range(out.shape[0]):
+        yd = y1[i] - y0[i]
+        out[i] = y0[i] + th * (yd + th1 * (bspl[i] + th * (yd - h * k[6, i] - bspl[i] + th1 * rc5[i])))
