@@ -165,3 +165,21 @@ def test_linear_damping_gives_the_restitution(e):
                     events=leave, rtol=1e-11, atol=1e-15, max_step=1e-5)
     v_out = sol.y_events[0][0][1]
     assert -v_out / v0 == pytest.approx(e, rel=1e-6)
+
+
+def test_effective_modulus_of_unlike_bodies_by_hand():
+    """Steel pin (E1 = 207 GPa, nu1 = 0.30) on a bronze bush (E2 = 110 GPa, nu2 = 0.34), Johnson (1985) eq. 4.22:
+
+        (1 - 0.30^2) / 207e9 = 0.91 / 207e9   = 4.396135e-12 1/Pa
+        (1 - 0.34^2) / 110e9 = 0.8844 / 110e9 = 8.040000e-12 1/Pa
+        E* = 1 / 1.2436135e-11                 = 80.41083 GPa
+
+    and the Flores-Ambrosio pin (R = 10 mm in a 10.5 mm bore, R* = 0.21 m) with it:
+    K = 4/3 * 80.41083e9 * sqrt(0.21) = 4.913183e10 N/m^1.5.  Every other test pairs like materials
+    (nu1 = nu2, E1 = E2), which cannot tell nu1 from nu2 or E1 from E2."""
+    assert effective_modulus(207e9, 0.30, 110e9, 0.34) == pytest.approx(80.41083e9, rel=1e-6)
+    assert effective_modulus(110e9, 0.34, 207e9, 0.30) == pytest.approx(80.41083e9, rel=1e-6)  # either body first
+    assert pin_in_bore_stiffness(207e9, 0.30, 110e9, 0.34, 0.010, 0.0105) == pytest.approx(4.913183e10, rel=1e-6)
+    # a rigid counterpart (E2 -> infinity): E* = E1 / (1 - nu1^2) = 207e9 / 0.91 = 227.4725 GPa, whatever nu2 is
+    assert effective_modulus(207e9, 0.30, 1e30, 0.0) == pytest.approx(227.4725e9, rel=1e-6)
+    assert effective_modulus(207e9, 0.30, 1e30, 0.45) == pytest.approx(227.4725e9, rel=1e-6)
