@@ -225,15 +225,14 @@ def test_stale_staging_folders_are_cleaned(tmp_path):
     old_live = tmp_path / f".out.berryshaker-staging.{host}-{os.getppid()}.old999"
     live = tmp_path / f".out.berryshaker-staging.{host}-{os.getppid()}.new111"
     foreign = tmp_path / ".out.berryshaker-staging.zzzzzz-1.xyz"  # another host tag: not hex, never ours
-    other_host = tmp_path / ".out.berryshaker-staging.0a0a0a-1.xyz"
+    other_tag = "0a0a0a" if host != "0a0a0a" else "0b0b0b"  # a hex tag that is not this host's
+    other_host = tmp_path / f".out.berryshaker-staging.{other_tag}-1.xyz"
     user = tmp_path / ".out.staging.mine"  # not our pattern
     for d in (killed, old_live, live, foreign, other_host, user):
         d.mkdir()
         (d / "f").write_text("x")
     past = time.time() - 10 * 3600
     os.utime(old_live, (past, past))
-    if host == "0a0a0a":
-        pytest.skip("hash collision with the test's foreign host tag")
     removed = clean_stale_staging(tmp_path)
     assert sorted(p.name for p in removed) == sorted([killed.name, old_live.name])
     assert live.exists() and foreign.exists() and other_host.exists() and user.exists()

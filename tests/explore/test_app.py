@@ -100,7 +100,8 @@ JS_FORCES = "() => { if (!window.Bokeh || !Bokeh.documents.length) { return null
 def test_the_page_reruns_the_drive_when_a_clearance_changes(tmp_path):
     if not CHROMIUM.exists():
         pytest.skip(f"{CHROMIUM} is missing: install it (apt-get install -y chromium) to run the browser test")
-    sync_playwright = pytest.importorskip("playwright.sync_api", reason="playwright (the test extra)").sync_playwright
+    from playwright.sync_api import sync_playwright  # the test extra
+
     from berryshaker.explore.app import serve
 
     port = _free_port()

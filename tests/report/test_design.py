@@ -235,7 +235,8 @@ def test_html_tables_fit_an_a4_page(which, request):
 
 def test_html_is_no_wider_than_a4_in_chromium(crank, tmp_path):
     """Rendered with the report's CSS at A4 width (794 CSS px): no element reaches past the page."""
-    sync_api = pytest.importorskip("playwright.sync_api")
+    from playwright import sync_api  # the test extra
+
     from berryshaker.report.html import CSS
 
     exe = shutil.which("chromium") or shutil.which("chromium-browser") or "/usr/bin/chromium"

@@ -462,7 +462,7 @@ def _gone(pids, timeout):
 
 
 def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
-    psutil = pytest.importorskip("psutil")
+    import psutil  # a dependency of dask.distributed, one of berryshaker's
     jobs = [dict(x=float(i), delay=0.5) for i in range(40)]  # 10 s of work on 2 workers: "promptly" is 4x less
     proc = _start(tmp_path, "slow_square", jobs)
     try:
@@ -498,7 +498,7 @@ def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize("pdeathsig", [True, False], ids=["death-signal", "polling-thread"])
 def test_workers_exit_when_the_parent_is_killed(tmp_path, pdeathsig):
-    psutil = pytest.importorskip("psutil")
+    import psutil  # a dependency of dask.distributed, one of berryshaker's
     started = tmp_path / "started"
     started.mkdir()
     jobs = [dict(x=float(i), folder=str(started), delay=60.0) for i in range(4)]
@@ -519,7 +519,7 @@ def test_workers_exit_when_the_parent_is_killed(tmp_path, pdeathsig):
 
 
 def test_dask_cluster_runs_are_cached_by_the_client(tmp_path):
-    distributed = pytest.importorskip("distributed")
+    import distributed  # a dependency of berryshaker (dask[distributed])
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False, dashboard_address=None,
                                   protocol="tcp://") as cluster:
         jobs = [dict(x=float(i)) for i in range(6)] + [dict(x=-1.0)]
