@@ -24,6 +24,18 @@ def initial_state(spec: MechanismSpec, q_start: np.ndarray | None = None) -> np.
     starts at its ``windup0`` and every energy accumulator at zero.
     ``q_start``: positions the Newton assembly starts from (default: the bodies' positions and angles in
     ``spec``; the body coordinates only).
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        The mechanism description.
+    q_start : numpy.ndarray, optional
+        Starting guess of the positions (m, rad); default the description's.
+
+    Returns
+    -------
+    numpy.ndarray
+        Positions, then velocities (m, rad; m/s, rad/s).
     """
     ideal = compile_mechanism(spec, ideal_clearances=True)
     target = compile_mechanism(spec) if ideal.n > ideal.n_base else ideal  # layout of the auxiliary coordinates

@@ -43,7 +43,81 @@ def integrate_sets(y0, t_out, mass, inertia, gravity, ctype, cint, cflt, crow, f
                    first, info):
     """:func:`berryshaker.multibody.kernel.integrate` for every set s (leading axis of each stacked array) in
     parallel; the structure arrays (ctype, cint, crow, ftype, fint, solve_plan), t_out, rtol, h_max and the contact
-    laws are shared."""
+    laws are shared.
+
+    Parameters
+    ----------
+    y0 : numpy.ndarray
+        Initial state (m, rad; m/s, rad/s).
+    t_out : numpy.ndarray
+        Output times (s).
+    mass, inertia : numpy.ndarray
+        The bodies' masses (kg) and moments of inertia (kg m^2).
+    gravity : numpy.ndarray
+        Gravity, x and y (m/s^2).
+    ctype, cint, cflt, crow : numpy.ndarray
+        The constraint blocks: types (``layout.CON_*``), integer and float records (``layout.CI_*``,
+        ``layout.CF_*``; SI), first rows.
+    ftype : numpy.ndarray of int
+        Type of each force element (``layout.FRC_*``).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    cams : numpy.ndarray
+        A row per cam (``layout.CAM_*``; lengths m, angles rad).
+    modal_w, modal_z : numpy.ndarray
+        Natural angular frequency (rad/s) and damping ratio (dimensionless) of each mode.
+    phi_tab : numpy.ndarray
+        Mode shapes at the contacts' stations (m per unit modal coordinate).
+    plant_p : numpy.ndarray
+        The drive-past (``layout.PLANT_*``: speed m/s, start m, half span m, ramp m, ramp depth m).
+    laws : tuple
+        The registered contact laws' compiled functions.
+    solve_plan : numpy.ndarray of int
+        The multiplier solve's plan (:func:`berryshaker.multibody.sparsity.solve_plan`).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    psi_c : numpy.ndarray
+        Cam-roller foot memory per set (rad).
+    psi_f : numpy.ndarray
+        Groove contacts' foot memory per set (rad, rad/s, s).
+    lam_prev : numpy.ndarray
+        Multipliers of the last accepted step (N, N m).
+    phi, jac, nu, gam : numpy.ndarray
+        Written, per row: Phi (m, rad), its Jacobian Phi_q (dimensionless, m), nu = -Phi_t (m/s, rad/s) and gamma
+        (m/s^2, rad/s^2).
+    q_f : numpy.ndarray
+        Work arrays Q per set (N, N m).
+    eout : numpy.ndarray
+        Element outputs, written (``layout.EO_*``: normal force N or torque N m, penetration m, its rate m/s,
+        tangential force N or input torque N m).
+    lam : numpy.ndarray
+        Work arrays per set: the multipliers (N, N m).
+    minv : numpy.ndarray
+        Inverse mass of each coordinate (1/kg, 1/(kg m^2)).
+    w_mat : numpy.ndarray
+        Work arrays W per set (the Schur complement, 1/kg, m/kg).
+    rhs : numpy.ndarray
+        Work arrays per set (SI).
+    rtol : float
+        Relative tolerance (dimensionless).
+    atol : numpy.ndarray
+        Absolute tolerance per state (m, rad; m/s, rad/s).
+    h_max : float
+        Largest step (s).
+    stats_from : float
+        Start of the statistics window (s).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N), updated.
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
+        count), updated.
+    info : numpy.ndarray
+        The integrator's statistics (``layout.INFO_*``: counts, time s, status, residual m or rad); a longer array
+        also gets the histogram of step sizes (counts).
+    """
     for s in prange(y0.shape[0]):
         model = (mass[s], inertia[s], gravity[s], ctype, cint, cflt[s], crow, ftype, fint, fflt[s], cams[s],
                  modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws, solve_plan)
@@ -55,7 +129,18 @@ def integrate_sets(y0, t_out, mass, inertia, gravity, ctype, cint, cflt, crow, f
 
 def structure_key(run: PreparedRun) -> tuple:
     """What must be equal for two runs to share one batch: the structure arrays, every array's shape, the
-    output times, tolerances, largest step and step budget."""
+    output times, tolerances, largest step and step budget.
+
+    Parameters
+    ----------
+    run : PreparedRun
+        A run set up by :func:`~berryshaker.multibody.engine.prepare_run`.
+
+    Returns
+    -------
+    tuple
+        The key (bytes of the structure arrays, shapes, times s, tolerances, step s, budget).
+    """
     model = run.cm.model
     ints = tuple(model[i].tobytes() for i in _INT_MODEL)
     shapes = tuple(np.shape(model[i]) for i in _FLOAT_MODEL) + tuple(np.shape(a) for a in run.state + run.work)
@@ -76,6 +161,16 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
     :func:`berryshaker.multibody.engine.integrator`): the result is the same and no second specialisation of the
     integrator is compiled (the parallel one costs some 25 s of cold start, which one thread cannot win back).
     The parallel call runs the generic kernel (so does a run left to choose, ``simulation.specialised`` None).
+
+    Parameters
+    ----------
+    runs : list of PreparedRun
+        Runs of one structure (:func:`structure_key` equal).
+
+    Returns
+    -------
+    float
+        Wall time of the integration (s).
     """
     import numba
 

@@ -41,7 +41,15 @@ def _pitch_jet(psi, cam):
 
 @njit(cache=True, _nrt=False)
 def pitch_point(psi, cam):
-    """Pitch curve P, P', P'' of a cam (cam = [law, h, rise, far, ret, s0, e]) at parameter psi."""
+    """Pitch curve P, P', P'' of a cam (cam = [law, h, rise, far, ret, s0, e]) at parameter psi.
+
+    Parameters
+    ----------
+    psi : float
+        Cam curve angle (rad).
+    cam : numpy.ndarray
+        The cam's row (``layout.CAM_*``; lengths m, angles rad).
+    """
     px, py, p1x, p1y, p2x, p2y, p3x, p3y = _pitch_jet(psi, cam)
     return px, py, p1x, p1y, p2x, p2y
 
@@ -56,7 +64,17 @@ FOOT_TAYLOR_STEP = 1e-7
 def pitch_foot(lx, ly, cam, guess):
     """Closest point of the pitch curve to (lx, ly) in the cam frame (:func:`pitch_foot_speed` without |P'|).
 
-    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature."""
+    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature.
+
+    Parameters
+    ----------
+    lx, ly : float
+        Roller centre in the cam's frame (m).
+    cam : numpy.ndarray
+        The cam's row (``layout.CAM_*``; lengths m, angles rad).
+    guess : float
+        Starting foot angle of Newton's iteration (rad; NaN: none).
+    """
     psi, px, py, nx, ny, dist, kappa, speed = pitch_foot_speed(lx, ly, cam, guess)
     return psi, px, py, nx, ny, dist, kappa
 
@@ -70,7 +88,17 @@ def pitch_foot_speed(lx, ly, cam, guess):
     evaluation (P, dP, d2P with errors O(h^4), O(h^3), O(h^2) of the curve's scale: round-off for
     h < 1e-7) instead of a new evaluation.
 
-    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature, |P'| (m/rad)."""
+    Returns psi, foot (2), outward unit normal (2), signed distance, signed curvature, |P'| (m/rad).
+
+    Parameters
+    ----------
+    lx, ly : float
+        Roller centre in the cam's frame (m).
+    cam : numpy.ndarray
+        The cam's row (``layout.CAM_*``; lengths m, angles rad).
+    guess : float
+        Starting foot angle of Newton's iteration (rad; NaN: none).
+    """
     if math.isnan(guess):
         psi = math.atan2(ly, lx)
         for _ in range(3):

@@ -29,7 +29,35 @@ class CompiledMechanism:
     """A description (``spec``) compiled for the core: ``model`` is the tuple of arrays every compiled function
     takes (:mod:`berryshaker.multibody.dynamics`), the names, kinds and rows say which block or element is which,
     ``m`` and ``n`` count the constraint rows and coordinates, ``q0`` holds the bodies' positions of the
-    description and ``period`` the first driver's revolution (statistics skip it; None without a turning driver)."""
+    description and ``period`` the first driver's revolution (statistics skip it; None without a turning driver).
+
+    Attributes
+    ----------
+    spec : MechanismSpec
+        The description.
+    body_index : dict of str to int
+        Each body's index.
+    model : tuple
+        The arrays every compiled function takes (:mod:`berryshaker.multibody.dynamics`; SI).
+    con_names, frc_names : list of str
+        Names of the constraint blocks and of the force elements.
+    con_rows : list of tuple of int
+        First row and number of rows of each block.
+    frc_kinds : list of str
+        Kind of each force element.
+    m, n : int
+        Constraint rows and coordinates.
+    q0 : numpy.ndarray
+        The bodies' positions of the description (m, rad).
+    period : float or None
+        The first driver's revolution (s); None without a turning driver.
+    n_base : int
+        Coordinates of the bodies and modes (where the auxiliary coordinates begin).
+    state_windup0 : list of float
+        Initial windup of each geared element (rad).
+    acc_start : int
+        First energy accumulator (-1: no energy audit).
+    """
 
     spec: MechanismSpec
     body_index: dict[str, int]
@@ -75,6 +103,18 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
 
     With ``ideal_clearances`` every clearance joint becomes its ideal counterpart (used to assemble the
     initial configuration with the joints centred and to compute consistent initial velocities).
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        The mechanism description.
+    ideal_clearances : bool
+        Close every clearance joint to its ideal counterpart.
+
+    Returns
+    -------
+    CompiledMechanism
+        The core's arrays and the names of the blocks and elements.
     """
     bidx = {b.name: i for i, b in enumerate(spec.bodies)}
     bidx_g = dict(bidx, ground=-1)

@@ -34,6 +34,23 @@ def constraints(t, q, qd, ctype, cint, cflt, crow, cams, psi_mem, phi, jac, nu, 
     Sparsity (relied on by :func:`accelerations` and :func:`project`): the rows of constraint block k touch
     only the coordinates of its two bodies ``cint[k, 0]`` and ``cint[k, 1]``; only those columns are zeroed
     and written here, every other entry of ``jac`` stays zero from its allocation.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    ctype, cint, cflt, crow : numpy.ndarray
+        The constraint blocks: types (``layout.CON_*``), integer and float records (``layout.CI_*``,
+        ``layout.CF_*``; SI), first rows.
+    cams : numpy.ndarray
+        A row per cam (``layout.CAM_*``; lengths m, angles rad).
+    psi_mem : numpy.ndarray
+        Last foot angle of each cam-roller block (rad; NaN: none yet), updated.
+    phi, jac, nu, gam : numpy.ndarray
+        Written, per row: Phi (m, rad), its Jacobian Phi_q (dimensionless, m), nu = -Phi_t (m/s, rad/s) and gamma
+        (m/s^2, rad/s^2).
     """
     m = phi.shape[0]
     for k in range(ctype.shape[0]):
@@ -58,7 +75,21 @@ def block_start(r, r_end, bi, bj, jac, nu, gam):
     This and the ``*_rows`` functions below are a constraint block's part of :func:`constraints` (the formulas of
     docs/multibody.md, "Formulation"), inlined where they are called: the generic loop passes each block's
     entries of the structure arrays, the mechanism-specialised kernels (:mod:`berryshaker.multibody.specialised`)
-    pass them as literals, so that the compiler folds the branches on the ground and the column arithmetic."""
+    pass them as literals, so that the compiler folds the branches on the ground and the column arithmetic.
+
+    Parameters
+    ----------
+    r, r_end : int
+        The block's first row and the row after it.
+    bi, bj : int
+        Bodies i and j (-1: ground).
+    jac : numpy.ndarray
+        Written: the constraint Jacobian Phi_q (dimensionless, m).
+    nu : numpy.ndarray
+        Written: nu = -Phi_t (m/s, rad/s).
+    gam : numpy.ndarray
+        Written: gamma, the acceleration right-hand side (m/s^2, rad/s^2).
+    """
     for a in range(r, r_end):
         if bi >= 0:
             jac[a, 3 * bi] = 0.0
@@ -74,7 +105,24 @@ def block_start(r, r_end, bi, bj, jac, nu, gam):
 
 @njit(cache=True, _nrt=False, inline="always")
 def revolute_rows(k, r, bi, bj, q, qd, cflt, phi, jac, nu, gam):
-    """A revolute joint (block k, rows r and r + 1): the two points coincide."""
+    """A revolute joint (block k, rows r and r + 1): the two points coincide.
+
+    Parameters
+    ----------
+    k : int
+        The block's index.
+    r : int
+        The block's first row.
+    bi, bj : int
+        Bodies i and j (-1: ground).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    cflt : numpy.ndarray
+        Float records of the constraint blocks (``layout.CF_*``, SI).
+    phi, jac, nu, gam : numpy.ndarray
+        Written, per row: Phi (m, rad), its Jacobian Phi_q (dimensionless, m), nu = -Phi_t (m/s, rad/s) and gamma
+        (m/s^2, rad/s^2).
+    """
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, cflt[k, CF_SIX], cflt[k, CF_SIY])
     pjx, pjy, vjx, vjy, ajx, ajy, wj = _point(q, qd, bj, cflt[k, CF_SJX], cflt[k, CF_SJY])
     phi[r] = pix - pjx
@@ -96,7 +144,26 @@ def revolute_rows(k, r, bi, bj, q, qd, cflt, phi, jac, nu, gam):
 
 @njit(cache=True, _nrt=False, inline="always")
 def line_rows(k, typ, r, bi, bj, q, qd, cflt, phi, jac, nu, gam):
-    """A prismatic joint (rows r, r + 1: no relative turn, point on the line) or a point-on-line joint (row r)."""
+    """A prismatic joint (rows r, r + 1: no relative turn, point on the line) or a point-on-line joint (row r).
+
+    Parameters
+    ----------
+    k : int
+        The block's index.
+    typ : int
+        The block's type (``layout.CON_PRISMATIC`` or ``layout.CON_POINT_LINE``).
+    r : int
+        The block's first row.
+    bi, bj : int
+        Bodies i and j (-1: ground).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    cflt : numpy.ndarray
+        Float records of the constraint blocks (``layout.CF_*``, SI).
+    phi, jac, nu, gam : numpy.ndarray
+        Written, per row: Phi (m, rad), its Jacobian Phi_q (dimensionless, m), nu = -Phi_t (m/s, rad/s) and gamma
+        (m/s^2, rad/s^2).
+    """
     if typ == CON_PRISMATIC:
         # line on body i (axis in its frame) through s_i; slider j's point s_j on it; no relative turn
         lb, pb = bi, bj
@@ -141,7 +208,28 @@ def line_rows(k, typ, r, bi, bj, q, qd, cflt, phi, jac, nu, gam):
 
 @njit(cache=True, _nrt=False, inline="always")
 def cam_roller_rows(k, r, bi, bj, q, qd, cint, cflt, cams, psi_mem, phi, jac, nu, gam):
-    """A roller follower on a cam's pitch curve (row r; its closest point by Newton from ``psi_mem[k]``)."""
+    """A roller follower on a cam's pitch curve (row r; its closest point by Newton from ``psi_mem[k]``).
+
+    Parameters
+    ----------
+    k : int
+        The block's index.
+    r : int
+        The block's first row.
+    bi, bj : int
+        Bodies i and j (-1: ground).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    cint, cflt : numpy.ndarray
+        The constraint blocks' records (``layout.CI_*``, ``layout.CF_*``; SI).
+    cams : numpy.ndarray
+        A row per cam (``layout.CAM_*``; lengths m, angles rad).
+    psi_mem : numpy.ndarray
+        Last foot angle of each cam-roller block (rad; NaN: none yet), updated.
+    phi, jac, nu, gam : numpy.ndarray
+        Written, per row: Phi (m, rad), its Jacobian Phi_q (dimensionless, m), nu = -Phi_t (m/s, rad/s) and gamma
+        (m/s^2, rad/s^2).
+    """
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, cflt[k, CF_SIX], cflt[k, CF_SIY])
     ojx, ojy, vjx, vjy, phj, wj = _body_origin(q, qd, bj)
     wx, wy = pix - ojx, piy - ojy
@@ -171,7 +259,25 @@ def cam_roller_rows(k, r, bi, bj, q, qd, cint, cflt, cams, psi_mem, phi, jac, nu
 
 @njit(cache=True, _nrt=False, inline="always")
 def driver_rows(k, r, bi, t, q, cflt, phi, jac, nu):
-    """An angle driver of body bi (row r): its angle = phi0 + speed t."""
+    """An angle driver of body bi (row r): its angle = phi0 + speed t.
+
+    Parameters
+    ----------
+    k : int
+        The block's index.
+    r : int
+        The block's first row.
+    bi : int
+        The driven body.
+    t : float
+        Time (s).
+    q : numpy.ndarray
+        Positions (m, rad; x, y, phi per body, then the modal and auxiliary coordinates).
+    cflt : numpy.ndarray
+        Float records of the constraint blocks (``layout.CF_*``, SI).
+    phi, jac, nu : numpy.ndarray
+        Written, per row: Phi (rad), its Jacobian Phi_q (dimensionless) and nu = -Phi_t (rad/s).
+    """
     phi[r] = q[3 * bi + 2] - cflt[k, CF_ANGLE0] - cflt[k, CF_SPEED] * t
     jac[r, 3 * bi + 2] = 1.0
     nu[r] = cflt[k, CF_SPEED]

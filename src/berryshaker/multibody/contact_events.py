@@ -190,7 +190,18 @@ def _crossing_rate(p0, d0, p1, d1, h):
 def first_onset_fraction(model, state, work, pen_start, pdot_start, h):
     """Fraction of a step of length h at which the first contact closes that was open at its start and is deeper
     than EVENT_TOL at its end (:func:`_onset_fraction`), or 2.0 when there is none.  The element outputs in the
-    work arrays are those at the step's end."""
+    work arrays are those at the step's end.
+
+    Parameters
+    ----------
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    pen_start, pdot_start : numpy.ndarray
+        Per force element at the step's start: penetration (m) and its rate (m/s).
+    h : float
+        Size of the step tried (s).
+    """
     in_contact = state[0]
     eout = work[5]
     frac = 2.0
@@ -216,7 +227,43 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old,
     bound shows that nothing inside the step can raise them).  Such an evaluation leaves the element outputs and
     the groove contacts' foot memory as they were at the step's end (``e_save``, ``psi_f_keep``: work space and
     the memory after the step).  The penetrations, forces and rates at the step's end become the next step's start
-    values (``pen_start``, ``f_start``, ``pdot_start``)."""
+    values (``pen_start``, ``f_start``, ``pdot_start``).
+
+    Parameters
+    ----------
+    t : float
+        Time at the step's end (s).
+    t_old : float
+        Time at the step's start (s).
+    h : float
+        Step size (s).
+    stats_from : float
+        Start of the statistics window (s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    k : numpy.ndarray
+        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
+    ytmp : numpy.ndarray
+        The step's 5th-order solution (m, rad; m/s, rad/s).
+    y_old : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    bspl, rc5 : numpy.ndarray
+        The step's dense-output coefficients h k1 - (y1 - y0) and h sum_i D_i k_i (m, rad; m/s, rad/s).
+    y_out : numpy.ndarray
+        Work space: an interpolated state (m, rad; m/s, rad/s).
+    e_save : numpy.ndarray
+        Work space for the element outputs (``layout.EO_*``, SI).
+    psi_f_keep : numpy.ndarray
+        Foot memory of the groove contacts after the accepted step (rad, rad/s, s).
+    pen_start, f_start, pdot_start : numpy.ndarray
+        Per force element at the step's start: penetration (m), |normal force| (N), penetration rate (m/s).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N), updated.
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
+        count), updated.
+    """
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
      plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state

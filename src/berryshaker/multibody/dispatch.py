@@ -60,6 +60,18 @@ def call_compiled(fn, *args):
     through the dispatcher, and so does everything when ``fn`` is not a dispatcher (``NUMBA_DISABLE_JIT``).
     A function recompiled after its first call (``fn.recompile()``, nothing in berryshaker does) keeps its old
     entry point here.
+
+    Parameters
+    ----------
+    fn : numba dispatcher
+        A compiled function of the core.
+    *args : object
+        Its arguments (arrays in SI, as the function takes them).
+
+    Returns
+    -------
+    object
+        What ``fn`` returns.
     """
     key = _type_key(args)
     entry = _ENTRY_POINTS.get((fn, key)) if key is not None else None

@@ -25,7 +25,24 @@ def rk_step(t, h, y, k, ytmp, model, state, work):
     """One DOPRI5 step of size h from (t, y) with k[0] = f(t, y): the stages k[1] .. k[6] and the 5th-order
     solution in ``ytmp``, whose derivative is k[6] (first same as last).  The last stage leaves the work arrays
     (constraint rows, element outputs, multipliers) at (t + h, ytmp).  The step's error is :func:`error_norm`'s
-    (the controller's, as SciPy's solver estimates it apart from ``rk_step``)."""
+    (the controller's, as SciPy's solver estimates it apart from ``rk_step``).
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    h : float
+        Step size (s).
+    y : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    k : numpy.ndarray
+        Stage derivatives (7 rows; m/s, rad/s; m/s^2, rad/s^2); k[0] given, k[1] .. k[6] written.
+    ytmp : numpy.ndarray
+        Written: the 5th-order solution (m, rad; m/s, rad/s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    """
     ny = y.shape[0]
     # the stages' states, state index innermost (contiguous rows of k: the loops vectorise); each element
     # sums its terms in stage order, as a loop over stages per element would
@@ -43,7 +60,25 @@ def rk_step(t, h, y, k, ytmp, model, state, work):
 def error_norm(h, y, ytmp, k, e_vec, rtol, atol):
     """The error of a step of size h from y to ytmp with stages k (:func:`rk_step`): the RMS over the states of
     h sum_i E_i k_i (the difference of the 5th- and 4th-order solutions, into ``e_vec``) scaled by
-    atol + rtol max(|y|, |ytmp|); <= 1 passes."""
+    atol + rtol max(|y|, |ytmp|); <= 1 passes.
+
+    Parameters
+    ----------
+    h : float
+        Step size (s).
+    y : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    ytmp : numpy.ndarray
+        The step's 5th-order solution (m, rad; m/s, rad/s).
+    k : numpy.ndarray
+        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
+    e_vec : numpy.ndarray
+        Work space (one entry per state, SI).
+    rtol : float
+        Relative tolerance (dimensionless).
+    atol : numpy.ndarray
+        Absolute tolerance per state (m, rad; m/s, rad/s).
+    """
     ny = y.shape[0]
     for i in range(ny):
         e_vec[i] = 0.0
@@ -62,7 +97,25 @@ def error_norm(h, y, ytmp, k, e_vec, rtol, atol):
 @njit(cache=True, _nrt=False)
 def dense_coefficients(h, k, y0, y1, bspl, rc5, e_vec):
     """The continuous extension's coefficients of an accepted step y0 -> y1 of size h (before k[0] is replaced by
-    the derivative at y1): bspl = h k1 - (y1 - y0) and rc5 = h sum_i D_i k_i (``e_vec`` is work space)."""
+    the derivative at y1): bspl = h k1 - (y1 - y0) and rc5 = h sum_i D_i k_i (``e_vec`` is work space).
+
+    Parameters
+    ----------
+    h : float
+        Step size (s).
+    k : numpy.ndarray
+        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
+    y0 : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    y1 : numpy.ndarray
+        State at the step's end (m, rad; m/s, rad/s).
+    bspl : numpy.ndarray
+        Written: h k1 - (y1 - y0) (m, rad; m/s, rad/s).
+    rc5 : numpy.ndarray
+        Written: h sum_i D_i k_i (m, rad; m/s, rad/s).
+    e_vec : numpy.ndarray
+        Work space (one entry per state, SI).
+    """
     ny = y0.shape[0]
     for i in range(ny):
         bspl[i] = h * k[0, i] - (y1[i] - y0[i])

@@ -23,7 +23,20 @@ from berryshaker.multibody.linear_solve import _constrained_solve, _row_dot_at
 
 @njit(cache=True, _nrt=False)
 def accelerations(t, y, model, state, work, dy):
-    """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays."""
+    """q'' and lambda at state y = (q, q'); fills dy = (q', q'') and work arrays.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : numpy.ndarray
+        State: positions, then velocities (m, rad; m/s, rad/s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    dy : numpy.ndarray
+        Written: the derivative (q', q'') (m/s, rad/s; m/s^2, rad/s^2).
+    """
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
      plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
@@ -48,7 +61,20 @@ def project(t, y, model, state, work, iters):
 
     Each Newton step is the smallest correction dq in the M-norm with Phi_q dq = -Phi (:func:`_constrained_solve`
     with u = 0, accumulated in the work array Q, which the projection does not otherwise use); the velocities
-    are replaced by the nearest ones in the M-norm with Phi_q q' = nu.  ``lam`` and ``gam`` are overwritten."""
+    are replaced by the nearest ones in the M-norm with Phi_q q' = nu.  ``lam`` and ``gam`` are overwritten.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    y : numpy.ndarray
+        State, projected in place (m, rad; m/s, rad/s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    iters : int
+        Newton iterations at most.
+    """
     (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
      plant_p, laws, plan) = model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
@@ -82,7 +108,15 @@ def project(t, y, model, state, work, iters):
 @njit(cache=True, _nrt=False)
 def constraint_residuals(model, work, y):
     """Largest |Phi| and largest |Phi_q q' - nu| at state y = (q, q'), from the constraint rows in the work arrays
-    (which must have been evaluated at y's positions: the integrator's last stage is at the step's end)."""
+    (which must have been evaluated at y's positions: the integrator's last stage is at the step's end).
+
+    Parameters
+    ----------
+    model, work : tuple
+        The compiled mechanism's arrays and the work arrays (:mod:`berryshaker.multibody.dynamics`).
+    y : numpy.ndarray
+        State whose positions the work arrays' rows were evaluated at (m, rad; m/s, rad/s).
+    """
     ctype, cint, crow = model[3], model[4], model[6]
     phi, jac, nu = work[0], work[1], work[2]
     n_q = y.shape[0] // 2

@@ -37,13 +37,14 @@ def kinetic_energy(cm, y: np.ndarray) -> np.ndarray:
     Parameters
     ----------
     cm : CompiledMechanism
+        The compiled mechanism.
     y : ndarray
-        States (n_samples, 2n).
+        States (n_samples, 2n; m, rad; m/s, rad/s).
 
     Returns
     -------
     ndarray
-        sum_b (m_b (x'^2 + y'^2) + I_b phi'^2) / 2 + sum_k eta_k'^2 / 2 (mass-normalised modes).
+        Kinetic energy per sample (J): sum_b (m_b (x'^2 + y'^2) + I_b phi'^2) / 2 + sum_k eta_k'^2 / 2 (mass-normalised modes).
     """
     mass, inertia = cm.model[0], cm.model[1]
     n, nb = cm.n, len(mass)
@@ -73,10 +74,11 @@ def stored_energy(cm, y: np.ndarray, elements: np.ndarray) -> tuple[dict[str, fl
     Parameters
     ----------
     cm : CompiledMechanism
+        The compiled mechanism.
     y : ndarray
-        One state (2n,).
+        One state (2n,; m, rad; m/s, rad/s).
     elements : ndarray
-        Element outputs at that sample (nf, N_EO).
+        Element outputs at that sample (nf, N_EO; ``layout.EO_*``, SI).
 
     Returns
     -------
@@ -179,6 +181,19 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
 def element_work(result, name: str) -> np.ndarray:
     """Work (J) done on the mechanism by force element ``name`` since the start, at every output sample (its
     energy accumulator; a source's is its input work, a passive element's is minus what it stored and dissipated).
+
+    Parameters
+    ----------
+    result : MultibodyResult
+        A run with ``simulation.energy_audit`` on.
+    name : str
+        The force element.
+
+    Returns
+    -------
+    numpy.ndarray
+        Work done on the mechanism at every output sample (J).
+
 
     Raises
     ------

@@ -6,6 +6,9 @@ The description is compiled into the core's arrays by :mod:`berryshaker.multibod
 assembled by :mod:`berryshaker.multibody.assembly` (perturbed starts: :mod:`berryshaker.multibody.perturbation`),
 compiled functions called through :mod:`berryshaker.multibody.dispatch`, and the result is a
 :class:`~berryshaker.multibody.result.MultibodyResult`.
+
+long module: a run's limits, set-up, kernel choice, chunked integration and result are one path that every run
+takes; over 550 lines with their numpydoc sections.
 """
 
 from __future__ import annotations
@@ -83,6 +86,12 @@ def check_output_samples(duration: float, output_step: float,
     fix : str
         What the user should change, quoted in the message (e.g. "use fewer --revolutions").
 
+    Returns
+    -------
+    int
+        The number of output samples.
+
+
     Raises
     ------
     ConfigError
@@ -115,7 +124,18 @@ def _auxiliary_tolerances(cm: CompiledMechanism, rtol: float, atol: np.ndarray) 
 
 
 def default_step_budget(duration: float) -> int:
-    """The step budget of a run of ``duration`` seconds: ``max(MIN_STEP_BUDGET, duration / STEP_BUDGET_DT)``."""
+    """The step budget of a run of ``duration`` seconds: ``max(MIN_STEP_BUDGET, duration / STEP_BUDGET_DT)``.
+
+    Parameters
+    ----------
+    duration : float
+        Simulated time (s).
+
+    Returns
+    -------
+    int
+        Accepted plus rejected steps allowed.
+    """
     return int(max(MIN_STEP_BUDGET, math.ceil(duration / STEP_BUDGET_DT)))
 
 
@@ -241,7 +261,8 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
     duration, rtol, output_step, max_step : float, optional
         Simulated time (s), relative tolerance, spacing of the written series (s), largest step (s).
     y0 : ndarray, optional
-        Initial state (positions then velocities); default: assembled with the clearance joints centred.
+        Initial state (positions then velocities; m, rad; m/s, rad/s); default: assembled with the clearance
+        joints centred.
     max_steps : int, optional
         Step budget of the run (accepted + rejected integrator steps); default
         :func:`default_step_budget` (``duration / 1e-6 s``, at least 200 000).  The run stops with a
@@ -263,6 +284,12 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
         structure is run on a machine (cached on disk after that); False: the generic kernel.  Default:
         ``spec.simulation.specialised``, whose default (None) takes the specialised kernel when this machine has
         compiled it for the structure already (:func:`integrator`).
+
+    Returns
+    -------
+    MultibodyResult
+        The run: written series (SI), peaks (N), first impacts, statistics.
+
 
     Raises
     ------
@@ -297,7 +324,18 @@ def simulate_mechanism(spec: MechanismSpec, duration: float | None = None, rtol:
 
 def resumable(integrate):
     """The resumable form of a compiled integrator (``kernel.integrate`` or a specialised module's): the
-    ``integrate_resumable`` beside it, which :func:`integrate_in_chunks` calls."""
+    ``integrate_resumable`` beside it, which :func:`integrate_in_chunks` calls.
+
+    Parameters
+    ----------
+    integrate : numba dispatcher
+        ``kernel.integrate`` or a specialised module's ``integrate``.
+
+    Returns
+    -------
+    numba dispatcher
+        Its ``integrate_resumable``.
+    """
     return getattr(integrate, "py_func", integrate).__globals__["integrate_resumable"]
 
 
@@ -307,7 +345,17 @@ def integrate_in_chunks(integrate, run: "PreparedRun", chunk_steps: int | None =
     (KeyboardInterrupt) stops a long run within a chunk's time instead of after the whole run (numba's compiled
     code does not see signals).  The step sequence, and so every result, is bitwise that of one call; the step
     budget (``run.budget``, status 4) counts over the whole run.  Leaves the final status in ``run.info``.
-    ``chunk_steps``: default :data:`CHUNK_STEPS`."""
+    ``chunk_steps``: default :data:`CHUNK_STEPS`.
+
+    Parameters
+    ----------
+    integrate : numba dispatcher
+        The integrator (:func:`integrator`).
+    run : PreparedRun
+        A run set up by :func:`~berryshaker.multibody.engine.prepare_run`.
+    chunk_steps : int, optional
+        Steps per compiled call (default :data:`CHUNK_STEPS`).
+    """
     cm = run.cm
     chunk_steps = CHUNK_STEPS if chunk_steps is None else int(chunk_steps)
     resume = np.zeros(L.resume_size(run.y.shape[0], len(cm.frc_names)))
@@ -327,7 +375,21 @@ def integrator(cm: CompiledMechanism, specialised: bool | None = None):
     results).  ``specialised=None`` (a run left to choose): as the environment variable ``BERRYSHAKER_KERNEL`` says
     (:func:`berryshaker.compiled_cache.kernel_choice`),
     by default ("auto") the structure's own when this machine has compiled it already
-    (:func:`berryshaker.multibody.specialised.is_compiled`; a load, not a compilation), else the generic one."""
+    (:func:`berryshaker.multibody.specialised.is_compiled`; a load, not a compilation), else the generic one.
+
+    Parameters
+    ----------
+    cm : CompiledMechanism
+        The compiled mechanism.
+    specialised : bool, optional
+        The kernel specialised to the structure (True), the generic one (False), or as
+        :func:`berryshaker.compiled_cache.resolve_kernel` decides (None).
+
+    Returns
+    -------
+    numba dispatcher
+        The compiled ``integrate`` to call.
+    """
     if specialised is None:
         choice = kernel_choice()
         specialised = is_compiled(cm.model, cm.n) if choice == "auto" else choice == "specialised"
@@ -344,7 +406,41 @@ def integrator(cm: CompiledMechanism, specialised: bool | None = None):
 
 @dataclass
 class PreparedRun:
-    """Everything one compiled integration needs (:func:`prepare_run`) and fills (outputs, peaks, info)."""
+    """Everything one compiled integration needs (:func:`prepare_run`) and fills (outputs, peaks, info).
+
+    Attributes
+    ----------
+    cm : CompiledMechanism
+        The compiled mechanism.
+    state, work : tuple
+        The carried state and the work arrays (:mod:`berryshaker.multibody.dynamics`).
+    y : numpy.ndarray
+        Initial state (m, rad; m/s, rad/s).
+    t_out : numpy.ndarray
+        Output times (s).
+    rtol : float
+        Relative tolerance (dimensionless).
+    atol : numpy.ndarray
+        Absolute tolerance per state (m, rad; m/s, rad/s).
+    max_step : float
+        Largest step (s).
+    stats_from : float
+        Start of the statistics window (s).
+    budget : int
+        Step budget (accepted plus rejected steps).
+    duration : float
+        Simulated time (s).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (SI), element outputs (``layout.EO_*``, SI), multipliers (N, N m).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element (N).
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: s, m/s, N, flag, count).
+    info : numpy.ndarray
+        The integrator's statistics (``layout.INFO_*``: counts, time s, status, residual m).
+    specialised : bool or None
+        The kernel asked for (None: specialised when compiled).
+    """
 
     cm: CompiledMechanism
     state: tuple
@@ -372,7 +468,34 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
                 initial_perturbation: "InitialPerturbation | RandomInitialPerturbation | None" = None,
                 series: str = "whole") -> PreparedRun:
     """Check the arguments of :func:`simulate_mechanism` (same meaning and defaults), compile the description,
-    assemble the initial state and allocate the arrays of one integration."""
+    assemble the initial state and allocate the arrays of one integration.
+
+    Parameters
+    ----------
+    spec : MechanismSpec
+        The mechanism description.
+    duration : float, optional
+        Simulated time (s).
+    rtol : float, optional
+        Relative tolerance (dimensionless).
+    output_step : float, optional
+        Spacing of the written series (s).
+    max_step : float, optional
+        Largest step (s).
+    y0 : numpy.ndarray, optional
+        Initial state (m, rad; m/s, rad/s).
+    max_steps : int, optional
+        Step budget (accepted plus rejected steps).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        A perturbed start.
+    series : {'whole', 'statistics'}
+        What the written series cover.
+
+    Returns
+    -------
+    PreparedRun
+        The compiled mechanism, initial state and allocated arrays (SI).
+    """
     if series not in SERIES:
         raise ConfigError(f"series must be one of {', '.join(repr(k) for k in SERIES)} (what the written series "
                           f"cover), got {series!r}")
@@ -418,7 +541,20 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
 
 
 def finish_run(run: PreparedRun, wall: float) -> MultibodyResult:
-    """The result of an integration of :func:`prepare_run`'s arrays, or the SimulationError its status means."""
+    """The result of an integration of :func:`prepare_run`'s arrays, or the SimulationError its status means.
+
+    Parameters
+    ----------
+    run : PreparedRun
+        A run set up by :func:`~berryshaker.multibody.engine.prepare_run`.
+    wall : float
+        Wall time of the integration (s).
+
+    Returns
+    -------
+    MultibodyResult
+        The result.
+    """
     info, duration, budget = run.info, run.duration, run.budget
     if int(info[L.INFO_STATUS]) == L.STATUS_BUDGET:
         raise SimulationError(

@@ -11,6 +11,9 @@ normal law of ``berryshaker.contact`` (the laws reach the core as a tuple of fir
 Coulomb friction; the modal-body contact strikes the plant's modes; the rest are springs, loads and the powered
 drives.  :func:`forces` adds gravity, the modal forces and the prismatic guides' friction, and with the energy
 audit on integrates every element's power (:func:`accumulator_start`).
+
+long module: the element functions are inlined into the one switch :func:`forces` (``inline="always"``) and share
+its helpers; over 550 lines with their numpydoc sections (the code is about 400).
 """
 
 from __future__ import annotations
@@ -76,7 +79,23 @@ def _contact_force(k, bi, bj, q, qd, fint, fflt, mu, nx, ny, pen, pen_dot, relx,
 @njit(cache=True, _nrt=False, inline="always")
 def pin_in_bore(k, q, qd, fint, fflt, in_contact, v_imp, laws, Q, eout):
     """Pin of body i in a bore of body j (``FRC_REV_CL``): penetration |e| - c along the line of centres, friction
-    from the relative velocity of the contact points of pin (radius r) and bore (radius r + c)."""
+    from the relative velocity of the contact points of pin (radius r) and bore (radius r + c).
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    laws : tuple
+        The registered contact laws' compiled functions.
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_PIN_X], fflt[k, FF_PIN_Y])
     ojx, ojy, vjx, vjy, phj, wj = _body_origin(q, qd, bj)
@@ -120,7 +139,23 @@ def _wall_contact(k, bi, bj, q, qd, fint, fflt, d, n0x, n0y, pix, piy, vix, viy,
 
 @njit(cache=True, _nrt=False, inline="always")
 def pin_in_slot(k, q, qd, fint, fflt, in_contact, v_imp, laws, Q, eout):
-    """Pin of body i in a straight slot of body j (``FRC_SLOT_CL``): its distance from the slot's centre line."""
+    """Pin of body i in a straight slot of body j (``FRC_SLOT_CL``): its distance from the slot's centre line.
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    laws : tuple
+        The registered contact laws' compiled functions.
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_PIN_X], fflt[k, FF_PIN_Y])
     ojx, ojy, vjx, vjy, phj, wj = _body_origin(q, qd, bj)
@@ -138,7 +173,30 @@ def pin_in_slot(k, q, qd, fint, fflt, in_contact, v_imp, laws, Q, eout):
 def roller_in_groove(k, t, q, qd, fint, fflt, cams, in_contact, v_imp, psi_mem_f, laws, Q, eout):
     """Roller of body i in the groove of cam body j (``FRC_GROOVE_CL``): its signed distance from the cam's pitch
     curve at the foot point, found by Newton from the last foot carried to time t by its rate (``psi_mem_f``,
-    :data:`berryshaker.multibody.cam_pitch.FOOT_MEMORY`), which it updates."""
+    :data:`berryshaker.multibody.cam_pitch.FOOT_MEMORY`), which it updates.
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    t : float
+        Time (s).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    cams : numpy.ndarray
+        A row per cam (``layout.CAM_*``; lengths m, angles rad).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    psi_mem_f : numpy.ndarray
+        Foot memory of the groove contacts (foot angle rad, its rate rad/s, time s;
+        :data:`~berryshaker.multibody.cam_pitch.FOOT_MEMORY`), updated.
+    laws : tuple
+        The registered contact laws' compiled functions.
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_PIN_X], fflt[k, FF_PIN_Y])
     ojx, ojy, vjx, vjy, phj, wj = _body_origin(q, qd, bj)
@@ -168,7 +226,31 @@ def branch_contact(k, t, q, qd, n0, fint, fflt, in_contact, v_imp, phi_tab, plan
     """A point of body i striking the modal body (``FRC_BRANCH``) at the station of its mode-shape row: penetration
     along the contact's axis less the branch's modal deflection there, ramped in and out as the machine drives past
     the plant (``plant_p``); the force drives the modes (coordinates from ``n0``) and, times the reaction weight,
-    acts back on body i."""
+    acts back on body i.
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    t : float
+        Time (s).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    n0 : int
+        First modal coordinate (3 x number of bodies).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    phi_tab : numpy.ndarray
+        Mode shapes at the contacts' stations (m per unit modal coordinate).
+    plant_p : numpy.ndarray
+        The drive-past (``layout.PLANT_*``: speed m/s, start m, half span m, ramp m, ramp depth m).
+    laws : tuple
+        The registered contact laws' compiled functions.
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     # comb finger point on body bi striking the branch at the station of phi_tab row fint[k, FI_BRANCH_ROW]
     bi = fint[k, FI_BODY_I]
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_FINGER_X], fflt[k, FF_FINGER_Y])
@@ -213,7 +295,19 @@ def branch_contact(k, t, q, qd, n0, fint, fflt, in_contact, v_imp, phi_tab, plan
 @njit(cache=True, _nrt=False, inline="always")
 def rotational_spring_damper(k, q, qd, fint, fflt, Q, eout):
     """Torsional spring-damper between bodies i and j (``FRC_ROT_SD``): T = -k (phi_i - phi_j - phi0) -
-    c (w_i - w_j) on body i, -T on body j."""
+    c (w_i - w_j) on body i, -T on body j.
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     phii = q[3 * bi + 2] if bi >= 0 else 0.0
     wi = qd[3 * bi + 2] if bi >= 0 else 0.0
@@ -229,7 +323,17 @@ def rotational_spring_damper(k, q, qd, fint, fflt, Q, eout):
 
 @njit(cache=True, _nrt=False, inline="always")
 def constant_torque(k, fint, fflt, Q, eout):
-    """A constant torque on body i (``FRC_TORQUE``)."""
+    """A constant torque on body i (``FRC_TORQUE``).
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi = fint[k, FI_BODY_I]
     Q[3 * bi + 2] += fflt[k, FF_TORQUE]
     eout[k, EO_FN] = fflt[k, FF_TORQUE]
@@ -237,7 +341,19 @@ def constant_torque(k, fint, fflt, Q, eout):
 
 @njit(cache=True, _nrt=False, inline="always")
 def constant_force(k, q, qd, fint, fflt, Q, eout):
-    """A constant force (fixed direction in the plane) at a point of body i (``FRC_FORCE``)."""
+    """A constant force (fixed direction in the plane) at a point of body i (``FRC_FORCE``).
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi = fint[k, FI_BODY_I]
     pix, piy, vix, viy, aix, aiy, wi = _point(q, qd, bi, fflt[k, FF_POINT_X], fflt[k, FF_POINT_Y])
     _apply(Q, bi, fflt[k, FF_FORCE_X], fflt[k, FF_FORCE_Y], aix, aiy)
@@ -247,7 +363,17 @@ def constant_force(k, q, qd, fint, fflt, Q, eout):
 @njit(cache=True, _nrt=False)
 def table_torque(fflt, k, w):
     """Torque of the torque-speed table of force element k at relative speed w: linear interpolation between
-    the points (speeds increasing), end values held outside (as numpy.interp)."""
+    the points (speeds increasing), end values held outside (as numpy.interp).
+
+    Parameters
+    ----------
+    fflt : numpy.ndarray
+        Float records of the force elements (``layout.FF_*``, SI).
+    k : int
+        The force element's row.
+    w : float
+        Relative speed (rad/s).
+    """
     nt = int(fflt[k, FF_TABLE_N])
     if w <= fflt[k, FF_TABLE_SPEEDS]:
         return fflt[k, FF_TABLE_TORQUES]
@@ -268,7 +394,19 @@ def table_torque(fflt, k, w):
 @njit(cache=True, _nrt=False, inline="always")
 def torque_speed_source(k, qd, fint, fflt, Q, eout):
     """A motor (``FRC_TORQUE_SPEED``): the torque of its table at the speed of body i relative to body j, on body i,
-    its reaction on body j."""
+    its reaction on body j.
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    qd : numpy.ndarray
+        Velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     wrel = (qd[3 * bi + 2] if bi >= 0 else 0.0) - (qd[3 * bj + 2] if bj >= 0 else 0.0)
     tq = table_torque(fflt, k, wrel)
@@ -283,7 +421,19 @@ def torque_speed_source(k, qd, fint, fflt, Q, eout):
 def geared_spring_damper(k, qd, fint, fflt, Q, eout):
     """A geared torsional spring-damper from body i (input) to body j (output) (``FRC_GEAR_SD``): its windup psi
     is an auxiliary coordinate whose rate it writes; input torque k psi + c psi' on body i, the output torque less
-    the mesh loss on body j (docs/multibody.md, "Powered drives")."""
+    the mesh loss on body j (docs/multibody.md, "Powered drives").
+
+    Parameters
+    ----------
+    k : int
+        The element's row.
+    qd : numpy.ndarray
+        Velocities (m/s, rad/s).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    Q, eout : numpy.ndarray
+        Generalised forces (N, N m), added to; element outputs (``layout.EO_*``, SI), written.
+    """
     bi, bj = fint[k, FI_BODY_I], fint[k, FI_BODY_J]
     wi = qd[3 * bi + 2] if bi >= 0 else 0.0
     wj = qd[3 * bj + 2] if bj >= 0 else 0.0
@@ -324,7 +474,23 @@ def geared_spring_damper(k, qd, fint, fflt, Q, eout):
 @njit(cache=True, _nrt=False, inline="always")
 def prismatic_guide_friction(k, q, qd, cint, cflt, crow, lam_prev, Q):
     """Coulomb friction of prismatic joint k (constraint block) along its axis, its normal forces the reactions of
-    its two supports from the last accepted step's multipliers (lagged by one step)."""
+    its two supports from the last accepted step's multipliers (lagged by one step).
+
+    Parameters
+    ----------
+    k : int
+        The prismatic joint's constraint block.
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    cint, cflt : numpy.ndarray
+        The constraint blocks' records (``layout.CI_*``, ``layout.CF_*``; SI).
+    crow : numpy.ndarray of int
+        First row of each constraint block.
+    lam_prev : numpy.ndarray
+        Multipliers of the last accepted step (N, N m).
+    Q : numpy.ndarray
+        Generalised forces, added to (N, N m; an auxiliary coordinate: its rate in its own unit per s).
+    """
     bi, bj = cint[k, CI_BODY_I], cint[k, CI_BODY_J]
     r = crow[k]
     plx, ply, vlx, vly, alx, aly, wl = _point(q, qd, bi, cflt[k, CF_SIX], cflt[k, CF_SIY])
@@ -356,7 +522,17 @@ def accumulator_start(ftype, n_base, n_all):
     windup state per geared spring-damper (element order), then, when the energy audit is on, one accumulator
     per force element plus two (prismatic guide friction, modal-body internal forces).  An accumulator's
     velocity slot is the work done on the mechanism so far (J): its rate (the generalised-force slot, unit mass)
-    is the element's power sum_i dQ_i q'_i, so the Runge-Kutta stages integrate it with the state."""
+    is the element's power sum_i dQ_i q'_i, so the Runge-Kutta stages integrate it with the state.
+
+    Parameters
+    ----------
+    ftype : numpy.ndarray of int
+        Type of each force element (``layout.FRC_*``).
+    n_base : int
+        Coordinates of the bodies and modes (where the auxiliary coordinates begin).
+    n_all : int
+        All coordinates.
+    """
     nf = ftype.shape[0]
     ns = 0
     for k in range(nf):
@@ -382,7 +558,48 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
     """Generalised applied forces Q: gravity, the modal body's own stiffness and damping, every force element
     (clearance contacts, spring-dampers, loads, powered drives, modal-body contacts: one function per type), and
     the guide friction of prismatic joints (from the previous step's multipliers); with the energy audit on, the
-    rates of the energy accumulators."""
+    rates of the energy accumulators.
+
+    Parameters
+    ----------
+    t : float
+        Time (s).
+    q, qd : numpy.ndarray
+        Positions (m, rad) and velocities (m/s, rad/s).
+    mass : numpy.ndarray
+        The bodies' masses (kg).
+    gravity : numpy.ndarray
+        Gravity, x and y (m/s^2).
+    ftype : numpy.ndarray of int
+        Type of each force element (``layout.FRC_*``).
+    fint, fflt : numpy.ndarray
+        The force elements' records (``layout.FI_*``, ``layout.FF_*``; SI).
+    cams : numpy.ndarray
+        A row per cam (``layout.CAM_*``; lengths m, angles rad).
+    in_contact, v_imp : numpy.ndarray
+        Each contact closed at the last accepted step; its impact velocity (m/s).
+    psi_mem_f : numpy.ndarray
+        Foot memory of the groove contacts (foot angle rad, its rate rad/s, time s;
+        :data:`~berryshaker.multibody.cam_pitch.FOOT_MEMORY`), updated.
+    ctype, cint, cflt, crow : numpy.ndarray
+        The constraint blocks: types (``layout.CON_*``), integer and float records (``layout.CI_*``,
+        ``layout.CF_*``; SI), first rows.
+    lam_prev : numpy.ndarray
+        Multipliers of the last accepted step (N, N m).
+    modal_w, modal_z : numpy.ndarray
+        Natural angular frequency (rad/s) and damping ratio (dimensionless) of each mode.
+    phi_tab : numpy.ndarray
+        Mode shapes at the contacts' stations (m per unit modal coordinate).
+    plant_p : numpy.ndarray
+        The drive-past (``layout.PLANT_*``: speed m/s, start m, half span m, ramp m, ramp depth m).
+    Q : numpy.ndarray
+        Written: the generalised forces (N, N m; an auxiliary coordinate: its rate).
+    eout : numpy.ndarray
+        Element outputs, written (``layout.EO_*``: normal force N or torque N m, penetration m, its rate m/s,
+        tangential force N or input torque N m).
+    laws : tuple
+        The registered contact laws' compiled functions.
+    """
     nb = mass.shape[0]
     for b in range(nb):
         Q[3 * b] = mass[b] * gravity[0]
@@ -439,7 +656,15 @@ def forces(t, q, qd, mass, gravity, ftype, fint, fflt, cams, in_contact, v_imp, 
 
 @njit(cache=True, _nrt=False)
 def fint_is_contact(model, j):
-    """True where force element ``j`` is a contact (clearance joint or modal-body contact)."""
+    """True where force element ``j`` is a contact (clearance joint or modal-body contact).
+
+    Parameters
+    ----------
+    model : tuple
+        The compiled mechanism's arrays (:mod:`berryshaker.multibody.dynamics`).
+    j : int
+        The force element's row.
+    """
     ftype = model[7]
     t = ftype[j]
     return t == FRC_REV_CL or t == FRC_SLOT_CL or t == FRC_GROOVE_CL or t == FRC_BRANCH

@@ -61,6 +61,36 @@ def integrate(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_
     of accepted step sizes (:func:`~berryshaker.multibody.step_control.record_step_size`).
 
     One call of :func:`integrate_resumable` without a ``resume`` array.
+
+    Parameters
+    ----------
+    y0 : numpy.ndarray
+        Initial state (m, rad; m/s, rad/s).
+    t_out : numpy.ndarray
+        Output times (s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    rtol : float
+        Relative tolerance (dimensionless).
+    atol : numpy.ndarray
+        Absolute tolerance per state (m, rad; m/s, rad/s).
+    h_max : float
+        Largest step (s).
+    stats_from : float
+        Start of the statistics window (s).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N), updated.
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
+        count), updated.
+    info : numpy.ndarray
+        On entry ``info[0]`` the step budget (accepted plus rejected steps; <= 0: none); written: the integrator's
+        statistics (``layout.INFO_*``: counts, time s, status, residual m or rad); a longer array also gets the
+        histogram of step sizes (counts).
     """
     integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_from, out_y, out_e, out_lam, peaks,
                         first, info, None)
@@ -85,6 +115,38 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
     (:func:`~berryshaker.multibody.contact_events.record_contacts`), the next size chosen
     (:mod:`~berryshaker.multibody.step_control`) and the output samples in it written
     (:mod:`~berryshaker.multibody.sampling`).
+
+    Parameters
+    ----------
+    y0 : numpy.ndarray
+        Initial state (m, rad; m/s, rad/s).
+    t_out : numpy.ndarray
+        Output times (s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    rtol : float
+        Relative tolerance (dimensionless).
+    atol : numpy.ndarray
+        Absolute tolerance per state (m, rad; m/s, rad/s).
+    h_max : float
+        Largest step (s).
+    stats_from : float
+        Start of the statistics window (s).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N), updated.
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
+        count), updated.
+    info : numpy.ndarray
+        On entry ``info[0]`` the step budget (accepted plus rejected steps; <= 0: none); written: the integrator's
+        statistics (``layout.INFO_*``: counts, time s, status, residual m or rad); a longer array also gets the
+        histogram of step sizes (counts).
+    resume : numpy.ndarray or None
+        The loop state of a run in chunks (``layout.RS_*``: times s, step sizes s, counts, the state in SI).
     """
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work

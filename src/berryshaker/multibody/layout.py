@@ -157,7 +157,20 @@ N_RESUME = 12
 
 
 def resume_size(ny: int, nf: int) -> int:
-    """Length of integrate's ``resume`` array for ``ny`` states and ``nf`` force elements."""
+    """Length of integrate's ``resume`` array for ``ny`` states and ``nf`` force elements.
+
+    Parameters
+    ----------
+    ny : int
+        Number of states.
+    nf : int
+        Number of force elements.
+
+    Returns
+    -------
+    int
+        Entries of the ``resume`` array.
+    """
     return N_RESUME + 2 * ny + 3 * nf
 
 
@@ -186,6 +199,19 @@ def force_record(typ: int, **values) -> tuple[list[int], np.ndarray]:
     its record (:data:`FORCE_RECORDS`) without the ``FI_`` / ``FF_`` prefix, any case (``pin_x=...``, ``law=...``);
     slots not given are 0.  A table slot (``table_speeds``) takes a sequence.
 
+    Parameters
+    ----------
+    typ : int
+        The element type (``FRC_*``).
+    **values : float, int or sequence of float
+        A value per slot of the record, by the slot's name without its prefix (SI: m, rad, N, N m, s).
+
+    Returns
+    -------
+    tuple of (list of int, numpy.ndarray)
+        The ``fint`` row and the ``fflt`` row (SI).
+
+
     Raises
     ------
     ValueError
@@ -197,6 +223,19 @@ def force_record(typ: int, **values) -> tuple[list[int], np.ndarray]:
 def constraint_record(typ: int, **values) -> tuple[list[int], np.ndarray]:
     """The ``cint`` and ``cflt`` rows of a constraint block of type ``typ`` (``CON_*``), as :func:`force_record`
     (slots of :data:`CONSTRAINT_RECORDS` without the ``CI_`` / ``CF_`` prefix).
+
+    Parameters
+    ----------
+    typ : int
+        The constraint type (``CON_*``).
+    **values : float or int
+        A value per slot of the record, by the slot's name without its prefix (SI: m, rad, rad/s).
+
+    Returns
+    -------
+    tuple of (list of int, numpy.ndarray)
+        The ``cint`` row and the ``cflt`` row (SI).
+
 
     Raises
     ------

@@ -43,7 +43,18 @@ class InitialPerturbation:
     driver_phases: dict = field(default_factory=dict)
 
     def for_spec(self, spec: MechanismSpec) -> "InitialPerturbation":
-        """Check the named joints and drivers against ``spec``; returns self."""
+        """Check the named joints and drivers against ``spec``; returns self.
+
+        Parameters
+        ----------
+        spec : MechanismSpec
+            The mechanism.
+
+        Returns
+        -------
+        InitialPerturbation
+            This perturbation, checked.
+        """
         joints = {j.name: j for j in spec.joints}
         for name, d in self.joint_offsets.items():
             j = joints.get(name)
@@ -62,7 +73,18 @@ class InitialPerturbation:
         return self
 
     def shifted_drivers(self, spec: MechanismSpec) -> MechanismSpec:
-        """``spec`` with every perturbed driver's start angle ``angle0`` turned by its ``driver_phases`` entry."""
+        """``spec`` with every perturbed driver's start angle ``angle0`` turned by its ``driver_phases`` entry.
+
+        Parameters
+        ----------
+        spec : MechanismSpec
+            The mechanism.
+
+        Returns
+        -------
+        MechanismSpec
+            The description with the drivers turned.
+        """
         if not self.driver_phases:
             return spec
         data = spec.model_dump()
@@ -78,6 +100,16 @@ class InitialPerturbation:
         Each offset joint is assembled as an ideal joint through its pin point moved by -d (so that the pin
         centre sits A_i d from the bore centre); the driver turn is followed by continuation from the
         unperturbed assembly (Newton from the previous configuration at each step).
+
+        Parameters
+        ----------
+        spec : MechanismSpec
+            The mechanism, drivers already turned.
+
+        Returns
+        -------
+        numpy.ndarray
+            Positions, then velocities (m, rad; m/s, rad/s).
         """
         data = spec.model_dump()
         for j in data["joints"]:
@@ -104,6 +136,15 @@ class RandomInitialPerturbation:
     its free radius (magnitude free r sqrt(u), direction uniform; a slot or groove uses the same disc, whose
     component across the slot is what its walls see); every driver a start-angle change uniform in
     [-``phase_spread``, +``phase_spread``] rad.  The same seed gives the same draw for the same mechanism.
+
+    Attributes
+    ----------
+    seed : int or tuple of int
+        Seed (numpy SeedSequence entropy).
+    eccentricity_fraction : float
+        Radius of the eccentricity disc as a fraction of each joint's free radius (dimensionless).
+    phase_spread : float
+        Half width of the drivers' start-angle change (rad).
     """
 
     seed: int | tuple  # an int, or a tuple of ints (numpy SeedSequence entropy, e.g. (replicate seed, class))
@@ -111,7 +152,18 @@ class RandomInitialPerturbation:
     phase_spread: float = 0.0
 
     def for_spec(self, spec: MechanismSpec) -> InitialPerturbation:
-        """The drawn perturbation of ``spec`` (joints and drivers in their order in ``spec``)."""
+        """The drawn perturbation of ``spec`` (joints and drivers in their order in ``spec``).
+
+        Parameters
+        ----------
+        spec : MechanismSpec
+            The mechanism.
+
+        Returns
+        -------
+        InitialPerturbation
+            The drawn perturbation (offsets m, turns rad).
+        """
         if not 0 <= self.eccentricity_fraction <= 1:
             raise ConfigError(f"eccentricity_fraction={self.eccentricity_fraction!r}: give a fraction in [0, 1] "
                               "of each joint's free radius")

@@ -18,7 +18,32 @@ class MultibodyResult:
     """A multibody run: the written series (times, states, element outputs, multipliers), every element's peak
     force, first impact and impact count (``first``, ``layout.FIRST_*``), the integrator's statistics (``info``,
     ``layout.INFO_*``), the integration's wall time, the start of the statistics window and the compiled
-    mechanism."""
+    mechanism.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Output times (s).
+    y : numpy.ndarray
+        States at the output times (m, rad; m/s, rad/s).
+    elements : numpy.ndarray
+        Element outputs (``layout.EO_*``: normal force N or torque N m, penetration m, its rate m/s, tangential
+        force N).
+    multipliers : numpy.ndarray
+        Lagrange multipliers (N, N m).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N).
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: s, m/s, N, flag, count).
+    info : numpy.ndarray
+        The integrator's statistics (``layout.INFO_*``: counts, time s, status, residual m).
+    wall_time_s : float
+        Wall time of the integration (s).
+    stats_from : float
+        Start of the statistics window (s).
+    compiled : CompiledMechanism
+        The compiled mechanism.
+    """
 
     t: np.ndarray
     y: np.ndarray  # (n_out, 2n)
@@ -32,11 +57,33 @@ class MultibodyResult:
     compiled: CompiledMechanism = field(repr=False)
 
     def element_force(self, name: str) -> np.ndarray:
-        """Normal force (or torque) of force element ``name`` at every output sample."""
+        """Normal force (or torque) of force element ``name`` at every output sample.
+
+        Parameters
+        ----------
+        name : str
+            The force element.
+
+        Returns
+        -------
+        numpy.ndarray
+            Normal force (N) or torque (N m) at every output sample.
+        """
         return self.elements[:, self.compiled.frc_names.index(name), L.EO_FN]
 
     def reaction(self, name: str) -> np.ndarray:
-        """Magnitude of the reaction force of an ideal joint (from its Lagrange multipliers), N."""
+        """Magnitude of the reaction force of an ideal joint (from its Lagrange multipliers), N.
+
+        Parameters
+        ----------
+        name : str
+            The ideal joint or driver.
+
+        Returns
+        -------
+        numpy.ndarray
+            Reaction force (N) or a driver's torque (N m) at every output sample.
+        """
         k = self.compiled.con_names.index(name)
         r0, nr = self.compiled.con_rows[k]
         typ = self.compiled.model[3][k]
@@ -58,6 +105,16 @@ class MultibodyResult:
         "Impacts").  Not the count of steps cut back to an onset (``info[INFO_CUTS]``, ``event_cuts`` in
         :meth:`summary`), which counts every refinement.  ``names``: the elements to count (default every
         clearance element); a name that is no clearance element (e.g. a pair closed to an ideal joint) has none.
+
+        Parameters
+        ----------
+        names : list of str, optional
+            The elements to count (default every clearance element).
+
+        Returns
+        -------
+        dict of str to int
+            Impacts per element.
         """
         cm = self.compiled
         if names is None:
@@ -78,6 +135,11 @@ class MultibodyResult:
         ``contact_onsets`` impacts per clearance joint (:meth:`contact_onsets`: located onsets closing at
         >= 1 mm/s over the statistics window), ``contact_onsets_located`` their total, ``event_cuts`` the integrator steps cut
         back to an onset over the whole run (every refinement counts).
+
+        Returns
+        -------
+        dict
+            Per joint and driver statistics (forces N, torques N m, times s), integrator statistics.
         """
         cm = self.compiled
         onsets = self.contact_onsets()

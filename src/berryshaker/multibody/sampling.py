@@ -29,7 +29,25 @@ def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
 @njit(cache=True, _nrt=False)
 def write_state_sample(io, t, y, model, state, work, y_out, k_out, out_y, out_e, out_lam):
     """Output sample io at the state (t, y) itself: the forces and multipliers evaluated there (``y_out`` and
-    ``k_out`` are work space).  Returns the next sample's index."""
+    ``k_out`` are work space).  Returns the next sample's index.
+
+    Parameters
+    ----------
+    io : int
+        Index of the next output sample.
+    t : float
+        Time (s).
+    y : numpy.ndarray
+        The state to write (m, rad; m/s, rad/s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    y_out, k_out : numpy.ndarray
+        Work space: an interpolated state (m, rad; m/s, rad/s) and its derivative (m/s, rad/s; m/s^2, rad/s^2).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    """
     lam, eout = work[6], work[5]
     for i in range(y.shape[0]):
         y_out[i] = y[i]
@@ -44,7 +62,41 @@ def write_step_samples(io, t_out, t_old, t, h, dense, k, ytmp, y_old, bspl, rc5,
     """The output samples io, io + 1, ... that fall in the accepted step (t_old, t] of size h: inside it the dense
     output (``k``, ``ytmp``, ``y_old``, ``bspl``, ``rc5``: :func:`berryshaker.multibody.dopri._dense_state`), at its
     end the accepted (projected) state ``y``, evaluated again only when ``dense`` (a sample inside the step moved
-    the work arrays).  Returns the next sample's index."""
+    the work arrays).  Returns the next sample's index.
+
+    Parameters
+    ----------
+    io : int
+        Index of the next output sample.
+    t_out : numpy.ndarray
+        Output times (s).
+    t_old : float
+        Time at the step's start (s).
+    t : float
+        Time at the step's end (s).
+    h : float
+        Step size (s).
+    dense : bool
+        Whether output samples lie inside the step.
+    k : numpy.ndarray
+        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
+    ytmp : numpy.ndarray
+        The step's end state as the step computed it (m, rad; m/s, rad/s).
+    y_old : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    bspl, rc5 : numpy.ndarray
+        The step's dense-output coefficients h k1 - (y1 - y0) and h sum_i D_i k_i (m, rad; m/s, rad/s).
+    y : numpy.ndarray
+        State at the step's end (m, rad; m/s, rad/s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    y_out, k_out : numpy.ndarray
+        Work space: an interpolated state (m, rad; m/s, rad/s) and its derivative (m/s, rad/s; m/s^2, rad/s^2).
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    """
     lam, eout = work[6], work[5]
     n_out = t_out.shape[0]
     while io < n_out and t_out[io] < t - 1e-15:

@@ -34,7 +34,8 @@ def jacobian_pattern(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow
     Parameters
     ----------
     ctype, cint, cflt, crow : numpy.ndarray
-        The constraint arrays of a compiled mechanism (type, bodies, float parameters, first row of each block).
+        The constraint arrays of a compiled mechanism (type, bodies, float parameters in SI, first row of each
+        block).
     m, n : int
         Constraint rows and coordinates.
 
@@ -107,9 +108,19 @@ def driven_bodies(ctype: np.ndarray, cint: np.ndarray, crow: np.ndarray) -> list
     the slider-crank, the crank of the crank-rocker drive with ideal pins and the cam with an ideal groove are
     such bodies.
 
+    Parameters
+    ----------
+    ctype : numpy.ndarray of int
+        Type of each constraint block (``layout.CON_*``).
+    cint : numpy.ndarray of int
+        Integer records of the constraint blocks (``layout.CI_*``).
+    crow : numpy.ndarray of int
+        First row of each constraint block.
+
     Returns
     -------
     list of (body, r, d)
+        Per such body: its index, the first row of its revolute joint to the ground and its driver's row.
     """
     out = []
     blocks: dict[int, list[int]] = {}
@@ -146,7 +157,7 @@ def solve_plan(ctype: np.ndarray, cint: np.ndarray, cflt: np.ndarray, crow: np.n
     Parameters
     ----------
     ctype, cint, cflt, crow : numpy.ndarray
-        The constraint arrays of a compiled mechanism.
+        The constraint arrays of a compiled mechanism (float parameters in SI).
     m, n : int
         Constraint rows and coordinates.
 

@@ -348,6 +348,20 @@ def mechanism_from_dict(data: dict, source: str = "<dict>", units_required: bool
     """Validate a nested dict into a :class:`MechanismSpec`; errors are located (``joints.2.clearance: ...``).
 
     ``units_required``: the data is a user's file, a bare number in a dimensional field is an error.
+
+    Parameters
+    ----------
+    data : dict
+        The description's tables (values with units, or SI numbers).
+    source : str
+        Where it came from, for the messages.
+    units_required : bool
+        A bare number in a dimensional field is an error (a user's file).
+
+    Returns
+    -------
+    MechanismSpec
+        The validated description (SI inside).
     """
     try:
         return MechanismSpec.model_validate(data, context={UNITS_REQUIRED: units_required})
@@ -358,7 +372,18 @@ def mechanism_from_dict(data: dict, source: str = "<dict>", units_required: bool
 
 
 def load_mechanism(path: str | Path) -> MechanismSpec:
-    """Read a mechanism description from TOML (every dimensional value with its unit) and validate it."""
+    """Read a mechanism description from TOML (every dimensional value with its unit) and validate it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    MechanismSpec
+        The validated description (SI inside).
+    """
     p = Path(path)
     if not p.is_file():
         raise ConfigError(f"mechanism file not found: {p}")

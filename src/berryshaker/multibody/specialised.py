@@ -70,7 +70,20 @@ _LOADED: dict[str, object] = {}
 
 def structure_key(model: tuple, n: int) -> str:
     """Digest (hex, 16 digits) of what the generated code depends on: the constraint types, bodies and rows, the
-    solve plan, the number of coordinates and the generator's version (not any value)."""
+    solve plan, the number of coordinates and the generator's version (not any value).
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple.
+    n : int
+        Number of coordinates.
+
+    Returns
+    -------
+    str
+        The digest (16 hex digits).
+    """
     ctype, cint, crow, plan = model[3], model[4], model[6], model[16]
     h = hashlib.sha256(f"v{GENERATOR_VERSION};n{int(n)};".encode())
     for a in (ctype, cint, crow, plan):
@@ -237,7 +250,22 @@ def specialised_integrator(model: tuple, n: int, m: int):
 def specialised_module(model: tuple, n: int, m: int):
     """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve`` and
     those of :data:`GENERIC_SOURCES`), written to :func:`source_folder` if missing or different and imported once
-    per process."""
+    per process.
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple.
+    n : int
+        Number of coordinates.
+    m : int
+        Number of constraint rows.
+
+    Returns
+    -------
+    module
+        The imported generated module.
+    """
     key = structure_key(model, n)
     mod = _LOADED.get(key)
     if mod is None:
@@ -259,7 +287,20 @@ def is_compiled(model: tuple, n: int) -> bool:
     """True when this machine has compiled the structure's specialised kernel with this package version, numba
     version and CPU (a run with it finished its first call and numba saved it: :func:`mark_compiled`), so running
     it costs a load from numba's cache (~0.1 s), not a compilation.  ~15 us (the structure's digest and a file's
-    existence); False where no private folder can hold the generated sources (:func:`source_folder`)."""
+    existence); False where no private folder can hold the generated sources (:func:`source_folder`).
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple.
+    n : int
+        Number of coordinates.
+
+    Returns
+    -------
+    bool
+        Whether it is compiled here.
+    """
     try:
         return _compiled_marker(model, n).is_file()
     except OSError:
@@ -273,7 +314,17 @@ def mark_compiled(model: tuple, n: int, integrate=None) -> None:
     folder shared by other CPUs finds no marker rather than a wrong one).  Written after the first call returned,
     not with the source, so that a process starting while another one compiles does not take it for compiled;
     and, given the ``integrate`` dispatcher, only when numba's index file for it exists (numba may fail to save).
-    A folder that cannot be written is no error: the kernel is then just not picked by default."""
+    A folder that cannot be written is no error: the kernel is then just not picked by default.
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple.
+    n : int
+        Number of coordinates.
+    integrate : numba dispatcher
+        The specialised integrator that ran.
+    """
     try:
         path = _compiled_marker(model, n)
     except OSError:  # no private folder for it: the kernel is then just not picked by default
@@ -317,7 +368,13 @@ def source_folder() -> Path:
     only the generated file).  Without a numba cache folder, the per-user temporary one, used only when it is
     private (:func:`berryshaker.compiled_cache.private_folder`: created 0700, owned by this user, not writable by
     others; generated sources are imported, so a folder someone else made first is refused with
-    :class:`~berryshaker.compiled_cache.UnsafeCacheFolder`, an ``OSError``: callers then run the generic kernel)."""
+    :class:`~berryshaker.compiled_cache.UnsafeCacheFolder`, an ``OSError``: callers then run the generic kernel).
+
+    Returns
+    -------
+    Path
+        The folder (created).
+    """
     from berryshaker.compiled_cache import compiled_sources_digest, private_folder, temp_cache_home
 
     base = os.environ.get("NUMBA_CACHE_DIR")
@@ -339,7 +396,20 @@ def _package_digest(digest_of) -> str:
 
 def write_source(path: Path, source: str) -> Path:
     """Write ``source`` to ``path`` unless it already holds exactly that (a file left half-written or changed by
-    hand is replaced); atomically, so that a process importing it concurrently reads all of it or none."""
+    hand is replaced); atomically, so that a process importing it concurrently reads all of it or none.
+
+    Parameters
+    ----------
+    path : Path
+        The file.
+    source : str
+        Its text.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     try:
         if path.read_text() == source:
             return path
@@ -436,7 +506,22 @@ def _imports(defined: set[str]) -> list[str]:
 
 def specialised_source(model: tuple, n: int, m: int) -> str:
     """The Python source of the specialised module for ``model`` (a compiled mechanism's model tuple) with ``n``
-    coordinates and ``m`` constraint rows."""
+    coordinates and ``m`` constraint rows.
+
+    Parameters
+    ----------
+    model : tuple
+        A compiled mechanism's model tuple.
+    n : int
+        Number of coordinates.
+    m : int
+        Number of constraint rows.
+
+    Returns
+    -------
+    str
+        The module's source.
+    """
     _check_generic_sources()
     ctype, cint, crow, plan = (np.asarray(model[i]) for i in (3, 4, 6, 16))
     defined = {"constraints", "_constrained_solve"} | {fn.py_func.__name__ for fn in GENERIC_SOURCES}

@@ -27,14 +27,30 @@ STEP_BINS_PER_DECADE = 20.0
 
 @njit(cache=True, _nrt=False)
 def rejected_step_size(h, err):
-    """The size to retry a step of size h whose error ``err`` (> 1) failed the test: shrunk by at most 5x."""
+    """The size to retry a step of size h whose error ``err`` (> 1) failed the test: shrunk by at most 5x.
+
+    Parameters
+    ----------
+    h : float
+        Step size (s).
+    err : float
+        Error norm of the step (dimensionless; <= 1 passes).
+    """
     return h * max(0.2, SAFETY * err ** (-EXPO1))
 
 
 @njit(cache=True, _nrt=False)
 def onset_cut_size(h, frac):
     """The size of a step cut back to a contact onset at fraction ``frac`` of a step of size h: just past the
-    crossing (half the step if that would not shrink it)."""
+    crossing (half the step if that would not shrink it).
+
+    Parameters
+    ----------
+    h : float
+        Step size (s).
+    frac : float
+        Fraction of the step at which the onset lies (dimensionless).
+    """
     h_new = h * frac + 1e-15
     if h_new >= h:
         h_new = 0.5 * h
@@ -45,7 +61,21 @@ def onset_cut_size(h, frac):
 def next_step_size(h, err, err_old, last_rejected, h_max):
     """The size of the step after an accepted one of size h and error ``err``, and the error the controller keeps
     for the next: PI step-size control (Gustafsson; Hairer & Wanner's DOPRI5: err^-(0.2 - 0.75 beta) err_old^beta),
-    growth between 0.1x and 5x, none right after a rejection, at most h_max."""
+    growth between 0.1x and 5x, none right after a rejection, at most h_max.
+
+    Parameters
+    ----------
+    h : float
+        Step size (s).
+    err : float
+        Error norm of the step (dimensionless; <= 1 passes).
+    err_old : float
+        Error norm of the last accepted step (dimensionless).
+    last_rejected : bool
+        Whether the step before was rejected.
+    h_max : float
+        Largest step (s).
+    """
     e_acc = max(err, 1e-10)
     grow = min(5.0, max(0.1, SAFETY * e_acc ** (-EXPO1) * err_old ** BETA))
     err_old = max(err, 1e-4)
@@ -57,7 +87,16 @@ def next_step_size(h, err, err_old, last_rejected, h_max):
 @njit(cache=True, _nrt=False)
 def record_step_size(info, h):
     """Count an accepted step of size h in the histogram after the first N_INFO entries of ``info``
-    (benchmarks/HISTORY.md sec. 6; the first and last bins take what falls outside)."""
+    (benchmarks/HISTORY.md sec. 6; the first and last bins take what falls outside).
+
+    Parameters
+    ----------
+    info : numpy.ndarray
+        The integrator's statistics (``layout.INFO_*``: counts, time s, status, residual m or rad); a longer array
+        also gets the histogram of step sizes (counts).
+    h : float
+        Step size (s).
+    """
     hb = int(STEP_BINS_PER_DECADE * (math.log10(h) - STEP_HIST_LOG10_MIN))
     info[N_INFO + min(max(hb, 0), info.shape[0] - N_INFO - 1)] += 1.0
 
@@ -65,7 +104,35 @@ def record_step_size(info, h):
 @njit(cache=True, _nrt=False)
 def save_resume(resume, t, h, h_resume, err_old, last_rejected, acc, rej, cuts, max_res, io, y, k0, pen_start,
                 f_start, pdot_start):
-    """Save the integration loop's state in ``resume`` (layout ``RS_*``), marked as started."""
+    """Save the integration loop's state in ``resume`` (layout ``RS_*``), marked as started.
+
+    Parameters
+    ----------
+    resume : numpy.ndarray
+        Written: the loop state (``layout.RS_*``: times s, step sizes s, counts, the state in SI).
+    t : float
+        Time (s).
+    h : float
+        Step size (s).
+    h_resume : float
+        Step size to resume with after an onset cut (s; 0: none pending).
+    err_old : float
+        Error norm of the last accepted step (dimensionless).
+    last_rejected : bool
+        Whether the step before was rejected.
+    acc, rej, cuts : int
+        Accepted, rejected and onset-cut steps so far.
+    max_res : float
+        Largest constraint residual so far (m, rad).
+    io : int
+        Index of the next output sample.
+    y : numpy.ndarray
+        State: positions, then velocities (m, rad; m/s, rad/s).
+    k0 : numpy.ndarray
+        Derivative at y (m/s, rad/s; m/s^2, rad/s^2).
+    pen_start, f_start, pdot_start : numpy.ndarray
+        Per force element at the step's start: penetration (m), |normal force| (N), penetration rate (m/s).
+    """
     ny = y.shape[0]
     nf = pen_start.shape[0]
     resume[RS_STARTED] = 1.0
@@ -91,7 +158,19 @@ def save_resume(resume, t, h, h_resume, err_old, last_rejected, acc, rej, cuts, 
 @njit(cache=True, _nrt=False)
 def load_resume(resume, y, k0, pen_start, f_start, pdot_start):
     """The loop state saved by :func:`save_resume`: the arrays filled in place, and (t, h, h_resume, err_old,
-    last_rejected, accepted, rejected, cuts, max_res, io) returned."""
+    last_rejected, accepted, rejected, cuts, max_res, io) returned.
+
+    Parameters
+    ----------
+    resume : numpy.ndarray
+        The saved loop state (``layout.RS_*``: times s, step sizes s, counts, the state in SI).
+    y : numpy.ndarray
+        Filled: the state (m, rad; m/s, rad/s).
+    k0 : numpy.ndarray
+        Filled: the derivative at y (m/s, rad/s; m/s^2, rad/s^2).
+    pen_start, f_start, pdot_start : numpy.ndarray
+        Filled, per force element at the step's start: penetration (m), |normal force| (N), penetration rate (m/s).
+    """
     ny = y.shape[0]
     nf = pen_start.shape[0]
     for i in range(ny):
