@@ -1,4 +1,4 @@
-"""The groove cam's pitch curve and foot point in the compiled engine (multibody/kernel.py).
+"""The groove cam's pitch curve and foot point in the compiled engine (multibody/cam_pitch.py).
 
 * ``pitch_point``'s derivatives P', P'' (and the third, ``_pitch_jet``) agree with central differences on every
   follower law and on the rise, dwell and return of the cycle;

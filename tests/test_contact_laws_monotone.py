@@ -1,4 +1,4 @@
-"""The registry's ``monotone`` flag (contact/laws.py) and the engine's use of it (multibody/kernel.py).
+"""The registry's ``monotone`` flag (contact/laws.py) and the engine's use of it (multibody/contact_events.py).
 
 A law flagged monotone lets the integrator bound the force inside a step by one evaluation at the step's largest
 penetration and rate, and skip the interior-peak search of steps that cannot raise a recorded maximum.  A wrong
