@@ -107,9 +107,19 @@ def load_and_check(path: Path):
 @given(drive=st.sampled_from(sorted(REFERENCE)), leaf=st.integers(0, 10_000), value=toml_values,
        how=st.one_of(st.none(), st.integers(0, 7)))
 def test_one_field_mutation_is_a_machine_or_a_config_error(drive, leaf, value, how):
+    """A machine, or an error that says where: loading names the field that was changed (or, for text that is no
+    longer TOML, its line); the drive's own check (GeometryError) says what cannot be built."""
     text, key = mutated_text(drive, leaf, value, how)
+    line = LEAVES[drive][leaf % len(LEAVES[drive])][0]
     path = WORK / "mutated.toml"
     path.write_text(text, encoding="utf-8", errors="surrogatepass")
+    try:
+        load_machine(path)
+    except ConfigError as exc:
+        msg = str(exc)
+        where = f"at line {line + 1}," if "not valid TOML" in msg else key.rsplit(".", 1)[1]
+        assert where in msg, (key, msg)
+        return
     try:
         load_and_check(path)
     except (ConfigError, GeometryError) as exc:
@@ -132,9 +142,14 @@ def test_corrupted_files_are_config_errors(data, cut):
 
 
 # ---- (b) command-line argument variants ------------------------------------------------------------------
-def _assert_clean_exit(r, args):
+def _assert_clean_exit(r, args, json_out: bool = False):
+    """Exit 0 (with valid JSON on stdout when ``json_out``) or exit 2 with a message; never a traceback."""
     assert r.exit_code in (0, 2), f"{args}: exit {r.exit_code}\n{r.output}\n{r.exception!r}"
     assert "Traceback" not in r.output, args
+    if r.exit_code == 2:
+        assert r.output.strip(), f"{args}: exit 2 without a message"
+    elif json_out:
+        json.loads(r.stdout)
 
 
 pair_names = st.sampled_from(["A", "B", "C", "F", "a", "Z", "", "A ", "crank_pin"])
@@ -154,7 +169,7 @@ clearance_specs = st.one_of(
 def test_simulate_clearance_variants(spec):
     args = ["simulate", "--revolutions", "2", "--json", "--clearance", spec]
     r = runner.invoke(app, args)
-    _assert_clean_exit(r, args)
+    _assert_clean_exit(r, args, json_out=True)
 
 
 @fuzz(40)
@@ -168,7 +183,7 @@ def test_config_commands_on_mutated_files(drive, leaf, value, how, command, as_j
     args = {"validate": ["config", "validate", str(path)], "kinematics": ["kinematics", "--config", str(path)],
             "show": ["config", "show", "--config", str(path)]}[command] + (["--json"] if as_json else [])
     r = runner.invoke(app, args)
-    _assert_clean_exit(r, args)
+    _assert_clean_exit(r, args, json_out=as_json)
 
 
 @fuzz(30)

@@ -20,6 +20,7 @@ from berryshaker.config import reference_toml_text
 from conftest import linear_spring_toml_text
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.runs.sweep import model_run, parse_param, sample_params
+from berryshaker.study.claims import check_claims
 
 runner_cli = CliRunner()
 
@@ -155,10 +156,21 @@ def test_study_outputs(study_out):
     assert (out / "report.html").stat().st_size > 100_000
     saved = json.loads((out / "summary.json").read_text())
     assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
-    for c in saved["claims"]:
-        assert c["verdict"] in ("reproduced", "not reproduced", "partly reproduced", "undecided", "not tested",
-                                "not comparable") and c["detail"]
-    assert saved["claims"][3]["verdict"] == "not tested"  # claim 4 holds by construction of the aggregate load
+    # the verdicts follow from the numbers the summary saves (the claim rules themselves: tests/study/test_claims.py)
+    assert [(c["verdict"], c["detail"]) for c in saved["claims"]] == [
+        (c["verdict"], c["detail"]) for c in check_claims(saved["results"])]
+    # and they are the ones this input gives where its numbers decide by far (claim 2 turns on steps near the
+    # noise of two starts, so only the rule above holds it):
+    # 1: the four pairs agree at the model-check level (3-6 % against 20 %) but many single-run rows differ;
+    # 3: every clearance step raises every pair's peak force by 0.6-3.5 kN against standard errors of 0-45 N;
+    # 4: holds by construction of the aggregate load (not tested);
+    # 5: fruit peak forces of 0.07-0.33 N, each below its study range (root 0.25-0.4 N ... end 0.8-1.2 N);
+    # 6: the end fruit's 0.3 N keeps the unripe fruit (mean pull strength 2.05 N), which eq. 17 wants picked;
+    # 7, 8: with two replicates no harvest index differs beyond the noise (A's effect on efficiency: p ~ 0.5)
+    verdicts = {c["id"]: c["verdict"] for c in saved["claims"]}
+    assert verdicts == {**verdicts, 1: "partly reproduced", 3: "reproduced", 4: "not tested", 5: "not reproduced",
+                        6: "not reproduced", 7: "not reproduced", 8: "not reproduced"}
+    assert all(c["detail"] for c in saved["claims"])
     assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")
     for k in ("efficiency_kg_min", "damage_rate_pct"):
         assert saved["optimum"][k] > 0

@@ -6,6 +6,7 @@ Expected values are closed forms (1 rev = 2 pi rad, 1 min = 60 s, 1 deg = pi/180
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
 from hypothesis import given, settings
@@ -263,12 +264,17 @@ def test_any_text_gives_a_finite_float_or_a_config_error(text, dimension):
                      r"([*/ ·](mm|m|kg|s|N|rad)(\^-?[1-4])?){0,3}\Z"),
        st.sampled_from(sorted(DIMENSIONS)))
 def test_grammar_like_text_gives_a_finite_float_or_a_config_error(text, dimension):
+    """A refusal names the field; a value is the number times what the unit alone gives (linear: no offset, no
+    unit applied twice or to the exponent)."""
     try:
         out = parse_quantity(text, dimension, "f")
-    except ConfigError:
-        pass
-    else:
-        assert math.isfinite(out)
+    except ConfigError as exc:
+        assert str(exc).startswith("f: ")
+        return
+    assert math.isfinite(out)
+    number = re.match(r"[-+]?[0-9]+(\.[0-9]*)?(e-?[0-9])?", text).group()
+    per_unit = parse_quantity("1 " + text[len(number):].strip(), dimension, "f")
+    assert out == pytest.approx(float(number) * per_unit, rel=1e-12, abs=0.0), (text, dimension)
 
 
 @settings(max_examples=300, deadline=None)
