@@ -161,3 +161,29 @@ def test_life_plots_never_overwrite_the_users_pngs(command, tmp_path):
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == {
         n: b"the user's figure" for n in ("sobol_collision_force_A_peak.png", "tolerance_pareto.png",
                                           "wear_clearance.png")}
+
+
+def test_roller_sliding_speed_leaves_out_the_approach_speed():
+    """A roller in a groove slides only along the wall: of the roller centre's velocity relative to the wall,
+    v_rel = (3, 4) m/s here, the component along the contact normal (the element's penetration rate, 4 m/s) is
+    approach, not sliding, so the sliding speed is slip * sqrt(3^2 + 4^2 - 4^2) = slip * 3 m/s (0.15 m/s at
+    slip 0.05).  An ideal joint (no contact element) has no approach: slip * 5 m/s.  The multibody check above
+    runs ideal joints only, where the normal rate is zero."""
+    from types import SimpleNamespace
+
+    from berryshaker.life.joint_loads import sliding_speed
+
+    n_t = 4
+    y = np.zeros((n_t, 6))  # one body: (x, y, angle) then (vx, vy, omega)
+    y[:, 3], y[:, 4] = 3.0, 4.0
+    joint = SimpleNamespace(name="A", type="groove_clearance", body_i="push_rod", body_j="ground", point_i=(0.0, 0.0))
+    elements = np.zeros((n_t, 1, 3))  # EO columns: normal force, penetration, penetration rate
+    elements[:, 0, 2] = 4.0
+    compiled = SimpleNamespace(spec=SimpleNamespace(joints=[joint]), body_index={"push_rod": 0}, n=3,
+                               frc_names=["A"])
+    result = SimpleNamespace(t=np.linspace(0.0, 0.01, n_t), y=y, compiled=compiled, elements=elements)
+    np.testing.assert_allclose(sliding_speed(result, "A", 0.03, slip=0.05), 0.15, rtol=1e-12)
+    np.testing.assert_allclose(sliding_speed(result, "A", 0.03, slip=1.0), 3.0, rtol=1e-12)
+    ideal = SimpleNamespace(t=result.t, y=y, compiled=SimpleNamespace(**{**vars(compiled), "frc_names": []}),
+                            elements=np.zeros((n_t, 0, 3)))
+    np.testing.assert_allclose(sliding_speed(ideal, "A", 0.03, slip=0.05), 0.25, rtol=1e-12)
