@@ -43,7 +43,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from berryshaker.contact.wear import material_pair, pin_in_bore_clearance_growth
+from berryshaker.contact.wear import archard_wear_volume, material_pair, pin_in_bore_clearance_growth
 from berryshaker.life.joint_loads import JointGeometry, joint_wear_model, sliding_speed
 from berryshaker.life.wear import JointWear, wear_life
 
@@ -137,3 +137,16 @@ def test_pin_sliding_speed_is_relative_spin_times_pin_radius():
     compiled = SimpleNamespace(spec=SimpleNamespace(joints=[joint]), body_index={"arm": 0}, n=3)
     result = SimpleNamespace(t=t, y=y, compiled=compiled)
     np.testing.assert_allclose(sliding_speed(result, "C", D), [0.12, 0.12, 0.0, 0.03, 0.12], rtol=1e-12)
+
+
+def test_growth_rate_over_a_window_that_starts_late_on_an_uneven_grid():
+    """The life loop reads a run after its first revolution, so the window does not start at t = 0.  A window from
+    2.0 to 2.5 s, sampled unevenly, with the force ramping linearly from 200 to 600 N (mean 400 N; the trapezoid
+    rule is exact for it) at 0.05 m/s wears at the hand rate of the worked example, 4.244132e-11 m/s; the worn
+    volume over the window is 0.5 s * 2.0e-14 m^3/s = 1.0e-14 m^3."""
+    t = np.array([2.0, 2.01, 2.05, 2.2, 2.21, 2.4, 2.5])
+    force = 200.0 + 400.0 * (t - 2.0) / 0.5
+    joint = JointWear(PAIR, pin_diameter=D, bearing_length=L)
+    assert joint.growth_rate(t, force, np.full(t.size, V)) == pytest.approx(FIXED_RATE, rel=1e-6)
+    volume = archard_wear_volume(force, np.full(t.size, V), t, K, HARD)
+    assert volume[0] == 0.0 and volume[-1] == pytest.approx(0.5 * VOLUME_RATE, rel=1e-12)
