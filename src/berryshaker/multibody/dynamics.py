@@ -105,7 +105,7 @@ def project(t, y, model, state, work, iters):
     return res
 
 
-@njit(cache=True, _nrt=False)
+@njit(cache=True, _nrt=False, inline="always")
 def constraint_residuals(model, work, y):
     """Largest |Phi| and largest |Phi_q q' - nu| at state y = (q, q'), from the constraint rows in the work arrays
     (which must have been evaluated at y's positions: the integrator's last stage is at the step's end).
