@@ -213,7 +213,8 @@ def cam_profile(
 
 @command(config_app, "show")
 def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
-    """Print the resolved machine description (engineering units; --json gives SI).
+    """Print the resolved machine description (engineering units; --json gives SI) and the priors of the harvest
+    parameters `calibrate` fits (--json: calibration_priors).
     \f
 
     Parameters
@@ -230,12 +231,18 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
     except BerryshakerError as exc:
         _fail(exc)
         return
+    from berryshaker.study.field_calibration import prior_rows
+
+    priors = prior_rows(machine) if machine.plant is not None else []  # the priors of `calibrate` (docs/calibration.md)
     if as_json:
-        _print_json({"machine_si": machine.model_dump(mode="json"), "version": __version__})
+        _print_json({"machine_si": machine.model_dump(mode="json"), "calibration_priors": priors,
+                     "version": __version__})
         return
     t = _Rows()
     for k, v, tag in machine_table(machine):
         t.add_row(k, v, f"[{tag}]")
+    for p in priors:
+        t.add_row(f"(calibrate prior) {p['key']}", p["prior"], p["tag"])
     xd, yd = machine.shaft_D
     t.add_row("(derived) shaft D", f"({xd * 1e3:.3f}, {yd * 1e3:.3f}) mm")
     t.add_row("(derived) shaft E", f"({machine.shaft_E[0] * 1e3:.3f}, {machine.shaft_E[1] * 1e3:.3f}) mm")

@@ -1,6 +1,9 @@
 """Calibrate the harvest model to a user's own field sheet and predict the settings it did not test
 (``berryshaker calibrate``, docs/calibration.md, issue #44).
 
+long module: the parameter table, the exact post-processing, the emulator, the likelihood and the sampler are one
+method read together (docs/calibration.md); each part's inputs are the previous part's outputs.
+
 Chain:
 
 1. **Parameters and priors** (:data:`PARAMETERS`): the harvest parameters that act only in the post-processing of
@@ -33,9 +36,6 @@ Chain:
    posterior predictive checks per run, a held-out run, predictions of every level set of the sheet's factors
    (and named settings) with 90 % intervals of a future field result, and a recommendation made on them
    (:data:`RECOMMENDATION_RULE`).
-
-long module: the parameter table, the exact post-processing, the emulator, the likelihood and the sampler are one
-method read together (docs/calibration.md); each part's inputs are the previous part's outputs.
 """
 
 from __future__ import annotations
@@ -119,7 +119,7 @@ class Parameter:
         Returns
         -------
         (float, float)
-            5 % and 95 % quantiles.
+            5 % and 95 % quantiles (SI, the parameter's unit).
         """
         return float(self.ppf(0.05)), float(self.ppf(0.95))
 
@@ -297,7 +297,7 @@ def factor_target(machine: Machine, name: str, unit: str, levels: tuple[float, .
     unit : str
         Its unit in the sheet.
     levels : tuple of float or None
-        Level values in ``unit`` (None: the sheet gives only level numbers).
+        Level values in ``unit`` (its units; None: the sheet gives only level numbers).
 
     Returns
     -------
@@ -636,12 +636,12 @@ def start_statistics(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Parameters
     ----------
     values : numpy.ndarray
-        (n, starts, responses) in the responses' units.
+        (n, starts, responses) in the responses' units (kg/min, %).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        Means and SDs, (n, responses), same units.
+        Means and SDs, (n, responses), same units as ``values``.
     """
     import warnings
 
@@ -666,9 +666,9 @@ class FittedGP:
     Parameters
     ----------
     x : numpy.ndarray
-        (n, d) training inputs.
+        (n, d) training inputs (dimensionless: coded settings, prior probabilities).
     y : numpy.ndarray
-        (n,) training targets.
+        (n,) training targets (their units: logs of responses, dimensionless).
     seed : int
         Seed of the optimiser.
     noise : float, optional
@@ -720,7 +720,7 @@ class FittedGP:
         Returns
         -------
         (numpy.ndarray, numpy.ndarray)
-            Mean (the targets' unit) and variance (unit squared).
+            Mean (their units: the targets') and variance (their units squared).
         """
         xs = np.asarray(x, float) / self.length
         d2 = (np.sum(xs**2, axis=1)[:, None] + np.sum(self.x_scaled**2, axis=1)[None, :] - 2.0 * xs @ self.x_scaled.T)
@@ -822,7 +822,8 @@ class Emulator:
         u : numpy.ndarray
             (n, 6) theta on the prior's unit cube (the same points at every setting).
         mean, sd : numpy.ndarray
-            (settings, n, responses) replicate mean and SD over the starts; efficiency per kg of yield.
+            (settings, n, responses) replicate mean and SD over the starts, the responses' units (%; efficiency in
+            kg/min per kg of yield).
         """
         t0 = time.perf_counter()
         self.settings = [tuple(float(v) for v in s) for s in settings_si]
@@ -934,7 +935,7 @@ def latin_hypercube(n: int, seed: int, d: int = len(PARAMETERS)) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        (n, d) points strictly inside the unit cube.
+        (n, d) points strictly inside the unit cube (dimensionless).
     """
     from scipy.stats import qmc
 
@@ -947,7 +948,7 @@ def theta_of(u: np.ndarray, params: tuple[Parameter, ...]) -> np.ndarray:
     Parameters
     ----------
     u : numpy.ndarray
-        (n, 6) prior probabilities.
+        (n, 6) prior probabilities (dimensionless).
     params : tuple of Parameter
         The parameters (:func:`parameters_for`).
 
@@ -1003,6 +1004,8 @@ class Sheet:
         Replicates per run.
     runs_identified_by : str
         How the runs were told apart.
+    level_values : dict
+        Factor -> its level values in the sheet's units (None where the sheet gives level numbers only).
     """
 
     targets: list[FactorTarget]
@@ -1289,7 +1292,7 @@ def predictive(emulator: Emulator, settings_si: np.ndarray, u: np.ndarray, param
     settings_si : numpy.ndarray
         (settings, factors) SI.
     u : numpy.ndarray
-        (draws, 6) posterior draws on the unit cube.
+        (draws, 6) posterior draws on the unit cube (prior probabilities, dimensionless).
     params : tuple of Parameter
         The parameters.
     response : str

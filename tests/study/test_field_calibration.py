@@ -17,6 +17,8 @@ Coupled runs are shared through one session cache (:func:`calibration_cache`).
 """
 
 
+import json
+
 import numpy as np
 import pytest
 
@@ -180,3 +182,106 @@ def test_fast_gp_prediction_is_sklearns(trained):
     noise = g.gp.kernel_.k2.noise_level * float(np.atleast_1d(g.gp._y_train_std)[0]) ** 2
     assert mean == pytest.approx(m_ref, rel=1e-9, abs=1e-9)
     assert var == pytest.approx(np.maximum(s_ref**2 - noise, 0.0), rel=1e-6, abs=1e-9)
+
+
+@pytest.fixture(scope="module")
+def small_toml(small, tmp_path_factory):
+    """The small machine as a TOML file (the reference file with one branch class and four bushes): the command's
+    jobs are the library's, so the runs come from the cache."""
+    import tomllib
+    from importlib import resources
+
+    text = (resources.files("berryshaker") / "drives" / "groove_cam" / "reference.toml").read_text("utf-8")
+    text = text.replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
+        "bushes = 40 ", "bushes = 4  ")
+    assert tomllib.loads(text)["harvest"]["bushes"] == 4
+    path = tmp_path_factory.mktemp("calibrate-cli") / "small.toml"
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _invoke(*args):
+    from typer.testing import CliRunner
+
+    from berryshaker.cli import app
+
+    return CliRunner().invoke(app, ["calibrate", *map(str, args)])
+
+
+def test_command_recovers_the_reference_parameters_from_a_doe_plan_sheet(small, small_toml, runner, reference_sheet,
+                                                                        tmp_path):
+    """``calibrate`` on the ``doe plan`` sheet made at the described parameters: every described value inside its
+    posterior 90 % interval, identified parameters narrower than half their prior, predictions of every level set with
+    intervals, the report folder written."""
+    sheet = tmp_path / "sheet.csv"
+    reference_sheet.to_csv(sheet, index=False)
+    out = tmp_path / "report"
+    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 2, "--cache", runner.cache_dir,
+                  "--check-settings", 1, "--emulator-points", 32, "--steps", 800, "--json", "--out", out)
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert {"parameters", "predictions", "emulator", "checks", "version", "code_sha256", "machine_si"} <= set(data)
+    for name, p in data["parameters"].items():
+        assert {"prior", "posterior_mean", "lo90", "hi90", "identified"} <= set(p)
+        assert p["lo90"] <= p["described"] <= p["hi90"], (name, p)
+        if p["identified"]:
+            assert p["hi90"] - p["lo90"] < 0.5 * (p["prior"]["hi90"] - p["prior"]["lo90"])
+    assert any(p["identified"] for p in data["parameters"].values())
+    assert len(data["predictions"]) == 4 and all(p["tested"] for p in data["predictions"])
+    for p in data["predictions"]:
+        for r in ("efficiency", "unripe", "damage"):
+            v = p["responses"][r]
+            assert v["lo90"] <= v["mean"] <= v["hi90"]
+    assert data["emulator"]["held_out_settings"] and data["emulator"]["held_out_theta"]["efficiency"]["rmse_over_sd"] < 1
+    assert data["checks"]["summary"]["total"] == 12
+    assert data["recommendation"]["level_set"] in {p["level_set"] for p in data["predictions"]}
+    assert {"report.html", "calibration.json", "parameters.csv", "parameters.xlsx", "predictions.csv",
+            "prior_posterior.png"} <= {f.name for f in out.iterdir()}
+
+
+def test_command_reads_a_statistics_package_sheet(small_toml, runner, reference_sheet, tmp_path):
+    """The same results as a statistics package writes them (factor columns with units in the header, a replicate
+    column, no run column) calibrate too, and a named setting is predicted (an extrapolation is flagged)."""
+    df = reference_sheet.rename(columns={"C_mm": "C (mm)", "speed_rpm": "speed (rpm)",
+                                         "efficiency_kg_min": "Efficiency (kg/min)", "unripe_rate_pct": "Unripe (%)",
+                                         "damage_rate_pct": "Damage (%)"})
+    df = df[["order", "C (mm)", "speed (rpm)", "replicate", "Efficiency (kg/min)", "Unripe (%)", "Damage (%)"]]
+    sheet = tmp_path / "minitab.csv"
+    df.rename(columns={"order": "RunOrder"}).to_csv(sheet, index=False)
+    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 2, "--cache", runner.cache_dir,
+                  "--check-settings", 0, "--emulator-points", 16, "--steps", 200, "--json",
+                  "--predict", "speed=170rpm")
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert data["sheet"]["runs"] == 4 and data["sheet"]["replicates"] == SHEET_REPLICATES
+    named = [p for p in data["predictions"] if p["named"]]
+    assert len(named) == 1 and named[0]["extrapolated"]
+    assert named[0]["setting"]["speed"]["value"] == pytest.approx(170)
+
+
+def test_errors_name_the_field_and_the_fix(small_toml, reference_sheet, tmp_path):
+    """Checked before any run: a factor calibrate cannot simulate, a sheet without results, a --predict factor that
+    is not in the sheet, a report folder holding the user's files."""
+    bad = reference_sheet.rename(columns={"C_mm": "X_mm", "C_level": "X_level"})
+    p = tmp_path / "bad.csv"
+    bad.to_csv(p, index=False)
+    res = _invoke(p, "--config", small_toml)
+    assert res.exit_code == 2 and "factor 'X'" in res.output and "clearance pair" in res.output
+    empty = reference_sheet.copy()
+    for c in ("efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"):
+        empty[c] = np.nan
+    p = tmp_path / "empty.csv"
+    empty.to_csv(p, index=False)
+    res = _invoke(p, "--config", small_toml)
+    assert res.exit_code == 2 and "no field results" in res.output
+    p = tmp_path / "sheet.csv"
+    reference_sheet.to_csv(p, index=False)
+    res = _invoke(p, "--config", small_toml, "--predict", "A=0.3mm")
+    assert res.exit_code == 2 and "'A' is not a factor of the sheet" in res.output
+    res = _invoke(p, "--config", small_toml, "--predict", "C=0.3")
+    assert res.exit_code == 2 and "unit" in res.output
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("mine")
+    res = _invoke(p, "--config", small_toml, "--out", mine)
+    assert res.exit_code == 2 and "not empty" in res.output and (mine / "notes.txt").read_text() == "mine"
