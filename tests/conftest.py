@@ -4,7 +4,7 @@ import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 # runs left to choose take the generic kernel here whatever this machine has compiled (multibody.specialised), so the
-# suite exercises the same kernel everywhere; the tests of that choice remove it (tests/test_multibody_specialised.py)
+# suite exercises the same kernel everywhere; the tests of that choice remove it (tests/multibody/test_specialised.py)
 os.environ["BERRYSHAKER_KERNEL"] = "generic"
 
 

@@ -1,5 +1,5 @@
 """The slider-crank with a rod-slider revolute clearance built in Exudyn (an independent open-source
-multibody code, PyPI ``exudyn``), for validating berryshaker's engine (tests/test_multibody.py; the
+multibody code, PyPI ``exudyn``), for validating berryshaker's engine (tests/multibody/test_engine.py; the
 benchmark suite's Exudyn models, with Exudyn's built-in contact, are benchmarks/suite/exudyn_models.py).
 
 Exudyn is a test-and-benchmark dependency only.  The model mirrors ``examples/slider_crank_clearance.toml``

@@ -6,7 +6,7 @@ benchmarks/studies/results/velocity_scale_<drive>.json (``--out``).
 For one drive, ensembles of 8 seeded perturbed starts x 6 cam revolutions at rtol 1e-5 and several velocity
 scales (``simulation.velocity_scale``: the velocities' absolute tolerance is rtol x scale) are compared, statistic
 by statistic, with the reference ensemble at rtol 1e-7 and the engine's 0.1 m/s, by the criterion of
-tests/test_multibody_convergence.py (``compare``); printed per scale: step attempts, CPU per run, the statistics
+tests/multibody/test_perturbation.py (``compare``); printed per scale: step attempts, CPU per run, the statistics
 failing that criterion, and those whose difference exceeds twice its standard error (a systematic shift).
 
     .venv/bin/python benchmarks/studies/velocity_scale_study.py groove_cam      # ~3 min

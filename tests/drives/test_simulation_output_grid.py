@@ -10,7 +10,7 @@ run written at two spacings is one trajectory sampled twice, and the difference 
 is pure sampling error: it is compared per start (paired), over :data:`STARTS` seeded perturbed starts.
 
 Criterion, per statistic: |mean over the starts of the relative difference| <= the tolerance of its kind (the
-same tolerances as the solver-tolerance test, tests/test_multibody_convergence.py, so that the grid adds no
+same tolerances as the solver-tolerance test, tests/multibody/test_perturbation.py, so that the grid adds no
 more than the solver is allowed) and the standard error of that mean <= half the tolerance.  The criterion can
 fail: a 1 ms grid misses it (:func:`test_a_coarse_grid_fails`).
 
@@ -36,7 +36,7 @@ import inspect
 
 import numpy as np
 import pytest
-from test_multibody_convergence import TOL_DRIVE_MEAN, TOLERANCE, summary_statistics
+from multibody.test_perturbation import TOL_DRIVE_MEAN, TOLERANCE, summary_statistics
 
 from berryshaker.config import reference_machine
 from berryshaker.drives.simulation import simulate_multibody

@@ -157,7 +157,7 @@ def register_law(name: str, kernel, uses: tuple[str, ...], description: str, mon
         True if the force never decreases as the penetration or its rate grows (at fixed impact velocity and
         parameters).  The engine then bounds the force inside a step by one evaluation at the step's largest
         penetration and rate, and skips the interior-peak search of steps that cannot raise a recorded
-        maximum (docs/multibody.md).  A wrong True can hide a peak: tests/test_contact_laws_monotone.py checks
+        maximum (docs/multibody.md).  A wrong True can hide a peak: tests/contact/test_laws.py checks
         every law that claims it.  Default False (always search).
 
     Returns

@@ -48,7 +48,7 @@ from berryshaker.quantity_fields import (
 )
 
 #: default relative tolerance of a harvester's multibody run (every drive), chosen by the convergence study in
-#: tests/test_multibody_convergence.py: over 8 perturbed starts and 6 revolutions, the loosest rtol at which no
+#: tests/multibody/test_perturbation.py: over 8 perturbed starts and 6 revolutions, the loosest rtol at which no
 #: statistic of the run's summary differs from rtol 1e-7 beyond 2 standard errors (docs/multibody.md, "Integrator")
 HARVESTER_RTOL = 1e-5
 #: velocity scale (m/s) of a harvester run's error control (``simulation.velocity_scale``: a velocity's error is

@@ -135,7 +135,7 @@ def rotor_torque_table(red, n_points: int = 64) -> tuple[np.ndarray, np.ndarray,
     red : ReflectedDriveline
         The driveline reflected to the drive shaft (:func:`berryshaker.drives.driveline.reflect_to_cam`).
     n_points : int
-        Table size (the engine holds at most ``kernel.MAX_TABLE`` = 64).
+        Table size (the engine holds at most ``multibody.layout.MAX_TABLE`` = 64).
 
     Returns
     -------

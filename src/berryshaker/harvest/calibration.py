@@ -134,7 +134,7 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
          f"{ct.finger.elastic_modulus / 1e9:g}", "mm, mm, GPa", "[assumed]", "PA6 data-sheet range (docs/plant.md)"),
         ("contact cmax", ct.damping, "N s/m", "[assumed]", "not identifiable with stems (docs/plant.md)"),
         ("bush branches / members / modes", f"{bush.branches} / {bush.members} / {bush.n_modes}", "1",
-         "[assumed] / [convergence]", "tests/test_bush.py"),
+         "[assumed] / [convergence]", "tests/plant/test_bush.py"),
         ("bush d0, l, lean ranges", f"{bush.root_diameter[0] * 1e3:g}-{bush.root_diameter[1] * 1e3:g} mm, "
          f"{bush.length[0]:g}-{bush.length[1]:g} m, {math.degrees(bush.lean[0]):g}-{math.degrees(bush.lean[1]):g} deg",
          "", "[assumed]", "bush 1.5-1.7 m tall [study]"),

@@ -7,7 +7,7 @@ structure, stacks each group's parameters, state and work arrays along a leading
 the group in one numba call that loops over the sets with ``prange`` (:func:`integrate_sets`).  Each set has
 its own arrays and runs the same compiled :func:`berryshaker.multibody.kernel.integrate` as
 :func:`berryshaker.multibody.engine.simulate_mechanism`, so a set's result is bitwise that of a run on its
-own (tests/test_multibody_batch.py).
+own (tests/multibody/test_batch.py).
 
 Threads: the loop runs on numba's current thread count (``numba.set_num_threads``); the sweep runner sets it
 from ``BERRYSHAKER_BATCH_THREADS`` (default 1, because its worker processes already use every core).  On one

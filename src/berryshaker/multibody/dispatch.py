@@ -3,7 +3,7 @@
 numba's dispatcher types every argument at every call, in Python for tuples: the kernel's model, state and work
 tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/HISTORY.md sec. 23).
 :func:`call_compiled` calls the specialisation a function used for the same argument types directly, keyed by
-:func:`_type_key`, which follows numba's own typing rules (tests/test_engine_dispatch.py).
+:func:`_type_key`, which follows numba's own typing rules (tests/multibody/test_dispatch.py).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ def _type_key(x):
     flags; a plain tuple by its elements' keys; a Python or numpy scalar by its type and numba's own type of it
     (cheap for a scalar; ints by value range, datetimes by unit); a contact law's entry point by its class (typed
     by the one law signature, :class:`~berryshaker.contact.laws.LawEntryPoint`).  Equal keys give equal numba
-    types (tests/test_engine_dispatch.py), which is what makes :func:`call_compiled`'s direct call safe.
+    types (tests/multibody/test_dispatch.py), which is what makes :func:`call_compiled`'s direct call safe.
     """
     t = type(x)
     if t is np.ndarray:

@@ -8,7 +8,7 @@ fields are the named slots below, and every element type has its own record (:da
 at the same index use different names (a pin in a bore keeps its bore centre where a modal-body contact keeps its
 row offset); a name is shared only where the meaning is (the contact law's parameters of every contact element,
 the pin centre of every clearance joint).  :func:`force_record` and :func:`constraint_record` fill a row from
-slot names and refuse a slot that is not in the element type's record; tests/test_multibody.py checks that no two
+slot names and refuse a slot that is not in the element type's record; tests/multibody/test_engine.py checks that no two
 slots of a record overlap and that each compiled element function reads only its own record's slots.
 
 Also here: the layout of the element outputs, of the integrator's ``info``, ``first`` and ``resume`` arrays, of a

@@ -14,7 +14,7 @@ The pattern is a superset of the numerical nonzeros at every state: an entry is 
 ``constraints`` writes an exact zero there whatever the state.  A body pinned to the ground and driven in angle that
 another joint also holds (:func:`driven_bodies`) leaves W altogether: its accelerations follow from its own rows,
 and the plan gives them a unit diagonal (docs/multibody.md, "Driven bodies are eliminated").  The kernel factors
-W as L D L^T over the envelopes; tests/test_multibody_sparsity.py checks the pattern against the kernel's Jacobian,
+W as L D L^T over the envelopes; tests/multibody/test_sparsity.py checks the pattern against the kernel's Jacobian,
 and the solve against the dense KKT system.
 """
 

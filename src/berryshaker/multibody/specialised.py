@@ -14,7 +14,7 @@ mechanism, from the structure alone:
 * ``_constrained_solve``: the driven bodies' substitution, the Schur complement's structurally nonzero entries,
   its L D L^T factorisation over each row's envelope, the driven rows' multipliers and Phi_q^T lambda, in the
   same operations and order as the generic :func:`~berryshaker.multibody.linear_solve._constrained_solve` (so the
-  results are bitwise those of the generic kernel; tests/test_multibody_specialised.py), with every index a
+  results are bitwise those of the generic kernel; tests/multibody/test_specialised.py), with every index a
   literal and every entry of W a local variable;
 * the right-hand side ``dynamics.accelerations`` and everything on the integrator's path that calls it
   (:data:`GENERIC_SOURCES`: the step ``dopri.rk_step``, the output samples of ``sampling``, the loop

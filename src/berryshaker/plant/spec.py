@@ -156,7 +156,7 @@ class BushSpec(_Strict):
     lean distribution is published for it.  Diameters span the reference branch (12 mm) by a third either
     way; lengths stay below the bush height; ``finger_height`` puts the reference branch's contact at
     0.7 of its 1.2 m length.  ``branches`` and ``n_modes`` come from the convergence check in
-    tests/test_bush.py (docs/plant.md, "The bush is the load").
+    tests/plant/test_bush.py (docs/plant.md, "The bush is the load").
 
     ``branches`` is the bush's physical count of branches the fingers engage; ``members`` of them are
     sampled and simulated, each standing for branches / members like branches in the comb's load (its
@@ -167,7 +167,7 @@ class BushSpec(_Strict):
     """
 
     branches: int = Field(12, ge=1, le=200)  # engaged branches per bush, as harvest.branches_per_bush [assumed]
-    members: int = Field(6, ge=0, le=64)  # simulated sample of the other branches (convergence: tests/test_bush.py)
+    members: int = Field(6, ge=0, le=64)  # simulated sample of the other branches (convergence: tests/plant/test_bush.py)
     seed: int = Field(12, ge=0, le=2**32 - 1)
     n_modes: int = Field(2, ge=1, le=16)  # bending modes per member (the fruit branch keeps plant.contact.n_modes)
     root_diameter: LengthRange = (0.008, 0.016)  # d0, uniform (m)

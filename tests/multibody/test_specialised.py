@@ -15,7 +15,7 @@ from unittest.mock import patch
 import numba
 import numpy as np
 import pytest
-from test_multibody_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
+from multibody.test_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
 
 from berryshaker.config import reference_machine
 from berryshaker.drives.simulation import simulate_multibody
@@ -113,7 +113,7 @@ def test_specialised_slider_crank_run_is_bitwise_the_generic_run():
 
     from berryshaker.multibody.spec import load_mechanism
 
-    spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
+    spec = load_mechanism(Path(__file__).resolve().parents[2] / "examples" / "slider_crank_clearance.toml")
     duration = 2 * math.pi / abs(spec.drivers[0].speed)
     a = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=False)  # not "auto": it may be compiled
     b = simulate_mechanism(spec, duration=duration, rtol=1e-7, specialised=True)
@@ -203,7 +203,7 @@ def test_a_run_left_to_choose_takes_the_specialised_kernel_once_this_machine_com
     from berryshaker.errors import ConfigError
     from berryshaker.multibody.spec import load_mechanism
 
-    spec = load_mechanism(Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml")
+    spec = load_mechanism(Path(__file__).resolve().parents[2] / "examples" / "slider_crank_clearance.toml")
     cm = compile_mechanism(spec)
     assert spec.simulation.specialised is None  # the default: left to choose
     _markers_in(tmp_path, monkeypatch)  # a machine that has compiled nothing

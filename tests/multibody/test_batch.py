@@ -11,7 +11,7 @@ from berryshaker.multibody.batch import simulate_mechanisms
 from berryshaker.multibody.engine import simulate_mechanism
 from berryshaker.multibody.spec import load_mechanism, mechanism_from_dict
 
-EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "slider_crank_clearance.toml"
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "slider_crank_clearance.toml"
 
 
 def _with_clearance(spec, c):

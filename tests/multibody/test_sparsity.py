@@ -21,7 +21,7 @@ from berryshaker.multibody.linear_solve import _constrained_solve, _schur, _spd_
 from berryshaker.multibody.sparsity import driven_bodies, jacobian_pattern, solve_plan
 from berryshaker.multibody.spec import load_mechanism
 
-EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 
 
 def _specs():

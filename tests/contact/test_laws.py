@@ -54,7 +54,7 @@ def test_the_interior_peak_skip_changes_nothing():
     from berryshaker.multibody.engine import simulate_mechanism
     from berryshaker.multibody.spec import load_mechanism, mechanism_from_dict
 
-    data = load_mechanism(Path(__file__).parents[1] / "examples" / "slider_crank_clearance.toml").model_dump()
+    data = load_mechanism(Path(__file__).parents[2] / "examples" / "slider_crank_clearance.toml").model_dump()
     flagged = simulate_mechanism(mechanism_from_dict(data), rtol=1e-6)
     ln = get_law("lankarani_nikravesh")
     assert ln.monotone
@@ -78,7 +78,7 @@ def _slider_crank_model():
     from berryshaker.multibody.engine import compile_mechanism
     from berryshaker.multibody.spec import load_mechanism
 
-    cm = compile_mechanism(load_mechanism(Path(__file__).parents[1] / "examples" / "slider_crank_clearance.toml"))
+    cm = compile_mechanism(load_mechanism(Path(__file__).parents[2] / "examples" / "slider_crank_clearance.toml"))
     j = int(np.flatnonzero(cm.model[7] == mb.FRC_REV_CL)[0])
     return cm.model, j
 
