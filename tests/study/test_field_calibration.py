@@ -42,7 +42,7 @@ def calibration_cache(tmp_path_factory):
 def runner(calibration_cache):
     from berryshaker.runs.runner import SweepRunner
 
-    with SweepRunner(workers=2, cache_dir=calibration_cache, progress=False) as r:
+    with SweepRunner(workers=1, cache_dir=calibration_cache, progress=False) as r:  # in this process: compiled once
         yield r
 
 
@@ -141,7 +141,7 @@ def test_emulator_error_on_held_out_parameters_is_small_against_the_noise(traine
 def test_simulation_based_calibration_covers_at_the_nominal_rate(small, runner, trained):
     """Simulation-based calibration (Talts et al. 2018): 12 sheets from the simulator at theta drawn from the prior,
     the replicates of a run distinct starts of a pool of 3 fresh coupled starts per setting (never trained on), each
-    with fresh bushes, calibrated with the trained emulator (400 steps of 24 walkers).  Nominal coverage of the 90 %
+    with fresh bushes, calibrated with the trained emulator (400 steps of 16 walkers).  Nominal coverage of the 90 %
     intervals over 12 x 6 = 72 checks is 64.8; binomial SD 2.5 if the checks were independent (the six of a sheet are
     not), so the test accepts 54 .. 71 (about -4 .. +2.5 SD): too low is overconfidence, the failure that matters."""
     sim, params, pool = trained["sim"], trained["params"], trained["pool"]
@@ -163,7 +163,7 @@ def test_simulation_based_calibration_covers_at_the_nominal_rate(small, runner, 
                 if r in obs:
                     obs[r][n // SHEET_REPLICATES, n % SHEET_REPLICATES] = res[col]
         sheet = fc.Sheet(sheet0.targets, sheet0.settings_si, obs, SHEET_REPLICATES)
-        post = fc.sample_posterior(trained["emulator"], sheet, params, R_SIM, seed=k, steps=400)
+        post = fc.sample_posterior(trained["emulator"], sheet, params, R_SIM, seed=k, steps=400, walkers=16)
         lo, hi = np.quantile(post["theta"], [0.05, 0.95], axis=0)
         inside = (lo <= theta) & (theta <= hi)
         covered += int(inside.sum())
@@ -216,8 +216,8 @@ def test_command_recovers_the_reference_parameters_from_a_doe_plan_sheet(small, 
     sheet = tmp_path / "sheet.csv"
     reference_sheet.to_csv(sheet, index=False)
     out = tmp_path / "report"
-    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 2, "--cache", runner.cache_dir,
-                  "--check-settings", 1, "--emulator-points", 32, "--steps", 800, "--json", "--out", out)
+    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 1, "--cache", runner.cache_dir,
+                  "--check-settings", 1, "--emulator-points", 24, "--steps", 800, "--json", "--out", out)
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert {"parameters", "predictions", "emulator", "checks", "version", "code_sha256", "machine_si"} <= set(data)
@@ -248,8 +248,8 @@ def test_command_reads_a_statistics_package_sheet(small_toml, runner, reference_
     df = df[["order", "C (mm)", "speed (rpm)", "replicate", "Efficiency (kg/min)", "Unripe (%)", "Damage (%)"]]
     sheet = tmp_path / "minitab.csv"
     df.rename(columns={"order": "RunOrder"}).to_csv(sheet, index=False)
-    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 2, "--cache", runner.cache_dir,
-                  "--check-settings", 0, "--emulator-points", 16, "--steps", 200, "--json",
+    res = _invoke(sheet, "--config", small_toml, "--replicates", R_SIM, "--workers", 1, "--cache", runner.cache_dir,
+                  "--check-settings", 0, "--emulator-points", 12, "--steps", 150, "--json",
                   "--predict", "speed=170rpm")
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)

@@ -86,8 +86,9 @@ def calibrate(
     --json keys: parameters (per name: prior, described, posterior_mean, posterior_median, lo90, hi90, width_ratio,
     identified), identified_rule, confounded, predictions (per level set: level_set, setting, tested, named,
     extrapolated, responses: per response mean, lo90, hi90, unit), recommendation, emulator (held_out_theta,
-    held_out_settings: rmse, rmse_over_sd, log_sd_rmse), checks (posterior_predictive, summary, held_out_run),
-    sampler, simulator, sheet, likelihood, discrepancy, limits, timings_s, version, code_sha256, machine_si.
+    held_out_settings: rmse, rmse_over_sd, relative_rmse, log_sd_rmse), checks (posterior_predictive, summary,
+    held_out_run), sampler, simulator, sheet, likelihood, discrepancy, limits, timings_s, version, code_sha256,
+    machine_si.
     \f
 
     Parameters

@@ -173,14 +173,15 @@ def calibration_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
     emu = []
     for where in ("held_out_theta", "held_out_settings"):
         for r, e in (res["emulator"].get(where) or {}).items():
-            emu.append([where, r, e["rmse"], e["replicate_sd_rms"], e["rmse_over_sd"], e["log_sd_rmse"], e["points"]])
+            emu.append([where, r, e["rmse"], e["replicate_sd_rms"], e["rmse_over_sd"], e["relative_rmse"],
+                        e["log_sd_rmse"], e["points"]])
     return {
         "parameters": (["parameter", "unit", "prior", "prior lo90", "prior hi90", "described", "posterior mean",
                         "posterior lo90", "posterior hi90", "width ratio (-)", "identified", "prior tag"], par),
         "predictions": (pred_header, preds),
         "posterior_predictive": (["run", "setting", "response", "observed mean", "lo90", "hi90", "inside"], checks),
         "emulator_error": (["check", "response", "RMSE of the mean", "replicate SD (RMS)", "RMSE / SD (-)",
-                            "RMSE of log SD (-)", "points"], emu),
+                            "relative RMSE (-)", "RMSE of log SD (-)", "points"], emu),
     }
 
 
@@ -291,9 +292,10 @@ def calibration_html(res: dict, title: str, figs: dict[str, Path]) -> str:
     rows = []
     for where, label in (("held_out_theta", "held-out parameters"), ("held_out_settings", "held-out settings")):
         for r, x in (em.get(where) or {}).items():
-            rows.append([label, r, x["rmse"], x["replicate_sd_rms"], x["rmse_over_sd"], x["log_sd_rmse"]])
-    parts.append(_table(["check", "response", "RMSE of the mean", "replicate SD", "RMSE / SD", "RMSE of log SD"],
-                        rows))
+            rows.append([label, r, x["rmse"], x["replicate_sd_rms"], x["rmse_over_sd"], x["relative_rmse"],
+                         x["log_sd_rmse"]])
+    parts.append(_table(["check", "response", "RMSE of the mean", "replicate SD", "RMSE / SD", "relative RMSE",
+                         "RMSE of log SD"], rows))
     sm = res["sampler"]
     parts.append(f"<p>{e(sm['package'])}: {sm['walkers']} walkers x {sm['steps']} steps, burn-in {sm['burn']}, "
                  f"thinning {sm['thin']}, acceptance fraction {sm['acceptance_fraction']:.2f}, autocorrelation time "

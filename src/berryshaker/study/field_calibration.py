@@ -1439,7 +1439,8 @@ def _train(sim: Simulator, responses: list[str], settings: list[int], seeds: lis
 
 def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict:
     """Held-out error of the emulator at ``settings`` and points ``u`` (neither trained on): RMSE of the mean, over the
-    RMS replicate SD; RMSE of log SD; MSE of log(mean + c)."""
+    RMS replicate SD; RMSE of log SD; MSE of log(mean + c) and its root (``relative_rmse``, about the relative error
+    of mean + c)."""
     mean, sd = _train(sim, emulator.responses, settings, seeds, u, params)
     x = np.repeat(np.array([sim.settings[s] for s in settings]), len(u), axis=0)
     uu = np.tile(u, (len(settings), 1))
@@ -1455,6 +1456,7 @@ def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict
                   "log_sd_rmse": float(np.sqrt(np.mean((np.log(np.maximum(psd, 1e-3 * floor))
                                                         - np.log(np.maximum(s_, 1e-3 * floor))) ** 2))),
                   "mse_log_mean": float(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2)),
+                  "relative_rmse": float(np.sqrt(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2))),
                   "points": int(len(m)), "unit": "kg/min per kg of yield per bush" if r == "efficiency" else "%"}
     return out
 
