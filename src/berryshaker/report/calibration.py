@@ -56,7 +56,8 @@ def plot_parameters(res: dict, path: Path) -> dict:
         ax.set_title(f"{name}: {ident} (width ratio {p['width_ratio']:.2f})", fontsize=9, loc="left")
         label_axes(ax, f"{name} [{_unit(p['unit'])}]")
         drawn[name] = {"prior": [pr["lo90"], pr["hi90"]], "posterior": [p["lo90"], p["hi90"]]}
-    axes[0, 0].legend(fontsize=7, loc="upper right", ncols=4, bbox_to_anchor=(1.0, 1.9))
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside upper center", ncols=4)
     finish(fig, path)
     return drawn
 

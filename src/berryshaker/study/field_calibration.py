@@ -756,8 +756,8 @@ class Emulator:
     * **per setting** over theta on the prior's unit cube (the parameters the response depends on,
       :data:`RESPONSE_PARAMETERS`): the likelihood at the sheet's settings and the predictions there;
     * **joint** over (setting coded to -1 .. 1 over the sheet's level ranges, theta), trained on up to
-      :attr:`joint_points` of the simulated points: predictions at settings that were not simulated (fitted on first
-      use).
+      :attr:`joint_points` of the simulated points (half of them, with :meth:`fit_joint`'s ``focus``, simulated at
+      posterior draws): predictions at settings that were not simulated.
 
     Parameters
     ----------
@@ -840,12 +840,23 @@ class Emulator:
         self.training_points = int(len(self.settings) * len(u))
         self.fit_seconds = time.perf_counter() - t0
 
-    def fit_joint(self) -> None:
-        """Train the joint GPs (coded setting, theta) on a seeded subsample of the simulated points."""
+    def fit_joint(self, focus: tuple | None = None) -> None:
+        """Train the joint GPs (coded setting, theta) on a seeded subsample of the simulated Latin-hypercube points and,
+        with ``focus``, on simulated points at posterior draws (where the predictions are made).
+
+        Parameters
+        ----------
+        focus : (numpy.ndarray, numpy.ndarray, numpy.ndarray), optional
+            ``(u, mean, sd)``: (k, 6) unit-cube points (dimensionless) and their simulated replicate means and SDs
+            at every simulated setting, (settings, k, responses) in the responses' units (efficiency per kg of
+            yield); they take half of :attr:`joint_points`.
+        """
         t0 = time.perf_counter()
         s_all, u, mean, sd = self._data
         ns, nu = len(s_all), len(u)
-        per = max(4, min(nu, self.joint_points // max(ns, 1)))
+        budget = min(self.joint_points // max(ns, 1), nu)  # per setting: no more than its hypercube
+        nf = 0 if focus is None else min(len(focus[0]), budget // 2)
+        per = max(4, min(nu, budget - nf))
         rng = np.random.default_rng(self.seed)
         self.joint = {}
         for j, r in enumerate(self.responses):
@@ -853,9 +864,14 @@ class Emulator:
             xs, ms, ss = [], [], []
             for i in range(ns):
                 pick = rng.choice(nu, size=per, replace=False)
-                xs.append(np.hstack([np.repeat(self.code(s_all[i:i + 1]), per, axis=0), u[pick][:, cols]]))
+                code = self.code(s_all[i:i + 1])
+                xs.append(np.hstack([np.repeat(code, per, axis=0), u[pick][:, cols]]))
                 ms.append(mean[i, pick, j])
                 ss.append(sd[i, pick, j])
+                if nf:
+                    xs.append(np.hstack([np.repeat(code, nf, axis=0), focus[0][:nf][:, cols]]))
+                    ms.append(focus[1][i, :nf, j])
+                    ss.append(focus[2][i, :nf, j])
             self.joint[r] = self._pair(np.vstack(xs), np.concatenate(ms), np.concatenate(ss), r)
         self.fit_seconds += time.perf_counter() - t0
 
@@ -1310,7 +1326,8 @@ def predictive(emulator: Emulator, settings_si: np.ndarray, u: np.ndarray, param
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        (settings, draws) expected result (mean) and future result draws, the response's unit.
+        (settings, draws) expected result (mean) and future result draws, the response's unit; both clipped at 0
+        (an efficiency or a rate is never negative).
     """
     ns, nd = settings_si.shape[0], u.shape[0]
     uu = np.tile(u, (ns, 1))
@@ -1322,8 +1339,8 @@ def predictive(emulator: Emulator, settings_si: np.ndarray, u: np.ndarray, param
     if r_sim:  # sigma known from R_sim starts: scaled by sqrt(nu / chi2_nu) per draw (the t of log_likelihood)
         sd = sd * np.sqrt((r_sim - 1) / rng.chisquare(r_sim - 1, mean.size))
     common = var_emu + (sd**2 / r_sim if r_sim else 0.0) + (discrepancy * mean) ** 2
-    expected = mean + np.sqrt(common) * rng.standard_normal(mean.size)
-    future = expected + sd / math.sqrt(replicates) * rng.standard_normal(mean.size)
+    expected = np.maximum(mean + np.sqrt(common) * rng.standard_normal(mean.size), 0.0)
+    future = np.maximum(expected + sd / math.sqrt(replicates) * rng.standard_normal(mean.size), 0.0)  # rates >= 0
     return expected.reshape(ns, nd), future.reshape(ns, nd)
 
 
@@ -1579,10 +1596,6 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     for gps in emulator.local:
         for r in responses:
             gps[r].mse_log_mean = held_theta[r]["mse_log_mean"]
-    held_settings = _emulator_check(sim, emulator, check_idx, seeds, u_check, params) if check_idx else {}
-    if emulator.joint is not None:
-        for r in responses:
-            emulator.joint[r].mse_log_mean = held_settings[r]["mse_log_mean"]
     t_emu = time.perf_counter() - t1
     if progress:
         progress("emulator", 1, 1)
@@ -1594,6 +1607,18 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     rng = np.random.default_rng(opt.seed + 4)
     pick = rng.choice(len(post["u"]), size=min(opt.draws, len(post["u"])), replace=False)
     u_draws = post["u"][pick]
+    # the joint GP (settings not simulated): trained with simulated points at posterior draws as well, then checked
+    # at the untested check settings on other posterior draws (where its predictions are used)
+    t3 = time.perf_counter()
+    focus_u = post["u"][rng.choice(len(post["u"]), size=min(16, len(post["u"])), replace=False)]
+    emulator.fit_joint((focus_u, *_train(sim, responses, unique, seeds, focus_u, params)))
+    held_settings = {}
+    if check_idx:
+        check_u = post["u"][rng.choice(len(post["u"]), size=min(opt.check_points, len(post["u"])), replace=False)]
+        held_settings = _emulator_check(sim, emulator, check_idx, seeds, check_u, params)
+        for r in responses:
+            emulator.joint[r].mse_log_mean = held_settings[r]["mse_log_mean"]
+    t_emu += time.perf_counter() - t3
     described = described_values(machine)
     parameters = _summaries(post["theta"], params, described)
     # posterior predictive checks on the sheet's runs
@@ -1641,6 +1666,8 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
                      "joint_fitted": emulator.joint is not None, "joint_points": emulator.joint_points,
                      "training_points": emulator.training_points, "theta_points_per_setting": opt.theta_points,
                      "held_out_theta": held_theta, "held_out_settings": held_settings,
+                     "held_out_settings_at": "posterior draws not used in training, at untested settings simulated "
+                                             "for the check (the joint GP's error where it predicts)",
                      "check_settings": [sim.setting_text(i) for i in check_idx], "fit_s": emulator.fit_seconds},
         "checks": {"posterior_predictive": ppc,
                    "summary": {"inside": int(inside), "total": len(ppc),
