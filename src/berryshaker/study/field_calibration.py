@@ -653,6 +653,22 @@ def start_statistics(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 # --------------------------------------------------------------------------------------------- emulator
+#: most L-BFGS-B iterations of a GP's marginal-likelihood fit: scikit-learn's default (15000) let one fit of the
+#: joint GP on clustered posterior points take over a minute on the reference L9; its hyperparameters converge in far
+#: fewer iterations on the hypercube
+GP_FIT_ITERATIONS = 200
+
+
+def _bounded_lbfgs(obj_func, initial_theta, bounds):
+    """scikit-learn's GP optimiser (L-BFGS-B on the log marginal likelihood) with at most :data:`GP_FIT_ITERATIONS`
+    iterations: returns (theta_opt, func_min)."""
+    from scipy.optimize import minimize
+
+    res = minimize(obj_func, initial_theta, method="L-BFGS-B", jac=True, bounds=bounds,
+                   options={"maxiter": GP_FIT_ITERATIONS})
+    return res.x, res.fun
+
+
 class FittedGP:
     """A fitted scikit-learn ``GaussianProcessRegressor`` with a batched predictive variance.
 
@@ -694,7 +710,7 @@ class FittedGP:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)  # a length scale at its bound: an irrelevant input
             self.gp = GaussianProcessRegressor(k, alpha=alpha, normalize_y=True, n_restarts_optimizer=0,
-                                               random_state=seed).fit(x, y)
+                                               optimizer=_bounded_lbfgs, random_state=seed).fit(x, y)
         kern = self.gp.kernel_
         latent = kern.k1 if noise is None else kern  # ConstantKernel x Matern
         self.amplitude = float(latent.k1.constant_value)
