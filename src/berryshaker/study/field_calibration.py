@@ -771,9 +771,11 @@ class Emulator:
 
     * **per setting** over theta on the prior's unit cube (the parameters the response depends on,
       :data:`RESPONSE_PARAMETERS`): the likelihood at the sheet's settings and the predictions there;
-    * **joint** over (setting coded to -1 .. 1 over the sheet's level ranges, theta), trained on up to
-      :attr:`joint_points` of the simulated points (half of them, with :meth:`fit_joint`'s ``focus``, simulated at
-      posterior draws): predictions at settings that were not simulated.
+    * **joint** over (setting coded to -1 .. 1 over the sheet's level ranges, theta), of the setting's effect: the
+      difference of log(mean + c) and log SD from the average of the per-setting GPs at the same theta, trained on up
+      to :attr:`joint_points` of the simulated points (half of them, with :meth:`fit_joint`'s ``focus``, simulated at
+      posterior draws): predictions at settings that were not simulated (far from every simulated setting it falls
+      back to that average, not to the prior's mean).
 
     Parameters
     ----------
@@ -821,12 +823,24 @@ class Emulator:
         span = np.where(self.hi > self.lo, self.hi - self.lo, 1.0)
         return 2.0 * (x - self.lo) / span - 1.0
 
-    def _pair(self, x, mean, sd, r) -> _ResponseGP:
+    def _pair(self, x, mean, sd, r, base: tuple | None = None) -> _ResponseGP:
+        """GPs of log(mean + c) and log SD at inputs ``x``; with ``base`` = (log-mean, log-SD) per point, of the
+        differences from it (the joint GP's setting effect)."""
         floor = RESPONSES[r][1]
         cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
-        g_mean = FittedGP(x, np.log(mean + floor), self.seed)
-        g_sd = FittedGP(x, np.log(np.maximum(sd, 1e-3 * floor)), self.seed, noise=1.0 / (2 * (self.r_sim - 1)))
+        b_mean, b_sd = base if base is not None else (0.0, 0.0)
+        g_mean = FittedGP(x, np.log(mean + floor) - b_mean, self.seed)
+        g_sd = FittedGP(x, np.log(np.maximum(sd, 1e-3 * floor)) - b_sd, self.seed,
+                        noise=1.0 / (2 * (self.r_sim - 1)))
         return _ResponseGP(g_mean, g_sd, cols, floor)
+
+    def _local_average(self, u: np.ndarray, r: str) -> tuple[np.ndarray, np.ndarray]:
+        """Average over the simulated settings of the per-setting GPs' log(mean + c) and log SD at ``u``: the
+        baseline of the joint GP, which models only the setting's effect on top of it."""
+        cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
+        lm = np.mean([g[r].mean_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
+        ls = np.mean([g[r].logsd_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
+        return lm, ls
 
     def fit(self, settings_si: list, u: np.ndarray, mean: np.ndarray, sd: np.ndarray) -> None:
         """Train the per-setting GPs of every response.
@@ -877,18 +891,21 @@ class Emulator:
         self.joint = {}
         for j, r in enumerate(self.responses):
             cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
-            xs, ms, ss = [], [], []
+            xs, uus, ms, ss = [], [], [], []
             for i in range(ns):
                 pick = rng.choice(nu, size=per, replace=False)
                 code = self.code(s_all[i:i + 1])
                 xs.append(np.hstack([np.repeat(code, per, axis=0), u[pick][:, cols]]))
+                uus.append(u[pick])
                 ms.append(mean[i, pick, j])
                 ss.append(sd[i, pick, j])
                 if nf:
                     xs.append(np.hstack([np.repeat(code, nf, axis=0), focus[0][:nf][:, cols]]))
+                    uus.append(focus[0][:nf])
                     ms.append(focus[1][i, :nf, j])
                     ss.append(focus[2][i, :nf, j])
-            self.joint[r] = self._pair(np.vstack(xs), np.concatenate(ms), np.concatenate(ss), r)
+            base = self._local_average(np.vstack(uus), r)
+            self.joint[r] = self._pair(np.vstack(xs), np.concatenate(ms), np.concatenate(ss), r, base)
         self.fit_seconds += time.perf_counter() - t0
 
     def _index(self, setting) -> int | None:
@@ -941,13 +958,15 @@ class Emulator:
                     self.fit_joint()
                 g = self.joint[response]
                 x = np.hstack([self.code(settings_si[rows]), u[rows][:, g.columns]])
+                b_mean, b_sd = self._local_average(u[rows], response)
             else:
                 g = self.local[key][response]
                 x = u[rows][:, g.columns]
+                b_mean, b_sd = 0.0, 0.0
             m, v = g.mean_gp.predict(x, with_var)
-            lm[rows] = m
+            lm[rows] = b_mean + m
             var_log[rows] = np.maximum(v, g.mse_log_mean)
-            lsd[rows] = g.logsd_gp.predict(x, False)[0]
+            lsd[rows] = b_sd + g.logsd_gp.predict(x, False)[0]
         mean = np.maximum(np.exp(lm) - floor, 0.0)
         return mean, (mean + floor) ** 2 * var_log, np.exp(lsd)
 
