@@ -183,6 +183,38 @@ def show_warning(message, category, filename, lineno, file=None, line=None) -> N
     err.print(f"warning: {text}", markup=False, highlight=False, soft_wrap=True)
 
 
+def help_text(doc: str) -> str:
+    """A command's ``--help`` text from its docstring: the part before ``\\f`` (the numpydoc sections after it are for
+    the API reference), each paragraph one flowing line so the terminal wraps it to its width; a line that starts a
+    list item (``- ``, ``* ``, ``1. ``) keeps its own line.
+
+    Parameters
+    ----------
+    doc : str
+        The command function's docstring.
+
+    Returns
+    -------
+    str
+        The help text: paragraphs separated by a blank line.
+    """
+    import inspect
+    import re
+
+    text = inspect.cleandoc(doc).partition("\f")[0].strip()
+    paragraphs = []
+    for para in re.split(r"\n\s*\n", text):
+        lines = [ln.strip() for ln in para.splitlines() if ln.strip()]
+        out = []
+        for ln in lines:
+            if out and not re.match(r"([-*]|\d+\.)\s", ln):
+                out[-1] += " " + ln
+            else:
+                out.append(ln)
+        paragraphs.append("\n".join(out))
+    return "\n\n".join(paragraphs)
+
+
 def command(parent: typer.Typer, name: str | None = None, **kwargs):
     """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
     message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the
@@ -206,6 +238,9 @@ def command(parent: typer.Typer, name: str | None = None, **kwargs):
     import functools
 
     def deco(fn):
+        if "help" not in kwargs and fn.__doc__:
+            kwargs["help"] = help_text(fn.__doc__)
+
         @functools.wraps(fn)
         def wrapped(*args, **kw):
             import warnings

@@ -47,9 +47,12 @@ def study(
     --out must be a new or empty folder or the output of an earlier study (it then gets replaced); a folder
     holding anything else is refused before any work, and nothing you made is ever removed.
 
-    Kinematics; MLSD vs multibody agreement (eq. 18); clearance rows 1-16; comb moments; fruit force;
-    the virtual L9 field test with range analysis and regression; a claims table with verdicts.
-    Interrupted? Run it again: finished runs come from the cache.
+    The report opens with the design answers for this machine (clearance and fit per joint, service interval, peak
+    forces, drive torque, operating speed, each with its interval), then one section per step: kinematics; the
+    reduced model against the multibody engine; collision force against clearance; comb load moments; fruit force;
+    the virtual L9 field test from independent starts analysed as blocks; clearance life; the powered drive;
+    harvest against shaking frequency; the harvest model against the published record.  On the study's own machine
+    an appendix checks the study's claims.  Interrupted? Run it again: finished runs come from the cache.
     \f
 
     Parameters
