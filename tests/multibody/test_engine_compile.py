@@ -48,9 +48,18 @@ SCRIPT = textwrap.dedent("""
     simulate_multibody(crank, revolutions=2, driveline="powered")
     after = {name: len(f.signatures) for name, f in fns.items()}
     g = kernel.integrate_resumable.py_func.__globals__
-    callees = sorted({n for n in kernel.integrate_resumable.py_func.__code__.co_names
-                      if isinstance(g.get(n), numba.core.registry.CPUDispatcher)})
-    print(json.dumps({"seconds": seconds, "before": before, "after": after, "callees": callees}))
+    called = {n: g[n] for n in kernel.integrate_resumable.py_func.__code__.co_names
+              if isinstance(g.get(n), numba.core.registry.CPUDispatcher)}
+    inlined = sorted(n for n, f in called.items() if f.targetoptions.get("inline") == "always")
+    callees = sorted(set(called) - set(inlined))
+    # what the inlined functions call is the loop's too
+    for n in inlined:
+        fg = called[n].py_func.__globals__
+        callees += [c for c in called[n].py_func.__code__.co_names
+                    if isinstance(fg.get(c), numba.core.registry.CPUDispatcher)
+                    and fg[c].targetoptions.get("inline") != "always" and c not in callees]
+    print(json.dumps({"seconds": seconds, "before": before, "after": after, "callees": sorted(callees),
+                      "inlined": inlined}))
 """)
 
 
@@ -64,14 +73,17 @@ def counts(tmp_path_factory):
 
 def test_compiled_parts_are_what_runs_use(counts):
     compiled = {f for f, n in counts["before"].items() if n}
-    parts = {"project", "constraint_residuals", "forces", "accelerations", "rk_step", "write_state_sample",
-             "write_step_samples", "fint_is_contact", "_onset_fraction", "_crossing_rate", "first_onset_fraction",
-             "error_norm", "dense_coefficients", "_dense_state", "_write_sample", "rejected_step_size",
-             "onset_cut_size", "next_step_size", "record_step_size", "save_resume", "load_resume",
-             "_step_force_bound", "_interior_peak", "record_contacts"}
+    parts = {"project", "forces", "accelerations", "fint_is_contact", "_onset_fraction", "_crossing_rate",
+             "first_onset_fraction", "_dense_state", "_write_sample", "rejected_step_size", "onset_cut_size",
+             "next_step_size", "record_step_size", "save_resume", "load_resume", "_step_force_bound",
+             "_interior_peak", "record_contacts"}
     assert parts <= compiled, parts - compiled
-    # the parts compile everything the integrator's loop calls, so that a run compiles only the loop itself
+    # the parts compile everything the integrator's loop calls, so that a run compiles only the loop itself; what
+    # numba inlines into the loop is compiled by the loop alone (a compilation of its own would serve nothing)
     assert set(counts["callees"]) - {"integrate_resumable"} <= compiled, set(counts["callees"]) - compiled
+    assert not set(counts["inlined"]) & compiled, counts["inlined"]
+    assert {"stage_state", "error_norm", "dense_coefficients", "constraint_residuals", "sample_inside",
+            "sample_at_end", "interior_peak_forces"} <= set(counts["inlined"]), counts["inlined"]
     assert all(counts["before"][f] == 1 for f in compiled), counts["before"]
     # every run (harvester, with modal plant, powered, crank-rocker) used those same specialisations: none was added
     assert {f: counts["after"][f] for f in compiled} == {f: 1 for f in compiled}, counts["after"]

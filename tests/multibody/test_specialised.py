@@ -263,9 +263,9 @@ def test_generated_module_calls_its_own_right_hand_side_everywhere(monkeypatch):
         own = getattr(mod, fn.py_func.__name__)
         assert own is not fn and own.py_func.__globals__ is vars(mod), fn.py_func.__name__
     assert mod.accelerations.py_func.__globals__["constraints"] is mod.constraints
-    assert mod.rk_step.py_func.__globals__["accelerations"] is mod.accelerations
-    assert mod.integrate_resumable.py_func.__globals__["write_step_samples"] is mod.write_step_samples
-    without_step = tuple(fn for fn in sp.GENERIC_SOURCES if fn.py_func.__name__ != "rk_step")
-    monkeypatch.setattr(sp, "GENERIC_SOURCES", without_step)
-    with pytest.raises(RuntimeError, match="integrate_resumable calls rk_step.*GENERIC_SOURCES"):
+    assert mod.integrate_resumable.py_func.__globals__["accelerations"] is mod.accelerations
+    assert mod.integrate.py_func.__globals__["integrate_resumable"] is mod.integrate_resumable
+    without_rhs = tuple(fn for fn in sp.GENERIC_SOURCES if fn.py_func.__name__ != "accelerations")
+    monkeypatch.setattr(sp, "GENERIC_SOURCES", without_rhs)
+    with pytest.raises(RuntimeError, match="integrate_resumable calls accelerations.*GENERIC_SOURCES"):
         sp.specialised_source(model, n, m)

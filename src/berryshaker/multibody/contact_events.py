@@ -5,6 +5,12 @@ contact state and impact velocity, first impacts, counted impacts and peak force
 
 Each contact's penetration over a step is the cubic Hermite interpolant of its values and rates at the step's ends
 (error O(h^4)); the force at an interior peak is evaluated from the step's dense output.
+
+:func:`record_contacts` locates the interior peaks and :func:`interior_peak_forces` evaluates the forces there
+(``force_elements.forces``), inlined into the loop by numba (``inline="always"``): a compiled function of its own
+that evaluated the forces would carry a compilation of every force element and contact law of its own (numba
+compiles a callee's code again into every compiled caller; :mod:`berryshaker.multibody.dopri`), about 2.5 s of one
+core on a fresh cache.
 """
 
 from __future__ import annotations
@@ -215,19 +221,18 @@ def first_onset_fraction(model, state, work, pen_start, pdot_start, h):
 
 
 @njit(cache=True, _nrt=False)
-def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old, bspl, rc5, y_out, e_save,
-                    psi_f_keep, pen_start, f_start, pdot_start, peaks, first):
+def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_start, pdot_start, peaks, first,
+                    u_peak):
     """Record every force element's contact state at the end t of an accepted step of size h from t_old; returns
     True when a contact closed (an onset).
 
     A closing contact gets its impact velocity (the approach rate at first contact, :func:`_crossing_rate`) and
     may start its first episode or count as an impact (``first``); ``peaks`` (over t >= stats_from) and the first
-    episode's peak take the larger of the step-end force and any peak inside the step (:func:`_interior_peak`,
-    evaluated from the dense output: ``k``, ``ytmp``, ``y_old``, ``bspl``, ``rc5``; skipped where a monotone law's
-    bound shows that nothing inside the step can raise them).  Such an evaluation leaves the element outputs and
-    the groove contacts' foot memory as they were at the step's end (``e_save``, ``psi_f_keep``: work space and
-    the memory after the step).  The penetrations, forces and rates at the step's end become the next step's start
-    values (``pen_start``, ``f_start``, ``pdot_start``).
+    episode's peak take the step-end force.  Where a peak inside the step may raise them (:func:`_interior_peak`
+    on the interpolated penetration above the force at both ends; skipped where a monotone law's bound shows that
+    nothing inside the step can), ``u_peak`` gets the fraction of the step where it is (else -1), and
+    :func:`interior_peak_forces` evaluates the force there.  The penetrations, forces and rates at the step's end
+    become the next step's start values (``pen_start``, ``f_start``, ``pdot_start``).
 
     Parameters
     ----------
@@ -242,20 +247,6 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old,
     model, state, work : tuple
         The compiled mechanism's arrays, the state carried between evaluations and the work arrays
         (:mod:`berryshaker.multibody.dynamics`).
-    k : numpy.ndarray
-        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
-    ytmp : numpy.ndarray
-        The step's 5th-order solution (m, rad; m/s, rad/s).
-    y_old : numpy.ndarray
-        State at the step's start (m, rad; m/s, rad/s).
-    bspl, rc5 : numpy.ndarray
-        The step's dense-output coefficients h k1 - (y1 - y0) and h sum_i D_i k_i (m, rad; m/s, rad/s).
-    y_out : numpy.ndarray
-        Work space: an interpolated state (m, rad; m/s, rad/s).
-    e_save : numpy.ndarray
-        Work space for the element outputs (``layout.EO_*``, SI).
-    psi_f_keep : numpy.ndarray
-        Foot memory of the groove contacts after the accepted step (rad, rad/s, s).
     pen_start, f_start, pdot_start : numpy.ndarray
         Per force element at the step's start: penetration (m), |normal force| (N), penetration rate (m/s).
     peaks : numpy.ndarray
@@ -263,15 +254,16 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old,
     first : numpy.ndarray
         First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
         count), updated.
+    u_peak : numpy.ndarray
+        Written: per force element, the fraction of the step at which its force is to be evaluated, or -1.
     """
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws, plan) = model
+    fflt = model[9]
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
-    Q, eout = work[4], work[5]
+    eout = work[5]
     nf = eout.shape[0]
-    n_q = y_out.shape[0] // 2
     onset = False
     for j in range(nf):
+        u_peak[j] = -1.0
         pe = eout[j, EO_PEN]
         fn = eout[j, EO_FN]
         if pe > 0.0:
@@ -320,23 +312,9 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old,
             if (t < stats_from or t_old >= stats_from) and f_start[j] > f_thr:
                 f_thr = f_start[j]
             if fi > f_thr:
-                # the peak is inside the step: the force there, from the dense-output state (the
-                # interpolated penetration only locates it); the step-end element values are kept
-                _dense_state(u_pk, h, k, ytmp, y_old, bspl, rc5, y_out)
-                for jj in range(nf):
-                    for c in range(N_EO):
-                        e_save[jj, c] = eout[jj, c]
-                forces(t_old + u_pk * h, y_out[:n_q], y_out[n_q:], mass, gravity, ftype, fint, fflt, cams,
-                       in_contact, v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z,
-                       phi_tab, plant_p, Q, eout, laws)
-                f_in = abs(eout[j, EO_FN])
-                for jj in range(nf):
-                    for c in range(N_EO):
-                        eout[jj, c] = e_save[jj, c]
-                for i in range(psi_f.shape[0]):
-                    psi_f[i] = psi_f_keep[i]
-                if f_in > abs(fn):
-                    fn = f_in
+                # the peak is inside the step: the force there is evaluated from the dense-output state (the
+                # interpolated penetration only locates it)
+                u_peak[j] = u_pk
         if first[j, FIRST_DONE] == 1.0 and abs(fn) > first[j, FIRST_PEAK]:
             first[j, FIRST_PEAK] = abs(fn)
         if t >= stats_from and abs(fn) > peaks[j]:
@@ -345,3 +323,77 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old,
         f_start[j] = abs(eout[j, EO_FN])
         pdot_start[j] = eout[j, EO_PENDOT]
     return onset
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def interior_peak_forces(t, t_old, h, stats_from, model, state, work, k, ytmp, y_old, bspl, rc5, y_out, e_save,
+                         psi_f_keep, u_peak, peaks, first):
+    """The forces at the peaks inside an accepted step that :func:`record_contacts` located (``u_peak``): each
+    from the dense-output state there (``k``, ``ytmp``, ``y_old``, ``bspl``, ``rc5``), raising ``peaks`` (over
+    t >= stats_from) and the first episode's peak where it is larger.  Each evaluation leaves the element outputs
+    and the groove contacts' foot memory as they were at the step's end (``e_save``, ``psi_f_keep``: work space and
+    the memory after the step).  An element's force depends on its own contact state alone, so this is the value
+    that an evaluation inside :func:`record_contacts`' loop would give; a maximum is the same in any order.
+
+    Parameters
+    ----------
+    t : float
+        Time at the step's end (s).
+    t_old : float
+        Time at the step's start (s).
+    h : float
+        Step size (s).
+    stats_from : float
+        Start of the statistics window (s).
+    model, state, work : tuple
+        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
+        (:mod:`berryshaker.multibody.dynamics`).
+    k : numpy.ndarray
+        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
+    ytmp : numpy.ndarray
+        The step's 5th-order solution (m, rad; m/s, rad/s).
+    y_old : numpy.ndarray
+        State at the step's start (m, rad; m/s, rad/s).
+    bspl, rc5 : numpy.ndarray
+        The step's dense-output coefficients h k1 - (y1 - y0) and h sum_i D_i k_i (m, rad; m/s, rad/s).
+    y_out : numpy.ndarray
+        Work space: an interpolated state (m, rad; m/s, rad/s).
+    e_save : numpy.ndarray
+        Work space for the element outputs (``layout.EO_*``, SI).
+    psi_f_keep : numpy.ndarray
+        Foot memory of the groove contacts after the accepted step (rad, rad/s, s).
+    u_peak : numpy.ndarray
+        Per force element, the fraction of the step at which to evaluate its force, or -1 (none).
+    peaks : numpy.ndarray
+        Largest |normal force| of each element over the statistics window (N), updated.
+    first : numpy.ndarray
+        First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
+        count), its first episode's peak updated.
+    """
+    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
+     plant_p, laws, plan) = model
+    (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
+    Q, eout = work[4], work[5]
+    nf = eout.shape[0]
+    n_q = y_out.shape[0] // 2
+    for j in range(nf):
+        if u_peak[j] < 0.0:
+            continue
+        u_pk = u_peak[j]
+        _dense_state(u_pk, h, k, ytmp, y_old, bspl, rc5, y_out)
+        for jj in range(nf):
+            for c in range(N_EO):
+                e_save[jj, c] = eout[jj, c]
+        forces(t_old + u_pk * h, y_out[:n_q], y_out[n_q:], mass, gravity, ftype, fint, fflt, cams,
+               in_contact, v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z,
+               phi_tab, plant_p, Q, eout, laws)
+        f_in = abs(eout[j, EO_FN])
+        for jj in range(nf):
+            for c in range(N_EO):
+                eout[jj, c] = e_save[jj, c]
+        for i in range(psi_f.shape[0]):
+            psi_f[i] = psi_f_keep[i]
+        if first[j, FIRST_DONE] == 1.0 and f_in > first[j, FIRST_PEAK]:
+            first[j, FIRST_PEAK] = f_in
+        if t >= stats_from and f_in > peaks[j]:
+            peaks[j] = f_in

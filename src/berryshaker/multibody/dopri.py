@@ -6,9 +6,14 @@ What to do with a step (accept or reject it, cut it back to a contact onset, cho
 control's (:mod:`berryshaker.multibody.step_control`, :mod:`berryshaker.multibody.kernel`), as SciPy separates
 ``rk_step`` from its controller (``scipy/integrate/_ivp/rk.py``).  The state y = (q, q') and the stage
 derivatives ``k`` (7 rows, state index innermost: contiguous rows, the loops vectorise) are the loop's arrays.
-:func:`error_norm` and :func:`dense_coefficients` are inlined into the loop by numba (``inline="always"``; so is
-``dynamics.constraint_residuals``): called as functions they cost 2-4 % of a harvester run, which LLVM did not
-inline on its own.
+
+Nothing here calls the right-hand side (``dynamics.accelerations``): the loop evaluates it at each stage's state
+(:func:`stage_state`).  Numba links a compiled callee's whole code into every compiled caller and optimises it
+there again, so each separately compiled function that calls the right-hand side adds a compilation of the
+forces, constraint rows and solve (a step function of its own cost ~2.5 s of one core on a fresh cache).
+:func:`stage_state`, :func:`error_norm` and :func:`dense_coefficients` are inlined into the loop by numba
+(``inline="always"``; so is ``dynamics.constraint_residuals``): called as functions they cost 2-4 % of a harvester
+run, which LLVM did not inline on its own.
 """
 
 from __future__ import annotations
@@ -17,46 +22,50 @@ import math
 
 from numba import njit
 
-from berryshaker.multibody.dynamics import accelerations
 from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
 
 _C, _A, _E, _D = DOPRI_C, DOPRI_A, DOPRI_E, DOPRI_D
 
 
-@njit(cache=True, _nrt=False)
-def rk_step(t, h, y, k, ytmp, model, state, work):
-    """One DOPRI5 step of size h from (t, y) with k[0] = f(t, y): the stages k[1] .. k[6] and the 5th-order
-    solution in ``ytmp``, whose derivative is k[6] (first same as last).  The last stage leaves the work arrays
-    (constraint rows, element outputs, multipliers) at (t + h, ytmp).  The step's error is :func:`error_norm`'s
-    (the controller's, as SciPy's solver estimates it apart from ``rk_step``).
+@njit(cache=True, _nrt=False, inline="always")
+def stage_state(s, t, h, y, k, ytmp):
+    """Stage s (1 .. 6) of a DOPRI5 step of size h from (t, y) with k[0] = f(t, y): its state
+    y + h sum_{m < s} A[s, m] k[m] into ``ytmp``; returns its time t + C[s] h.  The loop evaluates the right-hand
+    side there into k[s] (:mod:`berryshaker.multibody.kernel`); after stage 6 ``ytmp`` is the 5th-order solution,
+    whose derivative is k[6] (first same as last), and the work arrays (constraint rows, element outputs,
+    multipliers) are at (t + h, ytmp).  The step's error is :func:`error_norm`'s (the controller's, as SciPy's
+    solver estimates it apart from ``rk_step``).
 
     Parameters
     ----------
+    s : int
+        The stage (1 .. 6).
     t : float
-        Time (s).
+        Time at the step's start (s).
     h : float
         Step size (s).
     y : numpy.ndarray
         State at the step's start (m, rad; m/s, rad/s).
     k : numpy.ndarray
-        Stage derivatives (7 rows; m/s, rad/s; m/s^2, rad/s^2); k[0] given, k[1] .. k[6] written.
+        Stage derivatives (7 rows; m/s, rad/s; m/s^2, rad/s^2); rows 0 .. s - 1 read.
     ytmp : numpy.ndarray
-        Written: the 5th-order solution (m, rad; m/s, rad/s).
-    model, state, work : tuple
-        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
-        (:mod:`berryshaker.multibody.dynamics`).
+        Written: the stage's state (m, rad; m/s, rad/s).
+
+    Returns
+    -------
+    float
+        The stage's time (s).
     """
     ny = y.shape[0]
-    # the stages' states, state index innermost (contiguous rows of k: the loops vectorise); each element
-    # sums its terms in stage order, as a loop over stages per element would
-    for s in range(1, 7):
+    # state index innermost (contiguous rows of k: the loops vectorise); each element sums its terms in stage
+    # order, as a loop over stages per element would
+    for i in range(ny):
+        ytmp[i] = y[i]
+    for mm in range(s):
+        a_h = h * _A[s, mm]
         for i in range(ny):
-            ytmp[i] = y[i]
-        for mm in range(s):
-            a_h = h * _A[s, mm]
-            for i in range(ny):
-                ytmp[i] += a_h * k[mm, i]
-        accelerations(t + _C[s] * h, ytmp, model, state, work, k[s])
+            ytmp[i] += a_h * k[mm, i]
+    return t + _C[s] * h
 
 
 @njit(cache=True, _nrt=False, inline="always")

@@ -30,12 +30,12 @@ from berryshaker.multibody.compiled import CompiledMechanism, _state_and_work, c
 from berryshaker.multibody.contact_events import (_crossing_rate, _interior_peak, _onset_fraction, _step_force_bound,
                                                   first_onset_fraction, record_contacts)
 from berryshaker.multibody.dispatch import _type_key, call_compiled
-from berryshaker.multibody.dopri import _dense_state, dense_coefficients, error_norm, rk_step
-from berryshaker.multibody.dynamics import accelerations, constraint_residuals, project
+from berryshaker.multibody.dopri import _dense_state
+from berryshaker.multibody.dynamics import accelerations, project
 from berryshaker.multibody.force_elements import fint_is_contact, forces
 from berryshaker.multibody.perturbation import InitialPerturbation, RandomInitialPerturbation
 from berryshaker.multibody.result import MultibodyResult
-from berryshaker.multibody.sampling import _write_sample, write_state_sample, write_step_samples
+from berryshaker.multibody.sampling import _write_sample
 from berryshaker.multibody.spec import MechanismSpec
 from berryshaker.multibody.specialised import is_compiled, mark_compiled, specialised_integrator
 from berryshaker.multibody.step_control import (load_resume, next_step_size, onset_cut_size, record_step_size,
@@ -175,14 +175,16 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
         engine builds (the groove-cam and crank-rocker drives, with a modal plant, with the powered driveline;
         the slider-crank of the validation cases) has the same ones.
     parts : tuple of str
-        Any of :data:`ENGINE_PARTS`: ``"projection"`` (``dynamics.project`` and ``constraint_residuals``: the
-        constraint equations, their Jacobian and the multiplier solve), ``"forces"`` (``force_elements.forces``:
-        every force element and contact law), ``"right_hand_side"`` (``dynamics.accelerations``: the forces, the
-        constraints and the multiplier solve of one right-hand side, compiling the other two first if they are
-        not; and what calls it, the step ``dopri.rk_step`` and the output samples of ``sampling``),
-        ``"step_events"`` (the integrator's helpers for contact onsets, dense output, output samples and step-size
-        control), ``"step_forces"`` (its helpers that evaluate the contact laws inside a step: the force bound, the
-        interior force peak and ``contact_events.record_contacts``).
+        Any of :data:`ENGINE_PARTS`: ``"projection"`` (``dynamics.project``: the constraint equations, their
+        Jacobian and the multiplier solve), ``"forces"`` (``force_elements.forces``: every force element and
+        contact law), ``"right_hand_side"`` (``dynamics.accelerations``: the forces, the constraints and the
+        multiplier solve of one right-hand side, compiling the other two first if they are not; only the loop
+        itself calls it), ``"step_events"`` (the integrator's helpers for contact onsets, dense output, output
+        samples and step-size control), ``"step_forces"`` (its helpers that evaluate the contact laws inside a
+        step: the force bound, the interior force peak and ``contact_events.record_contacts``).  The functions that
+        numba inlines into the loop (``inline="always"``: the step's stages, its error and dense-output
+        coefficients, the constraint residuals, the output samples' tests, the forces at interior peaks) are no part: the loop compiles
+        their code itself, and a compilation of their own would be used by nothing.
 
     Returns
     -------
@@ -211,22 +213,14 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     k, vec, pen = np.zeros((7, ny)), np.zeros(ny), np.zeros(nf)
     out_y, out_e, out_lam = np.zeros((2, ny)), np.zeros((2, nf, L.N_EO)), np.zeros((2, cm.m))
     i0, f0, yes = np.int64(0), 0.0, True
-    calls = {"projection": [(project, (f0, y, cm.model, state, work, np.int64(3))),
-                            (constraint_residuals, (cm.model, work, y))],
+    calls = {"projection": [(project, (f0, y, cm.model, state, work, np.int64(3)))],
              "forces": [(forces, (f0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact,
                                   v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab,
                                   plant_p, work[4], work[5], laws))],
-             "right_hand_side": [(accelerations, (f0, y, cm.model, state, work, np.zeros_like(y))),
-                                 (rk_step, (f0, f0, y, k, vec, cm.model, state, work)),
-                                 (write_state_sample, (i0, f0, y, cm.model, state, work, vec, vec, out_y, out_e,
-                                                       out_lam)),
-                                 (write_step_samples, (i0, vec, f0, f0, f0, yes, k, vec, vec, vec, vec, y, cm.model,
-                                                       state, work, vec, vec, out_y, out_e, out_lam))],
+             "right_hand_side": [(accelerations, (f0, y, cm.model, state, work, np.zeros_like(y)))],
              "step_events": [(fint_is_contact, (cm.model, i0)),
                              (_onset_fraction, (f0,) * 5), (_crossing_rate, (f0,) * 5),
                              (first_onset_fraction, (cm.model, state, work, pen, pen, f0)),
-                             (error_norm, (f0, y, vec, k, vec, f0, vec)),
-                             (dense_coefficients, (f0, k, vec, vec, vec, vec, vec)),
                              (_dense_state, (f0, f0, k, y, y, y, y, y)),
                              (_write_sample, (i0, y, work[5], work[6], out_y, out_e, out_lam)),
                              (rejected_step_size, (f0, f0)), (onset_cut_size, (f0, f0)),
@@ -235,9 +229,8 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
                              (load_resume, (vec, vec, k[0], pen, pen, pen))],
              "step_forces": [(_step_force_bound, (cm.model, i0) + (f0,) * 6),
                              (_interior_peak, (cm.model, i0) + (f0,) * 6),
-                             (record_contacts, (f0, f0, f0, f0, cm.model, state, work, k, vec, vec, vec, vec, vec,
-                                                np.zeros((nf, L.N_EO)), vec, pen, pen, pen, pen,
-                                                np.zeros((nf, L.N_FIRST))))]}
+                             (record_contacts, (f0, f0, f0, f0, cm.model, state, work, pen, pen, pen, pen,
+                                                np.zeros((nf, L.N_FIRST)), pen))]}
     out = {}
     for part in parts:
         c0 = time.process_time()

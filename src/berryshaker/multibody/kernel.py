@@ -20,9 +20,12 @@ constraint rows (:mod:`~berryshaker.multibody.constraint_rows`), the force eleme
 equations of motion and the projection (:mod:`~berryshaker.multibody.dynamics`), the integrator's step
 (:mod:`~berryshaker.multibody.dopri`), its step-size control (:mod:`~berryshaker.multibody.step_control`), contact
 events (:mod:`~berryshaker.multibody.contact_events`), output samples (:mod:`~berryshaker.multibody.sampling`) and
-this loop, which ties them together.  The mechanism-specialised kernels (:mod:`berryshaker.multibody.specialised`)
-compile this module's source, and that of the step and sampling functions, with their own constraint rows and
-multiplier solve.
+this loop, which ties them together.  The loop is the one compiled function besides ``dynamics.accelerations``
+that evaluates the right-hand side (the step's stages, the output samples): numba compiles a callee's code again
+into every compiled caller, so each function of its own that called it would compile the forces, constraint rows
+and solve once more (:mod:`~berryshaker.multibody.dopri`).  The mechanism-specialised kernels
+(:mod:`berryshaker.multibody.specialised`) compile this module's source, and that of ``accelerations``, with their
+own constraint rows and multiplier solve.
 """
 
 from __future__ import annotations
@@ -32,14 +35,14 @@ import math
 import numpy as np
 from numba import njit
 
-from berryshaker.multibody.contact_events import first_onset_fraction, record_contacts
-from berryshaker.multibody.dopri import dense_coefficients, error_norm, rk_step
+from berryshaker.multibody.contact_events import first_onset_fraction, interior_peak_forces, record_contacts
+from berryshaker.multibody.dopri import _dense_state, dense_coefficients, error_norm, stage_state
 from berryshaker.multibody.dynamics import accelerations, constraint_residuals, project
 from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, INFO_ACCEPTED, INFO_CUTS, INFO_MAX_RESIDUAL,
                                           INFO_REJECTED, INFO_STATUS, INFO_T_FAIL, N_EO, N_INFO, RS_LIMIT, RS_STARTED,
                                           STATUS_BUDGET, STATUS_NONFINITE, STATUS_OK, STATUS_PAUSED,
                                           STATUS_PROJECTION, STATUS_UNDERFLOW)
-from berryshaker.multibody.sampling import _write_sample, write_state_sample, write_step_samples
+from berryshaker.multibody.sampling import _write_sample, sample_at_end, sample_inside
 from berryshaker.multibody.step_control import (load_resume, next_step_size, onset_cut_size, record_step_size,
                                                 rejected_step_size, save_resume)
 
@@ -108,13 +111,14 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
     (``info[0]`` the budget again) continues from it exactly as an uninterrupted run would (the same step
     sequence, bitwise).  ``y0`` is read at the start only.
 
-    Each try of a step (:func:`~berryshaker.multibody.dopri.rk_step`, its error
+    Each try of a step (its stages :func:`~berryshaker.multibody.dopri.stage_state`, its error
     :func:`~berryshaker.multibody.dopri.error_norm`) is cut back to a contact onset inside it
     (:func:`~berryshaker.multibody.contact_events.first_onset_fraction`), rejected on its error or accepted; an
     accepted step is projected onto the constraints when it drifted, its contacts recorded
-    (:func:`~berryshaker.multibody.contact_events.record_contacts`), the next size chosen
+    (:func:`~berryshaker.multibody.contact_events.record_contacts`, the forces at peaks inside the step
+    :func:`~berryshaker.multibody.contact_events.interior_peak_forces`), the next size chosen
     (:mod:`~berryshaker.multibody.step_control`) and the output samples in it written
-    (:mod:`~berryshaker.multibody.sampling`).
+    (:mod:`~berryshaker.multibody.sampling`, :func:`~berryshaker.multibody.dopri._dense_state`).
 
     Parameters
     ----------
@@ -166,6 +170,7 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
     rc5 = np.empty(ny)
     e_vec = np.empty(ny)  # error estimate, then the dense output's fifth coefficient, per state
     e_save = np.empty((nf, N_EO))
+    u_peak = np.empty(nf)  # where in the step each element's force peaks (fraction; -1: nowhere to evaluate)
     # the cam foot-point memories (Newton's starting guesses) as they stand after each accepted step: the
     # evaluations for output samples and interior peaks start from them and leave them as they were, so the
     # trajectory does not depend on the output grid (a guess moves the converged foot point by round-off,
@@ -205,7 +210,11 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
              io) = load_resume(resume, y, k[0], pen_start, f_start, pdot_start)
     while io < n_out:
         if t >= t_end - 1e-15:  # only reached with t_end within 1e-15 s: the remaining samples are the state
-            io = write_state_sample(io, t, y, model, state, work, y_out, k_out, out_y, out_e, out_lam)
+            for i in range(ny):
+                y_out[i] = y[i]
+            accelerations(t, y_out, model, state, work, k_out)
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
+            io += 1
             continue
         if stop > 0.0 and acc + rej >= stop:
             info[INFO_ACCEPTED] = acc
@@ -220,7 +229,11 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
                                 pen_start, f_start, pdot_start)
             return
         h_try = h if h < t_end - t else t_end - t
-        rk_step(t, h_try, y, k, ytmp, model, state, work)
+        # the step's stages k[1] .. k[6]: the last one's state is the 5th-order solution ytmp, its derivative
+        # k[6] (first same as last), and it leaves the work arrays at (t + h_try, ytmp)
+        for s in range(1, 7):
+            t_s = stage_state(s, t, h_try, y, k, ytmp)
+            accelerations(t_s, ytmp, model, state, work, k[s])
         err = error_norm(h_try, y, ytmp, k, e_vec, rtol, atol)
         if not math.isfinite(err):
             info[INFO_T_FAIL] = t
@@ -251,7 +264,7 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
         for i in range(ny):
             y_old[i] = y[i]
             y[i] = ytmp[i]
-        dense = io < n_out and t_out[io] < t - 1e-15
+        dense = sample_inside(io, t_out, t)
         # DOPRI5 continuous extension, before k[0] is overwritten: output samples and interior force peaks inside
         # the step
         dense_coefficients(h_try, k, y_old, ytmp, bspl, rc5, e_vec)
@@ -279,8 +292,10 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
             psi_c_keep[i] = psi_c[i]
         for i in range(psi_f.shape[0]):
             psi_f_keep[i] = psi_f[i]
-        onset = record_contacts(t, t_old, h_try, stats_from, model, state, work, k, ytmp, y_old, bspl, rc5, y_out,
-                                e_save, psi_f_keep, pen_start, f_start, pdot_start, peaks, first)
+        onset = record_contacts(t, t_old, h_try, stats_from, model, state, work, pen_start, f_start, pdot_start,
+                                peaks, first, u_peak)
+        interior_peak_forces(t, t_old, h_try, stats_from, model, state, work, k, ytmp, y_old, bspl, rc5, y_out,
+                             e_save, psi_f_keep, u_peak, peaks, first)
         h, err_old = next_step_size(h_try, err, err_old, last_rejected, h_max)
         last_rejected = False
         if onset and h_resume > 0.0:
@@ -289,9 +304,19 @@ def integrate_resumable(y0, t_out, model, state, work, rtol, atol, h_max, stats_
             if h < h_resume:
                 h = min(h_max, h_resume)
             h_resume = 0.0
-        # output samples inside the step: interpolated state, forces and multipliers evaluated there
-        io = write_step_samples(io, t_out, t_old, t, h_try, dense, k, ytmp, y_old, bspl, rc5, y, model, state, work,
-                                y_out, k_out, out_y, out_e, out_lam)
+        # output samples inside the step: the dense output's state, forces and multipliers evaluated there
+        while sample_inside(io, t_out, t):
+            _dense_state((t_out[io] - t_old) / h_try, h_try, k, ytmp, y_old, bspl, rc5, y_out)
+            accelerations(t_out[io], y_out, model, state, work, k_out)
+            _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
+            io += 1
+        if sample_at_end(io, t_out, t):
+            # a sample at the step's end: the accepted (projected) state itself, evaluated again only when a
+            # sample inside the step moved the work arrays
+            if dense:
+                accelerations(t, y, model, state, work, k_out)
+            _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
+            io += 1
         for i in range(psi_c.shape[0]):
             psi_c[i] = psi_c_keep[i]
         for i in range(psi_f.shape[0]):

@@ -1,22 +1,41 @@
 """The integrator's output samples: the state, element outputs and multipliers written at the times of the output
-grid (``t_out``).  A sample inside a step is the step's dense output, with the forces and multipliers evaluated
-there; a sample at a step's end is the accepted (projected) state itself.  The steps do not depend on the grid: a
+grid (``t_out``).  A sample inside a step is the step's dense output (:func:`berryshaker.multibody.dopri._dense_state`),
+with the forces and multipliers evaluated there; a sample at a step's end is the accepted (projected) state itself,
+evaluated again only when a sample inside the step moved the work arrays.  The steps do not depend on the grid: a
 sample's evaluation leaves the integration state as it found it (the loop restores the foot memories), so every
 sample in a window is bitwise that of a run on any other grid.
+
+Which samples a step holds (:func:`sample_inside`, :func:`sample_at_end`) and how one is written
+(:func:`_write_sample`) are here; the loop (:mod:`berryshaker.multibody.kernel`) evaluates the right-hand side at a
+sample's state itself, so that no compiled function here carries the right-hand side's code (numba compiles a
+callee's code again into every compiled caller: see :mod:`berryshaker.multibody.dopri`).
 """
 
 from __future__ import annotations
 
 from numba import njit
 
-from berryshaker.multibody.dopri import _dense_state
-from berryshaker.multibody.dynamics import accelerations
+#: s: an output time within this of a step's end is the step's end state
+SAMPLE_TIME_TOL = 1e-15
 
 
 @njit(cache=True, _nrt=False)
 def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
     """Output sample io: state, element outputs, multipliers (element-wise loops: a slice assignment would
-    compile numpy's broadcasting and its error messages into the integrator, seconds of cold start)."""
+    compile numpy's broadcasting and its error messages into the integrator, seconds of cold start).
+
+    Parameters
+    ----------
+    io : int
+        Index of the sample.
+    y : numpy.ndarray
+        The state (m, rad; m/s, rad/s).
+    eout, lam : numpy.ndarray
+        The element outputs (``layout.EO_*``, SI) and multipliers (N, N m) evaluated at ``y``.
+    out_y, out_e, out_lam : numpy.ndarray
+        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
+        m).
+    """
     for i in range(y.shape[0]):
         out_y[io, i] = y[i]
     for j in range(eout.shape[0]):
@@ -26,43 +45,9 @@ def _write_sample(io, y, eout, lam, out_y, out_e, out_lam):
         out_lam[io, a] = lam[a]
 
 
-@njit(cache=True, _nrt=False)
-def write_state_sample(io, t, y, model, state, work, y_out, k_out, out_y, out_e, out_lam):
-    """Output sample io at the state (t, y) itself: the forces and multipliers evaluated there (``y_out`` and
-    ``k_out`` are work space).  Returns the next sample's index.
-
-    Parameters
-    ----------
-    io : int
-        Index of the next output sample.
-    t : float
-        Time (s).
-    y : numpy.ndarray
-        The state to write (m, rad; m/s, rad/s).
-    model, state, work : tuple
-        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
-        (:mod:`berryshaker.multibody.dynamics`).
-    y_out, k_out : numpy.ndarray
-        Work space: an interpolated state (m, rad; m/s, rad/s) and its derivative (m/s, rad/s; m/s^2, rad/s^2).
-    out_y, out_e, out_lam : numpy.ndarray
-        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
-        m).
-    """
-    lam, eout = work[6], work[5]
-    for i in range(y.shape[0]):
-        y_out[i] = y[i]
-    accelerations(t, y_out, model, state, work, k_out)
-    _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
-    return io + 1
-
-
-@njit(cache=True, _nrt=False)
-def write_step_samples(io, t_out, t_old, t, h, dense, k, ytmp, y_old, bspl, rc5, y, model, state, work, y_out,
-                       k_out, out_y, out_e, out_lam):
-    """The output samples io, io + 1, ... that fall in the accepted step (t_old, t] of size h: inside it the dense
-    output (``k``, ``ytmp``, ``y_old``, ``bspl``, ``rc5``: :func:`berryshaker.multibody.dopri._dense_state`), at its
-    end the accepted (projected) state ``y``, evaluated again only when ``dense`` (a sample inside the step moved
-    the work arrays).  Returns the next sample's index.
+@njit(cache=True, _nrt=False, inline="always")
+def sample_inside(io, t_out, t):
+    """Whether output sample io lies inside a step that ends at t (the step's dense output gives its state).
 
     Parameters
     ----------
@@ -70,44 +55,24 @@ def write_step_samples(io, t_out, t_old, t, h, dense, k, ytmp, y_old, bspl, rc5,
         Index of the next output sample.
     t_out : numpy.ndarray
         Output times (s).
-    t_old : float
-        Time at the step's start (s).
     t : float
         Time at the step's end (s).
-    h : float
-        Step size (s).
-    dense : bool
-        Whether output samples lie inside the step.
-    k : numpy.ndarray
-        Stage derivatives of the step (7 rows; m/s, rad/s; m/s^2, rad/s^2).
-    ytmp : numpy.ndarray
-        The step's end state as the step computed it (m, rad; m/s, rad/s).
-    y_old : numpy.ndarray
-        State at the step's start (m, rad; m/s, rad/s).
-    bspl, rc5 : numpy.ndarray
-        The step's dense-output coefficients h k1 - (y1 - y0) and h sum_i D_i k_i (m, rad; m/s, rad/s).
-    y : numpy.ndarray
-        State at the step's end (m, rad; m/s, rad/s).
-    model, state, work : tuple
-        The compiled mechanism's arrays, the state carried between evaluations and the work arrays
-        (:mod:`berryshaker.multibody.dynamics`).
-    y_out, k_out : numpy.ndarray
-        Work space: an interpolated state (m, rad; m/s, rad/s) and its derivative (m/s, rad/s; m/s^2, rad/s^2).
-    out_y, out_e, out_lam : numpy.ndarray
-        The written series: states (m, rad; m/s, rad/s), element outputs (``layout.EO_*``, SI), multipliers (N, N
-        m).
     """
-    lam, eout = work[6], work[5]
-    n_out = t_out.shape[0]
-    while io < n_out and t_out[io] < t - 1e-15:
-        _dense_state((t_out[io] - t_old) / h, h, k, ytmp, y_old, bspl, rc5, y_out)
-        accelerations(t_out[io], y_out, model, state, work, k_out)
-        _write_sample(io, y_out, eout, lam, out_y, out_e, out_lam)
-        io += 1
-    if io < n_out and t_out[io] <= t + 1e-15:
-        # a sample at the step's end: the accepted (projected) state itself
-        if dense:
-            accelerations(t, y, model, state, work, k_out)
-        _write_sample(io, y, eout, lam, out_y, out_e, out_lam)
-        io += 1
-    return io
+    return io < t_out.shape[0] and t_out[io] < t - SAMPLE_TIME_TOL
+
+
+@njit(cache=True, _nrt=False, inline="always")
+def sample_at_end(io, t_out, t):
+    """Whether output sample io, none of whose predecessors is left, is at the end t of a step (its state is the
+    step's accepted state).
+
+    Parameters
+    ----------
+    io : int
+        Index of the next output sample.
+    t_out : numpy.ndarray
+        Output times (s).
+    t : float
+        Time at the step's end (s).
+    """
+    return io < t_out.shape[0] and t_out[io] <= t + SAMPLE_TIME_TOL

@@ -17,10 +17,9 @@ mechanism, from the structure alone:
   results are bitwise those of the generic kernel; tests/multibody/test_specialised.py), with every index a
   literal and every entry of W a local variable;
 * the right-hand side ``dynamics.accelerations`` and everything on the integrator's path that calls it
-  (:data:`GENERIC_SOURCES`: the step ``dopri.rk_step``, the output samples of ``sampling``, the loop
-  ``kernel.integrate_resumable`` and ``kernel.integrate``): the generic kernel's own source, compiled in the
-  generated module so that they call the two functions above; every other name they use is imported from its
-  generic module (the constraint projection after a step stays generic; sec. 29).  The generator refuses to
+  (:data:`GENERIC_SOURCES`: the loop ``kernel.integrate_resumable``, which alone evaluates it, and
+  ``kernel.integrate``): the generic kernel's own source, compiled in the generated module so that they call the
+  two functions above; every other name they use is imported from its generic module (the constraint projection after a step stays generic; sec. 29).  The generator refuses to
   write a module in which a generic function it imports would reach the generic constraints or solve
   (:func:`_check_generic_sources`), so a new caller of ``accelerations`` cannot leave the specialised kernel
   quietly running the generic one.
@@ -52,15 +51,14 @@ from pathlib import Path
 
 import numpy as np
 
-from berryshaker.multibody import constraint_rows, dopri, dynamics, kernel, linear_solve, sampling
+from berryshaker.multibody import constraint_rows, dynamics, kernel, linear_solve
 from berryshaker.multibody.layout import CON_CAM_ROLLER, CON_DRIVER, CON_POINT_LINE, CON_PRISMATIC, CON_REVOLUTE
 
 #: the generated module's format; part of every structure key, so a change of the generator starts new files
-GENERATOR_VERSION = 3
+GENERATOR_VERSION = 4
 #: the generic functions compiled again in the generated module (their source as it is): every function of the
 #: integrator's path that calls ``accelerations`` (and so the constraint rows and the solve), callers after callees
-GENERIC_SOURCES = (dynamics.accelerations, dopri.rk_step, sampling.write_state_sample, sampling.write_step_samples,
-                   kernel.integrate_resumable, kernel.integrate)
+GENERIC_SOURCES = (dynamics.accelerations, kernel.integrate_resumable, kernel.integrate)
 #: the generic functions that call the constraint rows or the solve and stay generic in the generated module: the
 #: projection after a step (specialising it cost 3.8 s more compilation for little, benchmarks/HISTORY.md sec. 29)
 GENERIC_KEPT = (dynamics.project,)
