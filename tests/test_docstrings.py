@@ -8,9 +8,8 @@ return and attribute (typed float, array or ndarray) must state its unit: SI ins
 dataclass); a pydantic model's fields are documented in the annotated reference descriptions instead
 (:func:`_fields_documented_elsewhere`).
 
-Modules being rewritten by other work are listed in ``PENDING`` and skipped for now; ``test_pending_still_pending``
-fails as soon as a pending entry has become clean, so the list only shrinks: remove the entry then.  Each skip
-names its count of problems.  ``python tests/test_docstrings.py [MODULE ...]`` prints the problems in full.
+Every public module is checked; none is exempt.  ``python tests/test_docstrings.py [MODULE ...]`` prints the
+problems in full.
 """
 
 from __future__ import annotations
@@ -44,13 +43,6 @@ RULES = {
     "YD01": "a generator has a Yields section",
 }
 
-#: Modules (a package covers its submodules) skipped for now: their docstrings are being rewritten with the
-#: re-cuts of issue 46.  The lead empties this set as the re-cuts land; an entry that has become clean fails
-#: test_pending_still_pending, so delete it then.
-PENDING = set()
-#: a pending package entry does not cover these submodules of it (they are checked now); the nearest entry wins
-PENDING_EXCEPT = set()
-
 # a numeric parameter or return (its type names a float or an array) must state its unit
 _NUMERIC_TYPE = re.compile(r"\b(float|floats|array|arrays|ndarray|array_like|array-like)\b")
 _COUNT_TYPE = re.compile(r"\b(of|or) (int|bool|str)\b")  # an array of level codes or flags has no unit
@@ -61,12 +53,6 @@ _UNIT_WORDS = re.compile(r"\b(dimensionless|unitless|SI|same units? as|units? of
                          re.I)
 _COMPOUND_UNIT = re.compile(rf"(?<![\w.]){_UNIT_ATOM}\s?[/*^·]\s?\(?{_UNIT_ATOM}?")  # m/s, rad/s^2, N*m, m^2
 _IN_UNIT = re.compile(rf"\bin {_UNIT_ATOM}(?![\w])")  # "in m", "in rad"
-
-
-def is_pending(modname: str) -> bool:
-    """True when the nearest entry of PENDING or PENDING_EXCEPT that covers ``modname`` is in PENDING."""
-    covering = [e for e in PENDING | PENDING_EXCEPT if modname == e or modname.startswith(e + ".")]
-    return bool(covering) and max(covering, key=len) in PENDING
 
 
 def public_modules() -> list[str]:
@@ -162,33 +148,13 @@ MODULES = public_modules()
 @pytest.mark.parametrize("modname", MODULES)
 def test_docstrings(modname):
     """Every public docstring of the module passes RULES and states its units."""
-    if is_pending(modname):
-        try:
-            count = f"{len(problems(modname))} docstring problems"
-        except ImportError as exc:  # a module in the middle of its re-cut
-            count = f"does not import now ({exc})"
-        pytest.skip(f"PENDING: {count}")
     found = problems(modname)
     assert not found, f"{len(found)} docstring problems in {modname}:\n" + "\n".join(found)
 
 
-@pytest.mark.parametrize("entry", sorted(PENDING))
-def test_pending_still_pending(entry):
-    """A PENDING entry that has become clean is removed from the list (it only shrinks)."""
-    covered = [m for m in MODULES if (m == entry or m.startswith(entry + ".")) and is_pending(m)]
-    assert covered, f"PENDING entry {entry} names no module: remove it"
-    def unclean(m):
-        try:
-            return bool(problems(m))
-        except ImportError:  # in the middle of its re-cut: still pending
-            return True
-
-    assert any(unclean(m) for m in covered), f"{entry} is clean now: remove it from PENDING in {__file__}"
-
-
-if __name__ == "__main__":  # print the problems of the named modules (default: all), pending ones included
+if __name__ == "__main__":  # print the problems of the named modules (default: all)
     for name in sys.argv[1:] or MODULES:
         found = problems(name)
-        print(f"{len(found):4d} {name}{'  (pending)' if is_pending(name) else ''}")
+        print(f"{len(found):4d} {name}")
         for line in found:
             print("       " + line)
