@@ -6,6 +6,10 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 # runs left to choose take the generic kernel here whatever this machine has compiled (multibody.specialised), so the
 # suite exercises the same kernel everywhere; the tests of that choice remove it (tests/multibody/test_specialised.py)
 os.environ["BERRYSHAKER_KERNEL"] = "generic"
+# pytest-xdist workers start with COLUMNS=80 in their environment, and a rich Console made at import fixes its width
+# from COLUMNS: drop it, so each command sees the width its test gives (CliRunner env), as in a serial run
+os.environ.pop("COLUMNS", None)
+os.environ.pop("LINES", None)
 
 
 @pytest.fixture(scope="session")

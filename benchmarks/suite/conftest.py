@@ -1,8 +1,8 @@
 """The benchmark suite's settings and its ratios (benchmarks/README.md).
 
 The suite is not part of the test suite (``pytest`` collects ``tests/`` only, ``testpaths``); run it with
-``pytest benchmarks/suite``.  Runs left to choose take the generic kernel here, as in ``tests/`` (a run left to
-choose would take the kernel specialised to its structure once that is compiled on this machine:
+``pytest -n 0 benchmarks/suite`` (one process: timings are not shared with other workers).  Runs left to choose
+take the generic kernel here, as in ``tests/`` (a run left to choose would take the kernel specialised to its structure once that is compiled on this machine:
 ``multibody.specialised``); the cases of the specialised kernel ask for it.
 
 After the run the suite prints, and ``--benchmark-save`` stores under ``"ratios"`` in its JSON, the ratios it
