@@ -121,7 +121,8 @@ def plot_predictions(res: dict, path: Path) -> dict:
     preds = res["predictions"]
     responses = list(preds[0]["responses"]) if preds else []
     n = len(preds)
-    fig, axes = new_figure(len(responses), 1, figsize=(max(7.0, 0.16 * n + 3), 2.4 * len(responses) + 1.2),
+    named = n <= 20  # up to 20 level sets are named under the axis; more are numbered as the predictions table's rows
+    fig, axes = new_figure(len(responses), 1, figsize=(7.0, 2.4 * len(responses) + (1.2 if named else 0.4)),
                            squeeze=False, sharex=True)
     drawn = {}
     x = list(range(1, n + 1))
@@ -138,8 +139,11 @@ def plot_predictions(res: dict, path: Path) -> dict:
         label_axes(ax, None, f"{resp} [{preds[0]['responses'][resp]['unit']}]")
         drawn[resp] = {"mean": m, "lo": lo, "hi": hi}
     ax = axes[-1, 0]
-    ax.set_xticks(x, [p["level_set"] for p in preds], rotation=90, fontsize=6)
-    label_axes(ax, "level set [-]")
+    if named:
+        ax.set_xticks(x, [p["level_set"] for p in preds], rotation=90, fontsize=6)
+        label_axes(ax, "level set [-]")
+    else:
+        label_axes(ax, "level set: row of the predictions table [-]")
     axes[0, 0].legend(fontsize=7, loc="lower right", bbox_to_anchor=(1.0, 1.02), ncols=2)
     finish(fig, path)
     return drawn
@@ -281,11 +285,11 @@ def calibration_html(res: dict, title: str, figs: dict[str, Path]) -> str:
                  (f"; no difference beyond the intervals from: {e(', '.join(rec['no_difference']))}"
                   if rec["no_difference"] else "") + f".  <span class='small'>{e(rec['rule'])}.</span></p>")
     responses = list(res["predictions"][0]["responses"]) if res["predictions"] else []
-    parts.append(_table(["level set", "tested", *[f"{r} ({res['predictions'][0]['responses'][r]['unit']}): mean "
+    parts.append(_table(["row", "level set", "tested", *[f"{r} ({res['predictions'][0]['responses'][r]['unit']}): mean "
                                                   "[90 %]" for r in responses]],
-                        [[p["level_set"] + (" (extrapolated)" if p["extrapolated"] else ""), p["tested"],
+                        [[i, p["level_set"] + (" (extrapolated)" if p["extrapolated"] else ""), p["tested"],
                           *[f"{p['responses'][r]['mean']:.3g} [{p['responses'][r]['lo90']:.3g}, "
-                            f"{p['responses'][r]['hi90']:.3g}]" for r in responses]] for p in res["predictions"]]))
+                            f"{p['responses'][r]['hi90']:.3g}]" for r in responses]] for i, p in enumerate(res["predictions"], 1)]))
     parts.append(_img(figs["predictions"], "Predicted mean and 90 % interval of a future field result per level set"))
     parts.append("<h2>Emulator and sampler</h2>")
     em = res["emulator"]
