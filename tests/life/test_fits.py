@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from berryshaker.errors import ConfigError
-from berryshaker.life import iso286_data as data
+import berryshaker.life.iso286_data as data
 from berryshaker.life.fits import (
     HOLE_LETTERS,
     SHAFT_LETTERS,

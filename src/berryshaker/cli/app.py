@@ -21,7 +21,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from berryshaker import __version__
-from berryshaker.cli.flag_help import show_flags_as_flags
+from berryshaker.cli.flag_help import show_flags_as_flags  # importing it patches the help of every command
 from berryshaker.errors import BerryshakerError
 
 app = typer.Typer(

@@ -7,7 +7,6 @@ from typing import Optional
 
 import typer
 
-from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import ConfigOpt, JsonOpt, _fail, _load, _print_json, app, command, err, out
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import BerryshakerError

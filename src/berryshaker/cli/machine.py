@@ -11,7 +11,6 @@ from rich.markup import escape
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.outputs import write_provenance
-from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,

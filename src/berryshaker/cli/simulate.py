@@ -10,7 +10,6 @@ import typer
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.outputs import write_provenance
-from berryshaker.cli import flag_help  # noqa: F401  (flags show as flags in --help)
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,

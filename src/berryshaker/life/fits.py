@@ -38,7 +38,7 @@ from typing import Literal
 import numpy as np
 
 from berryshaker.errors import ConfigError
-from berryshaker.life import iso286_data as data
+import berryshaker.life.iso286_data as data
 
 Distribution = Literal["uniform", "uniform-parts", "normal"]
 DISTRIBUTIONS: tuple[str, ...] = ("uniform", "uniform-parts", "normal")
