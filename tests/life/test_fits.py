@@ -11,15 +11,12 @@ import pytest
 
 from berryshaker.errors import ConfigError
 import berryshaker.life.iso286_data as data
-from berryshaker.life.fits import (
+from berryshaker.life.fits import clearance_range_fit, fit_summary, iso_fit, parse_fit
+from berryshaker.life.iso286_limits import (
     HOLE_LETTERS,
     SHAFT_LETTERS,
-    clearance_range_fit,
-    fit_summary,
     geometric_mean_size_mm,
-    iso_fit,
     limit_deviations_um,
-    parse_fit,
     shaft_deviation_formula_um,
     standard_tolerance_formula_um,
     standard_tolerance_um,

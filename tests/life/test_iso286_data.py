@@ -34,7 +34,7 @@ import math
 import pytest
 
 import berryshaker.life.iso286_data as data
-from berryshaker.life.fits import HOLE_LETTERS, SHAFT_LETTERS, limit_deviations_um, standard_tolerance_um
+from berryshaker.life.iso286_limits import HOLE_LETTERS, SHAFT_LETTERS, limit_deviations_um, standard_tolerance_um
 
 # ISO 286-1:2010 Table 1 (main ranges) and Table 2 (intermediate ranges of a, b, c; 10-14/14-18 and 18-24/24-30
 # carry equal values for these letters and are merged by the package)
