@@ -38,6 +38,7 @@ import numpy as np
 from scipy import special
 
 from berryshaker.config import Machine
+from berryshaker.harvest.shaking import shaking_amplitude
 
 #: standard gravity (m/s^2)
 GRAVITY = 9.80665
@@ -70,7 +71,6 @@ def bruise_probability(drop_height, median_height: float, cv: float):
 @functools.lru_cache(maxsize=64)
 def _finger_speed(machine_json: str) -> float:
     from berryshaker.config import machine_from_dict
-    from berryshaker.harvest.virtual import shaking_amplitude
     import json
 
     m = machine_from_dict(json.loads(machine_json))
@@ -79,7 +79,7 @@ def _finger_speed(machine_json: str) -> float:
 
 def finger_speed(machine: Machine) -> float:
     """Peak speed of the striking fingers (m/s): omega x the finger amplitude of the drive geometry
-    (berryshaker.harvest.virtual.shaking_amplitude), the peak speed of a harmonic swing.
+    (berryshaker.harvest.shaking.shaking_amplitude), the peak speed of a harmonic swing.
 
     Parameters
     ----------
