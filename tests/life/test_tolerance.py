@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from berryshaker.config import load_machine
+from berryshaker.life.clearance_response import ClearanceResponse
 from berryshaker.life.fits import parse_fit
 from berryshaker.life.tolerance import (
-    ClearanceResponse,
     compromise_index,
     evaluate_designs,
     fit_cost,

@@ -237,7 +237,7 @@ def test_one_service_limit_rule_for_every_caller():
     name for the default limits give the same numbers."""
     from berryshaker.config import load_machine
     from berryshaker.life.service import service_limit, service_limits
-    from berryshaker.life.tolerance import default_clearance_limits
+    from berryshaker.life.clearance_response import default_clearance_limits
 
     m = load_machine(None)
     lim = service_limits(m)
