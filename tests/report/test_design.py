@@ -1,6 +1,7 @@
-"""The design report of the machine in --config (issue 45 item 1, berryshaker.report.design): from a study's
-results, the answers an engineer brings, each number with its interval and the step it comes from; the level set
-named by its clearances; why this efficiency; the opening section's HTML no wider than an A4 page.
+"""The design report of the machine in --config (issue 45 item 1, berryshaker.report.design, .harvest_answers,
+.design_html): from a study's results, the answers an engineer brings, each number with its interval and the step it
+comes from; the level set named by its clearances; why this efficiency; the opening section's HTML no wider than an
+A4 page, naming the sections by the report's numbers.
 
 Built from the trimmed results of a reference study run (tests/data/report_sections.json: the virtual L9, the
 clearance life, the harvest response) with the L9's paired differences added, and the same results renamed to
@@ -17,8 +18,9 @@ from pathlib import Path
 import pytest
 
 from berryshaker.config import load_machine
-from berryshaker.report.design import (MAX_COLUMNS, SECTIONS, claims_apply, compare_efficiency, design_answers,
-                                       design_answers_html, level_set_name, operating_point, why_efficiency)
+from berryshaker.report.design import claims_apply, design_answers, level_set_name
+from berryshaker.report.design_html import MAX_COLUMNS, STEP_SECTIONS, design_answers_html
+from berryshaker.report.harvest_answers import compare_efficiency, operating_point, why_efficiency
 
 DATA = Path(__file__).parents[1] / "data" / "report_sections.json"
 CRANK = Path(__file__).parents[1].parent / "examples" / "crank_rocker_harvester.toml"
@@ -107,7 +109,7 @@ def test_every_number_has_an_interval_and_a_source_step(which, request):
     qs = list(_quantities(a))
     assert len(qs) > 30
     for path, q in qs:
-        assert q["source"]["step"] in SECTIONS, path
+        assert q["source"]["step"] in STEP_SECTIONS, path
         assert q["source"]["where"] and q["interval"], path
         assert q["tag"].startswith("["), path
         if q["value"] is not None:
@@ -231,6 +233,19 @@ def test_html_tables_fit_an_a4_page(which, request):
         assert len(widths) == cols and sum(widths) == pytest.approx(100, abs=0.5)  # fixed shares of the page
     for p in machine.pair_names:
         assert f"<td class=\"l\">{p}</td>" in text
+
+
+def test_sections_are_named_by_the_reports_numbers(reference):
+    """The sections the numbers come from are numbered as the report numbers them (by renderer), none typed."""
+    from berryshaker.report.sections import clearance_life_section, harvest_response_section, virtual_l9_section
+
+    a = reference[2]
+    numbered = design_answers_html(a, {virtual_l9_section: 11, clearance_life_section: 12,
+                                       harvest_response_section: 14})
+    assert "11. Virtual L9" in numbered and "14. Harvest response" in numbered and "(section 11)" in numbered
+    assert ">11, 12</td>" in numbered
+    plain = design_answers_html(a)  # no numbering given: the sections' short names
+    assert "Virtual L9" in plain and not re.search(r"\d\. Virtual L9|section \d", plain)
 
 
 def test_html_is_no_wider_than_a4_in_chromium(crank, tmp_path):

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from berryshaker.report.html import _maybe_img, _num, _Raw, _table, l9_replicates_section
+from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
+from berryshaker.report.l9_replicates import l9_replicates_section
 from berryshaker.reference_study import EQ18_F
 
 #: a section renderer: input -> (title without its number, HTML parts)
@@ -309,7 +310,7 @@ def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
 
 def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     """The virtual L9 field test (study step ``virtual_l9``): runs, range analysis, the replicated analysis
-    (:func:`berryshaker.report.html.l9_replicates_section`), main effects and response surfaces.
+    (:func:`berryshaker.report.l9_replicates.l9_replicates_section`), main effects and response surfaces.
 
     Parameters
     ----------

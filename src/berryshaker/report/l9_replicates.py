@@ -1,0 +1,143 @@
+"""The virtual L9's replicated analysis in the study report (study/l9.py's ``replicated``, ``paired``,
+``recommended``, ``tolerance_check`` and ``tradeoff``): replicate spread and significance, the recommendation and
+its basis, the solver-tolerance check, the trade-off of the candidate clearance sets and Minitab's effect figures,
+as HTML parts of the virtual L9 section (:func:`berryshaker.report.sections.virtual_l9_section`).
+"""
+
+from __future__ import annotations
+
+import html
+import re
+from pathlib import Path
+
+from berryshaker.report.design import level_set_name
+from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
+from berryshaker.units import format_tolerance
+
+
+def _short_candidate(name: str) -> str:
+    """A trade-off candidate's short label: "run 3 (A1B3C3F3)" -> "3", "recommended (A1B1C1F3)" -> "rec."."""
+    m = re.match(r"run (\d+)\b", name)
+    if m:
+        return m.group(1)
+    return "rec." if name.startswith("recommended") else name
+
+
+def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
+    """Replicate spread, significance, the recommendation's basis, the solver-tolerance check and the trade-off
+    table of the virtual L9 (study/l9.py), as HTML parts.
+
+    Parameters
+    ----------
+    l9 : dict
+        The virtual L9 (study/l9.py).
+    figs : Path
+        Folder of the figures.
+    pair_names : sequence of str
+        The clearance pairs (factors).
+
+    Returns
+    -------
+    list of str
+        HTML parts.
+    """
+    rep = l9.get("replicated") or {}
+    units = l9.get("response_units") or rep.get("units") or {}
+    parts = []
+    pert = rep.get("perturbation")
+    if pert:
+        parts.append(f"<p class='small'>Replicates: {html.escape(pert['what'])}.</p>")
+    rows = []
+    paired = l9.get("paired") or {}
+    for name, ra in rep.get("responses", {}).items():
+        sd = ra["anova"]["pure_error"]["ms"] ** 0.5
+        e = ra["anova"].get("error", ra["anova"]["pure_error"])
+        sig = ", ".join(f"{f} (p = {ra['factors'][f]['p']:.2g})" for f in ra["significant_factors"]) or "none"
+        pr = "; ".join(f"{f}{q['levels'][1]} - {f}{q['levels'][0]}: {q['difference']:+.3g} +- {q['se']:.2g}"
+                       + ("" if q["beyond_noise"] else " (noise)") for f, q in paired.get(name, {}).items())
+        rows.append([name, units.get(name, ""), float(sum(ra["run_means"]) / len(ra["run_means"])), sd,
+                     e["ms"] ** 0.5, e["df"], sig, pr])
+    if rows:
+        parts.append("<h3>Replicate spread and significance</h3>")
+        parts.append("<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
+                     "from every comparison.  Per-start SD: the spread of one run's starts; blocked error SD: what "
+                     "effects are tested against (the run x start interaction); paired differences: the extreme levels "
+                     "of each factor compared start by start, +- one standard error, marked (noise) where that "
+                     "contrast's own paired t test over the starts (r - 1 dof) cannot tell them apart; the "
+                     "significant factors come from the F test, which pools the error of every contrast.</p>")
+        parts.append(_table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
+                             "significant factors", "paired differences (last - first level)"],
+                            rows, left=(0, 1, 6, 7)))
+    rec = l9.get("recommended") or {}
+    if rec.get("statement"):
+        parts.append("<h3>Recommendation and its basis</h3>")
+        parts.append(f"<p><b>{html.escape(rec.get('name') or level_set_name(rec['clearance_mm']))}</b> "
+                     f"({html.escape(rec['code'])}): {html.escape(rec['statement'])}</p>")
+        parts.append(_table(["factor", "level", "basis"], [[p, rec["levels"][p], rec["basis"][p]]
+                                                          for p in pair_names if p in rec.get("basis", {})],
+                            left=(0, 2)))
+        parts.append(f"<p class='small'>Rule: {html.escape(rec.get('rule', ''))}.</p>")
+        seq = rec.get("sequential")
+        if seq:
+            parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(seq['statement'])}.</p>")
+    tc = l9.get("tolerance_check") or {}
+    if tc.get("done"):
+        rt = tc.get("rtol", [1e-6, 1e-7])  # a summary written before the tolerances were recorded: 1e-6, 1e-7
+        parts.append("<h3>Solver-tolerance check</h3>")
+        parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
+                     f"re-run at rtol {format_tolerance(rt[1])}"
+                     + (f"; velocities held absolutely below rtol x {tc['velocity_scale_m_s']:g} m/s at both"
+                        if "velocity_scale_m_s" in tc else "") + ").</p>")
+        fmt = [format_tolerance(x) for x in rt]
+        rule = "within 2 x noise" if all("mean_change" in v for v in tc["responses"].values()) else \
+            "within 1 SD (a summary from before 2026-11-23)"
+        parts.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
+                             "noise of the mean (SD)", rule],
+                            [[n, v.get("mean_change", float("nan")), v["max_abs_change"], v["replicate_sd"],
+                              v.get("noise_sd", float("nan")), v["within_replicate_spread"]]
+                             for n, v in tc["responses"].items()]))
+    elif tc:
+        parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.get('reason', ''))}.</p>")
+    recs = l9.get("tradeoff") or []
+    if recs:
+        parts.append("<h3>Trade-off of the candidate clearance sets</h3>")
+        forces = [f"peak_force_N:{p}" for p in pair_names if f"peak_force_N:{p}" in recs[0]]
+        idx = [n for n in ("efficiency", "ripe_removal", "unripe", "damage") if n in recs[0]]
+        tq = [c for c in ("drive_torque_peak_Nm", "drive_torque_rms_Nm") if c in recs[0]]
+
+        def cell(r, c):  # the mean, its interval on a second line: narrow columns, short rows
+            lo, hi = r.get(f"{c}_lo", r[c]), r.get(f"{c}_hi", r[c])
+            return _Raw(f"{_num(r[c])}<span class='ci'>[{_num(lo)}, {_num(hi)}]</span>")
+
+        short = {r["name"]: _short_candidate(r["name"]) for r in recs}
+
+        def beaten_by(r):
+            names = [n.strip() for n in re.split(r",\s*(?=run |recommended)", r.get("dominated_by") or "") if n.strip()]
+            return ", ".join(short.get(n, n) for n in names) or "-"
+
+        header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
+        body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
+        parts.append(_table(header, body, left=(0, len(header) - 1)))
+        loads = (["candidate"] + [f"peak force {c.split(':')[1]} (N)" for c in forces]
+                 + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)])
+        if len(loads) > 1:
+            parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
+        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
+                     "of the same candidates in the second table; 'dominated by' names the dominating candidates by "
+                     "run number ('rec.': the recommended set).  A candidate is "
+                     "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
+                     "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's pure error, simultaneous over "
+                     "all candidates (experiment/tradeoff.py, study/l9.py); clearances are descriptive.  The tiered "
+                     "choice is confirmed against this table: a tested run that dominates it becomes the "
+                     "recommendation.</p>")
+    _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
+    _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
+    _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    for name in sorted(rep.get("responses", {})):  # Minitab's effect figures (report.plots.effects), where drawn
+        for kind, what in (("pareto", "Pareto chart of the standardized effects (t of each factor's linear and "
+                                      "quadratic contrasts against the blocked error)"),
+                           ("residuals", "Residuals of the main-effects model with blocks: normal probability plot "
+                                         "and residuals against fitted values"),
+                           ("interactions", "Interaction plots: mean of the starts at each pair of levels")):
+            _maybe_img(parts, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
+    return parts
