@@ -1,0 +1,291 @@
+"""Stem-force tables of the branch classes: one coupled drive-past per branch class (the reference branch with its
+diameters scaled, berryshaker.harvest.coupled.drive_past) gives a table of peak stem loads over position along
+the branch (:data:`Z_GRID`) and fruit mass (:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit
+of a population (peak force, peak pull-shear load ratio).  Part of the virtual harvest (berryshaker.harvest.virtual).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from berryshaker.config import Machine, machine_from_dict
+from berryshaker.harvest.spec import COUPLED_RTOL
+
+
+Z_GRID = np.linspace(0.0, 1.0, 41)
+
+
+def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
+    """Peak |acceleration| (m/s^2) along the branch (at Z_GRID fractions) for one branch class.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak lateral acceleration (m/s^2) over the drive-past at each fraction of :data:`Z_GRID`.
+    """
+    from berryshaker.harvest.coupled import drive_past
+
+    m = branch_class_machine(machine, scale)
+    _, motion = drive_past(m, clearance)
+    # fruit forces are m0 * acceleration; recover accelerations on the grid from the modal solution
+    acc = motion.lateral(Z_GRID * m.plant.branch.length)[2]  # (nz, n_t)
+    return np.max(np.abs(acc), axis=1)
+
+
+#: fruit-mass factors (of m0) of the stem-force envelope table; fruit in between are interpolated in log mass
+MASS_FACTORS = np.exp(np.linspace(math.log(0.4), math.log(2.5), 9))
+
+
+def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
+    """Peak stem force (N) of fruit on compliant pedicels, table over Z_GRID (rows) x MASS_FACTORS * m0
+    (:func:`stem_force_envelope_run` from the centred initial state).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        The table of :func:`stem_force_table`: (Z_GRID, MASS_FACTORS, channels), force in N and load ratios
+        dimensionless.
+    """
+    return stem_force_envelope_run(machine, clearance, scale)[0]
+
+
+#: output step (s) of the coupled drive-past behind a stem-force envelope (and a replicate's drive torque):
+#: the integrator's step cap, so at most one written sample per step.  Chosen by
+#: tests/harvest/test_virtual_sampling.py: on one trajectory (the engine's steps do not depend on the output grid)
+#: the envelope at 1e-4 s is within 1.2e-4 of a 1e-5 s grid (1.2e-4 of 2e-5 s) and the sampled drive-torque peak and RMS within
+#: 0.7 %, far inside a replicate's scatter (drive torque peak: SD ~7 %); 5e-4 s misses (torque RMS 3 %).
+#: It was 2e-5 s with every 5th sample used: the same envelope, 14 % more CPU per run.
+ENVELOPE_OUTPUT_STEP = 1e-4
+
+
+def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None, scale: float,
+                            initial_perturbation=None, rtol: float = COUPLED_RTOL):
+    """Peak stem-force table of one branch class and the coupled run it came from: ``(table, result)``.
+
+    Table: :func:`stem_force_table` of the branch class ``scale`` (diameters scaled); ``result``: the
+    run's :class:`~berryshaker.multibody.engine.MultibodyResult` (collision forces, drive torque).
+    ``initial_perturbation`` and ``rtol`` go to the coupled run
+    (:func:`berryshaker.harvest.coupled.drive_past`, the run of
+    :func:`berryshaker.harvest.coupled.simulate_fruit_force` without its named fruit): a replicate starts the
+    machine off centre in its clearances and at another drive phase.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    scale : float
+        Diameter scale of the branch class (dimensionless).
+    initial_perturbation : InitialPerturbation or RandomInitialPerturbation, optional
+        Start of a replicate (default the centred start).
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+
+    Returns
+    -------
+    table : numpy.ndarray
+        :func:`stem_force_table` (N for the force channel, dimensionless load ratios).
+    result : MultibodyResult
+        The coupled run, written every :data:`ENVELOPE_OUTPUT_STEP`.
+    """
+    from berryshaker.harvest.coupled import drive_past
+
+    m = branch_class_machine(machine, scale)
+    res, motion = drive_past(m, clearance, rtol=rtol, initial_perturbation=initial_perturbation,
+                             output_step=ENVELOPE_OUTPUT_STEP)
+    return stem_force_table(m, motion), res
+
+
+def branch_class_machine(machine: Machine, scale: float) -> Machine:
+    """The machine with its branch's root and tip diameters scaled by ``scale`` (one branch class).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    scale : float
+        Diameter scale (dimensionless).
+
+    Returns
+    -------
+    Machine
+        A validated copy with ``plant.branch.root_diameter`` and ``tip_diameter`` multiplied by ``scale``.
+    """
+    d = machine.model_dump()
+    d["plant"]["branch"]["root_diameter"] *= scale
+    d["plant"]["branch"]["tip_diameter"] *= scale
+    return machine_from_dict(d)
+
+
+#: channels of a stem-force table (last axis): the peak stem-force magnitude (N) and the peak pull-shear load ratio
+#: of the ripe and of the unripe fruit (dimensionless, berryshaker.plant.pedicel.peak_stem_loads)
+CH_FORCE, CH_RIPE, CH_UNRIPE = 0, 1, 2
+
+
+def bond_strengths(machine: Machine) -> list[tuple[float, float]]:
+    """Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (``harvest.ripe_pull`` ... ``unripe_shear``).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+
+    Returns
+    -------
+    list of (float, float)
+        [(ripe pull, ripe shear), (unripe pull, unripe shear)] (N).
+    """
+    h = machine.harvest
+    return [(h.ripe_pull, h.ripe_shear), (h.unripe_pull, h.unripe_shear)]
+
+
+def stem_force_table(machine: Machine, motion) -> np.ndarray:
+    """Peak stem loads of fruit on compliant pedicels over Z_GRID x MASS_FACTORS * m0 x channels.
+
+    ``motion``: the branch's :class:`~berryshaker.harvest.coupled.BranchMotion` of a drive-past.  The fruit
+    is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (computed for the
+    whole table at once by berryshaker.plant.pedicel.peak_stem_loads).  Channels (:data:`CH_FORCE` ...):
+    max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces) and the peak pull-shear load ratio of
+    the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`).  With ``pedicel.rigid`` the force is m x the peak
+    branch acceleration (study eq. 16), taken as pure shear (lateral) for the load ratios.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description (the branch class's) with [plant] and [harvest].
+    motion : BranchMotion
+        The branch's modal solution of a drive-past.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (len(Z_GRID), len(MASS_FACTORS), 3): channel :data:`CH_FORCE` peak |F| (N), :data:`CH_RIPE` and
+        :data:`CH_UNRIPE` peak pull-shear load ratios (dimensionless).
+    """
+    from berryshaker.plant.pedicel import peak_stem_loads
+
+    pl = machine.plant
+    z = Z_GRID * pl.branch.length
+    masses = MASS_FACTORS * pl.fruit.mass
+    st = bond_strengths(machine)
+    if pl.fruit.pedicel.rigid:
+        force = np.outer(np.max(np.abs(motion.lateral(z)[2]), axis=1), masses)
+        return np.stack([force, force / st[0][1], force / st[1][1]], axis=-1)
+    y, v, _ = motion.lateral(z, acceleration=False)
+    ped = pl.fruit.pedicel
+    return peak_stem_loads(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping,
+                           ped.include_weight, st)
+
+
+def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+    """A (Z_GRID x MASS_FACTORS) table at fractions z and masses ``mass``: linear in z and in log mass."""
+    cols = np.array([np.interp(z, Z_GRID, table[:, j]) for j in range(table.shape[1])])  # (n_mass, n_fruit)
+    lm = np.log(np.clip(mass / m0, MASS_FACTORS[0], MASS_FACTORS[-1]))
+    lg = np.log(MASS_FACTORS)
+    j = np.clip(np.searchsorted(lg, lm) - 1, 0, len(lg) - 2)
+    w = (lm - lg[j]) / (lg[j + 1] - lg[j])
+    idx = np.arange(len(z))
+    return (1 - w) * cols[j, idx] + w * cols[j + 1, idx]
+
+
+def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+    """Peak stem force (N) on fruit at fractions z with masses ``mass`` from one branch class's envelope.
+
+    A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope a stem-force table
+    over Z_GRID x MASS_FACTORS m0, a 3-D one the channels of :func:`stem_force_table` (the force channel is read);
+    tables are interpolated linearly in z and in log mass.
+
+    Parameters
+    ----------
+    envelope : numpy.ndarray
+        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
+    z : numpy.ndarray
+        Fruit positions, fractions of the branch length (dimensionless).
+    mass : numpy.ndarray
+        Fruit masses (kg).
+    m0 : float
+        Mean fruit mass of the table's mass factors (kg).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak stem force of each fruit (N); masses outside the table's range take its nearest column.
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 1:
+        return mass * np.interp(z, Z_GRID, env)
+    return _interp_table(env[..., CH_FORCE] if env.ndim == 3 else env, z, mass, m0)
+
+
+def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
+                    strengths: list[tuple[float, float]]) -> np.ndarray:
+    """Peak pull-shear load ratio (dimensionless) of each fruit against its class's mean strengths.
+
+    From the channels of :func:`stem_force_table` (the ripe or the unripe ratio by ``ripe``).  A table without
+    load channels (1-D acceleration envelope or 2-D force table) is read as pure shear: ratio = peak force / mean
+    shear strength ``strengths[c][1]`` (c = 0 ripe, 1 unripe).
+
+    Parameters
+    ----------
+    envelope : numpy.ndarray
+        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
+    z : numpy.ndarray
+        Fruit positions, fractions of the branch length (dimensionless).
+    mass : numpy.ndarray
+        Fruit masses (kg).
+    m0 : float
+        Mean fruit mass of the table's mass factors (kg).
+    ripe : numpy.ndarray of bool
+        Whether each fruit is ripe.
+    strengths : list of (float, float)
+        Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
+
+    Returns
+    -------
+    numpy.ndarray
+        Peak load ratio of each fruit (dimensionless); it comes off when this reaches its strength factor.
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 3:
+        return np.where(ripe, _interp_table(env[..., CH_RIPE], z, mass, m0),
+                        _interp_table(env[..., CH_UNRIPE], z, mass, m0))
+    return fruit_peak_force(env, z, mass, m0) / np.where(ripe, strengths[0][1], strengths[1][1])
+
+
+def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:
+    """Stem-force envelopes (:func:`stem_force_envelope`) of every branch class.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        One :func:`stem_force_table` per ``harvest.branch_classes`` entry (N, dimensionless load ratios).
+    """
+    return [stem_force_envelope(machine, clearance, s) for s in machine.harvest.branch_classes]
