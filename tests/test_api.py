@@ -13,6 +13,7 @@ import pandas as pd
 import pytest
 
 from berryshaker import api
+from berryshaker.api import names, simulation
 from berryshaker.errors import BerryshakerError, ConfigError
 
 
@@ -48,7 +49,7 @@ def test_kinematics_is_the_drives_check_per_angle(drive):
     fields = [f.name for f in dataclasses.fields(kin) if f.name != "phi"]
     assert len(df.columns) == len(fields)
     for name in fields:  # every field of the drive's kinematics is named with its unit
-        col = api._KINEMATICS_COLUMNS[name]
+        col = simulation._KINEMATICS_COLUMNS[name]
         assert col == "assembled" or col.endswith("]"), col
         np.testing.assert_array_equal(df[col].to_numpy(), getattr(kin, name))
     assert {"time [s]", "left_comb_angle [rad]", "right_comb_rate [rad/s]", "transmission_angle [rad]"} <= set(df)
@@ -110,7 +111,7 @@ def test_the_multibody_summary_reads_the_same_way():
     summary = {"clearance_mm": {"A": 0.25, "B": 0.0}, "collision_force_N": {"A": st, "B": st},
                "pair_state": {"A": "clearance", "B": "ideal joint (reaction force)"},
                "contact_onsets": {"A": 7, "B": 0}, "drive_moment_Nm": st}
-    df = api._joint_summary(summary)
+    df = simulation._joint_summary(summary)
     assert list(df.columns) == SUMMARY_COLUMNS and list(df.index) == ["A", "B"]
     assert list(df["kind"]) == ["clearance pair", "ideal joint (reaction force)"]
     assert df.loc["A", "peak_force [N]"] == 10.0 and df.loc["A", "contact_onsets"] == 7
@@ -188,14 +189,14 @@ def test_sweep_refuses_with_the_argument_named(machine):
 
 
 def test_unit_names_of_the_library_keys():
-    assert api._unit_name("collision_force_A_peak_N") == "collision_force_A_peak [N]"
-    assert api._unit_name("drive_moment_rms_Nm") == "drive_moment_rms [N m]"
-    assert api._unit_name("ripe_removal_pct_sd") == "ripe_removal_sd [%]"
-    assert api._unit_name("efficiency_kg_min") == "efficiency [kg/min]"
-    assert api._unit_name("energy_lost_belt_J_per_rev") == "energy_lost_belt [J/rev]"
-    assert api._unit_name("speed_ripple_percent") == "speed_ripple [%]"
-    assert api._unit_name("shaking_frequency_hz") == "shaking_frequency [Hz]"
-    assert api._unit_name("replicates") == "replicates"
+    assert names._unit_name("collision_force_A_peak_N") == "collision_force_A_peak [N]"
+    assert names._unit_name("drive_moment_rms_Nm") == "drive_moment_rms [N m]"
+    assert names._unit_name("ripe_removal_pct_sd") == "ripe_removal_sd [%]"
+    assert names._unit_name("efficiency_kg_min") == "efficiency [kg/min]"
+    assert names._unit_name("energy_lost_belt_J_per_rev") == "energy_lost_belt [J/rev]"
+    assert names._unit_name("speed_ripple_percent") == "speed_ripple [%]"
+    assert names._unit_name("shaking_frequency_hz") == "shaking_frequency [Hz]"
+    assert names._unit_name("replicates") == "replicates"
 
 
 # ---- life ------------------------------------------------------------------------------------------------
