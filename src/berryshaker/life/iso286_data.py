@@ -1,7 +1,7 @@
 """ISO 286 tables (standard tolerances and fundamental deviations) for nominal sizes up to 500 mm.
 
 The published tables, not the derivation formulas, are the source of truth: ISO rounds the formula
-results in a way that simple rounding does not reproduce (see :mod:`berryshaker.life.fits` for the
+results in a way that simple rounding does not reproduce (see :mod:`berryshaker.life.iso286_limits` for the
 formulas and ``tests/life/test_fits.py`` for how far they are from these tables).
 
 Sources
