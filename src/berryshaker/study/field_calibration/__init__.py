@@ -1,0 +1,80 @@
+"""Calibrate the harvest model to a user's own field sheet and predict the settings it did not test
+(``berryshaker calibrate``, docs/calibration.md, issue #44).
+
+The method is one chain, each part's inputs the previous part's outputs; each part is a module of this package:
+
+1. **Parameters and priors** (:mod:`~berryshaker.study.field_calibration.priors`, :data:`PARAMETERS`): the six
+   harvest parameters that act only in the post-processing of the coupled runs' stem-load tables, each with a
+   prior from the cited ranges, and the prior's unit cube the emulator and the sampler work on.
+2. **The field sheet** (:mod:`~berryshaker.study.field_calibration.sheet`, :func:`read_sheet`): its factors
+   mapped to the machine (:func:`factor_target`), its settings and replicate results.
+3. **Simulator with common random numbers** (:mod:`~berryshaker.study.field_calibration.simulator`,
+   :class:`Simulator`): every setting of the sheet run from R perturbed starts through the cached runner, then a
+   response at (setting, start, theta) is the exact, cheap post-processing of the runs' stem-load tables.
+4. **Emulator** (:mod:`~berryshaker.study.field_calibration.emulator`, :class:`Emulator`): scikit-learn Gaussian
+   processes of log(mean + c) and log(SD) of the replicate results, per simulated setting and joint over (coded
+   setting, theta).
+5. **Likelihood and sampler** (:mod:`~berryshaker.study.field_calibration.posterior`, :func:`log_likelihood`,
+   :func:`sample_posterior`): a Student-t likelihood of each run's replicates, sampled with ``emcee`` in the
+   prior's standard-normal coordinates.
+6. **Identifiability, checks, predictions** (:mod:`~berryshaker.study.field_calibration.workflow`,
+   :func:`calibrate`): prior against posterior 90 % intervals, posterior predictive checks per run, a held-out run,
+   predictions of every level set of the sheet's factors (and named settings) with 90 % intervals of a future field
+   result, and a recommendation made on them (:data:`RECOMMENDATION_RULE`).
+
+:mod:`~berryshaker.study.field_calibration.synthetic_sheet` fills a field sheet from the simulator at known
+parameters (the docs' example and the test).  Every name callers use is importable from here
+(``from berryshaker.study import field_calibration as fc``).
+"""
+
+from __future__ import annotations
+
+from berryshaker.study.field_calibration.emulator import GP_FIT_ITERATIONS, Emulator, FittedGP
+from berryshaker.study.field_calibration.posterior import log_likelihood, predictive, sample_posterior
+from berryshaker.study.field_calibration.priors import (
+    HARD_BRUISE,
+    PARAMETER_NAMES,
+    PARAMETERS,
+    RESPONSE_PARAMETERS,
+    RESPONSES,
+    Z90,
+    Parameter,
+    described_values,
+    latin_hypercube,
+    parameters_for,
+    prior_rows,
+    theta_of,
+    unit_of,
+)
+from berryshaker.study.field_calibration.sheet import (
+    DRIVE_SPEED_NAMES,
+    FactorTarget,
+    Sheet,
+    factor_target,
+    level_sets,
+    parse_setting,
+    read_sheet,
+    setting_data,
+)
+from berryshaker.study.field_calibration.simulator import Simulator, fresh_seeds, start_statistics, training_seeds
+from berryshaker.study.field_calibration.synthetic_sheet import synthetic_results, synthetic_sheet
+from berryshaker.study.field_calibration.workflow import (
+    CONFOUNDED_RULE,
+    IDENTIFIED_RULE,
+    LIMITS,
+    RECOMMENDATION_RULE,
+    CalibrationSettings,
+    calibrate,
+)
+
+# the emulator's training data and held-out check, which the test calls directly
+from berryshaker.study.field_calibration.workflow import _emulator_check as _emulator_check
+from berryshaker.study.field_calibration.workflow import _train as _train
+
+__all__ = ["CONFOUNDED_RULE", "DRIVE_SPEED_NAMES", "GP_FIT_ITERATIONS", "HARD_BRUISE", "IDENTIFIED_RULE", "LIMITS",
+           "PARAMETERS", "PARAMETER_NAMES", "RECOMMENDATION_RULE", "RESPONSES", "RESPONSE_PARAMETERS", "Z90",
+           "CalibrationSettings", "Emulator", "FactorTarget", "FittedGP", "Parameter", "Sheet", "Simulator",
+           "calibrate", "described_values", "factor_target", "fresh_seeds", "latin_hypercube", "level_sets",
+           "log_likelihood", "parameters_for", "parse_setting", "predictive", "prior_rows", "read_sheet",
+           "sample_posterior", "setting_data", "start_statistics", "synthetic_results", "synthetic_sheet",
+           "theta_of", "training_seeds", "unit_of"]

@@ -1,0 +1,271 @@
+"""The calibrated harvest parameters and their priors (docs/calibration.md "Priors"), the field responses they are
+calibrated against, and the prior's unit cube the emulator and the sampler work on.
+
+The parameters (:data:`PARAMETERS`) act only in the post-processing of the coupled runs' stem-load tables -- ripe
+and unripe mean pull strength (the shear strength scales with it at the described shear/pull ratio), the ripe
+strengths' CV, the unripe mass fraction, the yield per bush and the bruise-threshold height of the described
+catching surface -- each with a prior from the cited ranges (docs/harvest.md, ``harvest/published/record.toml``).
+Pedicel stiffness is *not* calibrated: the tables are computed at the described stiffness, and changing it needs
+new coupled post-processing.
+
+A point of the unit cube holds each parameter's prior probability: :func:`theta_of` and :func:`unit_of` map between
+it and the values (SI), :func:`latin_hypercube` draws the emulator's training points on it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from berryshaker.config import Machine
+
+
+Z90 = 1.6448536269514722  # standard normal 95th percentile: a lognormal's central 90 % is median exp(+-Z90 s)
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One calibrated harvest parameter and its prior.
+
+    Attributes
+    ----------
+    name : str
+        Name (the ``harvest`` key it sets; ``bruise_height`` sets the described catching surface's threshold).
+    unit : str
+        SI unit of its values ("" for a fraction).
+    distribution : str
+        "lognormal" (``lo``, ``hi`` its central 90 %) or "uniform" (``lo``, ``hi`` its bounds).
+    lo, hi : float
+        See ``distribution`` (SI).
+    source : str
+        Where the range comes from.
+    tag : str
+        [published], [assumed] or how the two mix.
+    """
+
+    name: str
+    unit: str
+    distribution: str
+    lo: float
+    hi: float
+    source: str
+    tag: str
+
+    def ppf(self, u):
+        """Value (SI) at prior probability ``u`` (the prior's quantile function).
+
+        Parameters
+        ----------
+        u : array_like
+            Probabilities in (0, 1).
+
+        Returns
+        -------
+        numpy.ndarray
+            Quantiles (SI, the parameter's unit).
+        """
+        u = np.asarray(u, float)
+        if self.distribution == "uniform":
+            return self.lo + u * (self.hi - self.lo)
+        mu, s = self.log_median_sigma()
+        return np.exp(mu + s * special.ndtri(u))
+
+    def log_median_sigma(self) -> tuple[float, float]:
+        """ln(median) and sigma of a lognormal prior from its central 90 % (lo, hi).
+
+        Returns
+        -------
+        (float, float)
+            (ln sqrt(lo hi), ln(hi / lo) / (2 x 1.645)).
+        """
+        return 0.5 * math.log(self.lo * self.hi), math.log(self.hi / self.lo) / (2 * Z90)
+
+    def interval90(self) -> tuple[float, float]:
+        """The prior's central 90 % interval (SI).
+
+        Returns
+        -------
+        (float, float)
+            5 % and 95 % quantiles (SI, the parameter's unit).
+        """
+        return float(self.ppf(0.05)), float(self.ppf(0.95))
+
+    def describe(self) -> str:
+        """The prior in words with its unit, e.g. "lognormal, central 90 % 0.26-0.72 N".
+
+        Returns
+        -------
+        str
+            The text.
+        """
+        what = "central 90 %" if self.distribution == "lognormal" else "bounds"
+        return f"{self.distribution}, {what} {self.lo:.3g}-{self.hi:.3g}{(' ' + self.unit) if self.unit else ''}"
+
+
+#: the calibrated parameters (docs/calibration.md "Priors").  Order = the sampler's coordinates.
+PARAMETERS: tuple[Parameter, ...] = (
+    Parameter("ripe_pull", "N", "lognormal", 0.26, 0.72,
+              "Kong et al. 2014 (ripe pull 0.44-0.53 N, 0.53-0.72 N over ripening) and Lyu et al. 2024 eq. 17 "
+              "(ripe bond 0.26-0.30 N): lowest to highest published ripe bond as the central 90 %",
+              "[published range; its reading as a central 90 % is assumed]"),
+    Parameter("unripe_pull", "N", "lognormal", 1.0, 3.6,
+              "Lyu et al. 2024 eq. 17 unripe band 1.0-3.6 N (the only unripe bond found) as the central 90 %",
+              "[published range; its reading as a central 90 % is assumed]"),
+    Parameter("bond_cv", "", "uniform", 0.10, 0.45,
+              "around 0.24, Kong et al. 2014's shear range over ripening read as a central 90 % (docs/harvest.md "
+              "'Bond'); the width is our choice", "[assumed width]"),
+    Parameter("unripe_fraction", "", "uniform", 0.02, 0.30,
+              "unripe share of the fruit mass at a pass: described 0.10 [assumed]; Malladi et al. 2013 found up to "
+              "23 % immature fruit among the detached; the bounds are our choice", "[assumed]"),
+    Parameter("yield_per_bush", "kg", "lognormal", 0.30, 1.51,
+              "MSU Extension 2013: 2-10 lb (0.9-4.5 kg) per highbush bush and season, over three machine passes "
+              "[assumed], as the central 90 %", "[published range; passes and reading assumed]"),
+    Parameter("bruise_height", "m", "lognormal", 0.60, 2.40,
+              "Brown et al. 1996: cushioning prevented bruising for drops up to 0.6-1.2 m (padded catcher); the "
+              "central 90 % from the smallest safe height to twice the largest is our choice; a hard catcher: "
+              "0.075-0.30 m about Brown's 0.15 m", "[published lower end; upper end assumed]"),
+)
+PARAMETER_NAMES = tuple(p.name for p in PARAMETERS)
+#: the hard catching surface's bruise-threshold prior (replaces the padded one when the description's surface is hard)
+HARD_BRUISE = Parameter("bruise_height", "m", "lognormal", 0.075, 0.30,
+                        "Brown et al. 1996: extensive bruising above 150 mm onto a hard surface; central 90 % half to "
+                        "twice that [assumed width]", "[published median; width assumed]")
+
+
+def parameters_for(machine: Machine) -> tuple[Parameter, ...]:
+    """The calibrated parameters of this description (the bruise prior of its catching surface).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block (``catcher_surface``).
+
+    Returns
+    -------
+    tuple of Parameter
+        :data:`PARAMETERS`, the hard-surface bruise prior when ``harvest.catcher_surface = "hard"``.
+    """
+    if machine.harvest.catcher_surface == "hard":
+        return PARAMETERS[:-1] + (HARD_BRUISE,)
+    return PARAMETERS
+
+
+def described_values(machine: Machine) -> dict[str, float]:
+    """The description's own value of every calibrated parameter (SI).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+
+    Returns
+    -------
+    dict of str to float
+        Name -> value (N, fractions, kg, m).
+    """
+    h = machine.harvest
+    bruise = h.bruise_height_hard if h.catcher_surface == "hard" else h.bruise_height_padded
+    return {"ripe_pull": h.ripe_pull, "unripe_pull": h.unripe_pull, "bond_cv": h.bond_cv,
+            "unripe_fraction": h.unripe_fraction, "yield_per_bush": h.yield_per_bush, "bruise_height": bruise}
+
+
+def prior_rows(machine: Machine | None = None) -> list[dict]:
+    """The priors as rows (``config show``, the report): name, harvest key, unit, prior, 90 % interval, source, tag.
+
+    Parameters
+    ----------
+    machine : Machine, optional
+        Its catching surface picks the bruise prior (default: padded).
+
+    Returns
+    -------
+    list of dict
+        One row per parameter: ``name``, ``key`` (the harvest key it sets), ``unit``, ``prior`` (text),
+        ``lo90``, ``hi90`` (SI), ``source``, ``tag``.
+    """
+    params = parameters_for(machine) if machine is not None else PARAMETERS
+    hard = machine is not None and machine.harvest.catcher_surface == "hard"
+    keys = {"bruise_height": "bruise_height_hard" if hard else "bruise_height_padded"}
+    return [{"name": p.name, "key": f"harvest.{keys.get(p.name, p.name)}", "unit": p.unit, "prior": p.describe(),
+             "lo90": p.interval90()[0], "hi90": p.interval90()[1], "source": p.source, "tag": p.tag} for p in params]
+
+
+#: responses of a field sheet the calibration uses: sheet name -> (unit, floor c of the emulated log(mean + c))
+#: (the floor keeps a rate near 0, a count of a few fruit that jumps as single fruit cross their thresholds, from
+#: dominating the log scale: 0.5 % is below a rate's replicate SD on the reference machine, docs/harvest.md)
+RESPONSES = {"efficiency": ("kg/min", 0.05), "unripe": ("%", 0.5), "damage": ("%", 0.5)}
+#: parameters each response depends on (besides the setting); the yield scales the efficiency exactly and is not
+#: emulated; the bruise threshold changes only the damage
+RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
+                       "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
+                       "damage": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "bruise_height")}
+
+
+def latin_hypercube(n: int, seed: int, d: int = len(PARAMETERS)) -> np.ndarray:
+    """A scrambled Latin hypercube of ``n`` points in (0, 1)^d (scipy.stats.qmc.LatinHypercube, seeded).
+
+    Parameters
+    ----------
+    n : int
+        Points.
+    seed : int
+        Seed.
+    d : int
+        Dimension.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, d) points strictly inside the unit cube (dimensionless).
+    """
+    from scipy.stats import qmc
+
+    return np.clip(qmc.LatinHypercube(d=d, seed=seed).random(n), 1e-6, 1 - 1e-6)
+
+
+def theta_of(u: np.ndarray, params: tuple[Parameter, ...]) -> np.ndarray:
+    """Parameter values (SI) of unit-cube points through the priors' quantile functions.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        (n, 6) prior probabilities (dimensionless).
+    params : tuple of Parameter
+        The parameters (:func:`parameters_for`).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 6) values (SI).
+    """
+    u = np.atleast_2d(u)
+    return np.column_stack([p.ppf(u[:, i]) for i, p in enumerate(params)])
+
+
+def unit_of(theta: np.ndarray, params: tuple[Parameter, ...]) -> np.ndarray:
+    """Prior probabilities (unit cube) of parameter values (SI): the inverse of :func:`theta_of`.
+
+    Parameters
+    ----------
+    theta : numpy.ndarray
+        (n, 6) values (SI).
+    params : tuple of Parameter
+        The parameters.
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 6) prior probabilities (values outside a uniform prior's bounds are clipped to it).
+    """
+    theta = np.atleast_2d(np.asarray(theta, float))
+    cols = []
+    for i, p in enumerate(params):
+        if p.distribution == "uniform":
+            cols.append(np.clip((theta[:, i] - p.lo) / (p.hi - p.lo), 1e-9, 1 - 1e-9))
+        else:
+            mu, s = p.log_median_sigma()
+            cols.append(special.ndtr((np.log(theta[:, i]) - mu) / s))
+    return np.column_stack(cols)
