@@ -117,7 +117,7 @@ def test_axial_foreshortening_is_the_double_sum_over_mode_pairs(machine):
     G_ij(z) = int_0^z phi_i' phi_j' ds."""
     from scipy import integrate
 
-    from berryshaker.harvest.coupled import BranchMotion, plant_modes
+    from berryshaker.harvest.coupled_branch import BranchMotion, plant_modes
 
     modes, _ = plant_modes(machine)
     nm = len(modes.omega)
@@ -143,8 +143,8 @@ def test_axial_blocks_give_the_unblocked_numbers_bit_for_bit(machine, monkeypatc
     """BranchMotion.axial works in blocks of AXIAL_BLOCK samples (cache-sized pair products): every sample must
     come out bit for bit as from one product over the whole series, also with a tail of one sample (kept in the
     last block: alone it would be a matrix-vector product, summed in another order) and for one position."""
-    from berryshaker.harvest import coupled
-    from berryshaker.harvest.coupled import BranchMotion, plant_modes
+    from berryshaker.harvest import coupled_branch
+    from berryshaker.harvest.coupled_branch import BranchMotion, plant_modes
 
     modes, _ = plant_modes(machine)
     nm = len(modes.omega)
@@ -152,8 +152,8 @@ def test_axial_blocks_give_the_unblocked_numbers_bit_for_bit(machine, monkeypatc
     eta, etad = rng.normal(size=(n_t, nm)) * 1e-3, rng.normal(size=(n_t, nm)) * 1e-2
     z = np.linspace(0.05, 1.0, n_z) * modes.branch.length
     motion = BranchMotion(np.arange(n_t) * 1e-4, modes, eta, etad, np.zeros_like(eta), {})
-    monkeypatch.setattr(coupled, "AXIAL_BLOCK", 64)
+    monkeypatch.setattr(coupled_branch, "AXIAL_BLOCK", 64)
     u, v = motion.axial(z)
-    monkeypatch.setattr(coupled, "AXIAL_BLOCK", 10**9)
+    monkeypatch.setattr(coupled_branch, "AXIAL_BLOCK", 10**9)
     u1, v1 = motion.axial(z)
     assert np.array_equal(u, u1) and np.array_equal(v, v1)

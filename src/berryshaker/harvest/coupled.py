@@ -3,15 +3,15 @@ of the same integrated state; the combs strike it through the IMPACT law and it 
 sec. 2.5, Figs. 24-26).  Output: fruit harvesting force at the root, middle and end of the branch against
 the machine-to-plant distance, and the eq. 17 verdict per position.
 
-long module: the coupled machine-plant mechanism, its drive-past run, the branch motion and the fruit forces
-read from it are one model; split, each part would import the others' layouts.
+This module builds the coupled machine-plant mechanism (:func:`coupled_mechanism`), reads the bush's load moment on
+the combs from a run (:func:`comb_load_moment`) and runs the drive-past (:func:`simulate_fruit_force`,
+:func:`drive_past`).  The modal bodies and the branch motion read from a run are berryshaker.harvest.coupled_branch's,
+the fruit-force result berryshaker.harvest.fruit_force's; their public names are exported here too.
 """
 
 from __future__ import annotations
 
-import functools
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -21,54 +21,14 @@ from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
 from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.errors import ConfigError
 from berryshaker.drives import drive_of
+from berryshaker.harvest.coupled_branch import BranchMotion, branch_motion, bush_members, plant_modes, stem_forces
+from berryshaker.harvest.fruit_force import STUDY_FRUIT_FORCE_N, FruitForceResult
 from berryshaker.harvest.spec import COUPLED_RTOL, COUPLED_VELOCITY_SCALE
 from berryshaker.plant.bush import member_weight
-from berryshaker.plant.modes import branch_modes
-from berryshaker.plant.response import harvest_verdict
 
-#: the study's fruit-force ranges (N) at the root, middle and end of the branch [study, claim 5]
-STUDY_FRUIT_FORCE_N = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 1.2)}
-
-
-@functools.lru_cache(maxsize=32)
-def _fruit_branch(branch_key: tuple, n_modes: int, z: tuple, mass: float, stiffness: float, damping: float):
-    from berryshaker.plant.modes import cached_analytic_modes
-    from berryshaker.plant.pedicel import fruit_branch_modes
-
-    return fruit_branch_modes(cached_analytic_modes(branch_key, n_modes), np.array(z), mass, stiffness, damping)
-
-
-def plant_modes(machine: Machine):
-    """Modes the coupled run integrates: ``(modes, fruit_branch)``.
-
-    With the pedicel model and ``pedicel.coupling = "two_way"`` (default) the named fruit sit on their
-    stems inside the modal model (berryshaker.plant.pedicel.fruit_branch_modes: n_modes branch modes
-    + one mode per fruit); ``fruit_branch`` then gives the fruit displacements.  Otherwise the branch's
-    own modes (study eq. 15) and ``None``.
-
-    Parameters
-    ----------
-    machine : Machine
-        Machine description with a [plant] block.
-
-    Returns
-    -------
-    modes : Modes
-        The modes integrated: the branch's ``plant.contact.n_modes`` modes, or the combined branch-and-fruit
-        modes (branch part, mass-normalised).
-    fruit_branch : FruitBranchModes or None
-        The combined modes with their fruit part (two-way pedicel), else None.
-    """
-    pl = machine.plant
-    modes = branch_modes(pl.branch, pl.contact.n_modes)
-    ped = pl.fruit.pedicel
-    if ped.rigid or ped.coupling == "one_way":
-        return modes, None
-    b = pl.branch
-    key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
-    z = tuple(float(f * b.length) for f in pl.fruit.positions)
-    fb = _fruit_branch(key, pl.contact.n_modes, z, pl.fruit.mass, ped.stiffness, ped.damping)
-    return fb.modes, fb
+__all__ = ["AGGREGATE_LOAD_FORCES", "STUDY_FRUIT_FORCE_N", "BranchMotion", "FruitForceResult", "branch_motion",
+           "bush_members", "comb_load_moment", "coupled_mechanism", "drive_past", "plant_modes",
+           "simulate_fruit_force", "stem_forces"]
 
 
 #: names of the aggregate bush spring-dampers every drive's mechanism carries (``drives/*/mechanism.py``)
@@ -88,29 +48,6 @@ def _finger_points(machine, drive, ct):
                          mid=(xd + rf * math.cos(td0), yd + rf * math.sin(td0))),
             "right": dict(body="right_comb", point=[-lc / 2 - rf, 0.0], side=-1, shaft=(xe, ye),
                           mid=(xe - rf * math.cos(te0), ye - rf * math.sin(te0)))}
-
-
-def bush_members(machine: Machine):
-    """The reached members of the machine's bush population (berryshaker.plant.bush), with their modes.
-
-    Parameters
-    ----------
-    machine : Machine
-        Machine description with a [plant] block.
-
-    Returns
-    -------
-    list of (BushBranch, Modes)
-        The members the fingers reach (a station on the branch), in drawing order, each with its
-        ``plant.bush.n_modes`` modes; empty when ``combs.load_model = "aggregate"`` or
-        ``plant.bush.members = 0``.
-    """
-    from berryshaker.plant.bush import member_modes, sample_bush
-
-    if machine.combs.load_model != "branches":
-        return []
-    return [(mb_, member_modes(mb_, machine.plant.bush.n_modes)) for mb_ in sample_bush(machine.plant)
-            if mb_.station is not None]
 
 
 def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15,
@@ -298,366 +235,6 @@ def comb_load_moment(res: MultibodyResult, machine: Machine) -> dict[str, np.nda
     return out
 
 
-@dataclass
-class FruitForceResult:
-    """Drive-past run: fruit forces per fruit position against time and machine-to-plant distance.
-
-    ``fruit_force`` is the force the model compares with the bond (eq. 17): with the pedicel model
-    (default) the magnitude of the in-plane stem force (lateral and axial, the fruit's weight included
-    when ``plant.fruit.pedicel.include_weight``), with ``pedicel.rigid = true`` the study's eq. 16,
-    m0 x branch acceleration (signed).  ``rigid_force`` is always eq. 16.
-
-    Attributes
-    ----------
-    distance : numpy.ndarray
-        Machine-to-plant distance along the row at each output time (m), negative before the comb centre.
-    t : numpy.ndarray
-        Output times (s).
-    fruit_force : dict of str to numpy.ndarray
-        Per fruit name: the force compared with the bond (N; stem force magnitude, or eq. 16 when rigid).
-    z : dict of str to float
-        Fruit positions (m from the root).
-    contact_force : dict of str to numpy.ndarray
-        Comb-branch normal contact forces on this branch (N), per contact.
-    deflection : dict of str to numpy.ndarray
-        Lateral branch deflection at each fruit (m).
-    result : MultibodyResult
-        The multibody run.
-    machine : Machine
-        The machine description (clearances applied).
-    rigid_force : dict of str to numpy.ndarray
-        Eq. 16, m0 x lateral branch acceleration at each fruit (N).
-    stem_lateral : dict of str to numpy.ndarray
-        Lateral stem force on each fruit (N); empty when rigid.
-    stem_axial : dict of str to numpy.ndarray
-        Axial stem force on each fruit, weight included when configured (N); empty when rigid.
-    motion : BranchMotion or None
-        The branch's modal solution, for post-processing.
-    load_moment : dict of str to numpy.ndarray
-        Moment of the bush on each comb about its shaft (N m; :func:`comb_load_moment`).
-    probes : list of FruitForceResult
-        The result of each probe carried in the same run.
-    """
-
-    distance: np.ndarray  # machine-to-plant distance along the row (m), negative before the comb centre
-    t: np.ndarray
-    fruit_force: dict[str, np.ndarray]  # N, per fruit name (stem force magnitude, or eq. 16 when rigid)
-    z: dict[str, float]  # fruit positions (m)
-    contact_force: dict[str, np.ndarray]  # comb-branch normal forces (N)
-    deflection: dict[str, np.ndarray]  # branch deflection at each fruit (m)
-    result: MultibodyResult = field(repr=False)
-    machine: Machine = field(repr=False)
-    rigid_force: dict[str, np.ndarray] = field(default_factory=dict)  # eq. 16, m0 x branch acceleration (N)
-    stem_lateral: dict[str, np.ndarray] = field(default_factory=dict)  # lateral stem force on the fruit (N)
-    stem_axial: dict[str, np.ndarray] = field(default_factory=dict)  # axial stem force incl. weight (N)
-    motion: "BranchMotion | None" = field(default=None, repr=False)  # modal solution, for post-processing
-    load_moment: dict[str, np.ndarray] = field(default_factory=dict)  # bush on each comb about its shaft (N m)
-    probes: list = field(default_factory=list, repr=False)  # FruitForceResult of each probe of the same run
-
-    def summary(self) -> dict:
-        """Peaks per fruit position with the eq. 17 verdict and the study's ranges, contact statistics.
-
-        Returns
-        -------
-        dict
-            ``positions`` (per fruit: ``z_m``, ``peak_force_N``, ``rms_force_N``, ``peak_at_distance_m``,
-            ``eq17`` verdict, ``rigid_peak_force_N`` and, where the study gives one, ``study_range_N`` and
-            ``within_study_range``), ``study_ranges_N``, ``fruit_model``, ``pedicel`` (stiffness N/m, damping
-            N s/m, natural frequency Hz, damping ratio...; not when rigid), ``contact`` (per contact ``peak_N`` and
-            ``impacts``), ``rises_root_to_end``, ``load_model``, ``load_moment_Nm`` (per comb peak, rms and mean
-            |M| while the bush is inside the comb, N m), ``bush`` (branches load model), ``steps``,
-            ``wall_time_s`` (s) and ``clearance_mm`` (mm).
-        """
-        out = {"positions": {}, "study_ranges_N": STUDY_FRUIT_FORCE_N, "contact": {}}
-        ped = self.machine.plant.fruit.pedicel
-        out["fruit_model"] = "rigid (eq. 16)" if ped.rigid else "pedicel"
-        if not ped.rigid:
-            from berryshaker.plant.pedicel import damping_ratio, natural_frequency
-
-            m0 = self.machine.plant.fruit.mass
-            out["pedicel"] = {"stiffness_N_m": ped.stiffness, "damping_N_s_m": ped.damping,
-                              "natural_frequency_hz": float(natural_frequency(m0, ped.stiffness)),
-                              "damping_ratio": float(damping_ratio(m0, ped.stiffness, ped.damping)),
-                              "include_weight": ped.include_weight, "coupling": ped.coupling}
-            if ped.coupling == "two_way":
-                per_mode = isinstance(self.result.compiled.spec.plant.damping_ratio, list)
-                out["pedicel"]["mode_damping"] = ("per mode" if per_mode else
-                                                  "one ratio for all modes (engine limitation; docs/plant.md)")
-        for name, f in self.fruit_force.items():
-            peak = float(np.max(np.abs(f)))
-            entry = {"z_m": self.z[name], "peak_force_N": peak,
-                     "rms_force_N": float(np.sqrt(np.mean(f**2))),
-                     "peak_at_distance_m": float(self.distance[int(np.argmax(np.abs(f)))]),
-                     "eq17": harvest_verdict(peak).as_dict()}
-            if name in self.rigid_force:
-                entry["rigid_peak_force_N"] = float(np.max(np.abs(self.rigid_force[name])))
-            if name in STUDY_FRUIT_FORCE_N:
-                lo, hi = STUDY_FRUIT_FORCE_N[name]
-                entry["study_range_N"] = [lo, hi]
-                entry["within_study_range"] = bool(lo <= peak <= hi)
-            out["positions"][name] = entry
-        for name, f in self.contact_force.items():
-            out["contact"][name] = {"peak_N": float(np.max(f)), "impacts": int(np.sum(np.diff((f > 0).astype(int)) == 1))}
-        names = list(self.fruit_force)
-        peaks = [out["positions"][n]["peak_force_N"] for n in names]
-        out["rises_root_to_end"] = bool(all(a < b for a, b in zip(peaks[:-1], peaks[1:])))
-        out["load_model"] = self.machine.combs.load_model
-        # statistics while the bush centre is inside the comb's length (both load models alike)
-        sel = np.abs(self.distance) <= self.result.compiled.spec.plant.half_span
-        # mean |M| (the moment's time average: what the impacts deliver per unit time) converges with the bush's
-        # sample and modes; rms and peak are set by the impact peaks, which depend on the modes kept (docs/plant.md)
-        out["load_moment_Nm"] = {side: {"peak": float(np.max(np.abs(m[sel]))),
-                                        "rms": float(np.sqrt(np.mean(m[sel] ** 2))),
-                                        "mean": float(np.mean(np.abs(m[sel])))}
-                                 for side, m in self.load_moment.items()}
-        if self.machine.combs.load_model == "branches":
-            pop = self.machine.plant.bush
-            out["bush"] = {"branches": pop.branches, "members": pop.members,
-                           "reached": len(bush_members(self.machine)), "modes_per_member": pop.n_modes,
-                           "seed": pop.seed}
-        out["steps"] = int(self.result.info[0])
-        out["wall_time_s"] = self.result.wall_time_s
-        out["clearance_mm"] = {k: v * 1e3 for k, v in self.machine.clearance_sizes().items()}
-        return out
-
-
-#: samples per block of :meth:`BranchMotion.axial` (a few MB of pair products; 3000-8000 all measured alike)
-AXIAL_BLOCK = 4096
-
-
-@dataclass(frozen=True)
-class BranchMotion:
-    """Modal solution of a coupled run, ready for evaluation anywhere on the branch.
-
-    Frozen: :attr:`_rows` keeps per-mode copies of the series, so the series must not change after construction
-    (``eta`` and ``etad`` are views of the run's state array: do not write into ``res.y`` either).
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        Output times (s), uniform.
-    modes : Modes
-        The branch's mass-normalised modes (shapes 1/sqrt(kg)).
-    eta : numpy.ndarray
-        Modal displacements, (n_t, n_modes) (sqrt(kg) m).
-    etad : numpy.ndarray
-        Modal velocities (sqrt(kg) m/s).
-    etadd : numpy.ndarray
-        Modal accelerations from the branch's stiffness, damping and the comb contacts (sqrt(kg) m/s^2).
-    contact_force : dict of str to numpy.ndarray
-        Normal force of each comb contact that loads this branch (N).
-    """
-
-    t: np.ndarray
-    modes: object  # berryshaker.plant.modes.Modes
-    eta: np.ndarray  # (n_t, n_modes) modal displacements
-    etad: np.ndarray  # modal velocities
-    etadd: np.ndarray  # modal accelerations (branch stiffness, damping and the comb contacts)
-    contact_force: dict[str, np.ndarray]
-
-    def every(self, n: int) -> "BranchMotion":
-        """Every n-th sample (for post-processing on a coarser, still uniform, time grid).
-
-        Parameters
-        ----------
-        n : int
-            Keep samples 0, n, 2n, ...
-
-        Returns
-        -------
-        BranchMotion
-            The same motion on the coarser grid.
-        """
-        return BranchMotion(self.t[::n], self.modes, self.eta[::n], self.etad[::n], self.etadd[::n],
-                            {k: v[::n] for k, v in self.contact_force.items()})
-
-    @functools.cached_property
-    def _rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """eta and eta' as contiguous rows per mode, (n_modes, n_t) each (the series are strided columns of the
-        run's state array; per-mode rows make the products below contiguous).  Copied row-block first, then
-        transposed in cache (a direct transposed copy of the strided columns misses the cache at every sample)."""
-        return tuple(np.ascontiguousarray(x).T.copy() for x in (self.eta, self.etad))
-
-    @functools.cached_property
-    def _acceleration_rows(self) -> np.ndarray:
-        """eta'' as contiguous rows per mode, (n_modes, n_t)."""
-        return np.ascontiguousarray(self.etadd.T)
-
-    def lateral(self, z, acceleration: bool = True):
-        """Lateral displacement (m), velocity (m/s), acceleration (m/s^2) at positions z, each (n_z, n_t).
-
-        ``acceleration=False``: the third is None (not computed: the stem forces need only the first two).
-
-        Parameters
-        ----------
-        z : float or array_like
-            Positions along the branch (m from the root).
-        acceleration : bool
-            Also compute the acceleration.
-
-        Returns
-        -------
-        displacement : numpy.ndarray
-            (n_z, n_t) lateral displacement (m).
-        velocity : numpy.ndarray
-            (n_z, n_t) lateral velocity (m/s).
-        acceleration : numpy.ndarray or None
-            (n_z, n_t) lateral acceleration (m/s^2), or None.
-        """
-        phi_t = self.modes.shape_at(np.atleast_1d(z)).T  # (n_z, n_modes)
-        e, ed = self._rows
-        return phi_t @ e, phi_t @ ed, (phi_t @ self._acceleration_rows if acceleration else None)
-
-    def axial(self, z):
-        """Axial (along-branch) displacement and velocity at z from the bending's foreshortening (m, m/s).
-
-        u(z, t) = -1/2 int_0^z (dw/ds)^2 ds = -1/2 eta^T G(z) eta,  G_ij(z) = int_0^z phi_i' phi_j' ds
-        (second order in the deflection; the Euler-Bernoulli branch has no first-order axial motion).
-
-        Parameters
-        ----------
-        z : float or array_like
-            Positions along the branch (m from the root).
-
-        Returns
-        -------
-        displacement : numpy.ndarray
-            (n_z, n_t) axial displacement u (m), <= 0 (towards the root).
-        velocity : numpy.ndarray
-            (n_z, n_t) axial velocity (m/s).
-        """
-        zs = np.atleast_1d(np.asarray(z, float))
-        m = self.modes
-        cum = m.slope_product_integral  # (n_modes, n_modes, n_s), cached with the modes
-        j = np.clip(np.searchsorted(m.z, zs) - 1, 0, len(m.z) - 2)
-        wgt = (zs - m.z[j]) / (m.z[j + 1] - m.z[j])
-        g = (1 - wgt) * cum[:, :, j] + wgt * cum[:, :, j + 1]  # (n_modes, n_modes, n_z), symmetric in the modes
-        # eta^T G eta and eta^T G eta' for every time and position: two matrix products over the mode pairs i <= j
-        # (G is symmetric: the products slope_i slope_j and their running integral are the same numbers for (j, i)),
-        # eta^T G eta = sum_{i<=j} (2 - delta_ij) G_ij eta_i eta_j,
-        # eta^T G eta' = sum_{i<=j} G_ij (eta_i eta'_j + eta_j eta'_i) (1 - delta_ij / 2)
-        # (the modal series as contiguous rows per mode; the pair products row block by row block, i fixed and
-        # j = i ... n - 1, in the order of numpy.triu_indices: no gathered copies)
-        nm = g.shape[0]
-        iu, ju = np.triu_indices(nm)
-        diag = iu == ju
-        gp = g[iu, ju, :].T  # (n_z, pairs)
-        wu = -0.5 * (gp * np.where(diag, 1.0, 2.0))  # (the factors -1/2 and -1 are exact: as if applied after)
-        wv = -(gp * np.where(diag, 0.5, 1.0))
-        e, ed = self._rows
-        nt = e.shape[1]
-        u = np.empty((len(zs), nt))
-        v = np.empty((len(zs), nt))
-        # in blocks of AXIAL_BLOCK samples: the pair products (66 rows for 11 modes) stay in cache and their
-        # buffers are reused (one pass over the whole series wrote ~23 MB of fresh memory per call; the matrix
-        # products give each column the same sums either way)
-        ee = np.empty((len(iu), min(AXIAL_BLOCK + 1, nt)))
-        eed = np.empty_like(ee)
-        s0 = 0
-        while s0 < nt:
-            s1 = min(s0 + AXIAL_BLOCK, nt)
-            if nt - s1 == 1:
-                s1 = nt  # no one-sample block: numpy would hand it to a matrix-vector product, summing in another order
-            w = s1 - s0
-            k = 0
-            for i in range(nm):
-                rows = slice(k, k + nm - i)
-                np.multiply(e[i, s0:s1], e[i:, s0:s1], out=ee[rows, :w])
-                np.multiply(e[i, s0:s1], ed[i:, s0:s1], out=eed[rows, :w])
-                eed[rows, :w] += e[i:, s0:s1] * ed[i, s0:s1]
-                k += nm - i
-            np.matmul(wu, ee[:, :w], out=u[:, s0:s1])
-            np.matmul(wv, eed[:, :w], out=v[:, s0:s1])
-            s0 = s1
-        return u, v
-
-
-def branch_motion(res: MultibodyResult, modes, offset: int = 0) -> BranchMotion:
-    """Modal displacements, velocities and accelerations of the branch from a coupled multibody result
-    (``modes``: the :class:`~berryshaker.plant.modes.Modes` the run was built with; ``offset``: index of its
-    first modal coordinate in the plant's block-diagonal modal body, 0 for the instrumented branch, another for
-    a probe of :func:`coupled_mechanism`).
-
-    Parameters
-    ----------
-    res : MultibodyResult
-        A coupled run.
-    modes : Modes
-        The modes the branch was built with.
-    offset : int
-        Index of the branch's first modal coordinate in the plant's modal body.
-
-    Returns
-    -------
-    BranchMotion
-        Modal displacements and velocities from the run's state, accelerations from the modal equations
-        (stiffness, damping and the contacts that load this branch), and those contacts' normal forces.
-    """
-    cm = res.compiled
-    spec = cm.spec
-    nb3 = 3 * len(spec.bodies)
-    nm = len(modes.omega)
-    n = cm.n
-    cols = slice(offset, offset + nm)
-    eta = res.y[:, nb3 + offset:nb3 + offset + nm]
-    etad = res.y[:, n + nb3 + offset:n + nb3 + offset + nm]
-    w = modes.omega
-    zeta = np.asarray(spec.plant.damping_ratio, float)  # one ratio, or one per mode
-    zeta = zeta[cols] if zeta.ndim else zeta  # the other blocks' modes follow (block-diagonal)
-    etadd = -(w**2) * eta - 2 * zeta * w * etad
-    phi_tab = cm.model[13]
-    contact_force = {}
-    for row, c in enumerate(spec.plant.contacts):
-        if not np.any(phi_tab[row, cols]):
-            continue  # another branch's contact (a bush member, a probe): it does not load this branch
-        k = cm.frc_names.index(c.name)
-        f = res.elements[:, k, mb.EO_FN]
-        contact_force[c.name] = f
-        etadd = etadd + np.outer(c.side * f, phi_tab[row, cols])
-    return BranchMotion(res.t, modes, eta, etad, etadd, contact_force)
-
-
-def stem_forces(motion: BranchMotion, z, mass, pedicel) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Stem force on fruit of mass ``mass`` at positions z (berryshaker.plant.pedicel).
-
-    ``z``: positions (m), or a tuple (y, v, y_axial, v_axial) of branch motions already evaluated there
-    (BranchMotion.lateral / axial), to reuse them for several masses.
-    The axial force includes the weight m0 g when ``pedicel.include_weight`` (upright branch: its axis is
-    vertical).  Lateral: driven by the branch's lateral displacement and velocity (absolute-coordinate form,
-    smooth inputs); axial: by the foreshortening displacement and velocity (BranchMotion.axial).
-
-    Parameters
-    ----------
-    motion : BranchMotion
-        The branch's modal solution (its time grid, and the motion when ``z`` is positions).
-    z : array_like or tuple
-        Fruit positions (m from the root), or (y, v, y_axial, v_axial) already evaluated there (m, m/s).
-    mass : float
-        Fruit mass m0 (kg).
-    pedicel : PedicelSpec
-        The pedicel description (``stiffness`` N/m, ``damping`` N s/m, ``include_weight``).
-
-    Returns
-    -------
-    lateral, axial, magnitude : numpy.ndarray
-        Stem force on the fruit, each (n_z, n_t) (N): lateral, axial and the in-plane magnitude.
-    """
-    from berryshaker.plant.pedicel import GRAVITY, stem_response
-
-    if isinstance(z, tuple) and len(z) == 4:  # precomputed (y, v, y_axial, v_axial): many masses, one motion
-        y, v, ya, va = z
-    else:
-        y, v, _ = motion.lateral(z, acceleration=False)
-        ya, va = motion.axial(z)
-    _, f_lat = stem_response(motion.t, y, v, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping,
-                             displacement=False)
-    _, f_ax = stem_response(motion.t, ya, va, mass=mass, stiffness=pedicel.stiffness, damping=pedicel.damping,
-                            displacement=False)
-    if pedicel.include_weight:
-        f_ax = f_ax + mass * GRAVITY
-    return f_lat, f_ax, np.hypot(f_lat, f_ax)
-
-
 def simulate_fruit_force(machine: Machine, clearance: dict[str, float] | None = None, rtol: float = COUPLED_RTOL,
                          output_step: float = 2e-5, initial_perturbation=None, probes: tuple = ()) -> FruitForceResult:
     """Drive the harvester past one branch and record the fruit harvesting force.
@@ -723,9 +300,9 @@ def drive_past(machine: Machine, clearance: dict[str, float] | None = None, rtol
                output_step: float = 2e-5, initial_perturbation=None) -> tuple[MultibodyResult, BranchMotion]:
     """The coupled drive-past of :func:`simulate_fruit_force` without its post-processing at the named fruit
     positions: ``(result, motion)``, the multibody result and the instrumented branch's modal solution
-    (:class:`BranchMotion`), for callers that evaluate the branch elsewhere (the stem-force envelopes over
-    the whole fruit zone, berryshaker.harvest.virtual.stem_force_envelope_run).  The same run, step for
-    step, as :func:`simulate_fruit_force` with the same arguments (no probes): the fruit forces, the comb load
+    (:class:`~berryshaker.harvest.coupled_branch.BranchMotion`), for callers that evaluate the branch elsewhere
+    (the stem-force envelopes over the whole fruit zone,
+    berryshaker.harvest.virtual.stem_force_tables.stem_force_envelope_run).  The same run, step for step, as :func:`simulate_fruit_force` with the same arguments (no probes): the fruit forces, the comb load
     moments and their summary are left out (~40 ms of a replicate's ~0.5 s, benchmarks/HISTORY.md sec. 22).
 
     Parameters

@@ -163,7 +163,7 @@ def bond_strengths(machine: Machine) -> list[tuple[float, float]]:
 def stem_force_table(machine: Machine, motion) -> np.ndarray:
     """Peak stem loads of fruit on compliant pedicels over Z_GRID x MASS_FACTORS * m0 x channels.
 
-    ``motion``: the branch's :class:`~berryshaker.harvest.coupled.BranchMotion` of a drive-past.  The fruit
+    ``motion``: the branch's :class:`~berryshaker.harvest.coupled_branch.BranchMotion` of a drive-past.  The fruit
     is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (computed for the
     whole table at once by berryshaker.plant.pedicel.peak_stem_loads).  Channels (:data:`CH_FORCE` ...):
     max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces) and the peak pull-shear load ratio of
