@@ -1,0 +1,174 @@
+"""Peak stem loads of fruit on compliant pedicels over a branch motion: the largest stem-force magnitude and the
+largest pull-shear load ratios over time, for a table of positions x fruit masses, in one compiled pass over the
+motion with no force series stored (the virtual harvest's stem-force tables, berryshaker.harvest.virtual).  The
+oscillator and its discretisation are berryshaker.plant.pedicel.oscillator's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from berryshaker.errors import ConfigError
+from berryshaker.plant.pedicel.oscillator import GRAVITY, _check, _uniform_step, discretise_foh
+
+
+def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True):
+    """Largest stem-force magnitude over time of fruit of several masses at several places on the branch.
+
+    The model of :func:`~berryshaker.plant.pedicel.oscillator.stem_response` in absolute coordinates, in both
+    directions (the branch's lateral motion and its axial foreshortening each drive the pedicel's oscillator),
+    combined as in ``berryshaker.harvest.coupled.stem_forces``: |F| = hypot(F_lateral, F_axial + m0 g).  Only the
+    maximum over time is kept, so a table of many positions x masses (the virtual harvest's envelope) costs one
+    pass over the motion with no force series stored.
+
+    Parameters
+    ----------
+    t : ndarray (n_t,)
+        Uniformly spaced times (s); the fruit starts at rest relative to the branch at t[0].
+    lateral, axial : tuple of ndarray (n_z, n_t)
+        Branch displacement (m) and velocity (m/s) at each fruit position, lateral and axial.
+    mass : array_like (n_mass,)
+        Fruit masses m0 (kg).
+    stiffness, damping : float
+        Pedicel stiffness k (N/m) and damping c (N s/m).
+    weight : bool
+        Add the fruit's weight m0 g to the axial force (upright branch, axis vertical).
+
+    Returns
+    -------
+    ndarray (n_z, n_mass)
+        max_t |F| (N).
+
+    Notes
+    -----
+    For each mass the two-input system (inputs y, y'; state x, x'; output F = k (y - x) + c (y' - x')) is
+    discretised exactly for a first-order hold (``scipy.signal.cont2discrete``, the discretisation of
+    :func:`~berryshaker.plant.pedicel.oscillator.stem_response`) and run as a state-space recursion from rest,
+    x[i+1] = A_d x[i] + B_d u[i], F[i] = C_d x[i] + D_d u[i], compiled (numba); the same zero-state response as
+    the second-order sections of :func:`~berryshaker.plant.pedicel.oscillator.stem_response`, equal to
+    round-off (tested).
+    """
+    return peak_stem_loads(t, lateral, axial, mass, stiffness, damping, weight)[:, :, 0]
+
+
+def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True, strengths=()):
+    """Peak stem-force magnitude and peak pull-shear load ratios of fruit on compliant pedicels.
+
+    The stem force of :func:`peak_stem_force`, resolved by its mode of loading: the pedicel of a berry on an
+    upright branch hangs along the branch axis, so the axial component F_ax + m0 g (tension > 0) pulls the fruit
+    along its pedicel and the lateral component F_lat bends and shears it across.  A fruit of mean pull strength
+    P and mean shear strength S is loaded to the ratio
+
+        g(t) = sqrt( (max(F_ax + m0 g, 0) / P)^2 + (F_lat / S)^2 ),
+
+    an elliptical pull-shear interaction (the quadratic failure criterion of combined loading; pull alone
+    breaks at P, shear alone at S, as the two test modes of Kong et al. 2014 measure them; the interaction's
+    form is [assumed]: no blueberry test under combined loading is known to us).  A fruit whose own strengths
+    are s P and s S comes off when max_t g >= s (berryshaker.harvest.virtual).  Compression along the pedicel
+    does not load the abscission zone in pull.
+
+    Parameters
+    ----------
+    t : ndarray (n_t,)
+        Uniformly spaced times (s); the fruit starts at rest relative to the branch at t[0].
+    lateral, axial : tuple of ndarray (n_z, n_t)
+        Branch displacement (m) and velocity (m/s) at each fruit position, lateral and axial.
+    mass : array_like (n_mass,)
+        Fruit masses m0 (kg).
+    stiffness, damping : float
+        Pedicel stiffness k (N/m) and damping c (N s/m).
+    weight : bool
+        Add the fruit's weight m0 g to the axial force (upright branch, axis vertical).
+    strengths : sequence of (float, float)
+        Mean pull and shear strengths (P, S) (N) of each fruit class (e.g. ripe, unripe).
+
+    Returns
+    -------
+    ndarray (n_z, n_mass, 1 + n_strengths)
+        [..., 0]: max_t |F| (N); [..., 1 + s]: max_t g for strengths s (dimensionless).
+
+    References
+    ----------
+    Kong, Y., et al. (2014).  Journal of Northeast Agricultural University 45(4): blueberry fruit detachment by
+    pull along the pedicel and by shear across it (docs/harvest.md, "Bond").
+    """
+    h = _uniform_step(t)
+    masses = np.atleast_1d(np.asarray(mass, float))
+    m, k, c = _check(masses, stiffness, damping)
+    k, c = float(k), float(c)
+    y, v = (np.ascontiguousarray(x, dtype=float) for x in lateral)
+    ya, va = (np.ascontiguousarray(x, dtype=float) for x in axial)
+    if not (y.shape == v.shape == ya.shape == va.shape and y.ndim == 2 and y.shape[1] == len(t)):
+        raise ConfigError("peak_stem_force needs lateral and axial (displacement, velocity) arrays of shape "
+                          "(positions, len(t))")
+    st = np.asarray(strengths, float).reshape(-1, 2)
+    if np.any(~(st > 0)):
+        raise ConfigError(f"pull and shear strengths must be > 0 N, got {strengths}")
+    ad, bd = np.zeros((len(m), 2, 2)), np.zeros((len(m), 2, 2))
+    cd, dd = np.zeros((len(m), 2)), np.zeros((len(m), 2))
+    for j, mj in enumerate(m):
+        a = np.array([[0.0, 1.0], [-k / mj, -c / mj]])
+        b = np.array([[0.0, 0.0], [k / mj, c / mj]])
+        ad[j], bd[j], cdj, ddj = discretise_foh(a, b, np.array([[-k, -c]]), np.array([[k, c]]), h)
+        cd[j], dd[j] = cdj[0], ddj[0]
+    out = np.zeros((y.shape[0], len(m), 1 + len(st)))
+    _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)),
+                            np.ascontiguousarray(1.0 / st[:, 0]), np.ascontiguousarray(1.0 / st[:, 1]), out)
+    return out
+
+
+def compile_peak_stem_force() -> None:
+    """Compile (or load from numba's on-disk cache) the kernel of :func:`peak_stem_force`: one call on four
+    samples of a branch at rest.  Lets an idle process compile it before the runs that need it."""
+    rest = np.zeros((1, 4))
+    peak_stem_loads(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3], strengths=[(0.47, 0.23)])
+
+
+@njit(cache=True)
+def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_shear, out):
+    """out[i, j, 0] = max over time of |(F_lat, F_ax + weight[j])| and out[i, j, 1 + s] = max over time of the
+    pull-shear load ratio g_s of :func:`peak_stem_loads` for the discretised oscillators (mass j at position i;
+    the maxima are taken on the squares).
+
+    Time outermost, positions innermost: at each time the positions' inputs are gathered into contiguous rows and
+    every (mass, position) oscillator advances one step, the positions side by side (the loop vectorises; each
+    oscillator's arithmetic is that of its own recursion, so the numbers do not depend on the order)."""
+    n_z, n_t = y.shape
+    n_m = ad.shape[0]
+    n_s = inv_pull.shape[0]
+    x0, x1, w0, w1 = np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z))
+    best = np.zeros((n_m, n_z, 1 + n_s))
+    u0r, u1r, s0r, s1r = np.empty(n_z), np.empty(n_z), np.empty(n_z), np.empty(n_z)
+    for n in range(n_t):
+        for i in range(n_z):
+            u0r[i], u1r[i], s0r[i], s1r[i] = y[i, n], v[i, n], ya[i, n], va[i, n]
+        for j in range(n_m):
+            c0, c1, d0, d1 = cd[j, 0], cd[j, 1], dd[j, 0], dd[j, 1]
+            a00, a01, a10, a11 = ad[j, 0, 0], ad[j, 0, 1], ad[j, 1, 0], ad[j, 1, 1]
+            b00, b01, b10, b11 = bd[j, 0, 0], bd[j, 0, 1], bd[j, 1, 0], bd[j, 1, 1]
+            wt = weight[j]
+            for i in range(n_z):
+                u0, u1, s0, s1 = u0r[i], u1r[i], s0r[i], s1r[i]
+                p0, p1, q0, q1 = x0[j, i], x1[j, i], w0[j, i], w1[j, i]
+                f_lat = c0 * p0 + c1 * p1 + d0 * u0 + d1 * u1
+                f_ax = c0 * q0 + c1 * q1 + d0 * s0 + d1 * s1 + wt
+                f2 = f_lat * f_lat + f_ax * f_ax
+                b = best[j, i, 0]
+                best[j, i, 0] = f2 if f2 > b else b
+                pull = f_ax if f_ax > 0.0 else 0.0
+                for s in range(n_s):
+                    gp, gs = pull * inv_pull[s], f_lat * inv_shear[s]
+                    g2 = gp * gp + gs * gs
+                    b = best[j, i, 1 + s]
+                    best[j, i, 1 + s] = g2 if g2 > b else b
+                x0[j, i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
+                x1[j, i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
+                w0[j, i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
+                w1[j, i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
+    for j in range(n_m):
+        for i in range(n_z):
+            for s in range(1 + n_s):
+                out[i, j, s] = math.sqrt(best[j, i, s])
