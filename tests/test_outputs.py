@@ -14,8 +14,6 @@ import pytest
 from berryshaker.errors import OutputError
 from berryshaker.outputs import (
     MARKER_NAME,
-    _host_tag,
-    _umask,
     check_output_file,
     clean_stale_staging,
     prepare_output_dir,
@@ -23,6 +21,8 @@ from berryshaker.outputs import (
     read_output_marker,
     staged_directory,
 )
+from berryshaker.outputs.atomic_files import _umask
+from berryshaker.outputs.staging import _host_tag
 
 
 def _snapshot(folder: Path) -> dict:
