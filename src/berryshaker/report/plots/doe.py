@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from berryshaker.report.plots.common import _out
+from berryshaker.report.plots.figure_files import _out
 from berryshaker.report.style import (
     BAND_ALPHA,
     PAIR_COLOURS,

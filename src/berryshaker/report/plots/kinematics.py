@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from berryshaker.report.plots.common import _extremes, _out
+from berryshaker.report.plots.figure_files import _extremes, _out
 from berryshaker.report.style import (
     PAIR_COLOURS,
     SERIES_COLOURS,

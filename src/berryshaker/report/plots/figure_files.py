@@ -1,4 +1,4 @@
-"""What every figure function shares: the extremes of a drawn series and the one way a figure is saved (PNG at print
+"""What every figure function shares (figure files): the extremes of a drawn series and the one way a figure is saved (PNG at print
 resolution and SVG beside it, the canvas grown until no label or legend is cut, :func:`berryshaker.report.style.finish`).
 """
 
