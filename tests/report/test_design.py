@@ -252,7 +252,7 @@ def test_html_is_no_wider_than_a4_in_chromium(crank, tmp_path):
     """Rendered with the report's CSS at A4 width (794 CSS px): no element reaches past the page."""
     from playwright import sync_api  # the test extra
 
-    from berryshaker.report.html import CSS
+    from berryshaker.report.html_blocks import CSS
 
     exe = shutil.which("chromium") or shutil.which("chromium-browser") or "/usr/bin/chromium"
     if not Path(exe).exists():

@@ -209,7 +209,7 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
 
 def test_study_summary_and_report_sections(virtual_json, tmp_path):
     """summary.json entries and the report section built from a replicated L9."""
-    from berryshaker.report.html import l9_replicates_section
+    from berryshaker.report.l9_replicates import l9_replicates_section
     from berryshaker.report.plots import plot_replicated_effects, plot_tradeoff
     from berryshaker.study.pipeline import l9_summary
 

@@ -240,7 +240,7 @@ def calibration_html(res: dict, title: str, figs: dict[str, Path]) -> str:
     str
         The HTML document.
     """
-    from berryshaker.report.html import CSS, _img, _table
+    from berryshaker.report.html_blocks import CSS, _img, _table
 
     e = html.escape
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{e(title)}</title>"

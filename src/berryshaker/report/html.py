@@ -15,9 +15,7 @@ from berryshaker.config import machine_table
 from berryshaker.report.design import claims_apply, design_answers, level_set_name
 from berryshaker.report.design_html import design_answers_html
 from berryshaker.report.headline import report_title, runs_text, verdict_class, verdict_counts
-# _img and l9_replicates_section: imported from here by report/calibration.py and tests/study/test_l9.py
-from berryshaker.report.html_blocks import CSS, _img, _plain, _Raw, _table  # noqa: F401
-from berryshaker.report.l9_replicates import l9_replicates_section  # noqa: F401
+from berryshaker.report.html_blocks import CSS, _plain, _Raw, _table
 from berryshaker.report.sections import SectionInput, section_numbers, step_sections, virtual_l9_section
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
 

@@ -11,7 +11,8 @@ import numpy as np
 
 from berryshaker.drives.groove_cam.kinematics import cam_groove
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.outputs import _umask, write_text_atomic
+from berryshaker.outputs import write_text_atomic
+from berryshaker.outputs.atomic_files import _umask
 
 
 def groove_csv_text(machine: Machine, n: int = 721) -> str:
