@@ -101,7 +101,7 @@ class Modes:
         """G_ij(z) = int_0^z phi_i'(s) phi_j'(s) ds at the sample points z, (n_modes, n_modes, n_z), 1/(kg m).
 
         The kernel of the branch's axial foreshortening u(z) = -1/2 eta^T G(z) eta (second order in the
-        deflection, berryshaker.harvest.coupled.BranchMotion.axial); slopes by central differences, the integral
+        deflection, berryshaker.harvest.coupled_branch.BranchMotion.axial); slopes by central differences, the integral
         by the cumulative trapezoidal rule.  Computed once per modes object (the modes are cached per process,
         so every replicate of a branch class shares it; ~1.9 MB for 11 modes at 2001 points, read-only).
         """
