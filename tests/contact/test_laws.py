@@ -79,7 +79,7 @@ def _slider_crank_model():
     from berryshaker.multibody.spec import load_mechanism
 
     cm = compile_mechanism(load_mechanism(Path(__file__).parents[2] / "examples" / "slider_crank_clearance.toml"))
-    j = int(np.flatnonzero(cm.model[7] == mb.FRC_REV_CL)[0])
+    j = int(np.flatnonzero(cm.model.ftype == mb.FRC_REV_CL)[0])
     return cm.model, j
 
 
@@ -102,7 +102,7 @@ def test_step_bound_covers_the_interpolated_force(p0, p1, d0, d1, h, v_imp):
         + (u**3 - u**2) * h * d1
     rate = ((6 * u**2 - 6 * u) * p0 + (-6 * u**2 + 6 * u) * p1) / h + (3 * u**2 - 4 * u + 1) * d0 \
         + (3 * u**2 - 2 * u) * d1
-    fflt, law = model[9], model[15][model[8][j, 3]]
+    fflt, law = model.fflt, model.laws[model.fint[j, 3]]
     f = [law(p, r, v_imp, fflt[j, mb.FF_K], fflt[j, mb.FF_N], fflt[j, mb.FF_E], fflt[j, mb.FF_C], fflt[j, mb.FF_D])
          if p > 0 else 0.0 for p, r in zip(pen, rate)]
     assert bound >= max(f) * (1.0 - 1e-9)

@@ -148,3 +148,20 @@ def test_call_compiled_passes_plain_functions_through():
     for _ in range(2):
         assert call_compiled(plain, 1.0, 2.0) == 3.0
     assert len(calls) == 2 and not any(k[0] is plain for k in dispatch._ENTRY_POINTS)
+
+
+def test_type_key_knows_the_model_record():
+    """The model record (a named tuple) is keyed by its class and fields, apart from a plain tuple of the same
+    arrays (numba types the two apart), so the engine's calls skip numba's typing of it."""
+    from berryshaker.multibody.compiled import compile_mechanism
+    from berryshaker.multibody.model import MechanismModel
+
+    model = compile_mechanism(harvester_mechanism(reference_machine())).model
+    assert type(model) is MechanismModel and model[13] is model.phi_tab  # index reads keep their old meaning
+    key = _type_key(model)
+    assert key is not None and key != _type_key(tuple(model))
+    assert typeof(model) != typeof(tuple(model))
+    other = model._replace(mass=model.mass.astype(np.float32))
+    assert _type_key(other) != key and typeof(other) != typeof(model)
+    same = model._replace(mass=model.mass * 2.0)
+    assert _type_key(same) == key and typeof(same) == typeof(model)

@@ -37,7 +37,7 @@ CASES = [(name, spec, ideal) for name, spec in _specs() for ideal in (False, Tru
 def _random_state(cm, rng):
     q = cm.q0.copy()
     qd = np.zeros_like(q)
-    nb = len(cm.model[0])
+    nb = len(cm.model.mass)
     q[0:3 * nb:3] += rng.normal(0.0, 0.01, nb)
     q[1:3 * nb:3] += rng.normal(0.0, 0.01, nb)
     q[2:3 * nb:3] = rng.uniform(-np.pi, np.pi, nb)
@@ -48,8 +48,8 @@ def _random_state(cm, rng):
 @pytest.mark.parametrize("name, spec, ideal", CASES, ids=[f"{c[0]}{'-ideal' if c[2] else ''}" for c in CASES])
 def test_pattern_contains_every_nonzero_and_solve_matches_dense(name, spec, ideal):
     cm = compile_mechanism(spec, ideal_clearances=ideal)
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab, plant_p,
-     laws, plan) = cm.model
+    md = cm.model
+    ctype, cint, cflt, crow, cams, plan = md.ctype, md.cint, md.cflt, md.crow, md.cams, md.plan
     m, n = cm.m, cm.n
     # every case has ideal constraints (the drive, the ideal joints; with ideal=True the clearance pairs too): a
     # case without any would test nothing, so it fails instead of skipping
@@ -91,7 +91,7 @@ def test_pattern_contains_every_nonzero_and_solve_matches_dense(name, spec, idea
         ref = np.linalg.solve(kkt, np.concatenate([mdiag * u, g]))
         out, lam, rhs_w = np.concatenate([np.zeros(3), u]), np.zeros(m), np.zeros(m)
         W[:] = 0.0
-        _constrained_solve(plan, cm.model[0], cm.model[1], cint, crow, jac, minv, W, rhs_w, out, 3, g, lam, m)
+        _constrained_solve(plan, cm.model.mass, cm.model.inertia, cint, crow, jac, minv, W, rhs_w, out, 3, g, lam, m)
         np.testing.assert_allclose(out[3:], ref[:n], rtol=1e-8, atol=1e-10 * np.abs(ref[:n]).max())
         np.testing.assert_allclose(lam, ref[n:], rtol=1e-8, atol=1e-10 * np.abs(ref[n:]).max())
     # and not a trivially full pattern: every entry it keeps is met at some state
@@ -105,7 +105,7 @@ def test_plan_of_the_harvester_is_the_structure_of_its_joints():
     ideal (a cam-roller constraint on the cam) it is."""
     m = reference_machine("groove_cam")
     cm = compile_mechanism(drive_of(m).mechanism(m, revolutions=1))
-    plan = cm.model[16]
+    plan = cm.model.plan
     ne = int(plan[0, 3])
     entries = {(int(a), int(b)) for a, b, _, _ in plan[cm.m:cm.m + ne]}
     assert entries == {(i, i) for i in range(cm.m)} | {(4, 5), (6, 7)}, cm.con_names
@@ -113,7 +113,7 @@ def test_plan_of_the_harvester_is_the_structure_of_its_joints():
     assert plan[:cm.m, 1].tolist() == [0, 1, 2, 3, 5, 5, 7, 7, 8]
     assert plan[:cm.m, 2].tolist() == [0] * cm.m and len(plan) == cm.m + ne
     ideal = compile_mechanism(drive_of(m).mechanism(m, revolutions=1), ideal_clearances=True)
-    plan = ideal.model[16]
+    plan = ideal.model.plan
     assert plan[ideal.m + plan[0, 3]:, :3].tolist() == [[ideal.body_index["cam"], 0, ideal.m - 1]]
 
 
@@ -121,7 +121,7 @@ def test_slider_crank_crank_is_eliminated():
     """The slider-crank's crank (revolute to the ground and driver) leaves W: a dense 5 x 5 block becomes the
     rod's 2 x 2 block (with the crank's known acceleration on the right-hand side)."""
     cm = compile_mechanism(load_mechanism(EXAMPLES / "slider_crank_clearance.toml"))
-    plan = cm.model[16]
+    plan = cm.model.plan
     assert plan[:cm.m, 2].tolist() == [1, 1, 0, 0, 0, 0, 1]
     assert plan[:cm.m, 0].tolist() == [0, 1, 2, 2, 4, 5, 6]
     assert plan[cm.m + plan[0, 3]:, :3].tolist() == [[0, 0, 6]]
@@ -148,15 +148,16 @@ def test_driven_body_needs_exactly_a_ground_revolute_and_a_driver():
 def test_cases_cover_every_constraint_type():
     types = set()
     for _, spec, ideal in CASES:
-        types |= {int(t) for t in compile_mechanism(spec, ideal_clearances=ideal).model[3]}
+        types |= {int(t) for t in compile_mechanism(spec, ideal_clearances=ideal).model.ctype}
     assert types == set(L.CON_ROWS)
 
 
 def test_remembered_plan_is_a_copy_per_call():
     """solve_plan is remembered per constraint set; a caller that writes into its plan must not change the next
-    caller's (the kernel only reads it, but the model tuple is the caller's)."""
+    caller's (the kernel only reads it, but the model record is the caller's)."""
     cm = compile_mechanism(load_mechanism(EXAMPLES / "slider_crank_clearance.toml"))
-    ctype, cint, cflt, crow = cm.model[3:7]
+    md = cm.model
+    ctype, cint, cflt, crow = md.ctype, md.cint, md.cflt, md.crow
     first = solve_plan(ctype, cint, cflt, crow, cm.m, cm.n)
     expected = first.copy()
     first[:] = -7
@@ -236,7 +237,7 @@ def test_projection_matches_dense_mass_weighted_projection(crank_as, tmp_path):
     path = tmp_path / "slider_crank.toml"
     path.write_text(text)
     cm = compile_mechanism(load_mechanism(path), ideal_clearances=True)
-    plan = cm.model[16]
+    plan = cm.model.plan
     assert plan[cm.m + plan[0, 3]:, 0].tolist() == [cm.body_index["crank"]]
     state, work = _state_and_work(cm)
     minv = work[7]

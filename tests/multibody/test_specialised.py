@@ -25,13 +25,12 @@ from berryshaker.multibody.compiled import _state_and_work, compile_mechanism
 from berryshaker.multibody.constraint_rows import constraints
 from berryshaker.multibody.engine import integrator, simulate_mechanism
 from berryshaker.multibody.linear_solve import _constrained_solve
+from berryshaker.multibody.model import MechanismModel
 from berryshaker.multibody.sparsity import solve_plan
 
 
 def _model(ctype, cint, crow, plan):
-    model = [None] * 17
-    model[3], model[4], model[6], model[16] = ctype, cint, crow, plan
-    return tuple(model)
+    return MechanismModel(*[None] * 17)._replace(ctype=ctype, cint=cint, crow=crow, plan=plan)
 
 
 def _check(mod, ctype, cint, cflt, crow, cams, plan, mass, inertia, minv, m, n, q_of, rng, states=15):
@@ -62,11 +61,12 @@ def _check(mod, ctype, cint, cflt, crow, cams, plan, mass, inertia, minv, m, n, 
 @pytest.mark.parametrize("name, spec, ideal", CASES, ids=[f"{c[0]}{'-ideal' if c[2] else ''}" for c in CASES])
 def test_generated_kernel_is_bitwise_the_generic_one_on_every_mechanism(name, spec, ideal):
     cm = compile_mechanism(spec, ideal_clearances=ideal)
-    (mass, inertia, _g, ctype, cint, cflt, crow, *_rest) = cm.model
+    md = cm.model
+    mass, inertia, ctype, cint, cflt, crow = md.mass, md.inertia, md.ctype, md.cint, md.cflt, md.crow
     assert cm.m > 0, f"{name}: no ideal constraints"  # every case has some: one without would test nothing
     _state, work = _state_and_work(cm)
     mod = sp.specialised_module(cm.model, cm.n, cm.m)
-    _check(mod, ctype, cint, cflt, crow, cm.model[10], cm.model[16], mass, inertia, work[7], cm.m, cm.n,
+    _check(mod, ctype, cint, cflt, crow, cm.model.cams, cm.model.plan, mass, inertia, work[7], cm.m, cm.n,
            lambda rng: _random_state(cm, rng), np.random.default_rng(3))
 
 

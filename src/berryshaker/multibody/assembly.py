@@ -49,8 +49,9 @@ def initial_state(spec: MechanismSpec, q_start: np.ndarray | None = None) -> np.
     if ideal.m:
         res = call_compiled(project, 0.0, y, ideal.model, state, work, 60)
         if not (res < 1e-9):
-            constraints(0.0, y[:ideal.n], y[ideal.n:], *ideal.model[3:7], ideal.model[10], state[2], work[0],
-                        work[1], work[2], work[3])
+            md = ideal.model
+            constraints(0.0, y[:ideal.n], y[ideal.n:], md.ctype, md.cint, md.cflt, md.crow, md.cams, state[2],
+                        work[0], work[1], work[2], work[3])
             worst = int(np.argmax(np.abs(work[0])))
             name = next(n for n, (r0, nr) in zip(ideal.con_names, ideal.con_rows) if r0 <= worst < r0 + nr)
             raise GeometryError(f"the mechanism cannot assemble: joint {name!r} stays {abs(work[0][worst]):.3g} "

@@ -27,13 +27,9 @@ from berryshaker.multibody import engine
 from berryshaker.multibody import kernel as mb
 from berryshaker.multibody.engine import (MultibodyResult, PreparedRun, finish_run, integrate_in_chunks, prepare_run,
                                           resumable)
+from berryshaker.multibody.model import FLOAT_FIELDS, STRUCTURE_FIELDS, MechanismModel
 from berryshaker.multibody.spec import MechanismSpec
 from berryshaker.multibody.specialised import mark_compiled
-
-#: positions in the model tuple of the arrays that may differ between the sets of one batch (floats)
-_FLOAT_MODEL = (0, 1, 2, 5, 9, 10, 11, 12, 13, 14)
-#: positions of the integer arrays that define the structure (equal within a batch)
-_INT_MODEL = (3, 4, 6, 7, 8, 16)
 
 
 @njit(cache=True, parallel=True)
@@ -119,8 +115,8 @@ def integrate_sets(y0, t_out, mass, inertia, gravity, ctype, cint, cflt, crow, f
         also gets the histogram of step sizes (counts).
     """
     for s in prange(y0.shape[0]):
-        model = (mass[s], inertia[s], gravity[s], ctype, cint, cflt[s], crow, ftype, fint, fflt[s], cams[s],
-                 modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws, solve_plan)
+        model = MechanismModel(mass[s], inertia[s], gravity[s], ctype, cint, cflt[s], crow, ftype, fint, fflt[s],
+                               cams[s], modal_w[s], modal_z[s], phi_tab[s], plant_p[s], laws, solve_plan)
         state = (in_contact[s], v_imp[s], psi_c[s], psi_f[s], lam_prev[s])
         work = (phi[s], jac[s], nu[s], gam[s], q_f[s], eout[s], lam[s], minv[s], w_mat[s], rhs[s])
         mb.integrate(y0[s], t_out, model, state, work, rtol, atol[s], h_max, stats_from[s], out_y[s], out_e[s],
@@ -142,10 +138,10 @@ def structure_key(run: PreparedRun) -> tuple:
         The key (bytes of the structure arrays, shapes, times s, tolerances, step s, budget).
     """
     model = run.cm.model
-    ints = tuple(model[i].tobytes() for i in _INT_MODEL)
-    shapes = tuple(np.shape(model[i]) for i in _FLOAT_MODEL) + tuple(np.shape(a) for a in run.state + run.work)
+    ints = tuple(getattr(model, f).tobytes() for f in STRUCTURE_FIELDS)
+    shapes = tuple(np.shape(getattr(model, f)) for f in FLOAT_FIELDS) + tuple(np.shape(a) for a in run.state + run.work)
     return (ints, shapes, run.t_out.tobytes(), run.rtol, run.max_step, run.budget,
-            tuple(id(f) for f in model[15]), run.specialised)
+            tuple(id(f) for f in model.laws), run.specialised)
 
 
 def _stack(arrays: list[np.ndarray]) -> np.ndarray:
@@ -190,7 +186,7 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
                       stacklevel=2)
     first_run = runs[0]
     model = first_run.cm.model
-    fl = {i: _stack([r.cm.model[i] for r in runs]) for i in _FLOAT_MODEL}
+    fl = {f: _stack([getattr(r.cm.model, f) for r in runs]) for f in FLOAT_FIELDS}
     st = [_stack([r.state[i] for r in runs]) for i in range(len(first_run.state))]
     wk = [_stack([r.work[i] for r in runs]) for i in range(len(first_run.work))]
     out_y, out_e, out_lam = (_stack([r.out_y for r in runs]), _stack([r.out_e for r in runs]),
@@ -199,9 +195,9 @@ def integrate_prepared(runs: list[PreparedRun]) -> float:
                           _stack([r.info for r in runs]))
     info[:, 0] = [r.budget for r in runs]
     t0 = time.perf_counter()
-    integrate_sets(_stack([r.y for r in runs]), first_run.t_out, fl[0], fl[1], fl[2], model[3], model[4], fl[5],
-                   model[6], model[7], model[8], fl[9], fl[10], fl[11], fl[12], fl[13], fl[14], model[15], model[16],
-                   *st, *wk,
+    integrate_sets(_stack([r.y for r in runs]), first_run.t_out, fl["mass"], fl["inertia"], fl["gravity"], model.ctype,
+                   model.cint, fl["cflt"], model.crow, model.ftype, model.fint, fl["fflt"], fl["cams"], fl["modal_w"],
+                   fl["modal_z"], fl["phi_tab"], fl["plant_p"], model.laws, model.plan, *st, *wk,
                    first_run.rtol, _stack([r.atol for r in runs]), first_run.max_step,
                    np.array([r.stats_from for r in runs]), out_y, out_e, out_lam, peaks, first, info)
     wall = time.perf_counter() - t0

@@ -20,16 +20,18 @@ from berryshaker.errors import ConfigError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
 from berryshaker.multibody import layout as L
 from berryshaker.multibody.cam_pitch import FOOT_MEMORY
+from berryshaker.multibody.model import MechanismModel
 from berryshaker.multibody.sparsity import solve_plan
 from berryshaker.multibody.spec import MechanismSpec
 
 
 @dataclass
 class CompiledMechanism:
-    """A description (``spec``) compiled for the core: ``model`` is the tuple of arrays every compiled function
-    takes (:mod:`berryshaker.multibody.dynamics`), the names, kinds and rows say which block or element is which,
-    ``m`` and ``n`` count the constraint rows and coordinates, ``q0`` holds the bodies' positions of the
-    description and ``period`` the first driver's revolution (statistics skip it; None without a turning driver).
+    """A description (``spec``) compiled for the core: ``model`` is the record of arrays every compiled function
+    takes (:class:`~berryshaker.multibody.model.MechanismModel`), the names, kinds and rows say which block or
+    element is which, ``m`` and ``n`` count the constraint rows and coordinates, ``q0`` holds the bodies' positions
+    of the description and ``period`` the first driver's revolution (statistics skip it; None without a turning
+    driver).
 
     Attributes
     ----------
@@ -37,8 +39,8 @@ class CompiledMechanism:
         The description.
     body_index : dict of str to int
         Each body's index.
-    model : tuple
-        The arrays every compiled function takes (:mod:`berryshaker.multibody.dynamics`; SI).
+    model : MechanismModel
+        The arrays every compiled function takes, by name (:mod:`berryshaker.multibody.model`; SI).
     con_names, frc_names : list of str
         Names of the constraint blocks and of the force elements.
     con_rows : list of tuple of int
@@ -61,7 +63,7 @@ class CompiledMechanism:
 
     spec: MechanismSpec
     body_index: dict[str, int]
-    model: tuple
+    model: MechanismModel
     con_names: list[str]  # one per constraint block
     con_rows: list[tuple[int, int]]  # (first row, number of rows)
     frc_names: list[str]
@@ -254,12 +256,13 @@ def compile_mechanism(spec: MechanismSpec, ideal_clearances: bool = False) -> Co
     def arr(x, shape, dtype):
         return np.array(x, dtype=dtype).reshape(shape) if len(x) else np.zeros(shape, dtype)
 
-    con = (arr(ctype, (len(ctype),), np.int64), arr(cint, (len(cint), L.N_CI), np.int64),
-           arr(cflt, (len(cflt), L.N_CF), float), arr(crow, (len(crow),), np.int64))
-    model = (mass, inertia, np.array(spec.mechanism.gravity, float), *con,
-             arr(ftype, (len(ftype),), np.int64), arr(fint, (len(fint), L.N_FI), np.int64),
-             arr(fflt, (len(fflt), L.N_FF), float), cams, modal_w, modal_z, phi_tab, plant_p, law_table(),
-             solve_plan(*con, row, 3 * nb + len(modal_w)))
+    con = dict(ctype=arr(ctype, (len(ctype),), np.int64), cint=arr(cint, (len(cint), L.N_CI), np.int64),
+               cflt=arr(cflt, (len(cflt), L.N_CF), float), crow=arr(crow, (len(crow),), np.int64))
+    model = MechanismModel(mass=mass, inertia=inertia, gravity=np.array(spec.mechanism.gravity, float), **con,
+                           ftype=arr(ftype, (len(ftype),), np.int64), fint=arr(fint, (len(fint), L.N_FI), np.int64),
+                           fflt=arr(fflt, (len(fflt), L.N_FF), float), cams=cams, modal_w=modal_w, modal_z=modal_z,
+                           phi_tab=phi_tab, plant_p=plant_p, laws=law_table(),
+                           plan=solve_plan(*con.values(), row, 3 * nb + len(modal_w)))
     audit = spec.simulation.energy_audit
     if audit is None:
         audit = any(d.type == "torque_speed" for d in spec.drivers)
@@ -279,7 +282,7 @@ def _state_and_work(cm: CompiledMechanism):
     state = (np.zeros(max(nf, 1), np.bool_)[:nf], np.zeros(nf), np.full(nc, np.nan),
              np.concatenate([np.full(nf, np.nan), np.zeros((FOOT_MEMORY - 1) * nf)]),
              np.zeros(cm.m))
-    mass, inertia = cm.model[0], cm.model[1]
+    mass, inertia = cm.model.mass, cm.model.inertia
     minv = np.ones(cm.n)  # modal coordinates are mass-normalised
     nb3 = 3 * len(mass)
     minv[0:nb3:3] = 1.0 / mass

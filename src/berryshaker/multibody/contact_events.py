@@ -44,7 +44,7 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
     (p0, d0) -> (p1, d1) over h (O(h^4) in the penetration, O(h^3) in its rate), sampled at 15 interior
     points, and the fraction of the step where it occurs (refined by a parabola through the samples around
     the largest).  :func:`record_contacts` re-evaluates the force at that fraction from the dense output."""
-    fint, fflt = model[8], model[9]
+    fint, fflt = model.fint, model.fflt
     best = 0.0
     s_best = 0
     f_prev = 0.0
@@ -64,7 +64,7 @@ def _interior_peak(model, j, v_imp, h, p0, d0, p1, d1):
         pd = dh00 * p0 + dh10 * d0 + dh01 * p1 + dh11 * d1
         f = 0.0
         if pen > 0.0:
-            f = _law(model[15], fint[j, FI_LAW], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
+            f = _law(model.laws, fint[j, FI_LAW], pen, pd, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E], fflt[j, FF_C],
                      fflt[j, FF_D])
         if s == s_best + 1 and s_best > 0:
             f_right = f
@@ -123,8 +123,8 @@ def _step_force_bound(model, j, v_imp, h, p0, d0, p1, d1):
                 pu = sc * ((b * u + c) * u + q0)
                 if pu > p_max:
                     p_max = pu
-    fint, fflt = model[8], model[9]
-    return _law(model[15], fint[j, FI_LAW], p_max, d_max, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E],
+    fint, fflt = model.fint, model.fflt
+    return _law(model.laws, fint[j, FI_LAW], p_max, d_max, v_imp, fflt[j, FF_K], fflt[j, FF_N], fflt[j, FF_E],
                 fflt[j, FF_C], fflt[j, FF_D])
 
 
@@ -257,7 +257,7 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_st
     u_peak : numpy.ndarray
         Written: per force element, the fraction of the step at which its force is to be evaluated, or -1.
     """
-    fflt = model[9]
+    fflt = model.fflt
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     eout = work[5]
     nf = eout.shape[0]
@@ -370,8 +370,10 @@ def interior_peak_forces(t, t_old, h, stats_from, model, state, work, k, ytmp, y
         First contact of each element (``layout.FIRST_*``: time s, impact velocity m/s, peak force N, flag, impact
         count), its first episode's peak updated.
     """
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws, plan) = model
+    mass, gravity, cams, laws = model.mass, model.gravity, model.cams, model.laws
+    ctype, cint, cflt, crow = model.ctype, model.cint, model.cflt, model.crow
+    ftype, fint, fflt = model.ftype, model.fint, model.fflt
+    modal_w, modal_z, phi_tab, plant_p = model.modal_w, model.modal_z, model.phi_tab, model.plant_p
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     Q, eout = work[4], work[5]
     nf = eout.shape[0]

@@ -12,16 +12,19 @@ import numpy as np
 from numba import typeof
 
 from berryshaker.contact.laws import LawEntryPoint
+from berryshaker.multibody.model import MechanismModel
 
 
 def _type_key(x):
     """What numba's ``typeof`` makes of ``x``, as a hashable key, or None where this function does not know.
 
-    Exact types only (a subclass, a named tuple or an enum member gets None): a plain ``ndarray`` by its dtype
-    (fields and units included), dimensions, layout (C, F or any, numba's ``map_layout``), read-only and aligned
-    flags; a plain tuple by its elements' keys; a Python or numpy scalar by its type and numba's own type of it
-    (cheap for a scalar; ints by value range, datetimes by unit); a contact law's entry point by its class (typed
-    by the one law signature, :class:`~berryshaker.contact.laws.LawEntryPoint`).  Equal keys give equal numba
+    Exact types only (a subclass, another named tuple or an enum member gets None): a plain ``ndarray`` by its
+    dtype (fields and units included), dimensions, layout (C, F or any, numba's ``map_layout``), read-only and
+    aligned flags; a plain tuple by its elements' keys, the model record
+    (:class:`~berryshaker.multibody.model.MechanismModel`) by its class and its fields' keys; a Python or numpy
+    scalar by its type and numba's own type of it (cheap for a scalar; ints by value range, datetimes by unit); a
+    contact law's entry point by its class (typed by the one law signature,
+    :class:`~berryshaker.contact.laws.LawEntryPoint`).  Equal keys give equal numba
     types (tests/multibody/test_dispatch.py), which is what makes :func:`call_compiled`'s direct call safe.
     """
     t = type(x)
@@ -29,9 +32,9 @@ def _type_key(x):
         f = x.flags
         layout = "C" if f.c_contiguous else "F" if f.f_contiguous else "A"
         return ("array", x.dtype, x.ndim, layout, f.writeable, f.aligned)
-    if t is tuple:
+    if t is tuple or t is MechanismModel:
         keys = tuple(_type_key(e) for e in x)
-        return None if any(k is None for k in keys) else ("tuple", keys)
+        return None if any(k is None for k in keys) else (t, keys)
     if t in (bool, int, float) or isinstance(x, np.generic):
         try:
             return ("scalar", t, typeof(x))

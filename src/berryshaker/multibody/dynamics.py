@@ -3,8 +3,8 @@ right-hand side), and the projection of a state onto the constraint manifold (do
 
 The model, state and work tuples (built by :mod:`berryshaker.multibody.compiled`):
 
-* model: mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-  plant_p, laws, plan;
+* model (:class:`~berryshaker.multibody.model.MechanismModel`, read by name): mass, inertia, gravity, ctype, cint,
+  cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab, plant_p, laws, plan;
 * state (carried between evaluations): in_contact, v_imp, psi_c (cam-roller foot memory), psi_f (groove contacts'
   foot memory), lam_prev (the last accepted step's multipliers);
 * work: phi, jac, nu, gam, Q, eout, lam, minv, W, rhs.
@@ -37,8 +37,11 @@ def accelerations(t, y, model, state, work, dy):
     dy : numpy.ndarray
         Written: the derivative (q', q'') (m/s, rad/s; m/s^2, rad/s^2).
     """
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws, plan) = model
+    mass, inertia, gravity, cams = model.mass, model.inertia, model.gravity, model.cams
+    laws, plan = model.laws, model.plan
+    ctype, cint, cflt, crow = model.ctype, model.cint, model.cflt, model.crow
+    ftype, fint, fflt = model.ftype, model.fint, model.fflt
+    modal_w, modal_z, phi_tab, plant_p = model.modal_w, model.modal_z, model.phi_tab, model.plant_p
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     n = y.shape[0] // 2
@@ -75,8 +78,8 @@ def project(t, y, model, state, work, iters):
     iters : int
         Newton iterations at most.
     """
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws, plan) = model
+    mass, inertia, cams, plan = model.mass, model.inertia, model.cams, model.plan
+    ctype, cint, cflt, crow = model.ctype, model.cint, model.cflt, model.crow
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     (phi, jac, nu, gam, Q, eout, lam, minv, W, rhs) = work
     m = phi.shape[0]
@@ -117,7 +120,7 @@ def constraint_residuals(model, work, y):
     y : numpy.ndarray
         State whose positions the work arrays' rows were evaluated at (m, rad; m/s, rad/s).
     """
-    ctype, cint, crow = model[3], model[4], model[6]
+    ctype, cint, crow = model.ctype, model.cint, model.crow
     phi, jac, nu = work[0], work[1], work[2]
     n_q = y.shape[0] // 2
     res_p = 0.0

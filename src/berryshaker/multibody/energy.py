@@ -46,11 +46,11 @@ def kinetic_energy(cm, y: np.ndarray) -> np.ndarray:
     ndarray
         Kinetic energy per sample (J): sum_b (m_b (x'^2 + y'^2) + I_b phi'^2) / 2 + sum_k eta_k'^2 / 2 (mass-normalised modes).
     """
-    mass, inertia = cm.model[0], cm.model[1]
+    mass, inertia = cm.model.mass, cm.model.inertia
     n, nb = cm.n, len(mass)
     v = y[:, n:n + 3 * nb].reshape(len(y), nb, 3)
     ke = 0.5 * (mass * (v[:, :, 0] ** 2 + v[:, :, 1] ** 2) + inertia * v[:, :, 2] ** 2).sum(axis=1)
-    nm = len(cm.model[11])
+    nm = len(cm.model.modal_w)
     if nm:
         ke = ke + 0.5 * np.sum(y[:, n + 3 * nb:n + 3 * nb + nm] ** 2, axis=1)
     return ke
@@ -61,7 +61,7 @@ def _elastic_contact_energy(cm, k: int, pen: float) -> float:
     registered law), 8-point Gauss-Legendre."""
     if pen <= 0.0:
         return 0.0
-    fint, fflt, laws = cm.model[8], cm.model[9], cm.model[15]
+    fint, fflt, laws = cm.model.fint, cm.model.fflt, cm.model.laws
     law = laws[int(fint[k, L.FI_LAW])]
     p = fflt[k]
     f = [law(float(pen * x), 0.0, 1.0, p[L.FF_K], p[L.FF_N], p[L.FF_E], p[L.FF_C], p[L.FF_D]) for x in _GL_X]
@@ -87,7 +87,8 @@ def stored_energy(cm, y: np.ndarray, elements: np.ndarray) -> tuple[dict[str, fl
         int_0^delta F(p, 0) dp, constant force -F.r_P; sources store nothing.  Modal strain 1/2 sum omega_k^2
         eta_k^2; gravity -sum_b m_b g.r_b.
     """
-    mass, gravity, ftype, fint, fflt = cm.model[0], cm.model[2], cm.model[7], cm.model[8], cm.model[9]
+    md = cm.model
+    mass, gravity, ftype, fint, fflt = md.mass, md.gravity, md.ftype, md.fint, md.fflt
     n, nb = cm.n, len(mass)
     q = y[:n]
     ang = lambda b: q[3 * b + 2] if b >= 0 else 0.0
@@ -107,7 +108,7 @@ def stored_energy(cm, y: np.ndarray, elements: np.ndarray) -> tuple[dict[str, fl
             px, py = q[3 * bi] + c * sx - s * sy, q[3 * bi + 1] + s * sx + c * sy
             u = -(fflt[k, L.FF_FORCE_X] * px + fflt[k, L.FF_FORCE_Y] * py)
         out[name] = float(u)
-    w = cm.model[11]
+    w = cm.model.modal_w
     modal = float(0.5 * np.sum((w * q[3 * nb:3 * nb + len(w)]) ** 2)) if len(w) else 0.0
     grav = float(-np.sum(mass * (gravity[0] * q[0:3 * nb:3] + gravity[1] * q[1:3 * nb:3])))
     return out, modal, grav
@@ -146,7 +147,7 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
     i0 = int(np.argmin(np.abs(t - t0)))
     i1 = int(np.argmin(np.abs(t - t1)))
     n, a0, nf = cm.n, cm.acc_start, len(cm.frc_names)
-    ftype = cm.model[7]
+    ftype = cm.model.ftype
     d_w = result.y[i1, n + a0:n + a0 + nf + 2] - result.y[i0, n + a0:n + a0 + nf + 2]
     u0, m0, g0 = stored_energy(cm, result.y[i0], result.elements[i0])
     u1, m1, g1 = stored_energy(cm, result.y[i1], result.elements[i1])
@@ -158,15 +159,15 @@ def energy_audit(result, t_from: float | None = None, t_to: float | None = None)
             w_in += float(d_w[k])
         else:
             dissipated[name] = float(-d_w[k] - (u1[name] - u0[name]))
-    cflt = cm.model[5]
-    if np.any((cm.model[3] == L.CON_PRISMATIC) & (cflt[:, L.CF_MU] > 0)):
+    cflt = cm.model.cflt
+    if np.any((cm.model.ctype == L.CON_PRISMATIC) & (cflt[:, L.CF_MU] > 0)):
         dissipated["guide friction"] = float(-d_w[nf])  # prismatic joints' Coulomb friction (all of them)
-    if len(cm.model[11]):
+    if len(cm.model.modal_w):
         dissipated["modal damping"] = float(-d_w[nf + 1] - (m1 - m0))
     d_pot = (g1 - g0) + sum(u1.values()) - sum(u0.values()) + (m1 - m0)
     d_ke = float(ke[1] - ke[0])
     residual = w_in - d_ke - d_pot - sum(dissipated.values())
-    imposed = any(typ == L.CON_DRIVER for typ in cm.model[3])
+    imposed = any(typ == L.CON_DRIVER for typ in cm.model.ctype)
     out = {"window_s": [float(t[i0]), float(t[i1])], "input_work_J": w_in, "kinetic_change_J": d_ke,
            "potential_change_J": float(d_pot), "dissipated_J": dissipated}
     if imposed:

@@ -203,8 +203,7 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     cm = compile_mechanism(spec)
     state, work = _state_and_work(cm)
     y = np.zeros(2 * cm.n)
-    (mass, inertia, gravity, ctype, cint, cflt, crow, ftype, fint, fflt, cams, modal_w, modal_z, phi_tab,
-     plant_p, laws, plan) = cm.model
+    md = cm.model
     (in_contact, v_imp, psi_c, psi_f, lam_prev) = state
     q_arg = y[:cm.n]  # dynamics.accelerations passes views of y: C-contiguous 1-D arrays, as these
     # the types kernel.integrate passes: a contact index from range() (int64), step counts and the next sample's
@@ -214,9 +213,9 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     out_y, out_e, out_lam = np.zeros((2, ny)), np.zeros((2, nf, L.N_EO)), np.zeros((2, cm.m))
     i0, f0, yes = np.int64(0), 0.0, True
     calls = {"projection": [(project, (f0, y, cm.model, state, work, np.int64(3)))],
-             "forces": [(forces, (f0, q_arg, y[cm.n:], mass, gravity, ftype, fint, fflt, cams, in_contact,
-                                  v_imp, psi_f, ctype, cint, cflt, crow, lam_prev, modal_w, modal_z, phi_tab,
-                                  plant_p, work[4], work[5], laws))],
+             "forces": [(forces, (f0, q_arg, y[cm.n:], md.mass, md.gravity, md.ftype, md.fint, md.fflt, md.cams,
+                                  in_contact, v_imp, psi_f, md.ctype, md.cint, md.cflt, md.crow, lam_prev,
+                                  md.modal_w, md.modal_z, md.phi_tab, md.plant_p, work[4], work[5], md.laws))],
              "right_hand_side": [(accelerations, (f0, y, cm.model, state, work, np.zeros_like(y)))],
              "step_events": [(fint_is_contact, (cm.model, i0)),
                              (_onset_fraction, (f0,) * 5), (_crossing_rate, (f0,) * 5),

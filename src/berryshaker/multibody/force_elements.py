@@ -665,6 +665,6 @@ def fint_is_contact(model, j):
     j : int
         The force element's row.
     """
-    ftype = model[7]
+    ftype = model.ftype
     t = ftype[j]
     return t == FRC_REV_CL or t == FRC_SLOT_CL or t == FRC_GROOVE_CL or t == FRC_BRANCH

@@ -86,7 +86,7 @@ class MultibodyResult:
         """
         k = self.compiled.con_names.index(name)
         r0, nr = self.compiled.con_rows[k]
-        typ = self.compiled.model[3][k]
+        typ = self.compiled.model.ctype[k]
         lam = self.multipliers[:, r0:r0 + nr]
         if typ == L.CON_PRISMATIC:
             return np.abs(lam[:, 1])
@@ -167,7 +167,7 @@ class MultibodyResult:
         if cm.acc_start >= 0:
             out["energy"] = energy_audit(self)
         for k, name in enumerate(cm.con_names):
-            typ = cm.model[3][k]
+            typ = cm.model.ctype[k]
             if typ == L.CON_DRIVER:
                 tq = self.reaction(name)[sel]
                 out["drivers"][name] = {"torque_Nm": {"peak": float(np.max(np.abs(tq))), "mean": float(np.mean(tq)),

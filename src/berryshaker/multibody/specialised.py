@@ -53,6 +53,7 @@ import numpy as np
 
 from berryshaker.multibody import constraint_rows, dynamics, kernel, linear_solve
 from berryshaker.multibody.layout import CON_CAM_ROLLER, CON_DRIVER, CON_POINT_LINE, CON_PRISMATIC, CON_REVOLUTE
+from berryshaker.multibody.model import MechanismModel
 
 #: the generated module's format; part of every structure key, so a change of the generator starts new files
 GENERATOR_VERSION = 4
@@ -66,14 +67,14 @@ GENERIC_KEPT = (dynamics.project,)
 _LOADED: dict[str, object] = {}
 
 
-def structure_key(model: tuple, n: int) -> str:
+def structure_key(model: MechanismModel, n: int) -> str:
     """Digest (hex, 16 digits) of what the generated code depends on: the constraint types, bodies and rows, the
     solve plan, the number of coordinates and the generator's version (not any value).
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple.
+    model : MechanismModel
+        A compiled mechanism's model record (:mod:`berryshaker.multibody.model`).
     n : int
         Number of coordinates.
 
@@ -82,7 +83,7 @@ def structure_key(model: tuple, n: int) -> str:
     str
         The digest (16 hex digits).
     """
-    ctype, cint, crow, plan = model[3], model[4], model[6], model[16]
+    ctype, cint, crow, plan = model.ctype, model.cint, model.crow, model.plan
     h = hashlib.sha256(f"v{GENERATOR_VERSION};n{int(n)};".encode())
     for a in (ctype, cint, crow, plan):
         a = np.ascontiguousarray(a, dtype=np.int64)
@@ -225,15 +226,15 @@ def _solve_source(cint, crow, plan, m: int) -> list[str]:
     return L
 
 
-def specialised_integrator(model: tuple, n: int, m: int):
+def specialised_integrator(model: MechanismModel, n: int, m: int):
     """The integrator (``kernel.integrate``'s signature and results) specialised to ``model``'s structure:
     generated and imported on first use in a process, loaded from the disk cache after the first compilation
     on this machine.
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple (:attr:`berryshaker.multibody.compiled.CompiledMechanism.model`).
+    model : MechanismModel
+        A compiled mechanism's model record (:attr:`berryshaker.multibody.compiled.CompiledMechanism.model`).
     n, m : int
         Its coordinates and constraint rows.
 
@@ -245,15 +246,15 @@ def specialised_integrator(model: tuple, n: int, m: int):
     return specialised_module(model, n, m).integrate
 
 
-def specialised_module(model: tuple, n: int, m: int):
+def specialised_module(model: MechanismModel, n: int, m: int):
     """The generated module of ``model``'s structure (its functions ``constraints``, ``_constrained_solve`` and
     those of :data:`GENERIC_SOURCES`), written to :func:`source_folder` if missing or different and imported once
     per process.
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple.
+    model : MechanismModel
+        A compiled mechanism's model record (:mod:`berryshaker.multibody.model`).
     n : int
         Number of coordinates.
     m : int
@@ -281,7 +282,7 @@ def specialised_module(model: tuple, n: int, m: int):
     return mod
 
 
-def is_compiled(model: tuple, n: int) -> bool:
+def is_compiled(model: MechanismModel, n: int) -> bool:
     """True when this machine has compiled the structure's specialised kernel with this package version, numba
     version and CPU (a run with it finished its first call and numba saved it: :func:`mark_compiled`), so running
     it costs a load from numba's cache (~0.1 s), not a compilation.  ~15 us (the structure's digest and a file's
@@ -289,8 +290,8 @@ def is_compiled(model: tuple, n: int) -> bool:
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple.
+    model : MechanismModel
+        A compiled mechanism's model record (:mod:`berryshaker.multibody.model`).
     n : int
         Number of coordinates.
 
@@ -305,7 +306,7 @@ def is_compiled(model: tuple, n: int) -> bool:
         return False
 
 
-def mark_compiled(model: tuple, n: int, integrate=None) -> None:
+def mark_compiled(model: MechanismModel, n: int, integrate=None) -> None:
     """Record that the structure's specialised kernel compiled and numba cached it on this machine: an empty
     ``bs_specialised_<key>.<target>.compiled`` beside the generated source, ``<target>`` a digest of numba's
     version and the CPU's name and features (numba's cache entries depend on both, so a numba update or a cache
@@ -316,8 +317,8 @@ def mark_compiled(model: tuple, n: int, integrate=None) -> None:
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple.
+    model : MechanismModel
+        A compiled mechanism's model record (:mod:`berryshaker.multibody.model`).
     n : int
         Number of coordinates.
     integrate : numba dispatcher
@@ -340,7 +341,7 @@ def mark_compiled(model: tuple, n: int, integrate=None) -> None:
         pass
 
 
-def _compiled_marker(model: tuple, n: int) -> Path:
+def _compiled_marker(model: MechanismModel, n: int) -> Path:
     return source_folder() / f"bs_specialised_{structure_key(model, n)}.{_target_digest()}.compiled"
 
 
@@ -502,14 +503,14 @@ def _imports(defined: set[str]) -> list[str]:
     return lines
 
 
-def specialised_source(model: tuple, n: int, m: int) -> str:
-    """The Python source of the specialised module for ``model`` (a compiled mechanism's model tuple) with ``n``
+def specialised_source(model: MechanismModel, n: int, m: int) -> str:
+    """The Python source of the specialised module for ``model`` (a compiled mechanism's model record) with ``n``
     coordinates and ``m`` constraint rows.
 
     Parameters
     ----------
-    model : tuple
-        A compiled mechanism's model tuple.
+    model : MechanismModel
+        A compiled mechanism's model record (:mod:`berryshaker.multibody.model`).
     n : int
         Number of coordinates.
     m : int
@@ -521,7 +522,7 @@ def specialised_source(model: tuple, n: int, m: int) -> str:
         The module's source.
     """
     _check_generic_sources()
-    ctype, cint, crow, plan = (np.asarray(model[i]) for i in (3, 4, 6, 16))
+    ctype, cint, crow, plan = (np.asarray(a) for a in (model.ctype, model.cint, model.crow, model.plan))
     defined = {"constraints", "_constrained_solve"} | {fn.py_func.__name__ for fn in GENERIC_SOURCES}
     head = [f'"""Generated by berryshaker.multibody.specialised (structure {structure_key(model, n)}, generator '
             f'{GENERATOR_VERSION}); do not edit: it is rewritten when it differs."""',
