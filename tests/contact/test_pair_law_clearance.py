@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from berryshaker.config import load_machine, pair_contact_rows, reference_machine
-from berryshaker.contact.conformal import hysteresis_factor, line_contact_approach, pin_in_bore_law
+from berryshaker.contact.conformal import hysteresis_factor, line_contact_approach
+from berryshaker.contact.pin_in_bore import pin_in_bore_law
 from berryshaker.contact.pair_law import FIT_FORCE_RANGE, pair_geometry, resolve_pair_contact
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 from berryshaker.drives.simulation import simulate_multibody
@@ -43,7 +44,7 @@ def test_reference_pairs_get_steel_line_contact(machine):
 
 
 def test_pin_law_is_the_conformal_module_law():
-    """The pair resolution hands the engine exactly conformal.pin_in_bore_law's fit (no second formula)."""
+    """The pair resolution hands the engine exactly pin_in_bore.pin_in_bore_law's fit (no second formula)."""
     g = pair_geometry("pin-in-bore", 0.15e-3, 0.020, 0.025, "steel-on-bronze-greased")
     c = resolve_pair_contact("lankarani_nikravesh", g)
     ref = pin_in_bore_law(0.010, 0.15e-3, 0.025, "steel", "bronze", FIT_FORCE_RANGE)

@@ -20,15 +20,11 @@ from berryshaker.contact.conformal import (
     linear_damping_for_restitution,
     material_constants,
     pereira_power_law,
-    pin_in_bore_law,
     restitution_of_linear_damping,
     roller_on_wall_law,
 )
-from berryshaker.contact.stiffness import (
-    effective_modulus,
-    pin_in_bore_stiffness,
-    roller_on_flat_stiffness,
-)
+from berryshaker.contact.pin_in_bore import pin_in_bore_law, pin_in_bore_stiffness
+from berryshaker.contact.stiffness import effective_modulus, roller_on_flat_stiffness
 from berryshaker.errors import ConfigError
 
 ES = effective_modulus(207e9, 0.3, 207e9, 0.3)

@@ -9,14 +9,18 @@ journal/bearing radii, the contact length and the materials, instead of assuming
 * :func:`pereira_power_law` - the closed-form power law Pereira et al. (2011) fitted to it.
 * :func:`fit_power_law` - a least-squares (log-log) power law over the load range of interest, with its
   worst relative force error reported, so any model can be handed to the engine as (K, n).
-* :func:`pin_in_bore_law`, :func:`roller_on_wall_law` - the two joint types of the harvester.
+* :func:`roller_on_wall_law` - the roller joints of the harvester; the pin in a bore has its own module,
+  :mod:`berryshaker.contact.pin_in_bore` (its line-contact law from this module's relation, and the sphere-type
+  Hertz law of mechanism files).
 * damping helpers that force_laws.py does not expose: hysteresis factors and damping coefficients for a
   coefficient of restitution, and the linear spring-dashpot damping for a restitution.
 
 Sign conventions as in :mod:`berryshaker.contact.force_laws`: penetration delta > 0 in contact (m),
 forces are magnitudes (N).  SI throughout.
 
-long module: the conformal (pin-in-bore) and roller contact models share their line-contact core, fits and validity checks; split, each half would import the other.
+long module: the line-contact core, its fits and validity checks, the roller law, the materials and the damping
+helpers share their checks and constants (the pin-in-bore law, :mod:`berryshaker.contact.pin_in_bore`, imports
+them).
 """
 
 from __future__ import annotations
@@ -442,59 +446,6 @@ class CylinderContactLaw:
         """
         f = np.asarray(force, float)
         return f / self.approach(f)
-
-
-def pin_in_bore_law(pin_radius, radial_clearance, length, pin_material="steel", bore_material="steel",
-                    force_range=(10.0, 1e4)) -> CylinderContactLaw:
-    """Contact law of a pin (journal) in a bore with radial clearance: internal, conformal line contact.
-
-    Parameters
-    ----------
-    pin_radius : float
-        R_pin (m).
-    radial_clearance : float
-        c = R_bore - R_pin (m).
-    length : float
-        Engaged axial length (m).
-    pin_material, bore_material : str or (E, nu)
-        Names in :data:`MATERIALS` or explicit (Pa, -) pairs.
-    force_range : (float, float)
-        Load range for the power-law fit (N).
-
-    Returns
-    -------
-    CylinderContactLaw
-        Johnson's relation with dR = c, its power-law fit, and the Pereira et al. (2011) law.
-
-    Notes
-    -----
-    Johnson's relation depends on the radii only through dR = c (the pin radius drops out once the
-    Hertz half-width is eliminated); it is a non-conformal (narrow-contact) theory, so the pin radius
-    bounds its validity: the half-width a = sqrt(4 F R1 R2 / (pi L E* c)) should stay well below R_pin.
-    A ``ConfigError`` is raised if a/R_pin > 0.35 (a contact arc of about 40 deg) at the top of the
-    force range; use a conformal model (Persson 1964) there - not implemented here.
-
-    References
-    ----------
-    K. L. Johnson, *Contact Mechanics*, 1985, ch. 5; Pereira et al., Nonlinear Dyn. 63 (2011) 681-697.
-    """
-    _check_pos(pin_radius=pin_radius, radial_clearance=radial_clearance, length=length)
-    es = _modulus(pin_material, bore_material)
-    f_hi = force_range[1]
-    r2 = pin_radius + radial_clearance
-    a = math.sqrt(4.0 * (f_hi / length) * pin_radius * r2 / (math.pi * es * radial_clearance))
-    if a / pin_radius > 0.35:
-        raise ConfigError(f"pin-in-bore contact at {f_hi:g} N: half-width {a * 1e3:.3g} mm is "
-                          f"{a / pin_radius:.2f} of the pin radius; the line-contact (non-conformal) "
-                          "model does not apply - lower the force range or use a conformal model")
-    if f_hi > 0.1 * line_contact_load_limit(length, radial_clearance, es):
-        raise ConfigError("force_range exceeds a tenth of the line-contact load limit; lower it")
-    fit = fit_power_law(lambda f: line_contact_approach(f, length, radial_clearance, es), force_range)
-    try:
-        per = pereira_power_law(radial_clearance, length, es, internal=True)
-    except ConfigError:
-        per = None
-    return CylinderContactLaw(length=length, delta_r=radial_clearance, e_star=es, fit=fit, pereira=per)
 
 
 def roller_on_wall_law(roller_radius, width, wall_radius=math.inf, roller_material="steel",

@@ -131,7 +131,7 @@ def hertz(delta, stiffness, exponent=1.5):
     delta : array_like
         Penetration (m).
     stiffness : float
-        K (N/m^n), e.g. from :func:`berryshaker.contact.stiffness.pin_in_bore_stiffness`.
+        K (N/m^n), e.g. from :func:`berryshaker.contact.pin_in_bore.pin_in_bore_stiffness`.
     exponent : float
         n (dimensionless); 1.5 for point (Hertz) contact and the usual choice for journal bearings.
 

@@ -6,7 +6,7 @@ description gives the stiffness itself, :func:`resolve_pair_contact` turns these
 engines use:
 
 * the elastic part F = K delta^n is the power law fitted (:func:`~berryshaker.contact.conformal.fit_power_law`)
-  to Johnson's line-contact relation of the two cylinders (:func:`~berryshaker.contact.conformal.pin_in_bore_law`
+  to Johnson's line-contact relation of the two cylinders (:func:`~berryshaker.contact.pin_in_bore.pin_in_bore_law`
   for a pin, :func:`~berryshaker.contact.conformal.roller_on_wall_law` for a roller), over the load range
   :data:`FIT_FORCE_RANGE` of the reference machine's joints;
 * the dissipation is a hysteresis law (default :data:`DEFAULT_LAW`, Lankarani & Nikravesh 1990) with the
@@ -32,9 +32,9 @@ from berryshaker.contact.conformal import (
     CylinderContactLaw,
     line_contact_load_limit,
     material_constants,
-    pin_in_bore_law,
     roller_on_wall_law,
 )
+from berryshaker.contact.pin_in_bore import arc_limit_load, pin_in_bore_law
 from berryshaker.contact.stiffness import effective_modulus
 from berryshaker.errors import ConfigError
 
@@ -166,9 +166,9 @@ def fit_range_for(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> tuple[floa
         The loads (N).  F_max = min(force_range[1], F_lim / 10, F_arc): F_lim = 4 pi L E* dR / e^2 is where the logarithmic
         relation stops being monotone (:func:`~berryshaker.contact.conformal.line_contact_load_limit`) and, for
         a pin, F_arc the load at which the Hertz half-width reaches 0.35 R_pin (a contact arc of about 40 deg,
-        a^2 = 4 F R1 R2 / (pi L E* c)), the validity limits :func:`~berryshaker.contact.conformal.pin_in_bore_law`
-        enforces.  Small clearances (conformal contact) lower F_max; forces above it are extrapolated by the
-        power law.
+        a^2 = 4 F R1 R2 / (pi L E* c), :func:`~berryshaker.contact.pin_in_bore.arc_limit_load`), the validity
+        limits :func:`~berryshaker.contact.pin_in_bore.pin_in_bore_law` enforces.  Small clearances (conformal
+        contact) lower F_max; forces above it are extrapolated by the power law.
     """
     m1, m2 = _materials(geom)
     es = effective_modulus(*m1, *m2)
@@ -176,7 +176,7 @@ def fit_range_for(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> tuple[floa
     f_lo, f_hi = map(float, force_range)
     if geom.kind == "pin-in-bore":
         dr = geom.size
-        f_arc = 0.35**2 * r1**2 * math.pi * geom.length * es * dr / (4.0 * r1 * (r1 + dr))
+        f_arc = arc_limit_load(r1, dr, geom.length, es)
         f_hi = min(f_hi, 0.999 * f_arc)
     elif math.isinf(geom.wall_radius):
         dr = 2.0 * r1
@@ -215,7 +215,7 @@ def geometric_contact_law(geom: PairGeometry, force_range=FIT_FORCE_RANGE) -> Cy
     Returns
     -------
     CylinderContactLaw
-        Pin in bore: dR = c (internal contact, :func:`~berryshaker.contact.conformal.pin_in_bore_law`).
+        Pin in bore: dR = c (internal contact, :func:`~berryshaker.contact.pin_in_bore.pin_in_bore_law`).
         Roller in a groove: the wall of radius ``wall_radius`` (convex inner wall of a cam groove > 0).
         Roller in a slot: a flat wall, compression referred to a depth 2 R_roller
         (:func:`~berryshaker.contact.conformal.roller_on_wall_law`).

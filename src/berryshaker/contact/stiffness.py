@@ -1,8 +1,13 @@
-"""Contact stiffness from materials and geometry (Hertz theory and its standard joint forms)."""
+"""Contact stiffness from materials and geometry: the effective modulus of two bodies (Hertz theory) and the
+roller-on-flat law of Palmgren.
+
+A pin in a bore has its own module, :mod:`berryshaker.contact.pin_in_bore` (both its models, the sphere-type Hertz
+law and Johnson's line contact); ``pin_in_bore_stiffness`` is still importable from here for callers outside the
+contact package (:func:`__getattr__`), without a second implementation.
+"""
 
 from __future__ import annotations
 
-import math
 
 STEEL_E = 207e9  # Pa (Flores & Ambrosio 2004 use 207 GPa)
 STEEL_NU = 0.3
@@ -36,40 +41,6 @@ def effective_modulus(e1, nu1, e2, nu2):
     return 1.0 / ((1 - nu1**2) / e1 + (1 - nu2**2) / e2)
 
 
-def pin_in_bore_stiffness(e_pin, nu_pin, e_bore, nu_bore, pin_radius, bore_radius):
-    """Hertz stiffness K (N/m^1.5) of a pin (journal) in a bore, for F = K delta^1.5.
-
-    Parameters
-    ----------
-    e_pin, nu_pin, e_bore, nu_bore : float
-        Elastic moduli (Pa) and Poisson ratios.
-    pin_radius, bore_radius : float
-        Journal and bearing radii (m); bore_radius > pin_radius.
-
-    Returns
-    -------
-    float
-        K = (4/3) E* sqrt(R*) (N/m^1.5), R* = R_pin R_bore / (R_bore - R_pin) (conformal contact: the bore is
-        concave).
-
-    Notes
-    -----
-    The sphere-type Hertz law applied to a cylindrical joint, as in Lankarani & Nikravesh (1990) and the
-    clearance-joint benchmark of Flores & Ambrosio (2004); for journal 10 mm / bearing 10.5 mm steel it
-    gives about 6.9e10 N/m^1.5 (E* = 113.7 GPa, R* = 0.21 m).
-
-    References
-    ----------
-    P. Flores, J. Ambrosio, "Revolute joints with clearance in multibody systems", Comput. Struct. 82
-    (2004) 1359-1369.
-    """
-    if not bore_radius > pin_radius > 0:
-        raise ValueError(f"need bore_radius > pin_radius > 0, got pin {pin_radius} m, bore {bore_radius} m")
-    estar = effective_modulus(e_pin, nu_pin, e_bore, nu_bore)
-    rstar = pin_radius * bore_radius / (bore_radius - pin_radius)
-    return 4.0 / 3.0 * estar * math.sqrt(rstar)
-
-
 def roller_on_flat_stiffness(length):
     """Steel roller on a flat (or a large-radius groove wall): Palmgren's line-contact law.
 
@@ -99,3 +70,29 @@ def roller_on_flat_stiffness(length):
     n = 1.0 / 0.9
     k_mm = (l_mm**0.8 / 3.84e-5) ** n  # N / mm^n
     return k_mm * (1e3) ** n, n
+
+
+def __getattr__(name):
+    """``pin_in_bore_stiffness``, moved to :mod:`berryshaker.contact.pin_in_bore` (its one home), for callers that
+    import it from here; resolved at the first use, since ``pin_in_bore`` imports this module.
+
+    Parameters
+    ----------
+    name : str
+        The attribute asked for.
+
+    Returns
+    -------
+    callable
+        :func:`berryshaker.contact.pin_in_bore.pin_in_bore_stiffness`.
+
+    Raises
+    ------
+    AttributeError
+        Any other name.
+    """
+    if name == "pin_in_bore_stiffness":
+        from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
+
+        return pin_in_bore_stiffness
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

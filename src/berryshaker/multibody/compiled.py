@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from berryshaker.contact.laws import get_law, law_table, slot_c
-from berryshaker.contact.stiffness import pin_in_bore_stiffness
+from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 from berryshaker.errors import ConfigError
 from berryshaker.kinematics.cam import FOLLOWER_LAWS
 from berryshaker.multibody import layout as L
