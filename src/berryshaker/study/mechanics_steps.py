@@ -1,0 +1,280 @@
+"""The study's mechanism steps: the ideal kinematics (:func:`step_kinematics`), the reduced model against the
+multibody model at the model-check level (:func:`step_agreement`), and every clearance row in both models with
+perturbed starts and the model check (:func:`plan_rows`, :func:`step_rows`, :func:`row_start_statistics`), with
+their figures.  Steps of :data:`berryshaker.study.pipeline.STEPS`; their run functions are in
+:mod:`berryshaker.study.runs`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from berryshaker.errors import ConfigError
+from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_rows
+from berryshaker.reference_study import MODEL_CHECK_LEVEL
+from berryshaker.study.runs import model_check_jobs, multibody_row, reduced_row
+from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
+from berryshaker.study.step_result import StepResult
+
+
+def step_kinematics(ctx: StudyContext) -> StepResult:
+    """Ideal kinematics over one drive-shaft revolution (study eq. 1-3) and its figures.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``kinematics``: the drive's kinematics summary (units in the key names) and its figures.
+    """
+    from berryshaker.report import plots as P
+
+    ctx.say("kinematics")
+    kin = ctx.drive.check(ctx.machine)
+    data = ctx.drive.kinematics_summary(ctx.machine, kin)
+    figs = P.write_kinematics_figures(ctx.machine, kin, ctx.figs) or []
+    return StepResult("kinematics", data, list(figs))
+
+
+def step_agreement(ctx: StudyContext) -> StepResult:
+    """Reduced model vs multibody at the study's model-check level (Table 3, eq. 18).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``agreement``: the model-check level's clearances (mm) and the per-pair agreement statistics, with
+        one figure per pair; no data (a note) when the drive has no reduced model.
+    """
+    from berryshaker.experiment.agreement import model_agreement
+    from berryshaker.report import plots as P
+
+    if ctx.drive.reduced_model is None:
+        return StepResult("agreement", None, note=f"the {ctx.drive.name} drive has no reduced model: there is "
+                          "nothing to compare the multibody model with (claim 1 is not comparable)")
+    ctx.say(f"{ctx.drive.reduced_model_name.upper()} vs multibody at level {MODEL_CHECK_LEVEL} (eq. 18; compiling "
+            "on the first run)")
+    lvl = level_set(ctx.machine, MODEL_CHECK_LEVEL)
+    ag = model_agreement(ctx.machine, lvl, revolutions=3)
+    ctx.engine_compiled()  # the workers can start the multibody runs while the figures are drawn here
+    figs = []
+    for k, (p, (a, b)) in enumerate(ag["series"].items()):
+        name = f"fig{14 + k}_agreement_{p}.png"
+        P.plot_time_series(ag["t"], {"multibody": a, "MLSD": b}, f"collision force at {p} [N]", ctx.figs / name,
+                           f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})",
+                           zoom="peak")
+        figs.append(name)
+    return StepResult("agreement", {"clearance_mm": {p: v * 1e3 for p, v in lvl.items()}, "pairs": ag["pairs"]},
+                      figs)
+
+
+#: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
+#: comparisons allow for (benchmarks/HISTORY.md sec. 26)
+MODEL_CHECK_STARTS = 8
+
+
+def _model_check_jobs(ctx: StudyContext) -> list[dict]:
+    return model_check_jobs(ctx.machine, level_set(ctx.machine, MODEL_CHECK_LEVEL), MODEL_CHECK_STARTS)
+
+
+def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
+    """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions);
+    with a reduced model also :data:`MODEL_CHECK_STARTS` replicate starts of each at the model-check level.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    list of PlannedRuns
+        Multibody rows, their perturbed starts and, with a reduced model, its rows and the model check's
+        starts of both models (the reduced model's runs do not need the engine).
+    """
+    last = n_rows(ctx.machine)
+    jobs = [dict(machine_data=ctx.data, clearance=clearance_row(ctx.machine, r), revolutions=3)
+            for r in range(1, last + 1)]
+    plans = [PlannedRuns(multibody_row, jobs, f"rows 1-{last}, multibody"),
+             PlannedRuns(multibody_row, _row_start_jobs(ctx, jobs),
+                         f"rows 1-{last} x {ctx.machine.harvest.replicates} perturbed starts, multibody")]
+    if ctx.drive.reduced_model is not None:
+        name = ctx.drive.reduced_model_name.upper()
+        plans.append(PlannedRuns(reduced_row, jobs, f"rows 1-{last}, {name}", engine=False))
+        try:
+            check = _model_check_jobs(ctx)
+        except ConfigError:  # replicates that would be copies: no model check (step_rows says why)
+            return plans
+        plans.append(PlannedRuns(multibody_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} perturbed starts, "
+                                                       "multibody"))
+        # (started with the multibody runs, after the engine step: beside the engine's compilation on two cores
+        # they slowed it by more than they took, benchmarks/HISTORY.md sec. 26)
+        plans.append(PlannedRuns(reduced_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} turned starts, {name}"))
+    return plans
+
+
+def _row_start_jobs(ctx: StudyContext, jobs: list[dict]) -> list[dict]:
+    """Every row's job from ``harvest.replicates`` perturbed starts (seeds (seed_k, 0): the same starts for every
+    row, common random numbers), row-major: the claims on collision forces (2 and 3) are judged on the mean of the
+    per-start peaks with its noise, never on one run's peak (the peak of a chaotic impact sequence varies by
+    10-30 % between starts)."""
+    from berryshaker.harvest.virtual import replicate_seeds
+
+    return [dict(j, seed=[sd, 0]) for j in jobs for sd in replicate_seeds(ctx.machine)]
+
+
+def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -> dict:
+    """Per row and pair, the statistics of the per-start collision-force peaks and means over perturbed starts.
+
+    ``summaries``: :func:`multibody_row` outputs, row-major (``starts`` per row; a failed run None).  Per row and
+    pair: ``peak`` and ``mean`` each {mean, sd, se, p95 (of the per-start values that ran), values (one per planned
+    start, in the starts' order, None where the run failed: paired comparisons match starts by position)},
+    ``starts`` (the runs that finished).
+
+    Parameters
+    ----------
+    summaries : list
+        :func:`multibody_row` outputs (forces in N), row-major; None for a failed run.
+    pairs : iterable of str
+        Clearance pairs.
+    rows : list of int
+        The rows, in the summaries' order.
+    starts : int
+        Starts per row.
+
+    Returns
+    -------
+    dict
+        Row (as text) -> ``pairs`` (the statistics above, N) and ``starts``; rows with fewer than two finished
+        starts are left out.
+    """
+    out = {}
+    for i, r in enumerate(rows):
+        chunk = summaries[i * starts:(i + 1) * starts]
+        ss = [x for x in chunk if x is not None]
+        if len(ss) < 2:
+            continue
+        per = {}
+        for p in pairs:
+            st = {}
+            for key in ("peak", "mean"):
+                v = np.array([x["collision_force_N"][p][key] for x in ss], float)
+                st[key] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)), "se": float(v.std(ddof=1) / np.sqrt(v.size)),
+                           "p95": float(np.percentile(v, 95)),
+                           "values": [None if x is None else float(x["collision_force_N"][p][key]) for x in chunk]}
+            per[p] = st
+        out[str(r)] = {"pairs": per, "starts": len(ss)}
+    return out
+
+
+def step_rows(ctx: StudyContext) -> StepResult:
+    """Every clearance row (single-factor sweeps and level sets) in the multibody and the reduced model.
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``rows``: per row the multibody and reduced-model summaries (forces N, moments N m), the perturbed
+        starts' statistics (``starts``), the model check and per-row agreement; the row figures and a note.
+    """
+    last = n_rows(ctx.machine)
+    ctx.say(f"clearance rows 1-{last} (single-factor sweeps and level sets)")
+    rows = list(range(1, last + 1))
+    plans = plan_rows(ctx)
+    jobs = plans[0].jobs
+    row_of = {id(j): r for j, r in zip(jobs, rows)}
+
+    def describe(j):
+        return f"row {row_of[id(j)]}: " + describe_clearance(j["clearance"])
+
+    out = {"multibody": {}, "mlsd": {}}
+    mb_rows = ctx.collect(multibody_row, jobs, plans[0].label, describe)
+    out["multibody"] = {str(r): v for r, v in zip(rows, mb_rows) if v is not None}
+    starts = ctx.collect(multibody_row, plans[1].jobs, plans[1].label,
+                         lambda j: f"start seed {j['seed'][0]}, " + describe_clearance(j["clearance"]))
+    out["starts"] = row_start_statistics(starts, ctx.machine.pair_names, rows, ctx.machine.harvest.replicates)
+    note = ""
+    if len(plans) > 2:
+        ml_rows = ctx.collect(reduced_row, jobs, plans[2].label, describe)
+        out["mlsd"] = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
+
+        def start(j):
+            return f"level {MODEL_CHECK_LEVEL}, seed {j['seed'][0]}"
+
+        from berryshaker.experiment.agreement import model_check
+
+        check = None
+        if len(plans) > 3:
+            check = model_check(ctx.collect(multibody_row, plans[3].jobs, plans[3].label, start),
+                                ctx.collect(reduced_row, plans[4].jobs, plans[4].label, start), ctx.machine.pair_names)
+        else:
+            try:
+                _model_check_jobs(ctx)
+            except ConfigError as exc:
+                note = f"no model check (claim 1 is not comparable): {exc}"
+        if check is not None:
+            check = {"level": MODEL_CHECK_LEVEL, **check}
+        out["model_check"] = check
+        # model agreement on every row, not only at the model-check level (the same statistics criterion); one
+        # run per model and row, so a difference counts only beyond the noise of single runs measured at the
+        # model-check level
+        from berryshaker.experiment.agreement import summary_statistics_agreement
+
+        noise = {p: check["pairs"][p]["single_run_noise"] for p in ctx.machine.pair_names} if check else {}
+        out["agreement"] = {
+            r: {p: summary_statistics_agreement(out["multibody"][r]["collision_force_N"][p],
+                                                out["mlsd"][r]["collision_force_N"][p], noise=noise.get(p))
+                for p in ctx.machine.pair_names}
+            for r in out["multibody"] if r in out["mlsd"]}
+    else:
+        note = f"the {ctx.drive.name} drive has no reduced model: rows are multibody only"
+    figs = _plot_rows(ctx.machine, out, ctx.figs)
+    return StepResult("rows", out, figs, note)
+
+
+def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
+    from berryshaker.report import plots as P
+
+    mb, ml = rows["multibody"], rows["mlsd"]
+    last = n_rows(machine)
+    models = [("multibody", mb)] + ([("MLSD", ml)] if ml else [])
+    if not all(str(r) in m for r in range(1, last + 1) for _, m in models):
+        return []  # a failed row: the tables and the Failed runs section tell which
+    names = []
+    levels = machine.clearance_levels()
+    for k, p in enumerate(machine.pair_names):
+        rr = [1] + [2 + 3 * k + j for j in range(3)]
+        labels = ["none"] + [f"{levels[p][j] * 1e3:g} mm" for j in range(3)]
+        series = {"multibody peak": [mb[str(r)]["collision_force_N"][p]["peak"] for r in rr]}
+        if ml:
+            series["MLSD peak"] = [ml[str(r)]["collision_force_N"][p]["peak"] for r in rr]
+        series["multibody mean"] = [mb[str(r)]["collision_force_N"][p]["mean"] for r in rr]
+        name = f"fig{18 + k}_rows_{p}.png"
+        P.plot_bars(series, labels, f"collision force at joint {p} [N]", figs / name,
+                    f"Clearance {p} alone (rows {rr[1]}-{rr[-1]}; study Fig. {18 + k})", pair=p, reference_index=0)
+        names.append(name)
+    rr = [1, last - 2, last - 1, last]
+    labels = ["none", "level 1", "level 2", "level 3"]
+    for k, side in enumerate(("left", "right")):
+        series = {"multibody rms": [mb[str(r)]["load_moment_Nm"][side]["rms"] for r in rr],
+                  "multibody peak": [mb[str(r)]["load_moment_Nm"][side]["peak"] for r in rr]}
+        if ml:
+            series["MLSD rms"] = [ml[str(r)]["load_moment_Nm"][side]["rms"] for r in rr]
+        name = f"fig{22 + k}_moment_{side}.png"
+        P.plot_bars(series, labels, f"{side} comb load moment [N m]", figs / name,
+                    f"{side.capitalize()} comb load moment, row 1 and the level sets (study Fig. {22 + k})")
+        names.append(name)
+    return names

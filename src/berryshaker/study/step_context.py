@@ -1,0 +1,208 @@
+"""What every step of the study (:data:`berryshaker.study.pipeline.STEPS`) gets and gives: the study context
+(:class:`StudyContext`: the machine, its drive, the runner, the figure folder, the failure log, and figures drawn in
+idle pool workers, :func:`draw_figure`), the runs a step will ask for, known before it starts (:class:`PlannedRuns`),
+and how a run's clearances read in the failure log (:func:`describe_clearance`).
+
+Kept apart from the pipeline that runs the steps, so that the step modules (:mod:`berryshaker.study.mechanics_steps`,
+:mod:`berryshaker.study.harvest_steps`, :mod:`berryshaker.study.life_drive_steps`) import it without importing the
+pipeline that imports them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+from berryshaker.drives import drive_of
+
+
+def _silent(msg: str) -> None:
+    """A progress message nobody reads (the default ``StudyContext.say``).
+
+    Parameters
+    ----------
+    msg : str
+        The message (ignored).
+    """
+
+
+def _nothing() -> None:
+    """No action (the default ``StudyContext.engine_compiled``)."""
+
+
+@dataclass
+class StudyContext:
+    """What every step gets: the machine, its drive, the runner, the figure folder and the failure log.
+
+    Attributes
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    runner : SweepRunner
+        Runs the steps' runs (cached).
+    figs : Path
+        Folder the figures are written to.
+    failures : list of dict
+        Failed runs (step, run, inputs, error), for the report.
+    say : callable
+        ``say(msg)``: progress messages (default silent).
+    results : dict
+        Data of the steps run so far, by step name.
+    drawing : list
+        Figures being drawn in pool workers: (future, pickled call).
+    engine_compiled : callable
+        Called by the step that compiles the multibody engine once it has (then the planned runs that need it
+        start).
+    """
+
+    machine: object
+    runner: object
+    figs: Path
+    failures: list = field(default_factory=list)
+    say: Callable[[str], None] = field(default=None)
+    results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
+    drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
+    # called by the step that compiles the multibody engine once it has (run_steps then starts the planned runs
+    # that need it, while that step still plots)
+    engine_compiled: Callable[[], None] = field(default=None)
+
+    def __post_init__(self):
+        """Silent defaults for the callbacks (``say``, ``engine_compiled``) not given."""
+        if self.say is None:
+            self.say = _silent
+        if self.engine_compiled is None:
+            self.engine_compiled = _nothing
+
+    @property
+    def drive(self):
+        """The machine's drive plug-in."""
+        return drive_of(self.machine)
+
+    @property
+    def data(self) -> dict:
+        """The machine as a JSON-compatible dict (what the run functions take)."""
+        return self.machine.model_dump(mode="json")
+
+    def draw(self, fn, *args, **kwargs) -> None:
+        """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
+        a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
+        virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
+        benchmarks/HISTORY.md sec. 22.)  The figure functions set their whole style themselves
+        (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
+        by a program that calls :func:`~berryshaker.study.pipeline.run_study` does not reach the workers.
+
+        Parameters
+        ----------
+        fn : callable
+            The figure function.
+        *args
+            Its positional arguments (pickled now).
+        **kwargs
+            Its keyword arguments (pickled now).
+        """
+        import pickle
+
+        # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
+        # change meanwhile (the next steps and the claims add to the results)
+        payload = pickle.dumps((fn, args, kwargs))
+        fut = self.runner.warm_up(draw_figure, dict(payload=payload))
+        if fut is None:
+            fn(*args, **kwargs)
+        else:
+            self.drawing.append((fut, payload))
+
+    def finish_drawing(self) -> None:
+        """Wait for the figures drawn in workers (:meth:`draw`).  A figure whose worker died (the pool broke) or was
+        cancelled is drawn here; an error of the figure function itself is raised here, as without the pool."""
+        from concurrent.futures import CancelledError
+        from concurrent.futures.process import BrokenProcessPool
+
+        pending, self.drawing = self.drawing, []
+        for fut, payload in pending:
+            try:
+                fut.result()
+            except (BrokenProcessPool, CancelledError):
+                self.say("a worker drawing a figure stopped; drawing it here")
+                draw_figure(payload)
+
+    def collect(self, fn, jobs, label, describe):
+        """Run jobs through the sweep runner; failed runs are logged and come back as None.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level run function.
+        jobs : list of dict
+            Its keyword arguments, one dict per run.
+        label : str
+            Progress label, and the failure log's step.
+        describe : callable
+            ``describe(job) -> str``: the inputs of a failed run, for the log.
+
+        Returns
+        -------
+        list
+            Each run's value in the jobs' order, None where it failed.
+        """
+        outs = self.runner.map(fn, jobs, label)
+        for o in outs:
+            if o.error:
+                self.failures.append({"step": label, "run": o.index + 1, "inputs": describe(jobs[o.index]),
+                                      "error": o.error})
+        return [o.value for o in outs]
+
+
+def draw_figure(payload: bytes) -> None:
+    """Draw a figure of :meth:`StudyContext.draw` in a pool worker: ``payload`` is the pickled call
+    ``(fn, args, kwargs)``.
+
+    Parameters
+    ----------
+    payload : bytes
+        The pickled call.
+    """
+    import pickle
+
+    fn, args, kwargs = pickle.loads(payload)
+    fn(*args, **kwargs)
+
+
+@dataclass
+class PlannedRuns:
+    """Runs a step will ask the runner for, known before it starts: the study starts them ahead in idle workers
+    (``SweepRunner.prefetch``) and the step's own map takes their results.  ``engine``: they need the compiled
+    multibody engine (started only once this process has compiled it, so workers do not compile it too).
+
+    Attributes
+    ----------
+    fn : callable
+        The module-level run function.
+    jobs : list of dict
+        Its keyword arguments, one dict per run.
+    label : str
+        The step's label of these runs.
+    engine : bool
+        Whether the runs need the compiled multibody engine.
+    """
+
+    fn: Callable
+    jobs: list[dict]
+    label: str
+    engine: bool = True
+
+
+def describe_clearance(clearance: dict) -> str:
+    """A run's clearances as the failure log names them (e.g. "A 0.1 mm, C 0.2 mm").
+
+    Parameters
+    ----------
+    clearance : dict of str to float
+        Clearance size (m) per pair; empty for the configured clearances.
+
+    Returns
+    -------
+    str
+        Each pair with its clearance in mm, or "as configured".
+    """
+    return ", ".join(f"{p} {v * 1e3:g} mm" for p, v in clearance.items()) or "as configured"
