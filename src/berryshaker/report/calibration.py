@@ -301,6 +301,10 @@ def calibration_html(res: dict, title: str, figs: dict[str, Path]) -> str:
                          x["log_sd_rmse"]])
     parts.append(_table(["check", "response", "RMSE of the mean", "replicate SD", "RMSE / SD", "relative RMSE",
                          "RMSE of log SD"], rows))
+    if em.get("untested_relative_rmse"):
+        parts.append("<p>Emulator error at settings that were not simulated (relative RMSE of mean + c): "
+                     + ", ".join(f"{e(r)} {v:.3g}" for r, v in em["untested_relative_rmse"].items())
+                     + f"; {e(em['untested_error_rule'])}.</p>")
     sm = res["sampler"]
     parts.append(f"<p>{e(sm['package'])}: {sm['walkers']} walkers x {sm['steps']} steps, burn-in {sm['burn']}, "
                  f"thinning {sm['thin']}, acceptance fraction {sm['acceptance_fraction']:.2f}, autocorrelation time "

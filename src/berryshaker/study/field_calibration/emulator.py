@@ -142,7 +142,8 @@ class Emulator:
       difference of log(mean + c) and log SD from the average of the per-setting GPs at the same theta, trained on up
       to :attr:`joint_points` of the simulated points (half of them, with :meth:`fit_joint`'s ``focus``, simulated at
       posterior draws): predictions at settings that were not simulated (far from every simulated setting it falls
-      back to that average, not to the prior's mean).
+      back to that average, not to the prior's mean); its error term is the larger of its own held-out error at
+      untested settings and the per-setting GPs' (:meth:`joint_mse`).
 
     Parameters
     ----------
@@ -275,6 +276,27 @@ class Emulator:
             self.joint[r] = self._pair(np.vstack(xs), np.concatenate(ms), np.concatenate(ss), r, base)
         self.fit_seconds += time.perf_counter() - t0
 
+    def joint_mse(self, response: str) -> float:
+        """The joint GP's error term: the larger of its held-out MSE of log(mean + c) at the untested check settings
+        (0 when none were simulated) and the per-setting GPs' (the largest over the simulated settings).
+
+        The joint GP predicts the average of the per-setting GPs plus the setting's effect, so it carries their error
+        (the baseline's) on top of its own: a setting that was not simulated is never predicted more tightly than
+        a simulated one, and without check settings the error is not the GP's variance alone (which under-covers).
+
+        Parameters
+        ----------
+        response : str
+            Response name.
+
+        Returns
+        -------
+        float
+            MSE of log(mean + c) (dimensionless).
+        """
+        own = self.joint[response].mse_log_mean if self.joint else 0.0
+        return max([own] + [g[response].mse_log_mean for g in self.local])
+
     def _index(self, setting) -> int | None:
         key = tuple(float(v) for v in setting)
         if key in self._lookup:
@@ -306,7 +328,8 @@ class Emulator:
         -------
         (numpy.ndarray, numpy.ndarray, numpy.ndarray)
             Mean (the response's unit; efficiency per kg of yield), the emulator's variance of it (delta method on
-            the log scale: (mean + c)^2 max(GP variance, held-out MSE); unit squared) and the replicate SD.
+            the log scale: (mean + c)^2 max(GP variance, held-out MSE), the joint GP's MSE :meth:`joint_mse`; unit
+            squared) and the replicate SD.
         """
         settings_si = np.atleast_2d(settings_si)
         u = np.atleast_2d(u)
@@ -326,13 +349,15 @@ class Emulator:
                 g = self.joint[response]
                 x = np.hstack([self.code(settings_si[rows]), u[rows][:, g.columns]])
                 b_mean, b_sd = self._local_average(u[rows], response)
+                mse = self.joint_mse(response)
             else:
                 g = self.local[key][response]
                 x = u[rows][:, g.columns]
                 b_mean, b_sd = 0.0, 0.0
+                mse = g.mse_log_mean
             m, v = g.mean_gp.predict(x, with_var)
             lm[rows] = b_mean + m
-            var_log[rows] = np.maximum(v, g.mse_log_mean)
+            var_log[rows] = np.maximum(v, mse)
             lsd[rows] = b_sd + g.logsd_gp.predict(x, False)[0]
         mean = np.maximum(np.exp(lm) - floor, 0.0)
         return mean, (mean + floor) ** 2 * var_log, np.exp(lsd)

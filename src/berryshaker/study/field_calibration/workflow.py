@@ -146,6 +146,21 @@ def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict
     return out
 
 
+def _fit_joint(sim, emulator: Emulator, unique: list[int], check_idx: list[int], seeds, focus_u: np.ndarray,
+               check_u: np.ndarray | None, params) -> dict:
+    """The joint GP (settings not simulated), trained with the simulator at posterior draws ``focus_u`` at every
+    simulated setting as well, then checked at the untested settings ``check_idx`` on other posterior draws
+    ``check_u`` (where its predictions are used): that held-out MSE of log(mean + c) is its own error, floored by
+    the per-setting GPs' in :meth:`Emulator.joint_mse`.  Returns the check (empty without check settings)."""
+    emulator.fit_joint((focus_u, *_train(sim, emulator.responses, unique, seeds, focus_u, params)))
+    if not check_idx:
+        return {}
+    held = _emulator_check(sim, emulator, check_idx, seeds, check_u, params)
+    for r in emulator.responses:
+        emulator.joint[r].mse_log_mean = held[r]["mse_log_mean"]
+    return held
+
+
 def _summaries(draws: np.ndarray, params, described: dict) -> dict:
     out = {}
     for i, p in enumerate(params):
@@ -279,13 +294,9 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     # at the untested check settings on other posterior draws (where its predictions are used)
     t3 = time.perf_counter()
     focus_u = post["u"][rng.choice(len(post["u"]), size=min(16, len(post["u"])), replace=False)]
-    emulator.fit_joint((focus_u, *_train(sim, responses, unique, seeds, focus_u, params)))
-    held_settings = {}
-    if check_idx:
-        check_u = post["u"][rng.choice(len(post["u"]), size=min(opt.check_points, len(post["u"])), replace=False)]
-        held_settings = _emulator_check(sim, emulator, check_idx, seeds, check_u, params)
-        for r in responses:
-            emulator.joint[r].mse_log_mean = held_settings[r]["mse_log_mean"]
+    check_u = (post["u"][rng.choice(len(post["u"]), size=min(opt.check_points, len(post["u"])), replace=False)]
+               if check_idx else None)
+    held_settings = _fit_joint(sim, emulator, unique, check_idx, seeds, focus_u, check_u, params)
     t_emu += time.perf_counter() - t3
     described = described_values(machine)
     parameters = _summaries(post["theta"], params, described)
@@ -336,7 +347,11 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
                      "held_out_theta": held_theta, "held_out_settings": held_settings,
                      "held_out_settings_at": "posterior draws not used in training, at untested settings simulated "
                                              "for the check (the joint GP's error where it predicts)",
-                     "check_settings": [sim.setting_text(i) for i in check_idx], "fit_s": emulator.fit_seconds},
+                     "check_settings": [sim.setting_text(i) for i in check_idx],
+                     "untested_relative_rmse": {r: float(np.sqrt(emulator.joint_mse(r))) for r in responses},
+                     "untested_error_rule": "the joint GP's error term: the larger of its held-out error at the check "
+                                            "settings and the per-setting GPs' held-out error (its baseline's)",
+                     "fit_s": emulator.fit_seconds},
         "checks": {"posterior_predictive": ppc,
                    "summary": {"inside": int(inside), "total": len(ppc),
                                "rule": "observed replicate mean inside the 90 % predictive interval of the mean of "
