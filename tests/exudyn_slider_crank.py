@@ -34,7 +34,7 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
                                       ObjectConnectorCartesianSpringDamper, ObjectGround, ObjectJointRevolute2D,
                                       ObjectRigidBody2D)
 
-    from berryshaker.contact.stiffness import pin_in_bore_stiffness
+    from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 
     bodies = {b.name: b for b in spec.bodies}
     joint = next(j for j in spec.joints if j.name == "rod_slider")

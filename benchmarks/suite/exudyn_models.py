@@ -59,7 +59,7 @@ def build_exudyn_mechanism(spec, y0, prescribed=None):
                                       ObjectGround, ObjectJointPrismatic2D, ObjectJointRevolute2D,
                                       ObjectRigidBody2D)
 
-    from berryshaker.contact.stiffness import pin_in_bore_stiffness
+    from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 
     sc = exu.SystemContainer()
     mbs = sc.AddSystem()

@@ -261,7 +261,7 @@ def reduced_parameters(spec) -> tuple[np.ndarray, np.ndarray]:
     tuple of ndarray
         (p, y0): p in the layout P_A..P_FAC (SI), y0 from the engine's assembled initial state.
     """
-    from berryshaker.contact.stiffness import pin_in_bore_stiffness
+    from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
     from berryshaker.multibody.engine import initial_state
 
     joints = {j.name: j for j in spec.joints}

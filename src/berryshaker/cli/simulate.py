@@ -281,7 +281,7 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
 
         data += [result.element_force("bush_left"), result.element_force("bush_right"), drive_moment(result)]
         if "mesh" in cm.frc_names:  # powered driveline: the drive shaft's speed
-            shaft = int(cm.model[8][cm.frc_names.index("mesh"), 1])
+            shaft = int(cm.model.fint[cm.frc_names.index("mesh"), 1])
             cols.append("drive_shaft_speed_rpm")
             data.append(np.abs(result.y[:, cm.n + 3 * shaft + 2]) * 30.0 / np.pi)
         if "guide" in cm.con_names:

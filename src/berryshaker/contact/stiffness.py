@@ -2,8 +2,7 @@
 roller-on-flat law of Palmgren.
 
 A pin in a bore has its own module, :mod:`berryshaker.contact.pin_in_bore` (both its models, the sphere-type Hertz
-law and Johnson's line contact); ``pin_in_bore_stiffness`` is still importable from here for callers outside the
-contact package (:func:`__getattr__`), without a second implementation.
+law and Johnson's line contact).
 """
 
 from __future__ import annotations
@@ -71,28 +70,3 @@ def roller_on_flat_stiffness(length):
     k_mm = (l_mm**0.8 / 3.84e-5) ** n  # N / mm^n
     return k_mm * (1e3) ** n, n
 
-
-def __getattr__(name):
-    """``pin_in_bore_stiffness``, moved to :mod:`berryshaker.contact.pin_in_bore` (its one home), for callers that
-    import it from here; resolved at the first use, since ``pin_in_bore`` imports this module.
-
-    Parameters
-    ----------
-    name : str
-        The attribute asked for.
-
-    Returns
-    -------
-    callable
-        :func:`berryshaker.contact.pin_in_bore.pin_in_bore_stiffness`.
-
-    Raises
-    ------
-    AttributeError
-        Any other name.
-    """
-    if name == "pin_in_bore_stiffness":
-        from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
-
-        return pin_in_bore_stiffness
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -109,7 +109,7 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     if "mesh" in cm.frc_names and cm.acc_start >= 0:
         from berryshaker.drives.powered import driveline_summary
 
-        shaft = cm.spec.bodies[int(cm.model[8][cm.frc_names.index("mesh"), 1])].name
+        shaft = cm.spec.bodies[int(cm.model.fint[cm.frc_names.index("mesh"), 1])].name
         out.update(driveline_summary(result, shaft))
     return out
 

@@ -265,7 +265,7 @@ def branch_motion(res: MultibodyResult, modes, offset: int = 0) -> BranchMotion:
     zeta = np.asarray(spec.plant.damping_ratio, float)  # one ratio, or one per mode
     zeta = zeta[cols] if zeta.ndim else zeta  # the other blocks' modes follow (block-diagonal)
     etadd = -(w**2) * eta - 2 * zeta * w * etad
-    phi_tab = cm.model[13]
+    phi_tab = cm.model.phi_tab
     contact_force = {}
     for row, c in enumerate(spec.plant.contacts):
         if not np.any(phi_tab[row, cols]):

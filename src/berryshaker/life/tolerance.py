@@ -454,7 +454,7 @@ def force_fall_notes(responses: dict[str, ClearanceResponse], machine=None) -> l
     (:meth:`ClearanceResponse.force_falls`), so that a tighter fit with a higher force is explained, not hidden.
 
     Why it is physics, not noise: the pin-in-bore contact law depends on the radii only through the radial clearance
-    c (Johnson's internal line contact, :func:`berryshaker.contact.conformal.pin_in_bore_law`): the smaller c, the
+    c (Johnson's internal line contact, :func:`berryshaker.contact.pin_in_bore.pin_in_bore_law`): the smaller c, the
     more conformal and the stiffer the contact, so an impact at a given approach speed peaks higher.  On the
     reference machine C and F fall from 0.025 to 0.083 mm by 5 and 4 standard errors of the difference over 8
     starts.
