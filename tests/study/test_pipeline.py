@@ -254,12 +254,12 @@ def test_workers_started_before_the_geometry_check_are_ended_when_it_fails(fast_
 def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config):
     """Each step names the renderers of its report sections (pipeline.STEPS, report/sections.py); the report
     numbers them 1, 2, ... in the steps' order, so no title carries a number, and the design answers' references
-    to sections (report.design.SECTIONS) are the numbers the report gives."""
+    to sections (report.design_html.STEP_SECTIONS) are the numbers the report gives."""
     import html as H
     import re
 
     from berryshaker.config import load_machine
-    from berryshaker.report.design import SECTIONS
+    from berryshaker.report.design_html import STEP_SECTIONS, section_label
     from berryshaker.report.sections import SectionInput, section_numbers
     from berryshaker.study.pipeline import STEPS, report_sections
 
@@ -275,9 +275,9 @@ def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config)
     assert headings == [(str(i + 1), H.escape(t, quote=False)) for i, t in enumerate(titles)]
     assert len(re.findall(r"<h2>\s*\d", text)) == len(titles)  # no other numbered heading
     first = {s.key: numbers[s.sections[0]] for s in STEPS if s.sections}
-    for key, label in SECTIONS.items():
+    for key, (_, name) in STEP_SECTIONS.items():
         if key in first:
-            assert label.startswith(f"{first[key]}. "), (key, label)
+            assert section_label(key, numbers) == f"{first[key]}. {name}", key
 
 
 def test_report_renders_in_headless_chromium(study_out):
