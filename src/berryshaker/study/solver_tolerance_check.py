@@ -28,7 +28,7 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
     failed on noise for 48 % of single changes, 73 % of responses with k = 2.  The mean change of the k
     replicates has standard deviation sqrt(2 / k) SD when the two tolerances' replicates are independent draws (less when they stay correlated, as
     the harvest indexes do), so "within" is |mean change| <= 2 sqrt(2 / k) SD: a solver bias that large is
-    flagged, noise is not (:func:`tests.test_replicated_l9.test_tolerance_verdict_is_noise_aware`).  With k = 2
+    flagged, noise is not (tests/study/test_l9.py, ``test_tolerance_verdict_is_noise_aware``).  With k = 2
     that resolves a bias of ~2 SD only; the tolerance itself is validated on 16 replicates by
     tests/harvest/test_coupled_tolerance.py.
 
