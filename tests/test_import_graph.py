@@ -117,3 +117,24 @@ def test_no_module_over_the_limit():
     long = sorted(f"{p.relative_to(SRC)} ({p.read_text('utf-8').count(chr(10))} lines)" for p in SRC.rglob("*.py")
                   if p.read_text("utf-8").count("\n") > MAX_MODULE_LINES)
     assert not long, f"modules over {MAX_MODULE_LINES} lines (split by idea, docs/architecture.md): " + ", ".join(long)
+
+
+def test_no_private_name_is_imported_from_another_package():
+    """A name with a leading underscore is shared at most inside its package (siblings of a re-cut module);
+    another package imports only public, documented names."""
+    found = []
+    for path in SRC.rglob("*.py"):
+        module = _module_name(path, SRC)
+        package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text("utf-8"))):
+            if isinstance(node, ast.ImportFrom) and not node.level and (node.module or "").startswith("berryshaker"):
+                source = node.module
+                source_package = source.rpartition(".")[0] if (SRC.parent / (source.replace(".", "/") + ".py")).exists() \
+                    else source
+                # a top-level module (berryshaker.quantity_fields) is a package of its own here
+                related = source_package == package or (source_package != "berryshaker" and package != "berryshaker" and (
+                    source_package.startswith(package + ".") or package.startswith(source_package + ".")))
+                if not related:
+                    found += [f"{module}: from {node.module} import {a.name}" for a in node.names
+                              if a.name.startswith("_") and not a.name.startswith("__")]
+    assert not found, "private names imported from another package:\n  " + "\n  ".join(sorted(found))

@@ -21,7 +21,7 @@ from berryshaker.outputs import (
     read_output_marker,
     staged_directory,
 )
-from berryshaker.outputs.atomic_files import _umask
+from berryshaker.outputs import current_umask
 from berryshaker.outputs.staging import _host_tag
 
 
@@ -146,7 +146,7 @@ def test_staged_directory_writes_marker_and_leaves_no_staging(tmp_path):
     m = read_output_marker(out)
     assert m["kind"] == "study" and m["files"] == ["figures/f1.png", "report.html"] and m["version"] and m["written"]
     assert _staging_left(tmp_path) == []
-    assert out.stat().st_mode & 0o777 == 0o777 & ~_umask()  # an ordinary folder, not mkdtemp's 0700
+    assert out.stat().st_mode & 0o777 == 0o777 & ~current_umask()  # an ordinary folder, not mkdtemp's 0700
 
 
 @pytest.mark.parametrize("exc", [RuntimeError, KeyboardInterrupt])

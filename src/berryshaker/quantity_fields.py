@@ -110,9 +110,22 @@ def read_quantity(v: Any, dimension: str, info: ValidationInfo | None = None, di
         raise ValueError(str(exc).removeprefix(f"{key}: ")) from None
 
 
-def _q(dimension: str, display: str | None = None) -> QuantityValidator:
-    """The validator of a quantity field of ``dimension``; ``display``: the unit the fix of a bare number
-    suggests (default :data:`berryshaker.units.DISPLAY_UNITS`), e.g. "m/min" for a walking speed."""
+def quantity_validator(dimension: str, display: str | None = None) -> QuantityValidator:
+    """The validator of a quantity field of ``dimension`` (the ``Annotated`` metadata of a field type).
+
+    Parameters
+    ----------
+    dimension : str
+        The field's dimension (a name of :data:`berryshaker.units.DIMENSIONS`, e.g. ``"length"``).
+    display : str, optional
+        The unit the fix of a bare number suggests (default :data:`berryshaker.units.DISPLAY_UNITS`), e.g.
+        ``"m/min"`` for a walking speed.
+
+    Returns
+    -------
+    QuantityValidator
+        A pydantic before-validator reading a value with its unit to SI (:func:`read_quantity`).
+    """
 
     def convert(v: Any, info: ValidationInfo) -> float:
         return read_quantity(v, dimension, info, display)
@@ -120,25 +133,37 @@ def _q(dimension: str, display: str | None = None) -> QuantityValidator:
     return QuantityValidator(convert, dimension=dimension)
 
 
-def _d(unit: str) -> dict:
+def display_unit(unit: str) -> dict:
+    """The JSON-schema extra of a quantity field: the unit it is shown in (``config show``, ``config init``).
+
+    Parameters
+    ----------
+    unit : str
+        The display unit, e.g. ``"mm"``.
+
+    Returns
+    -------
+    dict
+        ``{"display": unit}``.
+    """
     return {"display": unit}
 
 
-Length = Annotated[float, _q("length"), Field(gt=0, json_schema_extra=_d("mm"))]
-SignedLength = Annotated[float, _q("length"), Field(json_schema_extra=_d("mm"))]  # a coordinate
-LengthNonNeg = Annotated[float, _q("length"), Field(ge=0, json_schema_extra=_d("mm"))]
-Angle = Annotated[float, _q("angle"), Field(json_schema_extra=_d("deg"))]
-PositiveAngle = Annotated[float, _q("angle"), Field(gt=0, json_schema_extra=_d("deg"))]
-NonNegAngle = Annotated[float, _q("angle"), Field(ge=0, json_schema_extra=_d("deg"))]
-AngularSpeed = Annotated[float, _q("angular_speed"), Field(gt=0, json_schema_extra=_d("rpm"))]
-Mass = Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))]
-Inertia = Annotated[float, _q("inertia"), Field(gt=0, json_schema_extra=_d("kg*m^2"))]
-Stiffness = Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))]
-Damping = Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))]
-TorsionalStiffness = Annotated[float, _q("torsional_stiffness"), Field(ge=0, json_schema_extra=_d("N*m/rad"))]
-TorsionalDamping = Annotated[float, _q("torsional_damping"), Field(ge=0, json_schema_extra=_d("N*m*s/rad"))]
+Length = Annotated[float, quantity_validator("length"), Field(gt=0, json_schema_extra=display_unit("mm"))]
+SignedLength = Annotated[float, quantity_validator("length"), Field(json_schema_extra=display_unit("mm"))]  # a coordinate
+LengthNonNeg = Annotated[float, quantity_validator("length"), Field(ge=0, json_schema_extra=display_unit("mm"))]
+Angle = Annotated[float, quantity_validator("angle"), Field(json_schema_extra=display_unit("deg"))]
+PositiveAngle = Annotated[float, quantity_validator("angle"), Field(gt=0, json_schema_extra=display_unit("deg"))]
+NonNegAngle = Annotated[float, quantity_validator("angle"), Field(ge=0, json_schema_extra=display_unit("deg"))]
+AngularSpeed = Annotated[float, quantity_validator("angular_speed"), Field(gt=0, json_schema_extra=display_unit("rpm"))]
+Mass = Annotated[float, quantity_validator("mass"), Field(gt=0, json_schema_extra=display_unit("kg"))]
+Inertia = Annotated[float, quantity_validator("inertia"), Field(gt=0, json_schema_extra=display_unit("kg*m^2"))]
+Stiffness = Annotated[float, quantity_validator("stiffness"), Field(gt=0, json_schema_extra=display_unit("N/m"))]
+Damping = Annotated[float, quantity_validator("damping"), Field(ge=0, json_schema_extra=display_unit("N*s/m"))]
+TorsionalStiffness = Annotated[float, quantity_validator("torsional_stiffness"), Field(ge=0, json_schema_extra=display_unit("N*m/rad"))]
+TorsionalDamping = Annotated[float, quantity_validator("torsional_damping"), Field(ge=0, json_schema_extra=display_unit("N*m*s/rad"))]
 #: a friction coefficient: 0 .. 2 (dry rubber on rough steel stays below ~1.5; above 2 is a slip of the number)
-Coefficient = Annotated[float, _q("dimensionless"), Field(ge=0, le=2, json_schema_extra=_d("1"))]
+Coefficient = Annotated[float, quantity_validator("dimensionless"), Field(ge=0, le=2, json_schema_extra=display_unit("1"))]
 
 
 # ---- plain numeric fields: no booleans, no lists or tables where one number belongs ----------------------
@@ -188,7 +213,19 @@ def _number_shape(annotation: Any) -> tuple[str, bool] | None:
     return None
 
 
-def _what(v: Any) -> str:
+def describe_value(v: Any) -> str:
+    """A value as an error message names it: a short repr with its type ("a table", "a list" for containers).
+
+    Parameters
+    ----------
+    v : Any
+        The value read from the user's file or command line.
+
+    Returns
+    -------
+    str
+        E.g. ``"'12' (str)"``, ``"true (a boolean)"``, ``"a table"``.
+    """
     if isinstance(v, bool):
         return f"{str(v).lower()} (a boolean)"
     if isinstance(v, dict):
@@ -201,7 +238,7 @@ def _what(v: Any) -> str:
 
 def _check_number(v: Any, where: str = "") -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float, str)):
-        raise ValueError(f"{where}got {_what(v)}; expected a number")
+        raise ValueError(f"{where}got {describe_value(v)}; expected a number")
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -223,7 +260,7 @@ def _number_screen(shape: str, optional: bool) -> _NumberScreen:
             for i, item in enumerate(v):
                 _check_number(item, f"item {i + 1}: ")
         elif isinstance(v, bool) or isinstance(v, (int, float, dict)):
-            raise ValueError(f"got {_what(v)}; expected a list of numbers, e.g. [0.85, 1.0, 1.15]")
+            raise ValueError(f"got {describe_value(v)}; expected a list of numbers, e.g. [0.85, 1.0, 1.15]")
         return v
 
     return _NumberScreen(screen, shape=shape)
@@ -306,7 +343,7 @@ def format_validation_error(err: ValidationError, source: str) -> str:
         elif typ == "finite_number":
             msg = f"must be a finite number, got {e.get('input')!r}"
         elif typ.endswith("_parsing") or typ.endswith("_type") or typ == "int_from_float":
-            msg = f"{msg}, got {_what(e.get('input'))}"
+            msg = f"{msg}, got {describe_value(e.get('input'))}"
         lines.append(_clip(_located(loc, msg)))
     if len(lines) > 20:
         lines = lines[:20] + [f"... and {len(lines) - 20} more"]

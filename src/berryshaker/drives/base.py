@@ -43,8 +43,8 @@ from berryshaker.quantity_fields import (
     StrictModel,
     TorsionalDamping,
     TorsionalStiffness,
-    _d,
-    _q,
+    display_unit,
+    quantity_validator,
 )
 
 #: default relative tolerance of a harvester's multibody run (every drive), chosen by the convergence study in
@@ -98,7 +98,7 @@ class ClearancePair(StrictModel):
     # v_ref (m/s) of the hysteresis laws: ``restitution`` holds from this impact speed up, slower impacts get the
     # damping of one at v_ref (restitution -> 1 as the speed -> 0); None: pair_law.default_restitution_velocity
     # (the yield velocity of a dry pair, the numerical floor LUBRICATED_RESTITUTION_VELOCITY of a lubricated one)
-    restitution_velocity: Annotated[float, _q("speed"), Field(ge=0, json_schema_extra=_d("m/s"))] | None = None
+    restitution_velocity: Annotated[float, quantity_validator("speed"), Field(ge=0, json_schema_extra=display_unit("m/s"))] | None = None
     levels: tuple[LengthNonNeg, LengthNonNeg, LengthNonNeg] | None = None  # test levels 1/2/3 (virtual L9, rows)
     fit: str | None = None  # ISO 286 fit on the drawing, e.g. "H8/f7" (hole/shaft at ``diameter``)
     diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
@@ -212,9 +212,9 @@ class FourBar(StrictModel):
 class OperationSpec(StrictModel):
     """How the machine is run in the field (study field settings)."""
 
-    walking_speed: Annotated[float, _q("speed", "m/min"), Field(gt=0, json_schema_extra=_d("m/min"))] = 0.5  # 30 m/min
+    walking_speed: Annotated[float, quantity_validator("speed", "m/min"), Field(gt=0, json_schema_extra=display_unit("m/min"))] = 0.5  # 30 m/min
     plant_spacing: Length = 1.5
-    test_duration: Annotated[float, _q("time"), Field(gt=0, json_schema_extra=_d("s"))] = 10.0
+    test_duration: Annotated[float, quantity_validator("time"), Field(gt=0, json_schema_extra=display_unit("s"))] = 10.0
 
 
 class MachineInfo(StrictModel):

@@ -33,16 +33,16 @@ from berryshaker.quantity_fields import (
     Length,
     PositiveAngle,
     StrictModel,
-    _q,
+    quantity_validator,
 )
 
 
 #: a power, read by the one strict parser ("1.5 kW", "750 W"; "1,5 kW" and "1.5 kW * 1000" are refused)
-Power = Annotated[float, _q("power", "kW"), Field(gt=0, json_schema_extra={"display": "kW"})]
-Torque = Annotated[float, _q("torsional_stiffness"), Field(json_schema_extra={"display": "N*m"})]
-Force = Annotated[float, _q("force"), Field(gt=0, json_schema_extra={"display": "N"})]
-Fraction = Annotated[float, _q("dimensionless"), Field(gt=0, le=1, json_schema_extra={"display": "1"})]
-Ratio = Annotated[float, _q("dimensionless"), Field(gt=0, le=1000, json_schema_extra={"display": "1"})]
+Power = Annotated[float, quantity_validator("power", "kW"), Field(gt=0, json_schema_extra={"display": "kW"})]
+Torque = Annotated[float, quantity_validator("torsional_stiffness"), Field(json_schema_extra={"display": "N*m"})]
+Force = Annotated[float, quantity_validator("force"), Field(gt=0, json_schema_extra={"display": "N"})]
+Fraction = Annotated[float, quantity_validator("dimensionless"), Field(gt=0, le=1, json_schema_extra={"display": "1"})]
+Ratio = Annotated[float, quantity_validator("dimensionless"), Field(gt=0, le=1000, json_schema_extra={"display": "1"})]
 
 
 # ------------------------------------------------------------------------------------------------
@@ -66,7 +66,7 @@ class EngineCurve(StrictModel):
     """
 
     kind: Literal["engine"] = "engine"
-    speeds: list[Annotated[float, _q("angular_speed")]]  # rad/s, increasing
+    speeds: list[Annotated[float, quantity_validator("angular_speed")]]  # rad/s, increasing
     torques: list[Torque]  # N m at full load
     governed_speed: AngularSpeed
     droop: Annotated[float, Field(gt=0, le=0.5)] = 0.05
@@ -82,7 +82,7 @@ class TableCurve(StrictModel):
     """Any drive given as a torque-speed table (linear interpolation, end values held outside)."""
 
     kind: Literal["table"] = "table"
-    speeds: list[Annotated[float, _q("angular_speed")]]
+    speeds: list[Annotated[float, quantity_validator("angular_speed")]]
     torques: list[Torque]
     rotor_inertia: Inertia
 
@@ -108,7 +108,7 @@ class BeltSpec(StrictModel):
     span_length: Length = 0.40  # m, free span [assumed]
     pretension: Force = 300.0  # N per span at rest [assumed]
     friction_coefficient: Coefficient = 0.30  # [assumed]
-    groove_angle: Annotated[float, _q("angle"), Field(ge=0, lt=math.pi)] = math.radians(38.0)  # 0 = flat
+    groove_angle: Annotated[float, quantity_validator("angle"), Field(ge=0, lt=math.pi)] = math.radians(38.0)  # 0 = flat
     wrap_angle: PositiveAngle = math.radians(170.0)  # on the smaller pulley [assumed]
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] = 0.05  # of the belt torsional mode [assumed]
 
@@ -118,7 +118,7 @@ class WormSpec(StrictModel):
 
     ratio: Ratio = 8.0  # worm speed / wheel speed [assumed]
     lead_angle: PositiveAngle | None = math.radians(15.0)  # [assumed]
-    normal_pressure_angle: Annotated[float, _q("angle"), Field(ge=0, lt=math.pi / 2)] = math.radians(20.0)
+    normal_pressure_angle: Annotated[float, quantity_validator("angle"), Field(ge=0, lt=math.pi / 2)] = math.radians(20.0)
     friction_coefficient: Coefficient = 0.05  # [assumed]
     efficiency_forward: Fraction | None = None  # overrides the lead-angle formula
     efficiency_back: Annotated[float, Field(le=1)] | None = None  # <= 0: self-locking

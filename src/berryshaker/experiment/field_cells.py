@@ -103,6 +103,28 @@ def _unit_factor(unit: str, target: str, where: str) -> float:
     return unit_factor(unit, target, where)
 
 
+def sheet_table(path_or_text) -> pd.DataFrame:
+    """A results sheet's cells as text, read as ``doe analyze`` reads it (UTF-8 with or without a byte-order mark,
+    the separator of its header: comma, semicolon or tab; empty lines skipped).
+
+    Parameters
+    ----------
+    path_or_text : str or Path
+        The CSV file, or its text (a string with a line break).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Every cell as a string, columns as in the header.
+
+    Raises
+    ------
+    ConfigError
+        The file is missing, unreadable, empty or not a table.
+    """
+    return _load_sheet(path_or_text).df
+
+
 def _load_sheet(path_or_text) -> _Sheet:
     try:
         if isinstance(path_or_text, str) and "\n" in path_or_text:

@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from berryshaker.quantity_fields import NonNegAngle, _d, _q
+from berryshaker.quantity_fields import NonNegAngle, display_unit, quantity_validator
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 #: default relative tolerance of every coupled machine-plant run (fruit force, stem-force envelopes, the
@@ -48,15 +48,15 @@ class HarvestSpec(_Strict):
     fruit_zone: tuple[Annotated[float, Field(ge=0, le=1)], Annotated[float, Field(ge=0, le=1)]] = (
         0.1, 0.95)  # fruit along the branch, fractions of its length
     fruit_mass_cv: float = Field(0.2, ge=0, lt=1)  # coefficient of variation of fruit mass
-    yield_per_bush: Annotated[float, _q("mass"), Field(gt=0, json_schema_extra=_d("kg"))] = 0.5  # [calibrated]
+    yield_per_bush: Annotated[float, quantity_validator("mass"), Field(gt=0, json_schema_extra=display_unit("kg"))] = 0.5  # [calibrated]
     unripe_fraction: float = Field(0.1, gt=0, lt=1)  # of the fruit mass on the bush [assumed; unripe rate held out]
     # detachment (docs/harvest.md, "Bond"): "pull_shear" = lognormal strengths by mode of loading (Kong et al. 2014),
     # "study_eq17" = the study's uniform bands of eq. 17 on the stem-force magnitude (the labelled alternative)
     bond_model: Literal["pull_shear", "study_eq17"] = "pull_shear"
-    ripe_pull: Annotated[float, _q("force"), Field(gt=0, le=100, json_schema_extra=_d("N"))] = 0.47
-    ripe_shear: Annotated[float, _q("force"), Field(gt=0, le=100, json_schema_extra=_d("N"))] = 0.23
-    unripe_pull: Annotated[float, _q("force"), Field(gt=0, le=100, json_schema_extra=_d("N"))] = 2.05
-    unripe_shear: Annotated[float, _q("force"), Field(gt=0, le=100, json_schema_extra=_d("N"))] = 1.0
+    ripe_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 0.47
+    ripe_shear: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 0.23
+    unripe_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 2.05
+    unripe_shear: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 1.0
     bond_cv: float = Field(0.24, ge=0, lt=2)  # CV of a ripe fruit's strengths (lognormal)
     unripe_bond_cv: float = Field(0.40, ge=0, lt=2)  # CV of an unripe fruit's strengths (lognormal)
     # damage (docs/harvest.md, "Bruising"): "impact" = bruising of published drop tests at the fruit's impacts
@@ -64,15 +64,15 @@ class HarvestSpec(_Strict):
     # the acceleration of the stem force with damage_acceleration and damage_shape (the former model, kept as a
     # labelled alternative)
     damage_model: Literal["impact", "stem_acceleration"] = "impact"
-    catcher_drop: Annotated[float, _q("length"), Field(ge=0, le=5, json_schema_extra=_d("m"))] = 0.0
+    catcher_drop: Annotated[float, quantity_validator("length"), Field(ge=0, le=5, json_schema_extra=display_unit("m"))] = 0.0
     catcher_surface: Literal["padded", "hard"] = "padded"
     # bruising threshold: a fruit's equivalent drop height at which it bruises is lognormal with this median per
     # surface and CV (Brown et al. 1996: extensive bruising above 150 mm onto a hard surface; cushioning that
     # prevented bruising up to 0.6-1.2 m), docs/harvest.md "Bruising"
-    bruise_height_hard: Annotated[float, _q("length"), Field(gt=0, le=10, json_schema_extra=_d("m"))] = 0.15
-    bruise_height_padded: Annotated[float, _q("length"), Field(gt=0, le=10, json_schema_extra=_d("m"))] = 1.2
+    bruise_height_hard: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 0.15
+    bruise_height_padded: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 1.2
     bruise_cv: float = Field(0.3, gt=0, lt=2)
-    damage_acceleration: Annotated[float, _q("acceleration"), Field(gt=0, json_schema_extra=_d("m/s^2"))] = 300.0
+    damage_acceleration: Annotated[float, quantity_validator("acceleration"), Field(gt=0, json_schema_extra=display_unit("m/s^2"))] = 300.0
     damage_shape: float = Field(2.0, gt=0, le=100)  # Weibull shape of the damage probability [assumed]
     bushes: int = Field(40, ge=1, le=MAX_COUNT)  # bushes sampled per virtual test run
     seed: int = Field(2024, ge=0, le=MAX_SEED)

@@ -8,7 +8,7 @@ sits at (s0 + s(phi), e) in the frame, s0 = sqrt(r0^2 - e^2).  The cam turns clo
 (study Fig. 5); in the cam's own frame the roller centre traces the pitch curve
 x = (s0+s) cos phi - e sin phi, y = (s0+s) sin phi + e cos phi (eq. 2 with r_r = 0).
 
-All angles in rad, lengths in m.  The scalar kernels (``_svaj_unit``, ``_follower_svaj_scalar``) are
+All angles in rad, lengths in m.  The scalar kernels (``_svaj_unit``, ``follower_svaj_scalar``) are
 numba-compiled so that the dynamic models can evaluate the cam inside compiled loops.
 """
 
@@ -66,8 +66,27 @@ def _svaj_unit(x, law):
 
 
 @njit(cache=True)
-def _follower_svaj_scalar(phi, law, h, d_rise, d_far, d_ret):
-    """s, ds/dphi, d2s/dphi2, d3s/dphi3 at cam angle phi (any real; wrapped to [0, 2 pi))."""
+def follower_svaj_scalar(phi, law, h, d_rise, d_far, d_ret):
+    """Follower lift and its first three derivatives at one cam angle: rise, far dwell, return, near dwell (study
+    eq. 1 for the 3-4-5 law; the laws of ``_svaj_unit``, Norton 2009).  Compiled (numba) for the dynamic models'
+    loops; :func:`follower_svaj` is the vectorised form.
+
+    Parameters
+    ----------
+    phi : float
+        Cam angle (rad), any real: wrapped to [0, 2 pi).
+    law : int
+        Motion law: 0 3-4-5 polynomial, 1 cycloidal, 2 4-5-6-7 polynomial.
+    h : float
+        Lift (m).
+    d_rise, d_far, d_ret : float
+        Rise, far-dwell and return angles (rad).
+
+    Returns
+    -------
+    s, s1, s2, s3 : float
+        Lift (m) and its derivatives with respect to the cam angle (m/rad, m/rad^2, m/rad^3).
+    """
     phi = phi - TWO_PI * math.floor(phi / TWO_PI)
     if phi < d_rise:
         p, p1, p2, p3 = _svaj_unit(phi / d_rise, law)
@@ -83,7 +102,7 @@ def _follower_svaj_scalar(phi, law, h, d_rise, d_far, d_ret):
 @njit(cache=True)
 def _follower_svaj_array(phi, law, h, d_rise, d_far, d_ret, out):
     for i in range(phi.shape[0]):
-        s, s1, s2, s3 = _follower_svaj_scalar(phi[i], law, h, d_rise, d_far, d_ret)
+        s, s1, s2, s3 = follower_svaj_scalar(phi[i], law, h, d_rise, d_far, d_ret)
         out[0, i] = s
         out[1, i] = s1
         out[2, i] = s2

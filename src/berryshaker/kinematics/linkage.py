@@ -19,8 +19,24 @@ from numba import njit
 
 
 @njit(cache=True)
-def _left_comb_scalar(xb, yb, xd, yd, vb, ab):
-    """theta_D, its rate and acceleration for B at (xb, yb) moving along x with vb, ab."""
+def left_comb_scalar(xb, yb, xd, yd, vb, ab):
+    """Angle of the rocker slot D->B (the left comb's angle), its rate and its acceleration, for the push-rod pin B
+    moving along x (study eq. 3, the slot's direction).  Compiled (numba) for the dynamic models' loops.
+
+    Parameters
+    ----------
+    xb, yb : float
+        Position of the pin B (m).
+    xd, yd : float
+        Position of the rocker pivot D (m).
+    vb, ab : float
+        Velocity (m/s) and acceleration (m/s^2) of B along x.
+
+    Returns
+    -------
+    theta_d, omega_d, alpha_d : float
+        theta_D (rad), its rate (rad/s) and acceleration (rad/s^2).
+    """
     dx = xb - xd
     dy = yb - yd
     q = dx * dx + dy * dy
@@ -31,12 +47,35 @@ def _left_comb_scalar(xb, yb, xd, yd, vb, ab):
 
 
 @njit(cache=True)
-def _four_bar_scalar(th_c, w_c, a_c, xd, yd, xe, ye, l_cd, l_cf, l_fe, branch):
-    """Position, rates and accelerations of coupler (4) and right arm (E); ok=False if it cannot assemble.
+def four_bar_scalar(th_c, w_c, a_c, xd, yd, xe, ye, l_cd, l_cf, l_fe, branch):
+    """Position, rates and accelerations of coupler (4) and right arm (E) of the four-bar D-C-F-E; ok=False if it
+    cannot assemble.  Compiled (numba) for the dynamic models' loops.
 
     Position (study eq. 3, corrected): theta_E = arg(C - E) + branch * acos((l_FE^2 + l_CE^2 - l_CF^2)
     / (2 l_FE l_CE)).  Rates from the time derivatives of the loop D + l_CD e^{i th_C} + l_CF e^{i th_4}
     = E + l_FE e^{i th_E}, solved by projection on e^{-i th_E} and e^{-i th_4}.
+
+    Parameters
+    ----------
+    th_c, w_c, a_c : float
+        Angle of the arm D->C (rad), its rate (rad/s) and acceleration (rad/s^2).
+    xd, yd, xe, ye : float
+        Pivots D and E (m).
+    l_cd, l_cf, l_fe : float
+        Arm D-C, coupler C-F and arm F-E lengths (m).
+    branch : float
+        Assembly branch, +1 or -1 (dimensionless).
+
+    Returns
+    -------
+    ok : bool
+        Whether the linkage assembles.
+    th_4, w_4, a_4 : float
+        Coupler angle (rad), rate (rad/s), acceleration (rad/s^2).
+    th_e, w_e, a_e : float
+        Right arm's angle (rad), rate (rad/s), acceleration (rad/s^2).
+    xf, yf : float
+        Position of the joint F (m).
     """
     xc = xd + l_cd * math.cos(th_c)
     yc = yd + l_cd * math.sin(th_c)

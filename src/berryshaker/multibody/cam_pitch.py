@@ -13,7 +13,7 @@ import math
 
 from numba import njit
 
-from berryshaker.kinematics.cam import _follower_svaj_scalar
+from berryshaker.kinematics.cam import follower_svaj_scalar
 from berryshaker.multibody.layout import CAM_FAR, CAM_LAW, CAM_OFFSET, CAM_RETURN, CAM_RISE, CAM_S0, CAM_STROKE
 
 
@@ -24,7 +24,7 @@ def _pitch_jet(psi, cam):
     P = R(psi) (rho, e), rho = s0 + s(psi), R the rotation by psi (docs/multibody.md, "Cam groove");
     dR/dpsi v = R (-v_y, v_x), so dP = R (s1 - e, rho), d2P = R (s2 - rho, 2 s1 - e) and
     d3P = R (s3 - 3 s1 + e, 3 s2 - rho), with s1, s2, s3 the follower law's derivatives."""
-    s, s1, s2, s3 = _follower_svaj_scalar(psi, int(cam[CAM_LAW]), cam[CAM_STROKE], cam[CAM_RISE], cam[CAM_FAR],
+    s, s1, s2, s3 = follower_svaj_scalar(psi, int(cam[CAM_LAW]), cam[CAM_STROKE], cam[CAM_RISE], cam[CAM_FAR],
                                           cam[CAM_RETURN])
     rho = cam[CAM_S0] + s
     e = cam[CAM_OFFSET]
@@ -102,7 +102,7 @@ def pitch_foot_speed(lx, ly, cam, guess):
     if math.isnan(guess):
         psi = math.atan2(ly, lx)
         for _ in range(3):
-            s, s1, s2, s3 = _follower_svaj_scalar(psi, int(cam[CAM_LAW]), cam[CAM_STROKE], cam[CAM_RISE],
+            s, s1, s2, s3 = follower_svaj_scalar(psi, int(cam[CAM_LAW]), cam[CAM_STROKE], cam[CAM_RISE],
                                                   cam[CAM_FAR], cam[CAM_RETURN])
             psi = math.atan2(ly, lx) - math.atan2(cam[CAM_OFFSET], cam[CAM_S0] + s)
     else:

@@ -34,15 +34,15 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import UNITS_REQUIRED, Angle, Coefficient, SignedLength, _q, _what, read_quantity
+from berryshaker.quantity_fields import UNITS_REQUIRED, Angle, Coefficient, SignedLength, quantity_validator, describe_value, read_quantity
 from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
 from berryshaker.multibody.layout import MAX_TABLE
 
-Mass = Annotated[float, _q("mass"), Field(gt=0)]
-Inertia = Annotated[float, _q("inertia"), Field(gt=0)]
-LengthNN = Annotated[float, _q("length"), Field(ge=0)]
-LengthPos = Annotated[float, _q("length"), Field(gt=0)]
+Mass = Annotated[float, quantity_validator("mass"), Field(gt=0)]
+Inertia = Annotated[float, quantity_validator("inertia"), Field(gt=0)]
+LengthNN = Annotated[float, quantity_validator("length"), Field(ge=0)]
+LengthPos = Annotated[float, quantity_validator("length"), Field(gt=0)]
 Real = Annotated[float, BeforeValidator(lambda v: _num(v))]
 
 
@@ -55,7 +55,7 @@ def _num(v):
 def _vec(dimension: str):
     def convert(v: Any, info: ValidationInfo) -> tuple[float, float]:
         if not isinstance(v, (list, tuple)) or len(v) != 2:
-            raise ValueError(f"expected a pair [x, y], got {_what(v)}")
+            raise ValueError(f"expected a pair [x, y], got {describe_value(v)}")
         return tuple(read_quantity(c, dimension, info) for c in v)  # type: ignore[return-value]
 
     return BeforeValidator(convert)
@@ -99,13 +99,13 @@ class ContactSpec(_Strict):
     stiffness: Real | Literal["hertz"] = "hertz"  # N/m^n; "hertz": from materials and radii
     exponent: float = Field(1.5, gt=0)
     restitution: float = Field(0.9, gt=0, le=1)
-    damping: Annotated[float, _q("damping"), Field(ge=0)] = 0.0  # N s/m: mlsd damping, or cmax of impact
+    damping: Annotated[float, quantity_validator("damping"), Field(ge=0)] = 0.0  # N s/m: mlsd damping, or cmax of impact
     damping_depth: LengthPos = 1e-4  # d of impact: penetration of full damping
     # v_ref of the hysteresis laws (m/s): restitution holds from this impact speed up, slower impacts get the
     # damping of one at v_ref (docs/contact.md sec. 6.4).  0 (default here): the published laws, as the validation
     # cases use them; machine descriptions default to berryshaker.contact.pair_law.DEFAULT_RESTITUTION_VELOCITY
-    restitution_velocity: Annotated[float, _q("speed"), Field(ge=0)] = 0.0
-    elastic_modulus: Annotated[float, _q("pressure"), Field(gt=0)] = 207e9
+    restitution_velocity: Annotated[float, quantity_validator("speed"), Field(ge=0)] = 0.0
+    elastic_modulus: Annotated[float, quantity_validator("pressure"), Field(gt=0)] = 207e9
     poisson_ratio: float = Field(0.3, gt=-1, lt=0.5)
 
 
@@ -147,9 +147,9 @@ class CamSpec(_Strict):
     base_radius: LengthPos
     offset: LengthNN
     stroke: LengthPos
-    rise_angle: Annotated[float, _q("angle"), Field(gt=0)]
-    far_dwell_angle: Annotated[float, _q("angle"), Field(ge=0)]
-    return_angle: Annotated[float, _q("angle"), Field(gt=0)]
+    rise_angle: Annotated[float, quantity_validator("angle"), Field(gt=0)]
+    far_dwell_angle: Annotated[float, quantity_validator("angle"), Field(ge=0)]
+    return_angle: Annotated[float, quantity_validator("angle"), Field(gt=0)]
 
 
 class DriverSpec(_Strict):
@@ -157,11 +157,11 @@ class DriverSpec(_Strict):
     name: str
     type: Literal["angle", "torque", "torque_speed"] = "angle"
     body: str
-    speed: Annotated[float, _q("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; otherwise: initial)
+    speed: Annotated[float, quantity_validator("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; otherwise: initial)
     angle0: Angle | None = None  # default: the body's initial angle
-    torque: Annotated[float, _q("torsional_stiffness")] = 0.0  # N m (torque driver)
-    speeds: list[Annotated[float, _q("angular_speed")]] = []  # torque_speed: table speeds (rad/s, increasing)
-    torques: list[Annotated[float, _q("torsional_stiffness")]] = []  # torque_speed: table torques (N m)
+    torque: Annotated[float, quantity_validator("torsional_stiffness")] = 0.0  # N m (torque driver)
+    speeds: list[Annotated[float, quantity_validator("angular_speed")]] = []  # torque_speed: table speeds (rad/s, increasing)
+    torques: list[Annotated[float, quantity_validator("torsional_stiffness")]] = []  # torque_speed: table torques (N m)
 
     @model_validator(mode="after")
     def _table(self) -> "DriverSpec":
@@ -185,8 +185,8 @@ class ForceSpec(_Strict):
     type: Literal["rotational_spring_damper", "force", "geared_spring_damper"] = "rotational_spring_damper"
     body_i: str
     body_j: str = "ground"
-    stiffness: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
-    damping: Annotated[float, _q("torsional_damping"), Field(ge=0)] = 0.0
+    stiffness: Annotated[float, quantity_validator("torsional_stiffness"), Field(ge=0)] = 0.0
+    damping: Annotated[float, quantity_validator("torsional_damping"), Field(ge=0)] = 0.0
     angle0: Angle = 0.0  # free angle phi_i - phi_j
     point: Point = (0.0, 0.0)
     force: ForcePair = (0.0, 0.0)
@@ -197,7 +197,7 @@ class ForceSpec(_Strict):
     efficiency_forward: Annotated[float, Field(gt=0, le=1)] = 1.0
     efficiency_back: Annotated[float, Field(gt=0, le=1)] = 1.0
     creep_compliance: Annotated[float, Field(ge=0)] = 0.0
-    slip_torque: Annotated[float, _q("torsional_stiffness"), Field(ge=0)] = 0.0
+    slip_torque: Annotated[float, quantity_validator("torsional_stiffness"), Field(ge=0)] = 0.0
     windup0: Angle = 0.0
 
     @model_validator(mode="after")
@@ -223,11 +223,11 @@ class SimulationSpec(_Strict):
     their convergence studies chose (:data:`berryshaker.drives.base.HARVESTER_VELOCITY_SCALE`,
     :data:`berryshaker.harvest.spec.COUPLED_VELOCITY_SCALE`; docs/multibody.md "Error control").
     """
-    duration: Annotated[float, _q("time"), Field(gt=0)] = 0.05
+    duration: Annotated[float, quantity_validator("time"), Field(gt=0)] = 0.05
     rtol: float = Field(1e-7, gt=0, lt=1)
-    velocity_scale: Annotated[float, _q("speed"), Field(gt=0)] = 0.1
-    output_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-5
-    max_step: Annotated[float, _q("time"), Field(gt=0)] = 1e-4
+    velocity_scale: Annotated[float, quantity_validator("speed"), Field(gt=0)] = 0.1
+    output_step: Annotated[float, quantity_validator("time"), Field(gt=0)] = 1e-5
+    max_step: Annotated[float, quantity_validator("time"), Field(gt=0)] = 1e-4
     energy_audit: bool | None = None  # work of every force element; None: on when a torque_speed driver exists
     # integrate with the kernel specialised to this mechanism's structure (multibody.specialised): the same
     # results, ~1/3 less time per step (~1/4 per harvester run), 10-20 s of compilation once per structure and
@@ -243,14 +243,14 @@ class BranchContactSpec(_Strict):
     finger_point: Point  # in the body's frame
     station: float = Field(gt=0, le=1)  # fraction of the branch length
     side: Literal[-1, 1] = 1  # +1: the finger pushes the branch towards +lateral_axis
-    mid_lateral: Annotated[float, _q("length")]  # lateral coordinate of the finger where it just touches
-    engagement: Annotated[float, _q("length"), Field(ge=0)] = 0.0  # overlap already at mid_lateral (m)
+    mid_lateral: Annotated[float, quantity_validator("length")]  # lateral coordinate of the finger where it just touches
+    engagement: Annotated[float, quantity_validator("length"), Field(ge=0)] = 0.0  # overlap already at mid_lateral (m)
     # appended for a body of several branches (a bush): where this contact's branch stands along the row
     # relative to the body's start distance (m), its own contact direction (default: the body's lateral_axis;
     # mid_lateral is then measured along it), its own contact law (default: the body's), and the multiple of
     # its force that acts back on the striking body (1: two-way; 0: the branch is driven, the mechanism feels
     # nothing; w > 1: it stands for w like branches of a sampled population)
-    row_offset: Annotated[float, _q("length")] = 0.0
+    row_offset: Annotated[float, quantity_validator("length")] = 0.0
     axis: Direction | None = None
     contact: ContactSpec | None = None
     reaction_weight: float = Field(1.0, ge=0)
@@ -276,11 +276,11 @@ class ModalBodySpec(_Strict):
     damping_ratio: Annotated[float, Field(ge=0, lt=1)] | list[Annotated[float, Field(ge=0, lt=1)]]  # one, or per mode
     shapes: list[list[float]]  # per contact, per mode
     lateral_axis: Direction = (1.0, 0.0)
-    walking_speed: Annotated[float, _q("speed"), Field(gt=0)] = 0.5
-    start_distance: Annotated[float, _q("length")] = -0.5  # plant position along the row at t = 0 (m)
-    half_span: Annotated[float, _q("length"), Field(gt=0)] = 0.4
-    ramp: Annotated[float, _q("length"), Field(gt=0)] = 0.1
-    ramp_depth: Annotated[float, _q("length"), Field(gt=0)] = 0.2
+    walking_speed: Annotated[float, quantity_validator("speed"), Field(gt=0)] = 0.5
+    start_distance: Annotated[float, quantity_validator("length")] = -0.5  # plant position along the row at t = 0 (m)
+    half_span: Annotated[float, quantity_validator("length"), Field(gt=0)] = 0.4
+    ramp: Annotated[float, quantity_validator("length"), Field(gt=0)] = 0.1
+    ramp_depth: Annotated[float, quantity_validator("length"), Field(gt=0)] = 0.2
     contact: ContactSpec = ContactSpec(law="impact", stiffness=8e7, exponent=1.5, damping=20.0)
     contacts: list[BranchContactSpec]
 

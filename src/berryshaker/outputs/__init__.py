@@ -15,7 +15,8 @@
 The names callers use are importable from here.
 """
 
-from berryshaker.outputs.atomic_files import file_sha256, write_json_atomic, write_text_atomic
+from berryshaker.outputs.atomic_files import (current_umask, file_sha256, write_bytes_atomic, write_json_atomic,
+                                              write_text_atomic)
 from berryshaker.outputs.destinations import check_output_file, prepare_output_dir
 from berryshaker.outputs.marker import MARKER_NAME, marker_owners, read_output_marker
 from berryshaker.outputs.paired_files import check_forced_pair, read_html_stamp, stamp_html
@@ -25,6 +26,7 @@ from berryshaker.outputs.staging import (STAGING_TAG, STALE_FOREIGN_STAGING_HOUR
 
 #: the public names
 __all__ = ["MARKER_NAME", "STAGING_TAG", "STALE_FOREIGN_STAGING_HOURS", "STALE_STAGING_HOURS",
-           "check_forced_pair", "check_output_file", "clean_stale_staging", "code_fingerprint", "file_sha256",
+           "check_forced_pair", "check_output_file", "clean_stale_staging", "code_fingerprint", "current_umask", "file_sha256",
            "marker_owners", "pid_alive", "prepare_output_dir", "provenance", "read_html_stamp", "read_output_marker",
-           "stamp_html", "staged_directory", "write_json_atomic", "write_provenance", "write_text_atomic"]
+           "stamp_html", "staged_directory", "write_bytes_atomic", "write_json_atomic", "write_provenance",
+           "write_text_atomic"]

@@ -14,7 +14,14 @@ import tempfile
 from pathlib import Path
 
 
-def _umask() -> int:
+def current_umask() -> int:
+    """The process's file-mode creation mask (read without changing it).
+
+    Returns
+    -------
+    int
+        The umask: a file written atomically gets mode 0o666 & ~umask, as an ``open`` would give it.
+    """
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -32,15 +39,29 @@ def write_text_atomic(path: str | Path, text: str) -> None:
     path : str or Path
         The file (its folder is created).
     text : str
-        The content (UTF-8).
+        The content (UTF-8, line ends as given).
+    """
+    write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path: str | Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` via a temporary file in the same folder and an atomic rename: the file appears
+    complete or not at all, with the mode an ordinary file gets (0o666 & ~umask).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (its folder is created).
+    data : bytes
+        The content.
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; outputs are ordinary files
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; outputs are ordinary files
         os.replace(tmp, path)
     except BaseException:
         with contextlib.suppress(FileNotFoundError):

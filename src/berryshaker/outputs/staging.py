@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 from typing import Iterator
 
-from berryshaker.outputs.atomic_files import _absolute, _umask, file_sha256, write_json_atomic
+from berryshaker.outputs.atomic_files import _absolute, current_umask, file_sha256, write_json_atomic
 from berryshaker.outputs.destinations import _shown, prepare_output_dir
 from berryshaker.outputs.marker import (MARKER_NAME, _entry_state, _inside, _marker, _written_time, marker_owners,
                                         read_output_marker)
@@ -237,7 +237,7 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
         raise OutputError(f"{kind} output {final}: cannot write in {parent} ({exc.strerror or exc}); choose another "
                           "folder") from None
     try:
-        os.chmod(stage, 0o777 & ~_umask())  # mkdtemp makes 0700; the output is an ordinary folder
+        os.chmod(stage, 0o777 & ~current_umask())  # mkdtemp makes 0700; the output is an ordinary folder
         yield stage
         _commit(stage, final, kind)
     finally:

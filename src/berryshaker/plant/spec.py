@@ -8,7 +8,7 @@ from typing import Annotated, Literal
 
 from pydantic import BeforeValidator, Field, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import Length, LengthNonNeg, StrictModel as _Strict, _d, _q, _what
+from berryshaker.quantity_fields import Length, LengthNonNeg, StrictModel as _Strict, display_unit, quantity_validator, describe_value
 
 
 class BranchSpec(_Strict):
@@ -17,9 +17,9 @@ class BranchSpec(_Strict):
     root_diameter: Length  # d0
     tip_diameter: Length  # dm
     length: Length  # l
-    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))]
-    density: Annotated[float, _q("density"), Field(gt=0, json_schema_extra=_d("kg/m^3"))]
-    damping_ratio: Annotated[float, _q("dimensionless"), Field(ge=0, lt=1, json_schema_extra=_d("1"))] = 0.07
+    elastic_modulus: Annotated[float, quantity_validator("pressure", "GPa"), Field(gt=0, json_schema_extra=display_unit("GPa"))]
+    density: Annotated[float, quantity_validator("density"), Field(gt=0, json_schema_extra=display_unit("kg/m^3"))]
+    damping_ratio: Annotated[float, quantity_validator("dimensionless"), Field(ge=0, lt=1, json_schema_extra=display_unit("1"))] = 0.07
 
     @model_validator(mode="after")
     def _check(self) -> "BranchSpec":
@@ -40,8 +40,8 @@ class PedicelSpec(_Strict):
     berryshaker.plant.pedicel.modal_mass_ratio); ``rigid = true`` restores the study's eq. 16.
     """
 
-    stiffness: Annotated[float, _q("stiffness"), Field(gt=0, json_schema_extra=_d("N/m"))] = 10.0
-    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 0.027
+    stiffness: Annotated[float, quantity_validator("stiffness"), Field(gt=0, json_schema_extra=display_unit("N/m"))] = 10.0
+    damping: Annotated[float, quantity_validator("damping"), Field(ge=0, json_schema_extra=display_unit("N*s/m"))] = 0.027
     include_weight: bool = True  # the stem also carries m0 g along the branch axis (upright branch)
     coupling: Literal["two_way", "one_way"] = "two_way"  # named fruit inside the modal model, or post-processed
     rigid: bool = False
@@ -49,7 +49,7 @@ class PedicelSpec(_Strict):
 
 class FruitSpec(_Strict):
     """Fruit on the branch: mass m0, positions (fractions of the length) and names (study eq. 16-17)."""
-    mass: Annotated[float, _q("mass", "g"), Field(gt=0, json_schema_extra=_d("g"))]  # m0
+    mass: Annotated[float, quantity_validator("mass", "g"), Field(gt=0, json_schema_extra=display_unit("g"))]  # m0
     pedicel: PedicelSpec = PedicelSpec()
     positions: tuple[float, ...] = Field((0.2, 0.5, 0.85), max_length=20)  # fractions of the branch length
     names: tuple[str, ...] = Field(("root", "middle", "end"), max_length=20)
@@ -71,11 +71,11 @@ class FingerSpec(_Strict):
 
     diameter: Length = 0.012
     free_length: Length = 0.2  # clamp to the striking section (m)
-    elastic_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 2.5e9
+    elastic_modulus: Annotated[float, quantity_validator("pressure", "GPa"), Field(gt=0, json_schema_extra=display_unit("GPa"))] = 2.5e9
     poisson_ratio: float = Field(0.39, ge=0, lt=0.5)
-    wood_transverse_modulus: Annotated[float, _q("pressure", "GPa"), Field(gt=0, json_schema_extra=_d("GPa"))] = 1.0e8
+    wood_transverse_modulus: Annotated[float, quantity_validator("pressure", "GPa"), Field(gt=0, json_schema_extra=display_unit("GPa"))] = 1.0e8
     wood_poisson_ratio: float = Field(0.3, ge=0, lt=0.5)
-    reference_force: Annotated[float, _q("force"), Field(gt=0, json_schema_extra=_d("N"))] = 5.0  # Hertz linearised
+    reference_force: Annotated[float, quantity_validator("force"), Field(gt=0, json_schema_extra=display_unit("N"))] = 5.0  # Hertz linearised
 
 
 class CombContactSpec(_Strict):
@@ -90,7 +90,7 @@ class CombContactSpec(_Strict):
     stiffness: Annotated[float, Field(gt=0, le=1e15)] | None = None
     exponent: Annotated[float, Field(gt=0, le=3)] | None = None
     finger: FingerSpec = FingerSpec()
-    damping: Annotated[float, _q("damping"), Field(ge=0, json_schema_extra=_d("N*s/m"))] = 7.8  # cmax
+    damping: Annotated[float, quantity_validator("damping"), Field(ge=0, json_schema_extra=display_unit("N*s/m"))] = 7.8  # cmax
     penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [STUDY.md]
     station_left: float = Field(0.7, gt=0, le=1)  # z_l / l, where the left comb meets the branch
     station_right: float = Field(0.7, gt=0, le=1)  # z_r / l
@@ -135,7 +135,7 @@ def _range(kind: str):
 
     def convert(v, info: ValidationInfo):
         if not isinstance(v, (list, tuple)) or len(v) != 2:
-            raise ValueError(f"expected a range [low, high] of {kind} values, got {_what(v)}")
+            raise ValueError(f"expected a range [low, high] of {kind} values, got {describe_value(v)}")
         lo, hi = (read_quantity(c, kind, info) for c in v)
         if lo > hi:
             raise ValueError(f"range [{lo:g}, {hi:g}] (SI) has low > high")

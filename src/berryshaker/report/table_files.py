@@ -2,7 +2,7 @@
 study's tables and those of ``doe analyze`` open in a spreadsheet with numbers as numbers.
 
 Cells: booleans as yes/no, non-finite numbers as empty cells, numpy scalars as Python numbers; the header row is
-bold and frozen in the workbook.  Both files are written atomically (a temporary file renamed into place).
+bold and frozen in the workbook.  Both files are written atomically (:func:`berryshaker.outputs.write_bytes_atomic`).
 """
 
 from __future__ import annotations
@@ -10,12 +10,12 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import tempfile
 from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
+
+from berryshaker.outputs import write_bytes_atomic
 
 
 def table_cell(v) -> object:
@@ -41,25 +41,6 @@ def table_cell(v) -> object:
     if v is None or isinstance(v, (int, str)):
         return v
     return str(v)
-
-
-def _replace_atomic(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
@@ -151,8 +132,8 @@ def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence
     csv_path = path if path.suffix.lower() == ".csv" else path.with_name(path.name + ".csv")
     xlsx_path = csv_path.with_suffix(".xlsx")
     rows = [list(r) for r in rows]
-    _replace_atomic(csv_path, csv_bytes(header, rows))
-    _replace_atomic(xlsx_path, xlsx_bytes(header, rows, sheet or csv_path.stem))
+    write_bytes_atomic(csv_path, csv_bytes(header, rows))
+    write_bytes_atomic(xlsx_path, xlsx_bytes(header, rows, sheet or csv_path.stem))
     return csv_path, xlsx_path
 
 

@@ -22,13 +22,13 @@ from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.errors import ConfigError, GeometryError
 from berryshaker.kinematics.cam import (
     FOLLOWER_LAWS,
-    _follower_svaj_scalar,
+    follower_svaj_scalar,
     groove_profile,
     pitch_curve,
     pitch_curve_curvature,
     pressure_angle,
 )
-from berryshaker.kinematics.linkage import _four_bar_scalar, _left_comb_scalar, transmission_angle
+from berryshaker.kinematics.linkage import four_bar_scalar, left_comb_scalar, transmission_angle
 
 # indices into the geometry vector
 G_LAW, G_H, G_RISE, G_FAR, G_RET, G_S0, G_E, G_LAB, G_XD, G_YD, G_XE, G_YE = range(12)
@@ -81,13 +81,13 @@ def ideal_state(phi, g):
         accelerations (rad/s^2).  ok is False where the four-bar cannot assemble.
     """
     w = g[G_OMEGA]
-    s, s1, s2, s3 = _follower_svaj_scalar(phi, int(g[G_LAW]), g[G_H], g[G_RISE], g[G_FAR], g[G_RET])
+    s, s1, s2, s3 = follower_svaj_scalar(phi, int(g[G_LAW]), g[G_H], g[G_RISE], g[G_FAR], g[G_RET])
     v = s1 * w
     a = s2 * w * w
     xb = g[G_S0] + s + g[G_LAB]
     yb = g[G_E]
-    th_d, w_d, a_d = _left_comb_scalar(xb, yb, g[G_XD], g[G_YD], v, a)
-    ok, th4, w4, a4, th_e, we, ae, xf, yf = _four_bar_scalar(
+    th_d, w_d, a_d = left_comb_scalar(xb, yb, g[G_XD], g[G_YD], v, a)
+    ok, th4, w4, a4, th_e, we, ae, xf, yf = four_bar_scalar(
         th_d + g[G_GAMMA], w_d, a_d, g[G_XD], g[G_YD], g[G_XE], g[G_YE], g[G_LCD], g[G_LCF], g[G_LFE],
         g[G_BRANCH])
     return ok, s, v, a, th_d, w_d, a_d, th4, w4, a4, th_e, we, ae
@@ -248,7 +248,7 @@ def mid_stroke_angles(machine: Machine) -> tuple[float, float]:
     g = geometry_vector(machine)
     xb = g[G_S0] + machine.cam.stroke / 2 + g[G_LAB]
     th_d = math.atan2(g[G_E] - g[G_YD], xb - g[G_XD])
-    ok, th4, *_rest = _four_bar_scalar(th_d + g[G_GAMMA], 0.0, 0.0, g[G_XD], g[G_YD], g[G_XE], g[G_YE],
+    ok, th4, *_rest = four_bar_scalar(th_d + g[G_GAMMA], 0.0, 0.0, g[G_XD], g[G_YD], g[G_XE], g[G_YE],
                                       g[G_LCD], g[G_LCF], g[G_LFE], g[G_BRANCH])
     th_e = _rest[2]
     if not ok:

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +10,6 @@ import numpy as np
 from berryshaker.drives.groove_cam.kinematics import cam_groove
 from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.outputs import write_text_atomic
-from berryshaker.outputs.atomic_files import _umask
 
 
 def groove_csv_text(machine: Machine, n: int = 721) -> str:
@@ -66,18 +63,9 @@ def write_groove_dxf(machine: Machine, path: str | Path, n: int = 1441) -> None:
         xy = (pts.T * 1e3)[:-1]
         msp.add_lwpolyline([tuple(p) for p in xy], close=True, dxfattribs={"layer": layer})
     msp.add_circle((0.0, 0.0), 1.0, dxfattribs={"layer": "PITCH"})  # cam centre mark
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(fd)
-    try:
-        doc.saveas(tmp)
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; a DXF is an ordinary file like the CSV
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    text = io.StringIO()
+    doc.write(text)  # R2010 writes UTF-8 text (what doc.saveas would put in the file)
+    write_text_atomic(path, text.getvalue())
 
 
 def write_groove_csv(machine: Machine, path: str | Path, n: int = 721) -> None:

@@ -161,9 +161,9 @@ class Sheet:
 def _filled_responses(path_or_text) -> list[str]:
     """The responses of :data:`RESPONSES` a sheet has values for (an index column with a number, or the raw masses)."""
     from berryshaker.experiment.field_columns import INDEX_NAMES, RAW_COLUMNS
-    from berryshaker.experiment.field_results import _load_sheet
+    from berryshaker.experiment.field_cells import sheet_table
 
-    df = _load_sheet(path_or_text).df
+    df = sheet_table(path_or_text)
     cols = {c.lower(): c for c in df.columns}
     raw = all(c in df.columns and df[c].notna().any() and (df[c].astype(str).str.strip() != "").any()
               for c in RAW_COLUMNS)
