@@ -162,7 +162,7 @@ def validate(machine, replicates: int | None = None, workers: int | None = None,
     Parameters
     ----------
     machine : MachineBase
-        A machine description with a ``[plant]`` block (:func:`load_machine`).
+        A machine description with a ``[plant]`` block (:func:`~berryshaker.api.load_machine`).
     replicates : int, optional
         Perturbed starts per case (default ``harvest.replicates`` of the description).
     workers : int, optional

@@ -88,7 +88,7 @@ def service_limits(machine, joints: str | Sequence[str] | None = None) -> pd.Dat
     Parameters
     ----------
     machine : MachineBase
-        A machine description (:func:`load_machine`).
+        A machine description (:func:`~berryshaker.api.load_machine`).
     joints : str or sequence of str, optional
         Clearance pairs (default every pair).
 
@@ -132,7 +132,7 @@ def wear(machine, hours: float = 2000.0, joints: str | Sequence[str] | None = No
     Parameters
     ----------
     machine : MachineBase
-        A machine description (:func:`load_machine`).
+        A machine description (:func:`~berryshaker.api.load_machine`).
     hours : float
         Operating hours to simulate (h).
     joints : str or sequence of str, optional

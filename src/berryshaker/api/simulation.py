@@ -53,7 +53,7 @@ def kinematics(machine, allow_undercut: bool = False) -> pd.DataFrame:
     Parameters
     ----------
     machine : MachineBase
-        A machine description (:func:`load_machine`).
+        A machine description (:func:`~berryshaker.api.load_machine`).
     allow_undercut : bool
         Return an undercutting cam's kinematics instead of refusing it.
 
@@ -186,7 +186,7 @@ def simulate(machine, clearance=None, model: str = "mlsd", revolutions: int = 3,
     Parameters
     ----------
     machine : MachineBase
-        A machine description (:func:`load_machine`).
+        A machine description (:func:`~berryshaker.api.load_machine`).
     clearance : dict or str, optional
         Clearance size per pair: a dict such as ``{"A": 0.25e-3}`` (m) or ``{"A": "0.25 mm"}``, or the text of
         ``--clearance`` (``"A=0.25mm,C=0.1mm"``, ``"row5"``, ``"level2"``, ``"none"``); pairs left out keep the
@@ -294,7 +294,7 @@ def sweep(machine, params: Mapping[str, Any], model: str = "mlsd", revolutions: 
     Parameters
     ----------
     machine : MachineBase
-        The machine swept (:func:`load_machine`).
+        The machine swept (:func:`~berryshaker.api.load_machine`).
     params : dict
         Dotted key of the machine description -> its values: a list of str with units (``["0.1 mm", "0.3 mm"]``),
         a list of numbers in SI (m, rad, rad/s...), or one ``--param`` text (``"0.1..0.3 mm"``, a range of

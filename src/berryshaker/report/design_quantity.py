@@ -47,7 +47,7 @@ def quantity(value, unit: str, lo=None, hi=None, interval: str = "", step: str =
 
 
 def _estimate(est: dict | None, unit: str, step: str, where: str, tag: str = "[computed]") -> dict | None:
-    """:func:`quantity` of a {mean, sd, ci, n, interval_from} estimate (study/l9.py ``interval``)."""
+    """:func:`quantity` of a {mean, sd, ci, n, interval_from} estimate (study/replicate_responses.py ``interval``)."""
     if not est:
         return None
     n = est.get("n")
@@ -56,7 +56,7 @@ def _estimate(est: dict | None, unit: str, step: str, where: str, tag: str = "[c
                     f"SD {est['sd']:.3g} {unit}".rstrip(), step, where, tag, sd=est.get("sd"), n=n)
 
 def _estimate(est: dict | None, unit: str, step: str, where: str, tag: str = "[computed]") -> dict | None:
-    """:func:`quantity` of a {mean, sd, ci, n, interval_from} estimate (study/l9.py ``interval``)."""
+    """:func:`quantity` of a {mean, sd, ci, n, interval_from} estimate (study/replicate_responses.py ``interval``)."""
     if not est:
         return None
     n = est.get("n")

@@ -2,7 +2,8 @@
 
 Three clearances per pair, each from ``harvest.replicates`` perturbed starts (one pair varied at a time, cached
 through the study's runner), give each pair's Archard growth rate and mean peak collision force against its own
-clearance (:mod:`berryshaker.life.tolerance`'s surrogate).  From it: the clearance of every pair over 2000 operating hours from the description's sizes
+clearance (the tolerance design's surrogate, :mod:`berryshaker.life.clearance_response`).
+From it: the clearance of every pair over 2000 operating hours from the description's sizes
 (dc/dh = r(c) on the interpolant), the hours to each pair's service limit (life.service.service_limits, docs/life.md 4a), and the fit recommended by
 NSGA-II on the surrogate.  Coarse on purpose (3 points per pair, runs of 2 revolutions); ``berryshaker wear``
 re-simulates at every state and ``berryshaker tolerance`` uses a finer grid.

@@ -236,7 +236,7 @@ class Simulator:
         seeds : list of int
             Start seeds (run before with :meth:`run`).
         theta : numpy.ndarray
-            (n, 6) parameter values in :data:`PARAMETER_NAMES` order (SI).
+            (n, 6) parameter values in :data:`~berryshaker.study.field_calibration.priors.PARAMETER_NAMES` order (SI).
         pop_seeds : list of int, optional
             Population seed of each start (default its own seed), as given to :meth:`run`.
         chunk : int

@@ -224,13 +224,13 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     machine : Machine
         The machine description (with [plant] and [harvest]).
     sheet : Sheet
-        The field sheet (:func:`read_sheet`).
+        The field sheet (:func:`~berryshaker.study.field_calibration.sheet.read_sheet`).
     runner : SweepRunner
         Cached runner of the coupled starts.
     options : CalibrationSettings, optional
         Sizes and seed.
     predict : list of numpy.ndarray, optional
-        Further settings to predict (SI, :func:`parse_setting`).
+        Further settings to predict (SI, :func:`~berryshaker.study.field_calibration.sheet.parse_setting`).
     progress : callable, optional
         ``progress(stage, done, total)``: "emulator", "sampling", "held-out run".
 
