@@ -138,3 +138,22 @@ def test_no_private_name_is_imported_from_another_package():
                     found += [f"{module}: from {node.module} import {a.name}" for a in node.names
                               if a.name.startswith("_") and not a.name.startswith("__")]
     assert not found, "private names imported from another package:\n  " + "\n  ".join(sorted(found))
+
+
+def test_no_function_or_class_takes_the_name_of_a_module_of_its_package():
+    """``pkg.name`` is one thing: a function re-exported under the name of a sibling module hides that module from
+    ``pkg.name`` and gives the API reference two pages for one name (Sphinx: duplicate object description)."""
+    import importlib
+    import inspect
+    import pkgutil
+
+    clashes = []
+    for info in pkgutil.walk_packages(berryshaker.__path__, "berryshaker."):
+        if not info.ispkg or info.name.startswith("berryshaker.validation"):
+            continue  # validation needs the optional exudyn
+        package = importlib.import_module(info.name)
+        for sub in pkgutil.iter_modules(package.__path__):
+            obj = getattr(package, sub.name, None)
+            if inspect.isfunction(getattr(obj, "py_func", obj)) or inspect.isclass(obj):
+                clashes.append(f"{info.name}.{sub.name}")
+    assert not clashes, "a function or class named like a module of its package: " + ", ".join(clashes)

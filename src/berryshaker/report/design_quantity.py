@@ -55,15 +55,6 @@ def _estimate(est: dict | None, unit: str, step: str, where: str, tag: str = "[c
                     f"95 % interval of the mean of {n} starts ({est.get('interval_from', 'its replicates')}), "
                     f"SD {est['sd']:.3g} {unit}".rstrip(), step, where, tag, sd=est.get("sd"), n=n)
 
-def _estimate(est: dict | None, unit: str, step: str, where: str, tag: str = "[computed]") -> dict | None:
-    """:func:`quantity` of a {mean, sd, ci, n, interval_from} estimate (study/replicate_responses.py ``interval``)."""
-    if not est:
-        return None
-    n = est.get("n")
-    return quantity(est["mean"], unit, est["ci"][0], est["ci"][1],
-                    f"95 % interval of the mean of {n} starts ({est.get('interval_from', 'its replicates')}), "
-                    f"SD {est['sd']:.3g} {unit}".rstrip(), step, where, tag, sd=est.get("sd"), n=n)
-
 
 def _results(summary: dict) -> dict:
     return summary.get("results", summary)

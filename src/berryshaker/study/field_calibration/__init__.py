@@ -22,7 +22,7 @@ The method is one chain, each part's inputs the previous part's outputs; each pa
    predictions of every level set of the sheet's factors (and named settings) with 90 % intervals of a future field
    result, and a recommendation made on them (:data:`RECOMMENDATION_RULE`).
 
-:mod:`~berryshaker.study.field_calibration.synthetic_sheet` fills a field sheet from the simulator at known
+:mod:`~berryshaker.study.field_calibration.synthetic_sheets` fills a field sheet from the simulator at known
 parameters (the docs' example and the test).  Every name callers use is importable from here
 (``from berryshaker.study import field_calibration as fc``).
 """
@@ -57,7 +57,7 @@ from berryshaker.study.field_calibration.sheet import (
     setting_data,
 )
 from berryshaker.study.field_calibration.simulator import Simulator, fresh_seeds, start_statistics, training_seeds
-from berryshaker.study.field_calibration.synthetic_sheet import synthetic_results, synthetic_sheet
+from berryshaker.study.field_calibration.synthetic_sheets import synthetic_results, synthetic_sheet
 from berryshaker.study.field_calibration.workflow import (
     CONFOUNDED_RULE,
     IDENTIFIED_RULE,
