@@ -126,8 +126,9 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
                      "of the same candidates in the second table; 'dominated by' names the dominating candidates by "
                      "run number ('rec.': the recommended set).  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
-                     "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's pure error, simultaneous over "
-                     "all candidates (experiment/tradeoff.py, study/l9.py); clearances are descriptive.  The tiered "
+                     "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's error (blocked on the starts), "
+                     "simultaneous over all candidates (docs/harvest.md, \"Trade-off table\"); clearances are "
+                     "descriptive.  The tiered "
                      "choice is confirmed against this table: a tested run that dominates it becomes the "
                      "recommendation.</p>")
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")

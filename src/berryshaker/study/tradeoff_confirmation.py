@@ -18,7 +18,7 @@ from berryshaker.study.replicate_responses import CONFIDENCE, HARVEST_RESPONSES,
 #: how the tiered choice is checked against the trade-off table (docs/harvest.md, "Trade-off table")
 CONFIRMATION_RULE = ("the tiered choice is confirmed against the trade-off table, judged with the ANOVA's own noise "
                      "model: a candidate dominates another only if it is no worse in every judged response and better "
-                     "in at least one by more than the Tukey-Kramer margin q(0.95; candidates, pure-error dof) / "
+                     "in at least one by more than the Tukey-Kramer margin q(0.95; candidates, error dof) / "
                      "sqrt(2) sqrt(MS_E (1/n_a + 1/n_b)) (the ANOVA's error, blocked on the starts, and simultaneous confidence of the level "
                      "comparisons); if a tested L9 run dominates the tiered choice, the recommendation moves to that "
                      "run (measured evidence outranks the additive main-effect prediction) and the report says so")
@@ -43,7 +43,7 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
         Its replicates if it is not an L9 run (None: it is one of them); units of
         :func:`~berryshaker.study.replicate_responses.response_units`.
     pe : dict name -> (MS_E, dof)
-        Pure error of every response (the ANOVA's).
+        The ANOVA's error of every response (blocked on the starts: run x start), its mean square and dof.
     pairs : list of str
         The clearance pairs (factors).
     confidence : float
@@ -100,8 +100,8 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
     if moved:
         statement = (f"The tiered choice {code} is dominated beyond the noise by the tested "
                      + ", ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
-                     f"response and better in {', '.join(better)} by more than the Tukey-Kramer margin on the pure "
-                     "error (the additive main-effect model does not hold there: an interaction the L9 cannot "
+                     f"response and better in {', '.join(better)} by more than the Tukey-Kramer margin on the "
+                     "ANOVA's blocked error (the additive main-effect model does not hold there: an interaction the L9 cannot "
                      "resolve).")
     elif doms[tiered_name]:
         statement = (f"The tiered choice {code} is dominated beyond the noise only by "
