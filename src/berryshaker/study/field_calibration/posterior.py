@@ -5,8 +5,9 @@ the posterior (:func:`predictive`).
 The replicates y_{s,1..R} of sheet run s are jointly normal, each y_{s,r} = mu_s(theta) + e_c + e_r with
 e_r ~ N(0, sigma_s(theta)^2) (the simulator's start-to-start SD) and a term common to the run
 e_c ~ N(0, sigma_s^2 / R_sim + sigma_emu^2 + (delta mu_s)^2) (the simulated mean's own error over R_sim starts, the
-emulator's error, the optional model discrepancy delta as a fraction of the mean); responses independent given
-theta.  Sampled with ``emcee`` in the prior's standard-normal coordinates.
+emulator's error, the optional model discrepancy delta as a fraction of the mean); sigma_s is estimated from the
+R_sim starts, so the likelihood is the multivariate Student t this gives (:func:`log_likelihood`); responses
+independent given theta.  Sampled with ``emcee`` in the prior's standard-normal coordinates.
 """
 
 from __future__ import annotations

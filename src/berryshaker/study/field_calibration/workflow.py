@@ -369,7 +369,9 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
                   "runs_identified_by": sheet.runs_identified_by},
         "likelihood": ("replicates of a run jointly normal: mean mu(theta) (emulated), per-result SD sigma(theta) (the "
                        "simulator's start-to-start SD), a term common to the run with variance sigma^2/R_sim + "
-                       "emulator variance + (discrepancy x mu)^2; responses independent given theta"),
+                       "emulator variance + (discrepancy x mu)^2; sigma is itself estimated from the R_sim starts, so the "
+                       "likelihood is the multivariate Student t with R_sim - 1 dof; responses independent given "
+                       "theta"),
         "discrepancy": opt.discrepancy,
         "discrepancy_text": ("off (0): no model-discrepancy term" if opt.discrepancy == 0 else
                              f"on: SD {opt.discrepancy:g} x the mean, common to a run's replicates"),
