@@ -167,6 +167,7 @@ def test_study_step_powered_drive(tmp_path):
     """The study's powered-drive step at levels 1-3, replicated from perturbed starts: ripple and energy lost
     per joint, trends judged against the replicate spread, and its report section."""
     from berryshaker.report.sections import SectionInput, powered_drive_section
+    from berryshaker.study.step_result import StudyResults
     from berryshaker.runs.runner import SweepRunner
     from berryshaker.study.pipeline import POWERED_REPLICATES, StudyContext, step_powered_drive
 
@@ -189,7 +190,7 @@ def test_study_step_powered_drive(tmp_path):
     assert r.data["ripple_grows_with_clearance"] == all(s["verdict"] == "up" for s in rt["steps"])
     assert rt["mean"] == [lv[k]["speed_ripple_percent"] for k in ("1", "2", "3")]
     assert ("grows" in r.data["finding"]) and f"{rt['mean'][2]:.3g} +- {rt['sd'][2]:.2g} %" in r.data["finding"]
-    title, parts = powered_drive_section(SectionInput({"powered_drive": r.data}, machine, tmp_path))
+    title, parts = powered_drive_section(SectionInput(StudyResults(powered_drive=r.data), machine, tmp_path))
     assert "Powered drive" in title and "ripple (%)" in parts[0] and "+-" in parts[0]
     assert f"mean of {POWERED_REPLICATES} runs" in parts[1]
 

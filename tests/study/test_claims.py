@@ -5,6 +5,7 @@ import numpy as np
 
 from berryshaker.experiment.agreement import ensemble_agreement, judged_difference, summary_statistics_agreement
 from berryshaker.study import claims as C
+from berryshaker.study.step_result import StudyResults
 
 
 def _pair(agree=True):
@@ -79,25 +80,25 @@ def test_ensemble_agreement_judges_means_with_their_standard_errors():
 
 def test_claim1_is_partly_when_only_the_model_check_level_agrees():
     res = {"agreement": {"pairs": {p: _pair() for p in "ABCF"}}, "rows": _rows(True)}
-    assert C._claim1(res)[0] == "reproduced"
+    assert C._claim1(StudyResults(**res))[0] == "reproduced"
     res["rows"] = _rows(False)
-    verdict, detail = C._claim1(res)
+    verdict, detail = C._claim1(StudyResults(**res))
     assert verdict == "partly reproduced" and "8 of 12 row-pairs agree" in detail and "differ: 2A" in detail
     # the centred run's own verdict does not decide the claim (one draw of a chaotic sequence)
     res["agreement"]["pairs"]["C"] = _pair(False)
-    assert C._claim1(res)[0] == "partly reproduced"
+    assert C._claim1(StudyResults(**res))[0] == "partly reproduced"
     res["rows"]["model_check"] = _check(scale_c=1.3)
-    assert C._claim1(res)[0] == "not reproduced"
+    assert C._claim1(StudyResults(**res))[0] == "not reproduced"
 
 
 def test_claim1_says_undecided_where_the_noise_decides():
     res = {"agreement": {"pairs": {p: _pair() for p in "ABCF"}}, "rows": _rows(True)}
     res["rows"]["model_check"] = _check(scale_c=1.12, spread=0.3)
-    verdict, detail = C._claim1(res)
+    verdict, detail = C._claim1(StudyResults(**res))
     assert verdict == "undecided" and "C within noise" in detail
     # rows within single-run noise: not evidence of agreement
     res["rows"] = _rows(True, noise={"mean": 0.0, "rms": 0.0, "p95": 0.25})
-    verdict, detail = C._claim1(res)
+    verdict, detail = C._claim1(StudyResults(**res))
     assert verdict == "partly reproduced" and "within noise: 1A" in detail
 
 
@@ -111,10 +112,10 @@ def test_claim8_does_not_count_a_factor_kept_at_the_studys_clearance():
                           "clearance (level 3)"}}
     rep = {n: {"factors": {p: {"significant": False} for p in "ABCF"}} for n in resp}
     res = {"l9": {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}}
-    verdict, detail = C._claim8(res)
+    verdict, detail = C._claim8(StudyResults(**res))
     assert verdict == "not reproduced" and "F kept at the configured" in detail
     rec["basis"]["F"] = "machine loads"  # decided on evidence: the match counts
-    assert C._claim8(res)[0] == "partly reproduced"
+    assert C._claim8(StudyResults(**res))[0] == "partly reproduced"
 
 
 def test_claim8_states_the_p_value_its_verdict_rests_on():
@@ -127,19 +128,19 @@ def test_claim8_states_the_p_value_its_verdict_rests_on():
            "basis": {p: "machine loads" for p in "ABCF"}}
     rep = {n: {"factors": {p: {"significant": p == "A", "p": 0.021 if p == "A" else 0.5} for p in "ABCF"}}
            for n in resp}
-    verdict, detail = C._claim8({"l9": {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}})
+    verdict, detail = C._claim8(StudyResults(l9={"responses": resp, "recommended": rec, "replicated": {"responses": rep}}))
     assert verdict == "reproduced" and "ANOVA p = 0.021" in detail
     rep["efficiency"]["factors"]["A"].update(significant=False, p=0.06)
-    verdict, detail = C._claim8({"l9": {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}})
+    verdict, detail = C._claim8(StudyResults(l9={"responses": resp, "recommended": rec, "replicated": {"responses": rep}}))
     assert verdict == "partly reproduced" and "within the noise" in detail and "p = 0.06" in detail
 
 
 def test_claim1_needs_no_centred_run_and_says_when_starts_failed():
     res = {"agreement": None, "rows": _rows(True)}
-    verdict, detail = C._claim1(res)
+    verdict, detail = C._claim1(StudyResults(**res))
     assert verdict == "reproduced" and "eq. 18 (centred runs): not run" in detail
     res["rows"]["model_check"]["planned"] = {"multibody": 10, "reduced": 8}
-    assert "of 10 / 8 planned" in C._claim1(res)[1]
+    assert "of 10 / 8 planned" in C._claim1(StudyResults(**res))[1]
 
 
 def test_model_check_refuses_replicates_that_would_be_copies():
@@ -174,7 +175,7 @@ def test_trend_claims_count_only_steps_beyond_the_noise():
             for i, r in enumerate([1] + [2 + 3 * k + j for j in range(3)]):
                 st.setdefault(str(r), {"pairs": {}, "starts": 8})["pairs"][p] = {
                     "peak": {"mean": float(np.mean(series[i])), "values": series[i]}}
-        return {"rows": {"starts": st}}
+        return StudyResults(rows={"starts": st})
 
     assert _claim3(rows_for(up))[0] == "reproduced"
     verdict, detail = _claim3(rows_for(flat))
@@ -186,4 +187,4 @@ def test_a_claim_that_holds_by_construction_is_not_tested():
 
     lm = {"left": {"rms": 16.0}, "right": {"rms": 15.0}}
     res = {"rows": {"multibody": {str(r): {"load_moment_Nm": lm} for r in (1, 14, 15, 16)}}}
-    assert _claim4(res)[0] == "not tested"
+    assert _claim4(StudyResults(**res))[0] == "not tested"

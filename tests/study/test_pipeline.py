@@ -21,6 +21,7 @@ from conftest import linear_spring_toml_text
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.runs.sweep import model_run, parse_param, sample_params
 from berryshaker.study.claims import check_claims
+from berryshaker.study.step_result import StudyResults
 
 runner_cli = CliRunner()
 
@@ -158,7 +159,7 @@ def test_study_outputs(study_out):
     assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
     # the verdicts follow from the numbers the summary saves (the claim rules themselves: tests/study/test_claims.py)
     assert [(c["verdict"], c["detail"]) for c in saved["claims"]] == [
-        (c["verdict"], c["detail"]) for c in check_claims(saved["results"])]
+        (c["verdict"], c["detail"]) for c in check_claims(StudyResults.from_json(saved["results"]))]
     # and they are the ones this input gives where its numbers decide by far (claim 2 turns on steps near the
     # noise of two starts, so only the rule above holds it):
     # 1: the four pairs agree at the model-check level (3-6 % against 20 %) but many single-run rows differ;
@@ -185,6 +186,21 @@ def test_study_outputs(study_out):
     assert len(list((out / "figures").glob("*.png"))) >= 19
     html = (out / "report.html").read_text()
     assert "berryshaker" in html and html.count("data:image/png;base64,") >= 19 and "<script" not in html
+
+
+def test_saved_results_read_back_as_the_typed_records(study_out):
+    """summary.json's ``results`` is StudyResults.to_json(): read back (validated, nested records included) it
+    writes the same JSON, key for key and in the same order; a key no record has is refused, naming it."""
+    import pydantic
+
+    out, _, _ = study_out
+    saved = json.loads((out / "summary.json").read_text())["results"]
+    typed = StudyResults.from_json(saved)
+    again = typed.to_json()
+    assert again == saved
+    assert json.dumps(again) == json.dumps(saved)  # the keys' order too
+    with pytest.raises(pydantic.ValidationError, match="not_a_step"):
+        StudyResults.from_json({**saved, "not_a_step": {}})
 
 
 def test_repeated_study_comes_from_the_cache(study_out, fast_config, tmp_path):
@@ -268,7 +284,7 @@ def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config)
     saved = json.loads((out / "summary.json").read_text())
     steps = report_sections()
     numbers = section_numbers(steps)
-    inp = SectionInput(saved["results"], load_machine(fast_config), out / "figures", numbers)
+    inp = SectionInput(StudyResults.from_json(saved["results"]), load_machine(fast_config), out / "figures", numbers)
     titles = [render(inp)[0] for _, renderers in steps for render in renderers]
     assert not [t for t in titles if re.match(r"\s*\d", t)], "a section title with a typed number"
     headings = re.findall(r"<h2>(\d+)\. ([^<]*)</h2>", text)

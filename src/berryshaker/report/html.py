@@ -20,7 +20,7 @@ from berryshaker.report.sections import SectionInput, section_numbers, step_sect
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
 
 
-def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | None = None, *,
+def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = None, *,
                  sections: Sequence[tuple[str, Sequence[Callable]]]) -> str:
     """The self-contained HTML report of a study: design answers, failures, recommendation, then the steps'
     sections in the pipeline's order, numbered as they come (a step that did not run says why), the claims
@@ -28,8 +28,9 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
 
     Parameters
     ----------
-    res : dict
-        The steps' results (SI inside; the report prints units at the edges).
+    res : StudyResults
+        The steps' results (``berryshaker.study.step_result.StudyResults``; SI inside, the report prints units at
+        the edges).
     summary : dict
         The head of summary.json (version, timings, runs, failures, optimum).
     machine : Machine
@@ -51,18 +52,18 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     steps = steps or {}
     inp = SectionInput(res, machine, figs, section_numbers(sections))
     reference = claims_apply(machine)  # the study's pairs: its claims can be checked (study/claims.py's rule)
-    title = report_title(res["claims"]) if reference else f"Design study of {machine.machine.name}"
+    title = report_title(res.claims) if reference else f"Design study of {machine.machine.name}"
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
              f"<h1>{html.escape(title)}</h1>",
              f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary['version'])}. "
              f"Total time {summary['timings_s']['total']:.1f} s; {html.escape(runs_text(summary['runs']))}.  "
-             + (f"{html.escape(verdict_counts(res['claims']))} (appendix).  " if reference else "")
+             + (f"{html.escape(verdict_counts(res.claims))} (appendix).  " if reference else "")
              + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
              "the end of this report.</p>"]
     # the design answers first, for every machine (report/design.py)
     try:
-        parts.append(design_answers_html(design_answers({**summary, "results": res}, machine), inp.numbers))
+        parts.append(design_answers_html(design_answers({**summary, "results": res.to_json()}, machine), inp.numbers))
     except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
         parts.append(f"<p class='small'>Design answers not available: {html.escape(f'{type(exc).__name__}: {exc}')}"
                      "</p>")
@@ -121,13 +122,13 @@ def study_report(res: dict, summary: dict, machine, figs: Path, steps: dict | No
     return "\n".join(parts)
 
 
-def _claims_section(parts: list, res: dict) -> None:
+def _claims_section(parts: list, res) -> None:
     """Appendix: the reference study's claims with their verdicts (shown for the study's machine only)."""
     parts.append("<h2>Appendix: claims of the reference study and what our models give</h2>")
-    with_criterion = any(c.get("criterion") for c in res["claims"])
+    with_criterion = any(c.get("criterion") for c in res.claims)
     rows = [[c["id"], c["claim"], _Raw(f'<span class="{verdict_class(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
              *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
-            for c in res["claims"]]
+            for c in res.claims]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
                          "our numbers"], rows, left=(1, 2, 3, 4),
                         widths=(4, 22, 11, 27, 36) if with_criterion else (4, 32, 12, 52)))

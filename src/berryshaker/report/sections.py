@@ -29,8 +29,9 @@ class SectionInput:
 
     Attributes
     ----------
-    res : dict
-        The steps' results by step name (SI inside; the renderers print units at the edges).
+    res : StudyResults
+        The steps' results, each step's data under its result name (``berryshaker.study.step_result.StudyResults``,
+        read by attribute; SI inside, the renderers print units at the edges).
     machine : MachineBase
         The machine description (its clearance pairs).
     figs : Path
@@ -39,7 +40,7 @@ class SectionInput:
         Each section's number in this report, by renderer (:func:`section_numbers`).
     """
 
-    res: dict
+    res: object
     machine: object
     figs: Path
     numbers: dict = field(default_factory=dict)
@@ -132,7 +133,7 @@ def kinematics_section(inp: SectionInput) -> tuple[str, list[str]]:
     tuple of (str, list of str)
         Title and HTML parts.
     """
-    k, figs = inp.res["kinematics"], inp.figs
+    k, figs = inp.res.kinematics, inp.figs
     parts = []
     krows = []
     if "cam" in k:
@@ -175,8 +176,8 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
     parts = []
-    if res.get("agreement"):
-        ag = res["agreement"]["pairs"]
+    if res.agreement:
+        ag = res.agreement["pairs"]
         parts.append("<p>One run of each model from the centred start (the curves of Figs. 14-17): the study's eq. 18 "
                      "and plainer measures of the two curves; 'statistics agree' judges this one draw of a chaotic "
                      "impact sequence.  Claim 1 rests on the means over perturbed starts below.</p>")
@@ -188,7 +189,7 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
                      + ", ".join(f"{EQ18_F[p][1]}" for p in EQ18_F) + ".</p>")
         for i, p in enumerate(PAIR_NAMES):
             _maybe_img(parts, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
-    check = (res.get("rows") or {}).get("model_check")
+    check = (res.rows or {}).get("model_check")
     if check:
         st = check["starts"]
         parts.append(f"<p>The model check (claim 1): level {check['level']}, each statistic's mean over "
@@ -202,7 +203,7 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
                               f"{100 * c['relative_difference'][k]:.1f} +- {100 * c['noise'][k]:.1f} %",
                               f"{100 * c['tolerance'][k]:.0f} %", c["verdicts"][k]]
                              for p, c in check["pairs"].items() for k in c["tolerance"]], left=(0, 1, 6)))
-    row_ag = (res.get("rows") or {}).get("agreement") or {}
+    row_ag = (res.rows or {}).get("agreement") or {}
     if row_ag:
         parts.append("<p>Agreement on every clearance row (mean, RMS, p95 of each pair's force within 10 / 15 / 20 %, "
                      "one run per model and row, each difference beyond the noise of single runs measured at the model "
@@ -239,7 +240,7 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
     last = _rows_last(inp)
-    mb = res["rows"]["multibody"]
+    mb = res.rows["multibody"]
     rows = []
     for r in range(1, last + 1):
         if str(r) not in mb:
@@ -269,7 +270,7 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     last = _rows_last(inp)
     lv = (last - 2, last - 1, last)
-    mb = inp.res["rows"]["multibody"]
+    mb = inp.res.rows["multibody"]
     parts = ["<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model (a "
              "spring-damper about each comb shaft, 200 N m/rad [assumed]); peak and rms are per comb, about its "
              "shaft.  It loads the combs about 40 times more than the explicit bush of branches in "
@@ -298,8 +299,8 @@ def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
         Title and HTML parts.
     """
     res, parts = inp.res, []
-    if (res.get("fruit_force") or {}).get("chosen"):
-        pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+    if (res.fruit_force or {}).get("chosen"):
+        pos = res.fruit_force["chosen"]["summary"]["positions"]
         parts.append(_table(["fruit", "z (m)", "peak (N)", "study range (N)", "ripe fruit", "unripe fruit"],
                             [[n, d["z_m"], d["peak_force_N"], "-".join(str(x) for x in d.get("study_range_N", [])),
                               d["eq17"]["ripe"], d["eq17"]["unripe"]] for n, d in pos.items()]))
@@ -324,7 +325,7 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     figs, PAIR_NAMES = inp.figs, inp.pairs
     parts = []
-    l9 = inp.res["l9"]
+    l9 = inp.res.l9
     if l9 is None:
         l9 = {"runs": [], "responses": {}}
         parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
@@ -373,7 +374,7 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
         Title and HTML parts (none but the title when the step has no results).
     """
     parts = []
-    life = inp.res.get("clearance_life")
+    life = inp.res.clearance_life
     if life:
         rec = life["recommended"]
         parts.append(_table(["joint", "clearance now (mm)", f"after {life['horizon_h']:g} h (mm)", "service limit (mm)",
@@ -400,7 +401,7 @@ def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
         Title and HTML parts: the table, then the finding (none but the title when the step has no results).
     """
     title = "Powered drive: speed ripple, input power and energy lost per joint (docs/driveline.md)"
-    pw, pairs = inp.res.get("powered_drive"), inp.pairs
+    pw, pairs = inp.res.powered_drive, inp.pairs
     if not pw:
         return title, []
     rows = []
@@ -445,7 +446,7 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     title = "The bush as the comb's load; harvest against shaking frequency; calibration"
     res, figs, parts = inp.res, inp.figs, []
-    chosen = ((res.get("fruit_force") or {}).get("chosen") or {}).get("summary") or {}
+    chosen = ((res.fruit_force or {}).get("chosen") or {}).get("summary") or {}
     if chosen.get("load_moment_Nm"):
         bush = chosen.get("bush") or {}
         who = (f"the sum of the reactions of {bush.get('branches')} branches ({bush.get('members')} simulated "
@@ -457,7 +458,7 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
                      "aggregate spring-damper, which loads the combs about 40 times more.</p>")
         parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
                             [[side, v["peak"], v["rms"]] for side, v in chosen["load_moment_Nm"].items()]))
-    hr = res.get("harvest_response")
+    hr = res.harvest_response
     if not hr:
         parts.append("<p>Not available (see Failed runs).</p>")
         return title, parts
@@ -508,7 +509,7 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
         counts; sources by their key in the record (full citations: docs/published_record.md, ``validate --json``).
     """
     title = "The harvest model against the published record (docs/harvest.md, Validation)"
-    val = inp.res.get("validation")
+    val = inp.res.validation
     if not val:
         return title, ["<p>Not available (see Failed runs).</p>"]
     s = val["summary"]

@@ -51,13 +51,13 @@ def _code(levels: dict) -> str:
     return _level_code({p: levels[p] for p in PAIRS})
 
 
-def check_claims(res: dict, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
+def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
     """Verdict and detail for each claim, from the study's results dict.
 
     Parameters
     ----------
-    res : dict
-        The study's results (``rows``, ``agreement`` ... as the pipeline collects them).
+    res : StudyResults
+        The study's results (``rows``, ``agreement`` ...; ``berryshaker.study.step_result.StudyResults``).
     pair_names : tuple of str
         The machine's clearance pairs; a claim about the study's pairs A, B, C, F is "not comparable" for
         other pairs (except the drive-independent claims).
@@ -77,7 +77,7 @@ def check_claims(res: dict, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
         else:
             try:
                 verdict, detail = fn(res)
-            except (KeyError, TypeError, IndexError) as exc:
+            except (KeyError, TypeError, IndexError, AttributeError) as exc:
                 verdict, detail = ("not comparable",
                                    f"the runs this claim needs failed or are missing ({exc!r}); see Failed runs")
         claims.append({"id": cid, "claim": CLAIMS[cid], "verdict": verdict, "detail": detail,
@@ -86,14 +86,14 @@ def check_claims(res: dict, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
 
 
 def _claim1(res):
-    ag = (res.get("agreement") or {}).get("pairs")  # one run from the centred start: eq. 18, the curve measures
-    check = res["rows"]["model_check"]
+    ag = (res.agreement or {}).get("pairs")  # one run from the centred start: eq. 18, the curve measures
+    check = res.rows["model_check"]
     if check is None:
         raise KeyError("the model-check level's perturbed starts")
     v2 = {p: check["pairs"][p]["verdict"] for p in PAIRS}
     level = "differ" if "differ" in v2.values() else "agree" if all(v == "agree" for v in v2.values()) else "noise"
     eq18 = ag is not None and all(ag[p].get("eq18_agree", ag[p]["agree"]) for p in PAIRS)
-    rows = (res.get("rows") or {}).get("agreement") or {}
+    rows = (res.rows or {}).get("agreement") or {}
     cells = [(r, p, c.get("verdict", "agree" if c["agree"] else "differ")) for r, per in rows.items()
              for p, c in per.items() if p in PAIRS]
     differ = [f"{r}{p}" for r, p, v in cells if v == "differ"]
@@ -212,7 +212,7 @@ def _combine(verdicts: list[str]) -> str:
 
 
 def _claim2(res):
-    st = res["rows"]["starts"]
+    st = res.rows["starts"]
     verdicts, det = [], []
     for row in (14, 15, 16):
         per = st[str(row)]["pairs"]
@@ -226,7 +226,7 @@ def _claim2(res):
 
 
 def _claim3(res):
-    st = res["rows"]["starts"]
+    st = res.rows["starts"]
     verdicts, det3 = [], []
     for k, p in enumerate(PAIRS):
         rows = [1] + [2 + 3 * k + j for j in range(3)]
@@ -242,7 +242,7 @@ def _claim3(res):
 
 
 def _claim4(res):
-    mb = res["rows"]["multibody"]
+    mb = res.rows["multibody"]
     lm = {r: mb[str(r)]["load_moment_Nm"] for r in (1, 14, 15, 16)}
     left_gt = all(lm[r]["left"]["rms"] > lm[r]["right"]["rms"] for r in lm)
     largest0 = all(lm[1][s]["rms"] >= lm[r][s]["rms"] for r in (14, 15, 16) for s in ("left", "right"))
@@ -256,7 +256,7 @@ def _claim4(res):
 
 
 def _claim5(res):
-    ff = res["fruit_force"]
+    ff = res.fruit_force
     st = ff["starts"]
     level_rows = [str(r) for r in ff.get("level_rows", (14, 15, 16))]
     pos = st["chosen"]["positions"]
@@ -282,7 +282,7 @@ def _claim5(res):
 
 
 def _claim6(res):
-    pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+    pos = res.fruit_force["chosen"]["summary"]["positions"]
     v = {n: pos[n]["eq17"] for n in pos}
     ok6 = (v["root"]["ripe"] != "picked" and v["middle"]["ripe"] == "picked" and v["middle"]["unripe"] == "kept"
            and v["end"]["unripe"] != "kept")
@@ -304,7 +304,7 @@ def _p_value(l9, name, p) -> float | None:
 
 
 def _claim7(res):
-    l9 = res["l9"]
+    l9 = res.l9
     trend = {}
     for name in ("efficiency", "unripe", "damage"):
         km = l9["responses"][name]["factors"]
@@ -321,7 +321,7 @@ def _claim7(res):
 
 
 def _claim8(res):
-    l9 = res["l9"]
+    l9 = res.l9
     ours = {n: "".join(f"{p}{lv}" if _significant(l9, n, p) else f"{p}-" for p, lv in
                        l9["responses"][n]["best_levels"].items() if p in PAIRS) for n in ("efficiency", "unripe", "damage")}
     rank_eff = l9["responses"]["efficiency"]["ranking"]

@@ -23,6 +23,7 @@ starts the planned runs ahead in idle workers, so they run while this process co
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,7 +68,7 @@ from berryshaker.study.mechanics_steps import (
 )
 from berryshaker.study.runs import warm_worker
 from berryshaker.study.step_context import PlannedRuns, StudyContext, draw_figure
-from berryshaker.study.step_result import StepResult
+from berryshaker.study.step_result import StepResult, StudyResults
 
 #: the names callers import from here: the machinery's own and the steps', their context and their result
 __all__ = [
@@ -197,7 +198,7 @@ def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
     return None
 
 
-def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, list[dict], dict]:
+def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, dict, list[dict], dict]:
     """Run every step; return (results by step name, StepResults, failures, timings in s).
 
     The steps run in order in this process, but their runs need not wait for them: the runs every step will ask
@@ -224,8 +225,8 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
 
     Returns
     -------
-    results : dict
-        Each step's data by step name, with ``claims`` and ``failures``.
+    results : StudyResults
+        Each step's data under its step's result name, with ``claims`` and ``failures``.
     steps : dict of str to StepResult
         Each step's result.
     failures : list of dict
@@ -292,20 +293,20 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[dict, dict, li
     except BaseException:  # Ctrl-C or an error between maps: runs started ahead stop now (finished ones are cached)
         runner.abort()
         raise
-    results["claims"] = check_claims(results, machine.pair_names)
-    results["failures"] = ctx.failures
+    done = StudyResults(**results, failures=ctx.failures)
+    done = dataclasses.replace(done, claims=check_claims(done, machine.pair_names))
     timings["total"] = time.perf_counter() - t_all
-    return results, steps, ctx.failures, timings
+    return done, steps, ctx.failures, timings
 
 
-def study_summary(machine, results: dict, failures: list, timings: dict, runner_stats: dict) -> dict:
+def study_summary(machine, results: StudyResults, failures: list, timings: dict, runner_stats: dict) -> dict:
     """The head of summary.json: claims, the recommended clearances, failures, timings, run counts.
 
     Parameters
     ----------
     machine : MachineBase
         The study's machine description.
-    results : dict
+    results : StudyResults
         The steps' data with ``claims`` (:func:`run_steps`).
     failures : list of dict
         Failed runs.
@@ -322,7 +323,7 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
         an L9), ``failures``, ``timings_s`` (s), ``runs`` and :func:`l9_summary`'s entries.
     """
     optimum = None
-    l9 = results.get("l9")
+    l9 = results.l9
     if l9 is not None:
         rec = l9["recommended"]
         vh = rec["virtual_harvest"]
@@ -334,7 +335,7 @@ def study_summary(machine, results: dict, failures: list, timings: dict, runner_
     return {
         "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
         "drive": machine.DRIVE,
-        "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim", "criterion")} for c in results["claims"]],
+        "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim", "criterion")} for c in results.claims],
         "optimum": optimum, "failures": failures, "timings_s": timings, "runs": dict(runner_stats),
         **l9_summary(l9),
     }
@@ -402,7 +403,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
         results, steps, failures, timings = run_steps(machine, runner, figs, console)
         summary = study_summary(machine, results, failures, timings, runner.stats)
         write_tables(machine, results, tables)
-        write_json_atomic(stage / "summary.json", {**summary, "results": strip_series(results),
+        write_json_atomic(stage / "summary.json", {**summary, "results": strip_series(results.to_json()),
                                                    "machine_si": machine.model_dump(mode="json")})
         write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps,
                                                               sections=report_sections()))

@@ -5,6 +5,9 @@ without importing the pipeline that calls them."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
+
+from berryshaker.records import JsonRecord
 
 
 @dataclass
@@ -31,3 +34,50 @@ class StepResult:
     figures: list[str] = field(default_factory=list)
     note: str = ""
     seconds: float = 0.0
+
+
+@dataclass(frozen=True)
+class StudyResults(JsonRecord):
+    """The study's results: each step's data under its step's result name (None when the step produced none), the
+    claims' verdicts and the failed runs.  summary.json's ``results`` is :meth:`to_json` of it without the plotted
+    series (:func:`berryshaker.study.tables.strip_series`); :meth:`from_json` reads it back, e.g. to re-check the
+    claims or re-render the report of a saved study.
+
+    Attributes
+    ----------
+    kinematics : dict
+        Step ``kinematics``: the drive's kinematics summary (lengths mm, angles deg, speeds m/s, frequency Hz).
+    agreement : dict or None
+        Step ``model_agreement``: the reduced model against the multibody model (eq. 18; forces N).
+    rows : dict
+        Step ``clearance_rows``: collision forces (N) and load moments (N m) per clearance row, the model check.
+    fruit_force : dict or None
+        Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
+    l9 : dict or None
+        Step ``virtual_l9``: the replicated virtual L9 and its recommendation (clearances mm, efficiency kg/min,
+        rates %).
+    clearance_life : dict or None
+        Step ``clearance_life``: clearance growth by wear (mm against h) and the recommended fits.
+    powered_drive : dict or None
+        Step ``powered_drive``: speed ripple (%), input power (W) and energy lost per joint (J/rev).
+    harvest_response : dict or None
+        Step ``harvest_response``: harvest indexes against drive speed (r/min) and the calibration.
+    validation : dict or None
+        Step ``validation``: the harvest model against the published record.
+    claims : list of dict
+        The claims' verdicts (:func:`berryshaker.study.claims.check_claims`).
+    failures : list of dict
+        Failed runs: step, run, inputs, error.
+    """
+
+    kinematics: Any = None
+    agreement: Any = None
+    rows: Any = None
+    fruit_force: Any = None
+    l9: Any = None
+    clearance_life: Any = None
+    powered_drive: Any = None
+    harvest_response: Any = None
+    validation: Any = None
+    claims: list = field(default_factory=list)
+    failures: list = field(default_factory=list)

@@ -28,14 +28,14 @@ def strip_series(res: dict) -> dict:
     return out
 
 
-def write_tables(machine, res: dict, tables: Path) -> None:
+def write_tables(machine, res, tables: Path) -> None:
     """The study's tables, each as CSV with an .xlsx beside it (one writer: :func:`berryshaker.report.table_files.write_table`).
 
     Parameters
     ----------
     machine : MachineBase
         The study's machine (its clearance pair names).
-    res : dict
+    res : StudyResults
         The study's results.
     tables : Path
         Folder the tables are written to (collision forces and load moments per row, model agreement ...).
@@ -48,25 +48,25 @@ def write_tables(machine, res: dict, tables: Path) -> None:
 
     rows = []
     for model in ("multibody", "mlsd"):
-        for r, s in res["rows"][model].items():
+        for r, s in res.rows[model].items():
             for p in pairs:
                 f = s["collision_force_N"][p]
                 rows.append([model, r, p, s["clearance_mm"][p], f["peak"], f["mean"], f["rms"]])
     write("collision_force_rows.csv", ["model", "row", "pair", "clearance_mm", "peak_N", "mean_N", "rms_N"], rows)
     rows = []
     for model in ("multibody", "mlsd"):
-        for r, s in res["rows"][model].items():
+        for r, s in res.rows[model].items():
             for side in ("left", "right"):
                 m = s["load_moment_Nm"][side]
                 rows.append([model, r, side, m["peak"], m["rms"]])
     write("load_moment_rows.csv", ["model", "row", "comb", "peak_Nm", "rms_Nm"], rows)
-    if res.get("agreement"):
+    if res.agreement:
         write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "eq18_agree", "statistics_agree", "nrmse",
                                       "correlation", "peak_ratio"],
               [[p, d["f_statistic"], d["f_critical"], d.get("eq18_agree"), d["agree"], d["nrmse"], d["correlation"],
                 d["peak_ratio"]]
-               for p, d in res["agreement"]["pairs"].items()])
-    check = (res.get("rows") or {}).get("model_check")
+               for p, d in res.agreement["pairs"].items()])
+    check = (res.rows or {}).get("model_check")
     if check:
         write("model_check.csv", ["pair", "statistic", "multibody_mean_N", "multibody_se_N", "multibody_starts",
                                   "reduced_mean_N", "reduced_se_N", "reduced_starts", "relative_difference",
@@ -74,20 +74,20 @@ def write_tables(machine, res: dict, tables: Path) -> None:
               [[p, k, c["a"][k]["mean"], c["a"][k]["se"], c["a"][k]["n"], c["b"][k]["mean"], c["b"][k]["se"],
                 c["b"][k]["n"], c["relative_difference"][k], c["noise"][k], c["tolerance"][k], c["verdicts"][k]]
                for p, c in check["pairs"].items() for k in c["tolerance"]])
-    if (res.get("fruit_force") or {}).get("chosen"):
-        pos = res["fruit_force"]["chosen"]["summary"]["positions"]
+    if (res.fruit_force or {}).get("chosen"):
+        pos = res.fruit_force["chosen"]["summary"]["positions"]
         write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
               [[n, d["z_m"], d["peak_force_N"], *d.get("study_range_N", ["", ""]), d["eq17"]["ripe"],
                 d["eq17"]["unripe"]] for n, d in pos.items()])
-    if res.get("l9"):
+    if res.l9:
         write("l9_runs.csv",
               ["run", *[f"{p}_mm" for p in pairs], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],
               [[r["run"], *[r["clearance_mm"][p] for p in pairs], r["efficiency"], r["unripe"], r["damage"]]
-               for r in res["l9"]["runs"]])
-        cols = res["l9"].get("tradeoff_columns") or []
-        if res["l9"].get("tradeoff"):
-            write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res["l9"]["tradeoff"]])
+               for r in res.l9["runs"]])
+        cols = res.l9.get("tradeoff_columns") or []
+        if res.l9.get("tradeoff"):
+            write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res.l9["tradeoff"]])
     write("failed_runs.csv", ["step", "run", "inputs", "error"],
-          [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.get("failures", [])])
+          [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.failures])
     write("claims.csv", ["id", "verdict", "claim", "detail"],
-          [[c["id"], c["verdict"], c["claim"], c["detail"]] for c in res["claims"]])
+          [[c["id"], c["verdict"], c["claim"], c["detail"]] for c in res.claims])

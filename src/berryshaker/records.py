@@ -1,0 +1,134 @@
+"""Typed results that travel: a result read far from where it is made (a study step's data, read by the report,
+the tables, the claims and ``summary.json``) is a frozen dataclass deriving :class:`JsonRecord`, not a dict read by
+key.  Its readers use attributes, so a misspelt or missing field fails where it is read; its JSON form
+(:meth:`JsonRecord.to_json`) has one key per field, in the order the fields are declared, and is read back with
+validation (:meth:`JsonRecord.from_json`, through pydantic: an unknown key or a value of the wrong type is an
+error naming the field).
+
+A field declared with :func:`optional` is left out of the JSON when it is None (a key the result has only
+sometimes).  Maps keyed by data (per clearance pair, per response, per row) stay ``dict`` fields: their keys are
+the user's names, not the record's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from functools import cache
+from typing import Any, Mapping, TypeVar
+
+from pydantic import ConfigDict
+
+R = TypeVar("R", bound="JsonRecord")
+
+_OMIT_NONE = "omit_when_none"
+
+
+def optional(default: Any = None) -> Any:
+    """A record field left out of the JSON form when it is None (a key its result has only sometimes).
+
+    Parameters
+    ----------
+    default : object
+        The field's default (None).
+
+    Returns
+    -------
+    dataclasses.Field
+        The field, for a dataclass declaration.
+    """
+    return field(default=default, metadata={_OMIT_NONE: True})
+
+
+def to_json(value: Any) -> Any:
+    """The JSON form of a value: records as dicts (fields in declaration order), tuples as lists, maps and lists
+    element by element; anything else as it is (numbers, strings, None, NumPy arrays for figure data).
+
+    Parameters
+    ----------
+    value : object
+        A record, a dict, a list or tuple, or a plain value.
+
+    Returns
+    -------
+    object
+        The same data with every record converted; nothing is copied that need not be.
+    """
+    if isinstance(value, JsonRecord):
+        out = {}
+        for f in fields(value):
+            v = getattr(value, f.name)
+            if v is None and f.metadata.get(_OMIT_NONE):
+                continue
+            out[f.name] = to_json(v)
+        return out
+    if isinstance(value, dict):
+        return {k: to_json(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [to_json(v) for v in value]
+    return value
+
+
+@cache
+def _adapter(cls: type):
+    from pydantic import TypeAdapter
+
+    return TypeAdapter(cls)
+
+
+@dataclass(frozen=True)
+class JsonRecord:
+    """Base of the typed results: :meth:`to_json` writes one, :meth:`from_json` reads one back."""
+
+    #: read back strictly as to keys: a key that is not a field is an error, not dropped
+    __pydantic_config__ = ConfigDict(extra="forbid")
+
+    def to_json(self) -> dict:
+        """The record as a JSON-able dict (:func:`to_json`).
+
+        Returns
+        -------
+        dict
+            One key per field, in declaration order; an :func:`optional` field that is None is left out.
+        """
+        return to_json(self)
+
+    @classmethod
+    def from_json(cls: type[R], data: Mapping) -> R:
+        """The record read back from its JSON form (e.g. a result of ``summary.json``), validated.
+
+        Parameters
+        ----------
+        data : mapping
+            The JSON form (:meth:`to_json`), e.g. parsed from a file.
+
+        Returns
+        -------
+        JsonRecord
+            The record, nested records included.
+
+        Raises
+        ------
+        pydantic.ValidationError
+            A key that is not a field, a missing required field, or a value of the wrong type; the message
+            names the field.
+        """
+        return _adapter(cls).validate_python(dict(data))
+
+
+def field_names(record_type: type) -> tuple[str, ...]:
+    """The JSON keys a record type writes, in order (:func:`optional` ones included).
+
+    Parameters
+    ----------
+    record_type : type
+        A :class:`JsonRecord` subclass.
+
+    Returns
+    -------
+    tuple of str
+        Its field names.
+    """
+    return tuple(f.name for f in fields(record_type))
+
+
+__all__ = ["JsonRecord", "optional", "to_json", "field_names"]
