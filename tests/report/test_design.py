@@ -13,14 +13,21 @@ import json
 import math
 import re
 import shutil
+from dataclasses import fields
 from pathlib import Path
 
+import pydantic
 import pytest
 
 from berryshaker.config import load_machine
+from berryshaker.records import JsonRecord
 from berryshaker.report.design import claims_apply, design_answers, level_set_name
 from berryshaker.report.design_html import MAX_COLUMNS, STEP_SECTIONS, design_answers_html
-from berryshaker.report.harvest_answers import compare_efficiency, operating_point, why_efficiency
+from berryshaker.report.design_quantity import Quantity, Source, quantity
+from berryshaker.report.design_records import (Comparison, DesignAnswers, Difference, JointAnswers, KinematicDrivers,
+                                               OperatingPoint, PublishedReference, Tradeoff, WhyEfficiency)
+from berryshaker.report.harvest_answers import (compare_efficiency, operating_point, published_reference,
+                                                why_efficiency)
 
 DATA = Path(__file__).parents[1] / "data" / "report_sections.json"
 CRANK = Path(__file__).parents[1].parent / "examples" / "crank_rocker_harvester.toml"
@@ -73,10 +80,13 @@ def crank():
 
 
 def _quantities(obj, path=""):
-    """Every number of the answers (a dict with value and unit) with where it is."""
-    if isinstance(obj, dict):
-        if "value" in obj and "unit" in obj:
-            yield path, obj
+    """Every number of the answers (a :class:`Quantity`) with where it is."""
+    if isinstance(obj, Quantity):
+        yield path, obj
+    elif isinstance(obj, JsonRecord):
+        for f in fields(obj):
+            yield from _quantities(getattr(obj, f.name), f"{path}.{f.name}")
+    elif isinstance(obj, dict):
         for k, v in obj.items():
             yield from _quantities(v, f"{path}.{k}")
     elif isinstance(obj, list):
@@ -87,20 +97,22 @@ def _quantities(obj, path=""):
 @pytest.mark.parametrize("which", ["reference", "crank"])
 def test_every_joint_has_its_answers(which, request):
     summary, machine, a = request.getfixturevalue(which)
-    assert a["pairs"] == list(machine.pair_names) and set(a["joints"]) == set(machine.pair_names)
-    for p, j in a["joints"].items():
+    assert isinstance(a, DesignAnswers)
+    assert a.pairs == list(machine.pair_names) and set(a.joints) == set(machine.pair_names)
+    for p, j in a.joints.items():
+        assert isinstance(j, JointAnswers)
         for key in ("clearance", "peak_force", "fit", "fit_clearance", "service_interval"):
-            assert key in j, (p, key)
-        assert j["clearance"]["value"] == summary["results"]["l9"]["recommended"]["clearance_mm"][p]
-        assert re.fullmatch(r"H\d+/[a-z]+\d+", j["fit"])
+            assert getattr(j, key) is not None, (p, key)
+        assert j.clearance.value == summary["results"]["l9"]["recommended"]["clearance_mm"][p]
+        assert re.fullmatch(r"H\d+/[a-z]+\d+", j.fit)
         # the service interval: the life step's growth from the fit's mean clearance, k over its range
-        si = j["service_interval"]
-        assert si["lo"] < si["value"] < si["hi"] and "Archard k" in si["interval"] and "[assumed]" in si["tag"]
-    for key in ("drive_torque_peak", "drive_torque_rms"):
-        assert a["loads"][key]["unit"] == "N m" and a["loads"][key]["lo"] <= a["loads"][key]["value"]
-    assert {"efficiency", "ripe_removal", "damage"} <= set(a["harvest"])
-    assert a["recommended"]["name"] == level_set_name(summary["results"]["l9"]["recommended"]["clearance_mm"])
-    assert a["missing"] == []
+        si = j.service_interval
+        assert si.lo < si.value < si.hi and "Archard k" in si.interval and "[assumed]" in si.tag
+    for q in (a.loads.drive_torque_peak, a.loads.drive_torque_rms):
+        assert q.unit == "N m" and q.lo <= q.value and q.label.startswith("drive torque")
+    assert all(getattr(a.harvest, k) is not None for k in ("efficiency", "ripe_removal", "damage"))
+    assert a.recommended.name == level_set_name(summary["results"]["l9"]["recommended"]["clearance_mm"])
+    assert a.missing == []
 
 
 @pytest.mark.parametrize("which", ["reference", "crank"])
@@ -109,16 +121,16 @@ def test_every_number_has_an_interval_and_a_source_step(which, request):
     qs = list(_quantities(a))
     assert len(qs) > 30
     for path, q in qs:
-        assert q["source"]["step"] in STEP_SECTIONS, path
-        assert q["source"]["where"] and q["interval"], path
-        assert q["tag"].startswith("["), path
-        if q["value"] is not None:
-            assert q["lo"] is not None and q["hi"] is not None, path
-            assert q["lo"] <= q["value"] + 1e-12 and q["value"] <= q["hi"] + 1e-12, (path, q)
+        assert q.source.step in STEP_SECTIONS, path
+        assert q.source.where and q.interval, path
+        assert q.tag.startswith("["), path
+        if q.value is not None:
+            assert q.lo is not None and q.hi is not None, path
+            assert q.lo <= q.value + 1e-12 and q.value <= q.hi + 1e-12, (path, q)
     # the C joint's service interval reproduces the life step's maintenance interval (the same surrogate and fit)
     if which == "reference":
         life = json.loads(DATA.read_text(encoding="utf-8"))["clearance_life"]
-        assert min(j["service_interval"]["value"] for j in a["joints"].values()) == pytest.approx(
+        assert min(j.service_interval.value for j in a.joints.values()) == pytest.approx(
             life["recommended"]["maintenance_interval_h"], rel=1e-3)
 
 
@@ -130,21 +142,23 @@ def test_level_set_name_formats_units():
 
 
 def test_claims_apply_only_on_the_studys_pairs(reference, crank):
-    assert reference[2]["claims_apply"] and not crank[2]["claims_apply"]
+    assert reference[2].claims_apply and not crank[2].claims_apply
     assert claims_apply(reference[1]) and not claims_apply(crank[1])
 
 
 def test_differences_say_what_is_beyond_the_noise(reference):
     _, machine, a = reference
-    d = a["differences"]
-    assert {x["response"] for x in d} == {"efficiency", "ripe_removal", "damage", "peak_force_C"}
+    d = a.differences
+    assert {x.response for x in d} == {"efficiency", "ripe_removal", "damage", "peak_force_C"}
     first = machine.pair_names[0]
     for x in d:
-        assert x["beyond_noise"] == (x["factor"] == first)
-        assert x["verdict"] == ("differs" if x["beyond_noise"] else "no difference")
+        assert isinstance(x, Difference)
+        assert x.beyond_noise == (x.factor == first)
+        assert x.verdict == ("differs" if x.beyond_noise else "no difference")
         # a difference inside the noise has an interval that holds 0
-        q = x["difference"]
-        assert x["beyond_noise"] or q["lo"] <= 0 <= q["hi"]
+        q = x.difference
+        assert x.beyond_noise or q.lo <= 0 <= q.hi
+        assert q.se == pytest.approx(0.4 * q.value / (1.5 if x.beyond_noise else 0.3))
 
 
 def _row(rpm, removal, sd, damage=2.0, shed=0.5, n=8):
@@ -159,35 +173,38 @@ def test_operating_point_rule_rests_on_the_replicates():
     then kept); a speed over the damage limit is left out whatever its removal."""
     rows = [_row(90, 30.0, 5.0), _row(120, 44.0, 6.0), _row(150, 46.0, 6.0), _row(180, 70.0, 5.0, damage=9.0)]
     op = operating_point({"harvest_response": {"rows": rows, "configured_rpm": 120.0}})
-    assert op["speed"]["value"] == 120.0 and op["no_difference"] == [150.0]
-    assert op["excluded"] == [{"speed_rpm": 180.0, "why": "damage 9 % > 5 %"}]
-    assert "within the noise" in op["statement"] and "replicates" in op["rule"]
-    rem = op["ripe_removal"]
-    assert rem["lo"] < 44.0 < rem["hi"] and rem["n"] == 8 and rem["sd"] == 6.0
+    assert isinstance(op, OperatingPoint)
+    assert op.speed.value == 120.0 and op.no_difference == [150.0]
+    assert op.to_json()["excluded"] == [{"speed_rpm": 180.0, "why": "damage 9 % > 5 %"}]
+    assert "within the noise" in op.statement and "replicates" in op.rule
+    rem = op.ripe_removal
+    assert rem.lo < 44.0 < rem.hi and rem.n == 8 and rem.sd == 6.0
     # beyond the noise (tight replicates): the best is taken, not the configured speed
     rows = [_row(120, 44.0, 0.5), _row(150, 46.0, 0.5)]
     op = operating_point({"harvest_response": {"rows": rows, "configured_rpm": 120.0}})
-    assert op["speed"]["value"] == 150.0 and op["no_difference"] == []
+    assert op.speed.value == 150.0 and op.no_difference == []
     # nothing within the limits: the removal rule among the speeds of least damage (within its noise)
     rows = [_row(120, 40.0, 1.0, damage=9.0), _row(150, 50.0, 1.0, damage=9.1), _row(180, 70.0, 1.0, damage=15.0)]
     op = operating_point({"harvest_response": {"rows": rows, "configured_rpm": 120.0}}, damage_limit_pct=5.0)
-    assert not op["within_limits"] and op["speed"]["value"] == 150.0
-    assert op["statement"].startswith("No drive speed keeps damage") and "cannot be met by the speed alone" in \
-        op["statement"]
-    assert [e["speed_rpm"] for e in op["excluded"]] == [180.0]
+    assert not op.within_limits and op.speed.value == 150.0
+    assert op.statement.startswith("No drive speed keeps damage") and "cannot be met by the speed alone" in \
+        op.statement
+    assert [e.speed_rpm for e in op.excluded] == [180.0]
+    assert OperatingPoint.from_json(op.to_json()) == op
 
 
 def test_why_this_efficiency_is_computed(reference, crank):
     """Efficiency = (ripe removal x ripe yield + unripe shed x unripe yield) per bush x bushes per minute, and the
     ratio of two machines' efficiencies splits into those factors; the removal's drivers are the finger's motion."""
     summary, machine, a = reference
-    w = a["why_efficiency"]
-    assert w["product_kg_min"] == pytest.approx(w["efficiency"]["value"], rel=0.02)
-    assert "[as run: summary.json]" in w["yield_per_bush_kg"]["tag"] or "calibrated" in w["yield_per_bush_kg"]["tag"]
-    assert w["drivers"]["finger_amplitude_mm"] == pytest.approx(74.3, rel=1e-2)
-    assert w["drivers"]["acceleration_over_sinusoid"] > 2  # the groove cam's law: far from a sinusoid
+    w = a.why_efficiency
+    assert isinstance(w, WhyEfficiency) and isinstance(w.drivers, KinematicDrivers)
+    assert w.product_kg_min == pytest.approx(w.efficiency.value, rel=0.02)
+    assert "[as run: summary.json]" in w.yield_per_bush_kg.tag or "calibrated" in w.yield_per_bush_kg.tag
+    assert w.drivers.finger_amplitude_mm == pytest.approx(74.3, rel=1e-2)
+    assert w.drivers.acceleration_over_sinusoid > 2  # the groove cam's law: far from a sinusoid
     for word in ("kg/min", "ripe removal", "bushes/min", "amplitude", "Hz"):
-        assert word in w["statement"]
+        assert word in w.statement
     # the other machine picks half as much ripe fruit, same yield and walking: the removal makes the difference
     half = json.loads(json.dumps(crank[0]))
     rec = half["results"]["l9"]["recommended"]["replicates"]
@@ -195,24 +212,27 @@ def test_why_this_efficiency_is_computed(reference, crank):
         rec[key] = {**rec[key], "mean": rec[key]["mean"] / 2, "ci": [v / 2 for v in rec[key]["ci"]]}
     other = why_efficiency(half, crank[1])
     c = compare_efficiency(other, w, "crank-rocker", "groove cam")
-    assert c["ratio"] == pytest.approx(0.5, rel=1e-6) and c["dominant"] == "ripe removal"
-    assert c["factors"]["ripe removal"] == pytest.approx(0.5, rel=1e-6)
-    assert "crank-rocker" in c["statement"] and "x0.50" in c["statement"]
+    assert isinstance(c, Comparison)
+    assert c.ratio == pytest.approx(0.5, rel=1e-6) and c.dominant == "ripe removal"
+    assert c.factors["ripe removal"] == pytest.approx(0.5, rel=1e-6)
+    assert "crank-rocker" in c.statement and "x0.50" in c.statement
     both = design_answers(half, crank[1], reference=w)
-    assert both["comparison"]["dominant"] == "ripe removal"
+    assert both.comparison.dominant == "ripe removal"
+    # another study's answer as read from a file (its JSON form): the same comparison
+    assert design_answers(half, crank[1], reference=w.to_json()).comparison == both.comparison
     # without a second study: the reference's published efficiency over its description's yield and walking
-    assert a["comparison"] is None  # the reference machine itself
-    pub = crank[2]["comparison"]
-    assert "published field result" in pub["statement"] and "3.93 kg/min" in pub["statement"]
-    assert pub["ratio"] == pytest.approx(math.prod(pub["factors"].values()), rel=0.02)
+    assert a.comparison is None  # the reference machine itself
+    pub = crank[2].comparison
+    assert "published field result" in pub.statement and "3.93 kg/min" in pub.statement
+    assert pub.ratio == pytest.approx(math.prod(pub.factors.values()), rel=0.02)
 
 
 def test_missing_steps_are_named_and_the_section_still_renders(reference):
     summary, machine, _ = reference
     only = {"results": {"l9": summary["results"]["l9"]}}
     a = design_answers(only, machine)
-    assert a["missing"] == ["clearance_life", "harvest_response"] and a["operating_point"] is None
-    assert "fit" not in a["joints"][machine.pair_names[0]]
+    assert a.missing == ["clearance_life", "harvest_response"] and a.operating_point is None
+    assert a.joints[machine.pair_names[0]].fit is None and "fit" not in a.to_json()["joints"][machine.pair_names[0]]
     text = design_answers_html(a)
     assert "Steps without results: clearance_life, harvest_response" in text
 
@@ -222,7 +242,7 @@ def test_html_tables_fit_an_a4_page(which, request):
     _, machine, a = request.getfixturevalue(which)
     text = design_answers_html(a)
     assert text.startswith("<h2>Design answers for ") and "<pre" not in text
-    assert a["recommended"]["name"] in text and "Why this efficiency" in text
+    assert a.recommended.name in text and "Why this efficiency" in text
     tables = re.findall(r"<table[^>]*>(.*?)</table>", text, flags=re.S)
     assert len(tables) >= 3
     for t in tables:
@@ -274,3 +294,92 @@ def test_html_is_no_wider_than_a4_in_chromium(crank, tmp_path):
         finally:
             browser.close()
     assert got["W"] == 794 and got["scroll"] <= 794 and not got["over"], got
+
+
+# ------------------------------------------------------------------------------------------------------ records
+
+
+@pytest.mark.parametrize("which", ["reference", "crank"])
+def test_answers_round_trip_through_their_json_form(which, request):
+    """The answers' JSON form (what a design report or explorer reads from a file) reads back to equal answers,
+    nested records included, and renders the same HTML."""
+    _, _, a = request.getfixturevalue(which)
+    data = json.loads(json.dumps(a.to_json()))
+    back = DesignAnswers.from_json(data)
+    assert back == a and back.to_json() == a.to_json()
+    assert list(data) == ["machine", "drive", "pairs", "claims_apply", "recommended", "joints", "loads", "harvest",
+                          "operating_point", "differences", "tradeoff", "why_efficiency", "comparison", "missing"]
+    assert isinstance(back.joints[a.pairs[0]].service_interval, Quantity) and isinstance(back.tradeoff, Tradeoff)
+    assert design_answers_html(back) == design_answers_html(a)
+    pub = published_reference()
+    assert PublishedReference.from_json(pub.to_json()) == pub
+
+
+def test_a_quantity_keeps_its_keys_and_refuses_an_unknown_extra():
+    q = quantity(3, "N", 2, 4, "95 %", "virtual_l9", "recommended.replicates.peak_force_A", sd=0.5, n=8)
+    assert q.to_json() == {"value": 3.0, "unit": "N", "lo": 2.0, "hi": 4.0, "interval": "95 %",
+                           "source": {"step": "virtual_l9", "where": "recommended.replicates.peak_force_A"},
+                           "tag": "[computed]", "sd": 0.5, "n": 8}
+    assert isinstance(q.value, float) and q.source == Source("virtual_l9", "recommended.replicates.peak_force_A")
+    assert "label" not in q.to_json() and q.label is None  # an extra not given is left out
+    with pytest.raises(TypeError, match="colour"):
+        quantity(1.0, "mm", colour="red")
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        Quantity.from_json({**q.to_json(), "colour": "red"})
+    with pytest.raises(pydantic.ValidationError, match="step"):
+        Quantity.from_json({**q.to_json(), "source": {"where": "x"}})
+
+
+def test_answer_records_refuse_unknown_keys_and_wrong_types(reference):
+    a = reference[2]
+    data = a.to_json()
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        DesignAnswers.from_json({**data, "colour": "red"})
+    with pytest.raises(pydantic.ValidationError, match="peak_torque"):
+        DesignAnswers.from_json({**data, "joints": {"A": {**data["joints"]["A"], "peak_torque": 1.0}}})
+    with pytest.raises(pydantic.ValidationError, match="within_limits"):
+        OperatingPoint.from_json({k: v for k, v in data["operating_point"].items() if k != "within_limits"})
+    with pytest.raises(pydantic.ValidationError, match="ratio"):
+        Comparison.from_json({"ratio": "large", "factors": {}, "drivers": {}, "dominant": None, "statement": ""})
+    with pytest.raises(pydantic.ValidationError, match="finger_speed"):
+        KinematicDrivers.from_json({**data["why_efficiency"]["drivers"], "finger_speed": 1.0})
+    with pytest.raises(AttributeError):
+        a.machine = "another"  # frozen
+
+
+#: sha256 of the opening section of the two fixtures' answers, numbered as in
+#: :func:`test_sections_are_named_by_the_reports_numbers`, as rendered when the answers were dicts (commit 1eec258):
+#: the records changed neither a number nor a byte of the report (a change to the section's text changes these)
+HTML_SHA256 = {"reference": "efe59b3fb711b4d9eb706b4f5db424cc6841aec36482cddf31e3a73e7d169084",
+               "crank": "fdb29f6531c282bbd514fb034477e2b214bc69cb50650366098442edc764d880"}
+
+
+@pytest.mark.parametrize("which", ["reference", "crank"])
+def test_the_html_is_the_one_rendered_from_the_dicts(which, request):
+    import hashlib
+
+    from berryshaker.report.sections import clearance_life_section, harvest_response_section, virtual_l9_section
+
+    _, _, a = request.getfixturevalue(which)
+    text = design_answers_html(a, {virtual_l9_section: 11, clearance_life_section: 12, harvest_response_section: 14})
+    assert hashlib.sha256(text.encode()).hexdigest() == HTML_SHA256[which]
+
+
+def test_json_form_keeps_the_keys_of_the_dicts(reference):
+    """The answers' JSON form has the keys, in the order, of the dicts the answers were before they were records;
+    an extra a quantity does not have is left out."""
+    j = reference[2].to_json()
+    joint = j["joints"]["A"]
+    assert list(joint) == ["clearance", "peak_force", "fit", "fit_clearance", "service_interval"]  # no peak force SE
+    assert list(joint["clearance"]) == ["value", "unit", "lo", "hi", "interval", "source", "tag", "basis"]
+    assert list(joint["service_interval"])[-2:] == ["material_pair", "limit_mm"]
+    assert list(j["loads"]["drive_torque_peak"])[-3:] == ["sd", "n", "label"]
+    assert list(j["differences"][0]) == ["response", "factor", "levels", "beyond_noise", "verdict", "p", "difference"]
+    assert list(j["differences"][0]["difference"])[-1] == "se"
+    assert list(j["operating_point"])[-6:] == ["within_limits", "rule", "limits", "no_difference", "excluded",
+                                               "statement"]
+    assert list(j["why_efficiency"]) == ["efficiency", "ripe_removal", "unripe_shed", "yield_per_bush_kg",
+                                         "unripe_fraction", "bushes_per_min", "product_kg_min", "ripe_part_kg_min",
+                                         "unripe_part_kg_min", "drivers", "statement"]
+    assert list(j["tradeoff"]) == ["candidates", "dominated", "recommended", "named", "statement"]
+    assert list(j["recommended"]) == ["code", "name", "statement", "starts", "l9_run"]

@@ -11,14 +11,19 @@ interval and the step it comes from (issue 45, item 1).
 * the operating point and why this efficiency (:mod:`berryshaker.report.harvest_answers`);
 * what differs beyond the noise and what does not: the L9's paired differences of each factor's extreme levels.
 
-Every number is a :func:`berryshaker.report.design_quantity.quantity` dict: value, unit, interval (lo, hi and what
-it is), source (step) and provenance tag.  :func:`berryshaker.report.design_html.design_answers_html` renders the
-answers as the report's opening section, naming each number's report section by the report's numbering.
+The answers are a :class:`berryshaker.report.design_records.DesignAnswers` record, read by attribute; every
+number is a :class:`berryshaker.report.design_quantity.Quantity`: value, unit, interval (lo, hi and what it is),
+source (step) and provenance tag.  :func:`berryshaker.report.design_html.design_answers_html` renders the answers
+as the report's opening section, naming each number's report section by the report's numbering.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from berryshaker.report.design_quantity import ALPHA, _estimate, _recommended, _results, quantity
+from berryshaker.report.design_records import (DesignAnswers, Difference, JointAnswers, Loads, PublishedReference,
+                                               Recommended, Tradeoff, TradeoffCandidate, WhyEfficiency)
 from berryshaker.report.harvest_answers import (DAMAGE_LIMIT_PCT, UNRIPE_LIMIT_PCT, _harvest, compare_efficiency,
                                                 operating_point, published_reference, why_efficiency)
 
@@ -63,7 +68,7 @@ def claims_apply(machine) -> bool:
 # ---------------------------------------------------------------------------------------------------- answers
 
 
-def _joint_answers(summary: dict, machine) -> dict:
+def _joint_answers(summary: dict, machine) -> dict[str, JointAnswers]:
     """Per joint: recommended clearance (L9), fit and service interval (life), peak collision force (L9)."""
     res = _results(summary)
     rec = _recommended(summary)
@@ -86,12 +91,13 @@ def _joint_answers(summary: dict, machine) -> dict:
         if force:
             j["peak_force"] = force
         j.update(fits.get(p, {}))
-        out[p] = j
+        out[p] = JointAnswers(**j)
     return out
 
 
 def _fit_answers(life: dict, machine) -> dict:
-    """Per joint: the recommended fit's clearance range and its service interval from the clearance-life step.
+    """Per joint: the recommended fit's clearance range and its service interval from the clearance-life step (the
+    fields of :class:`JointAnswers` it gives, by name).
 
     The service interval is the Archard growth from the fit's mean clearance to the joint's service limit on the
     step's surrogate (:class:`berryshaker.life.tolerance.ClearanceResponse`, as ``berryshaker tolerance``); its
@@ -161,17 +167,18 @@ def _fit_answers(life: dict, machine) -> dict:
     return out
 
 
-def _machine_loads(summary: dict) -> dict:
+def _machine_loads(summary: dict) -> Loads:
     rec = _recommended(summary)
     reps = rec.get("replicates") or (summary.get("optimum") or {}).get("intervals") or {}
     out = {}
     for key, name in (("drive_torque_peak", "drive torque, peak"), ("drive_torque_rms", "drive torque, RMS")):
         q = _estimate(reps.get(key), "N m", "virtual_l9", f"recommended.replicates.{key}")
         if q:
-            out[key] = dict(q, label=name)
-    return out
+            out[key] = replace(q, label=name)
+    return Loads(**out)
 
-def differences(summary: dict) -> list[dict]:
+
+def differences(summary: dict) -> list[Difference]:
     """The L9's paired differences: each factor's last minus first level over the blocked starts, per response.
 
     Parameters
@@ -181,9 +188,9 @@ def differences(summary: dict) -> list[dict]:
 
     Returns
     -------
-    list of dict
-        ``response``, ``factor``, ``levels``, ``difference`` (a :func:`quantity` in the response's unit with its
-        95 % interval and ``se``), ``p``, ``beyond_noise`` and ``verdict`` ("differs" or "no difference").
+    list of Difference
+        ``response``, ``factor``, ``levels``, ``beyond_noise``, ``verdict`` ("differs" or "no difference"), ``p``
+        and ``difference`` (a :func:`quantity` in the response's unit with its 95 % interval and ``se``).
     """
     res = _results(summary)
     l9 = res.get("l9") or {}
@@ -194,32 +201,32 @@ def differences(summary: dict) -> list[dict]:
     for n, per in (paired or {}).items():
         for f, q in (per or {}).items():
             a, b = q["levels"]
-            out.append({"response": n, "factor": f, "levels": [a, b], "beyond_noise": bool(q["beyond_noise"]),
-                        "verdict": "differs" if q["beyond_noise"] else "no difference", "p": float(q["p"]),
-                        "difference": quantity(q["difference"], units.get(n, ""), q["ci"][0], q["ci"][1],
-                                               f"95 % interval of the paired difference {f}{b} - {f}{a} over the "
-                                               f"starts (SE {q['se']:.3g})", "virtual_l9", f"paired.{n}.{f}",
-                                               se=float(q["se"]))})
+            out.append(Difference(n, f, [a, b], bool(q["beyond_noise"]),
+                                  "differs" if q["beyond_noise"] else "no difference", float(q["p"]),
+                                  quantity(q["difference"], units.get(n, ""), q["ci"][0], q["ci"][1],
+                                           f"95 % interval of the paired difference {f}{b} - {f}{a} over the "
+                                           f"starts (SE {q['se']:.3g})", "virtual_l9", f"paired.{n}.{f}",
+                                           se=float(q["se"]))))
     return out
 
 
-def _tradeoff(summary: dict) -> dict:
+def _tradeoff(summary: dict) -> Tradeoff:
     recs = summary.get("tradeoff") or (_results(summary).get("l9") or {}).get("tradeoff") or []
     rec = next((r for r in recs if "recommended" in str(r.get("name", ""))), None)
     pairs = [c.split(":", 1)[1] for c in (recs[0] if recs else {}) if c.startswith("clearance_mm:")]
-    named = [{"candidate": r["name"], "name": level_set_name({p: r[f"clearance_mm:{p}"] for p in pairs}),
-              "dominated": bool(r.get("dominated"))} for r in recs]
-    return {"candidates": len(recs), "dominated": sum(1 for r in named if r["dominated"]),
-            "recommended": None if rec is None else rec["name"], "named": named,
-            "statement": (_recommended(summary).get("check") or {}).get("statement", "")}
+    named = [TradeoffCandidate(r["name"], level_set_name({p: r[f"clearance_mm:{p}"] for p in pairs}),
+                               bool(r.get("dominated"))) for r in recs]
+    return Tradeoff(len(recs), sum(1 for r in named if r.dominated), None if rec is None else rec["name"], named,
+                    (_recommended(summary).get("check") or {}).get("statement", ""))
 
 
 # ----------------------------------------------------------------------------------------------------- the whole
 
 
-def design_answers(summary: dict, machine, reference: dict | str | None = "published",
+def design_answers(summary: dict, machine,
+                   reference: WhyEfficiency | PublishedReference | dict | str | None = "published",
                    damage_limit_pct: float = DAMAGE_LIMIT_PCT,
-                   unripe_limit_pct: float = UNRIPE_LIMIT_PCT) -> dict:
+                   unripe_limit_pct: float = UNRIPE_LIMIT_PCT) -> DesignAnswers:
     """The answers an engineer brings to the study of their machine, each number with its interval and source.
 
     Parameters
@@ -228,17 +235,17 @@ def design_answers(summary: dict, machine, reference: dict | str | None = "publi
         The study's summary.json (its ``results``, ``optimum`` and ``tradeoff``), or the results dict alone.
     machine : Machine
         The machine description the study ran on.
-    reference : dict or "published" or None
+    reference : WhyEfficiency or PublishedReference or dict or "published" or None
         What this machine's efficiency is compared with (:func:`compare_efficiency`): :func:`why_efficiency` of
-        another machine's study, "published" (default) for :func:`published_reference` on a machine whose pairs
-        are not the reference study's (:func:`claims_apply`; on the reference machine itself nothing is
-        compared), or None.
+        another machine's study (the record, or its JSON form), "published" (default) for
+        :func:`published_reference` on a machine whose pairs are not the reference study's (:func:`claims_apply`;
+        on the reference machine itself nothing is compared), or None.
     damage_limit_pct, unripe_limit_pct : float
         Limits of the operating-point rule, in % of the picked mass and of the unripe mass [assumed].
 
     Returns
     -------
-    dict
+    DesignAnswers
         ``machine``, ``drive``, ``pairs``, ``claims_apply``, ``recommended`` (code, ``name``: the clearances'
         name, statement), ``joints`` (per pair: clearance, peak_force, fit, fit_clearance, service_interval,
         fit_peak_force), ``loads`` (drive torque), ``harvest`` (indexes at the recommended set), ``operating_point``
@@ -252,21 +259,23 @@ def design_answers(summary: dict, machine, reference: dict | str | None = "publi
     missing = [s for s, k in (("virtual_l9", "l9"), ("clearance_life", "clearance_life"),
                               ("harvest_response", "harvest_response")) if not res.get(k)]
     why = why_efficiency(summary, machine)
-    out = {"machine": machine.machine.name, "drive": machine.DRIVE, "pairs": list(machine.pair_names),
-           "claims_apply": claims_apply(machine),
-           "recommended": None if not cl else {
-               "code": rec.get("code") or opt.get("code"), "name": level_set_name(cl),
-               "statement": rec.get("statement") or opt.get("statement") or "",
-               "starts": rec.get("starts") or opt.get("starts"), "l9_run": rec.get("l9_run")},
-           "joints": _joint_answers(summary, machine), "loads": _machine_loads(summary), "harvest": _harvest(summary),
-           "operating_point": operating_point(summary, machine, damage_limit_pct, unripe_limit_pct),
-           "differences": differences(summary), "tradeoff": _tradeoff(summary), "why_efficiency": why,
-           "comparison": None, "missing": missing}
-    if reference == "published":
+    if isinstance(reference, str) and reference == "published":
         reference = None if claims_apply(machine) or why is None else published_reference()
-    if isinstance(reference, dict) and why is not None:
-        out["comparison"] = compare_efficiency(why, reference, machine.machine.name,
-                                               reference.get("machine", "the reference"))
-    return out
+    elif isinstance(reference, dict):  # the JSON form of either
+        reference = (PublishedReference if "machine" in reference else WhyEfficiency).from_json(reference)
+    comparison = None
+    if isinstance(reference, (WhyEfficiency, PublishedReference)) and why is not None:
+        comparison = compare_efficiency(why, reference, machine.machine.name, reference.machine if isinstance(
+            reference, PublishedReference) else "the reference")
+    return DesignAnswers(
+        machine=machine.machine.name, drive=machine.DRIVE, pairs=list(machine.pair_names),
+        claims_apply=claims_apply(machine),
+        recommended=None if not cl else Recommended(
+            rec.get("code") or opt.get("code"), level_set_name(cl), rec.get("statement") or opt.get("statement") or "",
+            rec.get("starts") or opt.get("starts"), rec.get("l9_run")),
+        joints=_joint_answers(summary, machine), loads=_machine_loads(summary), harvest=_harvest(summary),
+        operating_point=operating_point(summary, machine, damage_limit_pct, unripe_limit_pct),
+        differences=differences(summary), tradeoff=_tradeoff(summary), why_efficiency=why, comparison=comparison,
+        missing=missing)
 
 

@@ -10,6 +10,8 @@ from __future__ import annotations
 import html
 import math
 
+from berryshaker.report.design_quantity import Quantity
+from berryshaker.report.design_records import DesignAnswers
 from berryshaker.report.html_blocks import _Raw, _table
 from berryshaker.report.sections import (clearance_life_section, harvest_response_section, kinematics_section,
                                          powered_drive_section, virtual_l9_section)
@@ -65,26 +67,26 @@ def _num(v) -> str:
     return f"{v:.0f}" if abs(v) >= 100 else f"{v:.3g}"  # whole newtons and hours, no "9.92e+03"
 
 
-def _cell(q: dict | None):
+def _cell(q: Quantity | None):
     """A quantity as a table cell: value, and its interval on a second line."""
-    if not q:
+    if q is None:
         return "-"
-    iv = "" if q["lo"] is None or q["hi"] is None or q["lo"] == q["hi"] else \
-        f"<span class='ci'>[{_num(q['lo'])}, {_num(q['hi'])}]</span>"
-    return _Raw(f"{html.escape(_num(q['value']))}{iv}")
+    iv = "" if q.lo is None or q.hi is None or q.lo == q.hi else \
+        f"<span class='ci'>[{_num(q.lo)}, {_num(q.hi)}]</span>"
+    return _Raw(f"{html.escape(_num(q.value))}{iv}")
 
 
-def _src(q: dict | None, numbers: dict | None) -> str:
-    return "" if not q else section_label(q["source"]["step"], numbers)
+def _src(q: Quantity | None, numbers: dict | None) -> str:
+    return "" if q is None else section_label(q.source.step, numbers)
 
 
-def design_answers_html(answers: dict, numbers: dict | None = None) -> str:
+def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> str:
     """The design answers as the report's opening section: HTML fragments (h2, p, tables of at most
     :data:`MAX_COLUMNS` columns with fixed widths), to go first in the report of every machine.
 
     Parameters
     ----------
-    answers : dict
+    answers : DesignAnswers
         :func:`berryshaker.report.design.design_answers`.
     numbers : dict, optional
         Each section's number in the report, by renderer (:func:`berryshaker.report.sections.section_numbers`):
@@ -96,97 +98,98 @@ def design_answers_html(answers: dict, numbers: dict | None = None) -> str:
         HTML (no document head; the report's CSS styles it).
     """
     a = answers
-    parts = [f"<h2>Design answers for {html.escape(a['machine'])}</h2>"]
-    rec = a.get("recommended")
+    parts = [f"<h2>Design answers for {html.escape(a.machine)}</h2>"]
+    rec = a.recommended
     if rec:
-        parts.append(f"<p>Recommended clearances: <b>{html.escape(rec['name'])}</b> (L9 code "
-                     f"<code>{html.escape(str(rec['code']))}</code>"
-                     + (f", {rec['starts']} starts" if rec.get("starts") else "") + ").  Each number below is the "
+        parts.append(f"<p>Recommended clearances: <b>{html.escape(rec.name)}</b> (L9 code "
+                     f"<code>{html.escape(str(rec.code))}</code>"
+                     + (f", {rec.starts} starts" if rec.starts else "") + ").  Each number below is the "
                      "mean with its 95 % interval under it; the last column names the report section it comes "
                      "from.</p>")
     else:
         parts.append("<p>No recommended clearances: the virtual L9 did not run (see Failed runs).</p>")
-    if a.get("missing"):
-        parts.append(f"<p class='small'>Steps without results: {html.escape(', '.join(a['missing']))}.</p>")
-    joints = a.get("joints") or {}
+    if a.missing:
+        parts.append(f"<p class='small'>Steps without results: {html.escape(', '.join(a.missing))}.</p>")
+    joints = a.joints
     if joints:
         parts.append("<h3>Per joint</h3>")
         rows = []
         for p, j in joints.items():
-            fit = j.get("fit", "-")
-            q = j.get("fit_clearance")
-            rng = "" if not q else f"<span class='ci'>{_num(q['lo'])} .. {_num(q['hi'])} mm</span>"
-            rows.append([p, _cell(j.get("clearance")), _cell(j.get("peak_force")),
-                         _Raw(html.escape(str(fit)) + rng), _cell(j.get("service_interval")),
-                         _section_numbers(("virtual_l9", "clearance_life") if j.get("fit") else ("virtual_l9",),
+            fit = "-" if j.fit is None else j.fit
+            q = j.fit_clearance
+            rng = "" if q is None else f"<span class='ci'>{_num(q.lo)} .. {_num(q.hi)} mm</span>"
+            rows.append([p, _cell(j.clearance), _cell(j.peak_force),
+                         _Raw(html.escape(str(fit)) + rng), _cell(j.service_interval),
+                         _section_numbers(("virtual_l9", "clearance_life") if j.fit else ("virtual_l9",),
                                           numbers)])
         parts.append(_table(["joint", "clearance (mm)", "peak collision force (N)", "ISO fit, clearance (mm)",
                              "service interval (h)", "section"], rows, left=(0, 3),
                             widths=(13, 15, 20, 22, 18, 12)))
-        mats = {j["service_interval"]["material_pair"]: j["service_interval"]["interval"]
-                for j in joints.values() if j.get("service_interval")}
+        mats = {j.service_interval.material_pair: j.service_interval.interval
+                for j in joints.values() if j.service_interval is not None}
         parts.append("<p class='small'>Clearance: the L9's recommended level; peak force: mean over the recommended "
                      "set's starts (coupled with the bush); fit and service interval: the clearance-life step "
                      "(hours from the fit's mean clearance to the service limit, on its surrogate).  Service "
                      "interval range: " + html.escape("; ".join(mats.values()) or "not available") + ".</p>")
-    loads = list((a.get("loads") or {}).values()) + list((a.get("harvest") or {}).values())
+    loads = a.loads.quantities() + a.harvest.quantities()
     if loads:
         parts.append("<h3>At the recommended set</h3>")
         parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "tag", "section"],
-                            [[q["label"], q["unit"], _cell(q), _num(q.get("sd")), q["tag"], _src(q, numbers)]
+                            [[q.label, q.unit, _cell(q), _num(q.sd), q.tag, _src(q, numbers)]
                              for q in loads],
                             left=(0, 1, 4, 5), widths=(28, 10, 20, 10, 15, 17)))
-    op = a.get("operating_point")
+    op = a.operating_point
     if op:
         parts.append("<h3>Operating point</h3>")
-        parts.append(f"<p>{html.escape(op['statement'])}</p>")
-        if op.get("speed"):
-            items = [("drive speed", op["speed"]), ("shaking frequency", op["frequency"]),
-                     *[(k.replace("_", " "), op[k]) for k in ("finger_amplitude", "comb_swing", "ripe_removal",
-                                                              "unripe_shed", "damage", "efficiency") if op.get(k)]]
+        parts.append(f"<p>{html.escape(op.statement)}</p>")
+        if op.speed:
+            items = [("drive speed", op.speed), ("shaking frequency", op.frequency),
+                     *[(k.replace("_", " "), getattr(op, k)) for k in ("finger_amplitude", "comb_swing",
+                                                                       "ripe_removal", "unripe_shed", "damage",
+                                                                       "efficiency") if getattr(op, k) is not None]]
             parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "section"],
-                                [[n, q["unit"], _cell(q), _num(q.get("sd")), _src(q, numbers)] for n, q in items],
+                                [[n, q.unit, _cell(q), _num(q.sd), _src(q, numbers)] for n, q in items],
                                 left=(0, 1, 4), widths=(30, 12, 22, 14, 22)))
-        parts.append(f"<p class='small'>Rule: {html.escape(op['rule'])}; limits: damage "
-                     f"{op['limits']['damage_pct']:g} %, unripe shedding {op['limits']['unripe_shed_pct']:g} % "
-                     f"{op['limits']['tag']}.</p>")
-    diffs = a.get("differences") or []
+        parts.append(f"<p class='small'>Rule: {html.escape(op.rule)}; limits: damage "
+                     f"{op.limits.damage_pct:g} %, unripe shedding {op.limits.unripe_shed_pct:g} % "
+                     f"{op.limits.tag}.</p>")
+    diffs = a.differences
     if diffs:
         parts.append("<h3>What differs beyond the noise, and what does not</h3>")
-        factors = list(dict.fromkeys(d["factor"] for d in diffs))[:MAX_COLUMNS - 1]
-        by = {(d["response"], d["factor"]): d for d in diffs}
+        factors = list(dict.fromkeys(d.factor for d in diffs))[:MAX_COLUMNS - 1]
+        by = {(d.response, d.factor): d for d in diffs}
         rows = []
-        for n in dict.fromkeys(d["response"] for d in diffs):
-            unit = next(d["difference"]["unit"] for d in diffs if d["response"] == n)
+        for n in dict.fromkeys(d.response for d in diffs):
+            unit = next(d.difference.unit for d in diffs if d.response == n)
             cells = []
             for f in factors:
                 d = by.get((n, f))
                 if d is None:
                     cells.append("-")
                     continue
-                q = d["difference"]
-                verdict = "<b>differs</b>" if d["beyond_noise"] else "no difference"
-                cells.append(_Raw(html.escape(("+" if q["value"] >= 0 else "") + _num(q["value"])) + f"<span class='ci'>[{_num(q['lo'])}, "
-                                  f"{_num(q['hi'])}] {verdict}</span>"))
+                q = d.difference
+                verdict = "<b>differs</b>" if d.beyond_noise else "no difference"
+                cells.append(_Raw(html.escape(("+" if q.value >= 0 else "") + _num(q.value)) + f"<span class='ci'>[{_num(q.lo)}, "
+                                  f"{_num(q.hi)}] {verdict}</span>"))
             rows.append([f"{n} ({unit})" if unit else n, *cells])
-        levels = diffs[0]["levels"]
+        levels = diffs[0].levels
         parts.append(_table(["response", *[f"{f}{levels[1]} - {f}{levels[0]}" for f in factors]], rows, left=(0,),
                             widths=(100 - 18 * len(factors), *[18] * len(factors))))
         parts.append("<p class='small'>Paired difference of each factor's last and first level over the L9's starts "
                      f"({_section_ref('virtual_l9', numbers)}) with its 95 % interval: 'no difference' where the "
                      "paired t test cannot tell the "
                      "levels apart (p >= 0.05); such a difference is noise and is not ranked.</p>")
-    to = a.get("tradeoff") or {}
-    if to.get("candidates"):
+    to = a.tradeoff
+    if to.candidates:
         parts.append(f"<p class='small'>Trade-off table ({_section_ref('virtual_l9', numbers)}): "
-                     f"{to['candidates']} candidates, "
-                     f"{to['dominated']} dominated beyond the noise.  {html.escape(to.get('statement') or '')}</p>")
-    why = a.get("why_efficiency")
+                     f"{to.candidates} candidates, "
+                     f"{to.dominated} dominated beyond the noise.  {html.escape(to.statement or '')}</p>")
+    why = a.why_efficiency
     if why:
         parts.append("<h3>Why this efficiency</h3>")
-        parts.append(f"<p>{html.escape(why['statement'])}</p>")
-        cmp_ = a.get("comparison")
+        parts.append(f"<p>{html.escape(why.statement)}</p>")
+        cmp_ = a.comparison
         if cmp_:
-            parts.append(f"<p>{html.escape(cmp_['statement'])}</p>")
+            parts.append(f"<p>{html.escape(cmp_.statement)}</p>")
     return "\n".join(parts)
 

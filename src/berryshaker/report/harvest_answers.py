@@ -8,13 +8,20 @@ set, the operating point and why this efficiency.
   acceleration against those of a sinusoid of the same amplitude and frequency); :func:`compare_efficiency` splits
   the ratio of two machines' efficiencies into the same factors, against another study or
   :func:`published_reference`.
+
+Each answer is a record of :mod:`berryshaker.report.design_records` (:class:`HarvestIndexes`,
+:class:`OperatingPoint`, :class:`WhyEfficiency` with its :class:`KinematicDrivers`, :class:`Comparison`,
+:class:`PublishedReference`), read by attribute; its JSON form is ``to_json()``.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from berryshaker.report.design_quantity import ALPHA, _estimate, _recommended, _results, quantity
+from berryshaker.report.design_records import (Comparison, ExcludedSpeed, HarvestIndexes, KinematicDrivers,
+                                               OperatingPoint, PublishedReference, SpeedLimits, WhyEfficiency)
 
 #: default limits of the operating-point rule (replicate means, %): [assumed], ours, not the study's
 DAMAGE_LIMIT_PCT = 5.0
@@ -33,7 +40,7 @@ HARVEST_LABELS = {"efficiency": ("efficiency", "kg/min"), "ripe_removal": ("ripe
                   "damage": ("damage", "%")}
 
 
-def _harvest(summary: dict) -> dict:
+def _harvest(summary: dict) -> HarvestIndexes:
     rec = _recommended(summary)
     opt = summary.get("optimum") or {}
     reps = rec.get("replicates") or opt.get("intervals") or {}
@@ -43,10 +50,10 @@ def _harvest(summary: dict) -> dict:
         q = _estimate(reps.get(key), unit, "virtual_l9", f"recommended.replicates.{key}")
         if q:
             if key in fitted:
-                q["tag"] = "[calibrated]"
-                q["interval"] += "; fitted: the harvest model was calibrated to this value here, not evidence"
-            out[key] = dict(q, label=label)
-    return out
+                q = replace(q, tag="[calibrated]", interval=q.interval + "; fitted: the harvest model was calibrated "
+                            "to this value here, not evidence")
+            out[key] = replace(q, label=label)
+    return HarvestIndexes(**out)
 
 
 def _welch_p(m1, s1, n1, m2, s2, n2) -> float:
@@ -83,7 +90,7 @@ def _row_q(r: dict, key: str, unit: str, where: str) -> dict:
 
 
 def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAGE_LIMIT_PCT,
-                    unripe_limit_pct: float = UNRIPE_LIMIT_PCT) -> dict | None:
+                    unripe_limit_pct: float = UNRIPE_LIMIT_PCT) -> OperatingPoint | None:
     """The drive speed to run with, by :data:`SPEED_RULE`, from the harvest-response step's rows.
 
     Parameters
@@ -98,7 +105,7 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
 
     Returns
     -------
-    dict or None
+    OperatingPoint or None
         ``speed`` (r/min), ``frequency`` (Hz), ``ripe_removal``, ``unripe_shed``, ``damage``, ``efficiency``
         (quantities), ``finger_amplitude`` (mm) and ``comb_swing`` (deg) of the stroke, ``rule``, ``limits``,
         ``no_difference`` (speeds whose removal is within the noise of the best), ``excluded`` (speeds over a limit,
@@ -117,7 +124,7 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
         if r.get("unripe_shed_pct", 0.0) > unripe_limit_pct:
             why.append(f"unripe shedding {r['unripe_shed_pct']:.3g} % > {unripe_limit_pct:g} %")
         (excluded if why else ok).append((r, "; ".join(why)))
-    limits = {"damage_pct": damage_limit_pct, "unripe_shed_pct": unripe_limit_pct, "tag": "[assumed]"}
+    limits = SpeedLimits(damage_limit_pct, unripe_limit_pct, "[assumed]")
     within = bool(ok)
     prefix = ""
     if not ok:  # no speed within the limits: the removal rule among the speeds of least damage (within its noise)
@@ -151,32 +158,31 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
             out[key.rsplit("_", 1)[0]] = quantity(
                 v, unit, 0.99 * v, 1.01 * v, "geometric, of the ideal mechanism; the clearances and the bush change "
                 "the swing by under 1 % (harvest.virtual.shaking_amplitude)", "harvest_response", f"{w}.{key}")
-    out["within_limits"] = within
-    out["rule"] = SPEED_RULE
-    out["limits"] = limits
-    out["no_difference"] = [r["speed_rpm"] for r in same if r is not chosen]
-    out["excluded"] = [{"speed_rpm": r["speed_rpm"], "why": w_} for r, w_ in excluded]
+    no_difference = [r["speed_rpm"] for r in same if r is not chosen]
+    excluded = [ExcludedSpeed(r["speed_rpm"], w_) for r, w_ in excluded]
     sd = chosen.get("ripe_removal_pct_sd", 0.0)
     why = ("the configured speed, whose removal is within the noise of the best" if kept is not None and
            kept is not best else "the highest mean removal" if chosen is best else
            "the slowest speed whose removal is within the noise of the best")
-    out["statement"] = prefix + (f"{'Run' if within else 'run'} at {chosen['speed_rpm']:.0f} r/min ({chosen['shaking_frequency_hz']:.3g} Hz): {why} "
+    statement = prefix + (f"{'Run' if within else 'run'} at {chosen['speed_rpm']:.0f} r/min ({chosen['shaking_frequency_hz']:.3g} Hz): {why} "
                         f"({chosen['ripe_removal_pct']:.3g} +- {sd:.2g} % ripe removal, mean +- SD of "
                         f"{chosen.get('replicates', 1)} replicates)"
-                        + (f"; no difference from {', '.join(f'{s:.0f}' for s in out['no_difference'])} r/min"
-                           if out["no_difference"] else "")
-                        + (("; over the limits: " if within else "; damage beyond the noise of the lowest: ") + ", ".join(f"{e['speed_rpm']:.0f}" for e in out["excluded"])
-                           + " r/min" if out["excluded"] else "") + ".  The stroke is the drive geometry's (the study does not "
+                        + (f"; no difference from {', '.join(f'{s:.0f}' for s in no_difference)} r/min"
+                           if no_difference else "")
+                        + (("; over the limits: " if within else "; damage beyond the noise of the lowest: ") + ", ".join(f"{e.speed_rpm:.0f}" for e in excluded)
+                           + " r/min" if excluded else "") + ".  The stroke is the drive geometry's (the study does not "
                         "vary it).")
-    return out
+    return OperatingPoint(**out, within_limits=within, rule=SPEED_RULE, limits=limits, no_difference=no_difference,
+                          excluded=excluded, statement=statement)
 
 
 # ------------------------------------------------------------------------------------------- why this efficiency
 
 
-def _kinematic_drivers(kin: dict | None, machine, frequency_hz: float | None) -> dict:
+def _kinematic_drivers(kin: dict | None, machine, frequency_hz: float | None) -> KinematicDrivers:
     """Finger amplitude, frequency, peak finger speed and acceleration, and those over a sinusoid's of the same
-    amplitude and frequency (the waveform's factors), from the kinematics step's combs (or the machine)."""
+    amplitude and frequency (the waveform's factors), from the kinematics step's combs (or the machine), as a
+    :class:`KinematicDrivers`."""
     if not kin or "combs" not in kin:
         from berryshaker.drives import drive_of
 
@@ -203,7 +209,7 @@ def _kinematic_drivers(kin: dict | None, machine, frequency_hz: float | None) ->
             out["finger_speed_m_s"] = c["max_tip_speed_m_s"] * radius / length
             if c.get("max_tip_acceleration_m_s2") is not None:
                 out["finger_acceleration_m_s2"] = c["max_tip_acceleration_m_s2"] * radius / length
-    return out
+    return KinematicDrivers(**out)
 
 
 def _as_run(summary: dict, machine) -> tuple[float, float, float, float]:
@@ -217,7 +223,7 @@ def _as_run(summary: dict, machine) -> tuple[float, float, float, float]:
             float(h.get("unripe_fraction", machine.harvest.unripe_fraction)))
 
 
-def why_efficiency(summary: dict, machine) -> dict | None:
+def why_efficiency(summary: dict, machine) -> WhyEfficiency | None:
     """Efficiency decomposed: picked mass per minute = (ripe removal x ripe yield + unripe shedding x unripe yield)
     per bush x bushes per minute, with the kinematic quantities that set the removal.
 
@@ -230,23 +236,23 @@ def why_efficiency(summary: dict, machine) -> dict | None:
 
     Returns
     -------
-    dict or None
+    WhyEfficiency or None
         ``efficiency`` and ``ripe_removal`` (quantities at the recommended set), ``yield_per_bush_kg`` and
         ``unripe_fraction`` (with their input tags), ``bushes_per_min``, ``product_kg_min`` (the decomposition's
         value, which equals the efficiency up to the sampled ripe fraction), ``drivers``
-        (:func:`_kinematic_drivers`), ``statement``.
+        (:class:`KinematicDrivers`), ``statement``; None without the efficiency or the removal.
     """
     from berryshaker.config import value_tag
 
     hv = _harvest(summary)
-    eff, rem = hv.get("efficiency"), hv.get("ripe_removal")
+    eff, rem = hv.efficiency, hv.ripe_removal
     if eff is None or rem is None:
         return None
-    shed = hv.get("unripe_shed")
+    shed = hv.unripe_shed
     walk, spacing, y, uf = _as_run(summary, machine)
     bpm = walk / spacing * 60.0
-    ripe_part = rem["value"] / 100 * y * (1 - uf) * bpm
-    unripe_part = (shed["value"] if shed else 0.0) / 100 * y * uf * bpm
+    ripe_part = rem.value / 100 * y * (1 - uf) * bpm
+    unripe_part = (shed.value if shed else 0.0) / 100 * y * uf * bpm
     hr = _results(summary).get("harvest_response") or {}
     own = next((r for r in hr.get("rows") or [] if hr.get("configured_rpm") is not None
                 and math.isclose(r["speed_rpm"], hr["configured_rpm"], rel_tol=1e-6)), None)
@@ -266,86 +272,86 @@ def why_efficiency(summary: dict, machine) -> dict | None:
         tags["yield"] = cal["yield per bush"]
     d = drivers
     kin_text = ""
-    if "finger_amplitude_mm" in d and d.get("frequency_hz"):
-        kin_text = (f"  The removal is set by the finger's motion: amplitude {d['finger_amplitude_mm']:.3g} mm "
-                    f"(comb swing +-{d['comb_swing_deg']:.3g} deg) at {d['frequency_hz']:.3g} Hz")
-        if "finger_speed_m_s" in d:
-            kin_text += (f", peak finger speed {d['finger_speed_m_s']:.3g} m/s ({d['speed_over_sinusoid']:.2f} x a "
+    if d.finger_amplitude_mm is not None and d.frequency_hz:
+        kin_text = (f"  The removal is set by the finger's motion: amplitude {d.finger_amplitude_mm:.3g} mm "
+                    f"(comb swing +-{d.comb_swing_deg:.3g} deg) at {d.frequency_hz:.3g} Hz")
+        if d.finger_speed_m_s is not None:
+            kin_text += (f", peak finger speed {d.finger_speed_m_s:.3g} m/s ({d.speed_over_sinusoid:.2f} x a "
                          "sinusoid's of that amplitude and frequency)")
-        if "finger_acceleration_m_s2" in d:
-            kin_text += (f" and peak acceleration {d['finger_acceleration_m_s2']:.3g} m/s² "
-                         f"({d['acceleration_over_sinusoid']:.2f} x the sinusoid's)")
+        if d.finger_acceleration_m_s2 is not None:
+            kin_text += (f" and peak acceleration {d.finger_acceleration_m_s2:.3g} m/s² "
+                         f"({d.acceleration_over_sinusoid:.2f} x the sinusoid's)")
         kin_text += "."
-    statement = (f"{eff['value']:.3g} kg/min [{eff['lo']:.3g}, {eff['hi']:.3g}] = ripe removal {rem['value']:.3g} % "
+    statement = (f"{eff.value:.3g} kg/min [{eff.lo:.3g}, {eff.hi:.3g}] = ripe removal {rem.value:.3g} % "
                  f"x ripe yield {y * (1 - uf):.3g} kg/bush ({y:g} kg {tags['yield']} x {1 - uf:g} ripe) x "
                  f"{bpm:.3g} bushes/min (walking {walk * 60:g} m/min / spacing {spacing:g} m)"
-                 + (f" + unripe shedding {shed['value']:.2g} % x {y * uf:.3g} kg/bush" if shed else "")
+                 + (f" + unripe shedding {shed.value:.2g} % x {y * uf:.3g} kg/bush" if shed else "")
                  + f" = {ripe_part + unripe_part:.3g} kg/min (the model samples the ripe fraction per bush)."
                  + kin_text)
-    gap = (ripe_part + unripe_part) / eff["value"] - 1 if eff["value"] else float("nan")
+    gap = (ripe_part + unripe_part) / eff.value - 1 if eff.value else float("nan")
     if not abs(gap) <= 0.05:
         statement += (f"  The product differs from the efficiency by {100 * gap:+.0f} %: the yield or field settings "
                       "used here are not those the study ran with (summary.json without machine_si?).")
-    return {"efficiency": eff, "ripe_removal": rem, "unripe_shed": shed,
-            "yield_per_bush_kg": quantity(y, "kg", y, y, "an input", "machine", "harvest.yield_per_bush",
-                                          tags["yield"]),
-            "unripe_fraction": quantity(uf, "", uf, uf, "an input", "machine", "harvest.unripe_fraction",
-                                        tags["unripe_fraction"]),
-            "bushes_per_min": quantity(bpm, "1/min", bpm, bpm, "an input: walking speed / plant spacing", "machine",
-                                       "operation", f"{tags['walking_speed']} / {tags['plant_spacing']}"),
-            "product_kg_min": ripe_part + unripe_part, "ripe_part_kg_min": ripe_part,
-            "unripe_part_kg_min": unripe_part, "drivers": drivers, "statement": statement}
+    return WhyEfficiency(
+        efficiency=eff, ripe_removal=rem, unripe_shed=shed,
+        yield_per_bush_kg=quantity(y, "kg", y, y, "an input", "machine", "harvest.yield_per_bush", tags["yield"]),
+        unripe_fraction=quantity(uf, "", uf, uf, "an input", "machine", "harvest.unripe_fraction",
+                                 tags["unripe_fraction"]),
+        bushes_per_min=quantity(bpm, "1/min", bpm, bpm, "an input: walking speed / plant spacing", "machine",
+                                "operation", f"{tags['walking_speed']} / {tags['plant_spacing']}"),
+        product_kg_min=ripe_part + unripe_part, ripe_part_kg_min=ripe_part, unripe_part_kg_min=unripe_part,
+        drivers=drivers, statement=statement)
 
 
-def compare_efficiency(a: dict, b: dict, name_a: str = "this machine", name_b: str = "the other") -> dict:
+def compare_efficiency(a: WhyEfficiency | PublishedReference, b: WhyEfficiency | PublishedReference,
+                       name_a: str = "this machine", name_b: str = "the other") -> Comparison:
     """Why machine a's efficiency differs from machine b's: the ratio split into removal, ripe yield per bush and
     bushes per minute, and the removal's kinematic drivers side by side.
 
     Parameters
     ----------
-    a, b : dict
-        :func:`why_efficiency` of the two machines.
+    a, b : WhyEfficiency or PublishedReference
+        :func:`why_efficiency` of the two machines (or :func:`published_reference`).
     name_a, name_b : str
         Their names in the statement.
 
     Returns
     -------
-    dict
+    Comparison
         ``ratio`` (efficiency a / b), ``factors`` {removal, ripe_yield, bushes_per_min}: ratios whose product is
         the ratio of the decompositions, ``drivers`` {name: (a, b, a / b)}, ``dominant`` (the factor furthest
         from 1), ``statement``.
     """
     def ripe_yield(w):
-        return w["yield_per_bush_kg"]["value"] * (1 - w["unripe_fraction"]["value"])
+        return w.yield_per_bush_kg.value * (1 - w.unripe_fraction.value)
 
-    fac = {"ripe removal": a["ripe_removal"]["value"] / b["ripe_removal"]["value"],
+    fac = {"ripe removal": a.ripe_removal.value / b.ripe_removal.value,
            "ripe yield per bush": ripe_yield(a) / ripe_yield(b),
-           "bushes per minute": a["bushes_per_min"]["value"] / b["bushes_per_min"]["value"]}
-    ratio = a["efficiency"]["value"] / b["efficiency"]["value"]
+           "bushes per minute": a.bushes_per_min.value / b.bushes_per_min.value}
+    ratio = a.efficiency.value / b.efficiency.value
     dom = max(fac, key=lambda k: abs(math.log(fac[k])) if fac[k] > 0 else math.inf)
     drv = {}
     for k, label in (("finger_amplitude_mm", "finger amplitude (mm)"), ("frequency_hz", "frequency (Hz)"),
                      ("finger_speed_m_s", "peak finger speed (m/s)"),
                      ("finger_acceleration_m_s2", "peak finger acceleration (m/s²)")):
-        va, vb = a["drivers"].get(k), b["drivers"].get(k)
+        va, vb = getattr(a.drivers, k), getattr(b.drivers, k)
         if va is not None and vb:
             drv[label] = (va, vb, va / vb)
     def text(q):
-        iv = "" if q["lo"] is None or q["lo"] == q["hi"] else f" [{q['lo']:.3g}, {q['hi']:.3g}]"
-        return f"{q['value']:.3g} kg/min{iv}"
+        iv = "" if q.lo is None or q.lo == q.hi else f" [{q.lo:.3g}, {q.hi:.3g}]"
+        return f"{q.value:.3g} kg/min{iv}"
 
     close = abs(math.log(ratio)) < math.log(1.05) if ratio > 0 else False
-    statement = (f"{name_a} {text(a['efficiency'])} against {name_b} {text(b['efficiency'])}: x{ratio:.2f} = "
+    statement = (f"{name_a} {text(a.efficiency)} against {name_b} {text(b.efficiency)}: x{ratio:.2f} = "
                  + " x ".join(f"{k} x{v:.2f}" for k, v in fac.items())
                  + f" (the decompositions' product x{math.prod(fac.values()):.2f}); "
                  + ("the efficiencies are within 5 % of each other" if close else f"the {dom} makes the difference")
                  + (".  Its drivers, " + name_a + " / " + name_b + ": " + "; ".join(
                      f"{k} {va:.3g} / {vb:.3g} (x{r:.2f})" for k, (va, vb, r) in drv.items()) + "." if drv else "."))
-    return {"ratio": ratio, "factors": fac, "drivers": drv, "dominant": None if close else dom,
-            "statement": statement}
+    return Comparison(ratio, fac, drv, None if close else dom, statement)
 
 
-def published_reference() -> dict:
+def published_reference() -> PublishedReference:
     """The reference machine's efficiency as published, split like :func:`why_efficiency`: the study's field result
     (3.93 kg/min [study]) over the reference description's ripe yield and bushes per minute gives the ripe removal
     it implies; the finger's motion from the reference description's kinematics.  What a study of another machine
@@ -353,8 +359,8 @@ def published_reference() -> dict:
 
     Returns
     -------
-    dict
-        The keys of :func:`why_efficiency` that :func:`compare_efficiency` reads, and ``machine``.
+    PublishedReference
+        The fields of :class:`WhyEfficiency` that :func:`compare_efficiency` reads, and ``machine``.
     """
     from berryshaker.config import reference_machine, value_tag
     from berryshaker.reference_study import FIELD_RESULT
@@ -366,17 +372,18 @@ def published_reference() -> dict:
     eff = float(FIELD_RESULT["efficiency_kg_min"])
     removal = 100.0 * eff / (y * (1 - uf) * bpm)
     ytag = f"[{value_tag(m, 'harvest.yield_per_bush')}]"
-    return {"machine": f"{m.machine.name} (published field result)",
-            "efficiency": quantity(eff, "kg/min", eff, eff, "the study's field result, published without an interval",
-                                   "machine", "reference_study.FIELD_RESULT", "[study]"),
-            "ripe_removal": quantity(removal, "%", removal, removal, "implied: the published efficiency over the "
-                                     "reference description's ripe yield and bushes per minute (unripe shedding "
-                                     "neglected)", "machine", "reference_study.FIELD_RESULT / harvest.yield_per_bush",
-                                     f"[study] / {ytag}"),
-            "yield_per_bush_kg": quantity(y, "kg", y, y, "an input", "machine", "harvest.yield_per_bush", ytag),
-            "unripe_fraction": quantity(uf, "", uf, uf, "an input", "machine", "harvest.unripe_fraction",
-                                        f"[{value_tag(m, 'harvest.unripe_fraction')}]"),
-            "bushes_per_min": quantity(bpm, "1/min", bpm, bpm, "an input: walking speed / plant spacing", "machine",
-                                       "operation", "[study]"),
-            "drivers": _kinematic_drivers(None, m, None)}
+    return PublishedReference(
+        machine=f"{m.machine.name} (published field result)",
+        efficiency=quantity(eff, "kg/min", eff, eff, "the study's field result, published without an interval",
+                            "machine", "reference_study.FIELD_RESULT", "[study]"),
+        ripe_removal=quantity(removal, "%", removal, removal, "implied: the published efficiency over the "
+                              "reference description's ripe yield and bushes per minute (unripe shedding "
+                              "neglected)", "machine", "reference_study.FIELD_RESULT / harvest.yield_per_bush",
+                              f"[study] / {ytag}"),
+        yield_per_bush_kg=quantity(y, "kg", y, y, "an input", "machine", "harvest.yield_per_bush", ytag),
+        unripe_fraction=quantity(uf, "", uf, uf, "an input", "machine", "harvest.unripe_fraction",
+                                 f"[{value_tag(m, 'harvest.unripe_fraction')}]"),
+        bushes_per_min=quantity(bpm, "1/min", bpm, bpm, "an input: walking speed / plant spacing", "machine",
+                                "operation", "[study]"),
+        drivers=_kinematic_drivers(None, m, None))
 
