@@ -36,11 +36,12 @@ class RecommendedFits(JsonRecord):
     fits : dict of str to str
         ISO 286 fit designation per joint (e.g. "H9/d9").
     cost : float
-        Relative manufacturing cost of the fits (1).
+        Manufacturing cost of the fits, summed over hole and shaft of every joint (relative cost units, 1;
+        :func:`berryshaker.life.tolerance.tolerance_cost`).
     peak_force_N : float
-        Peak collision force of the fits (N).
+        Peak collision force, the largest over the joints, each at its fit's mean clearance (N).
     maintenance_interval_h : float
-        Hours until the first joint reaches its service limit (h).
+        Hours until the first joint grows from its fit's mean clearance to its service limit (h).
     """
 
     fits: dict[str, str]
