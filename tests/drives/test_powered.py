@@ -174,22 +174,25 @@ def test_study_step_powered_drive(tmp_path):
     machine = reference_machine()
     ctx = StudyContext(machine, SweepRunner(workers=1, cache_dir=tmp_path / "c", progress=False), tmp_path)
     r = step_powered_drive(ctx)
-    assert ctx.failures == [] and set(r.data["levels"]) == {"1", "2", "3"}
-    assert r.data["replicates"] == POWERED_REPLICATES and len(set(r.data["seeds"])) == POWERED_REPLICATES
-    lv = r.data["levels"]
+    pw = r.data  # a PoweredDrive record (berryshaker.study.life_drive_records)
+    assert ctx.failures == [] and set(pw.levels) == {"1", "2", "3"}
+    assert pw.replicates == POWERED_REPLICATES and len(set(pw.seeds)) == POWERED_REPLICATES
+    lv = pw.levels
     for d in lv.values():
-        assert d["audit_relative_residual"] < 1e-3 and d["replicates"] == POWERED_REPLICATES
-        assert d["speed_ripple_sd_percent"] > 0  # the starts differ, so the replicates do
+        assert d.audit_relative_residual < 1e-3 and d.replicates == POWERED_REPLICATES
+        assert d.speed_ripple_sd_percent > 0  # the starts differ, so the replicates do
     # energy lost in the clearance joints grows with clearance, far beyond the replicate spread (measured
     # 0.42 +- 0.014 -> 0.81 +- 0.047 -> 1.23 +- 0.044 J/rev over 6 starts)
-    tr = r.data["energy_trend"]
-    assert r.data["energy_grows_with_clearance"] and all(s["p"] < 1e-3 for s in tr["steps"])
-    lost = r.data["clearance_energy_per_revolution_J"]
+    tr = pw.energy_trend
+    assert pw.energy_grows_with_clearance and all(s["p"] < 1e-3 for s in tr["steps"])
+    lost = pw.clearance_energy_per_revolution_J
     assert lost["1"] < lost["2"] < lost["3"] and lost == dict(zip(("1", "2", "3"), tr["mean"]))
-    rt = r.data["ripple_trend"]
-    assert r.data["ripple_grows_with_clearance"] == all(s["verdict"] == "up" for s in rt["steps"])
-    assert rt["mean"] == [lv[k]["speed_ripple_percent"] for k in ("1", "2", "3")]
-    assert ("grows" in r.data["finding"]) and f"{rt['mean'][2]:.3g} +- {rt['sd'][2]:.2g} %" in r.data["finding"]
+    rt = pw.ripple_trend
+    assert pw.ripple_grows_with_clearance == all(s["verdict"] == "up" for s in rt["steps"])
+    assert rt["mean"] == [lv[k].speed_ripple_percent for k in ("1", "2", "3")]
+    assert ("grows" in pw.finding) and f"{rt['mean'][2]:.3g} +- {rt['sd'][2]:.2g} %" in pw.finding
+    # its JSON form (summary.json) reads back as the same record
+    assert type(pw).from_json(pw.to_json()).to_json() == pw.to_json()
     title, parts = powered_drive_section(SectionInput(StudyResults(powered_drive=r.data), machine, tmp_path))
     assert "Powered drive" in title and "ripple (%)" in parts[0] and "+-" in parts[0]
     assert f"mean of {POWERED_REPLICATES} runs" in parts[1]

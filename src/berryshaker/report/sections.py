@@ -291,7 +291,8 @@ def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``fruit_force``: heights in m, forces in N), machine, figures.
+        Results (``fruit_force``, a ``berryshaker.study.fruit_force_records.FruitForceStep``: heights in m,
+        forces in N), machine, figures.
 
     Returns
     -------
@@ -299,11 +300,11 @@ def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
         Title and HTML parts.
     """
     res, parts = inp.res, []
-    if (res.fruit_force or {}).get("chosen"):
-        pos = res.fruit_force["chosen"]["summary"]["positions"]
+    if res.fruit_force is not None and res.fruit_force.chosen is not None:
+        pos = res.fruit_force.chosen.summary.positions
         parts.append(_table(["fruit", "z (m)", "peak (N)", "study range (N)", "ripe fruit", "unripe fruit"],
-                            [[n, d["z_m"], d["peak_force_N"], "-".join(str(x) for x in d.get("study_range_N", [])),
-                              d["eq17"]["ripe"], d["eq17"]["unripe"]] for n, d in pos.items()]))
+                            [[n, d.z_m, d.peak_force_N, "-".join(str(x) for x in d.study_range_N or []),
+                              d.eq17.ripe, d.eq17.unripe] for n, d in pos.items()]))
     _maybe_img(parts, inp.figs / "fig24_26_fruit_force.png", "Fruit force against machine-to-plant distance")
     _maybe_img(parts, inp.figs / "fruit_force_by_level.png", "Peak fruit force at the three level sets")
     return "Fruit harvesting force (eq. 16-17; Figs. 24-26)", parts
@@ -366,7 +367,8 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``clearance_life``: clearances in mm, hours h), machine, figures.
+        Results (``clearance_life``, a ``berryshaker.study.life_drive_records.ClearanceLife``: clearances in mm,
+        hours h), machine, figures.
 
     Returns
     -------
@@ -375,14 +377,14 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     parts = []
     life = inp.res.clearance_life
-    if life:
-        rec = life["recommended"]
-        parts.append(_table(["joint", "clearance now (mm)", f"after {life['horizon_h']:g} h (mm)", "service limit (mm)",
+    if life is not None:
+        rec = life.recommended
+        parts.append(_table(["joint", "clearance now (mm)", f"after {life.horizon_h:g} h (mm)", "service limit (mm)",
                              "hours to the limit", "recommended fit"],
-                            [[j, g["clearance_mm"][0], g["clearance_mm"][-1], life["clearance_limit_mm"][j],
-                              "not reached" if life["hours_to_limit"][j] is None else life["hours_to_limit"][j],
-                              rec["fits"].get(j, "")] for j, g in life["growth"].items()]))
-        parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.get("notes", [])) + "</p>")
+                            [[j, g.clearance_mm[0], g.clearance_mm[-1], life.clearance_limit_mm[j],
+                              "not reached" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
+                              rec.fits.get(j, "")] for j, g in life.growth.items()]))
+        parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     return "Clearance life: wear and fits (docs/life.md)", parts
 
@@ -393,7 +395,8 @@ def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``powered_drive``: clearances in mm, speeds r/min, ripple %, power W, energy J/rev), machine.
+        Results (``powered_drive``, a ``berryshaker.study.life_drive_records.PoweredDrive``: clearances in mm,
+        speeds r/min, ripple %, power W, energy J/rev), machine.
 
     Returns
     -------
@@ -402,26 +405,24 @@ def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     title = "Powered drive: speed ripple, input power and energy lost per joint (docs/driveline.md)"
     pw, pairs = inp.res.powered_drive, inp.pairs
-    if not pw:
+    if pw is None:
         return title, []
     rows = []
-    for lv, d in pw["levels"].items():
-        e, sp = d["energy_per_revolution_J"], d["cam_speed_rpm"]
-        ripple = d["speed_ripple_percent"]
-        if "speed_ripple_sd_percent" in d:
-            ripple = f"{ripple:.3g} +- {d['speed_ripple_sd_percent']:.2g}"
-        rows.append([lv, ", ".join(f"{p} {d['clearance_mm'][p]:g}" for p in pairs),
-                     f"{sp['min']:.1f} .. {sp['max']:.1f} ({sp['mean']:.2f})", ripple,
-                     d["input_power_W"], *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
-                     d["audit_relative_residual"]])
+    for lv, d in pw.levels.items():
+        e, sp = d.energy_per_revolution_J, d.cam_speed_rpm
+        ripple = f"{d.speed_ripple_percent:.3g} +- {d.speed_ripple_sd_percent:.2g}"
+        rows.append([lv, ", ".join(f"{p} {d.clearance_mm[p]:g}" for p in pairs),
+                     f"{sp.min:.1f} .. {sp.max:.1f} ({sp.mean:.2f})", ripple,
+                     d.input_power_W, *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
+                     d.audit_relative_residual])
     parts = [_table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min, replicate means", "ripple (%)",
                      "input power (W)", *[f"lost in {p} (J/rev)" for p in pairs], "belt (J/rev)",
                      "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2, 3))]
-    reps = pw.get("replicates")
+    reps = pw.replicates
     rep_text = (f" Every level is the mean of {reps} runs from seeded perturbed starts (clearance joints off centre, "
                 "seeds in summary.json); ripple is shown as mean +- SD, and a trend is stated only where Welch's "
                 "t-test between consecutive levels finds it beyond that spread." if reps else "")
-    parts.append(f"<p>{html.escape(pw['finding'])} Energy lost per revolution is the work of each joint's contact "
+    parts.append(f"<p>{html.escape(pw.finding)} Energy lost per revolution is the work of each joint's contact "
                  "damping and friction, integrated with the motion; the audit residual is the largest over the "
                  "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
                  f"2-3.{rep_text}</p>")
@@ -436,8 +437,9 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``harvest_response``: speeds r/min, frequency Hz, rates %, efficiency kg/min; ``fruit_force``'s
-        ``chosen`` summary: moments in N m), machine, figures.
+        Results (``harvest_response``, a ``berryshaker.study.harvest_records.HarvestResponse``: speeds r/min,
+        frequency Hz, rates %, efficiency kg/min; ``fruit_force``'s ``chosen`` summary, a
+        ``berryshaker.study.fruit_force_records.FruitForceSummary``: moments in N m), machine, figures.
 
     Returns
     -------
@@ -446,49 +448,52 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     title = "The bush as the comb's load; harvest against shaking frequency; calibration"
     res, figs, parts = inp.res, inp.figs, []
-    chosen = ((res.fruit_force or {}).get("chosen") or {}).get("summary") or {}
-    if chosen.get("load_moment_Nm"):
-        bush = chosen.get("bush") or {}
-        who = (f"the sum of the reactions of {bush.get('branches')} branches ({bush.get('members')} simulated "
-               f"members with {bush.get('modes_per_member')} modes each, seed {bush.get('seed')}, plus the "
-               "instrumented fruit branch)" if chosen.get("load_model") == "branches"
+    ff = res.fruit_force
+    chosen = None if ff is None or ff.chosen is None else ff.chosen.summary
+    if chosen is not None and chosen.load_moment_Nm:
+        bush = chosen.bush
+        who = (f"the sum of the reactions of {getattr(bush, 'branches', None)} branches "
+               f"({getattr(bush, 'members', None)} simulated members with {getattr(bush, 'modes_per_member', None)} "
+               f"modes each, seed {getattr(bush, 'seed', None)}, plus the "
+               "instrumented fruit branch)" if chosen.load_model == "branches"
                else "the aggregate spring-damper (combs.load_model = aggregate)")
         parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
                      f" Per comb, about its shaft; compare {inp.ref(comb_load_section, 'the comb-load section')}'s "
                      "aggregate spring-damper, which loads the combs about 40 times more.</p>")
         parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
-                            [[side, v["peak"], v["rms"]] for side, v in chosen["load_moment_Nm"].items()]))
+                            [[side, v.peak, v.rms] for side, v in chosen.load_moment_Nm.items()]))
     hr = res.harvest_response
-    if not hr:
+    if hr is None:
         parts.append("<p>Not available (see Failed runs).</p>")
         return title, parts
-    reps = next((r.get("replicates") for r in hr["rows"] if r.get("replicates")), None)
+    reps = next((r.replicates for r in hr.rows if r.replicates), None)
     parts.append("<p>Ripe removal (% of the ripe mass), unripe shedding (% of the unripe mass) and damage (% of the "
                  "picked mass) of the seeded virtual harvest against the drive-shaft speed, one comb cycle per "
                  "revolution, at the configured clearances; every other value as described."
                  + (f" Each row is the mean over {reps} replicates from perturbed starts (the calibration's "
                     "statistic and seeds) with the SD over the replicates." if reps else "") + "</p>")
 
-    def _sd(r, key):  # mean with the replicates' SD when the row has it (runs before replicates: the value)
-        return f"{r[key]:.3g} ± {r[key + '_sd']:.2g}" if key + "_sd" in r else r[key]
+    def _sd(mean, sd):  # mean with the replicates' SD
+        return f"{mean:.3g} ± {sd:.2g}"
 
     parts.append(_table(["drive speed (r/min)", "frequency (Hz)", "ripe removal (%)", "unripe shedding (%)",
                          "damage (%)", "efficiency (kg/min)"],
-                        [[r["speed_rpm"], r["shaking_frequency_hz"], _sd(r, "ripe_removal_pct"),
-                          _sd(r, "unripe_shed_pct"), _sd(r, "damage_rate_pct"), _sd(r, "efficiency_kg_min")]
-                         for r in hr["rows"]]))
+                        [[r.speed_rpm, r.shaking_frequency_hz, _sd(r.ripe_removal_pct, r.ripe_removal_pct_sd),
+                          _sd(r.unripe_shed_pct, r.unripe_shed_pct_sd), _sd(r.damage_rate_pct, r.damage_rate_pct_sd),
+                          _sd(r.efficiency_kg_min, r.efficiency_kg_min_sd)]
+                         for r in hr.rows]))
     _maybe_img(parts, figs / "harvest_vs_frequency.png", "Virtual harvest against shaking frequency")
-    cal = hr.get("calibration") or {}
-    if cal:
+    cal = hr.calibration
+    if cal is not None:
         parts.append("<p>Calibration: every plant and picking parameter with its provenance; [calibrated] values "
                      "were fitted to the target named, the quantities below them were not fitted and are "
                      "held-out comparisons with the study (docs/plant.md).</p>")
         parts.append(_table(["parameter", "value", "unit", "tag", "target or source"],
-                            [[p["parameter"], p["value"], p["unit"], p["tag"], p["target_or_source"]]
-                             for p in cal["parameters"]], left=(0, 3, 4)))
+                            [[p.parameter, p.value, p.unit, p.tag, p.target_or_source]
+                             for p in cal.parameters], left=(0, 3, 4)))
         parts.append(_table(["quantity", "model", "study", "inside the study's range"],
-                            [[h["quantity"], h["model"], h["study"], "-" if h["inside"] is None else h["inside"]]
-                             for h in cal["held_out"]]))
+                            [[h.quantity, h.model, h.study, "-" if h.inside is None else h.inside]
+                             for h in cal.held_out]))
     return title, parts
 
 
@@ -499,8 +504,8 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``validation``: ``rows``, one per published number, in its unit; ``summary``; ``replicates``),
-        machine.
+        Results (``validation``, a ``berryshaker.study.harvest_records.Validation``: ``rows``, one per published
+        number, in its unit; ``summary``; ``replicates``), machine.
 
     Returns
     -------
@@ -510,25 +515,25 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     title = "The harvest model against the published record (docs/harvest.md, Validation)"
     val = inp.res.validation
-    if not val:
+    if val is None:
         return title, ["<p>Not available (see Failed runs).</p>"]
-    s = val["summary"]
+    s = val.summary
     parts = [f"<p>Every published number the model can represent, set up on this machine and run from "
-             f"{val['replicates']} perturbed starts: the model's value with the 95 % prediction interval of one "
+             f"{val.replicates} perturbed starts: the model's value with the 95 % prediction interval of one "
              "field result (an efficiency's widened by the published yield's range), the verdict, and whether the "
              "number was held out (nothing is fitted to any of them; model inputs read 'input').  Held out: "
-             f"{s['held_out']} numbers, {s['consistent']} consistent, {s['not_reproduced']} not reproduced; "
-             f"{s['inputs']} inputs; {s['not_represented']} not represented.</p>"]
+             f"{s.held_out} numbers, {s.consistent} consistent, {s.not_reproduced} not reproduced; "
+             f"{s.inputs} inputs; {s.not_represented} not represented.</p>"]
 
     def model(r):
-        if r["model"] is None:
+        if r.model is None:
             return "-"
-        return _Raw(f"{_num(r['model'])} {html.escape(r['unit'])}<br><span class='small'>[{_num(r['lo'])}, "
-                    f"{_num(r['hi'])}]</span>")
+        return _Raw(f"{_num(r.model)} {html.escape(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
+                    f"{_num(r.hi)}]</span>")
 
     parts.append(_table(["published number", "source", "published", "model [interval]", "verdict", "held out"],
-                        [[r["quantity"], r.get("source_key", ""), f"{_num(r['published'])} {r['unit']}", model(r),
-                          r["verdict"], "yes" if r["held_out"] else "no"]
-                         for r in val["rows"]],
+                        [[r.quantity, r.source_key, f"{_num(r.published)} {r.unit}", model(r),
+                          r.verdict, "yes" if r.held_out else "no"]
+                         for r in val.rows],
                         left=(0, 1, 4)))
     return title, parts

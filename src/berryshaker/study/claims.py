@@ -257,37 +257,37 @@ def _claim4(res):
 
 def _claim5(res):
     ff = res.fruit_force
-    st = ff["starts"]
-    level_rows = [str(r) for r in ff.get("level_rows", (14, 15, 16))]
-    pos = st["chosen"]["positions"]
+    st = ff.starts
+    level_rows = [str(r) for r in ff.level_rows]
+    pos = st["chosen"].positions
     names = list(pos)
-    chosen = (ff.get("chosen") or {}).get("summary", {}).get("positions", {})
-    ranges = {n: chosen.get(n, {}).get("study_range_N") for n in names}
-    rise = paired_steps([pos[n]["values"] for n in names])
+    chosen = {} if ff.chosen is None else ff.chosen.summary.positions
+    ranges = {n: chosen[n].study_range_N if n in chosen else None for n in names}
+    rise = paired_steps([pos[n].values for n in names])
     rises = all(s["verdict"] == "up" for s in rise)
-    within = {n: (ranges[n] is not None and ranges[n][0] <= pos[n]["mean"] <= ranges[n][1]) for n in names}
+    within = {n: (ranges[n] is not None and ranges[n][0] <= pos[n].mean <= ranges[n][1]) for n in names}
     end = names[-1]
-    fall = paired_steps([st[r]["positions"][end]["values"] for r in level_rows])
+    fall = paired_steps([st[r].positions[end].values for r in level_rows])
     falls5 = all(s["verdict"] == "down" for s in fall)
     verdict = ("reproduced" if rises and all(within.values()) and falls5
                else ("partly reproduced" if rises else "not reproduced"))
-    n = st["chosen"]["starts"]
-    return (verdict, f"means over {n} perturbed starts (branch class x{ff.get('branch_class', 1.0):g}): "
-            + ", ".join(f"{k} {pos[k]['mean']:.2f} +- {pos[k]['se']:.2f} N ({'in' if within[k] else 'outside'} the "
+    n = st["chosen"].starts
+    return (verdict, f"means over {n} perturbed starts (branch class x{ff.branch_class:g}): "
+            + ", ".join(f"{k} {pos[k].mean:.2f} +- {pos[k].se:.2f} N ({'in' if within[k] else 'outside'} the "
                         "study's range)" for k in names)
             + f"; root -> end steps {_steps_text(rise, 'N')} (rises: {rises}); {end} fruit at level sets 1/2/3: "
-            + " / ".join(f"{st[r]['positions'][end]['mean']:.3f}" for r in level_rows)
+            + " / ".join(f"{st[r].positions[end].mean:.3f}" for r in level_rows)
             + f" N, steps {_steps_text(fall, 'N')} (falls with clearance: {falls5}; paired t over the starts, "
             "p < 0.05); the end value is the calibration target (docs/plant.md)")
 
 
 def _claim6(res):
-    pos = res.fruit_force["chosen"]["summary"]["positions"]
-    v = {n: pos[n]["eq17"] for n in pos}
-    ok6 = (v["root"]["ripe"] != "picked" and v["middle"]["ripe"] == "picked" and v["middle"]["unripe"] == "kept"
-           and v["end"]["unripe"] != "kept")
+    pos = res.fruit_force.chosen.summary.positions
+    v = {n: pos[n].eq17 for n in pos}
+    ok6 = (v["root"].ripe != "picked" and v["middle"].ripe == "picked" and v["middle"].unripe == "kept"
+           and v["end"].unripe != "kept")
     return ("reproduced" if ok6 else "not reproduced",
-            "; ".join(f"{n}: ripe {v[n]['ripe']}, unripe {v[n]['unripe']}" for n in v))
+            "; ".join(f"{n}: ripe {v[n].ripe}, unripe {v[n].unripe}" for n in v))
 
 
 def _significant(l9, name, p) -> bool:

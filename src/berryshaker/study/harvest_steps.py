@@ -15,6 +15,8 @@ import numpy as np
 
 from berryshaker.experiment.clearance_sets import clearance_row, n_rows
 from berryshaker.reference_study import FRUIT_FORCE_N
+from berryshaker.study.fruit_force_records import DrivePast, FruitForceStep, FruitStartSet
+from berryshaker.study.harvest_records import Calibration, HarvestResponse, HarvestSpeedRow, Validation
 from berryshaker.study.l9 import virtual_l9
 from berryshaker.study.runs import fruit_force_run, replicate_run
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
@@ -115,8 +117,9 @@ def step_fruit_force(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``fruit_force``: the drive-pasts at the configured clearances (``chosen``) and the level sets
-        (``rows``), the perturbed starts' peak stem forces (N) per set and the branch class; the fruit-force figures.
+        ``fruit_force``: a :class:`~berryshaker.study.fruit_force_records.FruitForceStep`, the drive-pasts at the
+        configured clearances (``chosen``) and the level sets (``rows``), the perturbed starts' peak stem forces (N)
+        per set and the branch class; the fruit-force figures.
     """
     from berryshaker.report import plots as P
 
@@ -127,10 +130,12 @@ def step_fruit_force(ctx: StudyContext) -> StepResult:
     ff = ctx.collect(fruit_force_run, plan.jobs, plan.label, lambda j: "clearances " + describe_clearance(j["clearance"]))
     so = ctx.collect(replicate_run, starts.jobs, starts.label,
                      lambda j: f"start seed {j['seed'][0]}, clearances " + describe_clearance(j["clearance"]))
-    data = {"chosen": ff[0], "rows": {str(r): v for r, v in zip(level_rows, ff[1:]) if v is not None},
-            "level_rows": list(level_rows),
-            "starts": fruit_start_statistics(ctx.machine, so, ["chosen"] + [str(r) for r in level_rows]),
-            "branch_class": ctx.machine.harvest.branch_classes[_fruit_class(ctx.machine)]}
+    starts_stats = fruit_start_statistics(ctx.machine, so, ["chosen"] + [str(r) for r in level_rows])
+    data = FruitForceStep(chosen=None if ff[0] is None else DrivePast.from_json(ff[0]),
+                          rows={str(r): DrivePast.from_json(v) for r, v in zip(level_rows, ff[1:]) if v is not None},
+                          level_rows=list(level_rows),
+                          starts={k: FruitStartSet.from_json(v) for k, v in starts_stats.items()},
+                          branch_class=ctx.machine.harvest.branch_classes[_fruit_class(ctx.machine)])
     figs = []
     if ff[0] is not None:
         P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
@@ -316,9 +321,9 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``harvest_response``: ``rows`` (the harvest indexes at each drive speed, rpm: replicate means and SDs),
-        ``configured_rpm`` and ``calibration`` (:func:`berryshaker.harvest.calibration.calibration_table`), with
-        the figure.
+        ``harvest_response``: a :class:`~berryshaker.study.harvest_records.HarvestResponse`, ``rows`` (the
+        harvest indexes at each drive speed, rpm: replicate means and SDs), ``configured_rpm`` and ``calibration``
+        (:func:`berryshaker.harvest.calibration.calibration_table`), with the figure.
     """
     import math
 
@@ -345,7 +350,6 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
         reps = replicate_envelopes(m, o, seeds)
         if reps:
             rows.append({"speed_rpm": rpm, **replicate_response(m, reps)})
-    data = {"rows": rows, "configured_rpm": own}
     figs = []
     if len(rows) > 1:
         P.plot_harvest_response([r["speed_rpm"] for r in rows], rows, "drive-shaft speed [rpm]",
@@ -380,8 +384,10 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
         reps = replicate_envelopes(ctx.machine, cal_out, seeds)
         if len(reps) >= 2:
             fit = calibrate_harvest(ctx.machine, replicates=reps)
-    chosen = (ctx.results.get("fruit_force") or {}).get("chosen") or {}
-    data["calibration"] = calibration_table(ctx.machine, chosen.get("summary"), fit)
+    ff = ctx.results.get("fruit_force")  # a FruitForceStep, or None when that step produced no data
+    chosen = None if ff is None or ff.chosen is None else ff.chosen.summary.to_json()
+    data = HarvestResponse(rows=[HarvestSpeedRow(**r) for r in rows], configured_rpm=own,
+                           calibration=Calibration.from_json(calibration_table(ctx.machine, chosen, fit)))
     return StepResult("harvest_response", data, figs)
 
 
@@ -418,11 +424,12 @@ def step_validation(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``validation``: :func:`berryshaker.study.validation.validate`'s rows, replicates and summary.
+        ``validation``: :func:`berryshaker.study.validation.validate`'s rows, replicates and summary as a
+        :class:`~berryshaker.study.harvest_records.Validation`.
     """
     from berryshaker.study.validation import validate
 
     ctx.say("harvest model against the published record")
     res = validate(ctx.machine, ctx.runner, data=ctx.data,
                    collect=lambda fn, jobs, label: ctx.collect(fn, jobs, label, lambda j: f"seed {j['seed']}"))
-    return StepResult("validation", res)
+    return StepResult("validation", Validation.from_json(res))

@@ -10,6 +10,7 @@ import numpy as np
 
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.experiment.replicates import replicate_trend
+from berryshaker.study.life_drive_records import CamSpeed, PoweredDrive, PoweredLevel
 from berryshaker.study.life_step import step_life
 from berryshaker.study.runs import powered_row
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
@@ -27,8 +28,9 @@ def step_clearance_life(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``clearance_life``: :func:`berryshaker.study.life_step.step_life`'s result; no data (a note, and a
-        failure logged) when it fails.
+        ``clearance_life``: :func:`berryshaker.study.life_step.step_life`'s result (a
+        :class:`~berryshaker.study.life_drive_records.ClearanceLife`); no data (a note, and a failure logged) when
+        it fails.
     """
     ctx.say("clearance life (wear, fits)")
     try:
@@ -102,9 +104,9 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``powered_drive``: per level the replicate means (speed ripple %, input power W, energy per
-        revolution J, drive moment N m) with their SDs, the trends and the finding; no data when fewer than two
-        levels ran.
+        ``powered_drive``: a :class:`~berryshaker.study.life_drive_records.PoweredDrive`, per level the
+        replicate means (speed ripple %, input power W, energy per revolution J, drive moment N m) with their SDs,
+        the trends and the finding; no data when fewer than two levels ran.
     """
     from berryshaker.harvest.virtual import replicate_seeds
 
@@ -128,7 +130,7 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
         losts[str(lv)] = [sum(v for j, v in r["energy_per_revolution_J"].items() if j in pairs) for r in reps]
         d["speed_ripple_sd_percent"] = float(np.std(ripples[str(lv)], ddof=1))
         d["clearance_energy_sd_J"] = float(np.std(losts[str(lv)], ddof=1))
-        data[str(lv)] = d
+        data[str(lv)] = PoweredLevel(**{**d, "cam_speed_rpm": CamSpeed(**d["cam_speed_rpm"])})
     if len(data) < 2:
         return StepResult("powered_drive", None, note="the powered-drive runs failed (see Failed runs)")
     names = sorted(data)
@@ -141,7 +143,7 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
                text + ": at these levels the swing of the drive moment over the cam cycle, not the impacts, sets "
                "the ripple.")
     verdict += " " + _trend_text("The energy lost in the clearance joints", " J/rev", lost_tr, names) + "."
-    return StepResult("powered_drive", {"levels": data, "replicates": len(seeds), "seeds": seeds,
-                                        "ripple_grows_with_clearance": ripple_tr["grows"], "ripple_trend": ripple_tr,
-                                        "clearance_energy_per_revolution_J": lost, "energy_trend": lost_tr,
-                                        "energy_grows_with_clearance": lost_tr["grows"], "finding": verdict})
+    return StepResult("powered_drive", PoweredDrive(
+        levels=data, replicates=len(seeds), seeds=seeds, ripple_grows_with_clearance=ripple_tr["grows"],
+        ripple_trend=ripple_tr, clearance_energy_per_revolution_J=lost, energy_trend=lost_tr,
+        energy_grows_with_clearance=lost_tr["grows"], finding=verdict))

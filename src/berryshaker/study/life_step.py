@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from berryshaker.study.life_drive_records import ClearanceGrowth, ClearanceLife, RecommendedFits
 from berryshaker.study.step_result import StepResult
 
 HORIZON_H = 2000.0
@@ -29,8 +30,9 @@ def step_life(ctx):
     Returns
     -------
     StepResult
-        ``data``: ``growth[pair]`` (hours[], clearance_mm[]), ``hours_to_limit[pair]``, ``recommended``
-        (fits, cost, peak force, maintenance interval), ``front_size``, ``simulations``, ``notes``; one figure.
+        ``data``: a :class:`~berryshaker.study.life_drive_records.ClearanceLife`, ``growth[pair]`` (hours[],
+        clearance_mm[]), ``hours_to_limit[pair]``, ``recommended`` (fits, cost, peak force, maintenance interval),
+        ``front_size``, ``simulations``, ``notes``; one figure.
     """
     from berryshaker.life.service import service_limits
     from berryshaker.life.tolerance import (
@@ -53,27 +55,29 @@ def step_life(ctx):
     resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid",
                                starts=m.harvest.replicates)
     hours = np.linspace(0.0, HORIZON_H, 21)
-    growth = {j: {"hours": hours.tolist(), "clearance_mm": (resp[j].grow(sizes[j], hours) * 1e3).tolist()}
+    growth = {j: ClearanceGrowth(hours=hours.tolist(), clearance_mm=(resp[j].grow(sizes[j], hours) * 1e3).tolist())
               for j in joints}
     to_limit = {j: resp[j].hours_to(sizes[j], limits[j]) for j in joints}
     x, f = nsga2_front(joints, cands, resp, limits, pop_size=40, generations=40, seed=1)
     best = compromise_index(f)
-    rec = {"fits": {j: cands[j].fits[x[best][k]].designation for k, j in enumerate(joints)},
-           "cost": float(f[best, 0]), "peak_force_N": float(f[best, 1]), "maintenance_interval_h": float(-f[best, 2])}
-    data = {"horizon_h": HORIZON_H, "growth": growth, "hours_to_limit": to_limit,
-            "clearance_limit_mm": {j: v * 1e3 for j, v in limits.items()}, "recommended": rec,
-            "front_size": int(len(x)), "simulations": len(joints) * 3 * m.harvest.replicates,
-            "surrogate": {j: r.to_dict() for j, r in resp.items()},
-            "notes": [f"3 clearances per pair, one pair at a time, each the mean over {m.harvest.replicates} perturbed starts "
-                      "(2 revolutions each); growth integrated on the interpolated rate (no re-simulation per state)",
-                      *force_fall_notes(resp, m),
-                      "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"]}
+    rec = RecommendedFits(fits={j: cands[j].fits[x[best][k]].designation for k, j in enumerate(joints)},
+                          cost=float(f[best, 0]), peak_force_N=float(f[best, 1]),
+                          maintenance_interval_h=float(-f[best, 2]))
+    data = ClearanceLife(
+        horizon_h=HORIZON_H, growth=growth, hours_to_limit=to_limit,
+        clearance_limit_mm={j: v * 1e3 for j, v in limits.items()}, recommended=rec,
+        front_size=int(len(x)), simulations=len(joints) * 3 * m.harvest.replicates,
+        surrogate={j: r.to_dict() for j, r in resp.items()},
+        notes=[f"3 clearances per pair, one pair at a time, each the mean over {m.harvest.replicates} perturbed starts "
+               "(2 revolutions each); growth integrated on the interpolated rate (no re-simulation per state)",
+               *force_fall_notes(resp, m),
+               "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"])
     from berryshaker.report.plots.life import plot_clearance_growth
 
     figs = []
     try:
         ctx.figs.mkdir(parents=True, exist_ok=True)
-        plot_clearance_growth(growth, {j: v * 1e3 for j, v in limits.items()}, ctx.figs / "life_clearance_growth.png",
+        plot_clearance_growth({j: g.to_json() for j, g in growth.items()}, {j: v * 1e3 for j, v in limits.items()}, ctx.figs / "life_clearance_growth.png",
                               "Clearance growth by wear (coarse surrogate; dotted: limits)")
         figs.append("life_clearance_growth.png")
     except OSError:  # a folder that cannot be written: the step's numbers stand without the figure

@@ -8,6 +8,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from berryshaker.records import JsonRecord
+from berryshaker.study.fruit_force_records import FruitForceStep
+from berryshaker.study.harvest_records import HarvestResponse, Validation
+from berryshaker.study.life_drive_records import ClearanceLife, PoweredDrive
 
 
 @dataclass
@@ -51,18 +54,18 @@ class StudyResults(JsonRecord):
         Step ``model_agreement``: the reduced model against the multibody model (eq. 18; forces N).
     rows : dict
         Step ``clearance_rows``: collision forces (N) and load moments (N m) per clearance row, the model check.
-    fruit_force : dict or None
+    fruit_force : FruitForceStep or None
         Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
     l9 : dict or None
         Step ``virtual_l9``: the replicated virtual L9 and its recommendation (clearances mm, efficiency kg/min,
         rates %).
-    clearance_life : dict or None
+    clearance_life : ClearanceLife or None
         Step ``clearance_life``: clearance growth by wear (mm against h) and the recommended fits.
-    powered_drive : dict or None
+    powered_drive : PoweredDrive or None
         Step ``powered_drive``: speed ripple (%), input power (W) and energy lost per joint (J/rev).
-    harvest_response : dict or None
+    harvest_response : HarvestResponse or None
         Step ``harvest_response``: harvest indexes against drive speed (r/min) and the calibration.
-    validation : dict or None
+    validation : Validation or None
         Step ``validation``: the harvest model against the published record.
     claims : list of dict
         The claims' verdicts (:func:`berryshaker.study.claims.check_claims`).
@@ -73,11 +76,11 @@ class StudyResults(JsonRecord):
     kinematics: Any = None
     agreement: Any = None
     rows: Any = None
-    fruit_force: Any = None
+    fruit_force: FruitForceStep | None = None
     l9: Any = None
-    clearance_life: Any = None
-    powered_drive: Any = None
-    harvest_response: Any = None
-    validation: Any = None
+    clearance_life: ClearanceLife | None = None
+    powered_drive: PoweredDrive | None = None
+    harvest_response: HarvestResponse | None = None
+    validation: Validation | None = None
     claims: list = field(default_factory=list)
     failures: list = field(default_factory=list)

@@ -74,11 +74,11 @@ def write_tables(machine, res, tables: Path) -> None:
               [[p, k, c["a"][k]["mean"], c["a"][k]["se"], c["a"][k]["n"], c["b"][k]["mean"], c["b"][k]["se"],
                 c["b"][k]["n"], c["relative_difference"][k], c["noise"][k], c["tolerance"][k], c["verdicts"][k]]
                for p, c in check["pairs"].items() for k in c["tolerance"]])
-    if (res.fruit_force or {}).get("chosen"):
-        pos = res.fruit_force["chosen"]["summary"]["positions"]
+    if res.fruit_force is not None and res.fruit_force.chosen is not None:
+        pos = res.fruit_force.chosen.summary.positions
         write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
-              [[n, d["z_m"], d["peak_force_N"], *d.get("study_range_N", ["", ""]), d["eq17"]["ripe"],
-                d["eq17"]["unripe"]] for n, d in pos.items()])
+              [[n, d.z_m, d.peak_force_N, *(d.study_range_N or ["", ""]), d.eq17.ripe, d.eq17.unripe]
+               for n, d in pos.items()])
     if res.l9:
         write("l9_runs.csv",
               ["run", *[f"{p}_mm" for p in pairs], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],

@@ -1,0 +1,190 @@
+"""Typed results of the study steps ``clearance_life`` (:func:`berryshaker.study.life_step.step_life`:
+:class:`ClearanceLife`) and ``powered_drive`` (:func:`berryshaker.study.life_drive_steps.step_powered_drive`:
+:class:`PoweredDrive`, one :class:`PoweredLevel` per clearance level).  Their JSON forms are the dicts the steps
+wrote before (:mod:`berryshaker.records`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from berryshaker.records import JsonRecord
+
+
+@dataclass(frozen=True)
+class ClearanceGrowth(JsonRecord):
+    """One joint's clearance over the operating hours (wear surrogate).
+
+    Attributes
+    ----------
+    hours : list of float
+        Operating hours (h).
+    clearance_mm : list of float
+        The clearance at each (mm).
+    """
+
+    hours: list[float]
+    clearance_mm: list[float]
+
+
+@dataclass(frozen=True)
+class RecommendedFits(JsonRecord):
+    """The fits recommended by NSGA-II on the surrogate (the front's compromise).
+
+    Attributes
+    ----------
+    fits : dict of str to str
+        ISO 286 fit designation per joint (e.g. "H9/d9").
+    cost : float
+        Manufacturing cost of the fits, summed over hole and shaft of every joint (relative cost units, 1;
+        :func:`berryshaker.life.tolerance.tolerance_cost`).
+    peak_force_N : float
+        Peak collision force, the largest over the joints, each at its fit's mean clearance (N).
+    maintenance_interval_h : float
+        Hours until the first joint grows from its fit's mean clearance to its service limit (h).
+    """
+
+    fits: dict[str, str]
+    cost: float
+    peak_force_N: float
+    maintenance_interval_h: float
+
+
+@dataclass(frozen=True)
+class ClearanceLife(JsonRecord):
+    """Data of the study step ``clearance_life``: clearance growth by wear and the recommended fits.
+
+    Attributes
+    ----------
+    horizon_h : float
+        Operating hours of the growth (h).
+    growth : dict of str to ClearanceGrowth
+        Per joint its clearance over the hours (mm against h).
+    hours_to_limit : dict of str to float or None
+        Per joint the hours from the described clearance to its service limit (h; None: not reached).
+    clearance_limit_mm : dict of str to float
+        Per joint its service limit (mm).
+    recommended : RecommendedFits
+        The recommended fits.
+    front_size : int
+        Designs on the NSGA-II front.
+    simulations : int
+        Coupled runs of the surrogate's grid.
+    surrogate : dict of str to dict
+        Per joint the surrogate's grid (:meth:`berryshaker.life.clearance_response.ClearanceResponse.to_dict`:
+        clearances mm, peak forces N, growth rates um/h, starts).
+    notes : list of str
+        What the estimate rests on.
+    """
+
+    horizon_h: float
+    growth: dict[str, ClearanceGrowth]
+    hours_to_limit: dict[str, float | None]
+    clearance_limit_mm: dict[str, float]
+    recommended: RecommendedFits
+    front_size: int
+    simulations: int
+    surrogate: dict[str, dict]
+    notes: list[str]
+
+
+@dataclass(frozen=True)
+class CamSpeed(JsonRecord):
+    """The cam (drive-shaft) speed over the powered run, replicate means.
+
+    Attributes
+    ----------
+    min : float
+        Lowest speed (r/min).
+    max : float
+        Highest speed (r/min).
+    mean : float
+        Mean speed (r/min).
+    """
+
+    min: float
+    max: float
+    mean: float
+
+
+@dataclass(frozen=True)
+class PoweredLevel(JsonRecord):
+    """The powered drive at one clearance level: replicate means over perturbed starts.
+
+    Attributes
+    ----------
+    clearance_mm : dict of str to float
+        Clearance per pair (mm).
+    cam_speed_rpm : CamSpeed
+        Drive-shaft speed (r/min).
+    speed_ripple_percent : float
+        Speed ripple, (max - min) / mean (%).
+    input_power_W : float
+        Mean input power (W).
+    energy_per_revolution_J : dict of str to float
+        Energy lost per revolution by each joint and element (J/rev): the clearance pairs, the bush, belt, mesh
+        and guide friction.
+    drive_moment_Nm : dict of str to float
+        Drive moment statistics (peak, mean, rms, p95, mean_abs; N m).
+    replicates : int
+        Finished starts averaged.
+    audit_relative_residual : float
+        Largest energy-audit residual over the replicates (1).
+    speed_ripple_sd_percent : float
+        SD of the ripple over the replicates (%).
+    clearance_energy_sd_J : float
+        SD of the energy lost in the clearance joints over the replicates (J/rev).
+    """
+
+    clearance_mm: dict[str, float]
+    cam_speed_rpm: CamSpeed
+    speed_ripple_percent: float
+    input_power_W: float
+    energy_per_revolution_J: dict[str, float]
+    drive_moment_Nm: dict[str, float]
+    replicates: int
+    audit_relative_residual: float
+    speed_ripple_sd_percent: float
+    clearance_energy_sd_J: float
+
+
+@dataclass(frozen=True)
+class PoweredDrive(JsonRecord):
+    """Data of the study step ``powered_drive``: speed ripple, input power and energy lost per joint against
+    clearance.
+
+    Attributes
+    ----------
+    levels : dict of str to PoweredLevel
+        Per clearance level ("1", "2", "3") that ran its replicate means.
+    replicates : int
+        Perturbed starts planned per level.
+    seeds : list of int
+        Their seeds.
+    ripple_grows_with_clearance : bool
+        Whether the ripple rises significantly at every level step.
+    ripple_trend : dict
+        The ripple's trend (:func:`berryshaker.experiment.replicates.replicate_trend`: mean, sd %, steps, grows,
+        alpha).
+    clearance_energy_per_revolution_J : dict of str to float
+        Per level the energy lost in the clearance joints, replicate mean (J/rev).
+    energy_trend : dict
+        That energy's trend (:func:`berryshaker.experiment.replicates.replicate_trend`; J/rev).
+    energy_grows_with_clearance : bool
+        Whether that energy rises significantly at every level step.
+    finding : str
+        The finding, as the report states it.
+    """
+
+    levels: dict[str, PoweredLevel]
+    replicates: int
+    seeds: list[int]
+    ripple_grows_with_clearance: bool
+    ripple_trend: dict
+    clearance_energy_per_revolution_J: dict[str, float]
+    energy_trend: dict
+    energy_grows_with_clearance: bool
+    finding: str
+
+
+__all__ = ["ClearanceGrowth", "RecommendedFits", "ClearanceLife", "CamSpeed", "PoweredLevel", "PoweredDrive"]
