@@ -27,11 +27,31 @@ SECTIONS = Path(__file__).parents[1] / "data" / "report_sections.json"
 
 
 def _row(r: int) -> dict:
+    """A multibody row's summary (the JSON form of ``berryshaker.study.mechanics_records.MultibodyRow``)."""
     rng = np.random.default_rng(r)
-    return {"clearance_mm": {p: round(0.1 * ((r + i) % 4), 2) for i, p in enumerate(PAIRS)},
-            "collision_force_N": {p: {"peak": float(1000 + 400 * rng.random()), "mean": float(200 * rng.random())}
+
+    def force(peak, mean):
+        return {"peak": peak, "mean": mean, "rms": 1.2 * mean, "p95": 0.9 * peak}
+
+    return {"model": "multibody", "drive": "groove_cam",
+            "clearance_mm": {p: round(0.1 * ((r + i) % 4), 2) for i, p in enumerate(PAIRS)},
+            "collision_force_N": {p: force(float(1000 + 400 * rng.random()), float(200 * rng.random()))
                                   for p in PAIRS},
-            "load_moment_Nm": {s: {"peak": 80.0 + r, "rms": 45.0 - r / 10} for s in ("left", "right")}}
+            "pair_state": {p: "clearance" for p in PAIRS},
+            "load_moment_Nm": {s: force(80.0 + r, 40.0) | {"rms": 45.0 - r / 10} for s in ("left", "right")},
+            "drive_moment_Nm": {**force(45.0, 11.4), "mean_abs": 11.5}, "load_model": "aggregate (no plant in this run)",
+            "steps": 7500, "rejected_steps": 0, "contact_onsets": {p: 0 for p in PAIRS}, "contact_onsets_located": 0,
+            "event_cuts": 0, "wall_time_s": 0.2, "revolutions": 3, "statistics_over": "revolutions 2..3"}
+
+
+def _agreement_pair() -> dict:
+    """One pair of the model-agreement step (the JSON form of ``berryshaker.study.mechanics_records.PairAgreement``)."""
+    st = {"mean": 600.0, "rms": 1100.0, "p95": 1800.0, "impulse_per_revolution": 300.0}
+    return {"f_statistic": 1.1, "f_critical": 3.18, "alpha": 0.05, "points": 10, "eq18_agree": True, "agree": True,
+            "statistics": {"a": st, "b": st, "relative_difference": {k: 0.0 for k in st}, "tolerance": dict(st),
+                           "agree": True},
+            "nrmse": 0.2, "correlation": 0.9, "peak_ratio": 1.1, "mean_ratio": 1.0,
+            "peak_N": {"multibody": 11000.0, "reduced": 10000.0}}
 
 
 def _claims(verdicts) -> list[dict]:
@@ -53,12 +73,14 @@ def report(tmp_path_factory):
               ["none", "0.25 mm", "0.5 mm", "0.75 mm"], "collision force at joint A [N]",
               figs / "fig18_rows_A.png", "Clearance A alone", pair="A", reference_index=0)
     res = {
-        "kinematics": {"combs": {s: {"swing_deg": {"min": -5.0, "max": 5.0}} for s in ("left", "right")},
-                       "linkage": {"transmission_angle_deg": {"min": 40.0, "max": 120.0}},
-                       "drive": {"comb_frequency_hz": 4.0}},
-        "agreement": {"pairs": {p: {"f_statistic": 1.1, "f_critical": 3.18, "agree": True, "nrmse": 0.2,
-                                    "correlation": 0.9, "peak_ratio": 1.1} for p in PAIRS}},
-        "rows": {"multibody": {str(r): _row(r) for r in range(1, 17)}, "mlsd": {}},
+        "kinematics": {"combs": {s: {"swing_deg": {"min": -5.0, "max": 5.0}, "max_tip_speed_m_s": 2.0,
+                                     "max_tip_acceleration_m_s2": 40.0, "mid_stroke_angle_deg": 90.0}
+                                 for s in ("left", "right")},
+                       "linkage": {"transmission_angle_deg": {"min": 40.0, "max": 120.0}, "shaft_D_mm": [0.0, 0.0],
+                                   "shaft_E_mm": [300.0, 0.0]},
+                       "drive": {"cam_speed_rpm": 240.0, "comb_frequency_hz": 4.0}},
+        "agreement": {"clearance_mm": {p: 0.25 for p in PAIRS}, "pairs": {p: _agreement_pair() for p in PAIRS}},
+        "rows": {"multibody": {str(r): _row(r) for r in range(1, 17)}, "mlsd": {}, "starts": {}},
         "fruit_force": None, **json.loads(SECTIONS.read_text(encoding="utf-8")),
         "claims": _claims(["reproduced", "reproduced", "partly reproduced", "not reproduced", "reproduced",
                            "reproduced", "partly reproduced", "not comparable"]),

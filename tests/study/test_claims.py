@@ -5,12 +5,41 @@ import numpy as np
 
 from berryshaker.experiment.agreement import ensemble_agreement, judged_difference, summary_statistics_agreement
 from berryshaker.study import claims as C
+from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 from berryshaker.study.step_result import StudyResults
 
 
 def _pair(agree=True):
-    return {"agree": agree, "eq18_agree": True, "f_statistic": 1.0, "f_critical": 3.2, "nrmse": 0.05,
-            "peak_ratio": 1.0}
+    same = {"mean": 500.0, "rms": 1000.0, "p95": 3000.0, "impulse_per_revolution": 250.0}
+    zero = {k: 0.0 for k in same}
+    return {"f_statistic": 1.0, "f_critical": 3.2, "alpha": 0.05, "points": 10, "eq18_agree": True, "agree": agree,
+            "statistics": {"a": same, "b": same, "relative_difference": zero, "tolerance": dict(same), "agree": agree},
+            "nrmse": 0.05, "correlation": 0.9, "peak_ratio": 1.0, "mean_ratio": 1.0,
+            "peak_N": {"multibody": 9000.0, "reduced": 9000.0}}
+
+
+def _results(agreement=None, rows=None):
+    """The claims' input from the steps' JSON forms (``agreement``: its ``pairs``; ``rows``: any of its keys)."""
+    return StudyResults(
+        agreement=None if agreement is None else ModelAgreement.from_json({"clearance_mm": {p: 0.25 for p in "ABCF"},
+                                                                           **agreement}),
+        rows=ClearanceRows.from_json({"multibody": {}, "mlsd": {}, "starts": {}, **(rows or {})}))
+
+
+def _force(peak: float) -> dict:
+    return {"peak": peak, "mean": peak / 2, "rms": peak / 1.5, "p95": 0.9 * peak}
+
+
+def _multibody_row(load_moment: dict) -> dict:
+    """A multibody row's summary (as :func:`berryshaker.study.runs.multibody_row` gives it) with these moments."""
+    pairs = "ABCF"
+    return {"model": "multibody", "drive": "groove_cam", "clearance_mm": {p: 0.0 for p in pairs},
+            "collision_force_N": {p: _force(1000.0) for p in pairs},
+            "pair_state": {p: "ideal joint (reaction force)" for p in pairs},
+            "load_moment_Nm": {s: _force(v["rms"] * 1.7) | {"rms": v["rms"]} for s, v in load_moment.items()},
+            "drive_moment_Nm": {**_force(45.0), "mean_abs": 11.5}, "load_model": "aggregate (no plant in this run)",
+            "steps": 7500, "rejected_steps": 0, "contact_onsets": {p: 0 for p in pairs}, "contact_onsets_located": 0,
+            "event_cuts": 0, "wall_time_s": 0.2, "revolutions": 3, "statistics_over": "revolutions 2..3"}
 
 
 def _runs(scale, spread, n=8):
@@ -20,7 +49,7 @@ def _runs(scale, spread, n=8):
 
 
 def _check(scale_c=1.0, spread=0.01):
-    return {"level": 2, "starts": {"multibody": 8, "reduced": 8},
+    return {"level": 2, "starts": {"multibody": 8, "reduced": 8}, "planned": {"multibody": 8, "reduced": 8},
             "pairs": {p: ensemble_agreement(_runs(scale_c if p == "C" else 1.0, spread), _runs(1.0, spread))
                       for p in "ABCF"}}
 
@@ -80,25 +109,25 @@ def test_ensemble_agreement_judges_means_with_their_standard_errors():
 
 def test_claim1_is_partly_when_only_the_model_check_level_agrees():
     res = {"agreement": {"pairs": {p: _pair() for p in "ABCF"}}, "rows": _rows(True)}
-    assert C._claim1(StudyResults(**res))[0] == "reproduced"
+    assert C._claim1(_results(**res))[0] == "reproduced"
     res["rows"] = _rows(False)
-    verdict, detail = C._claim1(StudyResults(**res))
+    verdict, detail = C._claim1(_results(**res))
     assert verdict == "partly reproduced" and "8 of 12 row-pairs agree" in detail and "differ: 2A" in detail
     # the centred run's own verdict does not decide the claim (one draw of a chaotic sequence)
     res["agreement"]["pairs"]["C"] = _pair(False)
-    assert C._claim1(StudyResults(**res))[0] == "partly reproduced"
+    assert C._claim1(_results(**res))[0] == "partly reproduced"
     res["rows"]["model_check"] = _check(scale_c=1.3)
-    assert C._claim1(StudyResults(**res))[0] == "not reproduced"
+    assert C._claim1(_results(**res))[0] == "not reproduced"
 
 
 def test_claim1_says_undecided_where_the_noise_decides():
     res = {"agreement": {"pairs": {p: _pair() for p in "ABCF"}}, "rows": _rows(True)}
     res["rows"]["model_check"] = _check(scale_c=1.12, spread=0.3)
-    verdict, detail = C._claim1(StudyResults(**res))
+    verdict, detail = C._claim1(_results(**res))
     assert verdict == "undecided" and "C within noise" in detail
     # rows within single-run noise: not evidence of agreement
     res["rows"] = _rows(True, noise={"mean": 0.0, "rms": 0.0, "p95": 0.25})
-    verdict, detail = C._claim1(StudyResults(**res))
+    verdict, detail = C._claim1(_results(**res))
     assert verdict == "partly reproduced" and "within noise: 1A" in detail
 
 
@@ -137,10 +166,10 @@ def test_claim8_states_the_p_value_its_verdict_rests_on():
 
 def test_claim1_needs_no_centred_run_and_says_when_starts_failed():
     res = {"agreement": None, "rows": _rows(True)}
-    verdict, detail = C._claim1(StudyResults(**res))
+    verdict, detail = C._claim1(_results(**res))
     assert verdict == "reproduced" and "eq. 18 (centred runs): not run" in detail
     res["rows"]["model_check"]["planned"] = {"multibody": 10, "reduced": 8}
-    assert "of 10 / 8 planned" in C._claim1(StudyResults(**res))[1]
+    assert "of 10 / 8 planned" in C._claim1(_results(**res))[1]
 
 
 def test_model_check_refuses_replicates_that_would_be_copies():
@@ -173,9 +202,11 @@ def test_trend_claims_count_only_steps_beyond_the_noise():
         st = {}
         for k, p in enumerate("ABCF"):
             for i, r in enumerate([1] + [2 + 3 * k + j for j in range(3)]):
-                st.setdefault(str(r), {"pairs": {}, "starts": 8})["pairs"][p] = {
-                    "peak": {"mean": float(np.mean(series[i])), "values": series[i]}}
-        return StudyResults(rows={"starts": st})
+                v = [float(x) for x in series[i]]
+                stat = {"mean": float(np.mean(v)), "sd": float(np.std(v, ddof=1)), "se": 0.0, "p95": max(v),
+                        "values": v}
+                st.setdefault(str(r), {"pairs": {}, "starts": 8})["pairs"][p] = {"peak": stat, "mean": stat}
+        return _results(rows={"starts": st})
 
     assert _claim3(rows_for(up))[0] == "reproduced"
     verdict, detail = _claim3(rows_for(flat))
@@ -186,5 +217,5 @@ def test_a_claim_that_holds_by_construction_is_not_tested():
     from berryshaker.study.claims import _claim4
 
     lm = {"left": {"rms": 16.0}, "right": {"rms": 15.0}}
-    res = {"rows": {"multibody": {str(r): {"load_moment_Nm": lm} for r in (1, 14, 15, 16)}}}
-    assert _claim4(StudyResults(**res))[0] == "not tested"
+    res = {"rows": {"multibody": {str(r): _multibody_row(lm) for r in (1, 14, 15, 16)}}}
+    assert _claim4(_results(**res))[0] == "not tested"

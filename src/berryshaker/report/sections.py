@@ -126,7 +126,8 @@ def kinematics_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``kinematics``: lengths in mm, angles in deg, speeds m/s, frequency Hz), machine, figures.
+        Results (``kinematics``: a ``berryshaker.drives.kinematics_record.KinematicsSummary``, read by attribute;
+        lengths in mm, angles in deg, speeds m/s, frequency Hz), machine, figures.
 
     Returns
     -------
@@ -136,22 +137,22 @@ def kinematics_section(inp: SectionInput) -> tuple[str, list[str]]:
     k, figs = inp.res.kinematics, inp.figs
     parts = []
     krows = []
-    if "cam" in k:
-        c = k["cam"]
+    if k.cam is not None:
+        c = k.cam
         krows += [
-            ["stroke", f"{c['stroke_mm']:.2f} mm"], ["max push-rod velocity", f"{c['max_velocity_m_s']:.4f} m/s"],
-            ["max acceleration", f"{c['max_acceleration_m_s2']:.3f} m/s²"], ["max jerk", f"{c['max_jerk_m_s3']:.1f} m/s³"],
-            ["pressure angle", f"{c['pressure_angle_deg']['min']:.2f} .. {c['pressure_angle_deg']['max']:.2f} deg"],
+            ["stroke", f"{c.stroke_mm:.2f} mm"], ["max push-rod velocity", f"{c.max_velocity_m_s:.4f} m/s"],
+            ["max acceleration", f"{c.max_acceleration_m_s2:.3f} m/s²"], ["max jerk", f"{c.max_jerk_m_s3:.1f} m/s³"],
+            ["pressure angle", f"{c.pressure_angle_deg.min:.2f} .. {c.pressure_angle_deg.max:.2f} deg"],
             ["min pitch radius of curvature",
-             f"{c['min_radius_of_curvature_mm']:.2f} mm (roller {c['roller_radius_mm']:.1f} mm)"]]
-    for key, val in (k.get("drive_specific") or {}).items():
+             f"{c.min_radius_of_curvature_mm:.2f} mm (roller {c.roller_radius_mm:.1f} mm)"]]
+    for key, val in (k.drive_specific or {}).items():
         krows.append([key.replace("_", " "), str(val)])
+    left, right, ta = k.combs["left"].swing_deg, k.combs["right"].swing_deg, k.linkage.transmission_angle_deg
     parts.append(_table(["quantity", "value"], krows + [
-        ["left comb swing", f"{k['combs']['left']['swing_deg']['min']:.2f} .. {k['combs']['left']['swing_deg']['max']:.2f} deg"],
-        ["right comb swing", f"{k['combs']['right']['swing_deg']['min']:.2f} .. {k['combs']['right']['swing_deg']['max']:.2f} deg"],
-        ["transmission angle", f"{k['linkage']['transmission_angle_deg']['min']:.2f} .. "
-                               f"{k['linkage']['transmission_angle_deg']['max']:.2f} deg"],
-        ["comb frequency", f"{k['drive']['comb_frequency_hz']:.3f} Hz"]]))
+        ["left comb swing", f"{left.min:.2f} .. {left.max:.2f} deg"],
+        ["right comb swing", f"{right.min:.2f} .. {right.max:.2f} deg"],
+        ["transmission angle", f"{ta.min:.2f} .. {ta.max:.2f} deg"],
+        ["comb frequency", f"{k.drive.comb_frequency_hz:.3f} Hz"]]))
     for name, cap in (("svaj.png", "Push-rod displacement, velocity, acceleration, jerk (3-4-5 law, corrected return)"),
                       ("groove_profile.png", "Groove cam: pitch curve and walls offset along its normal (corrected eq. 2)"),
                       ("comb_angles.png", "Comb swings, tip speeds and transmission angle (eq. 3)")):
@@ -167,7 +168,8 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``agreement``; ``rows``' ``model_check`` and ``agreement``: forces in N), machine, figures.
+        Results (``agreement``: a ``berryshaker.study.mechanics_records.ModelAgreement``; ``rows``' ``model_check``
+        and ``agreement`` of a ``ClearanceRows``; read by attribute, forces in N), machine, figures.
 
     Returns
     -------
@@ -177,33 +179,33 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
     res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
     parts = []
     if res.agreement:
-        ag = res.agreement["pairs"]
+        ag = res.agreement.pairs
         parts.append("<p>One run of each model from the centred start (the curves of Figs. 14-17): the study's eq. 18 "
                      "and plainer measures of the two curves; 'statistics agree' judges this one draw of a chaotic "
                      "impact sequence.  Claim 1 rests on the means over perturbed starts below.</p>")
         parts.append(_table(["pair", "F (eq. 18)", "F critical (5 %)", "statistics agree (this run)", "NRMSE",
                              "correlation", "peak ratio"],
-                            [[p, ag[p]["f_statistic"], ag[p]["f_critical"], ag[p]["agree"], ag[p]["nrmse"],
-                              ag[p]["correlation"], ag[p]["peak_ratio"]] for p in PAIR_NAMES]))
+                            [[p, ag[p].f_statistic, ag[p].f_critical, ag[p].agree, ag[p].nrmse,
+                              ag[p].correlation, ag[p].peak_ratio] for p in PAIR_NAMES]))
         parts.append("<p class='small'>Study: F = " + ", ".join(f"{EQ18_F[p][0]}" for p in EQ18_F) + " against "
                      + ", ".join(f"{EQ18_F[p][1]}" for p in EQ18_F) + ".</p>")
         for i, p in enumerate(PAIR_NAMES):
             _maybe_img(parts, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
-    check = (res.rows or {}).get("model_check")
+    check = res.rows.model_check if res.rows is not None else None
     if check:
-        st = check["starts"]
-        parts.append(f"<p>The model check (claim 1): level {check['level']}, each statistic's mean over "
-                     f"{st['multibody']} perturbed starts of the multibody model and {st['reduced']} turned starts of "
+        st = check.starts
+        parts.append(f"<p>The model check (claim 1): level {check.level}, each statistic's mean over "
+                     f"{st.multibody} perturbed starts of the multibody model and {st.reduced} turned starts of "
                      "the MLSD (+- one standard error), their relative difference +- its noise (95 % Student-t band) "
                      "and the tolerance.  'within noise': the tolerance lies inside the noise band, so these runs "
                      "cannot tell.</p>")
         parts.append(_table(["pair", "statistic", "multibody (N)", "MLSD (N)", "difference", "tolerance", "verdict"],
-                            [[p, k, f"{c['a'][k]['mean']:.0f} +- {c['a'][k]['se']:.0f}",
-                              f"{c['b'][k]['mean']:.0f} +- {c['b'][k]['se']:.0f}",
-                              f"{100 * c['relative_difference'][k]:.1f} +- {100 * c['noise'][k]:.1f} %",
-                              f"{100 * c['tolerance'][k]:.0f} %", c["verdicts"][k]]
-                             for p, c in check["pairs"].items() for k in c["tolerance"]], left=(0, 1, 6)))
-    row_ag = (res.rows or {}).get("agreement") or {}
+                            [[p, k, f"{c.a[k].mean:.0f} +- {c.a[k].se:.0f}",
+                              f"{c.b[k].mean:.0f} +- {c.b[k].se:.0f}",
+                              f"{100 * c.relative_difference[k]:.1f} +- {100 * c.noise[k]:.1f} %",
+                              f"{100 * c.tolerance[k]:.0f} %", c.verdicts[k]]
+                             for p, c in check.pairs.items() for k in c.tolerance], left=(0, 1, 6)))
+    row_ag = (res.rows.agreement if res.rows is not None else None) or {}
     if row_ag:
         parts.append("<p>Agreement on every clearance row (mean, RMS, p95 of each pair's force within 10 / 15 / 20 %, "
                      "one run per model and row, each difference beyond the noise of single runs measured at the model "
@@ -212,10 +214,10 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
                      "model's ideal-joint reaction with the MLSD's stiff link, which rings (docs/mlsd.md).</p>")
 
         def cell(c):
-            verdict = c.get("verdict", "agree" if c["agree"] else "differ")
+            verdict = c.verdict
             if verdict == "agree":
                 return "yes"
-            worst = f"{c['worst']} {100 * c['relative_difference'][c['worst']]:.0f} %"
+            worst = f"{c.worst} {100 * c.relative_difference[c.worst]:.0f} %"
             return f"differs: {worst}" if verdict == "differ" else f"within noise: {worst}"
 
         parts.append(_table(["row"] + list(PAIR_NAMES),
@@ -231,7 +233,8 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``rows``: clearances in mm, forces in N), machine, figures.
+        Results (``rows``: a ``berryshaker.study.mechanics_records.ClearanceRows``, read by attribute; clearances
+        in mm, forces in N), machine, figures.
 
     Returns
     -------
@@ -240,14 +243,14 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
     last = _rows_last(inp)
-    mb = res.rows["multibody"]
+    mb = res.rows.multibody
     rows = []
     for r in range(1, last + 1):
         if str(r) not in mb:
             continue
         s = mb[str(r)]
-        rows.append([r, *[s["clearance_mm"][p] for p in PAIR_NAMES], *[s["collision_force_N"][p]["peak"] for p in PAIR_NAMES],
-                     *[s["collision_force_N"][p]["mean"] for p in PAIR_NAMES]])
+        rows.append([r, *[s.clearance_mm[p] for p in PAIR_NAMES], *[s.collision_force_N[p].peak for p in PAIR_NAMES],
+                     *[s.collision_force_N[p].mean for p in PAIR_NAMES]])
     parts = [_table(["row", *[f"{p} mm" for p in PAIR_NAMES], *[f"peak {p} (N)" for p in PAIR_NAMES],
                      *[f"mean {p} (N)" for p in PAIR_NAMES]], rows)]
     for i, p in enumerate(PAIR_NAMES):
@@ -261,7 +264,8 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``rows``: moments in N m), machine, figures.
+        Results (``rows``: a ``berryshaker.study.mechanics_records.ClearanceRows``, read by attribute; moments in
+        N m), machine, figures.
 
     Returns
     -------
@@ -270,15 +274,15 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     last = _rows_last(inp)
     lv = (last - 2, last - 1, last)
-    mb = inp.res.rows["multibody"]
+    mb = inp.res.rows.multibody
     parts = ["<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model (a "
              "spring-damper about each comb shaft, 200 N m/rad [assumed]); peak and rms are per comb, about its "
              "shaft.  It loads the combs about 40 times more than the explicit bush of branches in "
              f"{inp.ref(harvest_response_section, 'the harvest-response section')} "
              "(there about 16 N m peak, 1 N m rms; here about 81 N m peak, 48 N m rms; docs/plant.md).</p>"]
     parts.append(_table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
-                        [[r, mb[str(r)]["load_moment_Nm"]["left"]["peak"], mb[str(r)]["load_moment_Nm"]["left"]["rms"],
-                          mb[str(r)]["load_moment_Nm"]["right"]["peak"], mb[str(r)]["load_moment_Nm"]["right"]["rms"]]
+                        [[r, mb[str(r)].load_moment_Nm["left"].peak, mb[str(r)].load_moment_Nm["left"].rms,
+                          mb[str(r)].load_moment_Nm["right"].peak, mb[str(r)].load_moment_Nm["right"].rms]
                          for r in (1, *lv) if str(r) in mb]))
     for i, side in enumerate(("left", "right")):
         _maybe_img(parts, inp.figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")

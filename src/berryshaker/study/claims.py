@@ -86,16 +86,15 @@ def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
 
 
 def _claim1(res):
-    ag = (res.agreement or {}).get("pairs")  # one run from the centred start: eq. 18, the curve measures
-    check = res.rows["model_check"]
+    ag = res.agreement.pairs if res.agreement is not None else None  # one run from the centred start: eq. 18
+    check = res.rows.model_check
     if check is None:
         raise KeyError("the model-check level's perturbed starts")
-    v2 = {p: check["pairs"][p]["verdict"] for p in PAIRS}
+    v2 = {p: check.pairs[p].verdict for p in PAIRS}
     level = "differ" if "differ" in v2.values() else "agree" if all(v == "agree" for v in v2.values()) else "noise"
-    eq18 = ag is not None and all(ag[p].get("eq18_agree", ag[p]["agree"]) for p in PAIRS)
-    rows = (res.rows or {}).get("agreement") or {}
-    cells = [(r, p, c.get("verdict", "agree" if c["agree"] else "differ")) for r, per in rows.items()
-             for p, c in per.items() if p in PAIRS]
+    eq18 = ag is not None and all(ag[p].eq18_agree for p in PAIRS)
+    rows = res.rows.agreement or {}
+    cells = [(r, p, c.verdict) for r, per in rows.items() for p, c in per.items() if p in PAIRS]
     differ = [f"{r}{p}" for r, p, v in cells if v == "differ"]
     noisy = [f"{r}{p}" for r, p, v in cells if v == "within noise"]
     if level == "differ":
@@ -106,26 +105,26 @@ def _claim1(res):
         verdict = "reproduced" if cells and not differ and not noisy else "partly reproduced"
 
     def pair_text(p):
-        c = check["pairs"][p]
-        k = max(c["tolerance"], key=lambda s: (c["relative_difference"][s] + c["noise"][s]) / c["tolerance"][s])
-        return (f"{p} {v2[p]} (closest: {k} {c['a'][k]['mean']:.0f} +- {c['a'][k]['se']:.0f} vs "
-                f"{c['b'][k]['mean']:.0f} +- {c['b'][k]['se']:.0f} N, {100 * c['relative_difference'][k]:.1f} +- "
-                f"{100 * c['noise'][k]:.1f} % against {100 * c['tolerance'][k]:.0f} %)")
+        c = check.pairs[p]
+        k = max(c.tolerance, key=lambda s: (c.relative_difference[s] + c.noise[s]) / c.tolerance[s])
+        return (f"{p} {v2[p]} (closest: {k} {c.a[k].mean:.0f} +- {c.a[k].se:.0f} vs "
+                f"{c.b[k].mean:.0f} +- {c.b[k].se:.0f} N, {100 * c.relative_difference[k]:.1f} +- "
+                f"{100 * c.noise[k]:.1f} % against {100 * c.tolerance[k]:.0f} %)")
 
     def listed(names):
         return f"{', '.join(names[:24])}{' ...' if len(names) > 24 else ''}"
 
-    starts, planned = check["starts"], check.get("planned", check["starts"])
-    short = "" if starts == planned else (f" (of {planned['multibody']} / {planned['reduced']} planned: the rest "
+    starts, planned = check.starts, check.planned
+    short = "" if starts == planned else (f" (of {planned.multibody} / {planned.reduced} planned: the rest "
                                           "failed, see Failed runs)")
     curves = ("eq. 18 (centred runs): not run" if ag is None else
               f"eq. 18 (centred run) agrees: {'yes' if eq18 else 'no'}; "
-              + "; ".join(f"{p}: F = {ag[p]['f_statistic']:.3f} vs F_crit {ag[p]['f_critical']:.3f} (study "
-                          f"{EQ18_F[p][0]} vs {EQ18_F[p][1]}), NRMSE {ag[p]['nrmse']:.3f}, peak ratio "
-                          f"{ag[p]['peak_ratio']:.2f}" for p in PAIRS))
+              + "; ".join(f"{p}: F = {ag[p].f_statistic:.3f} vs F_crit {ag[p].f_critical:.3f} (study "
+                          f"{EQ18_F[p][0]} vs {EQ18_F[p][1]}), NRMSE {ag[p].nrmse:.3f}, peak ratio "
+                          f"{ag[p].peak_ratio:.2f}" for p in PAIRS))
     return (verdict,
-            f"level {check['level']}, means over {starts['multibody']} perturbed multibody starts and "
-            f"{starts['reduced']} turned MLSD starts{short}: " + "; ".join(pair_text(p) for p in PAIRS)
+            f"level {check.level}, means over {starts.multibody} perturbed multibody starts and "
+            f"{starts.reduced} turned MLSD starts{short}: " + "; ".join(pair_text(p) for p in PAIRS)
             + f".  Rows (one run each): {len(cells) - len(differ) - len(noisy)} of {len(cells)} row-pairs agree "
             f"beyond single-run noise"
             + (f", differ: {listed(differ)}" if differ else "")
@@ -212,45 +211,45 @@ def _combine(verdicts: list[str]) -> str:
 
 
 def _claim2(res):
-    st = res.rows["starts"]
+    st = res.rows.starts
     verdicts, det = [], []
     for row in (14, 15, 16):
-        per = st[str(row)]["pairs"]
-        steps = paired_steps([per[p]["peak"]["values"] for p in PAIRS])
+        per = st[str(row)].pairs
+        steps = paired_steps([per[p].peak.values for p in PAIRS])
         verdicts.append(_trend_verdict(steps, "down"))
-        det.append(f"row {row}: mean peaks " + " / ".join(f"{p} {per[p]['peak']['mean']:.0f}" for p in PAIRS)
+        det.append(f"row {row}: mean peaks " + " / ".join(f"{p} {per[p].peak.mean:.0f}" for p in PAIRS)
                    + f" N, steps {_steps_text(steps, 'N')}")
-    n = st["14"]["starts"]
+    n = st["14"].starts
     return (_combine(verdicts), f"mean over {n} perturbed starts of each run's peak, steps A->B->C->F judged by the "
             "paired t test (p < 0.05; the pairs of one run share its start): " + "; ".join(det))
 
 
 def _claim3(res):
-    st = res.rows["starts"]
+    st = res.rows.starts
     verdicts, det3 = [], []
     for k, p in enumerate(PAIRS):
         rows = [1] + [2 + 3 * k + j for j in range(3)]
-        vals = [st[str(r)]["pairs"][p]["peak"]["values"] for r in rows]
+        vals = [st[str(r)].pairs[p].peak.values for r in rows]
         steps = paired_steps(vals)
         verdicts.append(_trend_verdict(steps, "up"))
-        det3.append(f"{p}: " + " -> ".join(f"{st[str(r)]['pairs'][p]['peak']['mean']:.0f}" for r in rows)
+        det3.append(f"{p}: " + " -> ".join(f"{st[str(r)].pairs[p].peak.mean:.0f}" for r in rows)
                     + f" N (steps {_steps_text(steps, 'N')})")
-    n = st["1"]["starts"]
+    n = st["1"].starts
     return (_combine(verdicts), f"mean over {n} perturbed starts (the same starts in every row) of each run's peak "
             "force, no clearance then levels 1-3 (rows 1-13), each step judged by the paired t test (p < 0.05): "
             + "; ".join(det3))
 
 
 def _claim4(res):
-    mb = res.rows["multibody"]
-    lm = {r: mb[str(r)]["load_moment_Nm"] for r in (1, 14, 15, 16)}
-    left_gt = all(lm[r]["left"]["rms"] > lm[r]["right"]["rms"] for r in lm)
-    largest0 = all(lm[1][s]["rms"] >= lm[r][s]["rms"] for r in (14, 15, 16) for s in ("left", "right"))
-    falls = all(lm[a][s]["rms"] >= lm[b][s]["rms"] for a, b in ((14, 15), (15, 16)) for s in ("left", "right"))
+    mb = res.rows.multibody
+    lm = {r: mb[str(r)].load_moment_Nm for r in (1, 14, 15, 16)}
+    left_gt = all(lm[r]["left"].rms > lm[r]["right"].rms for r in lm)
+    largest0 = all(lm[1][s].rms >= lm[r][s].rms for r in (14, 15, 16) for s in ("left", "right"))
+    falls = all(lm[a][s].rms >= lm[b][s].rms for a, b in ((14, 15), (15, 16)) for s in ("left", "right"))
     return ("not tested",
             "holds by construction: the aggregate bush load moment is a function of the combs' motion alone, with the "
             "comb arms assumed, so the model cannot contradict it (clearance changes it by well under 1 %); rms "
-            "left/right (N m): " + "; ".join(f"row {r}: {lm[r]['left']['rms']:.2f} / {lm[r]['right']['rms']:.2f}"
+            "left/right (N m): " + "; ".join(f"row {r}: {lm[r]['left'].rms:.2f} / {lm[r]['right'].rms:.2f}"
                                              for r in lm)
             + f"; left > right: {left_gt}, largest without clearance: {largest0}, falls with clearance: {falls}")
 

@@ -2,7 +2,9 @@
 multibody model at the model-check level (:func:`step_agreement`), and every clearance row in both models with
 perturbed starts and the model check (:func:`plan_rows`, :func:`step_rows`, :func:`row_start_statistics`), with
 their figures.  Steps of :data:`berryshaker.study.pipeline.STEPS`; their run functions are in
-:mod:`berryshaker.study.runs`.
+:mod:`berryshaker.study.runs`.  Their data are typed records: the drives'
+:class:`~berryshaker.drives.kinematics_record.KinematicsSummary`, and :class:`ModelAgreement` and
+:class:`ClearanceRows` (:mod:`berryshaker.study.mechanics_records`).
 """
 
 from __future__ import annotations
@@ -11,9 +13,20 @@ from pathlib import Path
 
 import numpy as np
 
+from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_rows
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
+from berryshaker.study.mechanics_records import (
+    ClearanceRows,
+    ModelAgreement,
+    ModelCheck,
+    MultibodyRow,
+    PairAgreement,
+    ReducedRow,
+    RowAgreement,
+    RowStarts,
+)
 from berryshaker.study.runs import model_check_jobs, multibody_row, reduced_row
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
 from berryshaker.study.step_result import StepResult
@@ -30,13 +43,14 @@ def step_kinematics(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``kinematics``: the drive's kinematics summary (units in the key names) and its figures.
+        ``kinematics``: the drive's kinematics summary (:class:`KinematicsSummary`; units in the field names) and
+        its figures.
     """
     from berryshaker.report import plots as P
 
     ctx.say("kinematics")
     kin = ctx.drive.check(ctx.machine)
-    data = ctx.drive.kinematics_summary(ctx.machine, kin)
+    data = KinematicsSummary.from_json(ctx.drive.kinematics_summary(ctx.machine, kin))
     figs = P.write_kinematics_figures(ctx.machine, kin, ctx.figs) or []
     return StepResult("kinematics", data, list(figs))
 
@@ -52,8 +66,8 @@ def step_agreement(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``agreement``: the model-check level's clearances (mm) and the per-pair agreement statistics, with
-        one figure per pair; no data (a note) when the drive has no reduced model.
+        ``agreement``: a :class:`ModelAgreement`, the model-check level's clearances (mm) and the per-pair
+        agreement statistics, with one figure per pair; no data (a note) when the drive has no reduced model.
     """
     from berryshaker.experiment.agreement import model_agreement
     from berryshaker.report import plots as P
@@ -73,8 +87,9 @@ def step_agreement(ctx: StudyContext) -> StepResult:
                            f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})",
                            zoom="peak")
         figs.append(name)
-    return StepResult("agreement", {"clearance_mm": {p: v * 1e3 for p, v in lvl.items()}, "pairs": ag["pairs"]},
-                      figs)
+    data = ModelAgreement(clearance_mm={p: v * 1e3 for p, v in lvl.items()},
+                          pairs={p: PairAgreement.from_json(v) for p, v in ag["pairs"].items()})
+    return StepResult("agreement", data, figs)
 
 
 #: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
@@ -132,7 +147,7 @@ def _row_start_jobs(ctx: StudyContext, jobs: list[dict]) -> list[dict]:
     return [dict(j, seed=[sd, 0]) for j in jobs for sd in replicate_seeds(ctx.machine)]
 
 
-def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -> dict:
+def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -> dict[str, RowStarts]:
     """Per row and pair, the statistics of the per-start collision-force peaks and means over perturbed starts.
 
     ``summaries``: :func:`multibody_row` outputs, row-major (``starts`` per row; a failed run None).  Per row and
@@ -153,7 +168,7 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
 
     Returns
     -------
-    dict
+    dict of str to RowStarts
         Row (as text) -> ``pairs`` (the statistics above, N) and ``starts``; rows with fewer than two finished
         starts are left out.
     """
@@ -172,7 +187,7 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
                            "p95": float(np.percentile(v, 95)),
                            "values": [None if x is None else float(x["collision_force_N"][p][key]) for x in chunk]}
             per[p] = st
-        out[str(r)] = {"pairs": per, "starts": len(ss)}
+        out[str(r)] = RowStarts.from_json({"pairs": per, "starts": len(ss)})
     return out
 
 
@@ -187,8 +202,9 @@ def step_rows(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``rows``: per row the multibody and reduced-model summaries (forces N, moments N m), the perturbed
-        starts' statistics (``starts``), the model check and per-row agreement; the row figures and a note.
+        ``rows``: a :class:`ClearanceRows`, per row the multibody and reduced-model summaries (forces N, moments
+        N m), the perturbed starts' statistics (``starts``), the model check and per-row agreement; the row
+        figures and a note.
     """
     last = n_rows(ctx.machine)
     ctx.say(f"clearance rows 1-{last} (single-factor sweeps and level sets)")
@@ -200,16 +216,17 @@ def step_rows(ctx: StudyContext) -> StepResult:
     def describe(j):
         return f"row {row_of[id(j)]}: " + describe_clearance(j["clearance"])
 
-    out = {"multibody": {}, "mlsd": {}}
     mb_rows = ctx.collect(multibody_row, jobs, plans[0].label, describe)
-    out["multibody"] = {str(r): v for r, v in zip(rows, mb_rows) if v is not None}
+    multibody = {str(r): v for r, v in zip(rows, mb_rows) if v is not None}
     starts = ctx.collect(multibody_row, plans[1].jobs, plans[1].label,
                          lambda j: f"start seed {j['seed'][0]}, " + describe_clearance(j["clearance"]))
-    out["starts"] = row_start_statistics(starts, ctx.machine.pair_names, rows, ctx.machine.harvest.replicates)
+    start_stats = row_start_statistics(starts, ctx.machine.pair_names, rows, ctx.machine.harvest.replicates)
+    mlsd: dict = {}
+    check = row_ag = None
     note = ""
     if len(plans) > 2:
         ml_rows = ctx.collect(reduced_row, jobs, plans[2].label, describe)
-        out["mlsd"] = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
+        mlsd = {str(r): v for r, v in zip(rows, ml_rows) if v is not None}
 
         def start(j):
             return f"level {MODEL_CHECK_LEVEL}, seed {j['seed'][0]}"
@@ -226,29 +243,32 @@ def step_rows(ctx: StudyContext) -> StepResult:
             except ConfigError as exc:
                 note = f"no model check (claim 1 is not comparable): {exc}"
         if check is not None:
-            check = {"level": MODEL_CHECK_LEVEL, **check}
-        out["model_check"] = check
+            check = ModelCheck.from_json({"level": MODEL_CHECK_LEVEL, **check})
         # model agreement on every row, not only at the model-check level (the same statistics criterion); one
         # run per model and row, so a difference counts only beyond the noise of single runs measured at the
         # model-check level
         from berryshaker.experiment.agreement import summary_statistics_agreement
 
-        noise = {p: check["pairs"][p]["single_run_noise"] for p in ctx.machine.pair_names} if check else {}
-        out["agreement"] = {
-            r: {p: summary_statistics_agreement(out["multibody"][r]["collision_force_N"][p],
-                                                out["mlsd"][r]["collision_force_N"][p], noise=noise.get(p))
+        noise = {p: check.pairs[p].single_run_noise for p in ctx.machine.pair_names} if check else {}
+        row_ag = {
+            r: {p: RowAgreement.from_json(summary_statistics_agreement(multibody[r]["collision_force_N"][p],
+                                                                       mlsd[r]["collision_force_N"][p],
+                                                                       noise=noise.get(p)))
                 for p in ctx.machine.pair_names}
-            for r in out["multibody"] if r in out["mlsd"]}
+            for r in multibody if r in mlsd}
     else:
         note = f"the {ctx.drive.name} drive has no reduced model: rows are multibody only"
+    out = ClearanceRows(multibody={r: MultibodyRow.from_json(v) for r, v in multibody.items()},
+                        mlsd={r: ReducedRow.from_json(v) for r, v in mlsd.items()}, starts=start_stats,
+                        model_check=check, agreement=row_ag)
     figs = _plot_rows(ctx.machine, out, ctx.figs)
     return StepResult("rows", out, figs, note)
 
 
-def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
+def _plot_rows(machine, rows: ClearanceRows, figs: Path) -> list[str]:
     from berryshaker.report import plots as P
 
-    mb, ml = rows["multibody"], rows["mlsd"]
+    mb, ml = rows.multibody, rows.mlsd
     last = n_rows(machine)
     models = [("multibody", mb)] + ([("MLSD", ml)] if ml else [])
     if not all(str(r) in m for r in range(1, last + 1) for _, m in models):
@@ -258,10 +278,10 @@ def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
     for k, p in enumerate(machine.pair_names):
         rr = [1] + [2 + 3 * k + j for j in range(3)]
         labels = ["none"] + [f"{levels[p][j] * 1e3:g} mm" for j in range(3)]
-        series = {"multibody peak": [mb[str(r)]["collision_force_N"][p]["peak"] for r in rr]}
+        series = {"multibody peak": [mb[str(r)].collision_force_N[p].peak for r in rr]}
         if ml:
-            series["MLSD peak"] = [ml[str(r)]["collision_force_N"][p]["peak"] for r in rr]
-        series["multibody mean"] = [mb[str(r)]["collision_force_N"][p]["mean"] for r in rr]
+            series["MLSD peak"] = [ml[str(r)].collision_force_N[p].peak for r in rr]
+        series["multibody mean"] = [mb[str(r)].collision_force_N[p].mean for r in rr]
         name = f"fig{18 + k}_rows_{p}.png"
         P.plot_bars(series, labels, f"collision force at joint {p} [N]", figs / name,
                     f"Clearance {p} alone (rows {rr[1]}-{rr[-1]}; study Fig. {18 + k})", pair=p, reference_index=0)
@@ -269,10 +289,10 @@ def _plot_rows(machine, rows: dict, figs: Path) -> list[str]:
     rr = [1, last - 2, last - 1, last]
     labels = ["none", "level 1", "level 2", "level 3"]
     for k, side in enumerate(("left", "right")):
-        series = {"multibody rms": [mb[str(r)]["load_moment_Nm"][side]["rms"] for r in rr],
-                  "multibody peak": [mb[str(r)]["load_moment_Nm"][side]["peak"] for r in rr]}
+        series = {"multibody rms": [mb[str(r)].load_moment_Nm[side].rms for r in rr],
+                  "multibody peak": [mb[str(r)].load_moment_Nm[side].peak for r in rr]}
         if ml:
-            series["MLSD rms"] = [ml[str(r)]["load_moment_Nm"][side]["rms"] for r in rr]
+            series["MLSD rms"] = [ml[str(r)].load_moment_Nm[side].rms for r in rr]
         name = f"fig{22 + k}_moment_{side}.png"
         P.plot_bars(series, labels, f"{side} comb load moment [N m]", figs / name,
                     f"{side.capitalize()} comb load moment, row 1 and the level sets (study Fig. {22 + k})")

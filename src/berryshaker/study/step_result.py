@@ -7,10 +7,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.records import JsonRecord
 from berryshaker.study.fruit_force_records import FruitForceStep
 from berryshaker.study.harvest_records import HarvestResponse, Validation
 from berryshaker.study.life_drive_records import ClearanceLife, PoweredDrive
+from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 
 
 @dataclass
@@ -48,11 +50,11 @@ class StudyResults(JsonRecord):
 
     Attributes
     ----------
-    kinematics : dict
+    kinematics : KinematicsSummary or None
         Step ``kinematics``: the drive's kinematics summary (lengths mm, angles deg, speeds m/s, frequency Hz).
-    agreement : dict or None
+    agreement : ModelAgreement or None
         Step ``model_agreement``: the reduced model against the multibody model (eq. 18; forces N).
-    rows : dict
+    rows : ClearanceRows or None
         Step ``clearance_rows``: collision forces (N) and load moments (N m) per clearance row, the model check.
     fruit_force : FruitForceStep or None
         Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
@@ -73,9 +75,9 @@ class StudyResults(JsonRecord):
         Failed runs: step, run, inputs, error.
     """
 
-    kinematics: Any = None
-    agreement: Any = None
-    rows: Any = None
+    kinematics: KinematicsSummary | None = None
+    agreement: ModelAgreement | None = None
+    rows: ClearanceRows | None = None
     fruit_force: FruitForceStep | None = None
     l9: Any = None
     clearance_life: ClearanceLife | None = None

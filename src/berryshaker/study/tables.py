@@ -36,7 +36,8 @@ def write_tables(machine, res, tables: Path) -> None:
     machine : MachineBase
         The study's machine (its clearance pair names).
     res : StudyResults
-        The study's results.
+        The study's results (``rows``, a ``ClearanceRows``, and ``agreement``, a ``ModelAgreement``, read by
+        attribute: :mod:`berryshaker.study.mechanics_records`).
     tables : Path
         Folder the tables are written to (collision forces and load moments per row, model agreement ...).
     """
@@ -46,34 +47,34 @@ def write_tables(machine, res, tables: Path) -> None:
     def write(name, header, rows):
         write_table(tables / name, header, rows)
 
+    models = (("multibody", res.rows.multibody), ("mlsd", res.rows.mlsd))
     rows = []
-    for model in ("multibody", "mlsd"):
-        for r, s in res.rows[model].items():
+    for model, runs in models:
+        for r, s in runs.items():
             for p in pairs:
-                f = s["collision_force_N"][p]
-                rows.append([model, r, p, s["clearance_mm"][p], f["peak"], f["mean"], f["rms"]])
+                f = s.collision_force_N[p]
+                rows.append([model, r, p, s.clearance_mm[p], f.peak, f.mean, f.rms])
     write("collision_force_rows.csv", ["model", "row", "pair", "clearance_mm", "peak_N", "mean_N", "rms_N"], rows)
     rows = []
-    for model in ("multibody", "mlsd"):
-        for r, s in res.rows[model].items():
+    for model, runs in models:
+        for r, s in runs.items():
             for side in ("left", "right"):
-                m = s["load_moment_Nm"][side]
-                rows.append([model, r, side, m["peak"], m["rms"]])
+                m = s.load_moment_Nm[side]
+                rows.append([model, r, side, m.peak, m.rms])
     write("load_moment_rows.csv", ["model", "row", "comb", "peak_Nm", "rms_Nm"], rows)
     if res.agreement:
         write("model_agreement.csv", ["pair", "f_statistic", "f_critical", "eq18_agree", "statistics_agree", "nrmse",
                                       "correlation", "peak_ratio"],
-              [[p, d["f_statistic"], d["f_critical"], d.get("eq18_agree"), d["agree"], d["nrmse"], d["correlation"],
-                d["peak_ratio"]]
-               for p, d in res.agreement["pairs"].items()])
-    check = (res.rows or {}).get("model_check")
+              [[p, d.f_statistic, d.f_critical, d.eq18_agree, d.agree, d.nrmse, d.correlation, d.peak_ratio]
+               for p, d in res.agreement.pairs.items()])
+    check = res.rows.model_check if res.rows is not None else None
     if check:
         write("model_check.csv", ["pair", "statistic", "multibody_mean_N", "multibody_se_N", "multibody_starts",
                                   "reduced_mean_N", "reduced_se_N", "reduced_starts", "relative_difference",
                                   "noise_2se", "tolerance", "verdict"],
-              [[p, k, c["a"][k]["mean"], c["a"][k]["se"], c["a"][k]["n"], c["b"][k]["mean"], c["b"][k]["se"],
-                c["b"][k]["n"], c["relative_difference"][k], c["noise"][k], c["tolerance"][k], c["verdicts"][k]]
-               for p, c in check["pairs"].items() for k in c["tolerance"]])
+              [[p, k, c.a[k].mean, c.a[k].se, c.a[k].n, c.b[k].mean, c.b[k].se, c.b[k].n,
+                c.relative_difference[k], c.noise[k], c.tolerance[k], c.verdicts[k]]
+               for p, c in check.pairs.items() for k in c.tolerance])
     if res.fruit_force is not None and res.fruit_force.chosen is not None:
         pos = res.fruit_force.chosen.summary.positions
         write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
