@@ -77,7 +77,7 @@ def trained(small, runner, reference_sheet):
     check = fc._emulator_check(sim, emulator, settings, seeds, fc.latin_hypercube(8, 2), params)
     for gps in emulator.local:
         for r in responses:
-            gps[r].mse_log_mean = check[r]["mse_log_mean"]
+            gps[r].mse_log_mean = check[r].mse_log_mean
     # a pool of POOL fresh coupled starts per setting (never trained on): the reference sheet's own, and more
     fresh = fc.fresh_seeds(small, len(reference_sheet) + len(settings) * (POOL - SHEET_REPLICATES))
     pool = {s: [fresh[i] for i, s2 in enumerate(idx) if s2 == s] for s in settings}
@@ -136,8 +136,8 @@ def test_emulator_error_on_held_out_parameters_is_small_against_the_noise(traine
     """Held-out theta points at the simulated settings: the efficiency's and the damage's mean within half a
     replicate SD; every error is carried into the likelihood (mse_log_mean)."""
     chk = trained["check"]
-    assert chk["efficiency"]["rmse_over_sd"] < 0.5 and chk["damage"]["rmse_over_sd"] < 0.5
-    assert all(chk[r]["mse_log_mean"] > 0 for r in chk)
+    assert chk["efficiency"].rmse_over_sd < 0.5 and chk["damage"].rmse_over_sd < 0.5
+    assert all(chk[r].mse_log_mean > 0 for r in chk)
 
 
 def test_simulation_based_calibration_covers_at_the_nominal_rate(small, runner, trained):
@@ -260,7 +260,8 @@ def test_command_recovers_the_reference_parameters_from_a_doe_plan_sheet(small, 
                                                                         tmp_path):
     """``calibrate`` on the ``doe plan`` sheet made at the described parameters: every described value inside its
     posterior 90 % interval, identified parameters narrower than half their prior, predictions of every level set with
-    intervals, the report folder written."""
+    intervals, the report folder written; ``calibration.json`` reads back as a :class:`CalibrationResult` that writes
+    it again byte for byte, and ``--json`` prints the same plus the report folder."""
     sheet = tmp_path / "sheet.csv"
     reference_sheet.to_csv(sheet, index=False)
     out = tmp_path / "report"
@@ -269,20 +270,25 @@ def test_command_recovers_the_reference_parameters_from_a_doe_plan_sheet(small, 
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert {"parameters", "predictions", "emulator", "checks", "version", "code_sha256", "machine_si"} <= set(data)
-    for name, p in data["parameters"].items():
-        assert {"prior", "posterior_mean", "lo90", "hi90", "identified"} <= set(p)
-        assert p["lo90"] <= p["described"] <= p["hi90"], (name, p)
-        if p["identified"]:
-            assert p["hi90"] - p["lo90"] < 0.5 * (p["prior"]["hi90"] - p["prior"]["lo90"])
-    assert any(p["identified"] for p in data["parameters"].values())
-    assert len(data["predictions"]) == 4 and all(p["tested"] for p in data["predictions"])
-    for p in data["predictions"]:
+    text = (out / "calibration.json").read_text(encoding="utf-8")
+    saved = fc.CalibrationResult.from_json(json.loads(text))
+    assert json.dumps(saved.to_json(), indent=2) + "\n" == text
+    assert data == {**saved.to_json(), "out": str(out)}
+    cal = fc.CalibrationResult.from_json(data)
+    assert cal.sheet.file == str(sheet) and cal.out == str(out) and cal.checks.held_out_run.reason
+    for name, p in cal.parameters.items():
+        assert p.lo90 <= p.described <= p.hi90, (name, p)
+        if p.identified:
+            assert p.hi90 - p.lo90 < 0.5 * (p.prior.hi90 - p.prior.lo90)
+    assert any(p.identified for p in cal.parameters.values())
+    assert len(cal.predictions) == 4 and all(p.tested for p in cal.predictions)
+    for p in cal.predictions:
         for r in ("efficiency", "unripe", "damage"):
-            v = p["responses"][r]
-            assert v["lo90"] <= v["mean"] <= v["hi90"]
-    assert data["emulator"]["held_out_settings"] and data["emulator"]["held_out_theta"]["efficiency"]["rmse_over_sd"] < 1
-    assert data["checks"]["summary"]["total"] == 12
-    assert data["recommendation"]["level_set"] in {p["level_set"] for p in data["predictions"]}
+            v = p.responses[r]
+            assert v.lo90 <= v.mean <= v.hi90
+    assert cal.emulator.held_out_settings and cal.emulator.held_out_theta["efficiency"].rmse_over_sd < 1
+    assert cal.checks.summary.total == 12 and len(cal.checks.posterior_predictive) == 12
+    assert cal.recommendation.level_set in {p.level_set for p in cal.predictions}
     assert {"report.html", "calibration.json", "parameters.csv", "parameters.xlsx", "predictions.csv",
             "prior_posterior.png"} <= {f.name for f in out.iterdir()}
 
@@ -300,11 +306,12 @@ def test_command_reads_a_statistics_package_sheet(small_toml, runner, reference_
                   "--check-settings", 0, "--emulator-points", 12, "--steps", 150, "--json",
                   "--predict", "speed=170rpm")
     assert res.exit_code == 0, res.output
-    data = json.loads(res.stdout)
-    assert data["sheet"]["runs"] == 4 and data["sheet"]["replicates"] == SHEET_REPLICATES
-    named = [p for p in data["predictions"] if p["named"]]
-    assert len(named) == 1 and named[0]["extrapolated"]
-    assert named[0]["setting"]["speed"]["value"] == pytest.approx(170)
+    cal = fc.CalibrationResult.from_json(json.loads(res.stdout))
+    assert cal.sheet.runs == 4 and cal.sheet.replicates == SHEET_REPLICATES
+    named = [p for p in cal.predictions if p.named]
+    assert len(named) == 1 and named[0].extrapolated
+    assert named[0].setting["speed"].value == pytest.approx(170)
+    assert cal.emulator.held_out_settings == {} and cal.out is None
 
 
 def test_errors_name_the_field_and_the_fix(small_toml, reference_sheet, tmp_path):
@@ -333,3 +340,96 @@ def test_errors_name_the_field_and_the_fix(small_toml, reference_sheet, tmp_path
     (mine / "notes.txt").write_text("mine")
     res = _invoke(p, "--config", small_toml, "--out", mine)
     assert res.exit_code == 2 and "not empty" in res.output and (mine / "notes.txt").read_text() == "mine"
+
+
+def _small_result(held_out_done: bool = True) -> "fc.CalibrationResult":
+    """A hand-made calibration result (one parameter, two level sets, one response): the records without a run."""
+    prior = fc.PriorSummary(distribution="lognormal", text="lognormal, central 90 % 0.26-0.72 N", lo90=0.26, hi90=0.72,
+                            source="Kong et al. 2014", tag="[published range]")
+    param = fc.ParameterSummary(unit="N", prior=prior, described=0.47, posterior_mean=0.45, posterior_median=0.44,
+                                lo90=0.40, hi90=0.50, width_ratio=0.22, identified=True)
+    preds = [fc.Prediction(level_set=f"C={c}mm", setting={"C": fc.SettingValue(value=c, unit="mm")}, tested=True,
+                           named=False, extrapolated=False,
+                           responses={"efficiency": fc.ResponsePrediction(mean=m, lo90=m - 1, hi90=m + 1,
+                                                                          unit="kg/min")})
+             for c, m in ((0.1, 5.0), (0.2, 4.0))]
+    check = fc.EmulatorCheck(rmse=0.1, replicate_sd_rms=0.5, rmse_over_sd=0.2, log_sd_rmse=0.3, mse_log_mean=0.01,
+                             relative_rmse=0.1, points=8, unit="kg/min per kg of yield per bush")
+    row = fc.RunCheck(run=1, setting="C=0.1mm", response="efficiency", observed_mean=5.1, lo90=4.0, hi90=6.0,
+                      inside=True)
+    held = (fc.HeldOutRun(done=True, run=1, rows=[row], steps=150) if held_out_done else
+            fc.HeldOutRun(done=False, reason="not asked for"))
+    return fc.CalibrationResult(
+        parameters={"ripe_pull": param}, identified_rule=fc.IDENTIFIED_RULE,
+        confounded=[fc.Confounding(parameters=["ripe_pull", "yield_per_bush"], correlation=0.7)],
+        confounded_rule=fc.CONFOUNDED_RULE, predictions=preds,
+        recommendation=fc.Recommendation(level_set="C=0.1mm", score=1.0, no_difference=[], dominated=1, candidates=2,
+                                         rule=fc.RECOMMENDATION_RULE, weights={"efficiency": 1.0}),
+        emulator=fc.EmulatorSummary(kind="GP", joint_fitted=True, joint_points=160, training_points=48,
+                                    theta_points_per_setting=24, held_out_theta={"efficiency": check},
+                                    held_out_settings={}, held_out_settings_at="nowhere", check_settings=[],
+                                    untested_relative_rmse={"efficiency": 0.1}, untested_error_rule="rule",
+                                    fit_s=1.5),
+        checks=fc.Checks(posterior_predictive=[row], summary=fc.CheckSummary(inside=1, total=1, rule="rule"),
+                         held_out_run=held),
+        sampler=fc.SamplerSummary(walkers=24, steps=150, burn=40, thin=6, acceptance_fraction=0.2,
+                                  autocorrelation_steps=[13.0], converged=False, draws=432, package="emcee"),
+        simulator=fc.SimulatorSummary(starts_per_setting=3, seeds=[2024, 3024, 4024], settings_simulated=2,
+                                      coupled_runs=6, exact="exact"),
+        sheet=fc.SheetSummary(runs=2, replicates=2, responses=["efficiency"],
+                              factors={"C": fc.FactorSummary(sets="C", unit="mm", levels=[0.1, 0.2])},
+                              runs_identified_by="run column"),
+        likelihood="Student t", discrepancy=0.0, discrepancy_text="off", limits=list(fc.LIMITS),
+        timings_s=fc.Timings(simulator=1.0, emulator=2.0, sampling=3.0))
+
+
+def test_calibration_result_json_form_round_trip_and_refusals():
+    """The record tree writes the command's keys in order (optional keys only when set: the held-out run's
+    ``reason`` or ``run``/``rows``/``steps``, the sheet's ``file``, the provenance), reads back equal, and refuses an
+    unknown key or a wrong type, naming the field, at any depth."""
+    import pydantic
+
+    from berryshaker.records import field_names
+
+    res = _small_result()
+    data = res.to_json()
+    assert list(data) == [k for k in field_names(fc.CalibrationResult)
+                          if k not in ("package", "version", "code_sha256", "machine_si", "out")]
+    assert "file" not in data["sheet"] and list(data["checks"]["held_out_run"]) == ["done", "run", "rows", "steps"]
+    assert list(_small_result(False).to_json()["checks"]["held_out_run"]) == ["done", "reason"]
+    assert data["predictions"][0]["responses"]["efficiency"] == {"mean": 5.0, "lo90": 4.0, "hi90": 6.0,
+                                                                 "unit": "kg/min"}
+    back = fc.CalibrationResult.from_json(json.loads(json.dumps(data)))
+    assert back == res and isinstance(back.predictions[0].responses["efficiency"], fc.ResponsePrediction)
+    assert back.checks.held_out_run.rows[0] == res.checks.posterior_predictive[0]
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        fc.CalibrationResult.from_json({**data, "colour": "red"})
+    bad = json.loads(json.dumps(data))
+    bad["predictions"][0]["responses"]["efficiency"]["median"] = 5.0
+    with pytest.raises(pydantic.ValidationError, match="median"):
+        fc.CalibrationResult.from_json(bad)
+    bad = json.loads(json.dumps(data))
+    bad["parameters"]["ripe_pull"]["identified"] = "maybe"
+    with pytest.raises(pydantic.ValidationError, match="identified"):
+        fc.CalibrationResult.from_json(bad)
+    with pytest.raises(pydantic.ValidationError, match="timings_s"):
+        fc.CalibrationResult.from_json({k: v for k, v in data.items() if k != "timings_s"})
+    with pytest.raises(AttributeError):
+        res.discrepancy = 0.1
+
+
+def test_report_reads_the_record_by_attribute(tmp_path):
+    """The report (below the study layer, so it does not import the records) renders a result record: tables,
+    figures and the page, the held-out run's table or its reason."""
+    from berryshaker.report.calibration import calibration_tables, write_calibration_outputs
+
+    tables = calibration_tables(_small_result())
+    assert tables["parameters"][1][0][:2] == ["ripe_pull", "N"]
+    assert [r[0] for r in tables["predictions"][1]] == ["C=0.1mm", "C=0.2mm"]
+    assert tables["emulator_error"][1] == [["held_out_theta", "efficiency", 0.1, 0.5, 0.2, 0.1, 0.3, 8]]
+    write_calibration_outputs(_small_result(), tmp_path, "t")
+    page = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "Recommended: C=0.1mm" in page and "calibrated without run 1" in page
+    (tmp_path / "b").mkdir()
+    write_calibration_outputs(_small_result(False), tmp_path / "b", "t")
+    assert "No held-out run: not asked for." in (tmp_path / "b" / "report.html").read_text(encoding="utf-8")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Optional
 
@@ -146,55 +147,56 @@ def calibrate(
                 res = run_calibration(machine, fs, runner, opts, named, progress)
             finally:
                 bar.stop()
-        res["sheet"]["file"] = str(sheet)
-        res.update(provenance(machine))
+        res = replace(res, sheet=replace(res.sheet, file=str(sheet)), **provenance(machine))
         if out_dir is not None:
             from berryshaker.outputs import staged_directory, write_json_atomic
             from berryshaker.report.calibration import write_calibration_outputs
 
             with staged_directory(out_dir, kind="calibrate") as stage:
                 write_calibration_outputs(res, stage, f"Calibration to {sheet.name}")
-                write_json_atomic(stage / "calibration.json", res)
-            res["out"] = str(out_dir)
+                write_json_atomic(stage / "calibration.json", res.to_json())
+            res = replace(res, out=str(out_dir))
     except BerryshakerError as exc:
         _fail(exc)
         return
     if as_json:
-        _print_json(res)
+        _print_json(res.to_json())
         return
     _print_calibration(res)
 
 
-def _print_calibration(res: dict) -> None:
+def _print_calibration(res) -> None:
+    """The calibration's tables and lines on the console (``res``: a
+    :class:`~berryshaker.study.field_calibration.result.CalibrationResult`)."""
     from berryshaker.cli.app import print_table
 
     def q(v):
         return f"{v:.3g}"
 
     print_table(["parameter", "unit", "prior 90 %", "described", "posterior mean", "posterior 90 %", "identified"],
-                [[n, p["unit"] or "-", f"{q(p['prior']['lo90'])} .. {q(p['prior']['hi90'])}", q(p["described"]),
-                  q(p["posterior_mean"]), f"{q(p['lo90'])} .. {q(p['hi90'])}",
-                  "yes" if p["identified"] else "no"] for n, p in res["parameters"].items()],
-                title=f"What the sheet tells ({res['identified_rule']})")
-    if res["confounded"]:
-        out.print("confounded: " + "; ".join(f"{c['parameters'][0]} with {c['parameters'][1]} (r = "
-                                             f"{c['correlation']:+.2f})" for c in res["confounded"]),
+                [[n, p.unit or "-", f"{q(p.prior.lo90)} .. {q(p.prior.hi90)}", q(p.described),
+                  q(p.posterior_mean), f"{q(p.lo90)} .. {q(p.hi90)}",
+                  "yes" if p.identified else "no"] for n, p in res.parameters.items()],
+                title=f"What the sheet tells ({res.identified_rule})")
+    if res.confounded:
+        out.print("confounded: " + "; ".join(f"{c.parameters[0]} with {c.parameters[1]} (r = "
+                                             f"{c.correlation:+.2f})" for c in res.confounded),
                   markup=False, highlight=False)
-    responses = list(res["predictions"][0]["responses"]) if res["predictions"] else []
-    print_table(["level set", "tested", *[f"{r} ({res['predictions'][0]['responses'][r]['unit']})" for r in responses]],
-                [[p["level_set"] + (" (extrapolated)" if p["extrapolated"] else ""), "yes" if p["tested"] else "",
-                  *[f"{q(p['responses'][r]['mean'])} [{q(p['responses'][r]['lo90'])}, "
-                    f"{q(p['responses'][r]['hi90'])}]" for r in responses]] for p in res["predictions"]],
+    responses = list(res.predictions[0].responses) if res.predictions else []
+    print_table(["level set", "tested", *[f"{r} ({res.predictions[0].responses[r].unit})" for r in responses]],
+                [[p.level_set + (" (extrapolated)" if p.extrapolated else ""), "yes" if p.tested else "",
+                  *[f"{q(p.responses[r].mean)} [{q(p.responses[r].lo90)}, "
+                    f"{q(p.responses[r].hi90)}]" for r in responses]] for p in res.predictions],
                 title="Predicted field result: mean [90 % interval]")
-    rec = res["recommendation"]
-    out.print(f"recommended: {rec['level_set']}" + (f"; no difference beyond the intervals from "
-                                                     f"{', '.join(rec['no_difference'])}" if rec["no_difference"] else ""),
+    rec = res.recommendation
+    out.print(f"recommended: {rec.level_set}" + (f"; no difference beyond the intervals from "
+                                                 f"{', '.join(rec.no_difference)}" if rec.no_difference else ""),
               markup=False, highlight=False)
-    s = res["checks"]["summary"]
-    em = res["emulator"]["held_out_theta"]
-    out.print(f"checks: {s['inside']} of {s['total']} run means inside their 90 % predictive interval; emulator "
-              "held-out RMSE / replicate SD: " + ", ".join(f"{r} {e['rmse_over_sd']:.2f}" for r, e in em.items())
-              + f"; discrepancy {res['discrepancy_text']}; pedicel stiffness not calibrated (docs/calibration.md).",
+    s = res.checks.summary
+    em = res.emulator.held_out_theta
+    out.print(f"checks: {s.inside} of {s.total} run means inside their 90 % predictive interval; emulator "
+              "held-out RMSE / replicate SD: " + ", ".join(f"{r} {e.rmse_over_sd:.2f}" for r, e in em.items())
+              + f"; discrepancy {res.discrepancy_text}; pedicel stiffness not calibrated (docs/calibration.md).",
               markup=False, highlight=False)
-    if res.get("out"):
-        err.print(f"wrote {res['out']}", markup=False, highlight=False)
+    if res.out:
+        err.print(f"wrote {res.out}", markup=False, highlight=False)

@@ -21,6 +21,9 @@ The method is one chain, each part's inputs the previous part's outputs; each pa
    :func:`calibrate`): prior against posterior 90 % intervals, posterior predictive checks per run, a held-out run,
    predictions of every level set of the sheet's factors (and named settings) with 90 % intervals of a future field
    result, and a recommendation made on them (:data:`RECOMMENDATION_RULE`).
+7. **The result** (:mod:`~berryshaker.study.field_calibration.result`, :class:`CalibrationResult`): typed records,
+   written as the command's JSON by :meth:`CalibrationResult.to_json` and read back by
+   :meth:`CalibrationResult.from_json`.
 
 :mod:`~berryshaker.study.field_calibration.synthetic_sheets` fills a field sheet from the simulator at known
 parameters (the docs' example and the test).  Every name callers use is importable from here
@@ -45,6 +48,27 @@ from berryshaker.study.field_calibration.priors import (
     prior_rows,
     theta_of,
     unit_of,
+)
+from berryshaker.study.field_calibration.result import (
+    CalibrationResult,
+    CheckSummary,
+    Checks,
+    Confounding,
+    EmulatorCheck,
+    EmulatorSummary,
+    FactorSummary,
+    HeldOutRun,
+    ParameterSummary,
+    Prediction,
+    PriorSummary,
+    Recommendation,
+    ResponsePrediction,
+    RunCheck,
+    SamplerSummary,
+    SettingValue,
+    SheetSummary,
+    SimulatorSummary,
+    Timings,
 )
 from berryshaker.study.field_calibration.sheet import (
     DRIVE_SPEED_NAMES,
@@ -73,7 +97,11 @@ from berryshaker.study.field_calibration.workflow import _train as _train
 
 __all__ = ["CONFOUNDED_RULE", "DRIVE_SPEED_NAMES", "GP_FIT_ITERATIONS", "HARD_BRUISE", "IDENTIFIED_RULE", "LIMITS",
            "PARAMETERS", "PARAMETER_NAMES", "RECOMMENDATION_RULE", "RESPONSES", "RESPONSE_PARAMETERS", "Z90",
-           "CalibrationSettings", "Emulator", "FactorTarget", "FittedGP", "Parameter", "Sheet", "Simulator",
+           "CalibrationResult", "CalibrationSettings", "CheckSummary", "Checks", "Confounding", "Emulator",
+           "EmulatorCheck", "EmulatorSummary", "FactorSummary", "HeldOutRun", "ParameterSummary", "Prediction",
+           "PriorSummary", "Recommendation", "ResponsePrediction", "RunCheck", "SamplerSummary", "SettingValue",
+           "SheetSummary", "SimulatorSummary", "Timings", "FactorTarget", "FittedGP", "Parameter", "Sheet",
+           "Simulator",
            "calibrate", "described_values", "factor_target", "fresh_seeds", "latin_hypercube", "level_sets",
            "log_likelihood", "parameters_for", "parse_setting", "predictive", "prior_rows", "read_sheet",
            "sample_posterior", "setting_data", "start_statistics", "synthetic_results", "synthetic_sheet",

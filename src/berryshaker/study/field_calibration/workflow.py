@@ -1,6 +1,7 @@
 """The whole calibration (:func:`calibrate`): the simulator's runs, the emulator's training and checks, the posterior,
-then identifiability, checks, predictions and the recommendation, assembled into one result dict (the command
-``berryshaker calibrate`` and the report read it).
+then identifiability, checks, predictions and the recommendation, assembled into one
+:class:`~berryshaker.study.field_calibration.result.CalibrationResult` (the command ``berryshaker calibrate`` writes
+it, the report reads it).
 
 Identifiability is the prior against the posterior 90 % intervals (:data:`IDENTIFIED_RULE`,
 :data:`CONFOUNDED_RULE`); the checks are posterior predictive checks per run and a held-out run; the predictions are
@@ -27,6 +28,27 @@ from berryshaker.study.field_calibration.priors import (
     latin_hypercube,
     parameters_for,
     theta_of,
+)
+from berryshaker.study.field_calibration.result import (
+    CalibrationResult,
+    CheckSummary,
+    Checks,
+    Confounding,
+    EmulatorCheck,
+    EmulatorSummary,
+    FactorSummary,
+    HeldOutRun,
+    ParameterSummary,
+    Prediction,
+    PriorSummary,
+    Recommendation,
+    ResponsePrediction,
+    RunCheck,
+    SamplerSummary,
+    SettingValue,
+    SheetSummary,
+    SimulatorSummary,
+    Timings,
 )
 from berryshaker.study.field_calibration.sheet import FactorTarget, Sheet, level_sets
 from berryshaker.study.field_calibration.simulator import Simulator, start_statistics, training_seeds
@@ -122,7 +144,7 @@ def _train(sim: Simulator, responses: list[str], settings: list[int], seeds: lis
     return np.stack(means), np.stack(sds)
 
 
-def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict:
+def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict[str, EmulatorCheck]:
     """Held-out error of the emulator at ``settings`` and points ``u`` (neither trained on): RMSE of the mean, over the
     RMS replicate SD; RMSE of log SD; MSE of log(mean + c) and its root (``relative_rmse``, about the relative error
     of mean + c)."""
@@ -136,18 +158,18 @@ def _emulator_check(sim, emulator: Emulator, settings, seeds, u, params) -> dict
         m, s_ = mean[:, :, j].ravel(), sd[:, :, j].ravel()
         rms_sd = float(np.sqrt(np.mean(s_**2)))
         rmse = float(np.sqrt(np.mean((pm - m) ** 2)))
-        out[r] = {"rmse": rmse, "replicate_sd_rms": rms_sd,
-                  "rmse_over_sd": rmse / rms_sd if rms_sd > 0 else float("nan"),
-                  "log_sd_rmse": float(np.sqrt(np.mean((np.log(np.maximum(psd, 1e-3 * floor))
-                                                        - np.log(np.maximum(s_, 1e-3 * floor))) ** 2))),
-                  "mse_log_mean": float(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2)),
-                  "relative_rmse": float(np.sqrt(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2))),
-                  "points": int(len(m)), "unit": "kg/min per kg of yield per bush" if r == "efficiency" else "%"}
+        out[r] = EmulatorCheck(
+            rmse=rmse, replicate_sd_rms=rms_sd, rmse_over_sd=rmse / rms_sd if rms_sd > 0 else float("nan"),
+            log_sd_rmse=float(np.sqrt(np.mean((np.log(np.maximum(psd, 1e-3 * floor))
+                                               - np.log(np.maximum(s_, 1e-3 * floor))) ** 2))),
+            mse_log_mean=float(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2)),
+            relative_rmse=float(np.sqrt(np.mean((np.log(pm + floor) - np.log(m + floor)) ** 2))),
+            points=int(len(m)), unit="kg/min per kg of yield per bush" if r == "efficiency" else "%")
     return out
 
 
 def _fit_joint(sim, emulator: Emulator, unique: list[int], check_idx: list[int], seeds, focus_u: np.ndarray,
-               check_u: np.ndarray | None, params) -> dict:
+               check_u: np.ndarray | None, params) -> dict[str, EmulatorCheck]:
     """The joint GP (settings not simulated), trained with the simulator at posterior draws ``focus_u`` at every
     simulated setting as well, then checked at the untested settings ``check_idx`` on other posterior draws
     ``check_u`` (where its predictions are used): that held-out MSE of log(mean + c) is its own error, floored by
@@ -157,35 +179,36 @@ def _fit_joint(sim, emulator: Emulator, unique: list[int], check_idx: list[int],
         return {}
     held = _emulator_check(sim, emulator, check_idx, seeds, check_u, params)
     for r in emulator.responses:
-        emulator.joint[r].mse_log_mean = held[r]["mse_log_mean"]
+        emulator.joint[r].mse_log_mean = held[r].mse_log_mean
     return held
 
 
-def _summaries(draws: np.ndarray, params, described: dict) -> dict:
+def _summaries(draws: np.ndarray, params, described: dict) -> dict[str, ParameterSummary]:
     out = {}
     for i, p in enumerate(params):
         v = draws[:, i]
         plo, phi = p.interval90()
         lo, hi = (float(x) for x in np.quantile(v, [0.05, 0.95]))
         ratio = (hi - lo) / (phi - plo)
-        out[p.name] = {"unit": p.unit, "prior": {"distribution": p.distribution, "text": p.describe(), "lo90": plo,
-                                                 "hi90": phi, "source": p.source, "tag": p.tag},
-                       "described": float(described[p.name]), "posterior_mean": float(np.mean(v)),
-                       "posterior_median": float(np.median(v)), "lo90": lo, "hi90": hi, "width_ratio": float(ratio),
-                       "identified": bool(ratio < 0.5)}
+        out[p.name] = ParameterSummary(
+            unit=p.unit, prior=PriorSummary(distribution=p.distribution, text=p.describe(), lo90=plo, hi90=phi,
+                                            source=p.source, tag=p.tag),
+            described=float(described[p.name]), posterior_mean=float(np.mean(v)),
+            posterior_median=float(np.median(v)), lo90=lo, hi90=hi, width_ratio=float(ratio),
+            identified=bool(ratio < 0.5))
     return out
 
 
-def _confounded(z: np.ndarray, params) -> list[dict]:
+def _confounded(z: np.ndarray, params) -> list[Confounding]:
     c = np.corrcoef(z.T)
     out = []
     for i, j in itertools.combinations(range(len(params)), 2):
         if abs(c[i, j]) >= 0.5:
-            out.append({"parameters": [params[i].name, params[j].name], "correlation": float(c[i, j])})
+            out.append(Confounding(parameters=[params[i].name, params[j].name], correlation=float(c[i, j])))
     return out
 
 
-def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: list[str]) -> dict:
+def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: list[str]) -> Recommendation:
     """:data:`RECOMMENDATION_RULE` on the expected-result draws (level sets x draws) per response."""
     from berryshaker.reference_study import PRIORITY_WEIGHTS, SENSES
 
@@ -209,14 +232,14 @@ def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: lis
         score += w[r] / total * ((m - m.min()) / span if span > 0 else 0.0)
     free = [i for i in range(n) if not dominated[i]]
     best = max(free, key=lambda i: score[i])
-    return {"level_set": names[best], "score": float(score[best]),
-            "no_difference": [names[i] for i in free if i != best],
-            "dominated": int(sum(dominated)), "candidates": n, "rule": RECOMMENDATION_RULE,
-            "weights": {r: w[r] / total for r in responses}}
+    return Recommendation(level_set=names[best], score=float(score[best]),
+                          no_difference=[names[i] for i in free if i != best],
+                          dominated=int(sum(dominated)), candidates=n, rule=RECOMMENDATION_RULE,
+                          weights={r: w[r] / total for r in responses})
 
 
 def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettings | None = None,
-              predict: list[np.ndarray] | None = None, progress=None) -> dict:
+              predict: list[np.ndarray] | None = None, progress=None) -> CalibrationResult:
     """Posterior of the harvest parameters given a field sheet, its checks and its predictions (module docstring).
 
     Parameters
@@ -236,12 +259,13 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
 
     Returns
     -------
-    dict
+    CalibrationResult
         ``parameters`` (per name: unit, prior, described, posterior_mean, posterior_median, lo90, hi90, width_ratio,
         identified), ``identified_rule``, ``confounded``, ``predictions`` (per level set: setting, tested,
         extrapolated, responses with mean, lo90, hi90, unit), ``recommendation``, ``emulator``, ``checks``,
-        ``sampler``, ``simulator``, ``sheet``, ``likelihood``, ``discrepancy``, ``limits``; all values SI except the
-        responses (kg/min, %).
+        ``sampler``, ``simulator``, ``sheet``, ``likelihood``, ``discrepancy``, ``limits``, ``timings_s``
+        (:mod:`~berryshaker.study.field_calibration.result`); all values SI except the responses (kg/min, %) and
+        the factors' settings and levels (the sheet's units).
     """
     opt = options or CalibrationSettings()
     if machine.plant is None:
@@ -278,7 +302,7 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     held_theta = _emulator_check(sim, emulator, unique, seeds, u_check, params)
     for gps in emulator.local:
         for r in responses:
-            gps[r].mse_log_mean = held_theta[r]["mse_log_mean"]
+            gps[r].mse_log_mean = held_theta[r].mse_log_mean
     t_emu = time.perf_counter() - t1
     if progress:
         progress("emulator", 1, 1)
@@ -308,8 +332,8 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
         for i in range(len(run_settings)):
             lo, hi = np.quantile(fut[i], [0.05, 0.95])
             ob = float(np.mean(sheet.observations[r][i]))
-            ppc.append({"run": i + 1, "setting": sim.setting_text(sheet_idx[i]), "response": r, "observed_mean": ob,
-                        "lo90": float(lo), "hi90": float(hi), "inside": bool(lo <= ob <= hi)})
+            ppc.append(RunCheck(run=i + 1, setting=sim.setting_text(sheet_idx[i]), response=r, observed_mean=ob,
+                                lo90=float(lo), hi90=float(hi), inside=bool(lo <= ob <= hi)))
     held_run = _held_out_run(emulator, sheet, params, r_sim, opt, sim, sheet_idx, responses, progress)
     # predictions
     full = level_sets(sheet.targets)
@@ -318,74 +342,80 @@ def calibrate(machine: Machine, sheet: Sheet, runner, options: CalibrationSettin
     names = [", ".join(f"{t.name}={v / t.to_si:.6g}{t.unit}" for t, v in zip(sheet.targets, x)) for x in pred_settings]
     tested = {tuple(np.round(x, 15)) for x in sheet.settings_si}
     lo_b, hi_b = emulator.lo, emulator.hi
-    expected, predictions = {}, []
+    expected, per_response = {}, {}
     for r in responses:
         e, fut = predictive(emulator, pred_settings, u_draws, params, r, rng, 1, r_sim, opt.discrepancy)
         expected[r] = e
+        per_response[r] = []
         for i in range(len(pred_settings)):
-            if len(predictions) <= i:
-                x = pred_settings[i]
-                predictions.append({"level_set": names[i], "setting": {
-                    t.name: {"value": float(v / t.to_si), "unit": t.unit} for t, v in zip(sheet.targets, x)},
-                    "tested": tuple(np.round(x, 15)) in tested, "named": i >= len(full),
-                    "extrapolated": bool(np.any(x < lo_b - 1e-15) or np.any(x > hi_b + 1e-15)), "responses": {}})
             lo, hi = np.quantile(fut[i], [0.05, 0.95])
-            predictions[i]["responses"][r] = {"mean": float(np.mean(e[i])), "lo90": float(lo), "hi90": float(hi),
-                                              "unit": RESPONSES[r][0]}
+            per_response[r].append(ResponsePrediction(mean=float(np.mean(e[i])), lo90=float(lo), hi90=float(hi),
+                                                      unit=RESPONSES[r][0]))
+    predictions = [
+        Prediction(level_set=names[i],
+                   setting={t.name: SettingValue(value=float(v / t.to_si), unit=t.unit)
+                            for t, v in zip(sheet.targets, x)},
+                   tested=tuple(np.round(x, 15)) in tested, named=i >= len(full),
+                   extrapolated=bool(np.any(x < lo_b - 1e-15) or np.any(x > hi_b + 1e-15)),
+                   responses={r: per_response[r][i] for r in responses})
+        for i, x in enumerate(pred_settings)] if responses else []
     recommendation = _recommend(names, expected, responses)
-    inside = sum(c["inside"] for c in ppc)
-    return {
-        "parameters": parameters, "identified_rule": IDENTIFIED_RULE,
-        "confounded": _confounded(post["z"], params), "confounded_rule": CONFOUNDED_RULE,
-        "predictions": predictions, "recommendation": recommendation,
-        "emulator": {"kind": "scikit-learn GaussianProcessRegressor per response on log(mean + c) and log(SD): "
-                             "ConstantKernel x Matern(nu=2.5, ARD) + WhiteKernel, normalize_y; per simulated setting "
-                             "over theta on the prior's unit cube (the likelihood, predictions there) and one joint GP "
-                             "over (coded setting, theta) for settings not simulated",
-                     "joint_fitted": emulator.joint is not None, "joint_points": emulator.joint_points,
-                     "training_points": emulator.training_points, "theta_points_per_setting": opt.theta_points,
-                     "held_out_theta": held_theta, "held_out_settings": held_settings,
-                     "held_out_settings_at": "posterior draws not used in training, at untested settings simulated "
-                                             "for the check (the joint GP's error where it predicts)",
-                     "check_settings": [sim.setting_text(i) for i in check_idx],
-                     "untested_relative_rmse": {r: float(np.sqrt(emulator.joint_mse(r))) for r in responses},
-                     "untested_error_rule": "the joint GP's error term: the larger of its held-out error at the check "
-                                            "settings and the per-setting GPs' held-out error (its baseline's)",
-                     "fit_s": emulator.fit_seconds},
-        "checks": {"posterior_predictive": ppc,
-                   "summary": {"inside": int(inside), "total": len(ppc),
-                               "rule": "observed replicate mean inside the 90 % predictive interval of the mean of "
-                                       f"{sheet.replicates} future result(s)"},
-                   "held_out_run": held_run},
-        "sampler": {k: post[k] for k in ("walkers", "steps", "burn", "thin", "acceptance_fraction",
-                                         "autocorrelation_steps", "converged")} | {
-            "draws": int(len(post["u"])), "package": "emcee (DEMove 0.8, DESnookerMove 0.2)"},
-        "simulator": {"starts_per_setting": r_sim, "seeds": seeds, "settings_simulated": len(sim.settings),
-                      "coupled_runs": sim.runs, "exact": "post-processing of the cached stem-load tables at every "
-                                                         "theta with common random numbers"},
-        "sheet": {"runs": int(len(sheet.settings_si)), "replicates": sheet.replicates, "responses": responses,
-                  "factors": {t.name: {"sets": t.pair or "drive speed", "unit": t.unit,
-                                       "levels": [v / t.to_si for v in t.levels_si]} for t in sheet.targets},
-                  "runs_identified_by": sheet.runs_identified_by},
-        "likelihood": ("replicates of a run jointly normal: mean mu(theta) (emulated), per-result SD sigma(theta) (the "
-                       "simulator's start-to-start SD), a term common to the run with variance sigma^2/R_sim + "
-                       "emulator variance + (discrepancy x mu)^2; sigma is itself estimated from the R_sim starts, so the "
-                       "likelihood is the multivariate Student t with R_sim - 1 dof; responses independent given "
-                       "theta"),
-        "discrepancy": opt.discrepancy,
-        "discrepancy_text": ("off (0): no model-discrepancy term" if opt.discrepancy == 0 else
-                             f"on: SD {opt.discrepancy:g} x the mean, common to a run's replicates"),
-        "limits": list(LIMITS), "timings_s": {"simulator": t_sim, "emulator": t_emu, "sampling": t_mcmc},
-    }
+    inside = sum(c.inside for c in ppc)
+    return CalibrationResult(
+        parameters=parameters, identified_rule=IDENTIFIED_RULE,
+        confounded=_confounded(post["z"], params), confounded_rule=CONFOUNDED_RULE,
+        predictions=predictions, recommendation=recommendation,
+        emulator=EmulatorSummary(
+            kind="scikit-learn GaussianProcessRegressor per response on log(mean + c) and log(SD): "
+                 "ConstantKernel x Matern(nu=2.5, ARD) + WhiteKernel, normalize_y; per simulated setting "
+                 "over theta on the prior's unit cube (the likelihood, predictions there) and one joint GP "
+                 "over (coded setting, theta) for settings not simulated",
+            joint_fitted=emulator.joint is not None, joint_points=emulator.joint_points,
+            training_points=emulator.training_points, theta_points_per_setting=opt.theta_points,
+            held_out_theta=held_theta, held_out_settings=held_settings,
+            held_out_settings_at="posterior draws not used in training, at untested settings simulated "
+                                 "for the check (the joint GP's error where it predicts)",
+            check_settings=[sim.setting_text(i) for i in check_idx],
+            untested_relative_rmse={r: float(np.sqrt(emulator.joint_mse(r))) for r in responses},
+            untested_error_rule="the joint GP's error term: the larger of its held-out error at the check "
+                                "settings and the per-setting GPs' held-out error (its baseline's)",
+            fit_s=emulator.fit_seconds),
+        checks=Checks(posterior_predictive=ppc,
+                      summary=CheckSummary(inside=int(inside), total=len(ppc),
+                                           rule="observed replicate mean inside the 90 % predictive interval of the "
+                                                f"mean of {sheet.replicates} future result(s)"),
+                      held_out_run=held_run),
+        sampler=SamplerSummary(walkers=post["walkers"], steps=post["steps"], burn=post["burn"], thin=post["thin"],
+                               acceptance_fraction=post["acceptance_fraction"],
+                               autocorrelation_steps=post["autocorrelation_steps"], converged=post["converged"],
+                               draws=int(len(post["u"])), package="emcee (DEMove 0.8, DESnookerMove 0.2)"),
+        simulator=SimulatorSummary(starts_per_setting=r_sim, seeds=seeds, settings_simulated=len(sim.settings),
+                                   coupled_runs=sim.runs, exact="post-processing of the cached stem-load tables at "
+                                                                "every theta with common random numbers"),
+        sheet=SheetSummary(runs=int(len(sheet.settings_si)), replicates=sheet.replicates, responses=responses,
+                           factors={t.name: FactorSummary(sets=t.pair or "drive speed", unit=t.unit,
+                                                          levels=[v / t.to_si for v in t.levels_si])
+                                    for t in sheet.targets},
+                           runs_identified_by=sheet.runs_identified_by),
+        likelihood=("replicates of a run jointly normal: mean mu(theta) (emulated), per-result SD sigma(theta) (the "
+                    "simulator's start-to-start SD), a term common to the run with variance sigma^2/R_sim + "
+                    "emulator variance + (discrepancy x mu)^2; sigma is itself estimated from the R_sim starts, so the "
+                    "likelihood is the multivariate Student t with R_sim - 1 dof; responses independent given "
+                    "theta"),
+        discrepancy=opt.discrepancy,
+        discrepancy_text=("off (0): no model-discrepancy term" if opt.discrepancy == 0 else
+                          f"on: SD {opt.discrepancy:g} x the mean, common to a run's replicates"),
+        limits=list(LIMITS), timings_s=Timings(simulator=t_sim, emulator=t_emu, sampling=t_mcmc),
+    )
 
 
 def _held_out_run(emulator, sheet: Sheet, params, r_sim, opt: CalibrationSettings, sim, sheet_idx, responses,
-                  progress) -> dict:
+                  progress) -> HeldOutRun:
     """Calibrate without the sheet's first run and predict it (when runs > parameters + 2 and asked for)."""
     n = len(sheet.settings_si)
     if not opt.held_out_run or n <= len(params) + 2:
-        return {"done": False, "reason": f"{n} runs: a held-out run needs more than {len(params) + 2} (parameters + 2)"
-                if n <= len(params) + 2 else "not asked for"}
+        return HeldOutRun(done=False, reason=f"{n} runs: a held-out run needs more than {len(params) + 2} "
+                          "(parameters + 2)" if n <= len(params) + 2 else "not asked for")
     keep = np.arange(1, n)
     obs = {r: v[keep] for r, v in sheet.observations.items()}
     if progress:
@@ -400,8 +430,8 @@ def _held_out_run(emulator, sheet: Sheet, params, r_sim, opt: CalibrationSetting
                             opt.discrepancy)
         lo, hi = np.quantile(fut[0], [0.05, 0.95])
         ob = float(np.mean(sheet.observations[r][0]))
-        rows.append({"run": 1, "setting": sim.setting_text(sheet_idx[0]), "response": r, "observed_mean": ob,
-                     "lo90": float(lo), "hi90": float(hi), "inside": bool(lo <= ob <= hi)})
+        rows.append(RunCheck(run=1, setting=sim.setting_text(sheet_idx[0]), response=r, observed_mean=ob,
+                             lo90=float(lo), hi90=float(hi), inside=bool(lo <= ob <= hi)))
     if progress:
         progress("held-out run", 1, 1)
-    return {"done": True, "run": 1, "rows": rows, "steps": post["steps"]}
+    return HeldOutRun(done=True, run=1, rows=rows, steps=post["steps"])
