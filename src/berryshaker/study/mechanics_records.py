@@ -10,6 +10,9 @@ JSON of ``berryshaker simulate`` and ``compare``); the steps read them into thes
 :meth:`~berryshaker.records.JsonRecord.from_json`.  Statistics keyed by the statistic's name ("mean", "rms",
 "p95") stay maps: their keys are the tolerance table's (:data:`berryshaker.experiment.agreement.STATISTICS_TOLERANCE`);
 so does a powered run's energy audit (a table of the engine, :func:`berryshaker.multibody.energy.energy_audit`).
+
+long module: two dozen small records, one per part of the two steps' results, each with its Attributes and units;
+they form one tree (``ClearanceRows`` holds the rows, the starts, the model check and the agreement) read together.
 """
 
 from __future__ import annotations
