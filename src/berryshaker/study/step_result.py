@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from berryshaker.records import JsonRecord
+from berryshaker.study.l9_records import VirtualL9
 
 
 @dataclass
@@ -53,9 +54,9 @@ class StudyResults(JsonRecord):
         Step ``clearance_rows``: collision forces (N) and load moments (N m) per clearance row, the model check.
     fruit_force : dict or None
         Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
-    l9 : dict or None
+    l9 : VirtualL9 or None
         Step ``virtual_l9``: the replicated virtual L9 and its recommendation (clearances mm, efficiency kg/min,
-        rates %).
+        rates %; :class:`berryshaker.study.l9_records.VirtualL9`).
     clearance_life : dict or None
         Step ``clearance_life``: clearance growth by wear (mm against h) and the recommended fits.
     powered_drive : dict or None
@@ -74,7 +75,7 @@ class StudyResults(JsonRecord):
     agreement: Any = None
     rows: Any = None
     fruit_force: Any = None
-    l9: Any = None
+    l9: VirtualL9 | None = None
     clearance_life: Any = None
     powered_drive: Any = None
     harvest_response: Any = None
