@@ -7,6 +7,7 @@ from berryshaker.experiment.agreement import ensemble_agreement, judged_differen
 from berryshaker.study import claims as C
 from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 from berryshaker.study.step_result import StudyResults
+from l9_records_data import l9_record
 
 
 def _pair(agree=True):
@@ -140,11 +141,11 @@ def test_claim8_does_not_count_a_factor_kept_at_the_studys_clearance():
                      "F": "no response differs significantly between the levels of F: kept at the configured "
                           "clearance (level 3)"}}
     rep = {n: {"factors": {p: {"significant": False} for p in "ABCF"}} for n in resp}
-    res = {"l9": {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}}
-    verdict, detail = C._claim8(StudyResults(**res))
+    l9 = {"responses": resp, "recommended": rec, "replicated": {"responses": rep}}
+    verdict, detail = C._claim8(StudyResults(l9=l9_record(l9)))
     assert verdict == "not reproduced" and "F kept at the configured" in detail
     rec["basis"]["F"] = "machine loads"  # decided on evidence: the match counts
-    assert C._claim8(StudyResults(**res))[0] == "partly reproduced"
+    assert C._claim8(StudyResults(l9=l9_record(l9)))[0] == "partly reproduced"
 
 
 def test_claim8_states_the_p_value_its_verdict_rests_on():
@@ -157,10 +158,12 @@ def test_claim8_states_the_p_value_its_verdict_rests_on():
            "basis": {p: "machine loads" for p in "ABCF"}}
     rep = {n: {"factors": {p: {"significant": p == "A", "p": 0.021 if p == "A" else 0.5} for p in "ABCF"}}
            for n in resp}
-    verdict, detail = C._claim8(StudyResults(l9={"responses": resp, "recommended": rec, "replicated": {"responses": rep}}))
+    verdict, detail = C._claim8(StudyResults(l9=l9_record({"responses": resp, "recommended": rec,
+                                                             "replicated": {"responses": rep}})))
     assert verdict == "reproduced" and "ANOVA p = 0.021" in detail
     rep["efficiency"]["factors"]["A"].update(significant=False, p=0.06)
-    verdict, detail = C._claim8(StudyResults(l9={"responses": resp, "recommended": rec, "replicated": {"responses": rep}}))
+    verdict, detail = C._claim8(StudyResults(l9=l9_record({"responses": resp, "recommended": rec,
+                                                             "replicated": {"responses": rep}})))
     assert verdict == "partly reproduced" and "within the noise" in detail and "p = 0.06" in detail
 
 

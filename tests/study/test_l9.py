@@ -5,6 +5,7 @@ import json
 import math
 
 import numpy as np
+import pydantic
 import pytest
 from scipy import stats
 from typer.testing import CliRunner
@@ -14,6 +15,19 @@ from berryshaker.config import reference_toml_text
 from conftest import linear_spring_toml_text
 from berryshaker.errors import ConfigError
 from berryshaker.harvest.spec import COUPLED_RTOL
+from berryshaker.study.l9_records import (
+    Estimate,
+    L9Run,
+    PairedDifference,
+    Perturbation,
+    Recommendation,
+    ReplicatedL9,
+    SequentialStarts,
+    TieredChoice,
+    ToleranceCheck,
+    ToleranceVerdict,
+    VirtualL9,
+)
 from berryshaker.experiment.designs import orthogonal_array
 from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 
@@ -214,7 +228,7 @@ def test_study_summary_and_report_sections(virtual_json, tmp_path):
     from berryshaker.study.pipeline import l9_summary
 
     s = virtual_json
-    summ = l9_summary(s)
+    summ = l9_summary(VirtualL9.from_json(_without_version(s)))
     assert summ["tradeoff"] == s["tradeoff"] and summ["l9_replicates"]["replicates"] == 2
     assert "replicate_sd" in summ["l9_replicates"]["responses"]["efficiency"]
     d = plot_tradeoff(s["tradeoff"], tmp_path / "l9_tradeoff.png")
@@ -224,10 +238,76 @@ def test_study_summary_and_report_sections(virtual_json, tmp_path):
     ra = s["replicated"]["responses"]["efficiency"]["factors"]["A"]
     np.testing.assert_allclose(e["responses"]["efficiency"]["factors"]["A"]["errors"],
                                [(hi - lo) / 2 for lo, hi in ra["level_ci"]])
-    html = "\n".join(l9_replicates_section(s, tmp_path, list("ABCF")))
+    html = "\n".join(l9_replicates_section(VirtualL9.from_json(_without_version(s)), tmp_path, list("ABCF")))
     for text in ("Replicate spread and significance", "Trade-off of the candidate clearance sets",
                  "Solver-tolerance check", "Recommendation and its basis", "data:image/png;base64,"):
         assert text in html
+
+
+def _without_version(s: dict) -> dict:
+    """`doe virtual --json` without what the command adds (``version``; ``null_values``, whose NaN are put back
+    where it wrote null): the JSON form of the VirtualL9 record."""
+    import copy
+    import re
+
+    out = copy.deepcopy({k: v for k, v in s.items() if k not in ("version", "null_values")})
+    for path in s.get("null_values", {}):
+        keys = [int(t[1:-1]) if t.startswith("[") else t for t in re.findall(r"\[\d+\]|[^.\[\]]+", path)]
+        node = out
+        for k in keys[:-1]:
+            node = node[k]
+        assert node[keys[-1]] is None
+        node[keys[-1]] = float("nan")
+    return out
+
+
+def test_virtual_l9_output_reads_back_as_its_typed_record(virtual_json):
+    """virtual_l9's output (here its JSON, printed by `doe virtual --json`) is a VirtualL9 whose JSON form is the
+    output, key for key and in order; its sub-records are typed."""
+    data = _without_version(virtual_json)
+    rec = VirtualL9.from_json(data)
+    assert json.dumps(rec.to_json()) == json.dumps(data) and list(rec.to_json()) == list(data)
+    assert isinstance(rec.runs[0], L9Run) and isinstance(rec.runs[0].replicates["efficiency"], Estimate)
+    assert isinstance(rec.recommended, Recommendation) and isinstance(rec.recommended.check.tiered, TieredChoice)
+    assert isinstance(rec.replicated, ReplicatedL9) and isinstance(rec.replicated.perturbation, Perturbation)
+    assert isinstance(rec.tolerance_check, ToleranceCheck)
+    assert isinstance(rec.tolerance_check.responses["efficiency"], ToleranceVerdict)
+    assert isinstance(rec.paired["efficiency"]["A"], PairedDifference)
+    assert isinstance(rec.recommended.sequential, SequentialStarts)
+    assert rec.recommended.replicates["efficiency"].n == rec.recommended.starts
+
+
+def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
+    from l9_records_data import l9_record
+
+    good = l9_record({"runs": [{"run": 1, "levels": {"A": 1}, "clearance_mm": {"A": 0.25}, "name": "A 0.25 mm",
+                                 "efficiency": 3.9, "unripe": 0.1, "damage": 2.8,
+                                 "replicates": {"efficiency": {"mean": 3.9, "sd": 0.1, "ci": [3.8, 4.0], "n": 8,
+                                                               "interval_from": "this run's replicates (7 dof)"}}}],
+                      "paired": {"efficiency": {"A": {"levels": [1, 3], "difference": 0.1, "se": 0.05,
+                                                      "ci": [0.0, 0.2], "p": 0.09, "beyond_noise": False}}}}).to_json()
+    assert VirtualL9.from_json(good).to_json() == good
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        VirtualL9.from_json({**good, "colour": "red"})
+    with pytest.raises(pydantic.ValidationError, match="colour"):  # in a run
+        VirtualL9.from_json({**good, "runs": [{**good["runs"][0], "colour": "red"}]})
+    with pytest.raises(pydantic.ValidationError, match="interval_from"):  # an Estimate missing a field
+        L9Run.from_json({**good["runs"][0], "replicates": {"efficiency": {"mean": 1.0, "sd": 0.1, "ci": [0.9, 1.1],
+                                                                           "n": 8}}})
+    with pytest.raises(pydantic.ValidationError, match="starts"):  # a Recommendation's field of the wrong type
+        Recommendation.from_json({**good["recommended"], "starts": "many"})
+    with pytest.raises(pydantic.ValidationError, match="what"):  # the perturbation without its text
+        ReplicatedL9.from_json({**good["replicated"], "perturbation": {"initial_eccentricity": 1.0,
+                                                                       "start_phase_spread_rad": 0.0}})
+    with pytest.raises(pydantic.ValidationError, match="mean_change"):  # a tolerance verdict missing a field
+        ToleranceCheck.from_json({"done": True, "responses": {"efficiency": {
+            "changes": [0.0], "max_abs_change": 0.0, "replicate_sd": 0.1, "noise_sd": 0.1,
+            "within_replicate_spread": True}}})
+    with pytest.raises(pydantic.ValidationError, match="beyond_noise"):
+        PairedDifference.from_json({**good["paired"]["efficiency"]["A"], "beyond_noise": "perhaps"})
+    # a check that was not run keeps only done and reason; the fallback weights are left out when absent
+    assert ToleranceCheck(done=False, reason="off").to_json() == {"done": False, "reason": "off"}
+    assert "fallback_weights" not in good["replicated"]
 
 
 def _l9_with_interaction(delta_rms: float, sigma: float = 0.4):

@@ -441,7 +441,7 @@ def doe_virtual(
                 out.print(describe_convergence(res, res["units"]), markup=False, highlight=False)
                 out.print(f"harvest.replicates in the description: {res['configured']}", markup=False)
             return
-        res = virtual_l9(machine, runner, replicates)
+        res = virtual_l9(machine, runner, replicates).to_json()  # printed and plotted as JSON
         res["version"] = __version__
         if plot is not None:
             import numpy as np

@@ -23,14 +23,15 @@ def _short_candidate(name: str) -> str:
     return "rec." if name.startswith("recommended") else name
 
 
-def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
+def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     """Replicate spread, significance, the recommendation's basis, the solver-tolerance check and the trade-off
     table of the virtual L9 (study/l9.py), as HTML parts.
 
     Parameters
     ----------
-    l9 : dict
-        The virtual L9 (study/l9.py).
+    l9 : VirtualL9
+        The virtual L9 (``berryshaker.study.l9_records.VirtualL9``, read by attribute; response units in
+        ``response_units``).
     figs : Path
         Folder of the figures.
     pair_names : sequence of str
@@ -41,20 +42,17 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     list of str
         HTML parts.
     """
-    rep = l9.get("replicated") or {}
-    units = l9.get("response_units") or rep.get("units") or {}
-    parts = []
-    pert = rep.get("perturbation")
-    if pert:
-        parts.append(f"<p class='small'>Replicates: {html.escape(pert['what'])}.</p>")
+    rep = l9.replicated
+    units = l9.response_units or rep.units
+    parts = [f"<p class='small'>Replicates: {html.escape(rep.perturbation.what)}.</p>"]
     rows = []
-    paired = l9.get("paired") or {}
-    for name, ra in rep.get("responses", {}).items():
+    paired = l9.paired
+    for name, ra in rep.responses.items():
         sd = ra["anova"]["pure_error"]["ms"] ** 0.5
         e = ra["anova"].get("error", ra["anova"]["pure_error"])
         sig = ", ".join(f"{f} (p = {ra['factors'][f]['p']:.2g})" for f in ra["significant_factors"]) or "none"
-        pr = "; ".join(f"{f}{q['levels'][1]} - {f}{q['levels'][0]}: {q['difference']:+.3g} +- {q['se']:.2g}"
-                       + ("" if q["beyond_noise"] else " (noise)") for f, q in paired.get(name, {}).items())
+        pr = "; ".join(f"{f}{q.levels[1]} - {f}{q.levels[0]}: {q.difference:+.3g} +- {q.se:.2g}"
+                       + ("" if q.beyond_noise else " (noise)") for f, q in paired.get(name, {}).items())
         rows.append([name, units.get(name, ""), float(sum(ra["run_means"]) / len(ra["run_means"])), sd,
                      e["ms"] ** 0.5, e["df"], sig, pr])
     if rows:
@@ -68,37 +66,32 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
         parts.append(_table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
                              "significant factors", "paired differences (last - first level)"],
                             rows, left=(0, 1, 6, 7)))
-    rec = l9.get("recommended") or {}
-    if rec.get("statement"):
+    rec = l9.recommended
+    if rec.statement:
         parts.append("<h3>Recommendation and its basis</h3>")
-        parts.append(f"<p><b>{html.escape(rec.get('name') or level_set_name(rec['clearance_mm']))}</b> "
-                     f"({html.escape(rec['code'])}): {html.escape(rec['statement'])}</p>")
-        parts.append(_table(["factor", "level", "basis"], [[p, rec["levels"][p], rec["basis"][p]]
-                                                          for p in pair_names if p in rec.get("basis", {})],
+        parts.append(f"<p><b>{html.escape(rec.name or level_set_name(rec.clearance_mm))}</b> "
+                     f"({html.escape(rec.code)}): {html.escape(rec.statement)}</p>")
+        parts.append(_table(["factor", "level", "basis"], [[p, rec.levels[p], rec.basis[p]]
+                                                          for p in pair_names if p in rec.basis],
                             left=(0, 2)))
-        parts.append(f"<p class='small'>Rule: {html.escape(rec.get('rule', ''))}.</p>")
-        seq = rec.get("sequential")
-        if seq:
-            parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(seq['statement'])}.</p>")
-    tc = l9.get("tolerance_check") or {}
-    if tc.get("done"):
-        rt = tc.get("rtol", [1e-6, 1e-7])  # a summary written before the tolerances were recorded: 1e-6, 1e-7
+        parts.append(f"<p class='small'>Rule: {html.escape(rec.rule)}.</p>")
+        parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(rec.sequential.statement)}.</p>")
+    tc = l9.tolerance_check
+    if tc.done:
+        rt = tc.rtol  # run and check tolerances (dimensionless)
         parts.append("<h3>Solver-tolerance check</h3>")
-        parts.append(f"<p>{html.escape(tc['statement'])} ({tc['replicates']} replicate(s) of the recommended set "
+        parts.append(f"<p>{html.escape(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
                      f"re-run at rtol {format_tolerance(rt[1])}"
-                     + (f"; velocities held absolutely below rtol x {tc['velocity_scale_m_s']:g} m/s at both"
-                        if "velocity_scale_m_s" in tc else "") + ").</p>")
+                     + (f"; velocities held absolutely below rtol x {tc.velocity_scale_m_s:g} m/s at both"
+                        if tc.velocity_scale_m_s is not None else "") + ").</p>")
         fmt = [format_tolerance(x) for x in rt]
-        rule = "within 2 x noise" if all("mean_change" in v for v in tc["responses"].values()) else \
-            "within 1 SD (a summary from before 2026-11-23)"
         parts.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
-                             "noise of the mean (SD)", rule],
-                            [[n, v.get("mean_change", float("nan")), v["max_abs_change"], v["replicate_sd"],
-                              v.get("noise_sd", float("nan")), v["within_replicate_spread"]]
-                             for n, v in tc["responses"].items()]))
-    elif tc:
-        parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.get('reason', ''))}.</p>")
-    recs = l9.get("tradeoff") or []
+                             "noise of the mean (SD)", "within 2 x noise"],
+                            [[n, v.mean_change, v.max_abs_change, v.replicate_sd, v.noise_sd, v.within_replicate_spread]
+                             for n, v in tc.responses.items()]))
+    else:
+        parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.reason or '')}.</p>")
+    recs = l9.tradeoff
     if recs:
         parts.append("<h3>Trade-off of the candidate clearance sets</h3>")
         forces = [f"peak_force_N:{p}" for p in pair_names if f"peak_force_N:{p}" in recs[0]]
@@ -134,7 +127,7 @@ def l9_replicates_section(l9: dict, figs: Path, pair_names) -> list[str]:
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
     _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
-    for name in sorted(rep.get("responses", {})):  # Minitab's effect figures (report.plots.effects), where drawn
+    for name in sorted(rep.responses):  # Minitab's effect figures (report.plots.effects), where drawn
         for kind, what in (("pareto", "Pareto chart of the standardized effects (t of each factor's linear and "
                                       "quadratic contrasts against the blocked error)"),
                            ("residuals", "Residuals of the main-effects model with blocks: normal probability plot "

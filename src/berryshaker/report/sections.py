@@ -321,7 +321,8 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     Parameters
     ----------
     inp : SectionInput
-        Results (``l9``: clearances in mm, efficiency kg/min, rates %), machine, figures.
+        Results (``l9``: the study's ``VirtualL9`` record, read by attribute; clearances in mm, efficiency kg/min,
+        rates %), machine, figures.
 
     Returns
     -------
@@ -332,13 +333,13 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     parts = []
     l9 = inp.res.l9
     if l9 is None:
-        l9 = {"runs": [], "responses": {}}
         parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
+    runs, responses = (l9.runs, l9.responses) if l9 is not None else ([], {})
     parts.append(_table(["run", *[f"{p} mm" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)", "damage (%)"],
-                        [[r["run"], *[r["clearance_mm"][p] for p in PAIR_NAMES], r["efficiency"], r["unripe"], r["damage"]]
-                         for r in l9["runs"]]))
-    for name in [n for n in ("efficiency", "unripe", "damage") if n in l9["responses"]]:
-        ra = l9["responses"][name]
+                        [[r.run, *[r.clearance_mm[p] for p in PAIR_NAMES], r.efficiency, r.unripe, r.damage]
+                         for r in runs]))
+    for name in [n for n in ("efficiency", "unripe", "damage") if n in responses]:
+        ra = responses[name]
         an = ra["anova"]["factors"]
         parts.append(f"<h3>{name}: range analysis ({'maximise' if ra['maximize'] else 'minimise'})</h3>")
         parts.append(_table(["factor", "k1", "k2", "k3", "R", "best", "ANOVA F", "p"],
@@ -350,13 +351,13 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
                      f"{', '.join(reg['aliased_terms'])}.  Fitted instead: the main-effects quadratic model "
                      f"(R² = {reg['main_effects_quadratic']['r2']:.3f}, {reg['main_effects_quadratic']['residual_df']} "
                      "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
-    rep = l9.get("replicated") if isinstance(l9, dict) else None
+    rep = l9.replicated if l9 is not None else None
     if rep:
-        parts.append(f"<h3>Against its own noise ({len(rep.get('seeds', []))} population seeds per run)</h3>")
+        parts.append(f"<h3>Against its own noise ({len(rep.seeds)} population seeds per run)</h3>")
         parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
-        parts.append(f"<pre class='text'>{html.escape(rep.get('text', ''))}</pre>")
+        parts.append(f"<pre class='text'>{html.escape(rep.text)}</pre>")
         parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):

@@ -290,14 +290,16 @@ def _claim6(res):
 
 
 def _significant(l9, name, p) -> bool:
-    """Whether factor p's effect on a response is beyond the replicate noise (True without a replicated analysis)."""
-    rep = (l9.get("replicated") or {}).get("responses", {}).get(name)
+    """Whether factor p's effect on a response is beyond the replicate noise (``l9``: the
+    :class:`~berryshaker.study.l9_records.VirtualL9`; True for a response the replicated analysis lacks)."""
+    rep = l9.replicated.responses.get(name)
     return True if rep is None else bool(rep["factors"][p]["significant"])
 
 
 def _p_value(l9, name, p) -> float | None:
-    """ANOVA p of factor p's effect on a response against the replicate error (None without a replicated analysis)."""
-    rep = (l9.get("replicated") or {}).get("responses", {}).get(name)
+    """ANOVA p of factor p's effect on a response against the replicate error (None for a response the replicated
+    analysis lacks)."""
+    rep = l9.replicated.responses.get(name)
     v = None if rep is None else rep["factors"][p].get("p")
     return None if v is None else float(v)
 
@@ -306,11 +308,11 @@ def _claim7(res):
     l9 = res.l9
     trend = {}
     for name in ("efficiency", "unripe", "damage"):
-        km = l9["responses"][name]["factors"]
+        km = l9.responses[name]["factors"]
         trend[name] = {p: km[p]["level_means"][2] - km[p]["level_means"][0] for p in PAIRS}
     # a pair lowers an index only if its effect is beyond the replicate noise (criterion 7)
     lower_all = {n: sum(1 for p in PAIRS if trend[n][p] < 0 and _significant(l9, n, p)) for n in trend}
-    eff_b = l9["responses"]["efficiency"]["factors"]["B"]["best_level"]
+    eff_b = l9.responses["efficiency"]["factors"]["B"]["best_level"]
     verdict = "reproduced" if all(v_ >= 3 for v_ in lower_all.values()) and eff_b == 2 else (
         "partly reproduced" if any(v_ >= 3 for v_ in lower_all.values()) else "not reproduced")
     return (verdict, "; ".join(f"{n}: level-3 minus level-1 mean " + ", ".join(
@@ -321,22 +323,23 @@ def _claim7(res):
 
 def _claim8(res):
     l9 = res.l9
+    rec = l9.recommended
     ours = {n: "".join(f"{p}{lv}" if _significant(l9, n, p) else f"{p}-" for p, lv in
-                       l9["responses"][n]["best_levels"].items() if p in PAIRS) for n in ("efficiency", "unripe", "damage")}
-    rank_eff = l9["responses"]["efficiency"]["ranking"]
+                       l9.responses[n]["best_levels"].items() if p in PAIRS) for n in ("efficiency", "unripe", "damage")}
+    rank_eff = l9.responses["efficiency"]["ranking"]
     a_first = rank_eff[0] == "A" and _significant(l9, "efficiency", "A")
-    vh = l9["recommended"]["virtual_harvest"]
-    fitted = set(l9["recommended"].get("fitted") or [])
+    vh = rec.virtual_harvest
+    fitted = set(rec.fitted)
 
     def fit(name):
         return " (fitted)" if name in fitted else ""
     # a factor left at the configured clearance because nothing differs is no evidence: the configured set is the
     # study's own choice, so "same as the study" would then hold by construction
-    kept = [p for p, b in (l9["recommended"].get("basis") or {}).items() if p in PAIRS and "kept at the configured" in b]
-    same = l9["recommended"]["same_as_study"] and not kept
+    kept = [p for p, b in rec.basis.items() if p in PAIRS and "kept at the configured" in b]
+    same = rec.same_as_study and not kept
     verdict = ("reproduced" if same and a_first
                else ("partly reproduced" if same or a_first else "not reproduced"))
-    basis = l9["recommended"].get("statement", "")
+    basis = rec.statement
     # the p itself, so that a verdict resting on p just below 0.05 in a few-replicate design reads as such
     p_a = _p_value(l9, "efficiency", "A")
     return (verdict, f"ours: ranking for efficiency {' > '.join(rank_eff)}"
@@ -346,8 +349,8 @@ def _claim8(res):
             + ", ".join(f"{n} {c} (study {BEST_PER_INDEX[n]})" for n, c in ours.items())
             + (f"; {basis}" if basis else "")
             + (f"; {', '.join(kept)} kept at the configured (the study's) clearance for want of any difference, so "
-               "the match with A1B1C1F3 is not counted" if kept and l9["recommended"]["same_as_study"] else "")
-            + f"; recommended {l9['recommended']['code']} giving {vh['efficiency_kg_min']:.2f} kg/min"
+               "the match with A1B1C1F3 is not counted" if kept and rec.same_as_study else "")
+            + f"; recommended {rec.code} giving {vh['efficiency_kg_min']:.2f} kg/min"
               f"{fit('efficiency')}, {vh['unripe_rate_pct']:.2f} %{fit('unripe')}, {vh['damage_rate_pct']:.2f} %"
               f"{fit('damage')}"
             + (" (fitted: the harvest model was calibrated to the study's values at the configured clearances, so "

@@ -163,8 +163,9 @@ def step_l9(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``l9``: the virtual L9 (:func:`berryshaker.study.l9.virtual_l9`) and its figures (drawn in workers);
-        no data (a note, and a failure logged) when it fails.
+        ``l9``: the virtual L9 (:class:`~berryshaker.study.l9_records.VirtualL9`,
+        :func:`berryshaker.study.l9.virtual_l9`) and its figures (drawn in workers, from its JSON form); no data
+        (a note, and a failure logged) when it fails.
     """
     from berryshaker.errors import SimulationError
     from berryshaker.experiment.analysis import quadratic_regression
@@ -177,18 +178,19 @@ def step_l9(ctx: StudyContext) -> StepResult:
         ctx.failures.append({"step": "virtual L9", "run": "", "inputs": "L9 clearance sets", "error": str(exc)})
         return StepResult("l9", None, note=f"the virtual L9 failed: {exc}")
     pairs = list(ctx.machine.pair_names)
-    values = np.array([[r["clearance_mm"][p] for p in pairs] for r in l9["runs"]])
+    values = np.array([[r.clearance_mm[p] for p in pairs] for r in l9.runs])
     levels_mm = {p: [v * 1e3 for v in ctx.machine.clearance_levels()[p]] for p in pairs}
-    # the figures are drawn in idle workers while the next steps run (StudyContext.draw)
-    ctx.draw(P.plot_main_effects, l9, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)",
+    # the figures are drawn in idle workers while the next steps run (StudyContext.draw); the plots read the JSON form
+    l9_json = l9.to_json()
+    ctx.draw(P.plot_main_effects, l9_json, ctx.figs / "l9_main_effects.png", "Virtual L9: main effects (study Table 8)",
              level_values=levels_mm, factor_unit="mm")
     figs = ["l9_main_effects.png"]
     for k, name in enumerate(("efficiency", "unripe", "damage")):
-        y = np.array([r[name] for r in l9["runs"]])
+        y = np.array([getattr(r, name) for r in l9.runs])
         ctx.draw(P.plot_response_surfaces, values, y, pairs, quadratic_regression(values, y, pairs), name,
                  ctx.figs / f"fig{27 + k}_surface_{name}.png")
         figs.append(f"fig{27 + k}_surface_{name}.png")
-    figs += l9_replicate_figures(l9, levels_mm, ctx.figs, ctx.draw)
+    figs += l9_replicate_figures(l9_json, levels_mm, ctx.figs, ctx.draw)
     return StepResult("l9", l9, figs)
 
 

@@ -21,7 +21,8 @@ ANOVA's error (blocked) with Tukey-Kramer simultaneous margins, so the table can
 dominance that the ANOVA calls no effect; a tested run that still dominates the choice becomes the
 recommendation.
 
-This module runs the L9 (:func:`l9_jobs`, :func:`virtual_l9`) and holds what only it reads
+This module runs the L9 (:func:`l9_jobs`, :func:`virtual_l9`: a
+:class:`~berryshaker.study.l9_records.VirtualL9` record) and holds what only it reads
 (:func:`fitted_here`, :func:`paired_summary`); its parts, each importable from here, are the responses of one start
 and a clearance set's replicate jobs (:mod:`berryshaker.study.replicate_responses`), the start counts
 (:mod:`berryshaker.study.start_counts`: convergence and sequential starts), the confirmation against the trade-off
@@ -39,6 +40,18 @@ from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.harvest.virtual import replicate_seeds  # one home; re-exported here
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.report.design import level_set_name
+from berryshaker.study.l9_records import (
+    Confirmation,
+    Estimate,
+    L9Run,
+    PairedDifference,
+    Perturbation,
+    Recommendation,
+    ReplicatedL9,
+    SequentialStarts,
+    TieredChoice,
+    VirtualL9,
+)
 from berryshaker.study.replicate_responses import (
     CONFIDENCE,
     HARVEST_RESPONSES,
@@ -118,7 +131,7 @@ def l9_jobs(machine, replicates: int | None = None, data: dict | None = None) ->
     return jobs, f"virtual L9: {len(runs)} runs x {r} replicates, coupled runs"
 
 
-def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
+def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     """The L9 over the machine's clearance pairs through the virtual harvest, replicated (module docstring).
 
     Parameters
@@ -132,15 +145,16 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
 
     Returns
     -------
-    dict
-        ``runs`` (levels, clearances, replicate means of efficiency/unripe/damage and ``replicates``: every
-        response's mean, sd, ci), ``responses`` (range analysis of the replicate means, as the study's Table
-        8), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against
-        the blocked error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
+    VirtualL9
+        The record (:mod:`berryshaker.study.l9_records`): ``responses`` (range analysis of the replicate means, as
+        the study's Table 8), ``runs`` (:class:`~berryshaker.study.l9_records.L9Run`: levels, clearances mm,
+        replicate means of efficiency kg/min, unripe and damage %, and ``replicates``: every response's mean, sd,
+        ci), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against the
+        blocked error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually
         recommended and ``tiered_levels``, the tiered rule's), ``recommended`` (levels, code, clearances, mean
         indexes, per-response intervals, ``basis`` per factor, ``rule``, ``statement``, ``check``: the
-        confirmation against the trade-off table, :func:`confirm_recommendation`), ``tolerance_check``, ``tradeoff`` (records of the
-        trade-off table) and ``tradeoff_columns``.
+        confirmation against the trade-off table, :func:`confirm_recommendation`), ``tolerance_check``,
+        ``tradeoff`` (records of the trade-off table), ``tradeoff_columns``, ``paired`` and ``observations``.
     """
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.designs import orthogonal_array
@@ -185,23 +199,21 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
                              fallback_weights={n: 1.0 for n in loads} or None, blocks=True)
     rep["seeds"] = seeds
     rep["units"] = units
-    rep["perturbation"] = {"initial_eccentricity": h.initial_eccentricity,
-                           "start_phase_spread_rad": h.start_phase_spread,
-                           "what": ("start k (block k of every run): seed + 1000 k for the bushes and for every branch "
-                                    "class's coupled run (seed, class): clearance eccentricities uniform over the disc of "
-                                    f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
-                                    f"in +-{math.degrees(h.start_phase_spread):.0f} deg")}
+    rep["perturbation"] = Perturbation(
+        initial_eccentricity=h.initial_eccentricity, start_phase_spread_rad=h.start_phase_spread,
+        what=("start k (block k of every run): seed + 1000 k for the bushes and for every branch class's coupled run "
+              "(seed, class): clearance eccentricities uniform over the disc of "
+              f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
+              f"in +-{math.degrees(h.start_phase_spread):.0f} deg"))
     rep["text"] = describe_replicated(rep)
     # comparisons between runs (they share the starts) use the blocked error; a run's own interval, its own starts
     err = {n: (rep["responses"][n]["anova"]["error"]["ms"], rep["responses"][n]["anova"]["error"]["df"])
            for n in names}
-    an["runs"] = [{"run": i + 1, "levels": {p: int(a[i, j]) for j, p in enumerate(pairs)},
-                   "clearance_mm": {p: float(values[i, j]) for j, p in enumerate(pairs)},
-                   "name": level_set_name({p: float(values[i, j]) for j, p in enumerate(pairs)}),
-                   **{n: float(y[n][i].mean()) for n in study_idx},
-                   "replicates": {n: interval(y[n][i]) for n in names}} for i in range(len(runs))]
-    an["replicated"] = rep
-    an["response_units"] = units
+    run_recs = [L9Run(run=i + 1, levels={p: int(a[i, j]) for j, p in enumerate(pairs)},
+                      clearance_mm={p: float(values[i, j]) for j, p in enumerate(pairs)},
+                      name=level_set_name({p: float(values[i, j]) for j, p in enumerate(pairs)}),
+                      **{n: float(y[n][i].mean()) for n in study_idx},
+                      replicates={n: Estimate(**interval(y[n][i])) for n in names}) for i in range(len(runs))]
 
     # recommendation: the tiered optimum; a factor where nothing differs keeps the configured clearance
     opt = rep["optimum"]
@@ -240,23 +252,23 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
 
     row, best_cl, rec_cells = rec_cells_at(rec_levels)
     rec_y = {n: np.array([c[n] for c in rec_cells]) for n in names}
-    check = confirm_recommendation([an["runs"][i]["levels"] for i in range(len(runs))], runs, y, rec_levels, best_cl,
+    check = confirm_recommendation([r.levels for r in run_recs], runs, y, rec_levels, best_cl,
                                    None if row is not None else rec_y, err, pairs)
-    an["tradeoff"], an["tradeoff_columns"] = check.pop("records"), check.pop("columns")
-    if check["moved"]:
-        row = check["l9_run"] - 1
-        rec_levels = dict(an["runs"][row]["levels"])
+    tradeoff, tradeoff_columns = check.pop("records"), check.pop("columns")
+    check = Confirmation(**{**check, "tiered": TieredChoice(**check["tiered"])})
+    if check.moved:
+        row = check.l9_run - 1
+        rec_levels = dict(run_recs[row].levels)
         best_cl, rec_cells = runs[row], run_cells[row]
         rec_y = {n: y[n][row] for n in names}
         for p in pairs:
             if rec_levels[p] != tiered_levels[p]:
                 # decided on measured evidence, not kept for want of it (claim 8 reads the basis)
                 basis[p] = (f"tested L9 run {row + 1} ({level_code(rec_levels)}) dominates the tiered choice "
-                            f"{check['tiered']['code']} beyond the noise: level {rec_levels[p]} (the tiered rule "
+                            f"{check.tiered.code} beyond the noise: level {rec_levels[p]} (the tiered rule "
                             f"gave level {tiered_levels[p]})")
-    statement = statement + " " + check["statement"]
+    statement = statement + " " + check.statement
     opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"], tiered_levels=tiered_levels)
-    an["optimum"] = opt
     # the recommended set's starts extended until every harvest response's mean is known to its target; its
     # intervals and SDs come from all of them (the first are the L9's: the same seeds)
     from berryshaker.errors import SimulationError
@@ -272,22 +284,22 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> dict:
     rec_all = {n: np.array([c[n] for c in seq["cells"]]) for n in names}
     vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
           if n in rec_all}
-    an["recommended"] = {"levels": rec_levels, "code": level_code(rec_levels),
-                         "name": level_set_name({p: best_cl[p] * 1e3 for p in pairs}),
-                         "clearance_mm": {p: best_cl[p] * 1e3 for p in pairs}, "l9_run": None if row is None else row + 1,
-                         "study": {"code": CHOSEN_CODE}, "same_as_study": rec_levels == CHOSEN_LEVELS,
-                         "virtual_harvest": vh, "replicates": {n: interval(rec_all[n]) for n in names},
-                         "starts": len(seq["cells"]), "sequential": {k: seq[k] for k in (
-                             "reached", "stopped", "target", "max", "statement")},
-                         "fitted": fitted_here(machine, best_cl),
-                         "basis": basis, "rule": rep["optimum"]["method"]
-                         + "; a factor with no significant difference keeps the configured clearance; "
-                         + CONFIRMATION_RULE, "statement": statement, "check": check}
-    an["tolerance_check"] = check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
-                                                   {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
-    an["paired"] = paired_summary(rep, pairs)
-    an["observations"] = {n: np.asarray(y[n]).tolist() for n in names}  # per run and start: the effect figures' data
-    return an
+    recommended = Recommendation(
+        levels=rec_levels, code=level_code(rec_levels), name=level_set_name({p: best_cl[p] * 1e3 for p in pairs}),
+        clearance_mm={p: best_cl[p] * 1e3 for p in pairs}, l9_run=None if row is None else row + 1,
+        study={"code": CHOSEN_CODE}, same_as_study=rec_levels == CHOSEN_LEVELS, virtual_harvest=vh,
+        replicates={n: Estimate(**interval(rec_all[n])) for n in names}, starts=len(seq["cells"]),
+        sequential=SequentialStarts(**{k: seq[k] for k in ("reached", "stopped", "target", "max", "statement")}),
+        fitted=fitted_here(machine, best_cl), basis=basis,
+        rule=(rep["optimum"]["method"] + "; a factor with no significant difference keeps the configured clearance; "
+              + CONFIRMATION_RULE), statement=statement, check=check)
+    tolerance = check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
+                                       {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
+    # the range analysis' keys first (its optimum replaced by the tiered one), then the study's, in that order
+    return VirtualL9(**{**an, "optimum": opt}, runs=run_recs, replicated=ReplicatedL9(**rep), response_units=units,
+                     tradeoff=tradeoff, tradeoff_columns=tradeoff_columns, recommended=recommended,
+                     tolerance_check=tolerance, paired=paired_summary(rep, pairs),
+                     observations={n: np.asarray(y[n]).tolist() for n in names})  # per run and start: the figures' data
 
 
 def fitted_here(machine, clearance: dict) -> list[str]:
@@ -318,7 +330,7 @@ def fitted_here(machine, clearance: dict) -> list[str]:
     return [n for n, key in tagged.items() if value_tag(machine, key) == "calibrated"]
 
 
-def paired_summary(rep: dict, pairs) -> dict:
+def paired_summary(rep: dict, pairs) -> dict[str, dict[str, PairedDifference]]:
     """Per response and factor, the paired difference of its extreme levels (last minus first, e.g. A3 - A1) over
     the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`).
 
@@ -331,7 +343,7 @@ def paired_summary(rep: dict, pairs) -> dict:
 
     Returns
     -------
-    dict
+    dict of str to dict of str to PairedDifference
         Response -> pair -> ``levels``, ``difference``, ``se``, ``ci`` (the response's unit), ``p`` and
         ``beyond_noise``.
     """
@@ -342,6 +354,7 @@ def paired_summary(rep: dict, pairs) -> dict:
             pd_ = ra["factors"][p].get("paired") or []
             if pd_:
                 ext = max(pd_, key=lambda q: q["levels"][1] - q["levels"][0])
-                per[p] = {k: ext[k] for k in ("levels", "difference", "se", "ci", "p", "beyond_noise")}
+                per[p] = PairedDifference(**{k: ext[k] for k in ("levels", "difference", "se", "ci", "p",
+                                                                 "beyond_noise")})
         out[n] = per
     return out

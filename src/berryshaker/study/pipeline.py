@@ -33,6 +33,7 @@ from berryshaker import __version__
 from berryshaker.drives import drive_of
 from berryshaker.multibody.engine import compile_engine
 from berryshaker.plant.pedicel import compile_peak_stem_force
+from berryshaker.records import to_json
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
 from berryshaker.report import sections as S
 from berryshaker.runs.runner import usable_cores
@@ -51,6 +52,7 @@ from berryshaker.study.harvest_steps import (
     step_l9,
     step_validation,
 )
+from berryshaker.study.l9_records import VirtualL9
 from berryshaker.study.life_drive_steps import (
     POWERED_LEVELS,
     POWERED_REPLICATES,
@@ -325,13 +327,13 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
     optimum = None
     l9 = results.l9
     if l9 is not None:
-        rec = l9["recommended"]
-        vh = rec["virtual_harvest"]
-        optimum = {"code": rec["code"], "name": rec.get("name"), "clearance_mm": rec["clearance_mm"],
+        rec = l9.recommended
+        vh = rec.virtual_harvest
+        optimum = {"code": rec.code, "name": rec.name, "clearance_mm": rec.clearance_mm,
                    "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
                    "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": CHOSEN_CODE, **FIELD_RESULT},
-                   "fitted": rec.get("fitted", []), "starts": rec.get("starts"),
-                   "intervals": rec.get("replicates"), "basis": rec.get("basis"), "statement": rec.get("statement")}
+                   "fitted": rec.fitted, "starts": rec.starts,
+                   "intervals": to_json(rec.replicates), "basis": rec.basis, "statement": rec.statement}
     return {
         "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
         "drive": machine.DRIVE,
@@ -341,13 +343,13 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
     }
 
 
-def l9_summary(l9: dict | None) -> dict:
+def l9_summary(l9: VirtualL9 | None) -> dict:
     """summary.json entries of the replicated L9: ``l9_replicates`` (pooled replicate SD, dof and significant
-    factors per response; the solver-tolerance check) and ``tradeoff`` (the trade-off table's rows).
+    factors per response; the solver-tolerance check) and ``tradeoff`` (the trade-off table's rows), as JSON.
 
     Parameters
     ----------
-    l9 : dict or None
+    l9 : VirtualL9 or None
         The virtual L9 (:func:`berryshaker.study.l9.virtual_l9`).
 
     Returns
@@ -355,18 +357,18 @@ def l9_summary(l9: dict | None) -> dict:
     dict
         ``l9_replicates``, ``tradeoff`` and ``tradeoff_columns``; empty without a replicated L9.
     """
-    if not l9 or "replicated" not in l9:
+    if l9 is None:
         return {}
-    rep = l9["replicated"]
+    rep = l9.replicated
     per = {n: {"replicate_sd": ra["anova"]["pure_error"]["ms"] ** 0.5, "dof": ra["anova"]["pure_error"]["df"],
                "blocked_error_sd": ra["anova"]["error"]["ms"] ** 0.5, "blocked_error_dof": ra["anova"]["error"]["df"],
                "significant_factors": ra["significant_factors"],
-               "p": {f: d["p"] for f, d in ra["factors"].items()}, "paired": (l9.get("paired") or {}).get(n)}
-           for n, ra in rep["responses"].items()}
-    return {"l9_replicates": {"replicates": rep["replicates"], "blocks": rep.get("blocks"), "seeds": rep.get("seeds"),
-                              "perturbation": rep.get("perturbation"), "significance_rule": rep["significance_rule"],
-                              "responses": per, "tolerance_check": l9.get("tolerance_check")},
-            "tradeoff": l9.get("tradeoff", []), "tradeoff_columns": l9.get("tradeoff_columns", [])}
+               "p": {f: d["p"] for f, d in ra["factors"].items()}, "paired": to_json(l9.paired.get(n))}
+           for n, ra in rep.responses.items()}
+    return {"l9_replicates": {"replicates": rep.replicates, "blocks": rep.blocks, "seeds": rep.seeds,
+                              "perturbation": rep.perturbation.to_json(), "significance_rule": rep.significance_rule,
+                              "responses": per, "tolerance_check": l9.tolerance_check.to_json()},
+            "tradeoff": l9.tradeoff, "tradeoff_columns": l9.tradeoff_columns}
 
 
 def run_study(machine, out_dir: Path, runner, console=None) -> dict:

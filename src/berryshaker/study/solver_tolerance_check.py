@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from berryshaker.harvest.spec import COUPLED_VELOCITY_SCALE
+from berryshaker.study.l9_records import ToleranceCheck, ToleranceVerdict
 from berryshaker.study.replicate_responses import RTOL_RUN
 from berryshaker.study.runs import replicate_run
 from berryshaker.units import format_tolerance
@@ -53,7 +54,8 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
             "replicate_sd": float(replicate_sd), "noise_sd": noise, "within_replicate_spread": bool(abs(mean) <= 2 * noise)}
 
 
-def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, sds, names) -> dict:
+def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, sds, names
+                           ) -> ToleranceCheck:
     """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at :data:`RTOL_CHECK`: each
     response's mean change against the noise of k replicates (:func:`tolerance_verdict`, ``sds``: the per-start
     standard deviation of each response at the recommended set).
@@ -84,27 +86,24 @@ def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pop
 
     Returns
     -------
-    dict
+    ToleranceCheck
         ``done`` (False, with the ``reason``, when ``harvest.tolerance_replicates`` is 0), ``rtol`` (run and check,
         dimensionless), ``velocity_scale_m_s`` (m/s), ``replicates``, ``responses`` (:func:`tolerance_verdict` per
         response), ``all_within`` and ``statement``.
     """
     k = min(machine.harvest.tolerance_replicates, len(seeds))
     if k == 0:
-        return {"done": False, "reason": "harvest.tolerance_replicates = 0"}
+        return ToleranceCheck(done=False, reason="harvest.tolerance_replicates = 0")
     s = seeds[:k]
     o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {format_tolerance(RTOL_CHECK)}")
     tight = cells(o, s, pops[:k])
-    out = {"done": True, "rtol": [RTOL_RUN, RTOL_CHECK], "velocity_scale_m_s": COUPLED_VELOCITY_SCALE,
-           "replicates": k, "responses": {}}
-    for n in names:
-        sd = sds[n]
-        out["responses"][n] = tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sd)
-    bad = [n for n, v in out["responses"].items() if not v["within_replicate_spread"]]
-    out["all_within"] = not bad
+    verdicts = {n: ToleranceVerdict(**tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sds[n]))
+                for n in names}
+    bad = [n for n, v in verdicts.items() if not v.within_replicate_spread]
     change = f"the change from rtol {format_tolerance(RTOL_RUN)} to {format_tolerance(RTOL_CHECK)}"
     band = f"mean change of {k} replicate(s) within 2 x sqrt(2/{k}) replicate SD"
-    out["statement"] = (f"{change} is within the replicate noise for every response ({band})" if not bad else
-                        f"{change} is NOT within the replicate noise ({band}) for: " + ", ".join(bad)
-                        + " (a solver bias comparable to the noise there)")
-    return out
+    statement = (f"{change} is within the replicate noise for every response ({band})" if not bad else
+                 f"{change} is NOT within the replicate noise ({band}) for: " + ", ".join(bad)
+                 + " (a solver bias comparable to the noise there)")
+    return ToleranceCheck(done=True, rtol=[RTOL_RUN, RTOL_CHECK], velocity_scale_m_s=COUPLED_VELOCITY_SCALE,
+                          replicates=k, responses=verdicts, all_within=not bad, statement=statement)

@@ -1,16 +1,17 @@
 """What one study step produces (:class:`StepResult`): the one type every step of :mod:`berryshaker.study.pipeline`
 returns, kept apart from the pipeline so that step modules (e.g. :mod:`berryshaker.study.life_step`) import it
-without importing the pipeline that calls them."""
+without importing the pipeline that calls them; and what the whole study produces (:class:`StudyResults`), every
+step's data as its typed record."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.records import JsonRecord
 from berryshaker.study.fruit_force_records import FruitForceStep
 from berryshaker.study.harvest_records import HarvestResponse, Validation
+from berryshaker.study.l9_records import VirtualL9
 from berryshaker.study.life_drive_records import ClearanceLife, PoweredDrive
 from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 
@@ -24,8 +25,8 @@ class StepResult:
     ----------
     name : str
         The step's name.
-    data : dict or None
-        Its JSON-able results (None when it produced none).
+    data : JsonRecord or None
+        Its results as a typed record (the step's field of :class:`StudyResults`; None when it produced none).
     figures : list of str
         Figure files it wrote, relative to the output folder.
     note : str
@@ -35,7 +36,7 @@ class StepResult:
     """
 
     name: str
-    data: dict | None
+    data: JsonRecord | None
     figures: list[str] = field(default_factory=list)
     note: str = ""
     seconds: float = 0.0
@@ -58,9 +59,9 @@ class StudyResults(JsonRecord):
         Step ``clearance_rows``: collision forces (N) and load moments (N m) per clearance row, the model check.
     fruit_force : FruitForceStep or None
         Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
-    l9 : dict or None
+    l9 : VirtualL9 or None
         Step ``virtual_l9``: the replicated virtual L9 and its recommendation (clearances mm, efficiency kg/min,
-        rates %).
+        rates %; :class:`berryshaker.study.l9_records.VirtualL9`).
     clearance_life : ClearanceLife or None
         Step ``clearance_life``: clearance growth by wear (mm against h) and the recommended fits.
     powered_drive : PoweredDrive or None
@@ -79,7 +80,7 @@ class StudyResults(JsonRecord):
     agreement: ModelAgreement | None = None
     rows: ClearanceRows | None = None
     fruit_force: FruitForceStep | None = None
-    l9: Any = None
+    l9: VirtualL9 | None = None
     clearance_life: ClearanceLife | None = None
     powered_drive: PoweredDrive | None = None
     harvest_response: HarvestResponse | None = None

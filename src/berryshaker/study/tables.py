@@ -80,14 +80,13 @@ def write_tables(machine, res, tables: Path) -> None:
         write("fruit_force.csv", ["fruit", "z_m", "peak_N", "study_low_N", "study_high_N", "ripe", "unripe"],
               [[n, d.z_m, d.peak_force_N, *(d.study_range_N or ["", ""]), d.eq17.ripe, d.eq17.unripe]
                for n, d in pos.items()])
-    if res.l9:
+    if res.l9 is not None:
         write("l9_runs.csv",
               ["run", *[f"{p}_mm" for p in pairs], "efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"],
-              [[r["run"], *[r["clearance_mm"][p] for p in pairs], r["efficiency"], r["unripe"], r["damage"]]
-               for r in res.l9["runs"]])
-        cols = res.l9.get("tradeoff_columns") or []
-        if res.l9.get("tradeoff"):
-            write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res.l9["tradeoff"]])
+              [[r.run, *[r.clearance_mm[p] for p in pairs], r.efficiency, r.unripe, r.damage] for r in res.l9.runs])
+        cols = res.l9.tradeoff_columns
+        if res.l9.tradeoff:
+            write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res.l9.tradeoff])
     write("failed_runs.csv", ["step", "run", "inputs", "error"],
           [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.failures])
     write("claims.csv", ["id", "verdict", "claim", "detail"],
