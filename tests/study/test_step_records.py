@@ -85,7 +85,7 @@ def test_the_readers_read_the_records(tmp_path):
     from berryshaker.study import claims as C
     from berryshaker.study.tables import write_tables
 
-    res = StudyResults.from_json({**HARVEST, **SECTIONS, "rows": {"multibody": {}, "mlsd": {}, "starts": {}}})
+    res = StudyResults.from_json({**HARVEST, **SECTIONS, "rows": {"multibody": {}, "mlsd": {}, "starts": {}}, "l9": None})
     assert C._claim6(res) == ("not reproduced", "root: ripe left on the bush, unripe kept; middle: ripe left on "
                               "the bush, unripe kept; end: ripe picked, unripe kept")
     verdict, detail = C._claim5(res)
