@@ -363,7 +363,7 @@ def _small_result(held_out_done: bool = True) -> "fc.CalibrationResult":
         parameters={"ripe_pull": param}, identified_rule=fc.IDENTIFIED_RULE,
         confounded=[fc.Confounding(parameters=["ripe_pull", "yield_per_bush"], correlation=0.7)],
         confounded_rule=fc.CONFOUNDED_RULE, predictions=preds,
-        recommendation=fc.Recommendation(level_set="C=0.1mm", score=1.0, no_difference=[], dominated=1, candidates=2,
+        recommendation=fc.CalibrationRecommendation(level_set="C=0.1mm", score=1.0, no_difference=[], dominated=1, candidates=2,
                                          rule=fc.RECOMMENDATION_RULE, weights={"efficiency": 1.0}),
         emulator=fc.EmulatorSummary(kind="GP", joint_fitted=True, joint_points=160, training_points=48,
                                     theta_points_per_setting=24, held_out_theta={"efficiency": check},

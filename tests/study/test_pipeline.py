@@ -188,6 +188,14 @@ def test_study_outputs(study_out):
     assert "berryshaker" in html and html.count("data:image/png;base64,") >= 19 and "<script" not in html
 
 
+def test_every_step_has_its_field_in_the_study_results():
+    """A step's result name is a field of StudyResults (else the study would fail only after every step ran)."""
+    from berryshaker.records import field_names
+    from berryshaker.study.pipeline import STEPS
+
+    assert [s.result for s in STEPS] == [f for f in field_names(StudyResults) if f not in ("claims", "failures")]
+
+
 def test_saved_results_read_back_as_the_typed_records(study_out):
     """summary.json's ``results`` is StudyResults.to_json(): read back (validated, nested records included) it
     writes the same JSON, key for key and in the same order; a key no record has is refused, naming it."""

@@ -243,6 +243,9 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
     last = _rows_last(inp)
+    title = f"Collision force against clearance (rows 1-{last - 3}; Figs. 18-21)"
+    if res.rows is None:
+        return title, ["<p>Not available (see Failed runs).</p>"]
     mb = res.rows.multibody
     rows = []
     for r in range(1, last + 1):
@@ -255,7 +258,7 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
                      *[f"mean {p} (N)" for p in PAIR_NAMES]], rows)]
     for i, p in enumerate(PAIR_NAMES):
         _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
-    return f"Collision force against clearance (rows 1-{last - 3}; Figs. 18-21)", parts
+    return title, parts
 
 
 def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
@@ -274,6 +277,9 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
     """
     last = _rows_last(inp)
     lv = (last - 2, last - 1, last)
+    title = f"Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)"
+    if inp.res.rows is None:
+        return title, ["<p>Not available (see Failed runs).</p>"]
     mb = inp.res.rows.multibody
     parts = ["<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model (a "
              "spring-damper about each comb shaft, 200 N m/rad [assumed]); peak and rms are per comb, about its "
@@ -286,7 +292,7 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
                          for r in (1, *lv) if str(r) in mb]))
     for i, side in enumerate(("left", "right")):
         _maybe_img(parts, inp.figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
-    return f"Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)", parts
+    return title, parts
 
 
 def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
@@ -457,10 +463,9 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
     chosen = None if ff is None or ff.chosen is None else ff.chosen.summary
     if chosen is not None and chosen.load_moment_Nm:
         bush = chosen.bush
-        who = (f"the sum of the reactions of {getattr(bush, 'branches', None)} branches "
-               f"({getattr(bush, 'members', None)} simulated members with {getattr(bush, 'modes_per_member', None)} "
-               f"modes each, seed {getattr(bush, 'seed', None)}, plus the "
-               "instrumented fruit branch)" if chosen.load_model == "branches"
+        who = (f"the sum of the reactions of {bush.branches} branches ({bush.members} simulated members with "
+               f"{bush.modes_per_member} modes each, seed {bush.seed}, plus the instrumented fruit branch)"
+               if chosen.load_model == "branches" and bush is not None
                else "the aggregate spring-damper (combs.load_model = aggregate)")
         parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
                      f" Per comb, about its shaft; compare {inp.ref(comb_load_section, 'the comb-load section')}'s "

@@ -52,7 +52,7 @@ def _code(levels: dict) -> str:
 
 
 def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
-    """Verdict and detail for each claim, from the study's results dict.
+    """Verdict and detail for each claim, from the study's results (:class:`~berryshaker.study.step_result.StudyResults`).
 
     Parameters
     ----------
@@ -78,6 +78,8 @@ def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
             try:
                 verdict, detail = fn(res)
             except (KeyError, TypeError, IndexError, AttributeError) as exc:
+                if isinstance(exc, AttributeError) and exc.obj is not None:
+                    raise  # a field the record does not have: a bug here, not a step that produced nothing
                 verdict, detail = ("not comparable",
                                    f"the runs this claim needs failed or are missing ({exc!r}); see Failed runs")
         claims.append({"id": cid, "claim": CLAIMS[cid], "verdict": verdict, "detail": detail,

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from berryshaker.records import JsonRecord, optional
+from berryshaker.study.statistic_records import MomentStatistics, StartStatistic
 
 
 @dataclass(frozen=True)
@@ -117,24 +118,6 @@ class ContactPeak(JsonRecord):
     impacts: int
 
 
-@dataclass(frozen=True)
-class CombMoment(JsonRecord):
-    """The bush's load moment on one comb about its shaft while the bush is inside the comb.
-
-    Attributes
-    ----------
-    peak : float
-        Peak |M| (N m).
-    rms : float
-        RMS moment (N m).
-    mean : float
-        Mean |M| (N m).
-    """
-
-    peak: float
-    rms: float
-    mean: float
-
 
 @dataclass(frozen=True)
 class BushSample(JsonRecord):
@@ -181,7 +164,7 @@ class FruitForceSummary(JsonRecord):
         Whether the peak force rises from root to end.
     load_model : str
         The combs' load model ("branches" or "aggregate").
-    load_moment_Nm : dict of str to CombMoment
+    load_moment_Nm : dict of str to MomentStatistics
         Per comb (left, right) the bush's load moment (N m).
     bush : BushSample or None
         The sampled bush (``branches`` load model only; absent otherwise).
@@ -200,7 +183,7 @@ class FruitForceSummary(JsonRecord):
     pedicel: PedicelSummary | None = optional()
     rises_root_to_end: bool
     load_model: str
-    load_moment_Nm: dict[str, CombMoment]
+    load_moment_Nm: dict[str, MomentStatistics]
     bush: BushSample | None = optional()
     steps: int
     wall_time_s: float
@@ -229,27 +212,6 @@ class DrivePast(JsonRecord):
     peaks_exact: dict[str, float]
 
 
-@dataclass(frozen=True)
-class FruitStartStats(JsonRecord):
-    """One named fruit's peak stem force over the perturbed starts of a set.
-
-    Attributes
-    ----------
-    mean : float
-        Mean over the finished starts (N).
-    sd : float
-        Sample SD over them (N).
-    se : float
-        Standard error of the mean (N).
-    values : list of float or None
-        One per planned start (N), None where the run failed (pairing by position).
-    """
-
-    mean: float
-    sd: float
-    se: float
-    values: list[float | None]
-
 
 @dataclass(frozen=True)
 class FruitStartSet(JsonRecord):
@@ -257,13 +219,13 @@ class FruitStartSet(JsonRecord):
 
     Attributes
     ----------
-    positions : dict of str to FruitStartStats
+    positions : dict of str to StartStatistic
         Per named fruit its peak stem force over the starts (N).
     starts : int
         Finished starts.
     """
 
-    positions: dict[str, FruitStartStats]
+    positions: dict[str, StartStatistic]
     starts: int
 
 
@@ -294,5 +256,5 @@ class FruitForceStep(JsonRecord):
     branch_class: float
 
 
-__all__ = ["Eq17Verdict", "FruitPosition", "PedicelSummary", "ContactPeak", "CombMoment", "BushSample",
-           "FruitForceSummary", "DrivePast", "FruitStartStats", "FruitStartSet", "FruitForceStep"]
+__all__ = ["Eq17Verdict", "FruitPosition", "PedicelSummary", "ContactPeak", "BushSample",
+           "FruitForceSummary", "DrivePast", "FruitStartSet", "FruitForceStep"]

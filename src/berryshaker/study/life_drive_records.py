@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from berryshaker.records import JsonRecord
+from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 
 
 @dataclass(frozen=True)
@@ -88,24 +89,6 @@ class ClearanceLife(JsonRecord):
     notes: list[str]
 
 
-@dataclass(frozen=True)
-class CamSpeed(JsonRecord):
-    """The cam (drive-shaft) speed over the powered run, replicate means.
-
-    Attributes
-    ----------
-    min : float
-        Lowest speed (r/min).
-    max : float
-        Highest speed (r/min).
-    mean : float
-        Mean speed (r/min).
-    """
-
-    min: float
-    max: float
-    mean: float
-
 
 @dataclass(frozen=True)
 class PoweredLevel(JsonRecord):
@@ -115,7 +98,7 @@ class PoweredLevel(JsonRecord):
     ----------
     clearance_mm : dict of str to float
         Clearance per pair (mm).
-    cam_speed_rpm : CamSpeed
+    cam_speed_rpm : SpeedRange
         Drive-shaft speed (r/min).
     speed_ripple_percent : float
         Speed ripple, (max - min) / mean (%).
@@ -124,7 +107,7 @@ class PoweredLevel(JsonRecord):
     energy_per_revolution_J : dict of str to float
         Energy lost per revolution by each joint and element (J/rev): the clearance pairs, the bush, belt, mesh
         and guide friction.
-    drive_moment_Nm : dict of str to float
+    drive_moment_Nm : DriveMoment
         Drive moment statistics (peak, mean, rms, p95, mean_abs; N m).
     replicates : int
         Finished starts averaged.
@@ -137,11 +120,11 @@ class PoweredLevel(JsonRecord):
     """
 
     clearance_mm: dict[str, float]
-    cam_speed_rpm: CamSpeed
+    cam_speed_rpm: SpeedRange
     speed_ripple_percent: float
     input_power_W: float
     energy_per_revolution_J: dict[str, float]
-    drive_moment_Nm: dict[str, float]
+    drive_moment_Nm: DriveMoment
     replicates: int
     audit_relative_residual: float
     speed_ripple_sd_percent: float
@@ -187,4 +170,4 @@ class PoweredDrive(JsonRecord):
     finding: str
 
 
-__all__ = ["ClearanceGrowth", "RecommendedFits", "ClearanceLife", "CamSpeed", "PoweredLevel", "PoweredDrive"]
+__all__ = ["ClearanceGrowth", "RecommendedFits", "ClearanceLife", "PoweredLevel", "PoweredDrive"]

@@ -10,7 +10,8 @@ import numpy as np
 
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.experiment.replicates import replicate_trend
-from berryshaker.study.life_drive_records import CamSpeed, PoweredDrive, PoweredLevel
+from berryshaker.study.life_drive_records import PoweredDrive, PoweredLevel
+from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 from berryshaker.study.life_step import step_life
 from berryshaker.study.runs import powered_row
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
@@ -130,7 +131,8 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
         losts[str(lv)] = [sum(v for j, v in r["energy_per_revolution_J"].items() if j in pairs) for r in reps]
         d["speed_ripple_sd_percent"] = float(np.std(ripples[str(lv)], ddof=1))
         d["clearance_energy_sd_J"] = float(np.std(losts[str(lv)], ddof=1))
-        data[str(lv)] = PoweredLevel(**{**d, "cam_speed_rpm": CamSpeed(**d["cam_speed_rpm"])})
+        data[str(lv)] = PoweredLevel(**{**d, "cam_speed_rpm": SpeedRange(**d["cam_speed_rpm"]),
+                                              "drive_moment_Nm": DriveMoment(**d["drive_moment_Nm"])})
     if len(data) < 2:
         return StepResult("powered_drive", None, note="the powered-drive runs failed (see Failed runs)")
     names = sorted(data)

@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from berryshaker.records import JsonRecord, optional
+from berryshaker.study.statistic_records import DriveMoment, MomentStatistics, SpeedRange, StartStatistic
 
 
 # ----------------------------------------------------------------------------------------------- run summaries
@@ -44,31 +45,6 @@ class ForceStatistics(JsonRecord):
     rms: float
     p95: float
 
-
-@dataclass(frozen=True)
-class DriveMoment(JsonRecord):
-    """The multibody model's drive moment: the moment the drive applies to its shaft in its direction of rotation,
-    over revolutions 2..N.
-
-    Attributes
-    ----------
-    peak : float
-        Peak magnitude (N m).
-    mean : float
-        Signed mean (N m; mean drive power / speed).
-    rms : float
-        Root mean square (N m).
-    p95 : float
-        95th percentile of the magnitude (N m).
-    mean_abs : float
-        Mean of the magnitude (N m).
-    """
-
-    peak: float
-    mean: float
-    rms: float
-    p95: float
-    mean_abs: float
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -114,7 +90,7 @@ class MultibodyRow(JsonRecord):
         this and the fields below are absent otherwise).
     driveline_speed_ripple_percent : dict of str to float or None
         Speed ripple of the motor rotor and the input shaft (%).
-    cam_speed_rpm : dict of str to float or None
+    cam_speed_rpm : SpeedRange or None
         The driven shaft's speed: ``min``, ``max``, ``mean`` (r/min).
     speed_ripple_percent : float or None
         The driven shaft's speed ripple (%).
@@ -144,30 +120,12 @@ class MultibodyRow(JsonRecord):
     statistics_over: str
     driveline_mode: str | None = optional()
     driveline_speed_ripple_percent: dict[str, float] | None = optional()
-    cam_speed_rpm: dict[str, float] | None = optional()
+    cam_speed_rpm: SpeedRange | None = optional()
     speed_ripple_percent: float | None = optional()
     input_power_W: float | None = optional()
     energy_per_revolution_J: dict[str, float] | None = optional()
     energy_audit: dict | None = optional()
 
-
-@dataclass(frozen=True)
-class ReducedMoment(JsonRecord):
-    """A comb's load moment in the reduced model (N m), over revolutions 2..N.
-
-    Attributes
-    ----------
-    peak : float
-        Peak magnitude (N m).
-    rms : float
-        Root mean square (N m).
-    mean : float
-        Mean magnitude (N m).
-    """
-
-    peak: float
-    rms: float
-    mean: float
 
 
 @dataclass(frozen=True)
@@ -212,7 +170,7 @@ class ReducedRow(JsonRecord):
         The revolutions the statistics are over.
     collision_force_N : dict of str to ForceStatistics
         Per pair, its collision force (N).
-    load_moment_Nm : dict of str to ReducedMoment
+    load_moment_Nm : dict of str to MomentStatistics
         Per comb ("left", "right"), its load moment (N m).
     drive_moment_Nm : ReducedDriveMoment
         The drive moment (N m) and mean power (W).
@@ -239,7 +197,7 @@ class ReducedRow(JsonRecord):
     revolutions: int
     statistics_over: str
     collision_force_N: dict[str, ForceStatistics]
-    load_moment_Nm: dict[str, ReducedMoment]
+    load_moment_Nm: dict[str, MomentStatistics]
     drive_moment_Nm: ReducedDriveMoment
     bearing_reaction_N: dict[str, ForceStatistics]
     steps: int
@@ -252,30 +210,6 @@ class ReducedRow(JsonRecord):
 
 
 # ------------------------------------------------------------------------------------------ perturbed starts
-@dataclass(frozen=True)
-class StartStatistic(JsonRecord):
-    """One per-run statistic (a peak or a mean of a collision force) over a row's perturbed starts.
-
-    Attributes
-    ----------
-    mean : float
-        Mean over the starts that ran (N).
-    sd : float
-        Their standard deviation (N).
-    se : float
-        Standard error of the mean (N).
-    p95 : float
-        95th percentile of the per-start values (N).
-    values : list of float or None
-        One per planned start, in the starts' order (N); None where the run failed.
-    """
-
-    mean: float
-    sd: float
-    se: float
-    p95: float
-    values: list[float | None]
-
 
 @dataclass(frozen=True)
 class PairStarts(JsonRecord):
@@ -569,7 +503,7 @@ class ModelAgreement(JsonRecord):
     pairs: dict[str, PairAgreement]
 
 
-__all__ = ["ForceStatistics", "DriveMoment", "MultibodyRow", "ReducedMoment", "ReducedDriveMoment", "ReducedRow",
-           "StartStatistic", "PairStarts", "RowStarts", "EnsembleStatistic", "EnsembleAgreement", "ModelRuns",
+__all__ = ["ForceStatistics", "MultibodyRow", "ReducedDriveMoment", "ReducedRow",
+           "PairStarts", "RowStarts", "EnsembleStatistic", "EnsembleAgreement", "ModelRuns",
            "ModelCheck", "RowAgreement", "ClearanceRows", "StatisticsAgreement", "PeakForces", "PairAgreement",
            "ModelAgreement"]

@@ -201,7 +201,7 @@ def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
 
 
 def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, dict, list[dict], dict]:
-    """Run every step; return (results by step name, StepResults, failures, timings in s).
+    """Run every step; return (StudyResults, the StepResults by result name, failures, timings in s).
 
     The steps run in order in this process, but their runs need not wait for them: the runs every step will ask
     for (:data:`PLANS`) start ahead in the runner's idle workers (``SweepRunner.prefetch``; local pool only).

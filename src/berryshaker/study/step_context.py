@@ -48,7 +48,8 @@ class StudyContext:
     say : callable
         ``say(msg)``: progress messages (default silent).
     results : dict
-        Data of the steps run so far, by step name.
+        The records of the steps run so far, by their result name (the fields of
+        :class:`~berryshaker.study.step_result.StudyResults`: ``rows``, ``fruit_force`` ...).
     drawing : list
         Figures being drawn in pool workers: (future, pickled call).
     engine_compiled : callable
@@ -61,7 +62,7 @@ class StudyContext:
     figs: Path
     failures: list = field(default_factory=list)
     say: Callable[[str], None] = field(default=None)
-    results: dict = field(default_factory=dict)  # data of the steps run so far, by step name
+    results: dict = field(default_factory=dict)  # records of the steps run so far, by result name
     drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
     # called by the step that compiles the multibody engine once it has (run_steps then starts the planned runs
     # that need it, while that step still plots)

@@ -18,7 +18,7 @@ from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 
 @dataclass
 class StepResult:
-    """What one study step produced: JSON-able data, figure files (relative names) and a note for the report
+    """What one study step produced: its data as a typed record, figure files (relative names) and a note for the report
     (e.g. why a step was skipped).
 
     Attributes

@@ -47,7 +47,7 @@ def write_tables(machine, res, tables: Path) -> None:
     def write(name, header, rows):
         write_table(tables / name, header, rows)
 
-    models = (("multibody", res.rows.multibody), ("mlsd", res.rows.mlsd))
+    models = (("multibody", res.rows.multibody), ("mlsd", res.rows.mlsd)) if res.rows is not None else ()
     rows = []
     for model, runs in models:
         for r, s in runs.items():

@@ -172,7 +172,7 @@ class Prediction(JsonRecord):
 
 
 @dataclass(frozen=True)
-class Recommendation(JsonRecord):
+class CalibrationRecommendation(JsonRecord):
     """The recommended level set (:data:`~berryshaker.study.field_calibration.workflow.RECOMMENDATION_RULE`).
 
     Attributes
@@ -522,7 +522,7 @@ class CalibrationResult(JsonRecord):
         When a pair counts as confounded.
     predictions : list of Prediction
         Per level set of the sheet's factors (then the named settings) its predictions.
-    recommendation : Recommendation
+    recommendation : CalibrationRecommendation
         The recommended level set.
     emulator : EmulatorSummary
         The emulator and its held-out checks.
@@ -561,7 +561,7 @@ class CalibrationResult(JsonRecord):
     confounded: list[Confounding]
     confounded_rule: str
     predictions: list[Prediction]
-    recommendation: Recommendation
+    recommendation: CalibrationRecommendation
     emulator: EmulatorSummary
     checks: Checks
     sampler: SamplerSummary
@@ -580,6 +580,6 @@ class CalibrationResult(JsonRecord):
 
 
 __all__ = ["CalibrationResult", "CheckSummary", "Checks", "Confounding", "EmulatorCheck", "EmulatorSummary",
-           "FactorSummary", "HeldOutRun", "ParameterSummary", "Prediction", "PriorSummary", "Recommendation",
+           "FactorSummary", "HeldOutRun", "ParameterSummary", "Prediction", "PriorSummary", "CalibrationRecommendation",
            "ResponsePrediction", "RunCheck", "SamplerSummary", "SettingValue", "SheetSummary", "SimulatorSummary",
            "Timings"]

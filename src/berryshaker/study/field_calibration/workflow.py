@@ -41,7 +41,7 @@ from berryshaker.study.field_calibration.result import (
     ParameterSummary,
     Prediction,
     PriorSummary,
-    Recommendation,
+    CalibrationRecommendation,
     ResponsePrediction,
     RunCheck,
     SamplerSummary,
@@ -208,7 +208,7 @@ def _confounded(z: np.ndarray, params) -> list[Confounding]:
     return out
 
 
-def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: list[str]) -> Recommendation:
+def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: list[str]) -> CalibrationRecommendation:
     """:data:`RECOMMENDATION_RULE` on the expected-result draws (level sets x draws) per response."""
     from berryshaker.reference_study import PRIORITY_WEIGHTS, SENSES
 
@@ -232,7 +232,7 @@ def _recommend(names: list[str], expected: dict[str, np.ndarray], responses: lis
         score += w[r] / total * ((m - m.min()) / span if span > 0 else 0.0)
     free = [i for i in range(n) if not dominated[i]]
     best = max(free, key=lambda i: score[i])
-    return Recommendation(level_set=names[best], score=float(score[best]),
+    return CalibrationRecommendation(level_set=names[best], score=float(score[best]),
                           no_difference=[names[i] for i in free if i != best],
                           dominated=int(sum(dominated)), candidates=n, rule=RECOMMENDATION_RULE,
                           weights={r: w[r] / total for r in responses})
