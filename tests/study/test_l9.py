@@ -81,10 +81,10 @@ def test_noise_sized_difference_gets_no_weight_in_the_optimum():
          "damage": _replicated({}, sigma, base=2.0)}
     res = analyze_replicated(L9, L9.astype(float), FACTORS, y, {"efficiency": True, "damage": False},
                              {"efficiency": 0.5, "damage": 0.5})
-    ch = res["optimum"]["choices"]
-    assert ch["A"]["level"] is None and ch["A"]["status"] == "no meaningful difference"
-    assert ch["B"]["level"] == 2 and ch["B"]["significant_responses"] == ["efficiency"]
-    assert res["optimum"]["levels"]["C"] is None and res["optimum"]["levels"]["F"] is None
+    ch = res.optimum.choices
+    assert ch["A"].level is None and ch["A"].status == "no meaningful difference"
+    assert ch["B"].level == 2 and ch["B"].significant_responses == ["efficiency"]
+    assert res.optimum.levels["C"] is None and res.optimum.levels["F"] is None
 
 
 def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
@@ -99,20 +99,20 @@ def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
                              {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
                              fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
     for n in harvest:
-        assert res["responses"][n]["significant_factors"] == []
-    ch = res["optimum"]["choices"]
-    assert ch["A"]["level"] == 1 and ch["A"]["tier"] == "fallback"
-    assert ch["C"]["level"] == 3 and ch["C"]["tier"] == "fallback"
-    assert ch["F"]["level"] is None and ch["F"]["tier"] == "none"
-    assert "never ranking noise" in res["optimum"]["method"]
+        assert res.responses[n].significant_factors == []
+    ch = res.optimum.choices
+    assert ch["A"].level == 1 and ch["A"].tier == "fallback"
+    assert ch["C"].level == 3 and ch["C"].tier == "fallback"
+    assert ch["F"].level is None and ch["F"].tier == "none"
+    assert "never ranking noise" in res.optimum.method
     # a primary tie (levels 2 and 3 of B give the same efficiency) is broken by the loads
     harvest2 = dict(harvest, efficiency=_replicated({"B": (0.0, 6.0, 6.0)}, 1.0))
     loads2 = dict(loads, peak_force_A=_replicated({"B": (0.0, 900.0, 300.0)}, 50.0, base=5000.0))
     res2 = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest2, **loads2}, senses,
                               {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
                               fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
-    b = res2["optimum"]["choices"]["B"]
-    assert b["level"] == 3 and b["tier"] == "primary + fallback"
+    b = res2.optimum.choices["B"]
+    assert b.level == 3 and b.tier == "primary + fallback"
 
 
 def _harvester_spec(machine, revolutions=2):
@@ -331,12 +331,12 @@ def _l9_with_interaction(delta_rms: float, sigma: float = 0.4):
     rep = analyze_replicated(L9, L9.astype(float), FACTORS, r3, senses, {"efficiency": 0.5, "damage": 0.3,
                                                                          "unripe": 0.2},
                              fallback_weights={"peak_force_A": 1.0, "drive_torque_rms": 1.0})
-    pe = {n: (rep["responses"][n]["anova"]["pure_error"]["ms"], rep["responses"][n]["anova"]["pure_error"]["df"])
+    pe = {n: (rep.responses[n].anova.pure_error.ms, rep.responses[n].anova.pure_error.df)
           for n in r3}
     levels_m = (0.1e-3, 0.2e-3, 0.3e-3)
     run_levels = [{f: int(L9[i, j]) for j, f in enumerate(FACTORS)} for i in range(9)]
     run_cl = [{f: levels_m[lv[f] - 1] for f in FACTORS} for lv in run_levels]
-    tiered = {f: (rep["optimum"]["levels"][f] or {"B": 1, "C": 1, "F": 3}[f]) for f in FACTORS}
+    tiered = {f: (rep.optimum.levels[f] or {"B": 1, "C": 1, "F": 3}[f]) for f in FACTORS}
     rec_y = {n: v[0].copy() for n, v in r3.items()}
     rec_y["drive_torque_rms"] = rec_y["drive_torque_rms"] + delta_rms
     return r3, rep, pe, run_levels, run_cl, tiered, {f: levels_m[tiered[f] - 1] for f in FACTORS}, rec_y
@@ -356,8 +356,8 @@ def test_tradeoff_dominance_uses_the_anovas_noise_and_never_contradicts_it():
     assert tukey > 1.6 * old_margin
     delta = 1.1 * old_margin
     y, rep, pe, lv, cl, tiered, tiered_cl, rec_y = _l9_with_interaction(delta, sigma)
-    assert tiered == {"A": 1, "B": 1, "C": 1, "F": 3} and rep["optimum"]["levels"]["F"] is None
-    assert all("F" not in rep["responses"][n]["significant_factors"] for n in y)
+    assert tiered == {"A": 1, "B": 1, "C": 1, "F": 3} and rep.optimum.levels["F"] is None
+    assert all("F" not in rep.responses[n].significant_factors for n in y)
     # the unified rule: same pure error, simultaneous (Tukey-Kramer) margin -> not dominated, kept
     chk = confirm_recommendation(lv, cl, y, tiered, tiered_cl, rec_y, pe, FACTORS)
     recs = {rr["name"]: rr for rr in chk["records"]}
