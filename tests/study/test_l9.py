@@ -17,6 +17,7 @@ from berryshaker.errors import ConfigError
 from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.study.l9_records import (
     Estimate,
+    L9Optimum,
     L9Run,
     PairedDifference,
     Perturbation,
@@ -28,7 +29,9 @@ from berryshaker.study.l9_records import (
     ToleranceVerdict,
     VirtualL9,
 )
+from berryshaker.experiment.analysis_records import CompositeScore, FactorLevels, RangeAnalysis
 from berryshaker.experiment.designs import orthogonal_array
+from berryshaker.experiment.replicated_records import Choice, ReplicatedResponse
 from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 
 L9 = orthogonal_array("L9") + 1
@@ -275,6 +278,13 @@ def test_virtual_l9_output_reads_back_as_its_typed_record(virtual_json):
     assert isinstance(rec.paired["efficiency"]["A"], PairedDifference)
     assert isinstance(rec.recommended.sequential, SequentialStarts)
     assert rec.recommended.replicates["efficiency"].n == rec.recommended.starts
+    # the analyses' parts are the experiment layer's records, not dicts
+    assert isinstance(rec.responses["efficiency"], RangeAnalysis) and isinstance(rec.composite, CompositeScore)
+    assert isinstance(rec.factors["A"], FactorLevels) and isinstance(rec.optimum, L9Optimum)
+    assert isinstance(rec.optimum.choices["A"], Choice) and set(rec.optimum.tiered_levels) == set("ABCF")
+    assert isinstance(rec.replicated.responses["efficiency"], ReplicatedResponse)
+    assert rec.replicated.responses["efficiency"].anova.error.df == data["replicated"]["responses"]["efficiency"][
+        "anova"]["error"]["df"]
 
 
 def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
@@ -305,6 +315,13 @@ def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
             "within_replicate_spread": True}}})
     with pytest.raises(pydantic.ValidationError, match="beyond_noise"):
         PairedDifference.from_json({**good["paired"]["efficiency"]["A"], "beyond_noise": "perhaps"})
+    # the tiered optimum as the L9 records it: the replicated analysis' optimum and the levels decided on the way
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        L9Optimum.from_json({**good["optimum"], "colour": "red"})
+    with pytest.raises(pydantic.ValidationError, match="tiered_levels"):
+        L9Optimum.from_json({k: v for k, v in good["optimum"].items() if k != "tiered_levels"})
+    with pytest.raises(pydantic.ValidationError, match="optimum"):  # the replicated analysis' optimum is a record
+        ReplicatedL9.from_json({**good["replicated"], "optimum": {"levels": {}}})
     # a check that was not run keeps only done and reason; the fallback weights are left out when absent
     assert ToleranceCheck(done=False, reason="off").to_json() == {"done": False, "reason": "off"}
     assert "fallback_weights" not in good["replicated"]
