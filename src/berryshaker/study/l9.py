@@ -36,8 +36,8 @@ import math
 
 import numpy as np
 
-from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
+from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 from berryshaker.harvest.virtual import replicate_seeds  # one home; re-exported here
 from berryshaker.records import fields_of
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
