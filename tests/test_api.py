@@ -307,19 +307,19 @@ def test_analyze_field_sheet_is_analyze_sheet(tmp_path):
     assert list(eff.columns) == ["k1 [kg/min]", "k2 [kg/min]", "k3 [kg/min]", "R [kg/min]", "best_level",
                                  "anova_F [1]", "p [1]"]
     assert list(tables["range_damage"].columns)[:4] == ["k1 [%]", "k2 [%]", "k3 [%]", "R [%]"]
-    for f, d in res["responses"]["efficiency"]["factors"].items():
-        assert list(eff.loc[f, ["k1 [kg/min]", "k2 [kg/min]", "k3 [kg/min]"]]) == d["level_means"]
-        assert eff.loc[f, "R [kg/min]"] == d["range"] and eff.loc[f, "best_level"] == d["best_level"]
-        an = res["responses"]["efficiency"]["anova"]["factors"].get(f)
-        assert (np.isnan(eff.loc[f, "anova_F [1]"]) if an is None else eff.loc[f, "anova_F [1]"] == an["f"])
+    for f, d in res.responses["efficiency"].factors.items():
+        assert list(eff.loc[f, ["k1 [kg/min]", "k2 [kg/min]", "k3 [kg/min]"]]) == d.level_means
+        assert eff.loc[f, "R [kg/min]"] == d.range and eff.loc[f, "best_level"] == d.best_level
+        an = res.responses["efficiency"].anova.factors.get(f)
+        assert (np.isnan(eff.loc[f, "anova_F [1]"]) if an is None else eff.loc[f, "anova_F [1]"] == an.f)
     assert eff["R [kg/min]"].idxmax() == "C"  # the factor built into the responses
     lv = tables["optimum_levels"]
     assert list(lv.columns) == ["level", "setting"] and str(lv["level"].dtype) == "Int64"
-    for f, n in res["optimum"]["levels"].items():
+    for f, n in res.optimum.levels.items():
         assert (pd.isna(lv.loc[f, "level"]) if n is None else lv.loc[f, "level"] == n)
     pred = tables["optimum_predicted"]
     assert list(pred.columns) == ["value", "unit"]
-    assert pred.loc["efficiency", "value"] == res["optimum"]["values"]["efficiency"]
+    assert pred.loc["efficiency", "value"] == res.optimum.values["efficiency"]
     assert pred.loc["efficiency", "unit"] == "kg/min"
 
 

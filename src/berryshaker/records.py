@@ -131,4 +131,21 @@ def field_names(record_type: type) -> tuple[str, ...]:
     return tuple(f.name for f in fields(record_type))
 
 
-__all__ = ["JsonRecord", "optional", "to_json", "field_names"]
+def fields_of(record: JsonRecord) -> dict[str, Any]:
+    """A record's fields by name, shallow (nested records stay records): to make a record of a subclass that adds
+    fields (``Sub(**fields_of(rec), extra=...)``).
+
+    Parameters
+    ----------
+    record : JsonRecord
+        The record.
+
+    Returns
+    -------
+    dict
+        Field name -> value, in declaration order (None-valued :func:`optional` fields included).
+    """
+    return {f.name: getattr(record, f.name) for f in fields(record)}
+
+
+__all__ = ["JsonRecord", "optional", "to_json", "field_names", "fields_of"]

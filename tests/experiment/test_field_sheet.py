@@ -176,9 +176,9 @@ def test_unitless_and_code_only_factors_are_reported_honestly():
     fr = read_results(_csv(plain), ["efficiency"])
     res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, {"efficiency": True},
                   level_values=fr.level_values, units=fr.units)
-    assert res["factors"]["A"]["values"] == [10.0, 20.0, 30.0] and res["factors"]["A"]["labels"][0] == "10"
-    assert res["factors"]["B"]["values"] is None and res["factors"]["B"]["labels"] == ["level 1", "level 2", "level 3"]
-    assert res["optimum"]["settings"] == {"A": "30", "B": "level 3"}
+    assert res.factors["A"].values == [10.0, 20.0, 30.0] and res.factors["A"].labels[0] == "10"
+    assert res.factors["B"].values is None and res.factors["B"].labels == ["level 1", "level 2", "level 3"]
+    assert res.optimum.settings == {"A": "30", "B": "level 3"}
 
 
 def test_a_100000_row_sheet_is_analysed_without_an_n_by_n_matrix():
@@ -195,7 +195,7 @@ def test_a_100000_row_sheet_is_analysed_without_an_n_by_n_matrix():
     res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, {"efficiency": True})
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    assert res["responses"]["efficiency"]["factors"]["A"]["best_level"] == 2
+    assert res.responses["efficiency"].factors["A"].best_level == 2
     assert peak < 400e6, f"peak {peak / 1e6:.0f} MB"  # the n x n matrix alone would be 80,000 MB
 
 
@@ -271,12 +271,12 @@ def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_ano
     assert fr.table[["run", "replicate"]].to_numpy().tolist() == [[i, k] for i in range(1, 10) for k in (1, 2, 3)]
     res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated,
                              {"efficiency": True, "unripe": False})
-    pe = res["responses"]["efficiency"]["anova"]["pure_error"]
+    pe = res.responses["efficiency"].anova.pure_error
     ss = float(np.sum((want - want.mean(axis=1, keepdims=True)) ** 2))
-    assert pe["df"] == 18 and pe["ss"] == pytest.approx(ss) and pure_error(want)[0] == pytest.approx(ss)
-    eff = res["responses"]["efficiency"]
-    assert eff["factors"]["A"]["significant"] and not eff["factors"]["C"]["significant"]
-    assert res["optimum"]["levels"]["A"] == 1
+    assert pe.df == 18 and pe.ss == pytest.approx(ss) and pure_error(want)[0] == pytest.approx(ss)
+    eff = res.responses["efficiency"]
+    assert eff.factors["A"].significant and not eff.factors["C"].significant
+    assert res.optimum.levels["A"] == 1
 
 
 def test_replicated_sheets_are_checked():
@@ -402,7 +402,7 @@ def test_a_minitab_worksheet_is_read_with_its_bookkeeping_columns_units_and_repl
     # repeated settings are the replicates of one run: 9 runs x 3
     assert fr.replicates == 3 and fr.levels.shape == (9, 4) and fr.responses_replicated["efficiency"].shape == (9, 3)
     assert fr.response_units == {"efficiency": "kg/min", "unripe": "%", "damage": "%"}
-    assert res["response_units"] == fr.response_units and "StdOrder" in fr.runs_identified_by
+    assert res.response_units == fr.response_units and "StdOrder" in fr.runs_identified_by
     assert fr.block_column is None  # Minitab's Blocks = 1 everywhere numbers no blocks
     # responses not analysed are measurements (a value per row), not factors
     one = read_results(MINITAB, ["efficiency"])
@@ -414,6 +414,7 @@ def test_plan_format_and_minitab_format_of_the_same_data_give_the_same_analysis(
 
     fr_p, plan = analyze_sheet(_plan_format_of_minitab(tmp_path), SENSES)
     fr_m, mini = analyze_sheet(MINITAB, SENSES)
+    plan, mini = plan.to_json(), mini.to_json()
     np.testing.assert_array_equal(fr_p.levels, fr_m.levels)
     for name in SENSES:
         np.testing.assert_array_equal(fr_p.responses_replicated[name], fr_m.responses_replicated[name])
@@ -434,6 +435,7 @@ def test_units_from_brackets_or_a_units_row_and_blocks_as_the_block_column():
     head = "StdOrder,RunOrder,PtType,Blocks,A [mm],B [mm],C [mm],F [mm],Efficiency [kg/min],Unripe [%],Damage [%]"
     fr_b, res_b = analyze_sheet("\n".join([head] + [",".join(r) for r in body]) + "\n", SENSES)
     _, res_m = analyze_sheet(MINITAB, SENSES)
+    res_b, res_m = res_b.to_json(), res_m.to_json()
     assert fr_b.block_column == "Blocks" and fr_b.units["A"] == "mm" and fr_b.response_units["efficiency"] == "kg/min"
     for key in ("block_column", "runs_identified_by", "text"):
         res_b.pop(key), res_m.pop(key)

@@ -27,13 +27,13 @@ SENSES = {"efficiency": True, "damage": False}
 
 def test_real_effect_is_significant_and_picked_noise_is_not():
     res = analyze_replicated(L9, L9.astype(float), NAMES, _data(1), SENSES, {"efficiency": 0.1, "damage": 0.9})
-    e = res["responses"]["efficiency"]["factors"]["A"]
-    assert e["significant"] and e["p"] < 1e-6 and e["best_level"] == 3
-    assert e["range_ci"][0] < 1.0 < e["range_ci"][1]
-    a = res["optimum"]["choices"]["A"]
+    e = res.responses["efficiency"].factors["A"]
+    assert e.significant and e.p < 1e-6 and e.best_level == 3
+    assert e.range_ci[0] < 1.0 < e.range_ci[1]
+    a = res.optimum.choices["A"]
     # damage carries 90 % of the weight but is noise: it must not steer the choice of A
-    assert a["level"] == 3 and a["significant_responses"] == ["efficiency"] and "damage: no significant" in a["reason"]
-    assert "p < 0.05" in res["significance_rule"]
+    assert a.level == 3 and a.significant_responses == ["efficiency"] and "damage: no significant" in a.reason
+    assert "p < 0.05" in res.significance_rule
     assert "Significance rule" in describe_replicated(res)
 
 
@@ -44,9 +44,9 @@ def test_zero_effects_are_no_difference_at_least_90_percent_of_the_time():
         res = analyze_replicated(L9, L9.astype(float), NAMES, {"efficiency": _data(s)["efficiency"]},
                                  {"efficiency": True})
         for f in "BCF":
-            c = res["optimum"]["choices"][f]
-            hits[f] += c["level"] is None and c["status"] == "no meaningful difference"
-        assert res["optimum"]["choices"]["A"]["level"] == 3
+            c = res.optimum.choices[f]
+            hits[f] += c.level is None and c.status == "no meaningful difference"
+        assert res.optimum.choices["A"].level == 3
     assert all(h >= 45 for h in hits.values()), hits
 
 
@@ -110,8 +110,8 @@ def test_input_errors_and_identical_replicates():
         analyze_replicated(L9, L9, NAMES, d, SENSES, {"yield": 1.0})
     same = np.repeat((3.0 + EFFECT_A[L9[:, 0] - 1])[:, None], 3, axis=1)
     res = analyze_replicated(L9, L9, NAMES, {"efficiency": same}, {"efficiency": True})
-    assert res["optimum"]["choices"]["A"]["level"] == 3 and res["optimum"]["choices"]["B"]["level"] is None
-    assert "identical" in res["notes"][0]
+    assert res.optimum.choices["A"].level == 3 and res.optimum.choices["B"].level is None
+    assert "identical" in res.notes[0]
 
 
 def test_tradeoff_table_and_dominance_beyond_noise():

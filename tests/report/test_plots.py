@@ -433,14 +433,14 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
 
     sheet = Path(__file__).parents[1] / "data" / "minitab_l9_replicated.csv"
     fr, res = analyze_sheet(sheet, {"efficiency": True, "damage": False})
-    ra = res["responses"]["efficiency"]
+    ra = res.responses["efficiency"]
     y = fr.responses_replicated["efficiency"]
-    err = ra["anova"]["error"]
-    eff = standardized_effects(fr.levels, y, fr.factor_names, err["ms"], err["df"])
+    err = ra.anova.error
+    eff = standardized_effects(fr.levels, y, fr.factor_names, err.ms, err.df)
     for f in fr.factor_names:  # a factor's contrasts carry its ANOVA F: sum of t^2 = df x F
-        row = ra["anova"]["factors"][f]
-        assert sum(t["t"] ** 2 for t in eff["terms"] if t["factor"] == f) == pytest.approx(row["df"] * row["f"])
-    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, err["df"]))
+        row = ra.anova.factors[f]
+        assert sum(t["t"] ** 2 for t in eff["terms"] if t["factor"] == f) == pytest.approx(row.df * row.f)
+    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, err.df))
     d = P.plot_pareto_effects(eff, tmp_path / "pareto.png", return_figure=True)
     ax = d["figure"].axes[0]
     widths = [p.get_width() for p in sorted(ax.patches, key=lambda p: -p.get_y())]  # top to bottom
@@ -449,7 +449,7 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     assert not audit_figure(d["figure"])
     _close(d)
     rr = main_effect_residuals(fr.levels, y, fr.factor_names, blocks=True)
-    assert rr["ss"] == pytest.approx(err["ss"] + ra["anova"]["lack_of_fit"]["ss"])  # error + lack of fit
+    assert rr["ss"] == pytest.approx(err.ss + ra.anova.lack_of_fit.ss)  # error + lack of fit
     d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", return_figure=True)
     axn, axf = d["figure"].axes[:2]
     np.testing.assert_array_equal(axf.get_lines()[0].get_ydata(), rr["residuals"])

@@ -43,10 +43,10 @@ def test_doe_analyze_tables_as_csv_and_xlsx(tmp_path):
                                                    for e in ("csv", "xlsx"))
     header, rows = read_xlsx(tmp_path / "range_efficiency.xlsx")
     assert header[:2] == ["factor", "k1 (kg/min)"]
-    ra = res["responses"]["efficiency"]
+    ra = res.responses["efficiency"]
     for row in rows:  # the workbook holds the analysis' numbers
-        assert row[1:4] == pytest.approx(ra["factors"][row[0]]["level_means"], rel=1e-14)  # Excel: 15 digits
-        assert row[6] == pytest.approx(ra["anova"]["factors"][row[0]]["f"], rel=1e-14)
+        assert row[1:4] == pytest.approx(ra.factors[row[0]].level_means, rel=1e-14)  # Excel: 15 digits
+        assert row[6] == pytest.approx(ra.anova.factors[row[0]].f, rel=1e-14)
     _, opt = read_xlsx(tmp_path / "optimum.xlsx")
     pred = next(r for r in opt if r[:2] == ["predicted", "efficiency"])
-    assert pred[2] == pytest.approx(res["optimum"]["values"]["efficiency"], rel=1e-14) and pred[3] == "kg/min"
+    assert pred[2] == pytest.approx(res.optimum.values["efficiency"], rel=1e-14) and pred[3] == "kg/min"

@@ -133,8 +133,8 @@ def test_claim1_says_undecided_where_the_noise_decides():
 
 
 def test_claim8_does_not_count_a_factor_kept_at_the_studys_clearance():
-    resp = {n: {"best_levels": {"A": 1, "B": 1, "C": 1, "F": 3}, "ranking": ["A", "B", "C", "F"],
-                "significant_factors": []} for n in ("efficiency", "unripe", "damage")}
+    resp = {n: {"best_levels": {"A": 1, "B": 1, "C": 1, "F": 3}, "ranking": ["A", "B", "C", "F"]}
+            for n in ("efficiency", "unripe", "damage")}
     rec = {"code": "A1B1C1F3", "same_as_study": True,
            "virtual_harvest": {"efficiency_kg_min": 3.93, "unripe_rate_pct": 0.0, "damage_rate_pct": 2.8},
            "basis": {"A": "machine loads", "B": "machine loads", "C": "machine loads",
@@ -151,8 +151,8 @@ def test_claim8_does_not_count_a_factor_kept_at_the_studys_clearance():
 def test_claim8_states_the_p_value_its_verdict_rests_on():
     """A verdict that rests on A's efficiency effect crossing p = 0.05 (3 replicates: it moves with round-off, a
     realisation gave p = 0.021) says how close it is."""
-    resp = {n: {"best_levels": {"A": 1, "B": 1, "C": 1, "F": 3}, "ranking": ["A", "B", "C", "F"],
-                "significant_factors": []} for n in ("efficiency", "unripe", "damage")}
+    resp = {n: {"best_levels": {"A": 1, "B": 1, "C": 1, "F": 3}, "ranking": ["A", "B", "C", "F"]}
+            for n in ("efficiency", "unripe", "damage")}
     rec = {"code": "A1B1C1F3", "same_as_study": True,
            "virtual_harvest": {"efficiency_kg_min": 3.93, "unripe_rate_pct": 0.0, "damage_rate_pct": 2.8},
            "basis": {p: "machine loads" for p in "ABCF"}}

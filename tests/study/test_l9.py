@@ -17,6 +17,7 @@ from berryshaker.errors import ConfigError
 from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.study.l9_records import (
     Estimate,
+    L9Optimum,
     L9Run,
     PairedDifference,
     Perturbation,
@@ -28,7 +29,9 @@ from berryshaker.study.l9_records import (
     ToleranceVerdict,
     VirtualL9,
 )
+from berryshaker.experiment.analysis_records import CompositeScore, FactorLevels, RangeAnalysis
 from berryshaker.experiment.designs import orthogonal_array
+from berryshaker.experiment.replicated_records import Choice, ReplicatedResponse
 from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 
 L9 = orthogonal_array("L9") + 1
@@ -81,10 +84,10 @@ def test_noise_sized_difference_gets_no_weight_in_the_optimum():
          "damage": _replicated({}, sigma, base=2.0)}
     res = analyze_replicated(L9, L9.astype(float), FACTORS, y, {"efficiency": True, "damage": False},
                              {"efficiency": 0.5, "damage": 0.5})
-    ch = res["optimum"]["choices"]
-    assert ch["A"]["level"] is None and ch["A"]["status"] == "no meaningful difference"
-    assert ch["B"]["level"] == 2 and ch["B"]["significant_responses"] == ["efficiency"]
-    assert res["optimum"]["levels"]["C"] is None and res["optimum"]["levels"]["F"] is None
+    ch = res.optimum.choices
+    assert ch["A"].level is None and ch["A"].status == "no meaningful difference"
+    assert ch["B"].level == 2 and ch["B"].significant_responses == ["efficiency"]
+    assert res.optimum.levels["C"] is None and res.optimum.levels["F"] is None
 
 
 def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
@@ -99,20 +102,20 @@ def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
                              {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
                              fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
     for n in harvest:
-        assert res["responses"][n]["significant_factors"] == []
-    ch = res["optimum"]["choices"]
-    assert ch["A"]["level"] == 1 and ch["A"]["tier"] == "fallback"
-    assert ch["C"]["level"] == 3 and ch["C"]["tier"] == "fallback"
-    assert ch["F"]["level"] is None and ch["F"]["tier"] == "none"
-    assert "never ranking noise" in res["optimum"]["method"]
+        assert res.responses[n].significant_factors == []
+    ch = res.optimum.choices
+    assert ch["A"].level == 1 and ch["A"].tier == "fallback"
+    assert ch["C"].level == 3 and ch["C"].tier == "fallback"
+    assert ch["F"].level is None and ch["F"].tier == "none"
+    assert "never ranking noise" in res.optimum.method
     # a primary tie (levels 2 and 3 of B give the same efficiency) is broken by the loads
     harvest2 = dict(harvest, efficiency=_replicated({"B": (0.0, 6.0, 6.0)}, 1.0))
     loads2 = dict(loads, peak_force_A=_replicated({"B": (0.0, 900.0, 300.0)}, 50.0, base=5000.0))
     res2 = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest2, **loads2}, senses,
                               {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
                               fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
-    b = res2["optimum"]["choices"]["B"]
-    assert b["level"] == 3 and b["tier"] == "primary + fallback"
+    b = res2.optimum.choices["B"]
+    assert b.level == 3 and b.tier == "primary + fallback"
 
 
 def _harvester_spec(machine, revolutions=2):
@@ -275,6 +278,13 @@ def test_virtual_l9_output_reads_back_as_its_typed_record(virtual_json):
     assert isinstance(rec.paired["efficiency"]["A"], PairedDifference)
     assert isinstance(rec.recommended.sequential, SequentialStarts)
     assert rec.recommended.replicates["efficiency"].n == rec.recommended.starts
+    # the analyses' parts are the experiment layer's records, not dicts
+    assert isinstance(rec.responses["efficiency"], RangeAnalysis) and isinstance(rec.composite, CompositeScore)
+    assert isinstance(rec.factors["A"], FactorLevels) and isinstance(rec.optimum, L9Optimum)
+    assert isinstance(rec.optimum.choices["A"], Choice) and set(rec.optimum.tiered_levels) == set("ABCF")
+    assert isinstance(rec.replicated.responses["efficiency"], ReplicatedResponse)
+    assert rec.replicated.responses["efficiency"].anova.error.df == data["replicated"]["responses"]["efficiency"][
+        "anova"]["error"]["df"]
 
 
 def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
@@ -305,6 +315,13 @@ def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
             "within_replicate_spread": True}}})
     with pytest.raises(pydantic.ValidationError, match="beyond_noise"):
         PairedDifference.from_json({**good["paired"]["efficiency"]["A"], "beyond_noise": "perhaps"})
+    # the tiered optimum as the L9 records it: the replicated analysis' optimum and the levels decided on the way
+    with pytest.raises(pydantic.ValidationError, match="colour"):
+        L9Optimum.from_json({**good["optimum"], "colour": "red"})
+    with pytest.raises(pydantic.ValidationError, match="tiered_levels"):
+        L9Optimum.from_json({k: v for k, v in good["optimum"].items() if k != "tiered_levels"})
+    with pytest.raises(pydantic.ValidationError, match="optimum"):  # the replicated analysis' optimum is a record
+        ReplicatedL9.from_json({**good["replicated"], "optimum": {"levels": {}}})
     # a check that was not run keeps only done and reason; the fallback weights are left out when absent
     assert ToleranceCheck(done=False, reason="off").to_json() == {"done": False, "reason": "off"}
     assert "fallback_weights" not in good["replicated"]
@@ -331,12 +348,12 @@ def _l9_with_interaction(delta_rms: float, sigma: float = 0.4):
     rep = analyze_replicated(L9, L9.astype(float), FACTORS, r3, senses, {"efficiency": 0.5, "damage": 0.3,
                                                                          "unripe": 0.2},
                              fallback_weights={"peak_force_A": 1.0, "drive_torque_rms": 1.0})
-    pe = {n: (rep["responses"][n]["anova"]["pure_error"]["ms"], rep["responses"][n]["anova"]["pure_error"]["df"])
+    pe = {n: (rep.responses[n].anova.pure_error.ms, rep.responses[n].anova.pure_error.df)
           for n in r3}
     levels_m = (0.1e-3, 0.2e-3, 0.3e-3)
     run_levels = [{f: int(L9[i, j]) for j, f in enumerate(FACTORS)} for i in range(9)]
     run_cl = [{f: levels_m[lv[f] - 1] for f in FACTORS} for lv in run_levels]
-    tiered = {f: (rep["optimum"]["levels"][f] or {"B": 1, "C": 1, "F": 3}[f]) for f in FACTORS}
+    tiered = {f: (rep.optimum.levels[f] or {"B": 1, "C": 1, "F": 3}[f]) for f in FACTORS}
     rec_y = {n: v[0].copy() for n, v in r3.items()}
     rec_y["drive_torque_rms"] = rec_y["drive_torque_rms"] + delta_rms
     return r3, rep, pe, run_levels, run_cl, tiered, {f: levels_m[tiered[f] - 1] for f in FACTORS}, rec_y
@@ -356,8 +373,8 @@ def test_tradeoff_dominance_uses_the_anovas_noise_and_never_contradicts_it():
     assert tukey > 1.6 * old_margin
     delta = 1.1 * old_margin
     y, rep, pe, lv, cl, tiered, tiered_cl, rec_y = _l9_with_interaction(delta, sigma)
-    assert tiered == {"A": 1, "B": 1, "C": 1, "F": 3} and rep["optimum"]["levels"]["F"] is None
-    assert all("F" not in rep["responses"][n]["significant_factors"] for n in y)
+    assert tiered == {"A": 1, "B": 1, "C": 1, "F": 3} and rep.optimum.levels["F"] is None
+    assert all("F" not in rep.responses[n].significant_factors for n in y)
     # the unified rule: same pure error, simultaneous (Tukey-Kramer) margin -> not dominated, kept
     chk = confirm_recommendation(lv, cl, y, tiered, tiered_cl, rec_y, pe, FACTORS)
     recs = {rr["name"]: rr for rr in chk["records"]}

@@ -96,8 +96,8 @@ def test_blocked_null_factors_stay_no_difference_at_the_nominal_rate():
     assert sig / 100 < 0.12
     # the whole analysis on one such test: blocked, and the paired differences travel with each factor
     b = analyze_replicated(L9, L9.astype(float), list("ABCF"), {"y": y}, {"y": True}, blocks=True)
-    assert b["blocks"] and b["responses"]["y"]["anova"]["error"]["df"] == 8 * 5
-    assert len(b["responses"]["y"]["factors"]["A"]["paired"]) == 3
+    assert b.blocks and b.responses["y"].anova.error.df == 8 * 5
+    assert len(b.responses["y"].factors["A"].paired) == 3
 
 
 def test_standard_error_target_uses_the_floor_near_zero():

@@ -128,7 +128,7 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
         sheet = str(sheet)
     _, res = analyze_sheet(sheet, senses, dict(weights) if weights is not None else None)
     out = {}
-    units = res.get("response_units") or {}
+    units = res.response_units or {}
     for stem, (header, rows) in doe_tables(res).items():
         if stem == "optimum":
             continue
@@ -139,12 +139,12 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
         df["anova_F [1]"] = pd.to_numeric(df["anova_F [1]"].replace("pooled", np.nan))
         df["p [1]"] = pd.to_numeric(df["p [1]"])
         out[stem] = df
-    o = res["optimum"]
+    o = res.optimum
     out["optimum_levels"] = pd.DataFrame(
-        [{"factor": f, "level": n, "setting": (o.get("settings") or {}).get(f)} for f, n in o["levels"].items()],
+        [{"factor": f, "level": n, "setting": o.settings.get(f)} for f, n in o.levels.items()],
         columns=["factor", "level", "setting"]).astype({"level": "Int64"}).set_index("factor")
     out["optimum_predicted"] = pd.DataFrame(
-        [{"response": r, "value": v, "unit": units.get(r, "")} for r, v in o["values"].items()],
+        [{"response": r, "value": v, "unit": units.get(r, "")} for r, v in o.values.items()],
         columns=["response", "value", "unit"]).set_index("response")
     return out
 

@@ -231,8 +231,7 @@ def doe_analyze(
             prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
         fr, res = analyze_sheet(results, senses, _parse_weights(weights))
-        res["results_file"] = str(results)
-        res["version"] = __version__
+        extra = {"results_file": str(results), "version": __version__}  # the JSON's keys after the analysis'
         if plot is not None:
             from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import write_doe_figures
@@ -242,28 +241,29 @@ def doe_analyze(
                 write_doe_figures(fr, res, stage)
                 write_doe_tables(res, stage)
                 write_provenance(stage, results_file=str(results))
-            res["plots"] = sorted(str(p) for p in plot.glob("*.png"))
+            extra["plots"] = sorted(str(p) for p in plot.glob("*.png"))
         if report is not None:
             from berryshaker.outputs import provenance, write_json_atomic, write_text_atomic
 
             if report.suffix.lower() == ".json":
-                write_json_atomic(report, {**res, "provenance": provenance(results_file=str(results))})
+                write_json_atomic(report, {**res.to_json(), **extra, "provenance": provenance(results_file=str(results))})
             else:
                 from berryshaker.report.html import doe_report
 
-                write_text_atomic(report, doe_report(res, f"Field test analysis: {results.name}"))
-            res["out"] = str(report)
+                write_text_atomic(report, doe_report(res, f"Field test analysis: {results.name}",
+                                                     results_file=str(results), version=__version__))
+            extra["out"] = str(report)
     except BerryshakerError as exc:
         _fail(exc)
         return
     if as_json:
-        _print_json(res)
+        _print_json({**res.to_json(), **extra})
         return
     _print_doe(res)
-    for p in res.get("plots", []):
+    for p in extra.get("plots", []):
         err.print(f"wrote {p}", markup=False, highlight=False)
-    if res.get("out"):
-        err.print(f"wrote {res['out']}", markup=False, highlight=False)
+    if extra.get("out"):
+        err.print(f"wrote {extra['out']}", markup=False, highlight=False)
 
 
 def _decimals(values) -> int:
@@ -278,21 +278,22 @@ def _decimals(values) -> int:
     return max(0, min(6, 3 - int(math.floor(math.log10(top)))))
 
 
-def _unit(response: str, res: dict | None = None) -> str:
-    """" <unit>" of a response: the sheet's own (``res["response_units"]``) before the package's defaults."""
+def _unit(response: str, res=None) -> str:
+    """" <unit>" of a response: the sheet's own (``res.response_units``) before the package's defaults."""
     from berryshaker.report.style import RESPONSE_UNITS
 
-    u = {**RESPONSE_UNITS, **{k: v for k, v in ((res or {}).get("response_units") or {}).items() if v}}.get(response, "")
+    own = getattr(res, "response_units", None) or {}
+    u = {**RESPONSE_UNITS, **{k: v for k, v in own.items() if v}}.get(response, "")
     return f" {u}" if u else ""
 
 
-def weights_text(res: dict) -> str:
+def weights_text(res) -> str:
     """The composite's weights as one line, e.g. "efficiency 0.50, damage 0.30, unripe 0.20 (given, scaled
     to sum 1)".
 
     Parameters
     ----------
-    res : dict
+    res : DoeAnalysis or SheetReplicatedAnalysis
         A DOE analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`) with ``weights`` (response ->
         weight, (1)) and ``weights_given``.
 
@@ -301,42 +302,42 @@ def weights_text(res: dict) -> str:
     str
         "name weight, ..." with the weights to two decimals, and whether they were given or equal.
     """
-    w = res.get("weights") or {}
-    how = "given with --weights, scaled to sum 1" if res.get("weights_given") else "equal: no --weights given"
-    return ", ".join(f"{k} {v:.2f}" for k, v in w.items()) + f" ({how})"
+    how = "given with --weights, scaled to sum 1" if res.weights_given else "equal: no --weights given"
+    return ", ".join(f"{k} {v:.2f}" for k, v in res.weights.items()) + f" ({how})"
 
 
-def _print_doe(res: dict) -> None:
-    factors_rep = res.get("factors") or {}
-    for name, ra in res["responses"].items():
-        nlev = len(next(iter(ra["factors"].values()))["level_means"])
+def _print_doe(res) -> None:
+    from berryshaker.experiment.replicated_records import ReplicatedAnalysis
+
+    for name, ra in res.responses.items():
+        nlev = len(next(iter(ra.factors.values())).level_means)
         rows = []
-        an = ra["anova"]["factors"]
-        dec = _decimals([v for d in ra["factors"].values() for v in d["level_means"]])
-        for f, d in ra["factors"].items():
+        an = ra.anova.factors
+        dec = _decimals([v for d in ra.factors.values() for v in d.level_means])
+        for f, d in ra.factors.items():
             a = an.get(f)
-            labels = (factors_rep.get(f) or {}).get("labels")
-            best = str(d["best_level"]) + (f" ({labels[d['best_level'] - 1]})" if labels and (factors_rep[f].get(
-                "values") is not None) else "")
-            rows.append([f, *[f"{v:.{dec}f}" for v in d["level_means"]], f"{d['range']:.{dec}f}", best,
-                         f"{a['f']:.3g}" if a else "pooled", f"{a['p']:.3g}" if a else ""])
+            rep = res.factors.get(f)
+            best = str(d.best_level) + (f" ({rep.labels[d.best_level - 1]})" if rep and rep.labels
+                                         and rep.values is not None else "")
+            rows.append([f, *[f"{v:.{dec}f}" for v in d.level_means], f"{d.range:.{dec}f}", best,
+                         f"{a.f:.3g}" if a else "pooled", f"{a.p:.3g}" if a else ""])
         print_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best", "ANOVA F", "p"], rows,
-                    title=f"{name}{_unit(name, res)} ({'maximise' if ra['maximize'] else 'minimise'}): range analysis")
-        reg = ra["regression"]
-        out.print(f"  ranking {' > '.join(ra['ranking'])}; eq. 19 full quadratic: rank {reg['full_model_rank']} "
-                  f"of {len(reg['full_model_terms'])} terms, aliased: {', '.join(reg['aliased_terms']) or 'none'}; "
-                  f"main-effects quadratic R² = {reg['main_effects_quadratic']['r2']:.3f} with "
-                  f"{reg['main_effects_quadratic']['residual_df']} residual df", markup=False)
-    o = res["optimum"]
-    settings = o.get("settings") or {}
+                    title=f"{name}{_unit(name, res)} ({'maximise' if ra.maximize else 'minimise'}): range analysis")
+        reg = ra.regression
+        out.print(f"  ranking {' > '.join(ra.ranking)}; eq. 19 full quadratic: rank {reg.full_model_rank} "
+                  f"of {len(reg.full_model_terms)} terms, aliased: {', '.join(reg.aliased_terms) or 'none'}; "
+                  f"main-effects quadratic R² = {reg.main_effects_quadratic.r2:.3f} with "
+                  f"{reg.main_effects_quadratic.residual_df} residual df", markup=False)
+    o = res.optimum
+    settings = o.settings or {}
     lv = " ".join((f"{f}{n}" if n is not None else f"{f}: no meaningful difference")
                   + (f" ({settings[f]})" if n is not None and settings.get(f) and not str(settings[f]).startswith(
-                      "level") else "") for f, n in o["levels"].items())
-    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k, res)}" for k, v in o["values"].items())
+                      "level") else "") for f, n in o.levels.items())
+    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k, res)}" for k, v in o.values.items())
     out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
     out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
-    if res.get("significance_rule"):  # replicated sheet: effects judged against the replicate spread
-        out.print(f"{res['runs']} runs x {res['replicates']} replicates; {res['significance_rule']}", markup=False,
+    if isinstance(res, ReplicatedAnalysis):  # replicated sheet: effects judged against the replicate spread
+        out.print(f"{res.runs} runs x {res.replicates} replicates; {res.significance_rule}", markup=False,
                   highlight=False)
 
 

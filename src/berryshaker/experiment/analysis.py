@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
+from berryshaker.experiment.analysis_records import DoeAnalysis
 
 
 def range_analysis(levels: np.ndarray, y: np.ndarray, factor_names: list[str], maximize: bool) -> dict:
@@ -417,7 +418,7 @@ def check_inputs(levels: np.ndarray, factor_names: list[str], responses: dict, s
 def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], responses: dict[str, np.ndarray],
             senses: dict[str, bool], weights: dict[str, float] | None = None,
             level_values: dict[str, tuple[float, ...] | None] | None = None,
-            units: dict[str, str] | None = None) -> dict:
+            units: dict[str, str] | None = None) -> DoeAnalysis:
     """Full analysis of a field (or virtual) orthogonal test; the JSON of ``doe analyze``.
 
     ``level_values`` / ``units`` (optional, e.g. from :class:`FieldResults`) are reported under
@@ -446,10 +447,10 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
 
     Returns
     -------
-    dict
+    DoeAnalysis
         ``responses`` (per response the range analysis, ``anova`` with pooling, ``regression``), ``weights``,
         ``factors`` (:func:`factor_levels_report`), ``composite`` and ``optimum`` (levels, settings, predicted
-        values, prediction method).
+        values, prediction method); :mod:`berryshaker.experiment.analysis_records`.
     """
     check_inputs(levels, factor_names, responses, senses)
     weights_n = check_weights(weights, responses)
@@ -479,7 +480,9 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
     labels = {f: d["labels"][d["level_numbers"].index(opt_levels[f])] for f, d in out["factors"].items()}
     out["optimum"] = {"levels": opt_levels, "settings": labels, "values": values_at,
                       "prediction": "additive main-effects model: mean + sum of level-mean deviations"}
-    return out
+    # the record made at one place from the dict the steps above build and read by key (validated: a key that is
+    # not a field, or a missing one, is an error)
+    return DoeAnalysis.from_json(out)
 
 
 # ---- effects, residuals and interactions as Minitab draws them (issue 45) ---------------------------------------

@@ -13,16 +13,21 @@ statistics packages write them.  :func:`read_results` puts together the sheet's 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
+from berryshaker.experiment.analysis_records import DoeAnalysis
+from berryshaker.experiment.replicated_records import SheetReplicatedAnalysis
 from berryshaker.experiment.designs import is_orthogonal
 from berryshaker.experiment.field_cells import BOOKKEEPING_COLUMNS, _load_sheet, block_column, is_bookkeeping
 from berryshaker.experiment.field_columns import META_COLUMNS, Factor, FieldResults
 from berryshaker.experiment.field_factors import _find_factors, _resolve_factor
 from berryshaker.experiment.field_responses import _response, _response_column, _response_unit
 from berryshaker.experiment.field_runs import _check_runs, _orthogonality_problem, _runs_from_settings
+from berryshaker.records import fields_of
 
 
 def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:
@@ -146,7 +151,7 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
 
 
 def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, float] | None = None,
-                  factors: list[Factor] | None = None) -> tuple[FieldResults, dict]:
+                  factors: list[Factor] | None = None) -> tuple[FieldResults, DoeAnalysis | SheetReplicatedAnalysis]:
     """Read a filled sheet (:func:`read_results`) and analyse it as ``doe analyze`` does.
 
     A sheet with repeats (a ``replicate`` or ``block`` column, or repeated factor settings) is analysed as
@@ -167,26 +172,26 @@ def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, floa
 
     Returns
     -------
-    (FieldResults, dict)
+    (FieldResults, DoeAnalysis or SheetReplicatedAnalysis)
         The sheet as read, and the analysis with ``replicates``, ``weights_given``, ``response_units`` (unit per
-        response, '' where the sheet gives none), ``block_column`` (replicated) and ``runs_identified_by``.
+        response, '' where the sheet gives none), ``block_column`` and ``text`` (replicated) and
+        ``runs_identified_by`` (:mod:`berryshaker.experiment.analysis_records`,
+        :mod:`~berryshaker.experiment.replicated_records`).
     """
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
 
     fr = read_results(path_or_text, list(senses), factors)
+    sheet = {"weights_given": weights is not None, "response_units": dict(fr.response_units),
+             "runs_identified_by": fr.runs_identified_by}
     if fr.replicates >= 2:
-        res = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses, weights,
+        rep = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses, weights,
                                  level_values=fr.level_values, units=fr.units, blocks=True)
-        res["block_column"] = fr.block_column
-        res["text"] = describe_replicated(res)
+        res = SheetReplicatedAnalysis(**fields_of(rep),
+                                      block_column=fr.block_column, text=describe_replicated(rep), **sheet)
     else:
-        res = analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, weights,
-                      level_values=fr.level_values, units=fr.units)
-    res["replicates"] = fr.replicates
-    res["weights_given"] = weights is not None
-    res["response_units"] = dict(fr.response_units)
-    res["runs_identified_by"] = fr.runs_identified_by
+        res = replace(analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, weights,
+                              level_values=fr.level_values, units=fr.units), replicates=fr.replicates, **sheet)
     return fr, res
 
 

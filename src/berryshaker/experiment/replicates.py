@@ -42,6 +42,7 @@ import pandas as pd
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.analysis import check_inputs, check_weights, factor_levels_report, quadratic_regression
+from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 
 
 def pure_error(y: np.ndarray) -> tuple[float, int]:
@@ -343,7 +344,7 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
                        weights: dict[str, float] | None = None, *, alpha: float = 0.05, confidence: float = 0.95,
                        level_values: dict[str, tuple[float, ...] | None] | None = None,
                        units: dict[str, str] | None = None, fallback_weights: dict[str, float] | None = None,
-                       blocks: bool = False) -> dict:
+                       blocks: bool = False) -> ReplicatedAnalysis:
     """Analysis of a replicated orthogonal test, with every effect judged against the replicate noise.
 
     Parameters
@@ -378,7 +379,7 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
 
     Returns
     -------
-    dict
+    ReplicatedAnalysis
         ``significance_rule`` (the rule in words); per response (``responses``): range analysis of the
         run means (``factors`` with level_means, level_ci, range, range_ci, best_level, significant,
         verdict), ``anova`` (F and p against pure error, pure error and lack of fit), ``regression`` (eq.
@@ -463,7 +464,7 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
         fb = _weighted_optimum(levels, factor_names, reps, senses, wf, out, alpha, confidence, blocks)
         out["optimum"] = _tiered_optimum(out["optimum"], fb, factor_names, reps, out, confidence)
     out["notes"] = notes
-    return out
+    return ReplicatedAnalysis.from_json(out)  # the record, at one place: the optimum above reads the dict by key
 
 
 def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confidence, blocks=False) -> dict:
@@ -602,12 +603,12 @@ def _tiered_optimum(primary: dict, fallback: dict, factor_names, reps, out, conf
             "fallback": {k: fallback[k] for k in ("levels", "choices")}}
 
 
-def describe_replicated(res: dict) -> str:
+def describe_replicated(res: ReplicatedAnalysis) -> str:
     """Plain-text summary of :func:`analyze_replicated` (rule, per-response table, optimum with reasons).
 
     Parameters
     ----------
-    res : dict
+    res : ReplicatedAnalysis
         The result of :func:`analyze_replicated`.
 
     Returns
@@ -615,38 +616,36 @@ def describe_replicated(res: dict) -> str:
     str
         The summary, one line per item.
     """
-    lines = [f"Significance rule: {res['significance_rule']}"]
-    for name, ra in res["responses"].items():
-        pe, e = ra["anova"]["pure_error"], ra["anova"]["error"]
-        head = (f"{name} ({'maximise' if ra['maximize'] else 'minimise'}); replicate SD {pe['ms'] ** 0.5:.4g} "
-                f"({pe['df']} dof)")
-        if ra["anova"].get("blocks"):
-            head += f"; blocked error SD {e['ms'] ** 0.5:.4g} ({e['df']} dof)"
+    lines = [f"Significance rule: {res.significance_rule}"]
+    for name, ra in res.responses.items():
+        pe, e, blocked = ra.anova.pure_error, ra.anova.error, bool(ra.anova.blocks)
+        head = f"{name} ({'maximise' if ra.maximize else 'minimise'}); replicate SD {pe.ms ** 0.5:.4g} ({pe.df} dof)"
+        if blocked:
+            head += f"; blocked error SD {e.ms ** 0.5:.4g} ({e.df} dof)"
         lines.append(head)
-        for f, d in ra["factors"].items():
-            a = ra["anova"]["factors"][f]
-            lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d["level_means"], d["level_ci"]))
-            lines.append(f"  {f}: R = {d['range']:.4g} [{d['range_ci'][0]:.4g}, {d['range_ci'][1]:.4g}], "
-                         f"F = {a['f']:.3g}, p = {a['p']:.3g} -> {d['verdict']}; level means {lm}"
-                         + (" (intervals for comparing levels: the starts' shared luck left out)"
-                            if ra["anova"].get("blocks") else ""))
-            if d.get("paired"):
+        for f, d in ra.factors.items():
+            a = ra.anova.factors[f]
+            lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d.level_means, d.level_ci))
+            lines.append(f"  {f}: R = {d.range:.4g} [{d.range_ci[0]:.4g}, {d.range_ci[1]:.4g}], F = {a.f:.3g}, "
+                         f"p = {a.p:.3g} -> {d.verdict}; level means {lm}"
+                         + (" (intervals for comparing levels: the starts' shared luck left out)" if blocked else ""))
+            if d.paired:
                 lines.append("     paired: " + "; ".join(
-                    f"{f}{q['levels'][1]} - {f}{q['levels'][0]} = {q['difference']:+.4g} +- {q['se']:.2g} (SE, "
-                    f"p = {q['p']:.2g})" for q in d["paired"]))
+                    f"{f}{q.levels[1]} - {f}{q.levels[0]} = {q.difference:+.4g} +- {q.se:.2g} (SE, p = {q.p:.2g})"
+                    for q in d.paired))
     lines.append("Weighted choice:")
-    for f, c in res["optimum"]["choices"].items():
-        if c["level"] is None:
-            what = c["status"]
-        elif c["setting"] == f"level {c['level']}":
-            what = f"{c['setting']}, {c['status']}"
+    for f, c in res.optimum.choices.items():
+        if c.level is None:
+            what = c.status
+        elif c.setting == f"level {c.level}":
+            what = f"{c.setting}, {c.status}"
         else:
-            what = f"{c['setting']} (level {c['level']}), {c['status']}"
-        lines.append(f"  {f}: {what}: {c['reason']}")
-    for name, v in res["optimum"]["values"].items():
-        lo, hi = res["optimum"]["intervals"][name]
+            what = f"{c.setting} (level {c.level}), {c.status}"
+        lines.append(f"  {f}: {what}: {c.reason}")
+    for name, v in res.optimum.values.items():
+        lo, hi = res.optimum.intervals[name]
         lines.append(f"  predicted {name}: {v:.4g} [{lo:.4g}, {hi:.4g}]")
-    lines.extend(f"Note: {n}" for n in res.get("notes", []))
+    lines.extend(f"Note: {n}" for n in res.notes)
     return "\n".join(lines)
 
 

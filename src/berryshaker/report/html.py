@@ -136,76 +136,82 @@ def _claims_section(parts: list, res) -> None:
 
 
 
-def doe_report(res: dict, title: str) -> str:
+def doe_report(res, title: str, *, results_file: str = "", version: str = "") -> str:
     """Self-contained, printable HTML of ``doe analyze``: per response the range analysis (level means, range,
     best level with its value), pooled ANOVA and regression notes; the weighted optimum with the weights used
     and the predicted responses; the factors' level values and units; input file and package version.
 
     Parameters
     ----------
-    res : dict
-        The analysis of ``doe analyze``.
+    res : DoeAnalysis or SheetReplicatedAnalysis
+        The analysis of ``doe analyze`` (:func:`berryshaker.experiment.field_results.analyze_sheet`).
     title : str
         Title of the page.
+    results_file : str
+        The analysed sheet's file name.
+    version : str
+        The package version.
 
     Returns
     -------
     str
         The HTML document.
     """
+    from berryshaker.experiment.analysis_records import DoeAnalysis
+    from berryshaker.experiment.replicated_records import ReplicatedAnalysis
     from berryshaker.report.style import RESPONSE_UNITS
 
-    factors = res.get("factors") or {}
-    units = {**RESPONSE_UNITS, **(res.get("response_units") or {})}  # the sheet's units first (issue 45)
+    factors = res.factors
+    units = {**RESPONSE_UNITS, **(res.response_units or {})}  # the sheet's units first (issue 45)
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>Results file <code>{html.escape(str(res.get('results_file', '')))}</code>; berryshaker "
-             f"{html.escape(str(res.get('version', '')))}.</p>"]
+             f"<p>Results file <code>{html.escape(str(results_file))}</code>; berryshaker "
+             f"{html.escape(str(version))}.</p>"]
     if factors:
         parts.append("<h2>Factors</h2>")
         parts.append(_table(["factor", "unit", "levels"],
-                            [[f, d.get("unit") or "-", ", ".join(f"{n}: {lab}" for n, lab in
-                                                                 zip(d["level_numbers"], d["labels"]))]
+                            [[f, d.unit or "-", ", ".join(f"{n}: {lab}" for n, lab in zip(d.level_numbers, d.labels))]
                              for f, d in factors.items()], left=(0, 1, 2)))
-    o = res["optimum"]
-    w = res.get("weights") or {}
-    how = "given with --weights, scaled to sum 1" if res.get("weights_given") else "equal (no --weights given)"
+    o = res.optimum
+    how = "given with --weights, scaled to sum 1" if res.weights_given else "equal (no --weights given)"
+    method = res.composite.method if isinstance(res, DoeAnalysis) else ""
     parts.append("<h2>Weighted optimum</h2>")
-    parts.append(f"<p>Weights of the composite score: {html.escape(', '.join(f'{k} {v:.2f}' for k, v in w.items()))} "
-                 f"({how}).  {html.escape(res.get('composite', {}).get('method', ''))}.</p>")
+    parts.append("<p>Weights of the composite score: "
+                 f"{html.escape(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
+                 f"{html.escape(method)}.</p>")
     parts.append(_table(["factor", "level", "setting"], [[f, n if n is not None else "-",
-                                                          (o.get("settings") or {}).get(f) or "no meaningful difference"]
-                                                         for f, n in o["levels"].items()], left=(0, 2)))
-    if res.get("significance_rule"):  # a replicated sheet: effects against the replicate spread
-        parts.append(f"<p class='small'>{res['runs']} runs x {res['replicates']} replicates.  "
-                     f"{html.escape(res['significance_rule'])}</p>")
+                                                          o.settings.get(f) or "no meaningful difference"]
+                                                         for f, n in o.levels.items()], left=(0, 2)))
+    if isinstance(res, ReplicatedAnalysis):  # a replicated sheet: effects against the replicate spread
+        parts.append(f"<p class='small'>{res.runs} runs x {res.replicates} replicates.  "
+                     f"{html.escape(res.significance_rule)}</p>")
     parts.append(_table(["response", "predicted at the optimum", "unit"],
-                        [[r, _fixed([v])[0], units.get(r, "")] for r, v in o["values"].items()],
+                        [[r, _fixed([v])[0], units.get(r, "")] for r, v in o.values.items()],
                         left=(0, 2)))
-    parts.append(f"<p class='small'>{html.escape(o.get('prediction', ''))}</p>")
-    for name, ra in res["responses"].items():
+    parts.append(f"<p class='small'>{html.escape(o.prediction)}</p>")
+    for name, ra in res.responses.items():
         unit = units.get(name)
         parts.append(f"<h2>{html.escape(name)}{f' ({unit})' if unit else ''}: range analysis "
-                     f"({'maximise' if ra['maximize'] else 'minimise'})</h2>")
-        an = ra["anova"]["factors"]
-        nlev = len(next(iter(ra["factors"].values()))["level_means"])
-        means = [v for d in ra["factors"].values() for v in d["level_means"]]
+                     f"({'maximise' if ra.maximize else 'minimise'})</h2>")
+        an = ra.anova.factors
+        nlev = len(next(iter(ra.factors.values())).level_means)
+        means = [v for d in ra.factors.values() for v in d.level_means]
         rows = []
-        for f, d in ra["factors"].items():
-            cells = _fixed(list(d["level_means"]) + [d["range"]], reference=means)
-            labels = (factors.get(f) or {}).get("labels") or []
-            best = d["best_level"]
+        for f, d in ra.factors.items():
+            cells = _fixed(list(d.level_means) + [d.range], reference=means)
+            labels = factors[f].labels if f in factors else []
+            best = d.best_level
             rows.append([f, *cells, f"{best}" + (f" ({labels[best - 1]})" if len(labels) >= best and
-                                                   (factors.get(f) or {}).get("values") is not None else ""),
-                         f"{an[f]['f']:.3g}" if f in an else "pooled", f"{an[f]['p']:.3g}" if f in an else ""])
+                                                   factors[f].values is not None else ""),
+                         f"{an[f].f:.3g}" if f in an else "pooled", f"{an[f].p:.3g}" if f in an else ""])
         parts.append(_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best level", "ANOVA F", "p"],
                             rows))
-        reg = ra["regression"]
-        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra['ranking']))}.  Eq. 19 full quadratic: "
-                     f"rank {reg['full_model_rank']} of {len(reg['full_model_terms'])} terms; aliased: "
-                     f"{html.escape(', '.join(reg['aliased_terms']) or 'none')}.  Main-effects quadratic model: "
-                     f"R² = {reg['main_effects_quadratic']['r2']:.3f} with "
-                     f"{reg['main_effects_quadratic']['residual_df']} residual df.</p>")
+        reg = ra.regression
+        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
+                     f"rank {reg.full_model_rank} of {len(reg.full_model_terms)} terms; aliased: "
+                     f"{html.escape(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
+                     f"R² = {reg.main_effects_quadratic.r2:.3f} with "
+                     f"{reg.main_effects_quadratic.residual_df} residual df.</p>")
     parts.append("</body></html>")
     return "\n".join(parts)
 

@@ -48,13 +48,13 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     rows = []
     paired = l9.paired
     for name, ra in rep.responses.items():
-        sd = ra["anova"]["pure_error"]["ms"] ** 0.5
-        e = ra["anova"].get("error", ra["anova"]["pure_error"])
-        sig = ", ".join(f"{f} (p = {ra['factors'][f]['p']:.2g})" for f in ra["significant_factors"]) or "none"
+        sd = ra.anova.pure_error.ms ** 0.5
+        e = ra.anova.error
+        sig = ", ".join(f"{f} (p = {ra.factors[f].p:.2g})" for f in ra.significant_factors) or "none"
         pr = "; ".join(f"{f}{q.levels[1]} - {f}{q.levels[0]}: {q.difference:+.3g} +- {q.se:.2g}"
                        + ("" if q.beyond_noise else " (noise)") for f, q in paired.get(name, {}).items())
-        rows.append([name, units.get(name, ""), float(sum(ra["run_means"]) / len(ra["run_means"])), sd,
-                     e["ms"] ** 0.5, e["df"], sig, pr])
+        rows.append([name, units.get(name, ""), float(sum(ra.run_means) / len(ra.run_means)), sd,
+                     e.ms ** 0.5, e.df, sig, pr])
     if rows:
         parts.append("<h3>Replicate spread and significance</h3>")
         parts.append("<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "

@@ -346,16 +346,16 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
                          for r in runs]))
     for name in [n for n in ("efficiency", "unripe", "damage") if n in responses]:
         ra = responses[name]
-        an = ra["anova"]["factors"]
-        parts.append(f"<h3>{name}: range analysis ({'maximise' if ra['maximize'] else 'minimise'})</h3>")
+        an = ra.anova.factors
+        parts.append(f"<h3>{name}: range analysis ({'maximise' if ra.maximize else 'minimise'})</h3>")
         parts.append(_table(["factor", "k1", "k2", "k3", "R", "best", "ANOVA F", "p"],
-                            [[f, *ra["factors"][f]["level_means"], ra["factors"][f]["range"], ra["factors"][f]["best_level"],
-                              an[f]["f"] if f in an else "pooled", an[f]["p"] if f in an else ""] for f in PAIR_NAMES]))
-        reg = ra["regression"]
-        parts.append(f"<p class='small'>Ranking {' > '.join(ra['ranking'])}.  Eq. 19 (full quadratic, "
-                     f"{len(reg['full_model_terms'])} terms) has rank {reg['full_model_rank']} at the nine runs; aliased: "
-                     f"{', '.join(reg['aliased_terms'])}.  Fitted instead: the main-effects quadratic model "
-                     f"(R² = {reg['main_effects_quadratic']['r2']:.3f}, {reg['main_effects_quadratic']['residual_df']} "
+                            [[f, *ra.factors[f].level_means, ra.factors[f].range, ra.factors[f].best_level,
+                              an[f].f if f in an else "pooled", an[f].p if f in an else ""] for f in PAIR_NAMES]))
+        reg = ra.regression
+        parts.append(f"<p class='small'>Ranking {' > '.join(ra.ranking)}.  Eq. 19 (full quadratic, "
+                     f"{len(reg.full_model_terms)} terms) has rank {reg.full_model_rank} at the nine runs; aliased: "
+                     f"{', '.join(reg.aliased_terms)}.  Fitted instead: the main-effects quadratic model "
+                     f"(R² = {reg.main_effects_quadratic.r2:.3f}, {reg.main_effects_quadratic.residual_df} "
                      "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
     rep = l9.replicated if l9 is not None else None
     if rep:

@@ -157,7 +157,7 @@ def read_xlsx(path: str | Path) -> tuple[list[str], list[list]]:
     return [str(h) for h in values[0]], values[1:]
 
 
-def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
+def doe_tables(res) -> dict[str, tuple[list[str], list[list]]]:
     """The tables of a ``doe analyze`` analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`), as
     file stem -> (header, rows): per response its range analysis (``range_<response>``: level means k1..kn, range R,
     best level, ANOVA F and p, or "pooled"), and the weighted optimum (``optimum``: level per factor and the
@@ -165,8 +165,9 @@ def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
 
     Parameters
     ----------
-    res : dict
-        The analysis.
+    res : DoeAnalysis or SheetReplicatedAnalysis
+        The analysis (:mod:`berryshaker.experiment.analysis_records`,
+        :mod:`~berryshaker.experiment.replicated_records`).
 
     Returns
     -------
@@ -174,29 +175,29 @@ def doe_tables(res: dict) -> dict[str, tuple[list[str], list[list]]]:
         File stem -> (header, rows).
     """
     out = {}
-    units = res.get("response_units") or {}
-    for name, ra in res["responses"].items():
-        an = (ra.get("anova") or {}).get("factors") or {}
-        nlev = len(next(iter(ra["factors"].values()))["level_means"])
+    units = res.response_units or {}
+    for name, ra in res.responses.items():
+        an = ra.anova.factors
+        nlev = len(next(iter(ra.factors.values())).level_means)
         header = ["factor", *[f"k{j + 1}" + (f" ({units[name]})" if units.get(name) else "") for j in range(nlev)],
                   "R", "best level", "ANOVA F", "p"]
-        rows = [[f, *d["level_means"], d["range"], d["best_level"], an[f]["f"] if f in an else "pooled",
-                 an[f]["p"] if f in an else None] for f, d in ra["factors"].items()]
+        rows = [[f, *d.level_means, d.range, d.best_level, an[f].f if f in an else "pooled",
+                 an[f].p if f in an else None] for f, d in ra.factors.items()]
         out[f"range_{name}"] = (header, rows)
-    o = res["optimum"]
-    rows = [["level", f, n if n is not None else "no meaningful difference", (o.get("settings") or {}).get(f)]
-            for f, n in o["levels"].items()]
-    rows += [["predicted", r, v, units.get(r, "")] for r, v in o["values"].items()]
+    o = res.optimum
+    rows = [["level", f, n if n is not None else "no meaningful difference", o.settings.get(f)]
+            for f, n in o.levels.items()]
+    rows += [["predicted", r, v, units.get(r, "")] for r, v in o.values.items()]
     out["optimum"] = (["what", "factor or response", "level or value", "setting or unit"], rows)
     return out
 
 
-def write_doe_tables(res: dict, folder: str | Path) -> list[Path]:
+def write_doe_tables(res, folder: str | Path) -> list[Path]:
     """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files.
 
     Parameters
     ----------
-    res : dict
+    res : DoeAnalysis or SheetReplicatedAnalysis
         The analysis (:func:`doe_tables`).
     folder : path
         Where the files go.

@@ -295,14 +295,14 @@ def _significant(l9, name, p) -> bool:
     """Whether factor p's effect on a response is beyond the replicate noise (``l9``: the
     :class:`~berryshaker.study.l9_records.VirtualL9`; True for a response the replicated analysis lacks)."""
     rep = l9.replicated.responses.get(name)
-    return True if rep is None else bool(rep["factors"][p]["significant"])
+    return True if rep is None else bool(rep.factors[p].significant)
 
 
 def _p_value(l9, name, p) -> float | None:
     """ANOVA p of factor p's effect on a response against the replicate error (None for a response the replicated
     analysis lacks)."""
     rep = l9.replicated.responses.get(name)
-    v = None if rep is None else rep["factors"][p].get("p")
+    v = None if rep is None else rep.factors[p].p
     return None if v is None else float(v)
 
 
@@ -310,11 +310,11 @@ def _claim7(res):
     l9 = res.l9
     trend = {}
     for name in ("efficiency", "unripe", "damage"):
-        km = l9.responses[name]["factors"]
-        trend[name] = {p: km[p]["level_means"][2] - km[p]["level_means"][0] for p in PAIRS}
+        km = l9.responses[name].factors
+        trend[name] = {p: km[p].level_means[2] - km[p].level_means[0] for p in PAIRS}
     # a pair lowers an index only if its effect is beyond the replicate noise (criterion 7)
     lower_all = {n: sum(1 for p in PAIRS if trend[n][p] < 0 and _significant(l9, n, p)) for n in trend}
-    eff_b = l9.responses["efficiency"]["factors"]["B"]["best_level"]
+    eff_b = l9.responses["efficiency"].factors["B"].best_level
     verdict = "reproduced" if all(v_ >= 3 for v_ in lower_all.values()) and eff_b == 2 else (
         "partly reproduced" if any(v_ >= 3 for v_ in lower_all.values()) else "not reproduced")
     return (verdict, "; ".join(f"{n}: level-3 minus level-1 mean " + ", ".join(
@@ -327,8 +327,8 @@ def _claim8(res):
     l9 = res.l9
     rec = l9.recommended
     ours = {n: "".join(f"{p}{lv}" if _significant(l9, n, p) else f"{p}-" for p, lv in
-                       l9.responses[n]["best_levels"].items() if p in PAIRS) for n in ("efficiency", "unripe", "damage")}
-    rank_eff = l9.responses["efficiency"]["ranking"]
+                       l9.responses[n].best_levels.items() if p in PAIRS) for n in ("efficiency", "unripe", "damage")}
+    rank_eff = l9.responses["efficiency"].ranking
     a_first = rank_eff[0] == "A" and _significant(l9, "efficiency", "A")
     vh = rec.virtual_harvest
     fitted = set(rec.fitted)

@@ -37,12 +37,15 @@ import math
 import numpy as np
 
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
+from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 from berryshaker.harvest.virtual import replicate_seeds  # one home; re-exported here
+from berryshaker.records import fields_of
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.report.design import level_set_name
 from berryshaker.study.l9_records import (
     Confirmation,
     Estimate,
+    L9Optimum,
     L9Run,
     PairedDifference,
     Perturbation,
@@ -197,18 +200,16 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                              level_values={p: tuple(v * 1e3 for v in levels_m[p]) for p in pairs},
                              units={p: "mm" for p in pairs},
                              fallback_weights={n: 1.0 for n in loads} or None, blocks=True)
-    rep["seeds"] = seeds
-    rep["units"] = units
-    rep["perturbation"] = Perturbation(
+    perturbation = Perturbation(
         initial_eccentricity=h.initial_eccentricity, start_phase_spread_rad=h.start_phase_spread,
         what=("start k (block k of every run): seed + 1000 k for the bushes and for every branch class's coupled run "
               "(seed, class): clearance eccentricities uniform over the disc of "
               f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
               f"in +-{math.degrees(h.start_phase_spread):.0f} deg"))
-    rep["text"] = describe_replicated(rep)
+    rep = ReplicatedL9(**fields_of(rep), seeds=seeds, units=units, perturbation=perturbation,
+                       text=describe_replicated(rep))
     # comparisons between runs (they share the starts) use the blocked error; a run's own interval, its own starts
-    err = {n: (rep["responses"][n]["anova"]["error"]["ms"], rep["responses"][n]["anova"]["error"]["df"])
-           for n in names}
+    err = {n: (rep.responses[n].anova.error.ms, rep.responses[n].anova.error.df) for n in names}
     run_recs = [L9Run(run=i + 1, levels={p: int(a[i, j]) for j, p in enumerate(pairs)},
                       clearance_mm={p: float(values[i, j]) for j, p in enumerate(pairs)},
                       name=level_set_name({p: float(values[i, j]) for j, p in enumerate(pairs)}),
@@ -216,25 +217,25 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                       replicates={n: Estimate(**interval(y[n][i])) for n in names}) for i in range(len(runs))]
 
     # recommendation: the tiered optimum; a factor where nothing differs keeps the configured clearance
-    opt = rep["optimum"]
+    opt = rep.optimum
     rec_levels, basis = {}, {}
     for p in pairs:
-        c = opt["choices"][p]
-        if c["level"] is None:
+        c = opt.choices[p]
+        if c.level is None:
             rec_levels[p] = _configured_level(machine, p)
             basis[p] = (f"no response differs significantly between the levels of {p}: kept at the configured "
                         f"clearance (level {rec_levels[p]})")
         else:
-            rec_levels[p] = int(c["level"])
+            rec_levels[p] = int(c.level)
             basis[p] = {"primary": "harvest indexes", "fallback": "machine loads (harvest indexes do not differ)",
                         "primary + fallback": "harvest indexes, tie among their indistinguishable levels broken by "
-                        "machine loads"}[c["tier"]] + f": {c['status']}"
-    harvest_sig = {n: rep["responses"][n]["significant_factors"] for n in HARVEST_RESPONSES if n in rep["responses"]}
+                        "machine loads"}[c.tier] + f": {c.status}"
+    harvest_sig = {n: rep.responses[n].significant_factors for n in HARVEST_RESPONSES if n in rep.responses}
     if not any(harvest_sig.values()):
         statement = ("The harvest indexes do not differ meaningfully between any clearance levels (no factor effect "
-                     f"beyond the replicate noise, p >= {rep['alpha']:g}); the recommendation is decided on what does "
+                     f"beyond the replicate noise, p >= {rep.alpha:g}); the recommendation is decided on what does "
                      "differ: peak collision forces and drive torque (" + ", ".join(
-                         f"{n}: {', '.join(rep['responses'][n]['significant_factors']) or 'none'}" for n in loads)
+                         f"{n}: {', '.join(rep.responses[n].significant_factors) or 'none'}" for n in loads)
                      + " significant), and the configured clearance where nothing differs.")
     else:
         statement = ("Harvest indexes that differ beyond the replicate noise: " + "; ".join(
@@ -268,7 +269,8 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                             f"{check.tiered.code} beyond the noise: level {rec_levels[p]} (the tiered rule "
                             f"gave level {tiered_levels[p]})")
     statement = statement + " " + check.statement
-    opt = dict(opt, levels=dict(rec_levels), decided_levels=opt["levels"], tiered_levels=tiered_levels)
+    opt = L9Optimum(**{**fields_of(opt), "levels": dict(rec_levels)}, decided_levels=opt.levels,
+                    tiered_levels=tiered_levels)
     # the recommended set's starts extended until every harvest response's mean is known to its target; its
     # intervals and SDs come from all of them (the first are the L9's: the same seeds)
     from berryshaker.errors import SimulationError
@@ -291,12 +293,13 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
         replicates={n: Estimate(**interval(rec_all[n])) for n in names}, starts=len(seq["cells"]),
         sequential=SequentialStarts(**{k: seq[k] for k in ("reached", "stopped", "target", "max", "statement")}),
         fitted=fitted_here(machine, best_cl), basis=basis,
-        rule=(rep["optimum"]["method"] + "; a factor with no significant difference keeps the configured clearance; "
+        rule=(rep.optimum.method + "; a factor with no significant difference keeps the configured clearance; "
               + CONFIRMATION_RULE), statement=statement, check=check)
     tolerance = check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
                                        {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
     # the range analysis' keys first (its optimum replaced by the tiered one), then the study's, in that order
-    return VirtualL9(**{**an, "optimum": opt}, runs=run_recs, replicated=ReplicatedL9(**rep), response_units=units,
+    return VirtualL9(responses=an.responses, weights=an.weights, factors=an.factors, composite=an.composite,
+                     optimum=opt, runs=run_recs, replicated=rep, response_units=units,
                      tradeoff=tradeoff, tradeoff_columns=tradeoff_columns, recommended=recommended,
                      tolerance_check=tolerance, paired=paired_summary(rep, pairs),
                      observations={n: np.asarray(y[n]).tolist() for n in names})  # per run and start: the figures' data
@@ -330,13 +333,13 @@ def fitted_here(machine, clearance: dict) -> list[str]:
     return [n for n, key in tagged.items() if value_tag(machine, key) == "calibrated"]
 
 
-def paired_summary(rep: dict, pairs) -> dict[str, dict[str, PairedDifference]]:
+def paired_summary(rep: ReplicatedAnalysis, pairs) -> dict[str, dict[str, PairedDifference]]:
     """Per response and factor, the paired difference of its extreme levels (last minus first, e.g. A3 - A1) over
     the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`).
 
     Parameters
     ----------
-    rep : dict
+    rep : ReplicatedAnalysis
         The replicated analysis (:func:`berryshaker.experiment.replicates.analyze_replicated`).
     pairs : iterable of str
         The factors (clearance pairs).
@@ -348,13 +351,11 @@ def paired_summary(rep: dict, pairs) -> dict[str, dict[str, PairedDifference]]:
         ``beyond_noise``.
     """
     out = {}
-    for n, ra in rep["responses"].items():
+    for n, ra in rep.responses.items():
         per = {}
         for p in pairs:
-            pd_ = ra["factors"][p].get("paired") or []
+            pd_ = ra.factors[p].paired or []
             if pd_:
-                ext = max(pd_, key=lambda q: q["levels"][1] - q["levels"][0])
-                per[p] = PairedDifference(**{k: ext[k] for k in ("levels", "difference", "se", "ci", "p",
-                                                                 "beyond_noise")})
+                per[p] = max(pd_, key=lambda q: q.levels[1] - q.levels[0])
         out[n] = per
     return out

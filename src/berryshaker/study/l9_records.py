@@ -4,16 +4,19 @@
 the summary; :meth:`~berryshaker.records.JsonRecord.to_json` gives the dict written to summary.json's
 ``results.l9``, key for key.
 
-What the lower layers produce and other callers share stays a ``dict`` field: the range analysis per response
-(:func:`berryshaker.experiment.analysis.analyze`), the replicated analysis per response and its tiered optimum
-(:func:`berryshaker.experiment.replicates.analyze_replicated`, also the JSON of ``doe analyze``), the trade-off
-table's rows (their columns are data: ``peak_force_N:A``...) and the sequential-start statistics.
+The range analysis per response (:func:`berryshaker.experiment.analysis.analyze`) and the replicated analysis
+(:func:`berryshaker.experiment.replicates.analyze_replicated`, also the JSON of ``doe analyze``) are the experiment
+layer's records (:mod:`berryshaker.experiment.analysis_records`, :mod:`berryshaker.experiment.replicated_records`);
+:class:`ReplicatedL9` and :class:`L9Optimum` extend them with what the study adds.  What stays a ``dict`` field: the trade-off table's rows (their columns are
+data: ``peak_force_N:A``...) and the sequential-start statistics.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+from berryshaker.experiment.analysis_records import CompositeScore, FactorLevels, RangeAnalysis
+from berryshaker.experiment.replicated_records import PairedDifference, ReplicatedAnalysis, ReplicatedOptimum
 from berryshaker.records import JsonRecord, optional
 
 
@@ -97,38 +100,37 @@ class Perturbation(JsonRecord):
 
 
 @dataclass(frozen=True, kw_only=True)
-class ReplicatedL9(JsonRecord):
-    """The replicated L9's analysis against its own noise: the top level of
-    :func:`berryshaker.experiment.replicates.analyze_replicated` (randomised complete blocks: start k is block k)
-    and what the study adds (``seeds``, ``units``, ``perturbation``, ``text``).
+class ReplicatedL9(ReplicatedAnalysis):
+    """The replicated L9's analysis against its own noise: :func:`berryshaker.experiment.replicates.analyze_replicated`
+    (randomised complete blocks: start k is block k; the fields of
+    :class:`~berryshaker.experiment.replicated_records.ReplicatedAnalysis`) and what the study adds.
 
     Attributes
     ----------
     significance_rule : str
-        When an effect counts as significant (the F test and its error).
+        When an effect counts as significant.
     alpha : float
         Significance level (dimensionless).
     confidence : float
         Confidence of the intervals (dimensionless).
     runs : int
-        Runs of the array (9).
+        Runs of the array.
     replicates : int
-        Starts per run.
+        Replicates per run.
     blocks : bool
-        Whether the starts are blocks (the error is the run x start interaction).
+        Whether replicate k of every run is block k.
     weights : dict of str to float
-        Priority weights of the primary (harvest) responses (dimensionless, summing to 1).
-    factors : dict
-        Per factor its level numbers, values (mm), unit and labels.
-    responses : dict of str to dict
-        Per response (its unit: :attr:`units`): level means with intervals, ANOVA (blocked and pure error),
-        significant factors, run means and SDs, regression.
-    optimum : dict
-        The tiered optimum of the analysis (levels, choices, predicted values and intervals, rule in ``method``).
+        Weights of the (primary) responses (dimensionless, summing to 1).
+    factors : dict of str to FactorLevels
+        Per factor its levels.
+    responses : dict of str to ReplicatedResponse
+        Per response its analysis.
+    optimum : ReplicatedOptimum
+        The weighted (or tiered) optimum.
     fallback_weights : dict of str to float, optional
-        Weights of the machine-load responses that break ties (dimensionless); absent without load responses.
+        Weights of the fallback responses (dimensionless).
     notes : list of str
-        Warnings of the analysis (e.g. zero error).
+        Warnings (e.g. zero error).
     seeds : list of int
         The starts' seeds.
     units : dict of str to str
@@ -139,22 +141,49 @@ class ReplicatedL9(JsonRecord):
         The analysis as text (:func:`berryshaker.experiment.replicates.describe_replicated`).
     """
 
-    significance_rule: str
-    alpha: float
-    confidence: float
-    runs: int
-    replicates: int
-    blocks: bool
-    weights: dict[str, float]
-    factors: dict
-    responses: dict[str, dict]
-    optimum: dict
-    fallback_weights: dict[str, float] | None = optional()
-    notes: list[str]
     seeds: list[int]
     units: dict[str, str]
     perturbation: Perturbation
     text: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class L9Optimum(ReplicatedOptimum):
+    """The tiered optimum of the replicated L9 (the fields of
+    :class:`~berryshaker.experiment.replicated_records.ReplicatedOptimum`) with ``levels`` the ones recommended.
+
+    Attributes
+    ----------
+    levels : dict of str to int or None
+        Level (1-based) per factor, None: no meaningful difference.
+    settings : dict of str to str or None
+        Its label per factor.
+    choices : dict of str to Choice
+        Per factor the choice and its reason.
+    values : dict of str to float
+        Predicted mean per response (the response's unit).
+    intervals : dict of str to list of float
+        Its interval per response (the response's unit).
+    weights : dict of str to float
+        Weights of the (primary) responses (dimensionless).
+    fallback_weights : dict of str to float, optional
+        Weights of the fallback responses (dimensionless); tiered only.
+    method : str
+        The rule in words.
+    prediction : str
+        The prediction model in words.
+    primary : TierChoices, optional
+        The primary tier's choice; tiered only.
+    fallback : TierChoices, optional
+        The fallback tier's choice; tiered only.
+    decided_levels : dict of str to int or None
+        The analysis' levels (1-based; None: no meaningful difference).
+    tiered_levels : dict of str to int
+        The tiered rule's levels (1-based), the configured level where nothing differs.
+    """
+
+    decided_levels: dict[str, int | None]
+    tiered_levels: dict[str, int]
 
 
 @dataclass(frozen=True)
@@ -367,34 +396,6 @@ class ToleranceCheck(JsonRecord):
 
 
 @dataclass(frozen=True)
-class PairedDifference(JsonRecord):
-    """A factor's extreme levels compared start by start (last minus first level, paired over the blocks).
-
-    Attributes
-    ----------
-    levels : list of int
-        The two levels compared ([first, last]).
-    difference : float
-        Mean paired difference, last minus first (the response's unit).
-    se : float
-        Its standard error (the response's unit).
-    ci : list of float
-        Its 95 % interval (the response's unit).
-    p : float
-        p of the paired t test over the starts (dimensionless).
-    beyond_noise : bool
-        Whether the difference is beyond the noise (p < alpha).
-    """
-
-    levels: list[int]
-    difference: float
-    se: float
-    ci: list[float]
-    p: float
-    beyond_noise: bool
-
-
-@dataclass(frozen=True)
 class VirtualL9(JsonRecord):
     """The study's L9 field test through the virtual harvest, replicated, analysed against its own noise, and its
     recommendation (:func:`berryshaker.study.l9.virtual_l9`).  The first five fields are the range analysis of the
@@ -403,16 +404,16 @@ class VirtualL9(JsonRecord):
 
     Attributes
     ----------
-    responses : dict of str to dict
+    responses : dict of str to RangeAnalysis
         Range analysis of efficiency (kg/min), unripe and damage (%): K, level means, range, best level, ANOVA
         (pooled), regression.
     weights : dict of str to float
         Priority weights of efficiency, damage and unripe (dimensionless).
-    factors : dict
-        Per factor (pair) its level numbers, values, unit and labels.
-    composite : dict
+    factors : dict of str to FactorLevels
+        Per factor (pair) its level numbers, values (mm), unit and labels.
+    composite : CompositeScore
         Range analysis of the weighted composite score (dimensionless).
-    optimum : dict
+    optimum : L9Optimum
         The tiered optimum of the replicated analysis with ``levels`` (recommended), ``decided_levels`` (the
         analysis') and ``tiered_levels`` (the tiered rule's, configured level where nothing differs).
     runs : list of L9Run
@@ -436,11 +437,11 @@ class VirtualL9(JsonRecord):
         Per response, its value per run and start (the response's unit): the effect figures' data.
     """
 
-    responses: dict[str, dict]
+    responses: dict[str, RangeAnalysis]
     weights: dict[str, float]
-    factors: dict
-    composite: dict
-    optimum: dict
+    factors: dict[str, FactorLevels]
+    composite: CompositeScore
+    optimum: L9Optimum
     runs: list[L9Run]
     replicated: ReplicatedL9
     response_units: dict[str, str]
@@ -452,5 +453,5 @@ class VirtualL9(JsonRecord):
     observations: dict[str, list[list[float]]]
 
 
-__all__ = ["Confirmation", "Estimate", "L9Run", "PairedDifference", "Perturbation", "Recommendation",
+__all__ = ["Confirmation", "Estimate", "L9Optimum", "L9Run", "PairedDifference", "Perturbation", "Recommendation",
            "ReplicatedL9", "SequentialStarts", "TieredChoice", "ToleranceCheck", "ToleranceVerdict", "VirtualL9"]

@@ -360,10 +360,10 @@ def l9_summary(l9: VirtualL9 | None) -> dict:
     if l9 is None:
         return {}
     rep = l9.replicated
-    per = {n: {"replicate_sd": ra["anova"]["pure_error"]["ms"] ** 0.5, "dof": ra["anova"]["pure_error"]["df"],
-               "blocked_error_sd": ra["anova"]["error"]["ms"] ** 0.5, "blocked_error_dof": ra["anova"]["error"]["df"],
-               "significant_factors": ra["significant_factors"],
-               "p": {f: d["p"] for f, d in ra["factors"].items()}, "paired": to_json(l9.paired.get(n))}
+    per = {n: {"replicate_sd": ra.anova.pure_error.ms ** 0.5, "dof": ra.anova.pure_error.df,
+               "blocked_error_sd": ra.anova.error.ms ** 0.5, "blocked_error_dof": ra.anova.error.df,
+               "significant_factors": ra.significant_factors,
+               "p": {f: d.p for f, d in ra.factors.items()}, "paired": to_json(l9.paired.get(n))}
            for n, ra in rep.responses.items()}
     return {"l9_replicates": {"replicates": rep.replicates, "blocks": rep.blocks, "seeds": rep.seeds,
                               "perturbation": rep.perturbation.to_json(), "significance_rule": rep.significance_rule,

@@ -258,7 +258,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
     return names
 
 
-def write_doe_figures(fr, res: dict, folder: Path) -> list[str]:
+def write_doe_figures(fr, res, folder: Path) -> list[str]:
     """Every figure of ``doe analyze --plot`` into ``folder``: main effects (with 95 % intervals when replicated),
     response surfaces (two factors or more), and per response the Pareto chart of standardized effects, residual
     plots and interaction plots; axes in the sheet's units (factors and responses).
@@ -267,8 +267,9 @@ def write_doe_figures(fr, res: dict, folder: Path) -> list[str]:
     ----------
     fr : FieldResults
         The sheet as read (:func:`berryshaker.experiment.field_results.read_results`).
-    res : dict
-        Its analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`).
+    res : DoeAnalysis or SheetReplicatedAnalysis
+        Its analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`); the figures read its JSON form
+        (:meth:`~berryshaker.records.JsonRecord.to_json`), as they read the study's L9 from summary.json's.
     folder : Path
         Where the figures go.
 
@@ -281,6 +282,7 @@ def write_doe_figures(fr, res: dict, folder: Path) -> list[str]:
     from berryshaker.report.plots.doe import plot_main_effects, plot_replicated_effects, plot_response_surfaces
 
     folder = Path(folder)
+    res = res.to_json()
     units = {**RESPONSE_UNITS, **(getattr(fr, "response_units", None) or {})}
     known = {f: v for f, v in fr.level_values.items() if v is not None}
     if fr.replicates >= 2:  # error bars: 95 % intervals from the replicate (blocked) error
