@@ -17,6 +17,7 @@ import pytest
 from berryshaker.config import load_machine, machine_table
 from berryshaker.report.html import report_title, runs_text, study_report
 from berryshaker.study.pipeline import report_sections
+from berryshaker.study.claims import ClaimVerdict
 from berryshaker.study.step_result import StudyResults
 from l9_records_data import l9_record
 
@@ -60,7 +61,7 @@ def _claims(verdicts) -> list[dict]:
              "wraps over several lines in print", "verdict": v,
              "detail": f"row 14: peaks A 5227 / B 4982 / C 2914 / F 2838 N; left > right: {i % 2 == 0}, "
                        f"falls with clearance: {i % 3 == 0}; the harvest model is calibrated to the study's values at "
-                       "A1B1C1F3 (docs/harvest.md, docs/plant.md, clearance.A.bearing_length)"}
+                       "A1B1C1F3 (docs/harvest.md, docs/plant.md, clearance.A.bearing_length)", "criterion": ""}
             for i, v in enumerate(verdicts)]
 
 
@@ -102,7 +103,7 @@ def report(tmp_path_factory):
 def test_report_header_and_claims_table(report):
     _, text, res, machine = report
     assert "the reference study, checked" in text and "reproduced</h1>" not in text
-    assert report_title([{"verdict": "reproduced"}] * 8).endswith("reproduced")
+    assert report_title([ClaimVerdict(1, "", "reproduced", "", "")] * 8).endswith("reproduced")
     # a cached rerun keeps the cold cost in the header
     assert "40 runs (40 from the cache; cold compute 93.4 s)" in text
     assert runs_text({"runs": 3, "cached": 0, "compute_s": 2.0, "cached_compute_s": 0.0}) == \

@@ -21,7 +21,7 @@ from berryshaker.study.l9_records import (
     L9Run,
     PairedDifference,
     Perturbation,
-    Recommendation,
+    L9Recommendation,
     ReplicatedL9,
     SequentialStarts,
     TieredChoice,
@@ -271,7 +271,7 @@ def test_virtual_l9_output_reads_back_as_its_typed_record(virtual_json):
     rec = VirtualL9.from_json(data)
     assert json.dumps(rec.to_json()) == json.dumps(data) and list(rec.to_json()) == list(data)
     assert isinstance(rec.runs[0], L9Run) and isinstance(rec.runs[0].replicates["efficiency"], Estimate)
-    assert isinstance(rec.recommended, Recommendation) and isinstance(rec.recommended.check.tiered, TieredChoice)
+    assert isinstance(rec.recommended, L9Recommendation) and isinstance(rec.recommended.check.tiered, TieredChoice)
     assert isinstance(rec.replicated, ReplicatedL9) and isinstance(rec.replicated.perturbation, Perturbation)
     assert isinstance(rec.tolerance_check, ToleranceCheck)
     assert isinstance(rec.tolerance_check.responses["efficiency"], ToleranceVerdict)
@@ -304,8 +304,8 @@ def test_l9_records_refuse_unknown_keys_missing_fields_and_wrong_types():
     with pytest.raises(pydantic.ValidationError, match="interval_from"):  # an Estimate missing a field
         L9Run.from_json({**good["runs"][0], "replicates": {"efficiency": {"mean": 1.0, "sd": 0.1, "ci": [0.9, 1.1],
                                                                            "n": 8}}})
-    with pytest.raises(pydantic.ValidationError, match="starts"):  # a Recommendation's field of the wrong type
-        Recommendation.from_json({**good["recommended"], "starts": "many"})
+    with pytest.raises(pydantic.ValidationError, match="starts"):  # a L9Recommendation's field of the wrong type
+        L9Recommendation.from_json({**good["recommended"], "starts": "many"})
     with pytest.raises(pydantic.ValidationError, match="what"):  # the perturbation without its text
         ReplicatedL9.from_json({**good["replicated"], "perturbation": {"initial_eccentricity": 1.0,
                                                                        "start_phase_spread_rad": 0.0}})

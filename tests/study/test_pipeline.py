@@ -159,7 +159,7 @@ def test_study_outputs(study_out):
     assert [c["id"] for c in saved["claims"]] == list(range(1, 9))
     # the verdicts follow from the numbers the summary saves (the claim rules themselves: tests/study/test_claims.py)
     assert [(c["verdict"], c["detail"]) for c in saved["claims"]] == [
-        (c["verdict"], c["detail"]) for c in check_claims(StudyResults.from_json(saved["results"]))]
+        (c.verdict, c.detail) for c in check_claims(StudyResults.from_json(saved["results"]))]
     # and they are the ones this input gives where its numbers decide by far (claim 2 turns on steps near the
     # noise of two starts, so only the rule above holds it):
     # 1: the four pairs agree at the model-check level (3-6 % against 20 %) but many single-run rows differ;

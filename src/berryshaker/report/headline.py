@@ -7,32 +7,32 @@ from __future__ import annotations
 VERDICTS = ("reproduced", "partly reproduced", "not reproduced", "undecided", "not tested", "not comparable")
 
 
-def report_title(claims: list[dict]) -> str:
+def report_title(claims: list) -> str:
     """Title of the study report: "reproduced" only when every claim is; otherwise "checked".
 
     Parameters
     ----------
-    claims : list of dict
-        The claims with their ``verdict``.
+    claims : list of ClaimVerdict
+        The claims with their ``verdict`` (``berryshaker.study.claims.ClaimVerdict``, read by attribute).
 
     Returns
     -------
     str
         The title.
     """
-    verdicts = [c.get("verdict") for c in claims]
+    verdicts = [c.verdict for c in claims]
     if verdicts and all(v == "reproduced" for v in verdicts):
         return "Blueberry harvester with transmission clearance: the reference study, reproduced"
     return "Blueberry harvester with transmission clearance: the reference study, checked"
 
 
-def verdict_counts(claims: list[dict]) -> str:
+def verdict_counts(claims: list) -> str:
     """E.g. "5 of 8 claims reproduced, 2 partly reproduced, 1 not reproduced".
 
     Parameters
     ----------
-    claims : list of dict
-        The claims with their ``verdict``.
+    claims : list of ClaimVerdict
+        The claims with their ``verdict`` (read by attribute).
 
     Returns
     -------
@@ -40,8 +40,8 @@ def verdict_counts(claims: list[dict]) -> str:
         The counts in words.
     """
     order = VERDICTS
-    counts = {v: sum(1 for c in claims if c.get("verdict") == v) for v in order}
-    others = sum(1 for c in claims if c.get("verdict") not in order)
+    counts = {v: sum(1 for c in claims if c.verdict == v) for v in order}
+    others = sum(1 for c in claims if c.verdict not in order)
     parts = [f"{counts[order[0]]} of {len(claims)} claims reproduced"]
     parts += [f"{counts[v]} {v}" for v in order[1:] if counts[v]]
     if others:

@@ -125,9 +125,9 @@ def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = N
 def _claims_section(parts: list, res) -> None:
     """Appendix: the reference study's claims with their verdicts (shown for the study's machine only)."""
     parts.append("<h2>Appendix: claims of the reference study and what our models give</h2>")
-    with_criterion = any(c.get("criterion") for c in res.claims)
-    rows = [[c["id"], c["claim"], _Raw(f'<span class="{verdict_class(c["verdict"])}">{html.escape(c["verdict"])}</span>'),
-             *([_plain(c.get("criterion", ""))] if with_criterion else []), _plain(c["detail"])]
+    with_criterion = any(c.criterion for c in res.claims)
+    rows = [[c.id, c.claim, _Raw(f'<span class="{verdict_class(c.verdict)}">{html.escape(c.verdict)}</span>'),
+             *([_plain(c.criterion)] if with_criterion else []), _plain(c.detail)]
             for c in res.claims]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
                          "our numbers"], rows, left=(1, 2, 3, 4),

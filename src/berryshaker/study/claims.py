@@ -7,7 +7,10 @@ are "not comparable".  A claim whose runs failed is "not comparable" too, with t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from berryshaker.experiment.clearance_sets import level_code as _level_code
+from berryshaker.records import JsonRecord
 from berryshaker.reference_study import BEST_PER_INDEX, CLAIMS, EQ18_F, PAIRS
 
 #: the criterion each verdict applies (shown in the report beside the verdict); "partly" only where stated
@@ -47,11 +50,36 @@ CRITERIA = {
 DRIVE_INDEPENDENT = (5, 6)
 
 
+@dataclass(frozen=True)
+class ClaimVerdict(JsonRecord):
+    """One claim of the reference study with what this study's numbers say of it.
+
+    Attributes
+    ----------
+    id : int
+        The claim's number (1-8, docs/study.md) (1).
+    claim : str
+        The claim as the study makes it.
+    verdict : str
+        "reproduced", "partly reproduced", "not reproduced", "not comparable" or "not tested".
+    detail : str
+        The numbers the verdict rests on, with their units.
+    criterion : str
+        The rule the verdict applies.
+    """
+
+    id: int
+    claim: str
+    verdict: str
+    detail: str
+    criterion: str
+
+
 def _code(levels: dict) -> str:
     return _level_code({p: levels[p] for p in PAIRS})
 
 
-def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
+def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[ClaimVerdict]:
     """Verdict and detail for each claim, from the study's results (:class:`~berryshaker.study.step_result.StudyResults`).
 
     Parameters
@@ -64,7 +92,7 @@ def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
 
     Returns
     -------
-    list of dict
+    list of ClaimVerdict
         One per claim: ``id``, ``claim``, ``verdict`` (e.g. "reproduced", "not reproduced", "not comparable"),
         ``detail`` and ``criterion``; a claim whose runs are missing is "not comparable".
     """
@@ -82,8 +110,8 @@ def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[dict]:
                     raise  # a field the record does not have: a bug here, not a step that produced nothing
                 verdict, detail = ("not comparable",
                                    f"the runs this claim needs failed or are missing ({exc!r}); see Failed runs")
-        claims.append({"id": cid, "claim": CLAIMS[cid], "verdict": verdict, "detail": detail,
-                       "criterion": CRITERIA[cid]})
+        claims.append(ClaimVerdict(id=cid, claim=CLAIMS[cid], verdict=verdict, detail=detail,
+                                   criterion=CRITERIA[cid]))
     return claims
 
 

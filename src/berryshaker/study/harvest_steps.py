@@ -221,7 +221,8 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable) 
     Parameters
     ----------
     l9 : dict
-        The virtual L9 (:func:`berryshaker.study.l9.virtual_l9`).
+        The virtual L9's JSON form (``VirtualL9.to_json()`` of :func:`berryshaker.study.l9.virtual_l9`; the figures
+        are drawn in pool workers from plain data).
     levels_mm : dict of str to list of float
         Clearance levels per pair (mm).
     figs : Path

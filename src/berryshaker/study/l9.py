@@ -49,7 +49,7 @@ from berryshaker.study.l9_records import (
     L9Run,
     PairedDifference,
     Perturbation,
-    Recommendation,
+    L9Recommendation,
     ReplicatedL9,
     SequentialStarts,
     TieredChoice,
@@ -286,7 +286,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     rec_all = {n: np.array([c[n] for c in seq["cells"]]) for n in names}
     vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
           if n in rec_all}
-    recommended = Recommendation(
+    recommended = L9Recommendation(
         levels=rec_levels, code=level_code(rec_levels), name=level_set_name({p: best_cl[p] * 1e3 for p in pairs}),
         clearance_mm={p: best_cl[p] * 1e3 for p in pairs}, l9_run=None if row is None else row + 1,
         study={"code": CHOSEN_CODE}, same_as_study=rec_levels == CHOSEN_LEVELS, virtual_harvest=vh,

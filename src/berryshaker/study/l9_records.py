@@ -1,5 +1,5 @@
 """The typed result of the study's virtual L9 (:func:`berryshaker.study.l9.virtual_l9`, study step ``virtual_l9``):
-:class:`VirtualL9` and its sub-records (:class:`L9Run`, :class:`Recommendation`, :class:`Estimate`,
+:class:`VirtualL9` and its sub-records (:class:`L9Run`, :class:`L9Recommendation`, :class:`Estimate`,
 :class:`ReplicatedL9`, :class:`ToleranceCheck`, ...), read by attribute by the report, the claims, the tables and
 the summary; :meth:`~berryshaker.records.JsonRecord.to_json` gives the dict written to summary.json's
 ``results.l9``, key for key.
@@ -271,7 +271,7 @@ class SequentialStarts(JsonRecord):
 
 
 @dataclass(frozen=True)
-class Recommendation(JsonRecord):
+class L9Recommendation(JsonRecord):
     """The virtual L9's recommended clearance set and its basis.
 
     Attributes
@@ -427,7 +427,7 @@ class VirtualL9(JsonRecord):
         ``_noise``, ``dominated``, ``dominated_by``...).
     tradeoff_columns : list of str
         Its column order.
-    recommended : Recommendation
+    recommended : L9Recommendation
         The recommendation.
     tolerance_check : ToleranceCheck
         The solver-tolerance check at the recommendation.
@@ -447,11 +447,11 @@ class VirtualL9(JsonRecord):
     response_units: dict[str, str]
     tradeoff: list[dict]
     tradeoff_columns: list[str]
-    recommended: Recommendation
+    recommended: L9Recommendation
     tolerance_check: ToleranceCheck
     paired: dict[str, dict[str, PairedDifference]]
     observations: dict[str, list[list[float]]]
 
 
-__all__ = ["Confirmation", "Estimate", "L9Optimum", "L9Run", "PairedDifference", "Perturbation", "Recommendation",
+__all__ = ["Confirmation", "Estimate", "L9Optimum", "L9Run", "PairedDifference", "Perturbation", "L9Recommendation",
            "ReplicatedL9", "SequentialStarts", "TieredChoice", "ToleranceCheck", "ToleranceVerdict", "VirtualL9"]

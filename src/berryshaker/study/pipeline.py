@@ -337,7 +337,8 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
     return {
         "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
         "drive": machine.DRIVE,
-        "claims": [{k: c[k] for k in ("id", "verdict", "detail", "claim", "criterion")} for c in results.claims],
+        "claims": [{"id": c.id, "verdict": c.verdict, "detail": c.detail, "claim": c.claim, "criterion": c.criterion}
+                   for c in results.claims],
         "optimum": optimum, "failures": failures, "timings_s": timings, "runs": dict(runner_stats),
         **l9_summary(l9),
     }

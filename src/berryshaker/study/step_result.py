@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.records import JsonRecord
+from berryshaker.study.claims import ClaimVerdict
 from berryshaker.study.fruit_force_records import FruitForceStep
 from berryshaker.study.harvest_records import HarvestResponse, Validation
 from berryshaker.study.l9_records import VirtualL9
@@ -70,7 +71,7 @@ class StudyResults(JsonRecord):
         Step ``harvest_response``: harvest indexes against drive speed (r/min) and the calibration.
     validation : Validation or None
         Step ``validation``: the harvest model against the published record.
-    claims : list of dict
+    claims : list of ClaimVerdict
         The claims' verdicts (:func:`berryshaker.study.claims.check_claims`).
     failures : list of dict
         Failed runs: step, run, inputs, error.
@@ -85,5 +86,5 @@ class StudyResults(JsonRecord):
     powered_drive: PoweredDrive | None = None
     harvest_response: HarvestResponse | None = None
     validation: Validation | None = None
-    claims: list = field(default_factory=list)
+    claims: list[ClaimVerdict] = field(default_factory=list)
     failures: list = field(default_factory=list)

@@ -90,4 +90,4 @@ def write_tables(machine, res, tables: Path) -> None:
     write("failed_runs.csv", ["step", "run", "inputs", "error"],
           [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.failures])
     write("claims.csv", ["id", "verdict", "claim", "detail"],
-          [[c["id"], c["verdict"], c["claim"], c["detail"]] for c in res.claims])
+          [[c.id, c.verdict, c.claim, c.detail] for c in res.claims])
