@@ -55,7 +55,7 @@ sheet.to_csv("field_sheet.csv", index=False)
 
 results, analysis = analyze_sheet("field_sheet.csv", {"efficiency": True, "unripe": False, "damage": False})
 print(f"{results.replicates} replicates of {len(results.levels)} runs; factors {results.factor_names}")
-print(analysis["text"])
+print(analysis.text)
 
 # %%
 # Main effects
