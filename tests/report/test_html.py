@@ -18,7 +18,7 @@ from berryshaker.config import load_machine, machine_table
 from berryshaker.report.html import report_title, runs_text, study_report
 from berryshaker.study.pipeline import report_sections
 from berryshaker.study.claims import ClaimVerdict
-from berryshaker.study.step_result import StudyResults
+from berryshaker.study.step_result import StudyResults, StudySummary
 from l9_records_data import l9_record
 
 PAIRS = ("A", "B", "C", "F")
@@ -87,13 +87,14 @@ def report(tmp_path_factory):
         "claims": _claims(["reproduced", "reproduced", "partly reproduced", "not reproduced", "reproduced",
                            "reproduced", "partly reproduced", "not comparable"]),
     }
-    summary = {"version": "0.0-test", "timings_s": {"total": 3.2, "kinematics": 0.1},
-               "runs": {"runs": 40, "cached": 40, "computed": 0, "failed": 0, "compute_s": 0.0,
-                        "cached_compute_s": 93.4, "cold_compute_s": 93.4, "elapsed_s": 0.5},
-               "failures": [], "optimum": None}
     # the trimmed L9 completed to a VirtualL9's JSON form (neutral values where the report reads nothing)
     res["l9"] = l9_record(res["l9"]).to_json()
     res = StudyResults.from_json(res)
+    summary = StudySummary(package="berryshaker", version="0.0-test", machine=machine.machine.name,
+                           drive=machine.DRIVE, claims=res.claims, optimum=None, failures=[],
+                           timings_s={"total": 3.2, "kinematics": 0.1},
+                           runs={"runs": 40, "cached": 40, "computed": 0, "failed": 0, "compute_s": 0.0,
+                                 "cached_compute_s": 93.4, "cold_compute_s": 93.4, "elapsed_s": 0.5})
     text = study_report(res, summary, machine, figs, sections=report_sections())
     out = tmp_path_factory.mktemp("report") / "report.html"
     out.write_text(text, encoding="utf-8")

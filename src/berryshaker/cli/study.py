@@ -108,36 +108,36 @@ def study(
             runner.abort()
         raise
     if as_json:
-        _print_json(summary)
+        _print_json(summary.to_json())
         return
     from rich.text import Text
 
     from berryshaker.report.design import claims_apply
 
     if claims_apply(machine):  # the reference study's claims are about its machine (report: an appendix)
-        rows = [[str(c["id"]), Text(c["verdict"], style={"reproduced": "green", "not reproduced": "red"}.get(
-            c["verdict"], "yellow")), c["claim"]] for c in summary["claims"]]
+        rows = [[str(c.id), Text(c.verdict, style={"reproduced": "green", "not reproduced": "red"}.get(
+            c.verdict, "yellow")), c.claim] for c in summary.claims]
         print_table(("#", "verdict", "claim"), rows, title="Claims of the study", justify=("left",) * 3)
-    o = summary["optimum"]
+    o = summary.optimum
     if o is not None:
-        fitted = set(o.get("fitted") or [])
-        iv = o.get("intervals") or {}
+        fitted = set(o.fitted)
+        iv = o.intervals or {}
 
         def val(name, value, unit):
             est = iv.get(name)
-            text = f"{value:.2f} {unit}" + (f" (SD {est['sd']:.2g})" if est else "")
+            text = f"{value:.2f} {unit}" + (f" (SD {est.sd:.2g})" if est else "")
             return text + (" [fitted]" if name in fitted else "")
 
-        out.print(f"recommended {o['code']}: " + ", ".join(f"{p} {v:g} mm" for p, v in o["clearance_mm"].items())
-                  + f" -> {val('efficiency', o['efficiency_kg_min'], 'kg/min')}, "
-                    f"{val('unripe', o['unripe_rate_pct'], '%')} unripe, {val('damage', o['damage_rate_pct'], '%')} "
-                    f"damage over {o.get('starts') or '?'} starts (study {CHOSEN_CODE}: "
+        out.print(f"recommended {o.code}: " + ", ".join(f"{p} {v:g} mm" for p, v in o.clearance_mm.items())
+                  + f" -> {val('efficiency', o.efficiency_kg_min, 'kg/min')}, "
+                    f"{val('unripe', o.unripe_rate_pct, '%')} unripe, {val('damage', o.damage_rate_pct, '%')} "
+                    f"damage over {o.starts or '?'} starts (study {CHOSEN_CODE}: "
                     f"{FIELD_RESULT['efficiency_kg_min']} kg/min, {FIELD_RESULT['unripe_rate_pct']} %, "
                     f"{FIELD_RESULT['damage_rate_pct']} %" + ("; [fitted]: calibrated to that value here" if fitted
                                                               else "") + ")", markup=False, highlight=False)
-    for f in summary.get("failures", []):
-        out.print(f"[red]failed[/] {f['step']} run {f['run']} ({f['inputs']}): {f['error']}")
-    out.print(f"report: {out_dir / 'report.html'}  ({summary['timings_s']['total']:.0f} s)")
+    for f in summary.failures:
+        out.print(f"[red]failed[/] {f.step} run {f.run} ({f.inputs}): {f.error}")
+    out.print(f"report: {out_dir / 'report.html'}  ({summary.timings_s['total']:.0f} s)")
 
 
 #: the harvest indexes a ``--model harvest`` sweep prints per point: column, header (unit)

@@ -20,7 +20,7 @@ from berryshaker.report.sections import SectionInput, section_numbers, step_sect
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
 
 
-def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = None, *,
+def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *,
                  sections: Sequence[tuple[str, Sequence[Callable]]]) -> str:
     """The self-contained HTML report of a study: design answers, failures, recommendation, then the steps'
     sections in the pipeline's order, numbered as they come (a step that did not run says why), the claims
@@ -31,8 +31,9 @@ def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = N
     res : StudyResults
         The steps' results (``berryshaker.study.step_result.StudyResults``; SI inside, the report prints units at
         the edges).
-    summary : dict
-        The head of summary.json (version, timings, runs, failures, optimum).
+    summary : StudySummary
+        The head of summary.json (``berryshaker.study.step_result.StudySummary``: version, timings, runs, failures,
+        optimum; read by attribute).
     machine : Machine
         The machine description.
     figs : Path
@@ -56,50 +57,50 @@ def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = N
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
              f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
              f"<h1>{html.escape(title)}</h1>",
-             f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary['version'])}. "
-             f"Total time {summary['timings_s']['total']:.1f} s; {html.escape(runs_text(summary['runs']))}.  "
+             f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary.version)}. "
+             f"Total time {summary.timings_s['total']:.1f} s; {html.escape(runs_text(summary.runs))}.  "
              + (f"{html.escape(verdict_counts(res.claims))} (appendix).  " if reference else "")
              + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
              "the end of this report.</p>"]
     # the design answers first, for every machine (report/design.py)
     try:
-        parts.append(design_answers_html(design_answers({**summary, "results": res.to_json()}, machine), inp.numbers))
+        parts.append(design_answers_html(design_answers({**summary.to_json(), "results": res.to_json()}, machine),
+                                         inp.numbers))
     except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
         parts.append(f"<p class='small'>Design answers not available: {html.escape(f'{type(exc).__name__}: {exc}')}"
                      "</p>")
-    fails = summary.get("failures") or []
+    fails = summary.failures
     parts.append("<h2>Failed runs</h2>")
     if fails:
         parts.append("<p>These runs failed; the steps that needed them are marked 'not comparable' or left out.</p>")
-        parts.append(_table(["step", "run", "inputs", "error"], [[f["step"], f["run"], f["inputs"], f["error"]]
-                                                                  for f in fails], left=(0, 2, 3)))
+        parts.append(_table(["step", "run", "inputs", "error"], [[f.step, f.run, f.inputs, f.error] for f in fails], left=(0, 2, 3)))
     else:
         parts.append("<p>None: every run of the study completed.</p>")
-    opt = summary["optimum"]
+    opt = summary.optimum
     parts.append("<h2>Recommended clearances</h2>")
     if opt is None:
         parts.append("<p>Not available: the virtual L9 test failed (see Failed runs).</p>")
     else:
-        fitted = set(opt.get("fitted") or [])
-        iv = opt.get("intervals") or {}
+        fitted = set(opt.fitted)
+        iv = opt.intervals or {}
 
         def cell(name, value):
             est = iv.get(name)
-            text = f"{value:.3g}" if est is None else (f"{est['mean']:.3g} [{est['ci'][0]:.3g}, {est['ci'][1]:.3g}], "
-                                                      f"SD {est['sd']:.2g}")
+            text = f"{value:.3g}" if est is None else (f"{est.mean:.3g} [{est.ci[0]:.3g}, {est.ci[1]:.3g}], "
+                                                      f"SD {est.sd:.2g}")
             return text + (" (fitted)" if name in fitted else "")
 
         parts.append(_table(["", *[f"{p} (mm)" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)",
                              "damage (%)"], [
-            [f"ours ({level_set_name(opt['clearance_mm'])}; {opt['code']})", *[opt["clearance_mm"][p] for p in PAIR_NAMES],
-             cell("efficiency", opt["efficiency_kg_min"]), cell("unripe", opt["unripe_rate_pct"]),
-             cell("damage", opt["damage_rate_pct"])],
+            [f"ours ({level_set_name(opt.clearance_mm)}; {opt.code})", *[opt.clearance_mm[p] for p in PAIR_NAMES],
+             cell("efficiency", opt.efficiency_kg_min), cell("unripe", opt.unripe_rate_pct),
+             cell("damage", opt.damage_rate_pct)],
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
-        if opt.get("statement"):
-            parts.append(f"<p class='small'>{html.escape(opt['statement'])} Index values: mean [95 % interval] over "
-                         f"{opt.get('starts') or 'the'} perturbed starts, and the SD of one start"
+        if opt.statement:
+            parts.append(f"<p class='small'>{html.escape(opt.statement)} Index values: mean [95 % interval] over "
+                         f"{opt.starts or 'the'} perturbed starts, and the SD of one start"
                          + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
                             "value of that index at these clearances, so it reproduces the target by construction "
                             "and is not evidence" if fitted else "")
@@ -110,8 +111,8 @@ def study_report(res, summary: dict, machine, figs: Path, steps: dict | None = N
     if reference:  # the reference study's claims: an appendix, on its machine only
         _claims_section(parts, res)
     parts.append("<h2>Configuration and provenance</h2>")
-    parts.append(f"<p>berryshaker {html.escape(summary['version'])}; timings (s): "
-                 + ", ".join(f"{k_} {v:.1f}" for k_, v in summary["timings_s"].items()) + "</p>")
+    parts.append(f"<p>berryshaker {html.escape(summary.version)}; timings (s): "
+                 + ", ".join(f"{k_} {v:.1f}" for k_, v in summary.timings_s.items()) + "</p>")
     parts.append("<p class='small'>Provenance: [study] from the reference study's text, [published] from another "
                  "publication (docs/published_record.md), [assumed] our default where no source gives it, "
                  "[calibrated] fitted to a measured value (docs/plant.md, docs/harvest.md), [default] not set in the "

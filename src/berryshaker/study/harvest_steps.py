@@ -20,7 +20,7 @@ from berryshaker.study.harvest_records import Calibration, HarvestResponse, Harv
 from berryshaker.study.l9 import virtual_l9
 from berryshaker.study.runs import fruit_force_run, replicate_run
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
-from berryshaker.study.step_result import StepResult
+from berryshaker.study.step_result import FailedRun, StepResult
 
 
 def plan_fruit_force(ctx: StudyContext) -> list[PlannedRuns]:
@@ -175,7 +175,7 @@ def step_l9(ctx: StudyContext) -> StepResult:
     try:
         l9 = virtual_l9(ctx.machine, ctx.runner)
     except SimulationError as exc:
-        ctx.failures.append({"step": "virtual L9", "run": "", "inputs": "L9 clearance sets", "error": str(exc)})
+        ctx.failures.append(FailedRun(step="virtual L9", run="", inputs="L9 clearance sets", error=str(exc)))
         return StepResult("l9", None, note=f"the virtual L9 failed: {exc}")
     pairs = list(ctx.machine.pair_names)
     values = np.array([[r.clearance_mm[p] for p in pairs] for r in l9.runs])
@@ -377,8 +377,8 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
                                     label="calibration starts", have_outputs=have_out)
             reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
         except SimulationError as exc:  # a further start failed: the calibration rests on the first ones, and says so
-            ctx.failures.append({"step": "calibration starts", "run": "", "inputs": "configured clearances",
-                                 "error": str(exc)})
+            ctx.failures.append(FailedRun(step="calibration starts", run="", inputs="configured clearances",
+                                          error=str(exc)))
             reps = replicate_envelopes(ctx.machine, cal_out, seeds)
         fit = calibrate_harvest(ctx.machine, replicates=reps)
         if seq is not None:

@@ -15,7 +15,7 @@ from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 from berryshaker.study.life_step import step_life
 from berryshaker.study.runs import powered_row
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
-from berryshaker.study.step_result import StepResult
+from berryshaker.study.step_result import FailedRun, StepResult
 
 
 def step_clearance_life(ctx: StudyContext) -> StepResult:
@@ -37,8 +37,8 @@ def step_clearance_life(ctx: StudyContext) -> StepResult:
     try:
         return step_life(ctx)
     except Exception as exc:  # noqa: BLE001 - a life estimate must not sink the whole study
-        ctx.failures.append({"step": "clearance life", "run": "", "inputs": "wear and fit surrogate",
-                             "error": f"{type(exc).__name__}: {exc}"})
+        ctx.failures.append(FailedRun(step="clearance life", run="", inputs="wear and fit surrogate",
+                                      error=f"{type(exc).__name__}: {exc}"))
         return StepResult("clearance_life", None, note=f"the clearance-life step failed: {exc}")
 
 

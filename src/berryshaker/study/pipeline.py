@@ -70,7 +70,7 @@ from berryshaker.study.mechanics_steps import (
 )
 from berryshaker.study.runs import warm_worker
 from berryshaker.study.step_context import PlannedRuns, StudyContext, draw_figure
-from berryshaker.study.step_result import StepResult, StudyResults
+from berryshaker.study.step_result import StepResult, StudyOptimum, StudyResults, StudySummary
 
 #: the names callers import from here: the machinery's own and the steps', their context and their result
 __all__ = [
@@ -231,7 +231,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
         Each step's data under its step's result name, with ``claims`` and ``failures``.
     steps : dict of str to StepResult
         Each step's result.
-    failures : list of dict
+    failures : list of FailedRun
         Failed runs.
     timings : dict of str to float
         Seconds per step and ``total`` (s).
@@ -301,7 +301,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
     return done, steps, ctx.failures, timings
 
 
-def study_summary(machine, results: StudyResults, failures: list, timings: dict, runner_stats: dict) -> dict:
+def study_summary(machine, results: StudyResults, failures: list, timings: dict, runner_stats: dict) -> StudySummary:
     """The head of summary.json: claims, the recommended clearances, failures, timings, run counts.
 
     Parameters
@@ -310,7 +310,7 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
         The study's machine description.
     results : StudyResults
         The steps' data with ``claims`` (:func:`run_steps`).
-    failures : list of dict
+    failures : list of FailedRun
         Failed runs.
     timings : dict of str to float
         Seconds per step (s).
@@ -319,7 +319,7 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
 
     Returns
     -------
-    dict
+    StudySummary
         ``package``, ``version``, ``machine``, ``drive``, ``claims``, ``optimum`` (the L9's recommendation: code,
         clearances in mm, efficiency kg/min, unripe and damage rates %, the study's field result...; None without
         an L9), ``failures``, ``timings_s`` (s), ``runs`` and :func:`l9_summary`'s entries.
@@ -329,19 +329,14 @@ def study_summary(machine, results: StudyResults, failures: list, timings: dict,
     if l9 is not None:
         rec = l9.recommended
         vh = rec.virtual_harvest
-        optimum = {"code": rec.code, "name": rec.name, "clearance_mm": rec.clearance_mm,
-                   "efficiency_kg_min": vh["efficiency_kg_min"], "unripe_rate_pct": vh["unripe_rate_pct"],
-                   "damage_rate_pct": vh["damage_rate_pct"], "study": {"code": CHOSEN_CODE, **FIELD_RESULT},
-                   "fitted": rec.fitted, "starts": rec.starts,
-                   "intervals": to_json(rec.replicates), "basis": rec.basis, "statement": rec.statement}
-    return {
-        "package": "berryshaker", "version": __version__, "machine": machine.machine.name,
-        "drive": machine.DRIVE,
-        "claims": [{"id": c.id, "verdict": c.verdict, "detail": c.detail, "claim": c.claim, "criterion": c.criterion}
-                   for c in results.claims],
-        "optimum": optimum, "failures": failures, "timings_s": timings, "runs": dict(runner_stats),
-        **l9_summary(l9),
-    }
+        optimum = StudyOptimum(code=rec.code, name=rec.name, clearance_mm=rec.clearance_mm,
+                               efficiency_kg_min=vh["efficiency_kg_min"], unripe_rate_pct=vh["unripe_rate_pct"],
+                               damage_rate_pct=vh["damage_rate_pct"], study={"code": CHOSEN_CODE, **FIELD_RESULT},
+                               fitted=rec.fitted, starts=rec.starts, intervals=rec.replicates, basis=rec.basis,
+                               statement=rec.statement)
+    return StudySummary(package="berryshaker", version=__version__, machine=machine.machine.name,
+                        drive=machine.DRIVE, claims=list(results.claims), optimum=optimum, failures=list(failures),
+                        timings_s=timings, runs=dict(runner_stats), **l9_summary(l9))
 
 
 def l9_summary(l9: VirtualL9 | None) -> dict:
@@ -372,7 +367,7 @@ def l9_summary(l9: VirtualL9 | None) -> dict:
             "tradeoff": l9.tradeoff, "tradeoff_columns": l9.tradeoff_columns}
 
 
-def run_study(machine, out_dir: Path, runner, console=None) -> dict:
+def run_study(machine, out_dir: Path, runner, console=None) -> StudySummary:
     """Run every step and write report.html, summary.json, tables/ and figures/ into ``out_dir``.
 
     The destination is checked before any work (:func:`berryshaker.outputs.prepare_output_dir`: a new or
@@ -391,7 +386,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
 
     Returns
     -------
-    dict
+    StudySummary
         :func:`study_summary`.
     """
     from berryshaker.outputs import staged_directory, write_json_atomic, write_text_atomic
@@ -406,7 +401,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> dict:
         results, steps, failures, timings = run_steps(machine, runner, figs, console)
         summary = study_summary(machine, results, failures, timings, runner.stats)
         write_tables(machine, results, tables)
-        write_json_atomic(stage / "summary.json", {**summary, "results": strip_series(results.to_json()),
+        write_json_atomic(stage / "summary.json", {**summary.to_json(), "results": strip_series(results.to_json()),
                                                    "machine_si": machine.model_dump(mode="json")})
         write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps,
                                                               sections=report_sections()))

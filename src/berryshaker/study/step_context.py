@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Callable
 
 from berryshaker.drives import drive_of
+from berryshaker.study.step_result import FailedRun
 
 
 def _silent(msg: str) -> None:
@@ -43,7 +44,7 @@ class StudyContext:
         Runs the steps' runs (cached).
     figs : Path
         Folder the figures are written to.
-    failures : list of dict
+    failures : list of FailedRun
         Failed runs (step, run, inputs, error), for the report.
     say : callable
         ``say(msg)``: progress messages (default silent).
@@ -149,8 +150,8 @@ class StudyContext:
         outs = self.runner.map(fn, jobs, label)
         for o in outs:
             if o.error:
-                self.failures.append({"step": label, "run": o.index + 1, "inputs": describe(jobs[o.index]),
-                                      "error": o.error})
+                self.failures.append(FailedRun(step=label, run=o.index + 1, inputs=describe(jobs[o.index]),
+                                               error=o.error))
         return [o.value for o in outs]
 
 

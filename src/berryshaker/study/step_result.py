@@ -8,11 +8,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from berryshaker.drives.kinematics_record import KinematicsSummary
-from berryshaker.records import JsonRecord
+from berryshaker.records import JsonRecord, optional
 from berryshaker.study.claims import ClaimVerdict
 from berryshaker.study.fruit_force_records import FruitForceStep
 from berryshaker.study.harvest_records import HarvestResponse, Validation
-from berryshaker.study.l9_records import VirtualL9
+from berryshaker.study.l9_records import Estimate, VirtualL9
 from berryshaker.study.life_drive_records import ClearanceLife, PoweredDrive
 from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 
@@ -73,7 +73,7 @@ class StudyResults(JsonRecord):
         Step ``validation``: the harvest model against the published record.
     claims : list of ClaimVerdict
         The claims' verdicts (:func:`berryshaker.study.claims.check_claims`).
-    failures : list of dict
+    failures : list of FailedRun
         Failed runs: step, run, inputs, error.
     """
 
@@ -87,4 +87,122 @@ class StudyResults(JsonRecord):
     harvest_response: HarvestResponse | None = None
     validation: Validation | None = None
     claims: list[ClaimVerdict] = field(default_factory=list)
-    failures: list = field(default_factory=list)
+    failures: list[FailedRun] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class FailedRun(JsonRecord):
+    """A run of the study that failed (the step that needed it says "not comparable" or leaves it out).
+
+    Attributes
+    ----------
+    step : str
+        The step's progress label (e.g. "rows 1-16, multibody", "virtual L9").
+    run : int or str
+        The run's number in its step's map (1-based), or "" when the step failed as a whole.
+    inputs : str
+        The run's inputs in words (clearances in mm, seed ...).
+    error : str
+        The error it ended with.
+    """
+
+    step: str
+    run: int | str
+    inputs: str
+    error: str
+
+
+@dataclass(frozen=True)
+class StudyOptimum(JsonRecord):
+    """The study's recommended clearances (the virtual L9's recommendation) with their harvest indexes, as
+    summary.json's head gives them.
+
+    Attributes
+    ----------
+    code : str
+        The level code of the recommended set (e.g. "A1B1C1F3").
+    name : str or None
+        The set named by its clearances (mm).
+    clearance_mm : dict of str to float
+        Clearance per pair (mm).
+    efficiency_kg_min : float
+        Mean harvest efficiency over its starts (kg/min).
+    unripe_rate_pct : float
+        Mean unripe rate (% of the unripe mass).
+    damage_rate_pct : float
+        Mean damage rate (% of the picked mass).
+    study : dict
+        The reference study's chosen code and its field result (kg/min, %).
+    fitted : list of str
+        The indexes fitted at these clearances (calibration targets: not evidence).
+    starts : int or None
+        Perturbed starts the means and intervals come from.
+    intervals : dict of str to Estimate or None
+        Per response, mean, SD and 95 % interval of the mean (the response's unit).
+    basis : dict or None
+        Per pair, why its level was chosen.
+    statement : str or None
+        The recommendation in words.
+    """
+
+    code: str
+    name: str | None
+    clearance_mm: dict[str, float]
+    efficiency_kg_min: float
+    unripe_rate_pct: float
+    damage_rate_pct: float
+    study: dict
+    fitted: list[str]
+    starts: int | None
+    intervals: dict[str, Estimate] | None
+    basis: dict | None
+    statement: str | None
+
+
+@dataclass(frozen=True, kw_only=True)
+class StudySummary(JsonRecord):
+    """The head of summary.json (:func:`berryshaker.study.pipeline.study_summary`): what the study found in brief,
+    what failed, how long it took.  summary.json is its JSON form with the steps' ``results`` and the machine
+    (``machine_si``) after it.
+
+    Attributes
+    ----------
+    package : str
+        "berryshaker".
+    version : str
+        The package version that ran the study.
+    machine : str
+        The machine's name.
+    drive : str
+        Its comb drive (e.g. "groove_cam").
+    claims : list of ClaimVerdict
+        The reference study's claims with their verdicts.
+    optimum : StudyOptimum or None
+        The recommended clearances (None without a virtual L9).
+    failures : list of FailedRun
+        The runs that failed.
+    timings_s : dict of str to float
+        Wall time per step and ``total`` (s).
+    runs : dict
+        The runner's run counts (runs, cached, computed, failed) and compute times (s).
+    l9_replicates : dict, optional
+        Per response the pooled replicate SD and its dof, the significant factors and p values, the paired
+        differences; the solver-tolerance check (:func:`berryshaker.study.pipeline.l9_summary`).
+    tradeoff : list of dict, optional
+        The trade-off table's rows (columns in ``tradeoff_columns``; each in its column's unit).
+    tradeoff_columns : list of str, optional
+        The trade-off table's columns.
+    """
+
+    package: str
+    version: str
+    machine: str
+    drive: str
+    claims: list[ClaimVerdict]
+    optimum: StudyOptimum | None
+    failures: list[FailedRun]
+    timings_s: dict[str, float]
+    runs: dict
+    l9_replicates: dict | None = optional()
+    tradeoff: list[dict] | None = optional()
+    tradeoff_columns: list[str] | None = optional()

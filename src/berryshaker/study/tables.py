@@ -88,6 +88,6 @@ def write_tables(machine, res, tables: Path) -> None:
         if res.l9.tradeoff:
             write("l9_tradeoff.csv", cols, [[r.get(c, "") for c in cols] for r in res.l9.tradeoff])
     write("failed_runs.csv", ["step", "run", "inputs", "error"],
-          [[f["step"], f["run"], f["inputs"], f["error"]] for f in res.failures])
+          [[f.step, f.run, f.inputs, f.error] for f in res.failures])
     write("claims.csv", ["id", "verdict", "claim", "detail"],
           [[c.id, c.verdict, c.claim, c.detail] for c in res.claims])
