@@ -5,7 +5,7 @@ every public function and class defined there (not imported) with the public met
 body defines.  Each is validated by ``numpydoc.validate.validate`` against ``RULES``, and every numeric parameter,
 return and attribute (typed float, array or ndarray) must state its unit: SI inside the package, ``(1)`` or
 "dimensionless" when it has none.  A class may document its constructor's parameters as Attributes (a
-dataclass); a pydantic model's fields are documented in the annotated reference descriptions instead
+dataclass; a subclass documents the fields it adds, its base class the rest); a pydantic model's fields are documented in the annotated reference descriptions instead
 (:func:`_fields_documented_elsewhere`).
 
 Every public module is checked; none is exempt.  ``python tests/test_docstrings.py [MODULE ...]`` prints the
@@ -121,8 +121,9 @@ def _fields_documented_elsewhere(obj, code: str, msg: str) -> bool:
     if code != "PR01":
         return False
     missing = set(re.findall(r"'([^']+)'", msg))
-    attributes = {n.strip() for entry in ClassDoc(obj, config={"show_class_members": False})["Attributes"]
-                  for n in entry.name.split(",")}
+    attributes = {n.strip() for cls in obj.__mro__ if cls is not object and inspect.getdoc(cls)
+                  for entry in ClassDoc(cls, config={"show_class_members": False})["Attributes"]
+                  for n in entry.name.split(",")}  # a subclass's inherited fields are its base class's Attributes
     return missing <= attributes
 
 

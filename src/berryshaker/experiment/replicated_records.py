@@ -332,32 +332,10 @@ class ReplicatedAnalysis(JsonRecord):
 class SheetReplicatedAnalysis(ReplicatedAnalysis):
     """:class:`ReplicatedAnalysis` of a filled sheet (:func:`berryshaker.experiment.field_results.analyze_sheet`).
 
+    Its fields are :class:`ReplicatedAnalysis`'s (documented there) and the sheet's below.
+
     Attributes
     ----------
-    significance_rule : str
-        When an effect counts as significant.
-    alpha : float
-        Significance level (dimensionless).
-    confidence : float
-        Confidence of the intervals (dimensionless).
-    runs : int
-        Runs of the array.
-    replicates : int
-        Replicates per run.
-    blocks : bool
-        Whether replicate k of every run is block k.
-    weights : dict of str to float
-        Weights of the (primary) responses (dimensionless, summing to 1).
-    factors : dict of str to FactorLevels
-        Per factor its levels.
-    responses : dict of str to ReplicatedResponse
-        Per response its analysis.
-    optimum : ReplicatedOptimum
-        The weighted (or tiered) optimum.
-    fallback_weights : dict of str to float, optional
-        Weights of the fallback responses (dimensionless).
-    notes : list of str
-        Warnings (e.g. zero error).
     block_column : str or None
         The sheet's column numbering the blocks, None when it has none.
     text : str

@@ -102,35 +102,11 @@ class Perturbation(JsonRecord):
 @dataclass(frozen=True, kw_only=True)
 class ReplicatedL9(ReplicatedAnalysis):
     """The replicated L9's analysis against its own noise: :func:`berryshaker.experiment.replicates.analyze_replicated`
-    (randomised complete blocks: start k is block k; the fields of
-    :class:`~berryshaker.experiment.replicated_records.ReplicatedAnalysis`) and what the study adds.
+    (randomised complete blocks: start k is block k): the fields of
+    :class:`~berryshaker.experiment.replicated_records.ReplicatedAnalysis` (documented there) and the study's below.
 
     Attributes
     ----------
-    significance_rule : str
-        When an effect counts as significant.
-    alpha : float
-        Significance level (dimensionless).
-    confidence : float
-        Confidence of the intervals (dimensionless).
-    runs : int
-        Runs of the array.
-    replicates : int
-        Replicates per run.
-    blocks : bool
-        Whether replicate k of every run is block k.
-    weights : dict of str to float
-        Weights of the (primary) responses (dimensionless, summing to 1).
-    factors : dict of str to FactorLevels
-        Per factor its levels.
-    responses : dict of str to ReplicatedResponse
-        Per response its analysis.
-    optimum : ReplicatedOptimum
-        The weighted (or tiered) optimum.
-    fallback_weights : dict of str to float, optional
-        Weights of the fallback responses (dimensionless).
-    notes : list of str
-        Warnings (e.g. zero error).
     seeds : list of int
         The starts' seeds.
     units : dict of str to str
@@ -149,33 +125,14 @@ class ReplicatedL9(ReplicatedAnalysis):
 
 @dataclass(frozen=True, kw_only=True)
 class L9Optimum(ReplicatedOptimum):
-    """The tiered optimum of the replicated L9 (the fields of
-    :class:`~berryshaker.experiment.replicated_records.ReplicatedOptimum`) with ``levels`` the ones recommended.
+    """The tiered optimum of the replicated L9: the fields of
+    :class:`~berryshaker.experiment.replicated_records.ReplicatedOptimum` (documented there), ``levels`` being the
+    recommended ones, and the two below.
 
     Attributes
     ----------
     levels : dict of str to int or None
         Level (1-based) per factor, None: no meaningful difference.
-    settings : dict of str to str or None
-        Its label per factor.
-    choices : dict of str to Choice
-        Per factor the choice and its reason.
-    values : dict of str to float
-        Predicted mean per response (the response's unit).
-    intervals : dict of str to list of float
-        Its interval per response (the response's unit).
-    weights : dict of str to float
-        Weights of the (primary) responses (dimensionless).
-    fallback_weights : dict of str to float, optional
-        Weights of the fallback responses (dimensionless); tiered only.
-    method : str
-        The rule in words.
-    prediction : str
-        The prediction model in words.
-    primary : TierChoices, optional
-        The primary tier's choice; tiered only.
-    fallback : TierChoices, optional
-        The fallback tier's choice; tiered only.
     decided_levels : dict of str to int or None
         The analysis' levels (1-based; None: no meaningful difference).
     tiered_levels : dict of str to int
