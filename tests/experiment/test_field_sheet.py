@@ -258,7 +258,8 @@ def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_ano
     """Read back in any row order: responses as (runs, replicates) in run order, their means per run, and the
     pure-error ANOVA of the virtual L9 on them: MS_PE equals the hand-computed replicate variance, A (an effect
     of 0.4 kg/min per level against sigma = 0.1) is significant, C (no effect) is not."""
-    from berryshaker.experiment.replicates import analyze_replicated, pure_error
+    from berryshaker.experiment.error_terms import pure_error
+    from berryshaker.experiment.replicates import analyze_replicated
 
     df, _ = _replicated_sheet()
     shuffled = df.sample(frac=1.0, random_state=3)

@@ -7,7 +7,8 @@ from scipy import stats
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import orthogonal_array
-from berryshaker.experiment.replicates import analyze_replicated, describe_replicated, pure_error, replicated_anova
+from berryshaker.experiment.error_terms import pure_error
+from berryshaker.experiment.replicates import analyze_replicated, describe_replicated, replicated_anova
 from berryshaker.experiment.tradeoff import mark_dominated, tradeoff_table
 
 L9 = orthogonal_array("L9") + 1

@@ -436,11 +436,12 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     ra = res.responses["efficiency"]
     y = fr.responses_replicated["efficiency"]
     err = ra.anova.error
-    eff = standardized_effects(fr.levels, y, fr.factor_names, err.ms, err.df)
+    own = {f: (a.error.ms, a.error.df) for f, a in ra.anova.factors.items()}  # each factor against its own error
+    eff = standardized_effects(fr.levels, y, fr.factor_names, err.ms, err.df, factor_errors=own)
     for f in fr.factor_names:  # a factor's contrasts carry its ANOVA F: sum of t^2 = df x F
         row = ra.anova.factors[f]
         assert sum(t["t"] ** 2 for t in eff["terms"] if t["factor"] == f) == pytest.approx(row.df * row.f)
-    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, err.df))
+    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, min(e[1] for e in own.values())))
     d = P.plot_pareto_effects(eff, tmp_path / "pareto.png", return_figure=True)
     ax = d["figure"].axes[0]
     widths = [p.get_width() for p in sorted(ax.patches, key=lambda p: -p.get_y())]  # top to bottom

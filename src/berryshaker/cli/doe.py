@@ -360,21 +360,28 @@ def doe_virtual(
 ):
     """The study's L9 clearance test run through the virtual harvest, replicated, and analysed against its noise.
 
-    Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates): start k uses
-    seed + 1000 k for the bushes and for the machine's initial state (eccentricity in every clearance, drive phase
-    at the bush), the same starts for every run, and the analysis treats start k as block k (randomised complete
-    blocks: paired differences between levels, F tests against the run x start interaction).  The recommended set's
-    starts are then extended until every harvest response's mean is known to harvest.se_target of itself (at most
-    harvest.max_replicates); its intervals and per-start SDs come from all of them.  One coupled run per branch
-    class and start goes through the cached sweep runner (a repeat is instant).
+    Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates); each start is one
+    virtual field test: the machine's initial state (eccentricity in every clearance, drive phase at the bush) in
+    every branch class's drive-past, and the bushes a test of operation.test_duration passes with every fruit
+    counted (each kind of draw from its own stream of the seed family harvest.seed).  The same starts serve every
+    run, and the analysis treats start k as block k: each factor is tested against its own interaction with the
+    starts (one verdict per factor and response, also in the paired differences), and beside every effect of the
+    model's expectation stands how many field tests per level it would take to see it.  The recommended set's starts
+    are then extended until every harvest response's expected mean is known to harvest.se_target of itself (at
+    most harvest.max_replicates).  One coupled run per branch class and start goes through the cached sweep runner
+    (a repeat is instant).
 
     --convergence prints how the mean and the SD of each harvest response settle with the number of starts (the
-    study that chose harvest.replicates); --json keys: table (response -> rows -> n -> mean, se, sd, sd_se,
-    sd_relative_error, stable), chosen, configured, rule, seeds, values.
+    study that chose harvest.replicates), for the model's expectation (<name>_expected: the model's spread) and the
+    counted field results (the field's spread), and whether two further seed families give the same spreads;
+    --json keys: table (response -> rows -> n -> mean, se, sd, sd_se, sd_relative_error, stable), chosen, configured,
+    rule, seeds, values, families (per response: sd per family, ratio, ratio_ci, levene_p, agree).
 
     --json keys: runs (levels, clearance_mm, replicate means of efficiency/unripe/damage, replicates: per
-    response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the blocked
-    error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
+    response {mean, sd, ci, n} of the counted field results, expected: the model's expectation {mean, sd, ci, n});
+    detectability (response -> factor -> effect, effect_se, field_sd, tests_per_level, l9_replicates); responses
+    (range analysis of the means); replicated (ANOVA, each factor against its own interaction with the starts:
+    responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
     optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
     rule in method, tiered_levels); paired (response -> factor -> the paired difference of the extreme levels,
     e.g. A3 - A1: difference, se, ci, p, beyond_noise); recommended (levels, code, clearance_mm, virtual_harvest,
@@ -492,6 +499,26 @@ def doe_virtual(
     tc = res.get("tolerance_check") or {}
     if tc.get("done"):
         out.print(f"solver tolerance: {tc['statement']}", markup=False, highlight=False)
+    _print_detectability(res)
+
+
+def _print_detectability(res: dict) -> None:
+    """Per harvest response and factor: the model's effect and the field tests per level that would see it."""
+    det = res.get("detectability") or {}
+    if not det:
+        return
+    units = res.get("response_units", {})
+    rows = []
+    for n, per in det.items():
+        for p, d in per.items():
+            sig = res["replicated"]["responses"].get(n, {}).get("factors", {}).get(p, {}).get("significant")
+            tests = d["tests_per_level"]
+            rows.append([n, p, f"{d['effect']:.3g} ± {d['effect_se']:.2g} {units.get(n, '')}",
+                         "differs" if sig else "no difference", f"{d['field_sd']:.3g}",
+                         "-" if tests is None else (">10,000" if tests > 1e4 else f"{tests:.0f}")])
+    print_table(["response", "factor", "model effect (range ± SE)", "verdict", "SD of one field test",
+                 "field tests per level to see it"], rows,
+                title="What a field test would see (two-sided t test, alpha 0.05, power 0.8)")
 
 
 def _start_counts(text: str) -> tuple[int, ...]:

@@ -61,34 +61,6 @@ class FactorEffect(JsonRecord):
 
 
 @dataclass(frozen=True)
-class AnovaTerm(JsonRecord):
-    """One factor's row of an ANOVA table.
-
-    Attributes
-    ----------
-    ss : float
-        Sum of squares (the response's unit squared).
-    df : int
-        Degrees of freedom.
-    ms : float
-        Mean square (the response's unit squared).
-    f : float
-        F ratio against the error (dimensionless).
-    p : float
-        p-value of the F test (dimensionless).
-    significant : bool, optional
-        p < alpha (the replicated analysis only).
-    """
-
-    ss: float
-    df: int
-    ms: float
-    f: float
-    p: float
-    significant: bool | None = optional()
-
-
-@dataclass(frozen=True)
 class ErrorTerm(JsonRecord):
     """An error (or lack-of-fit) line of an ANOVA table.
 
@@ -114,6 +86,38 @@ class ErrorTerm(JsonRecord):
     kind: str | None = optional()
     f: float | None = optional()
     p: float | None = optional()
+
+
+@dataclass(frozen=True)
+class AnovaTerm(JsonRecord):
+    """One factor's row of an ANOVA table.
+
+    Attributes
+    ----------
+    ss : float
+        Sum of squares (the response's unit squared).
+    df : int
+        Degrees of freedom.
+    ms : float
+        Mean square (the response's unit squared).
+    f : float
+        F ratio against the error (dimensionless).
+    p : float
+        p-value of the F test (dimensionless).
+    significant : bool, optional
+        p < alpha (the replicated analysis only).
+    error : ErrorTerm, optional
+        The error this factor is tested against (the replicated analysis only: its own interaction with the
+        blocks, or the pure error).
+    """
+
+    ss: float
+    df: int
+    ms: float
+    f: float
+    p: float
+    significant: bool | None = optional()
+    error: ErrorTerm | None = optional()
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ from berryshaker.records import JsonRecord, optional
 @dataclass(frozen=True)
 class PairedDifference(JsonRecord):
     """Two levels of a factor compared start by start (last minus first level, paired over the blocks;
-    :func:`berryshaker.experiment.replicates.paired_differences`).
+    :func:`berryshaker.experiment.error_terms.paired_differences`).
 
     Attributes
     ----------
@@ -93,7 +93,7 @@ class ReplicatedEffect(JsonRecord):
 
 @dataclass(frozen=True)
 class BlockVariance(JsonRecord):
-    """Variance components of a blocked response (:func:`berryshaker.experiment.replicates.block_variance`).
+    """Variance components of a blocked response (:func:`berryshaker.experiment.error_terms.block_variance`).
 
     Attributes
     ----------

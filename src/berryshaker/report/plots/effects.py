@@ -237,8 +237,10 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         an = ra.get("anova") or {}
         err = an.get("error") or {}
         long = RESPONSE_NAMES.get(name, name)
+        own = {f: (e["error"]["ms"], e["error"]["df"]) for f, e in (an.get("factors") or {}).items()
+               if isinstance(e, dict) and e.get("error")}
         eff = standardized_effects(levels, y, factor_names, err.get("ms"), err.get("df"),
-                                   analysis.get("alpha", 0.05))
+                                   analysis.get("alpha", 0.05), factor_errors=own or None)
         n = f"{prefix}pareto_{name}.png"
         plot_pareto_effects(eff, Path(folder) / n, f"{long}: Pareto chart of the standardized effects")
         names.append(n)

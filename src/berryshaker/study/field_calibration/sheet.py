@@ -13,7 +13,7 @@ import numpy as np
 
 from berryshaker.config import Machine
 from berryshaker.errors import ConfigError
-from berryshaker.study.field_calibration.priors import RESPONSES
+from berryshaker.study.field_calibration.priors import calibrated_responses
 
 
 #: factor names (lower case) read as the drive speed when their unit is an angular speed
@@ -159,7 +159,7 @@ class Sheet:
 
 
 def _filled_responses(path_or_text) -> list[str]:
-    """The responses of :data:`RESPONSES` a sheet has values for (an index column with a number, or the raw masses)."""
+    """The calibrated responses a sheet has values for (an index column with a number, or the raw masses)."""
     from berryshaker.experiment.field_columns import INDEX_NAMES, RAW_COLUMNS
     from berryshaker.experiment.field_cells import sheet_table
 
@@ -168,7 +168,7 @@ def _filled_responses(path_or_text) -> list[str]:
     raw = all(c in df.columns and df[c].notna().any() and (df[c].astype(str).str.strip() != "").any()
               for c in RAW_COLUMNS)
     out = []
-    for r in RESPONSES:
+    for r in calibrated_responses():
         col = INDEX_NAMES[r] if INDEX_NAMES[r] in df.columns else cols.get(r)
         filled = col is not None and df[col].notna().any() and (df[col].astype(str).str.strip() != "").any()
         if filled or raw:
