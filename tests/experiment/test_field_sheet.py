@@ -282,8 +282,15 @@ def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_ano
 def test_replicated_sheets_are_checked():
     df, _ = _replicated_sheet()
     df = df.sort_values(["run", "replicate"]).reset_index(drop=True)
-    with pytest.raises(ConfigError, match=r"run 4 has replicate\(s\) \[1, 3\], other runs go up to 3.*missing \[2\]"):
-        read_results(_csv(df.drop(index=10)), ["efficiency"])
+    assert read_results(_csv(df.drop(index=10)), ["efficiency"]).lost == {"efficiency": [[4, 2]]}  # a lost plot
+    typo = df.copy()
+    typo.loc[10, "replicate"] = 4  # replicate 2 of run 4 typed as 4: a block of one row
+    with pytest.raises(ConfigError, match=r"row 12 \(run 4, replicate 4\): replicate 4 holds this row only"):
+        read_results(_csv(typo), ["efficiency"])
+    gap = df.copy()
+    gap.loc[gap["replicate"] == 2, "replicate"] = 5
+    with pytest.raises(ConfigError, match=r"no row has replicate 2, 4, but replicate 5 exists"):
+        read_results(_csv(gap), ["efficiency"])
     dup = df.copy()
     dup.loc[10, "replicate"] = 1
     with pytest.raises(ConfigError, match=r"run 4 appears 2 times \(rows 11, 12\) as replicate 1"):
