@@ -91,8 +91,9 @@ def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
     factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; "
                                      "repeat."),
-    randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of all runs x replicates "
-                                   "(needs --seed)."),
+    randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of the runs within each "
+                                   "replicate (needs --seed): replicate k is tested whole before replicate k + 1, as "
+                                   "`doe analyze` reads it as block k (a field day, a row of bushes)."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=1, help="Times each run is tested (rows = runs "
                                              "x replicates, numbered in a 'replicate' column; >= 2 lets `doe analyze` "
                                              "judge effects against the replicate spread). Default: harvest.replicates "
@@ -115,7 +116,8 @@ def doe_plan(
     factor : list[str]
         ``--factor``: NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; repeat.
     randomize : bool
-        ``--randomize``: Randomise the test order of all runs x replicates (needs --seed).
+        ``--randomize``: Randomise the test order of the runs within each replicate (needs --seed): replicate k is
+        tested whole before replicate k + 1, as `doe analyze` reads it as block k (a field day, a row of bushes).
     replicates : int, optional
         ``--replicates``: Times each run is tested (rows = runs x replicates, numbered in a 'replicate' column; >= 2
         lets `doe analyze` judge effects against the replicate spread). Default: harvest.replicates of --config (the
@@ -164,21 +166,37 @@ def doe_plan(
               f"{len(df)} rows)", markup=False, highlight=False)
 
 
+#: resolution of the figures embedded in ``doe analyze --out *.html`` (sharp on screen and on A4; --plot keeps 300 dpi)
+PAGE_DPI = 150
+
+SHEET_HELP = ("The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet). Cells are "
+              "read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or a "
+              "boolean is refused where a number belongs.")
+
+DESIRABILITY_HELP = ("Derringer-Suich desirability optimiser beside the weighted optimum: per response a goal and its "
+                     "limits with the response's unit, e.g. efficiency=max:2..5kg/min,damage=min:0..5%,"
+                     "unripe=target:1..2..4% (d = 0 outside the limits, 1 at or beyond the better one; D their "
+                     "geometric mean, maximised over every level set of the factors).")
+
+
 @command(doe_app, "analyze")
 def doe_analyze(
-    results: Path = typer.Argument(..., help="Filled field sheet (CSV): `doe plan` columns, plain factor "
+    results: Path = typer.Argument(..., help="Filled field sheet (CSV or .xlsx): `doe plan` columns, plain factor "
                                    "columns holding level values, or a statistics package's worksheet (Minitab: "
                                    "StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated settings are "
                                    "replicates; units in the header, e.g. 'Speed (rpm)')."),
+    sheet: Optional[str] = typer.Option(None, "--sheet", help=SHEET_HELP),
     maximize: str = typer.Option("", "--maximize", help="Responses where larger is better, e.g. efficiency."),
     minimize: str = typer.Option("", "--minimize", help="Responses where smaller is better, e.g. unripe,damage."),
     weights: Optional[str] = typer.Option(None, "--weights", help="Weights of the composite score, e.g. "
                                           "efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a response left out "
                                           "gets no weight). Default: equal weights."),
+    desirability: Optional[str] = typer.Option(None, "--desirability", help=DESIRABILITY_HELP),
     as_json: bool = JsonOpt,
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
     report: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the analysis to a file: *.html "
-                                          "(printable report) or *.json."),
+                                          "(printable, self-contained: figures embedded, ANOVA tables, the optimum's "
+                                          "intervals) or *.json."),
     force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
 ):
     """Range analysis, weighted optimum, ANOVA and the eq. 19 regression of a field test.
@@ -189,16 +207,23 @@ def doe_analyze(
     against the run x block interaction, paired differences between levels with their standard errors, 95 %
     intervals, and an optimum that leaves a factor at "no meaningful difference" where no weighted response
     differs significantly (--json: replicated, text, block_column).  Replicate numbers that are not real blocks
-    cost the analysis r - 1 error degrees of freedom and nothing else.
-    Without replicates the weakest factor is pooled into the error.
+    cost the analysis r - 1 error degrees of freedom and nothing else.  A replicated sheet that lost plots (a blank
+    response cell, a deleted row) is analysed by least squares on the plots present (Type II sums of squares,
+    least-squares level means; the lost plots and error degrees of freedom are stated, --json: lost_plots).
+    Without replicates the weakest factor is pooled into the error.  A sheet too small to analyse (one run, a factor
+    with one level, no error degrees of freedom) is refused with the reason.
     \f
 
     Parameters
     ----------
     results : Path
-        Argument: Filled field sheet (CSV): `doe plan` columns, plain factor columns holding level values, or a
-        statistics package's worksheet (Minitab: StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated
+        Argument: Filled field sheet (CSV or .xlsx): `doe plan` columns, plain factor columns holding level values,
+        or a statistics package's worksheet (Minitab: StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated
         settings are replicates; units in the header, e.g. 'Speed (rpm)').
+    sheet : str, optional
+        ``--sheet``: The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet).
+        Cells are read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or
+        a boolean is refused where a number belongs.
     maximize : str
         ``--maximize``: Responses where larger is better, e.g. efficiency.
     minimize : str
@@ -206,12 +231,18 @@ def doe_analyze(
     weights : str, optional
         ``--weights``: Weights of the composite score, e.g. efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a
         response left out gets no weight). Default: equal weights.
+    desirability : str, optional
+        ``--desirability``: Derringer-Suich desirability optimiser beside the weighted optimum: per response a goal
+        and its limits with the response's unit, e.g. efficiency=max:2..5kg/min,damage=min:0..5%,
+        unripe=target:1..2..4% (d = 0 outside the limits, 1 at or beyond the better one; D their geometric mean,
+        maximised over every level set of the factors).
     as_json : bool
         ``--json``: Print one JSON object on stdout instead of tables.
     plot : Path, optional
         ``--plot``: Main-effect plots and response surfaces (PNG).
     report : Path, optional
-        ``--out``: Write the analysis to a file: ``*.html`` (printable report) or ``*.json``.
+        ``--out``: Write the analysis to a file: ``*.html`` (printable, self-contained: figures embedded, ANOVA
+        tables, the optimum's intervals) or ``*.json``.
     force : bool
         ``--force``: Replace an existing --out file.
     """
@@ -230,7 +261,7 @@ def doe_analyze(
 
             prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
-        fr, res = analyze_sheet(results, senses, _parse_weights(weights))
+        fr, res = analyze_sheet(results, senses, _parse_weights(weights), sheet=sheet, desirability=desirability)
         extra = {"results_file": str(results), "version": __version__}  # the JSON's keys after the analysis'
         if plot is not None:
             from berryshaker.outputs import staged_directory
@@ -248,10 +279,18 @@ def doe_analyze(
             if report.suffix.lower() == ".json":
                 write_json_atomic(report, {**res.to_json(), **extra, "provenance": provenance(results_file=str(results))})
             else:
-                from berryshaker.report.html import doe_report
+                import tempfile
 
-                write_text_atomic(report, doe_report(res, f"Field test analysis: {results.name}",
-                                                     results_file=str(results), version=__version__))
+                from berryshaker.report.doe_page import doe_report
+                from berryshaker.report.plots import write_doe_figures
+                from berryshaker.report.plots.figure_files import figure_output
+
+                with tempfile.TemporaryDirectory(prefix="berryshaker-doe-") as figs:  # embedded, then removed
+                    with figure_output(dpi=PAGE_DPI, svg=False):
+                        write_doe_figures(fr, res, Path(figs))
+                    page = doe_report(res, f"Field test analysis: {results.name}", results_file=str(results),
+                                      version=__version__, figures=Path(figs))
+                write_text_atomic(report, page)
             extra["out"] = str(report)
     except BerryshakerError as exc:
         _fail(exc)
@@ -333,12 +372,38 @@ def _print_doe(res) -> None:
     lv = " ".join((f"{f}{n}" if n is not None else f"{f}: no meaningful difference")
                   + (f" ({settings[f]})" if n is not None and settings.get(f) and not str(settings[f]).startswith(
                       "level") else "") for f, n in o.levels.items())
-    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k, res)}" for k, v in o.values.items())
-    out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
+    out.print("weighted optimum: " + lv + "; predicted " + _predicted(o.values, o.intervals, res), markup=False,
+              highlight=False)
     out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
     if isinstance(res, ReplicatedAnalysis):  # replicated sheet: effects judged against the replicate spread
         out.print(f"{res.runs} runs x {res.replicates} replicates; {res.significance_rule}", markup=False,
                   highlight=False)
+    lost = getattr(res, "lost_plots", None)
+    if lost is not None:
+        from berryshaker.experiment.unbalanced import describe_lost
+
+        what = "replicate" if res.block_column in (None, "replicate") else "block"
+        for line in describe_lost(lost.to_json(), what):
+            out.print(line, markup=False, highlight=False)
+    d = getattr(res, "desirability", None)
+    if d is not None:
+        lv = " ".join(f"{f}{n}" + (f" ({d.settings[f]})" if d.settings.get(f) and not str(d.settings[f]).startswith(
+            "level") else "") for f, n in d.levels.items() if n is not None) or "none"
+        out.print(f"desirability optimum (D = {d.overall:.3f}): {lv}; predicted "
+                  + _predicted(d.values, d.intervals, res) + "; d: "
+                  + ", ".join(f"{k} {v:.3f}" for k, v in d.desirability.items()), markup=False, highlight=False)
+        if d.note:
+            out.print(f"  {d.note}", markup=False, highlight=False)
+
+
+def _predicted(values: dict, intervals: dict | None, res) -> str:
+    """"efficiency 3.786 kg/min [3.72, 3.85]" per response (the interval where there is one)."""
+    parts = []
+    for k, v in values.items():
+        dec = _decimals([v])
+        iv = (intervals or {}).get(k)
+        parts.append(f"{k} {v:.{dec}f}{_unit(k, res)}" + (f" [{iv[0]:.{dec}f}, {iv[1]:.{dec}f}]" if iv else ""))
+    return ", ".join(parts) + (" (95 % intervals)" if intervals else "")
 
 
 @command(doe_app, "virtual")

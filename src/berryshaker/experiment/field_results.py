@@ -204,13 +204,17 @@ def _check_analysable(fr: FieldResults) -> None:
 
 
 def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, float] | None = None,
-                  factors: list[Factor] | None = None,
-                  sheet: str | None = None) -> tuple[FieldResults, DoeAnalysis | SheetReplicatedAnalysis]:
+                  factors: list[Factor] | None = None, sheet: str | None = None,
+                  desirability: str | None = None) -> tuple[FieldResults, DoeAnalysis | SheetReplicatedAnalysis]:
     """Read a filled sheet (:func:`read_results`) and analyse it as ``doe analyze`` does.
 
     A sheet with repeats (a ``replicate`` or ``block`` column, or repeated factor settings) is analysed as
-    randomised complete blocks (:func:`berryshaker.experiment.replicates.analyze_replicated`), one without by range
-    analysis with the weakest factor pooled (:func:`berryshaker.experiment.analysis.analyze`).  The plan's format
+    randomised complete blocks (:func:`berryshaker.experiment.replicates.analyze_replicated`), or, when it lost plots
+    (a blank response, a deleted row), by least squares on the plots present
+    (:func:`berryshaker.experiment.unbalanced.analyze_unbalanced`, ``lost_plots`` says what was lost); one without by
+    range analysis with the weakest factor pooled (:func:`berryshaker.experiment.analysis.analyze`, the optimum's
+    intervals from the pooled error).  A sheet too small to analyse (one run, a factor with one level, no error
+    degrees of freedom left) is refused with the reason.  The plan's format
     and a statistics package's worksheet of the same data give the same analysis.
 
     Parameters
@@ -225,6 +229,9 @@ def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, floa
         The plan's factors (default: found in the sheet).
     sheet : str, optional
         The worksheet of an .xlsx workbook (default its first).
+    desirability : str, optional
+        Goals of the desirability optimiser, e.g. ``efficiency=max:2..5kg/min,damage=min:0..5%``
+        (:func:`berryshaker.experiment.desirability.parse_desirability`): the analysis then has ``desirability``.
 
     Returns
     -------
@@ -257,8 +264,16 @@ def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, floa
         res = SheetReplicatedAnalysis(**fields_of(rep),
                                       block_column=fr.block_column, text=describe_replicated(rep), **extra)
     else:
+        from berryshaker.experiment.desirability import level_set_prediction
+
         res = replace(analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, weights,
                               level_values=fr.level_values, units=fr.units), replicates=fr.replicates, **extra)
+        res = replace(res, optimum=replace(res.optimum, intervals=level_set_prediction(fr, res, res.optimum.levels)[1]))
+    if desirability is not None:
+        from berryshaker.experiment.desirability import desirability_optimum, parse_desirability
+
+        goals = parse_desirability(desirability, list(senses), fr.response_units)
+        res = replace(res, desirability=desirability_optimum(fr, res, goals))
     return fr, res
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from berryshaker.experiment.analysis_records import AnovaTerm, ErrorTerm, FactorLevels, Regression
+from berryshaker.experiment.analysis_records import AnovaTerm, DesirabilityOptimum, ErrorTerm, FactorLevels, Regression
 from berryshaker.records import JsonRecord, optional
 
 
@@ -381,6 +381,8 @@ class SheetReplicatedAnalysis(ReplicatedAnalysis):
     lost_plots : LostPlots, optional
         The plots lost and the degrees of freedom they cost; only for a sheet with lost plots (analysed by least
         squares, :mod:`berryshaker.experiment.unbalanced`).
+    desirability : DesirabilityOptimum, optional
+        The desirability optimum (``doe analyze --desirability``).
     """
 
     block_column: str | None
@@ -389,6 +391,7 @@ class SheetReplicatedAnalysis(ReplicatedAnalysis):
     response_units: dict[str, str]
     runs_identified_by: str
     lost_plots: LostPlots | None = optional()
+    desirability: DesirabilityOptimum | None = optional()
 
 
 __all__ = ["BlockVariance", "Choice", "LostPlots", "PairedDifference", "ReplicatedAnalysis", "ReplicatedAnova", "ReplicatedEffect",
