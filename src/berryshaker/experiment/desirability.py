@@ -28,13 +28,14 @@ import numpy as np
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.analysis_records import DesirabilityCandidate, DesirabilityOptimum, Goal
 
-_NUMBER = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_GOAL = re.compile(rf"^(max|min|target):\s*({_NUMBER})\s*\.\.\s*({_NUMBER})(?:\s*\.\.\s*({_NUMBER}))?\s*(\S*)$")
+_NUMBER = r"[-+]?(?:\d+(?:\.\d+)?|\.\d+)(?:[eE][-+]?\d+)?"  # no trailing point: "1..2" is two numbers
+_GOAL = re.compile(rf"^(max|min|target):\s*({_NUMBER})\s*\.\.\s*({_NUMBER})(?:\s*\.\.\s*({_NUMBER}))?"
+                   r"\s*((?:[A-Za-z%µμ][^\s]*)?)$")
 #: level sets searched at most (the full factorial of the factors' levels)
 MAX_LEVEL_SETS = 1_000_000
 
 
-def _limit_factor(unit: str, response_unit: str, where: str) -> float:
+def _limit_factor(unit: str, response_unit: str, where: str, example: str) -> float:
     """Factor converting the goal's unit to the response's (1 when they are the same); a missing unit is an error
     where the response has one."""
     from berryshaker.units import unit_factor
@@ -43,7 +44,7 @@ def _limit_factor(unit: str, response_unit: str, where: str) -> float:
         return 1.0
     if not unit:
         raise ConfigError(f"{where}: give the limits' unit (the sheet's response is in {response_unit}), e.g. "
-                          f"{where.split(' ', 1)[1].split('=', 1)[0]}=max:2..5{response_unit}")
+                          f"{example}{response_unit}")
     if not response_unit:
         raise ConfigError(f"{where}: the sheet gives this response no unit; write the limits as plain numbers")
     if "%" in (unit, response_unit):
@@ -102,7 +103,8 @@ def parse_desirability(text: str, responses: list[str], response_units: dict[str
             raise ConfigError(f"{where}: the limits must be finite numbers")
         if (kind == "target") != (len(nums) == 3):
             raise ConfigError(f"{where}: {'a target needs LOW..TARGET..HIGH' if kind == 'target' else 'give LOW..HIGH'}")
-        f = _limit_factor(unit if unit != "pct" else "%", response_units.get(name, "") or "", where)
+        example = f"{name}={kind}:" + "..".join(x for x in (a, b, c) if x is not None)
+        f = _limit_factor(unit if unit != "pct" else "%", response_units.get(name, "") or "", where, example)
         nums = [x * f for x in nums]
         if any(y <= x for x, y in zip(nums, nums[1:])):
             raise ConfigError(f"{where}: the limits must increase (LOW < HIGH" + (", LOW < TARGET < HIGH" if
