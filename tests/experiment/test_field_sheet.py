@@ -254,6 +254,22 @@ def test_plan_has_a_replicate_column_and_a_seeded_order_of_all_rows():
     assert len(re.findall(r"<tr>", page)) == 28 and "cate" in page
 
 
+def test_randomised_plan_keeps_each_replicate_block_together():
+    """Issue 58: `doe plan --randomize` drew one order over all runs x replicates while `doe analyze` reads replicate
+    k as block k (a field day, a row of bushes).  Now block k is tests (k - 1) n + 1 .. k n, every run once, in a
+    random order of its own (a different one per block, seeded); one replicate keeps the earlier order."""
+    factors = [parse_factor(s) for s in SPECS]
+    df = plan_table("L9", factors, randomize=True, seed=7, replicates=3)
+    orders = []
+    for k, g in df.groupby("replicate"):
+        assert sorted(g["order"]) == list(range(9 * (k - 1) + 1, 9 * k + 1))
+        assert sorted(g["run"]) == list(range(1, 10))
+        orders.append((g.sort_values("order")["run"]).tolist())
+    assert orders[0] != orders[1] != orders[2] and orders[0] != list(range(1, 10))
+    one = plan_table("L9", factors, randomize=True, seed=7)
+    assert one["order"].tolist() == (np.random.default_rng(7).permutation(9) + 1).tolist()
+
+
 def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_anova():
     """Read back in any row order: responses as (runs, replicates) in run order, their means per run, and the
     pure-error ANOVA of the virtual L9 on them: MS_PE equals the hand-computed replicate variance, A (an effect
