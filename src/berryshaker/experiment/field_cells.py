@@ -107,7 +107,9 @@ class _Sheet:
                 empty[i] = True
                 continue
             hint = ""
-            if "," in cell and not self.decimal_comma:
+            if "," in cell and self.worksheet is not None:
+                hint = "; decimal comma? type the number as a number in the workbook (3.9)"
+            elif "," in cell and not self.decimal_comma:
                 hint = ("; decimal comma? this sheet is comma-separated, so write 3.9, or save it with ';' as the "
                         "separator (then decimal commas are read)")
             elif m and m.group(2):

@@ -186,7 +186,7 @@ def _blocks(fit: _Fit) -> dict:
             "per_start_sd": float(np.sqrt(var_b + ms_e)) if np.isfinite(var_b) else float("nan")}
 
 
-def _check(levels: np.ndarray, y: np.ndarray, name: str) -> None:
+def _check(y: np.ndarray, name: str) -> None:
     n, r = y.shape
     present = np.isfinite(y)
     if r < 2:
@@ -259,7 +259,7 @@ def analyze_unbalanced(levels: np.ndarray, values: np.ndarray, factor_names: lis
         raise ConfigError(f"responses of shapes {sorted(shapes)} do not match {len(levels)} runs x "
                           f"{len(factor_names)} factors")
     for name, y in reps.items():
-        _check(levels, y, name)
+        _check(y, name)
     n, r = next(iter(shapes))
     w = check_weights(weights, reps)
     rule = (f"an effect is significant only if p < {alpha:g} (F test of the factor's Type II sum of squares: adjusted "

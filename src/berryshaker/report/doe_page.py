@@ -99,7 +99,7 @@ def _lost_html(res) -> list[str]:
             _table(["response", "plots with a value", "lost", "error degrees of freedom"], rows, left=(0, 2))]
 
 
-def _desirability_html(res, units: dict) -> list[str]:
+def _desirability_html(res) -> list[str]:
     d = getattr(res, "desirability", None)
     if d is None:
         return []
@@ -185,7 +185,7 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
     parts.append(f"<p class='small'>{html.escape(o.prediction)}"
                  + ("" if replicated else "; interval from the pooled error over Taguchi's effective number of "
                     "replications N / (1 + dof of the factors used)") + ".</p>")
-    parts += _desirability_html(res, units)
+    parts += _desirability_html(res)
     if fig is not None:
         _maybe_img(parts, fig / "main_effects.png", "Main effects: mean response at each level"
                    + (" with 95 % intervals (for comparing levels)" if replicated else ""))
