@@ -128,7 +128,7 @@ def test_tradeoff_table_and_dominance_beyond_noise():
              cand("strong", 4.5, 0.05, 300.0, 10.0)]    # best harvest, but far larger collision force
     t = tradeoff_table(cands)
     assert list(t["name"]) == ["strong", "best", "close", "worse"]
-    assert t.set_index("name").loc["worse", "dominated_by"] == "best, close"
+    assert t.set_index("name").loc["worse", "dominated_by"] == "best; close"
     assert not t.set_index("name").loc[["best", "close", "strong"], "dominated"].any()
     assert {"efficiency_lo", "peak_force_N:A", "clearance_mm:B", "drive_torque_Nm"} <= set(t.columns)
     # with wide intervals nothing is beyond noise

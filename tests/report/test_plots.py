@@ -451,11 +451,19 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     _close(d)
     rr = main_effect_residuals(fr.levels, y, fr.factor_names, blocks=True)
     assert rr["ss"] == pytest.approx(err.ss + ra.anova.lack_of_fit.ss)  # error + lack of fit
-    d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", return_figure=True)
-    axn, axf = d["figure"].axes[:2]
+    order = np.random.default_rng(0).permutation(rr["residuals"].size) + 1  # a test order
+    d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", order=order, return_figure=True)
+    axn, axf, axh, axo = d["figure"].axes[:4]  # Minitab's four in one (issue 58: the histogram and order were missing)
     np.testing.assert_array_equal(axf.get_lines()[0].get_ydata(), rr["residuals"])
     np.testing.assert_array_equal(axn.get_lines()[0].get_xdata(), np.sort(rr["residuals"]))
     assert axf.get_ylabel() == "residual [kg/min]" and not audit_figure(d["figure"])
+    counts, edges = np.histogram(rr["residuals"], bins=len(d["histogram"][0]))
+    np.testing.assert_array_equal([p.get_height() for p in axh.patches], counts)
+    assert sum(counts) == rr["residuals"].size and axh.get_xlabel() == "residual [kg/min]"
+    line = axo.get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), np.arange(1, order.size + 1))  # in test order
+    np.testing.assert_array_equal(line.get_ydata(), rr["residuals"][np.argsort(order)])
+    assert axo.get_xlabel() == "test order [-]"
     _close(d)
     cells = interaction_means(fr.levels, y, fr.factor_names)
     d = P.plot_interactions(cells, tmp_path / "int.png", unit="kg/min", level_values=fr.level_values,

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from berryshaker.cli.app import ConfigOpt, JsonOpt, _fail, _load, _print_json, app, command, err, out
+from berryshaker.cli.doe import SHEET_HELP
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import BerryshakerError
 
@@ -40,11 +41,12 @@ TOP_SETS = 10
 
 @command(app, "calibrate")
 def calibrate(
-    sheet: Optional[Path] = typer.Argument(None, help="Filled field sheet (CSV): the `doe plan` layout, or plain factor columns "
+    sheet: Optional[Path] = typer.Argument(None, help="Filled field sheet (CSV or .xlsx): the `doe plan` layout, or plain factor columns "
                                  "with a replicate or block column as a statistics package writes them.  Factors: "
                                  "clearance pairs of the machine with a length unit (A_mm, 'C (mm)') and the drive "
                                  "speed with a speed unit (speed_rpm).  Responses: efficiency_kg_min, "
                                  "unripe_rate_pct, damage_rate_pct (or the raw masses)."),
+    worksheet: Optional[str] = typer.Option(None, "--sheet", help=SHEET_HELP),
     config: Optional[Path] = ConfigOpt,
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Report folder (report.html, calibration.json, tables "
                                            "as CSV and xlsx, figures): new, empty, or an earlier calibrate output; "
@@ -106,7 +108,11 @@ def calibrate(
     Parameters
     ----------
     sheet : Path, optional
-        Argument: Filled field sheet (CSV); none with ``--from``.
+        Argument: Filled field sheet (CSV or .xlsx); none with ``--from``.
+    worksheet : str, optional
+        ``--sheet``: The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet).
+        Cells are read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or
+        a boolean is refused where a number belongs.
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
     out_dir : Path, optional
@@ -159,7 +165,7 @@ def calibrate(
         if machine.plant is None:
             raise BerryshakerError("calibrate needs a [plant] block in the machine description (the harvest model "
                                    "runs on it); add one, e.g. from the reference machine (config init)")
-        fs = read_sheet(sheet, machine)
+        fs = read_sheet(sheet, machine, worksheet)
         named = [parse_setting(p, fs.targets, machine) for p in (predict or [])]
         opts = CalibrationSettings(replicates=replicates, theta_points=emulator_points, check_settings=check_settings,
                                    steps=steps, seed=seed, discrepancy=discrepancy)

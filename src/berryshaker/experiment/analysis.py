@@ -487,11 +487,14 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
 
 # ---- effects, residuals and interactions as Minitab draws them (issue 45) ---------------------------------------
 def _observations(levels: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Levels per observation (runs x replicates flattened, run by run) and the observations."""
+    """Levels per observation (runs x replicates flattened, run by run) and the observations; lost plots (NaN) left
+    out."""
     y = np.asarray(y, float)
     levels = np.asarray(levels, int)
     r = 1 if y.ndim == 1 else y.shape[1]
-    return np.repeat(levels, r, axis=0), y.reshape(-1)
+    lv, obs = np.repeat(levels, r, axis=0), y.reshape(-1)
+    keep = ~np.isnan(obs)  # a lost plot (NaN) is no observation
+    return (lv, obs) if keep.all() else (lv[keep], obs[keep])
 
 
 def polynomial_contrasts(n_per_level) -> np.ndarray:
