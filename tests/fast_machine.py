@@ -11,8 +11,9 @@ FAST = {"harvest.branch_classes": "[1.0]", "harvest.replicates": "2", "harvest.m
         "harvest.tolerance_replicates": "1"}
 
 
-def with_values(text: str, values: dict[str, str]) -> str:
-    """The TOML ``text`` with each ``section.key`` set to its (TOML) value, the line's comment kept.
+def with_values(text: str, values: dict[str, str], insert: bool = False) -> str:
+    """The TOML ``text`` with each ``section.key`` set to its (TOML) value, the line's comment kept; with ``insert``
+    a key missing from its section is added at the section's top.
 
     Raises AssertionError naming a key that is not in its section (or that is there more than once)."""
     out = text
@@ -25,12 +26,16 @@ def with_values(text: str, values: dict[str, str]) -> str:
         body = out[head.end():end]
         pat = re.compile(rf"(?m)^{re.escape(key)}\s*=\s*(\[[^\]]*\]|\"[^\"]*\"|[^#\n]*?)(\s*(#.*)?)$")
         hits = pat.findall(body)
+        if not hits and insert:
+            out = out[:head.end()] + f"\n{key} = {value}" + out[head.end():]
+            continue
         assert len(hits) == 1, f"with_values: {dotted} found {len(hits)} times"
         body = pat.sub(lambda m: f"{key} = {value}{m.group(2)}", body, count=1)
         out = out[:head.end()] + body + out[end:]
     return out
 
 
-def fast_text(text: str, **extra: str) -> str:
-    """``text`` made cheap (:data:`FAST`) with ``extra`` keys (``section__key="value"``) on top."""
-    return with_values(text, {**FAST, **{k.replace("__", "."): v for k, v in extra.items()}})
+def fast_text(text: str, insert: bool = False, **extra: str) -> str:
+    """``text`` made cheap (:data:`FAST`) with ``extra`` keys (``section__key="value"``) on top (``insert``: add a
+    key the text does not have)."""
+    return with_values(text, {**FAST, **{k.replace("__", "."): v for k, v in extra.items()}}, insert)

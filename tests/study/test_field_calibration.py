@@ -133,6 +133,32 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     assert table[..., 2] == pytest.approx(cached[..., 2] * h.unripe_pull / 1.5, rel=1e-12)
 
 
+def test_a_response_added_to_the_table_is_calibrated(small, trained, reference_sheet):
+    """A calibrated harvest response registered as one row of the table (tests/extra_response.py) is read from the
+    sheet's column, simulated through the virtual harvest's own implementation, emulated and in the likelihood."""
+    from extra_response import registered, ripe_left
+
+    sim, params = trained["sim"], trained["params"]
+    with registered(ripe_left(calibrated=True)):
+        responses = list(fc.calibrated_responses())
+        assert responses[-1] == "ripe_left"
+        seeds = fc.training_starts(small, R_SIM)
+        theta = fc.theta_of(fc.latin_hypercube(6, 5), params)
+        mean, var = sim.responses(0, seeds, theta, responses)
+        assert np.all(mean[..., -1] > 0) and np.all(var[..., -1] > 0)
+        df = reference_sheet.copy()
+        df["ripe_left_kg_min"] = 3.0 + 0.1 * df["replicate"]
+        sheet = fc.read_sheet(df.to_csv(index=False), small)
+        assert "ripe_left" in sheet.observations
+        em = fc.Emulator(sheet.targets, responses, 0, R_SIM)
+        u = fc.latin_hypercube(12, 1)
+        settings = sorted(set(trained["idx"]))
+        em.fit([sim.settings[i] for i in settings], u, *fc._train(sim, responses, settings, seeds, u, params))
+        stats = fc.SheetStatistics.of(em, sheet.settings_si, sheet.observations)
+        post = fc.sample_posterior(em, stats, params, R_SIM, 0, responses, steps=60, walkers=32)
+        assert post["hyper"].shape[1] == 2 * len(responses)
+
+
 def test_emulator_error_on_held_out_parameters_is_small_against_the_noise(trained):
     """Held-out theta points at the simulated settings: the efficiency's and the damage's mean within half a
     replicate SD; every error is carried into the likelihood (mse_log_mean)."""

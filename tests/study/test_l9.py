@@ -3,6 +3,7 @@ recommendation that never ranks noise, and the replicated virtual L9 through ``d
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pydantic
@@ -166,16 +167,32 @@ def test_perturbed_start_sits_inside_the_clearances_and_changes_the_impacts(mach
 def virtual_json(tmp_path_factory):
     """`doe virtual --json` on a fast description: one branch class, 2 replicates, 1 tolerance replicate (9 x 2 + 1
     coupled runs, plus 2 if the recommendation is not an L9 run)."""
+    from extra_response import registered, ripe_left
     from fast_machine import fast_text
 
     text = fast_text(linear_spring_toml_text(reference_toml_text()), harvest__max_replicates="4")
     base = tmp_path_factory.mktemp("virtual")
     cfg = base / "fast.toml"
     cfg.write_text(text)
-    r = CliRunner().invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2", "--replicates",
-                                 "2", "--cache", str(base / "cache")])
+    with registered(ripe_left()):  # a response added as one row of the response table
+        r = CliRunner().invoke(app, ["doe", "virtual", "--config", str(cfg), "--json", "--workers", "2",
+                                     "--replicates", "2", "--cache", str(base / "cache")])
     assert r.exit_code == 0, r.output
     return json.loads(r.stdout)
+
+
+def test_a_response_added_to_the_table_reaches_the_l9_and_its_report(virtual_json):
+    """A harvest response registered as one row of the table (tests/extra_response.py) is counted in every start,
+    analysed by the L9 (ANOVA, detectability, trade-off), printed in --json and drawn in the report section."""
+    from berryshaker.report.l9_replicates import l9_replicates_section
+
+    s = virtual_json
+    assert "ripe_left" in s["runs"][0]["replicates"] and "ripe_left" in s["runs"][0]["expected"]
+    assert set(s["replicated"]["responses"]["ripe_left"]["factors"]) == set("ABCF")
+    assert set(s["detectability"]["ripe_left"]) == set("ABCF") and "ripe_left" in s["tradeoff"][0]
+    assert s["response_units"]["ripe_left"] == "kg/min"
+    html_parts = "".join(l9_replicates_section(VirtualL9.from_json(_without_version(s)), Path("."), list("ABCF")))
+    assert "ripe_left" in html_parts
 
 
 def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json):
@@ -210,8 +227,8 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
     assert tc["done"] and tc["rtol"] == [COUPLED_RTOL, 1e-7] and "statement" in tc
     assert all({"mean_change", "noise_sd"} <= set(v) for v in tc["responses"].values())
     # the solver's effect is judged on the model's expectation (no counting noise) and on the loads
-    harvest = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage"]
-    assert set(tc["responses"]) == {f"{n}_expected" for n in harvest} | set(names[len(harvest):])
+    harvest = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage", "ripe_left"]  # with the added row
+    assert set(tc["responses"]) == {f"{n}_expected" for n in harvest} | set(names[5:])
     # one verdict per factor and response: a factor against its own interaction with the starts, and the paired
     # extreme-level difference says the same; beside each harvest effect the field tests it would take to see it
     for n in harvest:

@@ -20,10 +20,10 @@ def _decimals(values) -> int:
 
 def _unit(response: str, res=None) -> str:
     """" <unit>" of a response: the sheet's own (``res.response_units``) before the package's defaults."""
-    from berryshaker.report.style import RESPONSE_UNITS
+    from berryshaker.report.style import response_units
 
     own = getattr(res, "response_units", None) or {}
-    u = {**RESPONSE_UNITS, **{k: v for k, v in own.items() if v}}.get(response, "")
+    u = {**response_units(), **{k: v for k, v in own.items() if v}}.get(response, "")
     return f" {u}" if u else ""
 
 

@@ -13,10 +13,44 @@ import numpy as np
 import pandas as pd
 
 RAW_COLUMNS = ["duration_s", "picked_mass_kg", "unripe_mass_kg", "damaged_mass_kg"]
-INDEX_COLUMNS = ["efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"]
-INDEX_NAMES = {"efficiency": "efficiency_kg_min", "unripe": "unripe_rate_pct", "damage": "damage_rate_pct"}
-#: unit of each index column (the column names carry them: picked mass per minute, mass percentages)
-INDEX_UNITS = {"efficiency_kg_min": "kg/min", "unripe_rate_pct": "%", "damage_rate_pct": "%"}
+
+
+def index_names() -> dict[str, str]:
+    """The index columns of a field sheet, from the harvest-response table (berryshaker.harvest.virtual.RESPONSES:
+    the study's indexes and every calibrated response): name -> column.
+
+    Returns
+    -------
+    dict of str to str
+        ``{"efficiency": "efficiency_kg_min", "unripe": "unripe_rate_pct", "damage": "damage_rate_pct", ...}``.
+    """
+    from berryshaker.harvest.virtual.responses import sheet_responses
+
+    return sheet_responses()
+
+
+def index_columns() -> list[str]:
+    """The index columns of a field sheet (:func:`index_names`' values).
+
+    Returns
+    -------
+    list of str
+        Column names.
+    """
+    return list(index_names().values())
+
+
+def index_units() -> dict[str, str]:
+    """Unit of each index column (the column names carry them: picked mass per minute, mass percentages).
+
+    Returns
+    -------
+    dict of str to str
+        Column -> unit.
+    """
+    from berryshaker.harvest.virtual.responses import RESPONSES
+
+    return {r.column: r.unit for n, r in RESPONSES.items() if r.column in index_columns()}
 #: free-text columns a crew may add (never read as numbers, never taken as factors)
 META_COLUMNS = ("date", "time", "operator", "weather", "notes", "note", "comment", "comments", "remarks", "crew",
                 "observer", "site")
@@ -56,7 +90,8 @@ def reserved_columns() -> set[str]:
     set of str
         The column names.
     """
-    return {"run", "replicate", "order", *RAW_COLUMNS, *INDEX_COLUMNS, *INDEX_NAMES, *META_COLUMNS}
+    names = index_names()
+    return {"run", "replicate", "order", *RAW_COLUMNS, *names.values(), *names, *META_COLUMNS}
 
 
 @dataclass
@@ -158,5 +193,6 @@ def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, n
         }
 
 
-__all__ = ["Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "INDEX_UNITS", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
+__all__ = ["Factor", "FieldResults", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS", "index_columns", "index_names",
+           "index_units",
            "compute_indexes", "reserved_columns"]

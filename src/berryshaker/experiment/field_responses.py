@@ -9,7 +9,7 @@ import numpy as np
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.field_cells import _Sheet, _split_unit, block_column, is_bookkeeping
-from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, INDEX_UNITS, META_COLUMNS, RAW_COLUMNS,
+from berryshaker.experiment.field_columns import (META_COLUMNS, RAW_COLUMNS, index_columns, index_names, index_units,
                                                   compute_indexes)
 
 
@@ -18,14 +18,15 @@ def _response_column(sheet: _Sheet, r: str) -> str:
     column of that name, else the one column named so without regard to case ("Efficiency (kg/min)" for
     ``efficiency``); the index column name when none is there (the index is then computed from raw masses)."""
     cols = list(sheet.df.columns)
-    if r in INDEX_NAMES and INDEX_NAMES[r] in cols:
-        return INDEX_NAMES[r]
+    names = index_names()
+    if r in names and names[r] in cols:
+        return names[r]
     if r in cols:
         return r
     same = [c for c in cols if c.lower() == r.lower()]
     if len(same) == 1:
         return same[0]
-    return INDEX_NAMES.get(r, r)
+    return names.get(r, r)
 
 
 def _response_unit(sheet: _Sheet, col: str) -> str:
@@ -33,8 +34,9 @@ def _response_unit(sheet: _Sheet, col: str) -> str:
     suffix; '' when none is given."""
     if col in sheet.header_units:
         return sheet.header_units[col]
-    if col in INDEX_UNITS:
-        return INDEX_UNITS[col]
+    units = index_units()
+    if col in units:
+        return units[col]
     su = _split_unit(col) if col in sheet.df.columns else None
     return su[1] if su else ""
 
@@ -50,8 +52,8 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: s
     numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order", blk) and c.lower() not in META_COLUMNS
                     and c not in factor_cols and c not in RAW_COLUMNS and not is_bookkeeping(c)]
     col = col or _response_column(sheet, r)
-    if r not in INDEX_NAMES and col not in df.columns:
-        raise ConfigError(f"unknown response {r!r}; valid: {', '.join(INDEX_NAMES)} (indexes or raw masses) or a "
+    if r not in index_names() and col not in df.columns:
+        raise ConfigError(f"unknown response {r!r}; valid: {', '.join(index_names())} (indexes or raw masses) or a "
                           f"column of the sheet ({', '.join(c for c in numeric_cols if not c.endswith('_level'))})")
     n = len(df)
     if col in df.columns:
@@ -59,7 +61,7 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: s
     else:
         vals, empty = np.full(n, np.nan), np.ones(n, bool)
     _check_range(sheet, col, vals, ~empty)
-    if empty.any() and col in INDEX_COLUMNS:
+    if empty.any() and col in index_columns():
         need = np.flatnonzero(empty)
         if lost:  # rows with no raw mass either are lost plots; the others are computed (or refused) below
             present = [c for c in RAW_COLUMNS if c in df.columns]

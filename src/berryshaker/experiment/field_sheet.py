@@ -19,8 +19,8 @@ import pandas as pd
 from berryshaker import __version__
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import ARRAYS, assign_factors, orthogonal_array
-from berryshaker.experiment.field_columns import (INDEX_COLUMNS, INDEX_NAMES, MAX_ROWS, META_COLUMNS, RAW_COLUMNS,
-                                                  Factor, FieldResults, compute_indexes, reserved_columns)
+from berryshaker.experiment.field_columns import (MAX_ROWS, META_COLUMNS, RAW_COLUMNS, Factor, FieldResults,
+                                                  compute_indexes, index_columns, reserved_columns)
 from berryshaker.experiment.field_results import read_results
 from berryshaker.units import MAX_LIST_CHARS, unit_dimension
 
@@ -155,7 +155,7 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
     for f, c in zip(factors, cols):
         df[f"{f.name}_level"] = a[rows, c] + 1
         df[f.column] = [f.levels[i] for i in a[rows, c]]
-    for c in RAW_COLUMNS + INDEX_COLUMNS:
+    for c in RAW_COLUMNS + index_columns():
         df[c] = np.nan
     return df
 
@@ -208,7 +208,7 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
     if "order" in cols and "run" in cols:  # the crew reads the sheet by order: put it first
         first = ["order", "run"] + (["replicate"] if "replicate" in cols else [])
         cols = first + [c for c in cols if c not in first]
-    fill = [c for c in cols if c in RAW_COLUMNS or c in INDEX_COLUMNS]
+    fill = [c for c in cols if c in RAW_COLUMNS or c in index_columns()]
     design = [c for c in cols if c not in fill]
     n_fill = len(fill) + 1  # + notes
     width_design = 4.5  # % of the page per design column
@@ -260,5 +260,5 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
             f"<p style='font-size:8pt'>berryshaker {html.escape(__version__)}</p></body></html>")
 
 
-__all__ = ["ARRAYS", "Factor", "FieldResults", "INDEX_COLUMNS", "INDEX_NAMES", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
+__all__ = ["ARRAYS", "Factor", "FieldResults", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",
            "parse_factor", "plan_table", "plan_html", "read_results", "compute_indexes"]

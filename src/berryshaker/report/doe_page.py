@@ -152,11 +152,11 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
     str
         The HTML document.
     """
-    from berryshaker.report.style import RESPONSE_UNITS
+    from berryshaker.report.style import response_units
 
     replicated = hasattr(res, "significance_rule")
     factors = res.factors
-    units = {**RESPONSE_UNITS, **(res.response_units or {})}  # the sheet's units first (issue 45)
+    units = {**response_units(), **(res.response_units or {})}  # the sheet's units first (issue 45)
     fig = Path(figures) if figures is not None else None
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
              f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",

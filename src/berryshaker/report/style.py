@@ -48,12 +48,30 @@ LEVEL_COLOURS: dict[str, str] = {"none": "#7F7F7F", "level 1": "#9ECAE1", "level
 SERIES_COLOURS: tuple[str, ...] = ("#0072B2", "#E69F00", "#009E73", "#CC79A7", "#D55E00", "#56B4E9",
                                    "#F0E442", "#000000")
 
-#: Units of the field-test indexes (study sec. 3.5.1): picked mass per minute, mass percentages.
-RESPONSE_UNITS: dict[str, str] = {"efficiency": "kg/min", "unripe": "%", "damage": "%"}
+def response_units() -> dict[str, str]:
+    """Units of the harvest responses (the one table, berryshaker.harvest.virtual.RESPONSES).
 
-#: Long names of the field-test indexes.
-RESPONSE_NAMES: dict[str, str] = {"efficiency": "picking efficiency", "unripe": "unripe shedding rate",
-                                  "damage": "damage rate"}
+    Returns
+    -------
+    dict of str to str
+        Name -> unit ("kg/min", "%").
+    """
+    from berryshaker.harvest.virtual.responses import response_units as units
+
+    return units()
+
+
+def response_names() -> dict[str, str]:
+    """Long names of the harvest responses (their labels in the one table).
+
+    Returns
+    -------
+    dict of str to str
+        Name -> label ("picking efficiency", ...).
+    """
+    from berryshaker.harvest.virtual.responses import response_labels
+
+    return response_labels()
 
 #: Shading of reference bands (study ranges, bond forces, noise bands).
 BAND_ALPHA = 0.18

@@ -1,14 +1,14 @@
 """The study's L9 field test run through the virtual harvest, replicated, and analysed against its own noise.
 
-Replicates (docs/harvest.md, "Replicates"): replicate k of every run uses the seed ``harvest.seed + 1000 k``
-for its bushes (population) *and* for the machine's initial state in each branch class's coupled drive-past
-(random eccentricity inside every clearance, random drive phase when the comb reaches the bush:
-:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`).  ``harvest.replicates`` starts (8 on the
-reference machine, chosen by :func:`start_convergence`: the count at which the spread of every harvest response is
-known to 30 %) are drawn once and used for every run (common random numbers), and the analysis treats start k as
-block k (randomised complete blocks, :func:`berryshaker.experiment.replicates.analyze_replicated` with
-``blocks=True``): start-to-start luck shared by every run cancels from the effects *and* from the error, and each
-factor's levels are compared by paired differences with their standard errors.
+Replicates (docs/harvest.md, "Replicates"): start k of every run is one virtual field test, the machine's initial
+state in each branch class's coupled drive-past (random eccentricity inside every clearance, random drive phase
+when the comb reaches the bush: :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`) and the bushes
+and fruit the test counts, each from its own stream of the seed family ``harvest.seed``
+(berryshaker.harvest.virtual.seeds).  ``harvest.replicates`` starts (chosen by :func:`start_convergence`) are drawn
+once and used for every run (common random numbers), and the analysis treats start k as block k
+(:func:`berryshaker.experiment.replicates.analyze_replicated` with ``blocks=True``): start-to-start luck shared by
+every run cancels, each factor is tested against its own interaction with the starts, and its levels are compared by
+paired differences with their standard errors (one verdict per factor).
 
 Every response (harvest indexes and machine loads) carries its mean, per-start standard deviation and 95 %
 interval per run (from its own starts); range analysis and ANOVA use the blocked error; the recommended set's

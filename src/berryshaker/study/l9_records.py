@@ -282,9 +282,9 @@ class L9Recommendation(JsonRecord):
     same_as_study : bool
         Whether the levels are the study's.
     virtual_harvest : dict of str to float
-        Mean harvest indexes over all its starts, keyed as :func:`berryshaker.harvest.virtual.harvest_indexes`
-        (``efficiency_kg_min`` kg/min, ``ripe_picked_fraction`` and ``unripe_shed_fraction`` fractions,
-        ``unripe_rate_pct`` and ``damage_rate_pct`` %).
+        The model's expectation of every harvest response over all its starts, keyed by the response's column
+        (``efficiency_kg_min`` kg/min, ``ripe_removal_pct``, ``unripe_rate_pct``, ``unripe_shed_pct``,
+        ``damage_rate_pct`` %).
     replicates : dict of str to Estimate
         Every response's mean, SD and interval over all its starts.
     starts : int

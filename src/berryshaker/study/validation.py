@@ -31,7 +31,6 @@ from scipy import stats
 
 from berryshaker.config import Machine, machine_from_dict
 
-#: model response of each machine-result quantity: (key of berryshaker.harvest.virtual.response_indexes, unit)
 #: the published yield whose range widens an efficiency's interval
 YIELD_RANGE_ID = "yield.highbush.bush_season.extension2013"
 

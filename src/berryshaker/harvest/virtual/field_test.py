@@ -35,6 +35,7 @@ value at twice the nodes).
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -277,6 +278,7 @@ def covered_fractions(bushes: float, offset: float) -> np.ndarray:
     return f[f > 1e-12]
 
 
+@functools.lru_cache(maxsize=64)
 def _mean_square_fraction(bushes: float, points: int = 2000) -> float:
     """E over a uniform start offset of the sum of squared covered fractions (midpoint rule)."""
     u = (np.arange(points) + 0.5) / points

@@ -221,6 +221,29 @@ def response_units() -> dict[str, str]:
     return {n: r.unit for n, r in RESPONSES.items()}
 
 
+def response_labels() -> dict[str, str]:
+    """Short label of every harvest response (tables, figures).
+
+    Returns
+    -------
+    dict of str to str
+        Name -> label.
+    """
+    return {n: r.label for n, r in RESPONSES.items()}
+
+
+def sheet_responses() -> dict[str, str]:
+    """The responses a field sheet carries as columns (the study's indexes and every calibrated response): name ->
+    column (``efficiency`` -> ``efficiency_kg_min``).
+
+    Returns
+    -------
+    dict of str to str
+        Name -> column, in the table's order.
+    """
+    return {n: r.column for n, r in RESPONSES.items() if r.study_index or r.calibrated}
+
+
 def study_indexes() -> list[str]:
     """The study's three indexes, in the table's order.
 

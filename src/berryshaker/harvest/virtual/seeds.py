@@ -15,9 +15,8 @@ numpy's SeedSequence documentation).  The streams:
 * :data:`POWERED` ``(k, POWERED, level)``: the powered drive's starts.
 
 Keys of different streams never coincide, and no key is a prefix-padded copy of another (an integer seed s and the
-tuple (s, 0) give numpy the same entropy: the earlier scheme ``seed + 1000 k`` for the bushes and ``(seed + 1000 k,
-class)`` for the machine drew class 0's machine start from its bushes' stream, and two families 1000 apart shared
-starts).  A run function receives its key as a list of ints (JSON, the runner's cache key) and builds its generator
+tuple (s, 0) give numpy the same entropy, so seeding one draw with s and another with (s, 0) draws both from one
+stream).  A run function receives its key as a list of ints (JSON, the runner's cache key) and builds its generator
 with :func:`seed_sequence`.
 """
 

@@ -10,11 +10,11 @@ from pathlib import Path
 import numpy as np
 
 from berryshaker.report.plots.figure_files import _out
+from berryshaker.report.style import response_units as table_units
 from berryshaker.report.style import (
     BAND_ALPHA,
     PAIR_COLOURS,
-    RESPONSE_NAMES,
-    RESPONSE_UNITS,
+    response_names,
     SERIES_COLOURS,
     colour_bar,
     label_axes,
@@ -76,7 +76,7 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
         Factor value at each level (in ``factor_unit``) for the x axis; default from ``analysis["runs"]``,
         else level numbers.
     response_units : dict response -> unit, optional
-        Default :data:`berryshaker.report.style.RESPONSE_UNITS` (efficiency kg/min, unripe %, damage %).
+        Default :func:`berryshaker.report.style.response_units` (efficiency kg/min, unripe %, damage %).
     errors : "anova", None, or dict response -> float | list per level | dict factor -> list
         Error-bar half-widths (same units as the response).  "anova": one standard error of a level mean, sqrt(MS_e / n_j) with the
         pooled-ANOVA error mean square; None: no bars.  Explicit values are drawn as given (say what they
@@ -99,7 +99,7 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
     dict
         ``responses``: per response the x values, level means, errors and y limits per factor; ``path``.
     """
-    response_units = {**RESPONSE_UNITS, **(response_units or {})}
+    response_units = {**table_units(), **(response_units or {})}
     responses = list(analysis["responses"])
     factors = list(next(iter(analysis["responses"].values()))["factors"])
     lv = _level_values(analysis, factors, level_values)
@@ -153,7 +153,7 @@ def plot_main_effects(analysis: dict, path: Path, title: str = "", *, level_valu
             if e is not None:
                 halves.append(float(np.max(e)))
             rows[f] = {"x": xs, "level_means": k, "errors": None if e is None else np.asarray(e)}
-        name = RESPONSE_NAMES.get(r, r)
+        name = response_names().get(r, r)
         axes[i, 0].set_ylabel(require_unit(f"{name} [{unit}]" if unit else name, strict=False))
         lo, hi = min(lows), max(highs)
         mean = float(np.mean(ra["factors"][factors[0]]["level_means"]))
@@ -214,7 +214,7 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
     reg : dict
         :func:`berryshaker.experiment.analysis.quadratic_regression` output (with ``_scaling``).
     response : str
-        Response name; its unit from ``unit`` or :data:`berryshaker.report.style.RESPONSE_UNITS`.
+        Response name; its unit from ``unit`` or :func:`berryshaker.report.style.response_units`.
     model : callable, optional
         ``model(X) -> y`` for X (points, factors) in factor units, instead of the main-effects quadratic
         of ``reg`` (``reg`` may then be None).
@@ -272,8 +272,8 @@ def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, 
     for ax in axes.ravel()[len(pairs):]:
         ax.set_visible(False)
     used = list(axes.ravel()[: len(pairs)])
-    u = unit or RESPONSE_UNITS.get(response)
-    long = RESPONSE_NAMES.get(response, response)
+    u = unit or table_units().get(response)
+    long = response_names().get(response, response)
     colour_bar(fig, cs, used, f"{long} [{u}]" if u else long, strict=False)
     data["n_colorbars"] = 1
     fig.suptitle(f"{long}: main-effects quadratic model, other factors at their middle level; "

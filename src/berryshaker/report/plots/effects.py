@@ -15,8 +15,8 @@ import numpy as np
 from berryshaker.report.plots.figure_files import _out
 from berryshaker.report.style import (
     LEVEL_COLOURS,
-    RESPONSE_NAMES,
-    RESPONSE_UNITS,
+    response_names,
+    response_units,
     SERIES_COLOURS,
     label_axes,
     legend_outside,
@@ -239,7 +239,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         Files ``<prefix>pareto_<response>.png``, ``<prefix>residuals_<response>.png``,
         ``<prefix>interactions_<response>.png`` (SVG beside each).
     units : dict response -> unit, optional
-        Default :data:`berryshaker.report.style.RESPONSE_UNITS`.
+        Default :func:`berryshaker.report.style.response_units`.
     level_values, factor_units : dict, optional
         Level values (the factor's units) and unit per factor, for the interaction plots' axes.
     blocks : bool
@@ -255,7 +255,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
     from berryshaker.experiment.analysis import interaction_means, main_effect_residuals, standardized_effects
     from berryshaker.experiment.unbalanced import residuals_unbalanced, standardized_effects_unbalanced
 
-    units = {**RESPONSE_UNITS, **(units or {})}
+    units = {**response_units(), **(units or {})}
     names = []
     for name, y in observations.items():
         ra = (analysis.get("responses") or {}).get(name)
@@ -263,7 +263,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
             continue
         an = ra.get("anova") or {}
         err = an.get("error") or {}
-        long = RESPONSE_NAMES.get(name, name)
+        long = response_names().get(name, name)
         lost = np.ndim(y) == 2 and not np.isfinite(y).all()  # lost plots: the least-squares model of the analysis
         if lost:
             eff = standardized_effects_unbalanced(levels, y, factor_names, analysis.get("alpha", 0.05))
@@ -350,7 +350,7 @@ def write_doe_figures(fr, res, folder: Path) -> list[str]:
 
     folder = Path(folder)
     res = res.to_json()
-    units = {**RESPONSE_UNITS, **(getattr(fr, "response_units", None) or {})}
+    units = {**response_units(), **(getattr(fr, "response_units", None) or {})}
     known = {f: v for f, v in fr.level_values.items() if v is not None}
     if fr.replicates >= 2:  # error bars: 95 % intervals from the replicate (blocked) error
         plot_replicated_effects(res, list(res["responses"]), folder / "main_effects.png", level_values=known or None,

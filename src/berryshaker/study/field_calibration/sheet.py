@@ -160,7 +160,7 @@ class Sheet:
 
 def _filled_responses(path_or_text, worksheet: str | None = None) -> list[str]:
     """The calibrated responses a sheet has values for (an index column with a number, or the raw masses)."""
-    from berryshaker.experiment.field_columns import INDEX_NAMES, RAW_COLUMNS
+    from berryshaker.experiment.field_columns import RAW_COLUMNS, index_names
     from berryshaker.experiment.field_cells import sheet_table
 
     df = sheet_table(path_or_text, worksheet)
@@ -169,7 +169,7 @@ def _filled_responses(path_or_text, worksheet: str | None = None) -> list[str]:
               for c in RAW_COLUMNS)
     out = []
     for r in calibrated_responses():
-        col = INDEX_NAMES[r] if INDEX_NAMES[r] in df.columns else cols.get(r)
+        col = index_names()[r] if index_names()[r] in df.columns else cols.get(r)
         filled = col is not None and df[col].notna().any() and (df[col].astype(str).str.strip() != "").any()
         if filled or raw:
             out.append(r)
