@@ -36,6 +36,7 @@ from berryshaker.plant.spec import PlantSpec
 from berryshaker.quantity_fields import (
     Coefficient,
     Damping,
+    Force,
     Length,
     LengthNonNeg,
     Mass,
@@ -68,6 +69,12 @@ def _law_name(v: Any) -> str:
     if not isinstance(v, str) or v not in law_names():
         raise ValueError(f"unknown contact law {v!r}; registered laws: {', '.join(law_names())}")
     return v
+
+
+#: largest clearance of a pair as a fraction of its pin (roller) diameter that a description may give: radial
+#: clearance of a pin, free travel of a roller (a bound against a misread value, far above any service limit:
+#: berryshaker.life.service.SERVICE_FRACTION)
+MAX_CLEARANCE_FRACTION = 0.1
 
 
 class ClearancePair(StrictModel):
@@ -104,6 +111,9 @@ class ClearancePair(StrictModel):
     diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
     bearing_length: Length | None = None  # axial length of the contact (bush length, roller width)
     material_pair: str | None = None  # key of berryshaker.contact.wear.MATERIAL_PAIRS
+    # a roller pair whose roller runs on a rolling bearing (track roller, cam follower): its basic dynamic load
+    # rating C, for the ISO 281 basic rating life (berryshaker.life.contact_fatigue)
+    dynamic_load_rating: Force | None = None
 
     @model_validator(mode="before")
     @classmethod
@@ -119,6 +129,23 @@ class ClearancePair(StrictModel):
 
                 data = dict(data, law=LEGACY_LAW)
         return data
+
+    @model_validator(mode="after")
+    def _size_bounded(self) -> "ClearancePair":
+        # a clearance is a fraction of the part it is around: beyond MAX_CLEARANCE_FRACTION of the pin (roller)
+        # diameter the joint is no joint (12 mm radial on a 20 mm pin: the pin is loose in a hole twice its size)
+        d = self.geometry().diameter
+        if self.size > MAX_CLEARANCE_FRACTION * d:
+            which = "radial clearance" if self.kind == "pin-in-bore" else "free travel"
+            part = "pin" if self.kind == "pin-in-bore" else "roller"
+            raise ValueError(f"size = {self.size * 1e3:g} mm ({which}) is more than {MAX_CLEARANCE_FRACTION:.0%} of the "
+                             f"{d * 1e3:g} mm {part} diameter{'' if self.diameter is not None else ' (assumed)'}: "
+                             f"no working joint has it; give the size in mm (e.g. size = \"0.2 mm\") and the "
+                             f"{part}'s diameter (diameter = \"20 mm\"), at most {MAX_CLEARANCE_FRACTION * d * 1e3:g} mm")
+        if self.dynamic_load_rating is not None and self.kind == "pin-in-bore":
+            raise ValueError("dynamic_load_rating: a pin in a bore is a plain bearing, not a rolling bearing; give it "
+                             "only for a roller pair whose roller runs on a rolling bearing, or leave it out")
+        return self
 
     @model_validator(mode="after")
     def _fit_readable(self) -> "ClearancePair":

@@ -67,6 +67,10 @@ class Quantity(JsonRecord):
         The joint's service limit of clearance (mm) the service interval runs to (a service interval only).
     label : str, optional
         The quantity's name in the answers' tables (the loads and harvest indexes at the recommended set).
+    reads : str, optional
+        A service life as the report states it (no number beyond the machine's design life).
+    mechanism : str, optional
+        A service life's governing mechanism.
     """
 
     value: float | None
@@ -83,6 +87,8 @@ class Quantity(JsonRecord):
     material_pair: str | None = optional()
     limit_mm: float | None = optional()
     label: str | None = optional()
+    reads: str | None = optional()
+    mechanism: str | None = optional()
 
 
 @dataclass(frozen=True)
