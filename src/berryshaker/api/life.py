@@ -82,8 +82,8 @@ def fit_table(size_mm: float, fits: str | Sequence[str] | None = None) -> pd.Dat
 def service_limits(machine, joints: str | Sequence[str] | None = None) -> pd.DataFrame:
     """The clearance at which each joint is due for service, the default limit of ``berryshaker wear``.
 
-    A thin call of :func:`berryshaker.life.service.service_limits`: the larger of the joint's largest test level
-    and twice its design size (docs/life.md, "Service limit").
+    A thin call of :func:`berryshaker.life.service.service_limits`: the smaller of the joint's largest test level
+    and 2.5 % of its pin (roller) diameter, never its built size (docs/life.md, "Service limit").
 
     Parameters
     ----------
@@ -107,7 +107,7 @@ def service_limits(machine, joints: str | Sequence[str] | None = None) -> pd.Dat
     --------
     >>> from berryshaker import api
     >>> limits = api.service_limits(api.load_machine())
-    >>> bool((limits["service_limit [mm]"] > limits["design_size [mm]"]).all())
+    >>> bool((limits["service_limit [mm]"] <= limits["largest_test_level [mm]"]).all())
     True
     """
     from berryshaker.life.service import service_limits as limits_of

@@ -307,7 +307,7 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
     """Check a machine description: values, units, assembly over the cycle, cam undercut, and values orders of
     magnitude outside engineering ranges (warnings; errors with --strict).
 
-    Clearances and fits: a size beyond 10 % of its pin (roller) diameter and a fit whose smallest clearance is
+    Clearances and fits: a pin's radial clearance beyond 10 % of its diameter and a fit whose smallest clearance is
     larger than the described size (no part made to it is that tight) are errors; a size larger than the fit gives
     new is a worn state of it, a size beyond the pair's service limit a worn-out joint (notes).
     \f

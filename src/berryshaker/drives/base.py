@@ -71,9 +71,8 @@ def _law_name(v: Any) -> str:
     return v
 
 
-#: largest clearance of a pair as a fraction of its pin (roller) diameter that a description may give: radial
-#: clearance of a pin, free travel of a roller (a bound against a misread value, far above any service limit:
-#: berryshaker.life.service.SERVICE_FRACTION)
+#: largest radial clearance of a pin-in-bore pair as a fraction of its pin diameter that a description may give (a
+#: bound against a misread value, far above any service limit: berryshaker.life.service.SERVICE_FRACTION)
 MAX_CLEARANCE_FRACTION = 0.1
 
 
@@ -132,16 +131,15 @@ class ClearancePair(StrictModel):
 
     @model_validator(mode="after")
     def _size_bounded(self) -> "ClearancePair":
-        # a clearance is a fraction of the part it is around: beyond MAX_CLEARANCE_FRACTION of the pin (roller)
-        # diameter the joint is no joint (12 mm radial on a 20 mm pin: the pin is loose in a hole twice its size)
+        # a pin's clearance is a fraction of the pin: beyond MAX_CLEARANCE_FRACTION of its diameter the joint is no
+        # joint (12 mm radial on a 20 mm pin: the pin is loose in a hole twice its size); a roller's free travel is
+        # bounded by its drive's geometric limit (PairInfo.limit: 20 % of the roller radius)
         d = self.geometry().diameter
-        if self.size > MAX_CLEARANCE_FRACTION * d:
-            which = "radial clearance" if self.kind == "pin-in-bore" else "free travel"
-            part = "pin" if self.kind == "pin-in-bore" else "roller"
-            raise ValueError(f"size = {self.size * 1e3:g} mm ({which}) is more than {MAX_CLEARANCE_FRACTION:.0%} of the "
-                             f"{d * 1e3:g} mm {part} diameter{'' if self.diameter is not None else ' (assumed)'}: "
-                             f"no working joint has it; give the size in mm (e.g. size = \"0.2 mm\") and the "
-                             f"{part}'s diameter (diameter = \"20 mm\"), at most {MAX_CLEARANCE_FRACTION * d * 1e3:g} mm")
+        if self.kind == "pin-in-bore" and self.size > MAX_CLEARANCE_FRACTION * d:
+            raise ValueError(f"size = {self.size * 1e3:g} mm (radial clearance) is more than {MAX_CLEARANCE_FRACTION:.0%} "
+                             f"of the {d * 1e3:g} mm pin diameter{'' if self.diameter is not None else ' (assumed)'}: "
+                             "no working joint has it; give the radial clearance in mm (e.g. size = \"0.2 mm\") and "
+                             f"the pin's diameter (diameter = \"20 mm\"), at most {MAX_CLEARANCE_FRACTION * d * 1e3:g} mm")
         if self.dynamic_load_rating is not None and self.kind == "pin-in-bore":
             raise ValueError("dynamic_load_rating: a pin in a bore is a plain bearing, not a rolling bearing; give it "
                              "only for a roller pair whose roller runs on a rolling bearing, or leave it out")

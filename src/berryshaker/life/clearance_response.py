@@ -57,7 +57,7 @@ class ClearanceResponse:
         A roller: its revolutions per operating hour (1/h; mean over the starts).
     wear_scale : float
         The faster wear mode's k over the pair's nominal (lubricated) k (dimensionless,
-        :func:`berryshaker.life.service_life.wear_scale`): :meth:`service_hours` divides by it.
+        :func:`berryshaker.contact.wear.wear_scale`): :meth:`service_hours` divides by it.
     """
 
     joint: str
@@ -320,7 +320,7 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     from berryshaker.harvest.virtual import replicate_seeds
     from berryshaker.life.joint_loads import joint_geometry
     from berryshaker.life.runs import wear_rate_run
-    from berryshaker.life.service_life import wear_scale
+    from berryshaker.contact.wear import wear_scale
 
     starts = machine.harvest.replicates if starts is None else starts
     if int(starts) < 1:

@@ -240,7 +240,7 @@ def basic_rating_life(rating: float, load: float, kind: str = "roller") -> float
     Returns
     -------
     float
-        L10 (10^6 revolutions); infinite for P = 0.
+        L10 (10^6 revolutions, dimensionless count); infinite for P = 0.
 
     Raises
     ------

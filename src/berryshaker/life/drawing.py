@@ -52,7 +52,13 @@ class GrooveWidth:
         return 0.5 * (self.width_min + self.width_max)
 
     def note(self) -> str:
-        """The width and running clearance in words (mm), for the drawing's title block."""
+        """The width and running clearance in words (mm), for the drawing's title block.
+
+        Returns
+        -------
+        str
+            Width with its deviations, its tolerance and the running clearance (mm).
+        """
         d = self.roller_diameter * 1e3
         return (f"groove width {d:.3f} mm +{(self.width_max * 1e3 - d):.3f}/{(self.width_min * 1e3 - d):+.3f} "
                 f"({self.tolerance}); running clearance (free travel) {self.clearance_min * 1e3:.3f} .. "

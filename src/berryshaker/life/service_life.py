@@ -7,7 +7,8 @@ multibody engine on a grid of clearances from the new fit to the service limit) 
 
 * **wear by mode**: the clearance reaches the service limit (:func:`berryshaker.life.service.service_limit`) under
   lubricated (mild) wear, k of the pair's range (:data:`berryshaker.contact.wear.MATERIAL_PAIRS`), and under
-  abrasive field wear by soil and plant debris in the joint, k of :data:`ABRASIVE_WEAR` [assumed].  The growth
+  abrasive field wear by soil and plant debris in the joint, k of
+  :data:`berryshaker.contact.wear.ABRASIVE_WEAR` [assumed].  The growth
   rate scales with k / H (Archard 1953); the hours as 1 / k, so each mode's interval is its k range.
 * **contact fatigue** (:mod:`berryshaker.life.contact_fatigue`): the Hertz pressure of the static-equivalent load
   reaches the pair's shakedown limit.  This is the clearance-impact-wear loop (Flores 2009; Mukras et al. 2010):
@@ -29,15 +30,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from berryshaker.contact.wear import ABRASIVE_WEAR
 from berryshaker.records import JsonRecord, optional
 
 #: the machine's design life (operating hours) [assumed]: no interval beyond it is stated as a number
 DESIGN_LIFE_H = 20000.0
-#: abrasive wear of a greased joint with soil and plant debris in it (dimensionless Archard k: nominal, range)
-#: [assumed]: a diluted three-body abrasion; dry three-body abrasion has k ~ 1e-4..1e-3 and two-body ~1e-3..1e-2
-#: (Rabinowicz 1995, ch. 6; Hutchings 1992, sec. 6.2: three-body about an order of magnitude below two-body), and
-#: grease that holds the debris and a seal that keeps most of it out lower it by about a decade
-ABRASIVE_WEAR = (3e-5, (1e-5, 1e-4))
 
 
 @dataclass(frozen=True)
@@ -118,25 +115,6 @@ class JointLife(JsonRecord):
     design_life_h: float = DESIGN_LIFE_H
     pressure_MPa: float | None = optional()
     endurance_MPa: float | None = optional()
-
-
-def wear_scale(material_pair: str) -> float:
-    """The faster wear mode's Archard k over the pair's nominal (lubricated) k: max(k, k_abrasive) / k.
-
-    Parameters
-    ----------
-    material_pair : str
-        Key of :data:`berryshaker.contact.wear.MATERIAL_PAIRS`.
-
-    Returns
-    -------
-    float
-        The factor (>= 1, dimensionless).
-    """
-    from berryshaker.contact.wear import MATERIAL_PAIRS
-
-    k0 = MATERIAL_PAIRS[material_pair].wear_coefficient
-    return max(k0, ABRASIVE_WEAR[0]) / k0
 
 
 def reads(hours: float | None, lo: float | None, hi: float | None, design_life: float = DESIGN_LIFE_H) -> str:

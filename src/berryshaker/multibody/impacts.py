@@ -101,7 +101,7 @@ def episodes_from_log(first_row: np.ndarray, window: float) -> ContactEpisodes:
     Parameters
     ----------
     first_row : numpy.ndarray
-        The element's row (a row of N_FIRST columns has no log: no episodes).
+        The element's row (``layout.FIRST_*``: s, m/s, N, N s; a row of N_FIRST columns has no log: no episodes).
     window : float
         Length of the statistics window (s).
 

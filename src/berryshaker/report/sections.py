@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
+from berryshaker.report.life_tables import life_parts
 from berryshaker.reference_study import EQ18_F
 
 #: a section renderer: input -> (title without its number, HTML parts)
@@ -371,24 +372,8 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     return "Virtual L9 field test (Tables 7-8; Figs. 27-29)", parts
 
 
-def _fit_of(life, joint: str) -> str:
-    """The fit the new machine has at a joint: the drawing's, else none (its described size)."""
-    d = (life.drawing_fits or {}).get(joint)
-    return d.fit if d is not None else "none (described size)"
-
-
-def _mechanism_line(m) -> str:
-    """One mechanism's hours as a short line of the life table."""
-    from berryshaker.life.service_life import reads
-
-    if m.hours is None:
-        return f"{m.mechanism}: does not end the life ({m.note})"
-    return f"{m.mechanism}: {reads(m.hours, m.lo, m.hi)}"
-
-
 def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
-    """Clearance over the machine's life (study step ``clearance_life``): wear growth per joint and the
-    recommended fits.
+    """Clearance over the machine's life (study step ``clearance_life``): wear growth, service life and fits.
 
     Parameters
     ----------
@@ -410,27 +395,7 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
                             [[j, g.clearance_mm[0], g.clearance_mm[-1], life.clearance_limit_mm[j],
                               "beyond the design life" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
                               rec.fits.get(j, "")] for j, g in life.growth.items()]))
-        parts.append("<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the "
-                     "new machine's clearance is its fit's (below).  Service limit: "
-                     + html.escape(next(iter(life.life.values())).limit_rule if life.life else "see docs/life.md")
-                     + ".</p>")
-        if life.life:
-            parts.append("<h3>Service life of the new machine, by mechanism</h3>")
-            parts.append(_table(["joint", "fit (new machine)", "new clearance (mm)", "service life",
-                                 "governing mechanism", "dominant uncertainty", "other mechanisms"],
-                                [[j, _fit_of(life, j), f"{L.start_mm:.3g}", L.reads, L.governing, L.uncertainty,
-                                  _Raw("<br>".join(html.escape(_mechanism_line(m)) for m in L.mechanisms
-                                                   if m.mechanism != L.governing))]
-                                 for j, L in life.life.items()], left=(0, 1, 3, 4, 5, 6)))
-        fits = [("drawing", life.drawing_fits or {}), ("recommended", life.recommended_fits or {})]
-        rows = [[j, f"{src}: {fl.fit}", f"{fl.clearance_min_mm:.3g} .. {fl.clearance_max_mm:.3g} ({fl.clearance_mm:.3g})",
-                 fl.design_force_N, fl.life.reads, fl.life.governing]
-                for src, d in fits for j, fl in sorted(d.items())]
-        if rows:
-            parts.append("<h3>Fits (new machine): the drawing's and the recommended, each with its life</h3>")
-            parts.append(_table(["joint", "fit (new machine)", "clearance min .. max (mean), mm",
-                                 "static-equivalent force at the mean (N)", "service life", "governing mechanism"],
-                                rows, left=(0, 1, 2, 4, 5)))
+        parts += life_parts(life)
         parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     return "Clearance life: wear and fits (docs/life.md)", parts
