@@ -82,3 +82,19 @@ def test_pooled_runs_count_every_impact_once_and_empty_runs_are_nan():
     assert il.fatigue_equivalent_N == pytest.approx(fatigue_equivalent_load([1000.0] * 10 + [3000.0] * 10))
     none = impact_loads([_train([])])
     assert none.impacts == 0 and np.isnan(none.static_equivalent_N) and np.isnan(static_equivalent_load([]))
+
+
+def test_the_log_changes_no_step(monkeypatch):
+    """The episode log's extra interior-peak evaluations leave the state alone: a run without the log (``first``
+    of N_FIRST columns) takes the same steps and writes the same samples, peaks and first contacts."""
+    import berryshaker.multibody.layout as L
+
+    spec = load_mechanism(EXAMPLE)
+    with_log = simulate_mechanism(spec, duration=0.036)
+    monkeypatch.setattr(L, "first_columns", lambda window: L.N_FIRST)
+    without = simulate_mechanism(spec, duration=0.036)
+    assert without.first.shape[1] == L.N_FIRST < with_log.first.shape[1]
+    assert np.array_equal(with_log.info[:3], without.info[:3]) and np.array_equal(with_log.y, without.y)
+    assert np.array_equal(with_log.peaks, without.peaks)
+    assert np.array_equal(with_log.first[:, :L.N_FIRST], without.first)
+    assert len(without.contact_episodes("rod_slider").peak_N) == 0

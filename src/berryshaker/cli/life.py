@@ -481,14 +481,19 @@ def tolerance_cmd(
     if as_json:
         _print_json(res)
         return
+    from berryshaker.life.service_life import DESIGN_LIFE_H
+
+    def hours(h):  # never a number beyond the machine's design life
+        return f"{h:.0f} h" if h <= DESIGN_LIFE_H else f"> {DESIGN_LIFE_H:,.0f} h"
+
     rows = [[f"{k + 1}" + (" *" if k == res["recommended"]["index"] else ""), *[d["fits"][j] for j in design.joints],
-             f"{d['cost']:.2f}", f"{d['design_force_N']:.0f} N", f"{d['life_h']:.0f} h"] for k, d in enumerate(res["front"])]
+             f"{d['cost']:.2f}", f"{d['design_force_N']:.0f} N", hours(d["life_h"])] for k, d in enumerate(res["front"])]
     print_table(["#"] + design.joints + ["cost", "static-equivalent force", "interval"], rows,
                 title="Pareto front (cost, static-equivalent collision force, maintenance interval)",
                 justify=["right"] * (len(design.joints) + 4))
     rows = [[j, f"Ø{d['diameter_mm']:g} {d['fit']}", f"{d['clearance_min_mm']:.3f}..{d['clearance_max_mm']:.3f} mm",
              f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['design_force_N']:.0f} N",
-             f"{d['maintenance_interval_h']:.0f} h to {d['clearance_limit_mm']:g} mm"]
+             f"{hours(d['maintenance_interval_h'])} to {d['clearance_limit_mm']:g} mm"]
             for j, d in res["recommended"]["joints"].items()]
     print_table(("joint", "fit", "clearance (diametral)", "size", "static-equivalent force", "interval to limit"), rows,
                 title="recommended fit specification (*)", justify=("left",) * 2 + ("right",) * 4)

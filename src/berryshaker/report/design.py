@@ -169,7 +169,7 @@ def _fit_answers(life: dict, machine) -> dict:
     return out
 
 
-def _life_quantity(life: dict, where: str) -> Quantity:
+def _life_quantity(life: dict, where: str):
     """A joint's service life (:class:`berryshaker.life.service_life.JointLife` as JSON) as a quantity: the hours
     of its governing mechanism with that mechanism's interval, no number beyond the design life (``reads``)."""
     design = life["design_life_h"]

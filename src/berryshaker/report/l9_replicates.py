@@ -112,7 +112,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
         parts.append(_table(header, body, left=(0, len(header) - 1)))
         loads = (["candidate"] + [f"static-equivalent force {c.split(':')[1]} (N)" for c in forces]
-                 + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)])
+                 + ["drive torque peak, single maximum (N m)", "drive torque RMS (N m)"][:len(tq)])
         if len(loads) > 1:
             parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
         parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "

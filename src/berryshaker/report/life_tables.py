@@ -26,7 +26,8 @@ def _mechanism_line(m) -> str:
 
 
 def life_parts(life) -> list[str]:
-    """HTML parts: the worn-level note, the life of every joint by mechanism and the fits with their life.
+    """HTML parts: the growth from the described (worn) clearances, the worn-level note, the life of every joint by
+    mechanism and the fits with their life.
 
     Parameters
     ----------
@@ -36,15 +37,22 @@ def life_parts(life) -> list[str]:
     Returns
     -------
     list of str
-        HTML fragments (none for a record from before the life by mechanism).
+        HTML fragments (the growth table alone for a record from before the life by mechanism).
     """
+    rec = life.recommended
+    parts = [_table(["joint", "clearance (worn level, mm)", f"after {life.horizon_h:g} h (mm)", "service limit (mm)",
+                     "hours to the limit", "recommended fit"],
+                    [[j, g.clearance_mm[0], g.clearance_mm[-1] if g.hours[-1] >= life.horizon_h else
+                      f"at its limit after {g.hours[-1]:.0f} h", life.clearance_limit_mm[j],
+                      "beyond the design life" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
+                      rec.fits.get(j, "")] for j, g in life.growth.items()])]
     if not life.life:
-        return []
-    parts = ["<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the new "
+        return parts
+    parts += ["<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the new "
              "machine's clearance is its fit's (below).  Service limit: "
-             + html.escape(next(iter(life.life.values())).limit_rule) + ".</p>",
-             "<h3>Service life of the new machine, by mechanism</h3>",
-             _table(["joint", "fit (new machine)", "new clearance (mm)", "service life", "governing mechanism",
+              + html.escape(next(iter(life.life.values())).limit_rule) + ".</p>",
+              "<h3>Service life of the new machine, by mechanism</h3>",
+              _table(["joint", "fit (new machine)", "new clearance (mm)", "service life", "governing mechanism",
                      "dominant uncertainty", "other mechanisms"],
                     [[j, _fit_of(life, j), f"{L.start_mm:.3g}", L.reads, L.governing, L.uncertainty,
                       _Raw("<br>".join(html.escape(_mechanism_line(m)) for m in L.mechanisms

@@ -389,12 +389,6 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     parts = []
     life = inp.res.clearance_life
     if life is not None:
-        rec = life.recommended
-        parts.append(_table(["joint", "clearance (worn level, mm)", f"after {life.horizon_h:g} h (mm)",
-                             "service limit (mm)", "hours to the limit", "recommended fit"],
-                            [[j, g.clearance_mm[0], g.clearance_mm[-1], life.clearance_limit_mm[j],
-                              "beyond the design life" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
-                              rec.fits.get(j, "")] for j, g in life.growth.items()]))
         parts += life_parts(life)
         parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")

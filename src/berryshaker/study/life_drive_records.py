@@ -97,7 +97,8 @@ class ClearanceLife(JsonRecord):
     horizon_h : float
         Operating hours of the growth (h).
     growth : dict of str to ClearanceGrowth
-        Per joint its clearance over the hours (mm against h).
+        Per joint its clearance over the hours (mm against h) under the faster wear mode, ended where it reaches
+        its service limit.
     hours_to_limit : dict of str to float or None
         Per joint the hours from the described clearance (a worn level) to its service limit under the faster wear
         mode (h; None: not within the machine's design life).

@@ -22,6 +22,20 @@ from berryshaker.study.step_result import StepResult
 HORIZON_H = 2000.0
 
 
+def _growth_to_limit(hours: np.ndarray, c: np.ndarray, limit: float) -> ClearanceGrowth:
+    """A joint's clearance (m) over the hours (h), ended where it reaches its service limit (the joint is serviced
+    there: no clearance beyond it is drawn), the crossing interpolated."""
+    over = np.nonzero(c >= limit)[0]
+    if over.size:
+        i = int(over[0])
+        if i == 0:
+            hours, c = hours[:1], np.array([c[0]])
+        else:
+            h = float(np.interp(limit, [c[i - 1], c[i]], [hours[i - 1], hours[i]]))
+            hours, c = np.append(hours[:i], h), np.append(c[:i], limit)
+    return ClearanceGrowth(hours=[float(x) for x in hours], clearance_mm=[float(x) * 1e3 for x in c])
+
+
 def fit_life(machine, joint: str, fit: str, source: str, response, limit: float) -> FitLife:
     """A fit evaluated on a joint's surrogate: its new-machine clearance (ISO 286 limits), the joint's
     static-equivalent load at its mean and its service life from there.
@@ -101,8 +115,7 @@ def step_life(ctx):
     resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid",
                                starts=m.harvest.replicates)
     hours = np.linspace(0.0, HORIZON_H, 21)
-    growth = {j: ClearanceGrowth(hours=hours.tolist(), clearance_mm=(resp[j].grow(sizes[j], hours * resp[j].wear_scale) * 1e3).tolist())
-              for j in joints}
+    growth = {j: _growth_to_limit(hours, resp[j].grow(sizes[j], hours * resp[j].wear_scale), limits[j]) for j in joints}
     from berryshaker.life.joint_loads import joint_geometry
     from berryshaker.life.service_life import DESIGN_LIFE_H, joint_life
 

@@ -66,7 +66,6 @@ def response_units(pairs) -> dict[str, str]:
         Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for forces, "N m" for torques.
     """
     return {**{k: v[2] for k, v in HARVEST_RESPONSES.items()}, **{f"design_force_{p}": "N" for p in pairs},
-            **{f"peak_force_{p}": "N" for p in pairs},
             "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
 
 
@@ -74,9 +73,9 @@ def _cell(machine, outs: list[dict], pop) -> dict[str, float]:
     """One run's replicate: harvest indexes from its branch classes' envelopes, loads over its drive-pasts.
 
     Static-equivalent force (``design_force_<pair>``): the p95 of the impact peaks of all the start's drive-pasts
-    together (berryshaker.multibody.impacts); the single largest force (``peak_force_<pair>``, an extreme, not
-    analysed) and peak torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over all of
-    them (equal durations).
+    together (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); peak
+    torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over all of them (equal
+    durations).
     """
     from berryshaker.multibody.impacts import static_equivalent_load
 
@@ -85,7 +84,6 @@ def _cell(machine, outs: list[dict], pop) -> dict[str, float]:
     h = harvest_indexes(machine, [np.array(o["envelope"]) for o in outs], pop)
     out = {name: scale * float(h[key]) for name, (key, scale, _, _) in HARVEST_RESPONSES.items()}
     for p in machine.pair_names:
-        out[f"peak_force_{p}"] = max(float(o["peak_force_N"].get(p, float("nan"))) for o in outs)
         if all(p in o.get("impact_peaks_N", {}) for o in outs):
             out[f"design_force_{p}"] = static_equivalent_load(np.concatenate(
                 [np.asarray(o["impact_peaks_N"][p], float) for o in outs]))
