@@ -160,7 +160,8 @@ def wear(machine, hours: float = 2000.0, joints: str | Sequence[str] | None = No
         result (limits, governing limit, simulations, message).
     history : pandas.DataFrame
         One row per joint and wear state: ``joint``, ``hours [h]``, ``clearance [mm]`` and, for a wearing joint,
-        ``peak_force [N]``, ``mean_force [N]``, ``growth_rate [um/h]``.
+        ``design_force [N]`` (the static-equivalent load), ``peak_force [N]`` (the largest sample, an extreme),
+        ``mean_force [N]``, ``growth_rate [um/h]``.
 
     Raises
     ------
@@ -198,6 +199,7 @@ def wear(machine, hours: float = 2000.0, joints: str | Sequence[str] | None = No
                      "maintenance_interval [h]": math.nan if mi is None else mi})
         for k, h in enumerate(d["hours"]):
             hist.append({"joint": j, "hours [h]": h, "clearance [mm]": d["clearance_mm"][k],
+                         "design_force [N]": d["design_force_N"][k] if d["wears"] else math.nan,
                          "peak_force [N]": d["peak_force_N"][k] if d["wears"] else math.nan,
                          "mean_force [N]": d["mean_force_N"][k] if d["wears"] else math.nan,
                          "growth_rate [um/h]": d["growth_rate_um_per_h"][k] if d["wears"] else math.nan})

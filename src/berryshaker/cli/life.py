@@ -83,7 +83,7 @@ def _check_plot(plot: Optional[Path], kind: str) -> None:
 
         prepare_output_dir(plot, kind=kind)
 
-_LIMIT_DIMENSION = {"clearance": "length", "peak_force": "force", "mean_force": "force"}
+_LIMIT_DIMENSION = {"clearance": "length", "design_force": "force", "peak_force": "force", "mean_force": "force"}
 
 
 def parse_limit(spec: str) -> tuple[str, float]:
@@ -185,9 +185,9 @@ def _plot_wear(res: dict, folder: Path) -> list[str]:
 @command(app, "wear")
 def wear_cmd(
     hours: float = typer.Option(2000.0, "--hours", help="Operating hours to simulate."),
-    limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, "
-                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test "
-                                    "level or twice its size in the description, whichever is larger (docs/life.md)."),
+    limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, design_force:A=8000N (static-equivalent), peak_force:A=8000N, "
+                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, the smaller of its "
+                                    "largest test level and 2.5 % of its pin (roller) diameter (docs/life.md)."),
     joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
     revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200,
                                      help="Drive revolutions per simulation (2..200)."),
@@ -210,9 +210,9 @@ def wear_cmd(
     hours : float
         ``--hours``: Operating hours to simulate (h).
     limit : list[str]
-        ``--limit``: Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, mean_force:B=900N or
-        OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test level or twice its size in the
-        description, whichever is larger (docs/life.md).
+        ``--limit``: Service limit, repeatable: clearance:C=0.5mm, design_force:A=8000N (static-equivalent),
+        peak_force:A=8000N, mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, the smaller
+        of its largest test level and 2.5 % of its pin (roller) diameter (docs/life.md).
     joint : list[str]
         ``--joint``: Joints that wear (repeatable; default all pairs).
     revolutions : int

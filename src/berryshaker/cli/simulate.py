@@ -163,7 +163,7 @@ def simulate(
     print_table(("quantity", "clearance", "static-equivalent", "peak (extreme)", "mean", "rms"), rows,
                 title=f"{model} model - {machine.machine.name}")
     if any("static_equivalent" in st for st in summary["collision_force_N"].values()):
-        out.print("static-equivalent: the p95 of the pair's impact peaks over revolutions 2..N (the load to size "
+        out.print("static-equivalent: the p95 of the pair's impact peaks over the statistics window (the load to size "
                   "from, docs/life.md \"Sizing loads\"); peak: the run's single largest force, an extreme",
                   markup=False, highlight=False)
     if summary.get("load_moment_Nm"):
