@@ -109,7 +109,8 @@ def test_config_validate_bounds_clearances_and_checks_fits(tmp_path):
     r = run.invoke(app, ["config", "validate", str(p), "--json"])
     notes = __import__("json").loads(r.stdout)["notes"]
     assert r.exit_code == 0 and any("C: size 0.1 mm is a worn state of the fit H8/f7" in n for n in notes)
-    for size, msg in (("12 mm", "clearance.C: size = 12 mm (radial clearance) is more than 10% of the 20 mm pin"),
+    for size, msg in (("12 mm", "clearance.C.size = 12 mm is larger than the geometry allows (10% of the 20 mm pin "
+                                "diameter = 2 mm)"),
                       ("0.005 mm", "clearance.C.fit = 'H8/f7' gives 0.01 .. 0.037 mm (radial)")):
         p.write_text(text.replace('size = "0.1 mm"', f'size = "{size}"', 1))
         r = run.invoke(app, ["config", "validate", str(p)])

@@ -130,16 +130,7 @@ class ClearancePair(StrictModel):
         return data
 
     @model_validator(mode="after")
-    def _size_bounded(self) -> "ClearancePair":
-        # a pin's clearance is a fraction of the pin: beyond MAX_CLEARANCE_FRACTION of its diameter the joint is no
-        # joint (12 mm radial on a 20 mm pin: the pin is loose in a hole twice its size); a roller's free travel is
-        # bounded by its drive's geometric limit (PairInfo.limit: 20 % of the roller radius)
-        d = self.geometry().diameter
-        if self.kind == "pin-in-bore" and self.size > MAX_CLEARANCE_FRACTION * d:
-            raise ValueError(f"size = {self.size * 1e3:g} mm (radial clearance) is more than {MAX_CLEARANCE_FRACTION:.0%} "
-                             f"of the {d * 1e3:g} mm pin diameter{'' if self.diameter is not None else ' (assumed)'}: "
-                             "no working joint has it; give the radial clearance in mm (e.g. size = \"0.2 mm\") and "
-                             f"the pin's diameter (diameter = \"20 mm\"), at most {MAX_CLEARANCE_FRACTION * d * 1e3:g} mm")
+    def _rolling_bearing_only_on_rollers(self) -> "ClearancePair":
         if self.dynamic_load_rating is not None and self.kind == "pin-in-bore":
             raise ValueError("dynamic_load_rating: a pin in a bore is a plain bearing, not a rolling bearing; give it "
                              "only for a roller pair whose roller runs on a rolling bearing, or leave it out")
@@ -331,6 +322,14 @@ class MachineBase(StrictModel):
             if pair.kind != p.kind:
                 raise ValueError(f"clearance.{p.name}.kind must be {p.kind!r} ({p.joins}), got {pair.kind!r}")
             lim, what = p.limit(self)
+            d = pair.geometry().diameter
+            if pair.kind == "pin-in-bore" and MAX_CLEARANCE_FRACTION * d < lim:
+                # a pin's clearance is a fraction of the pin: beyond it the joint is no joint (12 mm radial on a
+                # 20 mm pin, which 10 % of a 120 mm arm allows, is a pin loose in a hole twice its size); a roller's
+                # free travel is bounded by its drive's limit (20 % of the roller radius)
+                lim = MAX_CLEARANCE_FRACTION * d
+                what = (f"{MAX_CLEARANCE_FRACTION:.0%} of the {d * 1e3:g} mm pin diameter"
+                        + ("" if pair.diameter is not None else " (assumed; give diameter = \"20 mm\")"))
             if pair.size > lim:
                 raise ValueError(f"clearance.{p.name}.size = {pair.size * 1e3:g} mm is larger than the geometry "
                                  f"allows ({what} = {lim * 1e3:g} mm)")
