@@ -9,8 +9,8 @@ tests/multibody/test_impacts_convergence.py).  Writes benchmarks/studies/results
 Two parts, each over ``--starts`` perturbed starts:
 
 * ``coupled``: the drive-past of the virtual L9's replicates (branch class 0, start k from
-  ``RandomInitialPerturbation((harvest.seed + 1000 k, 0), ...)``, as ``study.replicate_responses.replicate_jobs``)
-  at the configured clearances, at (rtol, bush modes) = the defaults (1e-5, 8), a tighter rtol (1e-6, 8) and more
+  ``RandomInitialPerturbation((harvest.seed + 1000 k, 0), ...)``)
+  at the configured clearances (independent perturbed starts), at (rtol, bush modes) = the defaults (1e-5, 8), a tighter rtol (1e-6, 8) and more
   modes (1e-5, 16);
 * ``machine``: the machine alone (``drives.simulation``'s mechanism, 3 cam revolutions: statistics over 2) at rtol
   1e-5 and 1e-6, the runs ``tolerance`` and the life step read.

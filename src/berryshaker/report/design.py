@@ -5,7 +5,7 @@ interval and the step it comes from (issue 45, item 1).
 :func:`berryshaker.report.html.study_report` is rendered from) and the machine description, and returns:
 
 * per joint: the recommended clearance (virtual L9) with its level-set name, the recommended ISO 286 fit with its
-  clearance range and service interval (clearance life), and the peak collision force at the recommended set
+  clearance range and service interval (clearance life), and the static-equivalent collision force at the recommended set
   (virtual L9, every start of that set);
 * the drive torque (peak, RMS) and the harvest indexes at the recommended set, with their intervals;
 * the operating point and why this efficiency (:mod:`berryshaker.report.harvest_answers`);
@@ -69,7 +69,7 @@ def claims_apply(machine) -> bool:
 
 
 def _joint_answers(summary: dict, machine) -> dict[str, JointAnswers]:
-    """Per joint: recommended clearance (L9), fit and service interval (life), peak collision force (L9)."""
+    """Per joint: recommended clearance (L9), fit and service life (life), static-equivalent collision force (L9)."""
     res = _results(summary)
     rec = _recommended(summary)
     opt = summary.get("optimum") or {}

@@ -25,7 +25,7 @@ class Source(JsonRecord):
         The study step (a key of :data:`berryshaker.report.design_html.STEP_SECTIONS`, which names its report
         section; "machine" for an input of the machine description).
     where : str
-        Where in that step's results (e.g. "recommended.replicates.peak_force_A").
+        Where in that step's results (e.g. "recommended.replicates.design_force_A").
     """
 
     step: str
@@ -125,7 +125,7 @@ def quantity(value, unit: str, lo=None, hi=None, interval: str = "", step: str =
         The study step the number comes from (a key of :data:`berryshaker.report.design_html.STEP_SECTIONS`,
         which names its report section).
     where : str
-        Where in that step's results (e.g. "recommended.replicates.peak_force_A").
+        Where in that step's results (e.g. "recommended.replicates.design_force_A").
     tag : str
         Provenance tag.
     **extra
