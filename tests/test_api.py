@@ -64,7 +64,7 @@ def test_kinematics_of_the_groove_cam_has_its_push_rod(machine):
 
 
 # ---- simulate --------------------------------------------------------------------------------------------
-SUMMARY_COLUMNS = ["kind", "clearance [mm]", "peak_force [N]", "mean_force [N]", "rms_force [N]", "p95_force [N]",
+SUMMARY_COLUMNS = ["kind", "clearance [mm]", "static_equivalent_force [N]", "peak_force [N]", "mean_force [N]", "rms_force [N]", "p95_force [N]",
                    "contact_onsets"]
 
 
@@ -264,7 +264,8 @@ def test_wear_is_machine_wear(machine, tmp_path):
     c = res["joints"]["C"]
     assert joints.loc["C", "start_clearance [mm]"] == c["clearance_mm"][0]
     assert joints.loc["C", "end_clearance [mm]"] == c["clearance_mm"][-1] > c["clearance_mm"][0]
-    assert list(history.columns) == ["joint", "hours [h]", "clearance [mm]", "peak_force [N]", "mean_force [N]",
+    assert list(history.columns) == ["joint", "hours [h]", "clearance [mm]", "design_force [N]", "peak_force [N]",
+                                     "mean_force [N]",
                                      "growth_rate [um/h]"]
     hc = history[history["joint"] == "C"]
     assert list(hc["clearance [mm]"]) == c["clearance_mm"] and list(hc["hours [h]"]) == c["hours"]

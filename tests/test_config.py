@@ -3,6 +3,7 @@
 import json
 import math
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -113,14 +114,38 @@ def test_cam_profile_exports(tmp_path):
     assert r.exit_code == 0, r.output
     doc = ezdxf.readfile(tmp_path / "g.dxf")
     polys = {e.dxf.layer: e for e in doc.modelspace().query("LWPOLYLINE")}
-    assert set(polys) == {"PITCH", "INNER_WALL", "OUTER_WALL"}
+    assert set(polys) == {"PITCH", "INNER_WALL", "OUTER_WALL", "INNER_WALL_MIN", "OUTER_WALL_MIN",
+                          "INNER_WALL_MAX", "OUTER_WALL_MAX"}
     assert all(p.closed for p in polys.values())
+    # the groove carries the running clearance (A = 0.25 mm free travel, no fit: an H8-wide band of 33 um above it)
+    note = doc.modelspace().query("MTEXT")[0].text
+    assert "running clearance (free travel) 0.250 .. 0.283 mm" in note and "H8" in note
+    pitch = np.array(polys["PITCH"].get_points("xy"))
+    for tag, width in (("", 30.2665), ("_MIN", 30.25), ("_MAX", 30.283)):
+        inner, outer = (np.array(polys[f"{w}_WALL{tag}"].get_points("xy")) for w in ("INNER", "OUTER"))
+        assert np.hypot(*(outer - inner).T) == pytest.approx(np.full(len(pitch), width), abs=1e-3)
     r = _kin(["cam-profile", "--format", "csv", "--out", str(tmp_path / "g.csv"), "--points", "361"])
     assert r.exit_code == 0
     lines = (tmp_path / "g.csv").read_text().splitlines()
     assert lines[0].startswith("cam_angle_deg,pitch_x_mm") and len(lines) == 362
+    assert lines[0].endswith("width_min_mm,width_max_mm,running_clearance_min_mm,running_clearance_max_mm")
+    assert [float(x) for x in lines[1].split(",")[-4:]] == pytest.approx([30.25, 30.283, 0.25, 0.283])
     first, last = lines[1].split(",")[1:], lines[-1].split(",")[1:]
-    assert [float(a) for a in first] == pytest.approx([float(b) for b in last], abs=1e-9)  # closed
+    assert [float(a) for a in first] == pytest.approx([float(b) for b in last], abs=2e-6)  # closed (to 1 nm printed)
+
+
+def test_cam_profile_groove_from_the_cam_pairs_fit(tmp_path):
+    """With clearance.A.fit = "H8/f7" the groove is H8 on the 30 mm roller (0 .. +33 um) and the running clearance
+    the fit's: 20 .. 74 um (ISO 286: f7 at 30 mm is -20/-41 um)."""
+    from berryshaker.config import load_machine
+    from berryshaker.life.drawing import groove_width
+
+    m = load_machine(None)
+    cl = dict(m.clearance)
+    cl["A"] = cl["A"].model_copy(update={"fit": "H8/f7"})
+    w = groove_width(m.model_copy(update={"clearance": cl}))
+    assert (w.width_min, w.width_max) == pytest.approx((0.030, 0.030033))
+    assert (w.clearance_min, w.clearance_max) == pytest.approx((20e-6, 74e-6))
 
 
 def test_config_init_show_validate(tmp_path):

@@ -158,6 +158,7 @@ NonNegAngle = Annotated[float, quantity_validator("angle"), Field(ge=0, json_sch
 AngularSpeed = Annotated[float, quantity_validator("angular_speed"), Field(gt=0, json_schema_extra=display_unit("rpm"))]
 Mass = Annotated[float, quantity_validator("mass"), Field(gt=0, json_schema_extra=display_unit("kg"))]
 Inertia = Annotated[float, quantity_validator("inertia"), Field(gt=0, json_schema_extra=display_unit("kg*m^2"))]
+Force = Annotated[float, quantity_validator("force"), Field(gt=0, json_schema_extra=display_unit("kN"))]
 Stiffness = Annotated[float, quantity_validator("stiffness"), Field(gt=0, json_schema_extra=display_unit("N/m"))]
 Damping = Annotated[float, quantity_validator("damping"), Field(ge=0, json_schema_extra=display_unit("N*s/m"))]
 TorsionalStiffness = Annotated[float, quantity_validator("torsional_stiffness"), Field(ge=0, json_schema_extra=display_unit("N*m/rad"))]

@@ -232,20 +232,18 @@ def test_clearance_size_from_fit():
 
 # ----------------------------------------------------------------------------------------------- service limit
 def test_one_service_limit_rule_for_every_caller():
-    """max(largest test level, 2 x design size): F of the reference machine (size = largest level, 0.2 mm) gets
-    0.4 mm, never a limit equal to its size ("service now" on a new machine); the tolerance design and the study's
-    name for the default limits give the same numbers."""
+    """min(largest test level, 2.5 % of the diameter): the reference machine's largest levels (A 0.75, B 0.6, C and F
+    0.2 mm) are below 2.5 % of their 30 mm rollers and 20 mm pins; the tolerance design and the study's name for
+    the default limits give the same numbers."""
     from berryshaker.config import load_machine
     from berryshaker.life.service import service_limit, service_limits
     from berryshaker.life.clearance_response import default_clearance_limits
 
     m = load_machine(None)
     lim = service_limits(m)
-    assert lim == pytest.approx({"A": 7.5e-4, "B": 6e-4, "C": 2e-4, "F": 4e-4})
-    sizes = m.clearance_sizes()
-    assert all(lim[j] > sizes[j] for j in lim)
+    assert lim == pytest.approx({"A": 7.5e-4, "B": 6e-4, "C": 2e-4, "F": 2e-4})
     assert default_clearance_limits(m, list(lim)) == lim  # the study's life step calls this name
-    assert service_limit(2e-4, 1e-4) == 2e-4 and service_limit(2e-4, 1.5e-4) == pytest.approx(3e-4)
+    assert service_limit(2e-4, 0.02) == 2e-4 and service_limit(8e-4, 0.02) == pytest.approx(5e-4)
     with pytest.raises(ConfigError, match="not a clearance pair"):
         service_limits(m, ["Z"])
 

@@ -42,7 +42,7 @@ KINEMATICS = {"combs": {"left": {"swing_deg": {"min": -9.4623, "max": 9.4623}, "
 def _paired(pairs) -> dict:
     """Paired differences (last - first level) per response and factor: the first factor beyond the noise."""
     out = {}
-    for n, unit_scale in (("efficiency", 0.1), ("ripe_removal", 1.0), ("damage", 0.2), ("peak_force_C", 800.0)):
+    for n, unit_scale in (("efficiency", 0.1), ("ripe_removal", 1.0), ("damage", 0.2), ("design_force_C", 800.0)):
         out[n] = {p: {"levels": [1, 3], "difference": unit_scale * (1.5 if i == 0 else 0.3),
                       "se": unit_scale * 0.4, "ci": [unit_scale * (1.5 - 0.9) if i == 0 else -unit_scale * 0.6,
                                                       unit_scale * (2.4 if i == 0 else 1.2)],
@@ -54,7 +54,7 @@ def _summary(rename: dict | None = None) -> dict:
     text = DATA.read_text(encoding="utf-8")
     for old, new in (rename or {}).items():  # the same results on another machine's pairs
         text = re.sub(rf'"{old}"', f'"{new}"', text)
-        text = re.sub(rf'(peak_force_|peak_force_N:|clearance_mm:){old}"', rf'\g<1>{new}"', text)
+        text = re.sub(rf'(design_force_|design_force_N:|clearance_mm:){old}"', rf'\g<1>{new}"', text)
     res = json.loads(text)
     pairs = list(res["l9"]["recommended"]["clearance_mm"])
     res["l9"]["paired"] = _paired(pairs)
@@ -101,7 +101,7 @@ def test_every_joint_has_its_answers(which, request):
     assert a.pairs == list(machine.pair_names) and set(a.joints) == set(machine.pair_names)
     for p, j in a.joints.items():
         assert isinstance(j, JointAnswers)
-        for key in ("clearance", "peak_force", "fit", "fit_clearance", "service_interval"):
+        for key in ("clearance", "design_force", "fit", "fit_clearance", "service_interval"):
             assert getattr(j, key) is not None, (p, key)
         assert j.clearance.value == summary["results"]["l9"]["recommended"]["clearance_mm"][p]
         assert re.fullmatch(r"H\d+/[a-z]+\d+", j.fit)
@@ -149,7 +149,7 @@ def test_claims_apply_only_on_the_studys_pairs(reference, crank):
 def test_differences_say_what_is_beyond_the_noise(reference):
     _, machine, a = reference
     d = a.differences
-    assert {x.response for x in d} == {"efficiency", "ripe_removal", "damage", "peak_force_C"}
+    assert {x.response for x in d} == {"efficiency", "ripe_removal", "damage", "design_force_C"}
     first = machine.pair_names[0]
     for x in d:
         assert isinstance(x, Difference)
@@ -316,11 +316,11 @@ def test_answers_round_trip_through_their_json_form(which, request):
 
 
 def test_a_quantity_keeps_its_keys_and_refuses_an_unknown_extra():
-    q = quantity(3, "N", 2, 4, "95 %", "virtual_l9", "recommended.replicates.peak_force_A", sd=0.5, n=8)
+    q = quantity(3, "N", 2, 4, "95 %", "virtual_l9", "recommended.replicates.design_force_A", sd=0.5, n=8)
     assert q.to_json() == {"value": 3.0, "unit": "N", "lo": 2.0, "hi": 4.0, "interval": "95 %",
-                           "source": {"step": "virtual_l9", "where": "recommended.replicates.peak_force_A"},
+                           "source": {"step": "virtual_l9", "where": "recommended.replicates.design_force_A"},
                            "tag": "[computed]", "sd": 0.5, "n": 8}
-    assert isinstance(q.value, float) and q.source == Source("virtual_l9", "recommended.replicates.peak_force_A")
+    assert isinstance(q.value, float) and q.source == Source("virtual_l9", "recommended.replicates.design_force_A")
     assert "label" not in q.to_json() and q.label is None  # an extra not given is left out
     with pytest.raises(TypeError, match="colour"):
         quantity(1.0, "mm", colour="red")
@@ -352,7 +352,7 @@ def test_json_form_keeps_the_keys_of_the_dicts(reference):
     an extra a quantity does not have is left out."""
     j = reference[2].to_json()
     joint = j["joints"]["A"]
-    assert list(joint) == ["clearance", "peak_force", "fit", "fit_clearance", "service_interval"]  # no peak force SE
+    assert list(joint) == ["clearance", "design_force", "fit", "fit_clearance", "service_interval"]  # no peak force SE
     assert list(joint["clearance"]) == ["value", "unit", "lo", "hi", "interval", "source", "tag", "basis"]
     assert list(joint["service_interval"])[-2:] == ["material_pair", "limit_mm"]
     assert list(j["loads"]["drive_torque_peak"])[-3:] == ["sd", "n", "label"]

@@ -332,7 +332,7 @@ def _tradeoff_records():
              "drive_torque_peak_Nm": torque, "drive_torque_peak_Nm_lo": torque - 33, "drive_torque_peak_Nm_hi": torque + 33,
              "dominated": not name.startswith(("run 1 ", "recommended"))}
         for p, f in zip("ABCF", (0.3 * force, 0.3 * force, force, 0.98 * force)):
-            r[f"peak_force_N:{p}"], r[f"peak_force_N:{p}_lo"], r[f"peak_force_N:{p}_hi"] = f, 0.75 * f, 1.25 * f
+            r[f"design_force_N:{p}"], r[f"design_force_N:{p}_lo"], r[f"design_force_N:{p}_hi"] = f, 0.75 * f, 1.25 * f
         recs.append(r)
     return recs
 

@@ -49,9 +49,9 @@ def test_life_figures_draw_their_data_in_the_style(tmp_path):
            "clearance.B.size": {"S1": None, "S1_conf": None, "ST": 0.05, "ST_conf": 0.02}}
     s = plot_sobol(ind, "collision_force_A_peak", tmp_path / "s.png", return_figure=True)
     assert s["bars"] == {"S1": [0.6, 0.0], "ST": [0.7, 0.05]}
-    front = [{"cost": 1.0, "peak_force_N": 5000.0, "life_h": 800.0}, {"cost": 2.0, "peak_force_N": 4000.0,
+    front = [{"cost": 1.0, "design_force_N": 5000.0, "life_h": 800.0}, {"cost": 2.0, "design_force_N": 4000.0,
                                                                         "life_h": 1500.0}]
-    f = plot_fit_front(front, {"cost": 2.0, "peak_force_N": 4000.0, "fits": {"A": "H7/f7"}}, tmp_path / "f.png",
+    f = plot_fit_front(front, {"cost": 2.0, "design_force_N": 4000.0, "fits": {"A": "H7/f7"}}, tmp_path / "f.png",
                        return_figure=True)
     np.testing.assert_array_equal(f["points"]["life_h"], [800.0, 1500.0])
     for data in (d, s, f):

@@ -198,8 +198,8 @@ def test_a_response_added_to_the_table_reaches_the_l9_and_its_report(virtual_jso
 def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json):
     s = virtual_json
     assert len(s["runs"]) == 9 and s["replicated"]["replicates"] == 2
-    names = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage", "peak_force_A", "peak_force_B",
-             "peak_force_C", "peak_force_F", "drive_torque_peak", "drive_torque_rms"]
+    names = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage", "design_force_A", "design_force_B",
+             "design_force_C", "design_force_F", "drive_torque_peak", "drive_torque_rms"]
     for run in s["runs"]:
         for n in names:
             est = run["replicates"][n]
@@ -241,7 +241,7 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
         assert set(run["expected"]) == set(harvest) and run["expected"]["efficiency"]["mean"] > 0
     rows = s["tradeoff"]
     assert len(rows) in (9, 10) and sum("recommended" in r["name"] for r in rows) == 1
-    for col in ("efficiency", "efficiency_lo", "efficiency_hi", "damage", "peak_force_N:A", "peak_force_N:F_hi",
+    for col in ("efficiency", "efficiency_lo", "efficiency_hi", "damage", "design_force_N:A", "design_force_N:F_hi",
                 "drive_torque_peak_Nm", "drive_torque_rms_Nm", "dominated", "dominated_by", "clearance_mm:A"):
         assert col in rows[0] and col in s["tradeoff_columns"]
     assert any(not r["dominated"] for r in rows)
@@ -264,7 +264,7 @@ def test_study_summary_and_report_sections(virtual_json, tmp_path):
     assert "replicate_sd" in summ["l9_replicates"]["responses"]["efficiency"]
     d = plot_tradeoff(s["tradeoff"], tmp_path / "l9_tradeoff.png")
     assert len(d["points"]) == len(s["tradeoff"])
-    e = plot_replicated_effects(s["replicated"], ["efficiency", "peak_force_A"], tmp_path / "l9_effects_harvest.png",
+    e = plot_replicated_effects(s["replicated"], ["efficiency", "design_force_A"], tmp_path / "l9_effects_harvest.png",
                                 units=s["response_units"])
     ra = s["replicated"]["responses"]["efficiency"]["factors"]["A"]
     np.testing.assert_allclose(e["responses"]["efficiency"]["factors"]["A"]["errors"],

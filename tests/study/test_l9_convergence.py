@@ -268,7 +268,7 @@ def test_tolerance_flags_a_force_that_falls_with_clearance_beyond_the_noise():
     assert [f["from_mm"] for f in falls.force_falls()] == [0.025]
     assert noise.force_falls() == [] and single.force_falls() == []  # within the noise; one run cannot tell
     (note,) = force_fall_notes({"C": falls, "A": noise, "B": single})
-    assert note.startswith("C: the mean peak force falls by 3") and "stiffens" in note and "paired" in note
+    assert note.startswith("C: the mean static-equivalent force falls by 3") and "stiffens" in note and "paired" in note
 
 
 def test_nothing_is_fitted_to_the_study_and_its_values_are_held_out(machine, convergence, spread_runner):

@@ -161,13 +161,15 @@ def test_study_outputs(study_out):
     # and they are the ones this input gives where its numbers decide by far (claim 2 turns on steps near the
     # noise of two starts, so only the rule above holds it):
     # 1: the four pairs agree at the model-check level (3-6 % against 20 %) but many single-run rows differ;
-    # 3: every clearance step raises every pair's peak force by 0.6-3.5 kN against standard errors of 0-45 N;
+    # 3: judged on the static-equivalent loads (p95 of the impact peaks): every step from no clearance to level 1
+    #    and A's and B's later steps rise by 1.7-3.5 kN far beyond the noise, but C's and F's later steps (0.3-0.5
+    #    kN) stay inside the paired t test's band with two starts (one degree of freedom): partly;
     # 4: holds by construction of the aggregate load (not tested);
     # 5: fruit peak forces of 0.07-0.33 N, each below its study range (root 0.25-0.4 N ... end 0.8-1.2 N);
     # 6: the end fruit's 0.3 N keeps the unripe fruit (mean pull strength 2.05 N), which eq. 17 wants picked;
     # 7, 8: with two replicates no harvest index differs beyond the noise (A's effect on efficiency: p ~ 0.5)
     verdicts = {c["id"]: c["verdict"] for c in saved["claims"]}
-    assert verdicts == {**verdicts, 1: "partly reproduced", 3: "reproduced", 4: "not tested", 5: "not reproduced",
+    assert verdicts == {**verdicts, 1: "partly reproduced", 3: "partly reproduced", 4: "not tested", 5: "not reproduced",
                         6: "not reproduced", 7: "not reproduced", 8: "not reproduced"}
     assert all(c["detail"] for c in saved["claims"])
     assert set(saved["optimum"]["clearance_mm"]) == set("ABCF")

@@ -82,8 +82,8 @@ def fit_table(size_mm: float, fits: str | Sequence[str] | None = None) -> pd.Dat
 def service_limits(machine, joints: str | Sequence[str] | None = None) -> pd.DataFrame:
     """The clearance at which each joint is due for service, the default limit of ``berryshaker wear``.
 
-    A thin call of :func:`berryshaker.life.service.service_limits`: the larger of the joint's largest test level
-    and twice its design size (docs/life.md, "Service limit").
+    A thin call of :func:`berryshaker.life.service.service_limits`: the smaller of the joint's largest test level
+    and 2.5 % of its pin (roller) diameter, never its built size (docs/life.md, "Service limit").
 
     Parameters
     ----------
@@ -107,7 +107,7 @@ def service_limits(machine, joints: str | Sequence[str] | None = None) -> pd.Dat
     --------
     >>> from berryshaker import api
     >>> limits = api.service_limits(api.load_machine())
-    >>> bool((limits["service_limit [mm]"] > limits["design_size [mm]"]).all())
+    >>> bool((limits["service_limit [mm]"] <= limits["largest_test_level [mm]"]).all())
     True
     """
     from berryshaker.life.service import service_limits as limits_of
@@ -160,7 +160,8 @@ def wear(machine, hours: float = 2000.0, joints: str | Sequence[str] | None = No
         result (limits, governing limit, simulations, message).
     history : pandas.DataFrame
         One row per joint and wear state: ``joint``, ``hours [h]``, ``clearance [mm]`` and, for a wearing joint,
-        ``peak_force [N]``, ``mean_force [N]``, ``growth_rate [um/h]``.
+        ``design_force [N]`` (the static-equivalent load), ``peak_force [N]`` (the largest sample, an extreme),
+        ``mean_force [N]``, ``growth_rate [um/h]``.
 
     Raises
     ------
@@ -198,6 +199,7 @@ def wear(machine, hours: float = 2000.0, joints: str | Sequence[str] | None = No
                      "maintenance_interval [h]": math.nan if mi is None else mi})
         for k, h in enumerate(d["hours"]):
             hist.append({"joint": j, "hours [h]": h, "clearance [mm]": d["clearance_mm"][k],
+                         "design_force [N]": d["design_force_N"][k] if d["wears"] else math.nan,
                          "peak_force [N]": d["peak_force_N"][k] if d["wears"] else math.nan,
                          "mean_force [N]": d["mean_force_N"][k] if d["wears"] else math.nan,
                          "growth_rate [um/h]": d["growth_rate_um_per_h"][k] if d["wears"] else math.nan})

@@ -133,6 +133,7 @@ def _joint_summary(summary: dict) -> pd.DataFrame:
             rows.append({"joint": joint,
                          "kind": _PAIR_KIND.get(states.get(joint), states.get(joint)) or kind,
                          "clearance [mm]": (summary.get("clearance_mm") or {}).get(joint, math.nan),
+                         "static_equivalent_force [N]": st.get("static_equivalent", math.nan),
                          "peak_force [N]": st["peak"], "mean_force [N]": st["mean"], "rms_force [N]": st["rms"],
                          "p95_force [N]": st.get("p95", math.nan),
                          "contact_onsets": onsets.get(joint, pd.NA) if group == "collision_force_N" else pd.NA})
@@ -203,8 +204,10 @@ def simulate(machine, clearance=None, model: str = "mlsd", revolutions: int = 3,
     summary : pandas.DataFrame
         One row per joint (index ``joint``): the clearance pairs, then for the MLSD the guide bearings G and H.
         Columns: ``kind`` ("clearance pair", "guide bearing", or "ideal joint (reaction force)" for a pair of zero
-        clearance in the multibody model), ``clearance [mm]`` (NaN for a bearing), ``peak_force [N]``, ``mean_force [N]``,
-        ``rms_force [N]``, ``p95_force [N]`` (magnitudes) and ``contact_onsets`` (impacts per pair).  The
+        clearance in the multibody model), ``clearance [mm]`` (NaN for a bearing), ``static_equivalent_force [N]``
+        (the p95 of the pair's impact peaks, the load to size from; multibody model only, else NaN),
+        ``peak_force [N]`` (the run's single largest force, an extreme), ``mean_force [N]``, ``rms_force [N]``,
+        ``p95_force [N]`` (magnitudes of the samples) and ``contact_onsets`` (impacts per pair).  The
         command's whole summary (drive and comb load moments in N m, integrator statistics) is in
         ``summary.attrs["summary"]``.
     series : pandas.DataFrame

@@ -83,7 +83,7 @@ def _check_plot(plot: Optional[Path], kind: str) -> None:
 
         prepare_output_dir(plot, kind=kind)
 
-_LIMIT_DIMENSION = {"clearance": "length", "peak_force": "force", "mean_force": "force"}
+_LIMIT_DIMENSION = {"clearance": "length", "design_force": "force", "peak_force": "force", "mean_force": "force"}
 
 
 def parse_limit(spec: str) -> tuple[str, float]:
@@ -185,9 +185,9 @@ def _plot_wear(res: dict, folder: Path) -> list[str]:
 @command(app, "wear")
 def wear_cmd(
     hours: float = typer.Option(2000.0, "--hours", help="Operating hours to simulate."),
-    limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, "
-                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test "
-                                    "level or twice its size in the description, whichever is larger (docs/life.md)."),
+    limit: list[str] = typer.Option([], "--limit", help="Service limit, repeatable: clearance:C=0.5mm, design_force:A=8000N (static-equivalent), peak_force:A=8000N, "
+                                    "mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, the smaller of its "
+                                    "largest test level and 2.5 % of its pin (roller) diameter (docs/life.md)."),
     joint: list[str] = typer.Option([], "--joint", help="Joints that wear (repeatable; default all pairs)."),
     revolutions: int = typer.Option(2, "--revolutions", "-n", min=2, max=200,
                                      help="Drive revolutions per simulation (2..200)."),
@@ -210,9 +210,9 @@ def wear_cmd(
     hours : float
         ``--hours``: Operating hours to simulate (h).
     limit : list[str]
-        ``--limit``: Service limit, repeatable: clearance:C=0.5mm, peak_force:A=8000N, mean_force:B=900N or
-        OUTPUT=VALUE (SI). Default: each joint's service limit, its largest test level or twice its size in the
-        description, whichever is larger (docs/life.md).
+        ``--limit``: Service limit, repeatable: clearance:C=0.5mm, design_force:A=8000N (static-equivalent),
+        peak_force:A=8000N, mean_force:B=900N or OUTPUT=VALUE (SI). Default: each joint's service limit, the smaller
+        of its largest test level and 2.5 % of its pin (roller) diameter (docs/life.md).
     joint : list[str]
         ``--joint``: Joints that wear (repeatable; default all pairs).
     revolutions : int
@@ -289,8 +289,9 @@ def _plot_sobol(res: dict, folder: Path) -> list[str]:
 
 @command(app, "sensitivity")
 def sensitivity_cmd(
-    output: list[str] = typer.Option([], "--output", help="Output name, repeatable (default: every pair's peak "
-                                     "collision force, collision_force_<pair>_peak)."),
+    output: list[str] = typer.Option([], "--output", help="Output name, repeatable (default: every pair's "
+                                     "static-equivalent collision force, collision_force_<pair>_static_equivalent, with "
+                                     "--model multibody; the reduced model's peak, collision_force_<pair>_peak)."),
     param: list[str] = typer.Option([], "--param", help="KEY=LO..HI[unit], repeatable, e.g. "
                                     "clearance.A.size=0.1..0.8mm (default: every pair over its test levels)."),
     samples: int = typer.Option(64, "--samples", "-N", help="Base sample N (power of two); runs = N (D + 2)."),
@@ -310,7 +311,8 @@ def sensitivity_cmd(
     Parameters
     ----------
     output : list[str]
-        ``--output``: Output name, repeatable (default: every pair's peak collision force,
+        ``--output``: Output name, repeatable (default: every pair's static-equivalent collision force,
+        collision_force_<pair>_static_equivalent, with --model multibody; the reduced model's peak,
         collision_force_<pair>_peak).
     param : list[str]
         ``--param``: KEY=LO..HI[unit], repeatable, e.g. clearance.A.size=0.1..0.8mm (default: every pair over its
@@ -348,7 +350,9 @@ def sensitivity_cmd(
     if model is None:
         model = "mlsd" if drive_of(machine).reduced_model is not None else "multibody"
     params = [parse_sensitivity_param(p) for p in param] if param else default_clearance_params(machine)
-    outputs = output or [f"collision_force_{p}_peak" for p in machine.pair_names]
+    # the multibody runs' sizing load of the impacts; the reduced model has no impacts to count: its peak
+    stat = "static_equivalent" if model == "multibody" else "peak"
+    outputs = output or [f"collision_force_{p}_{stat}" for p in machine.pair_names]
     with _runner(workers, scheduler, cache, progress=not as_json) as runner:
         res = machine_sobol(machine, params, outputs, samples, runner, model, revolutions, seed)
         res["runner"] = runner.summary_line()
@@ -413,7 +417,7 @@ def tolerance_cmd(
     as_json: bool = JsonOpt,
     plot: Optional[Path] = PlotOpt,
 ):
-    """Choose a fit per joint: Pareto front of cost, peak collision force and life (NSGA-II on a cached surrogate
+    """Choose a fit per joint: Pareto front of cost, static-equivalent collision force and life (NSGA-II on a cached surrogate
     of a few multibody runs per joint) and the recommended fit specification.
     \f
 
@@ -477,16 +481,21 @@ def tolerance_cmd(
     if as_json:
         _print_json(res)
         return
+    from berryshaker.life.service_life import DESIGN_LIFE_H
+
+    def hours(h):  # never a number beyond the machine's design life
+        return f"{h:.0f} h" if h <= DESIGN_LIFE_H else f"> {DESIGN_LIFE_H:,.0f} h"
+
     rows = [[f"{k + 1}" + (" *" if k == res["recommended"]["index"] else ""), *[d["fits"][j] for j in design.joints],
-             f"{d['cost']:.2f}", f"{d['peak_force_N']:.0f} N", f"{d['life_h']:.0f} h"] for k, d in enumerate(res["front"])]
-    print_table(["#"] + design.joints + ["cost", "peak force", "interval"], rows,
-                title="Pareto front (cost, peak collision force, maintenance interval)",
+             f"{d['cost']:.2f}", f"{d['design_force_N']:.0f} N", hours(d["life_h"])] for k, d in enumerate(res["front"])]
+    print_table(["#"] + design.joints + ["cost", "static-equivalent force", "interval"], rows,
+                title="Pareto front (cost, static-equivalent collision force, maintenance interval)",
                 justify=["right"] * (len(design.joints) + 4))
     rows = [[j, f"Ø{d['diameter_mm']:g} {d['fit']}", f"{d['clearance_min_mm']:.3f}..{d['clearance_max_mm']:.3f} mm",
-             f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['peak_force_N']:.0f} N",
-             f"{d['maintenance_interval_h']:.0f} h to {d['clearance_limit_mm']:g} mm"]
+             f"{d['size_mm']:.4f} mm {d['size_convention']}", f"{d['design_force_N']:.0f} N",
+             f"{hours(d['maintenance_interval_h'])} to {d['clearance_limit_mm']:g} mm"]
             for j, d in res["recommended"]["joints"].items()]
-    print_table(("joint", "fit", "clearance (diametral)", "size", "peak force", "interval to limit"), rows,
+    print_table(("joint", "fit", "clearance (diametral)", "size", "static-equivalent force", "interval to limit"), rows,
                 title="recommended fit specification (*)", justify=("left",) * 2 + ("right",) * 4)
     for n in res["notes"]:
         out.print(f"- {n}", markup=False)

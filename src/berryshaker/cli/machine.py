@@ -155,15 +155,20 @@ def _cam_profile_format(out_file: Path, fmt: Optional[str]) -> str:
 def cam_profile(
     out_file: Path = typer.Option(..., "--out", "-o", help="Output file, *.csv or *.dxf (the extension sets the "
                                   "format)."),
-    fmt: Optional[str] = typer.Option(None, "--format", "-f", help="csv (angle + pitch/inner/outer in mm) or dxf "
-                                      "(closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL). Default: from the "
-                                      "extension of --out."),
+    fmt: Optional[str] = typer.Option(None, "--format", "-f", help="csv (angle + pitch/inner/outer in mm, the tolerance "
+                                      "band's walls and the width and running clearance) or dxf (closed polylines, mm, "
+                                      "layers PITCH/INNER_WALL/OUTER_WALL, the band on *_MIN/*_MAX, the numbers on "
+                                      "NOTES). Default: from the extension of --out."),
     config: Optional[Path] = ConfigOpt,
     points: int = typer.Option(1441, "--points", min=90, max=CAM_PROFILE_MAX_POINTS,
                                help=f"Points per revolution (90..{CAM_PROFILE_MAX_POINTS})."),
     force: bool = typer.Option(False, "--force", help="Replace an existing file."),
 ):
-    """Export the groove walls of the cam (study eq. 2, corrected) for CAM.
+    """Export the groove walls of the cam (study eq. 2, corrected) for CAM, at the groove width of the drawing.
+
+    The width is the roller diameter plus the running clearance with its tolerance band: from the cam pair's fit
+    (clearance.A.fit, hole = groove, shaft = roller), else the described clearance plus an H8-wide band [assumed].
+    The walls are at the band's middle; the band's limits and the numbers are written beside them.
     \f
 
     Parameters
@@ -171,8 +176,9 @@ def cam_profile(
     out_file : Path
         ``--out``: Output file, ``*.csv`` or ``*.dxf`` (the extension sets the format).
     fmt : str, optional
-        ``--format``: csv (angle + pitch/inner/outer in mm) or dxf (closed polylines, mm, layers
-        PITCH/INNER_WALL/OUTER_WALL). Default: from the extension of --out.
+        ``--format``: csv (angle + pitch/inner/outer in mm, the tolerance band's walls and the width and running
+        clearance) or dxf (closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL, the band on *_MIN/*_MAX, the
+        numbers on NOTES). Default: from the extension of --out.
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
     points : int
@@ -195,10 +201,13 @@ def cam_profile(
         if machine.DRIVE != "groove_cam":
             raise BerryshakerError(f"cam-profile exports a groove cam; the {machine.DRIVE} drive has none")
         check_machine(machine)
+        from berryshaker.life.drawing import groove_width
+
+        width = groove_width(machine)
         if fmt == "csv":
-            write_groove_csv(machine, out_file, points)
+            write_groove_csv(machine, out_file, points, width)
         else:
-            write_groove_dxf(machine, out_file, points)
+            write_groove_dxf(machine, out_file, points, width)
             # the DXF writer saves through tempfile.mkstemp (mode 0600) and renames: give it the mode of every
             # other output, 0666 less the umask (as report.files.write_text_atomic does for the CSV)
             mask = os.umask(0)
@@ -207,7 +216,7 @@ def cam_profile(
     except BerryshakerError as exc:
         _fail(exc)
         return
-    err.print(f"wrote {out_file} ({fmt}, {points} points per wall)", markup=False, highlight=False)
+    err.print(f"wrote {out_file} ({fmt}, {points} points per wall; {width.note()})", markup=False, highlight=False)
 
 
 @command(config_app, "show")
@@ -297,6 +306,10 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
                     as_json: bool = JsonOpt):
     """Check a machine description: values, units, assembly over the cycle, cam undercut, and values orders of
     magnitude outside engineering ranges (warnings; errors with --strict).
+
+    Clearances and fits: a pin's radial clearance beyond 10 % of its diameter and a fit whose smallest clearance is
+    larger than the described size (no part made to it is that tight) are errors; a size larger than the fit gives
+    new is a worn state of it, a size beyond the pair's service limit a worn-out joint (notes).
     \f
 
     Parameters
@@ -310,9 +323,13 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
     """
     try:
         from berryshaker.config import validate_machine
+        from berryshaker.life.drawing import fit_checks
 
         machine = _load(path)
         warnings = validate_machine(machine, strict=strict)
+        errors, notes = fit_checks(machine)
+        if errors:
+            raise BerryshakerError(f"{path}: " + "; ".join(errors))
     except BerryshakerError as exc:
         if as_json:
             _print_json({"valid": False, "error": str(exc)})
@@ -320,9 +337,11 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
         _fail(exc)
         return
     if as_json:
-        _print_json({"valid": True, "machine": machine.machine.name, "warnings": warnings})
+        _print_json({"valid": True, "machine": machine.machine.name, "warnings": warnings, "notes": notes})
     else:
         for w in warnings:
             err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+        for n in notes:
+            err.print(f"note: {escape(n)}", highlight=False)
         out.print(f"[green]valid[/]: {escape(str(path))} ({escape(machine.machine.name)})"
                   + (f" with {len(warnings)} warning(s)" if warnings else ""))

@@ -60,7 +60,8 @@ def simulate(
     """Collision forces of the clearance joints, comb load moments and drive moment over time.
 
     Statistics (peak, mean, rms of force magnitudes) are over whole cam revolutions after the first;
-    peaks are taken over every integrator step.
+    peaks are taken over every integrator step.  The multibody model also gives each pair's static-equivalent
+    load, the p95 of its impact peaks: the load to size from (a run's single peak is an extreme).
     \f
 
     Parameters
@@ -145,19 +146,26 @@ def simulate(
         return
     rows = []
     for pair, st in summary["collision_force_N"].items():
-        rows.append([f"collision force {pair}", f"{summary['clearance_mm'][pair]:.3g} mm", f"{st['peak']:.1f} N",
+        design = f"{st['static_equivalent']:.1f} N" if "static_equivalent" in st else "-"
+        rows.append([f"collision force {pair}", f"{summary['clearance_mm'][pair]:.3g} mm", design, f"{st['peak']:.1f} N",
                      f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for side, st in summary["load_moment_Nm"].items():
-        rows.append([f"{side} comb load moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
+        rows.append([f"{side} comb load moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
                      f"{st['rms']:.2f} N·m"])
     st = summary["drive_moment_Nm"]
-    rows.append(["cam drive moment", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
+    rows.append(["cam drive moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
     for b, st in summary.get("bearing_reaction_N", {}).items():
-        rows.append([f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
+        rows.append([f"guide reaction {b}", "", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for b, st in summary.get("guide_reaction_N", {}).items():
         if isinstance(st, dict):
-            rows.append([f"guide reaction {b}", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
-    print_table(("quantity", "clearance", "peak", "mean", "rms"), rows, title=f"{model} model - {machine.machine.name}")
+            rows.append([f"guide reaction {b}", "", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N",
+                         f"{st['rms']:.1f} N"])
+    print_table(("quantity", "clearance", "static-equivalent", "peak (extreme)", "mean", "rms"), rows,
+                title=f"{model} model - {machine.machine.name}")
+    if any("static_equivalent" in st for st in summary["collision_force_N"].values()):
+        out.print("static-equivalent: the p95 of the pair's impact peaks over the statistics window (the load to size "
+                  "from, docs/life.md \"Sizing loads\"); peak: the run's single largest force, an extreme",
+                  markup=False, highlight=False)
     if summary.get("load_moment_Nm"):
         out.print(load_moment_note(summary.get("load_model") or "aggregate (no plant in this run)"), markup=False,
                   highlight=False)

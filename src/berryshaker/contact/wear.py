@@ -312,3 +312,27 @@ def material_pair(name: str) -> MaterialPair:
         return MATERIAL_PAIRS[name]
     except KeyError:
         raise ConfigError(f"unknown material pair {name!r}; known pairs: {', '.join(MATERIAL_PAIRS)}") from None
+
+
+#: abrasive wear of a greased joint with soil and plant debris in it (dimensionless Archard k: nominal, range)
+#: [assumed]: a diluted three-body abrasion; dry three-body abrasion has k ~ 1e-4..1e-3 and two-body ~1e-3..1e-2
+#: (Rabinowicz 1995, ch. 6; Hutchings 1992, sec. 6.2: three-body about an order of magnitude below two-body), and
+#: grease that holds the debris and a seal that keeps most of it out lower it by about a decade
+ABRASIVE_WEAR = (3e-5, (1e-5, 1e-4))
+
+
+def wear_scale(material_pair: str) -> float:
+    """The faster wear mode's Archard k over the pair's nominal (lubricated) k: max(k, k_abrasive) / k.
+
+    Parameters
+    ----------
+    material_pair : str
+        Key of :data:`berryshaker.contact.wear.MATERIAL_PAIRS`.
+
+    Returns
+    -------
+    float
+        The factor (>= 1, dimensionless).
+    """
+    k0 = MATERIAL_PAIRS[material_pair].wear_coefficient
+    return max(k0, ABRASIVE_WEAR[0]) / k0

@@ -36,6 +36,7 @@ from berryshaker.plant.spec import PlantSpec
 from berryshaker.quantity_fields import (
     Coefficient,
     Damping,
+    Force,
     Length,
     LengthNonNeg,
     Mass,
@@ -68,6 +69,11 @@ def _law_name(v: Any) -> str:
     if not isinstance(v, str) or v not in law_names():
         raise ValueError(f"unknown contact law {v!r}; registered laws: {', '.join(law_names())}")
     return v
+
+
+#: largest radial clearance of a pin-in-bore pair as a fraction of its pin diameter that a description may give (a
+#: bound against a misread value, far above any service limit: berryshaker.life.service.SERVICE_FRACTION)
+MAX_CLEARANCE_FRACTION = 0.1
 
 
 class ClearancePair(StrictModel):
@@ -104,6 +110,9 @@ class ClearancePair(StrictModel):
     diameter: Length | None = None  # pin diameter (pin-in-bore) or roller diameter (roller pairs)
     bearing_length: Length | None = None  # axial length of the contact (bush length, roller width)
     material_pair: str | None = None  # key of berryshaker.contact.wear.MATERIAL_PAIRS
+    # a roller pair whose roller runs on a rolling bearing (track roller, cam follower): its basic dynamic load
+    # rating C, for the ISO 281 basic rating life (berryshaker.life.contact_fatigue)
+    dynamic_load_rating: Force | None = None
 
     @model_validator(mode="before")
     @classmethod
@@ -119,6 +128,13 @@ class ClearancePair(StrictModel):
 
                 data = dict(data, law=LEGACY_LAW)
         return data
+
+    @model_validator(mode="after")
+    def _rolling_bearing_only_on_rollers(self) -> "ClearancePair":
+        if self.dynamic_load_rating is not None and self.kind == "pin-in-bore":
+            raise ValueError("dynamic_load_rating: a pin in a bore is a plain bearing, not a rolling bearing; give it "
+                             "only for a roller pair whose roller runs on a rolling bearing, or leave it out")
+        return self
 
     @model_validator(mode="after")
     def _fit_readable(self) -> "ClearancePair":
@@ -306,6 +322,14 @@ class MachineBase(StrictModel):
             if pair.kind != p.kind:
                 raise ValueError(f"clearance.{p.name}.kind must be {p.kind!r} ({p.joins}), got {pair.kind!r}")
             lim, what = p.limit(self)
+            d = pair.geometry().diameter
+            if pair.kind == "pin-in-bore" and MAX_CLEARANCE_FRACTION * d < lim:
+                # a pin's clearance is a fraction of the pin: beyond it the joint is no joint (12 mm radial on a
+                # 20 mm pin, which 10 % of a 120 mm arm allows, is a pin loose in a hole twice its size); a roller's
+                # free travel is bounded by its drive's limit (20 % of the roller radius)
+                lim = MAX_CLEARANCE_FRACTION * d
+                what = (f"{MAX_CLEARANCE_FRACTION:.0%} of the {d * 1e3:g} mm pin diameter"
+                        + ("" if pair.diameter is not None else " (assumed; give diameter = \"20 mm\")"))
             if pair.size > lim:
                 raise ValueError(f"clearance.{p.name}.size = {pair.size * 1e3:g} mm is larger than the geometry "
                                  f"allows ({what} = {lim * 1e3:g} mm)")

@@ -44,7 +44,10 @@ def drive_moment(result: MultibodyResult) -> np.ndarray:
 
 def multibody_summary(machine, result: MultibodyResult) -> dict:
     """The JSON of ``simulate --model multibody``: collision force per pair (N), comb load moments (N m), drive
-    moment (N m), contact onsets, integrator statistics.
+    moment (N m), contact onsets, integrator statistics.  A clearance pair's collision force has, beside the
+    statistics of its written series (``peak``: the run's single largest force over every step, an extreme;
+    ``mean``, ``rms``, ``p95`` of the samples), the sizing loads of its impacts (:func:`impact_loads_of`:
+    ``static_equivalent``, ``fatigue_equivalent``).
 
     Statistics are over revolutions 2..N (the first is the start-up from the centred joints).  A pair with zero
     clearance reports its ideal joint's reaction force, not a collision force (``pair_state`` says which).
@@ -97,6 +100,9 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
             out[group] = st
         else:
             out[group][name] = st
+    for p in machine.pair_names:
+        if out["pair_state"][p] == "clearance":
+            out["collision_force_N"][p].update(impact_loads_of(result, p))
     if out["load_moment_Nm"]:  # a run without a plant: the comb's load is the aggregate model (docs/plant.md)
         out["load_model"] = "aggregate (no plant in this run)"
     out["drive_moment_Nm"]["mean_abs"] = out["drive_moment_Nm"]["mean"]
@@ -112,6 +118,30 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
         shaft = cm.spec.bodies[int(cm.model.fint[cm.frc_names.index("mesh"), 1])].name
         out.update(driveline_summary(result, shaft))
     return out
+
+
+def impact_loads_of(result: MultibodyResult, pair: str) -> dict[str, float]:
+    """The sizing loads of a clearance pair from its impacts over the run's statistics window
+    (:func:`berryshaker.multibody.impacts.impact_loads`): ``static_equivalent`` (the p95 of the impact peaks) and
+    ``fatigue_equivalent`` (ISO 281's mean equivalent load of the impact peaks, exponent 3), both N; NaN for a run
+    without impacts.
+
+    Parameters
+    ----------
+    result : MultibodyResult
+        The run.
+    pair : str
+        A clearance pair with its clearance element in the run.
+
+    Returns
+    -------
+    dict of str to float
+        The two loads (N).
+    """
+    from berryshaker.multibody.impacts import impact_loads
+
+    il = impact_loads([result.contact_episodes(pair)])
+    return {"static_equivalent": il.static_equivalent_N, "fatigue_equivalent": il.fatigue_equivalent_N}
 
 
 def contact_onsets(result: MultibodyResult, pairs) -> dict[str, int]:

@@ -140,24 +140,29 @@ def clearance_table(base, run: em.MechanismRun, changed: set) -> str:
     Returns
     -------
     str
-        One row per pair: clearance (mm, tagged), peak, mean and rms |force| (N), impacts over revolutions 2..N;
+        One row per pair: clearance (mm, tagged), static-equivalent load (multibody runs), peak (the extreme),
+        mean and rms |force| (N), impacts over revolutions 2..N;
         the drive moment below.
     """
     s = run.summary
     tag = f"[computed: {run.model} model, revolutions 2..{em.REVOLUTIONS}]"
-    lines = ["| joint | clearance | peak force | mean force | rms force | impacts |", "|---|---|---|---|---|---|"]
+    lines = ["| joint | clearance | static-equivalent force | peak force (extreme) | mean force | rms force | impacts |",
+             "|---|---|---|---|---|---|---|"]
     onsets = s.get("contact_onsets", {})
     for p in run.machine.pair_names:
         st = s["collision_force_N"][p]
         size = run.machine.clearance_sizes()[p] * 1e3
-        lines.append(f"| {p} | {size:.3f} mm [{em.provenance_tag(base, f'clearance.{p}.size', changed)}] | "
+        design = f"{st['static_equivalent']:.1f} N" if "static_equivalent" in st else "-"
+        lines.append(f"| {p} | {size:.3f} mm [{em.provenance_tag(base, f'clearance.{p}.size', changed)}] | {design} | "
                      f"<span class='peak' id='peak-{p}'>{st['peak']:.1f}</span> N | {st['mean']:.1f} N | "
                      f"{st['rms']:.1f} N | {onsets.get(p, '')} |")
     out = "\n".join(lines)
     dm = s.get("drive_moment_Nm", {})
     if dm:
         out += f"\n\nDrive moment: peak {dm['peak']:.1f} N m, rms {dm['rms']:.1f} N m.  "
-    out += f"\nForces and impacts {tag}; forces are magnitudes, peaks over every integrator step."
+    out += (f"\nForces and impacts {tag}; forces are magnitudes; static-equivalent: the p95 of the impact peaks (the "
+            "multibody model; a load to size from), peak: the run's single largest force over every integrator step "
+            "(an extreme).")
     return out
 
 

@@ -1,12 +1,13 @@
 """The clearance response surrogate of the tolerance design (:mod:`berryshaker.life.tolerance`): per joint, its
-peak collision force and Archard growth rate against its own clearance, from a small grid of multibody runs.
+static-equivalent collision force and Archard growth rate against its own clearance, from a small grid of multibody runs.
 
 A one-at-a-time grid (``n_points`` clearances per joint, the other joints at the description's sizes) of multibody
-runs through the cached sweep runner gives, per joint, its peak collision force and growth rate against its own
+runs through the cached sweep runner gives, per joint, its static-equivalent collision force (the p95 of its impact peaks,
+berryshaker.multibody.impacts) and growth rate against its own
 clearance; the design works on their linear interpolants.  Each grid point is the mean over ``starts`` perturbed
-starts (default ``harvest.replicates``; the same starts at every point): one run's peak of a chaotic impact
-sequence varies by 10-30 % from start to start, so a single run would rank fits on noise.  The standard error and
-the 95th percentile of the peak over the starts are kept beside the mean, and a force that falls with growing
+starts (default ``harvest.replicates``; the same starts at every point): a run's single largest force of a chaotic impact
+sequence varies by 10-30 % from start to start and is no load, so a single run would rank fits on noise.  The standard error and
+the 95th percentile of the load over the starts are kept beside the mean, and a force that falls with growing
 clearance beyond that noise is found by a paired t test over the starts (:meth:`ClearanceResponse.force_falls`).
 Interactions between joints are therefore ignored, and the force at clearances below :data:`GRID_FLOOR` (m) is
 taken as the force at the floor (the engine's step control makes runs below about 0.02 mm expensive: one at
@@ -29,7 +30,7 @@ LIFE_CAP_H = 1e7
 
 @dataclass
 class ClearanceResponse:
-    """One joint's peak collision force and wear growth rate against its own clearance (a surrogate).
+    """One joint's sizing load and wear growth rate against its own clearance (a surrogate).
 
     Attributes
     ----------
@@ -37,28 +38,39 @@ class ClearanceResponse:
         Pair name.
     clearance : numpy.ndarray
         Grid clearances (m, increasing).
-    peak_force : numpy.ndarray
-        Peak collision force of the joint (N) at each: the mean over the starts of each run's peak.
+    design_force : numpy.ndarray
+        Static-equivalent collision force of the joint (N) at each: the mean over the starts of each run's p95 of
+        its impact peaks (berryshaker.multibody.impacts).
     growth_rate : numpy.ndarray
         Archard growth rate of its clearance (m per operating hour) at each (mean over the starts).
-    peak_force_se : numpy.ndarray, optional
-        Standard error of ``peak_force`` (N; s / sqrt(starts); zeros for one start).
-    peak_force_p95 : numpy.ndarray, optional
-        95th percentile over the starts of the per-start peaks (N).
+    design_force_se : numpy.ndarray, optional
+        Standard error of ``design_force`` (N; s / sqrt(starts); zeros for one start).
+    design_force_p95 : numpy.ndarray, optional
+        95th percentile over the starts of the per-start loads (N).
     starts : int
         Perturbed starts per grid point (1: the centred start alone).
-    peak_force_starts : numpy.ndarray, optional
-        The per-start peaks (N), grid points x starts (the same starts at every point).
+    design_force_starts : numpy.ndarray, optional
+        The per-start loads (N), grid points x starts (the same starts at every point).
+    rolling_load : numpy.ndarray, optional
+        A roller: its mean equivalent load over its revolutions (N, ISO 281; mean over the starts).
+    roller_rev_per_h : numpy.ndarray, optional
+        A roller: its revolutions per operating hour (1/h; mean over the starts).
+    wear_scale : float
+        The faster wear mode's k over the pair's nominal (lubricated) k (dimensionless,
+        :func:`berryshaker.contact.wear.wear_scale`): :meth:`service_hours` divides by it.
     """
 
     joint: str
     clearance: np.ndarray
-    peak_force: np.ndarray
+    design_force: np.ndarray
     growth_rate: np.ndarray
-    peak_force_se: np.ndarray | None = None
-    peak_force_p95: np.ndarray | None = None
+    design_force_se: np.ndarray | None = None
+    design_force_p95: np.ndarray | None = None
     starts: int = 1
-    peak_force_starts: np.ndarray | None = None
+    design_force_starts: np.ndarray | None = None
+    rolling_load: np.ndarray | None = None
+    roller_rev_per_h: np.ndarray | None = None
+    wear_scale: float = 1.0
 
     def force(self, c):
         """Peak force (N) at clearance c (m): linear interpolation, constant beyond the grid.
@@ -71,9 +83,9 @@ class ClearanceResponse:
         Returns
         -------
         float or numpy.ndarray
-            Mean peak collision force (N).
+            Mean static-equivalent collision force (N).
         """
-        return np.interp(c, self.clearance, self.peak_force)
+        return np.interp(c, self.clearance, self.design_force)
 
     def rate(self, c):
         """Growth rate (m/h) at clearance c (m): linear interpolation, constant beyond the grid.
@@ -116,6 +128,25 @@ class ClearanceResponse:
             return LIFE_CAP_H
         return float(min(np.trapezoid(1.0 / r, c), LIFE_CAP_H))
 
+    def service_hours(self, c0: float, c_limit: float) -> float:
+        """Operating hours from c0 to c_limit (m) under the faster wear mode: :meth:`hours_to` / ``wear_scale``
+        (the abrasive field wear where it is faster than the pair's lubricated wear, docs/life.md).
+
+        Parameters
+        ----------
+        c0 : float
+            Starting clearance (m).
+        c_limit : float
+            Clearance limit (m).
+
+        Returns
+        -------
+        float
+            Operating hours (h), at most :data:`LIFE_CAP_H`.
+        """
+        h = self.hours_to(c0, c_limit)
+        return h if h >= LIFE_CAP_H else h / self.wear_scale
+
     def grow(self, c0: float, hours) -> np.ndarray:
         """Clearance (m) after each of ``hours`` (increasing, from 0) starting at c0: dc/dh = r(c), solved
         with scipy's RK45 on the interpolant.
@@ -140,9 +171,9 @@ class ClearanceResponse:
         return sol.y[0]
 
     def force_falls(self, alpha: float = 0.05) -> list[dict]:
-        """Grid steps where the mean peak force falls as the clearance grows beyond the noise: the paired t test
+        """Grid steps where the mean static-equivalent force falls as the clearance grows beyond the noise: the paired t test
         over the starts (the same starts at every point), two-sided p < ``alpha``; a property of the dynamics, not
-        noise (empty without per-start peaks).
+        noise (empty without per-start loads).
 
         Parameters
         ----------
@@ -152,16 +183,16 @@ class ClearanceResponse:
         Returns
         -------
         list of dict
-            Per falling step: ``from_mm``, ``to_mm`` (mm), ``change_N`` (mean change of the peak, N, < 0),
+            Per falling step: ``from_mm``, ``to_mm`` (mm), ``change_N`` (mean change of the load, N, < 0),
             ``se_N`` (its standard error, N) and ``p``.
         """
         from scipy import stats
 
-        if self.peak_force_starts is None or self.starts < 2:
+        if self.design_force_starts is None or self.starts < 2:
             return []
         out = []
         for i in range(len(self.clearance) - 1):
-            d = self.peak_force_starts[i + 1] - self.peak_force_starts[i]
+            d = self.design_force_starts[i + 1] - self.design_force_starts[i]
             m = float(d.mean())
             se = float(d.std(ddof=1) / np.sqrt(d.size))
             p = float(2 * stats.t.sf(abs(m) / se, d.size - 1)) if se > 0 else (0.0 if m != 0 else 1.0)
@@ -176,15 +207,18 @@ class ClearanceResponse:
         Returns
         -------
         dict
-            ``clearance_mm``, ``peak_force_N``, ``growth_rate_um_per_h``, ``starts`` and, when known,
-            ``peak_force_se_N`` and ``peak_force_p95_N``.
+            ``clearance_mm``, ``design_force_N``, ``growth_rate_um_per_h``, ``starts`` and, when known,
+            ``design_force_se_N``, ``design_force_p95_N``, ``rolling_load_N`` and ``roller_rev_per_h``.
         """
-        out = {"clearance_mm": (self.clearance * 1e3).tolist(), "peak_force_N": self.peak_force.tolist(),
+        out = {"clearance_mm": (self.clearance * 1e3).tolist(), "design_force_N": self.design_force.tolist(),
                "growth_rate_um_per_h": (self.growth_rate * 1e6).tolist(), "starts": int(self.starts)}
-        if self.peak_force_se is not None:
-            out["peak_force_se_N"] = self.peak_force_se.tolist()
-        if self.peak_force_p95 is not None:
-            out["peak_force_p95_N"] = self.peak_force_p95.tolist()
+        if self.design_force_se is not None:
+            out["design_force_se_N"] = self.design_force_se.tolist()
+        if self.design_force_p95 is not None:
+            out["design_force_p95_N"] = self.design_force_p95.tolist()
+        if self.rolling_load is not None:
+            out["rolling_load_N"] = self.rolling_load.tolist()
+            out["roller_rev_per_h"] = self.roller_rev_per_h.tolist()
         return out
 
 
@@ -275,8 +309,8 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     Returns
     -------
     dict of str to ClearanceResponse
-        Per joint: the grid, mean peak force (N), its standard error and 95th percentile, the mean growth rate
-        (m/h) and the per-start peaks.
+        Per joint: the grid, mean static-equivalent force (N), its standard error and 95th percentile, the mean growth rate
+        (m/h) and the per-start loads.
 
     Raises
     ------
@@ -284,7 +318,9 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
         ``starts`` < 1.
     """
     from berryshaker.harvest.virtual import replicate_starts
+    from berryshaker.life.joint_loads import joint_geometry
     from berryshaker.life.runs import wear_rate_run
+    from berryshaker.contact.wear import wear_scale
 
     starts = machine.harvest.replicates if starts is None else starts
     if int(starts) < 1:
@@ -300,12 +336,19 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     values = runner.values(wear_rate_run, jobs, label)
     out = {}
     for j in joints:
-        peaks = np.array([[v["peak_force_N"][j] for v, w in zip(values, where) if w == (j, k)]
+        peaks = np.array([[v["design_force_N"][j] for v, w in zip(values, where) if w == (j, k)]
                           for k in range(len(grid[j]))])
         rates = np.array([[v["growth_rate_m_per_h"][j] for v, w in zip(values, where) if w == (j, k)]
                           for k in range(len(grid[j]))])
         n = peaks.shape[1]
         se = peaks.std(axis=1, ddof=1) / np.sqrt(n) if n > 1 else np.zeros(len(peaks))
+        rolling = [[v.get("rolling_load_N", {}).get(j), v.get("roller_rev_per_h", {}).get(j)]
+                   for v, w in zip(values, where) if w[0] == j]
+        roll = turns = None
+        if rolling and all(r[0] is not None for r in rolling):
+            both = np.array(rolling, float).reshape(len(grid[j]), -1, 2)
+            roll, turns = both[:, :, 0].mean(axis=1), both[:, :, 1].mean(axis=1)
         out[j] = ClearanceResponse(j, np.asarray(grid[j], float), peaks.mean(axis=1), rates.mean(axis=1), se,
-                                   np.percentile(peaks, 95, axis=1), n, peaks)
+                                   np.percentile(peaks, 95, axis=1), n, peaks, roll, turns,
+                                   wear_scale(joint_geometry(machine, j).material_pair))
     return out

@@ -106,7 +106,7 @@ def loads_from_json(value: dict) -> tuple[dict, dict]:
 
 def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, slip: float = DEFAULT_SLIP,
                   load_direction: str = "fixed", seed: list | None = None) -> dict:
-    """Clearance growth rate, peak and mean force of every pair at one clearance state (one multibody run).
+    """Clearance growth rate and the loads of every pair at one clearance state (one multibody run).
 
     ``seed``: start from the seeded perturbation (a replicate: clearance eccentricities uniform over
     ``harvest.initial_eccentricity`` of each free radius, drive turned by up to ``harvest.start_phase_spread``,
@@ -131,10 +131,15 @@ def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, sli
     -------
     dict
         ``growth_rate_m_per_h[pair]`` (Archard, :func:`berryshaker.life.joint_loads.joint_wear_model` with the
-        description's geometry and material), ``peak_force_N[pair]`` (over every integrator step),
-        ``mean_force_N[pair]``, ``clearance_m[pair]`` and the flat ``outputs``.
+        description's geometry and material), ``design_force_N[pair]`` (the static-equivalent load, the p95 of
+        the impact peaks; a pair without impacts: the p95 of its force), ``fatigue_force_N[pair]`` (the
+        fatigue-equivalent load of the impacts, berryshaker.multibody.impacts), ``max_force_N[pair]`` (the run's
+        single largest force over every integrator step, an extreme), ``mean_force_N[pair]``, for a roller pair
+        ``rolling_load_N[pair]`` and ``roller_rev_per_h[pair]``
+        (:func:`berryshaker.life.contact_fatigue.rolling_equivalent_load`), ``clearance_m[pair]`` and the flat
+        ``outputs``.
     """
-    from berryshaker.life.joint_loads import joint_loads, joint_wear_models
+    from berryshaker.life.joint_loads import joint_geometry, joint_loads, joint_wear_models
     from berryshaker.life.wear import SECONDS_PER_HOUR
 
     machine = machine_with_overrides(machine_data)
@@ -146,12 +151,21 @@ def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, sli
     loads, outputs = joint_loads(machine, clearance, revolutions=revolutions, slip=slip, initial_perturbation=pert)
     models = joint_wear_models(machine, load_direction=load_direction)
     sized = machine.with_clearances(clearance)
-    rate, peak, mean = {}, {}, {}
+    rate, design, fatigue, extreme, mean, bearing, turns = {}, {}, {}, {}, {}, {}, {}
     for j, (t, f, v) in loads.items():
         rate[j] = models[j].growth_rate(t, f, v) * SECONDS_PER_HOUR
-        peak[j] = outputs.get(f"collision_force_{j}_peak", float(np.max(f)))
+        extreme[j] = outputs.get(f"collision_force_{j}_peak", float(np.max(f)))
+        # the sizing loads of the impacts; a pair closed to an ideal joint (no impacts): its reaction's p95
+        design[j] = _finite(outputs.get(f"collision_force_{j}_static_equivalent", float(np.percentile(f, 95))))
+        fatigue[j] = _finite(outputs.get(f"collision_force_{j}_fatigue_equivalent", float(np.percentile(f, 95))))
         mean[j] = float(np.trapezoid(f, t) / (t[-1] - t[0]))
-    return {"growth_rate_m_per_h": rate, "peak_force_N": peak, "mean_force_N": mean,
+        if models[j].geometry == "area":  # a roller: its rolling-bearing load and revolutions
+            from berryshaker.life.contact_fatigue import rolling_equivalent_load
+
+            g = joint_geometry(machine, j)
+            bearing[j], turns[j] = rolling_equivalent_load(t, f, v / slip if slip > 0 else v, g.diameter)
+    return {"growth_rate_m_per_h": rate, "design_force_N": design, "fatigue_force_N": fatigue,
+            "max_force_N": extreme, "mean_force_N": mean, "rolling_load_N": bearing, "roller_rev_per_h": turns,
             "clearance_m": sized.clearance_sizes(), "outputs": {k: _finite(v) for k, v in outputs.items()}}
 
 

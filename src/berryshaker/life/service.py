@@ -15,31 +15,36 @@ from typing import Any
 
 from berryshaker.errors import ConfigError
 
-#: the workshop allowance of the rule: a joint may wear until its clearance has doubled from its design size
-#: [assumed]
-WEAR_ALLOWANCE_FACTOR = 2.0
+#: the structural part of the rule: a joint is due for service when its clearance (radial of a pin, free travel
+#: of a roller) reaches this fraction of its pin (roller) diameter [assumed]: 0.5 mm on a 20 mm pin, where a
+#: bronze bush has lost a third of a typical 1.5 mm wall to wear and the pin's impacts no longer meet a conformal
+#: seat
+SERVICE_FRACTION = 0.025
+#: the rule, stated where the limits are shown
+SERVICE_RULE = ("the smaller of the largest clearance at which the harvest was tested (the machine's function is "
+                f"known up to it) and {SERVICE_FRACTION:.1%} of the pin (roller) diameter; never the built size")
 
 
-def service_limit(largest_level: float, design_size: float) -> float:
-    """Clearance (m) at which a joint is due for service: ``max(largest_level, 2 * design_size)``.
+def service_limit(largest_level: float, diameter: float) -> float:
+    """Clearance (m) at which a joint is due for service: ``min(largest_level, SERVICE_FRACTION * diameter)``.
+
+    A property of the joint's function, never of its built size: a looser build reaches it sooner, never later
+    (tests/life/test_service.py).
 
     Parameters
     ----------
     largest_level : float
         The joint's largest test level (m): the largest clearance at which the study measured the harvest, so
-        the machine is known to work up to it.
-    design_size : float
-        The joint's clearance in the machine description (m; radial for a pin, free travel for a roller): the
-        clearance it is built and tuned with, not the clearance a run starts from.
+        the machine is known to work as tested up to it (its function: the combs' stroke and the harvest).
+    diameter : float
+        The pin (roller) diameter (m).
 
     Returns
     -------
     float
-        The limit (m), always above ``design_size`` for a positive size, so a new machine never starts at its
-        limit ("replace when the clearance has doubled" [assumed] where the design size already is the largest
-        test level, as for F of the reference machine).
+        The limit (m; radial for a pin, free travel for a roller).
     """
-    return float(max(float(largest_level), WEAR_ALLOWANCE_FACTOR * float(design_size)))
+    return float(min(float(largest_level), SERVICE_FRACTION * float(diameter)))
 
 
 def service_limits(machine, joints: Sequence[str] | None = None) -> dict[str, float]:
@@ -55,21 +60,23 @@ def service_limits(machine, joints: Sequence[str] | None = None) -> dict[str, fl
     Returns
     -------
     dict of str to float
-        Joint -> service limit (m): the larger of its largest test level and twice its design size.
+        Joint -> service limit (m): the smaller of its largest test level and :data:`SERVICE_FRACTION` of its
+        diameter (:func:`service_limit`).
 
     Raises
     ------
     ConfigError
         A joint that is not a clearance pair of the machine.
     """
+    from berryshaker.life.joint_loads import joint_geometry
+
     levels = machine.clearance_levels()
-    sizes = machine.clearance_sizes()
     joints = list(joints) if joints else list(machine.pair_names)
     unknown = [j for j in joints if j not in levels]
     if unknown:
         raise ConfigError(f"joint(s) {', '.join(unknown)}: not a clearance pair of the machine; pairs: "
                           f"{', '.join(machine.pair_names)}")
-    return {j: service_limit(max(levels[j]), sizes[j]) for j in joints}
+    return {j: service_limit(max(levels[j]), joint_geometry(machine, j).diameter) for j in joints}
 
 
 def _start_from_fits(geos: Mapping[str, Any], joints: Sequence[str]) -> dict[str, float]:

@@ -9,12 +9,13 @@ diameter (``[clearance.<pair>] diameter``).  Three objectives, all minimised:
    cost-tolerance curves compared by Chase, Greenwood, Loosli and Hauglund (1990), "Least cost tolerance
    allocation for mechanical assemblies with automated process selection", Manufacturing Review 3(1).  The
    coefficients (a = 1, b = 20 um, k = 1) are **[assumed]**: fit them to the shop's own cost data.
-2. **peak collision force** (N) -- the largest over the joints, each joint's peak at its fit's mean clearance.
+2. **static-equivalent collision force** (N) -- the largest over the joints, each joint's p95 of its impact peaks at
+   its fit's mean clearance (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a load).
 3. **-life** (h) -- the machine's maintenance interval: the first joint to grow from its fit's mean clearance
    to its clearance limit, dc/dh = r(c) with r the Archard growth rate (hours = int dc / r(c)).
 
-The dynamics enter through a **surrogate** (:mod:`berryshaker.life.clearance_response`): per joint, its peak
-collision force (the mean over perturbed starts of each run's peak) and growth rate against its own clearance from a
+The dynamics enter through a **surrogate** (:mod:`berryshaker.life.clearance_response`): per joint, its static-equivalent
+collision force (the mean over perturbed starts of each run's p95 of its impact peaks) and growth rate against its own clearance from a
 one-at-a-time grid of multibody runs; NSGA-II runs on their linear interpolants, and a force that falls with growing
 clearance beyond the start-to-start noise is flagged and explained (:func:`force_fall_notes`).  The recommended
 design is the compromise point of the Pareto front nearest the ideal point in objectives normalised to [0, 1] over
@@ -173,7 +174,7 @@ def joint_candidates(machine, joints, fits=CANDIDATE_FITS) -> dict[str, JointCan
 
 def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCandidates],
                      responses: dict[str, ClearanceResponse], limits: dict[str, float]) -> np.ndarray:
-    """Objectives [cost, peak force (N), -life (h)] of designs (rows of fit indices, one column per joint).
+    """Objectives [cost, static-equivalent force (N), -life (h)] of designs (rows of fit indices, one column per joint).
 
     Parameters
     ----------
@@ -191,7 +192,7 @@ def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCand
     Returns
     -------
     numpy.ndarray
-        Shape (designs, 3): summed cost (relative units), largest peak force over the joints (N) at the fits'
+        Shape (designs, 3): summed cost (relative units), largest static-equivalent force over the joints (N) at the fits'
         mean clearances, minus the shortest hours to a joint's limit (h).
     """
     choice = np.atleast_2d(np.asarray(choice, int))
@@ -203,7 +204,7 @@ def evaluate_designs(choice: np.ndarray, joints, candidates: dict[str, JointCand
             c0 = float(cand.size[row[k]])
             cost += float(cand.cost[row[k]])
             force = max(force, float(responses[j].force(c0)))
-            life = min(life, responses[j].hours_to(c0, limits[j]))
+            life = min(life, responses[j].service_hours(c0, limits[j]))
         out[r] = (cost, force, -life)
     return out
 
@@ -258,9 +259,9 @@ class ToleranceDesign:
     joints : list of str
         Joints designed.
     front : list of dict
-        Non-dominated designs: ``fits`` (joint -> fit), ``cost``, ``peak_force_N``, ``life_h``.
+        Non-dominated designs: ``fits`` (joint -> fit), ``cost``, ``design_force_N``, ``life_h``.
     recommended : dict
-        The compromise design with, per joint, the fit, its clearance range and mean (mm), the predicted peak
+        The compromise design with, per joint, the fit, its clearance range and mean (mm), the predicted static-equivalent
         force and the hours to the joint's limit (``maintenance_interval_h``).
     responses : dict
         The surrogate per joint.
@@ -327,7 +328,7 @@ def nsga2_front(joints, candidates, responses, limits, pop_size: int = 60, gener
     Returns
     -------
     designs : numpy.ndarray of int
-        Non-dominated designs (fit index per joint), sorted by cost, then peak force.
+        Non-dominated designs (fit index per joint), sorted by cost, then static-equivalent force.
     objectives : numpy.ndarray
         Their objectives (:func:`evaluate_designs`: cost, N, -h).
     """
@@ -389,7 +390,7 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
         NSGA-II settings (same seed, same front).
     starts : int, optional
         Perturbed starts per grid point (runs = joints x n_points x starts; default ``harvest.replicates``); the
-        force objective is the mean of the per-start peaks.
+        force objective is the mean of the per-start static-equivalent loads.
 
     Returns
     -------
@@ -415,7 +416,7 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
     responses = clearance_responses(machine, joints, grid, runner, revolutions, starts=starts)
     x, f = nsga2_front(joints, cands, responses, lim, pop_size, generations, seed)
     front = [{"fits": {j: cands[j].fits[row[k]].designation for k, j in enumerate(joints)},
-              "cost": float(fr[0]), "peak_force_N": float(fr[1]), "life_h": float(-fr[2])}
+              "cost": float(fr[0]), "design_force_N": float(fr[1]), "life_h": float(-fr[2])}
              for row, fr in zip(x, f)]
     best = compromise_index(f)
     row = x[best]
@@ -428,21 +429,23 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
                         "size_mm": c0 * 1e3,
                         "size_convention": "radial" if _joint_kind(machine, j) == "revolute" else "free travel",
                         "cost": float(cands[j].cost[row[k]]),
-                        "peak_force_N": float(responses[j].force(c0)),
-                        "peak_force_se_N": (float(np.interp(c0, responses[j].clearance, responses[j].peak_force_se))
-                                            if responses[j].peak_force_se is not None else None),
+                        "design_force_N": float(responses[j].force(c0)),
+                        "design_force_se_N": (float(np.interp(c0, responses[j].clearance, responses[j].design_force_se))
+                                            if responses[j].design_force_se is not None else None),
                         "clearance_limit_mm": lim[j] * 1e3,
-                        "maintenance_interval_h": responses[j].hours_to(c0, lim[j])}
+                        "maintenance_interval_h": responses[j].service_hours(c0, lim[j])}
     recommended = {**front[best], "index": best, "joints": per_joint,
                    "maintenance_interval_h": float(-f[best, 2])}
     notes = [f"surrogate: {n_points} clearances per joint, one joint at a time (others at the description's "
-             f"sizes), each the mean over {starts} perturbed start(s) of the run's peak force (the same starts at "
+             f"sizes), each the mean over {starts} perturbed start(s) of the run's static-equivalent collision force "
+             "(the p95 of its impact peaks; the same starts at "
              "every point), linear interpolation; interactions between joints are ignored",
              f"force and growth rate held constant below {GRID_FLOOR * 1e3:g} mm and beyond the grid",
              "cost: reciprocal-power model a + b/T^k per part (Chase et al. 1990 compare this form); "
              "coefficients [assumed]",
-             "life: Archard growth from the fit's mean clearance to the limit; k and H of the material pair "
-             "dominate its uncertainty",
+             "life: Archard growth from the fit's mean clearance to the limit under the faster wear mode "
+             "(abrasive field wear where it is faster than the pair's lubricated wear, docs/life.md); its k "
+             "dominates the uncertainty",
              "recommended: Pareto point nearest the ideal point, objectives normalised over the front"]
     notes += force_fall_notes(responses, machine)
     return ToleranceDesign(joints, front, recommended, responses, lim, len(joints) * n_points * int(starts), int(seed),
@@ -450,7 +453,7 @@ def tolerance_design(machine, runner, joints=None, fits=CANDIDATE_FITS, limits: 
 
 
 def force_fall_notes(responses: dict[str, ClearanceResponse], machine=None) -> list[str]:
-    """A note for every joint whose mean peak force falls as its clearance grows beyond the noise
+    """A note for every joint whose mean static-equivalent force falls as its clearance grows beyond the noise
     (:meth:`ClearanceResponse.force_falls`), so that a tighter fit with a higher force is explained, not hidden.
 
     Why it is physics, not noise: the pin-in-bore contact law depends on the radii only through the radial clearance
@@ -478,7 +481,7 @@ def force_fall_notes(responses: dict[str, ClearanceResponse], machine=None) -> l
                "depends on the radii through the clearance, docs/contact.md), so a tighter fit hits harder at the "
                "same approach speed") if pin else "a property of this joint's dynamics that the runs measure"
         for f in r.force_falls():
-            out.append(f"{j}: the mean peak force falls by {-f['change_N']:.0f} +- {f['se_N']:.0f} N (SE, paired over "
+            out.append(f"{j}: the mean static-equivalent force falls by {-f['change_N']:.0f} +- {f['se_N']:.0f} N (SE, paired over "
                        f"{r.starts} starts, p = {f['p']:.2g}) from {f['from_mm']:.3g} to {f['to_mm']:.3g} mm, beyond "
                        f"the start-to-start noise: {why}")
     return out

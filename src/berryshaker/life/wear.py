@@ -160,8 +160,11 @@ class WearLife:
     hours : numpy.ndarray
         Operating hours of the simulated states (h; 0 first).
     clearance, peak_force, mean_force, growth_rate : dict joint -> numpy.ndarray
-        Clearance size (m), peak and time-mean |normal force| (N) over the simulated window, and the wear
-        growth rate of the clearance (m per operating hour) at each state.
+        Clearance size (m), peak (the window's largest sample, an extreme) and time-mean |normal force| (N) over
+        the simulated window, and the wear growth rate of the clearance (m per operating hour) at each state.
+    design_force : dict joint -> numpy.ndarray
+        The static-equivalent load (N) at each state: the simulator's ``collision_force_<joint>_static_equivalent``
+        (the p95 of the impact peaks, berryshaker.multibody.impacts), else the p95 of the force series.
     outputs : dict name -> numpy.ndarray
         Scalar outputs of the simulator at each state (SI, the units of each output, e.g. N for a force).
     limits : dict key -> dict
@@ -183,6 +186,7 @@ class WearLife:
     growth_rate: dict[str, np.ndarray]
     outputs: dict[str, np.ndarray]
     limits: dict[str, dict[str, Any]] = field(default_factory=dict)
+    design_force: dict[str, np.ndarray] = field(default_factory=dict)
     maintenance_interval_hours: float | None = None
     governing_limit: str | None = None
     completed: bool = True
@@ -196,7 +200,8 @@ class WearLife:
         -------
         dict
             ``hours`` (h), ``joints`` (per joint ``hours``, ``wears``, ``clearance_mm`` and, if it wears,
-            ``peak_force_N``, ``mean_force_N``, ``growth_rate_um_per_h``), ``outputs`` (name -> values over
+            ``design_force_N``, ``peak_force_N``, ``mean_force_N``, ``growth_rate_um_per_h``), ``outputs`` (name ->
+            values over
             hours), ``limits``, ``maintenance_interval_h`` (h or None), ``governing_limit``, ``completed``,
             ``message`` and a ``clearance_convention`` note.
         """
@@ -206,7 +211,8 @@ class WearLife:
             "joints": {j: {"hours": hours,
                            "wears": j in self.growth_rate,
                            "clearance_mm": (self.clearance[j] * 1e3).tolist(),
-                           **({"peak_force_N": self.peak_force[j].tolist(),
+                           **({"design_force_N": self.design_force[j].tolist(),
+                               "peak_force_N": self.peak_force[j].tolist(),
                                "mean_force_N": self.mean_force[j].tolist(),
                                "growth_rate_um_per_h": (self.growth_rate[j] * 1e6).tolist()}
                               if j in self.growth_rate else {})}
@@ -304,7 +310,8 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
         Horizon (h, operating hours; > 0).
     limits : dict, optional
         Service limits.  Keys: a scalar output name of the simulator, ``"clearance:<joint>"`` (m),
-        ``"peak_force:<joint>"`` or ``"mean_force:<joint>"`` (N).  Values: a number (a maximum) or
+        ``"design_force:<joint>"`` (the static-equivalent load), ``"peak_force:<joint>"`` or
+        ``"mean_force:<joint>"`` (N).  Values: a number (a maximum) or
         ``{"max": v}`` / ``{"min": v}`` (SI units).
     simulate : callable
         ``simulate(clearances) -> (loads, outputs)``, see the module docstring.
@@ -362,6 +369,7 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
     hist_h: list[float] = []
     hist_c: list[dict[str, float]] = []
     hist_peak: list[dict[str, float]] = []
+    hist_design: list[dict[str, float]] = []
     hist_mean: list[dict[str, float]] = []
     hist_rate: list[np.ndarray] = []
     hist_out: list[dict[str, float]] = []
@@ -370,16 +378,19 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
         loads, outputs = simulate(dict(c))
         loads = _check_loads(loads, joints)
         rates = np.empty(len(names))
-        peak, mean = {}, {}
+        peak, mean, design = {}, {}, {}
         for k, j in enumerate(names):
             t, f, v = loads[j]
             rates[k] = joints[j].growth_rate(t, f, v) * SECONDS_PER_HOUR
             af = np.abs(f)
             peak[j] = float(af.max())
             mean[j] = float(trapezoid(af, t) / (t[-1] - t[0]))
+            d = float(dict(outputs).get(f"collision_force_{j}_static_equivalent", math.nan))
+            design[j] = d if math.isfinite(d) else float(np.percentile(af, 95))
         hist_h.append(h)
         hist_c.append(dict(c))
         hist_peak.append(peak)
+        hist_design.append(design)
         hist_mean.append(mean)
         hist_rate.append(rates)
         hist_out.append({str(k): float(v) for k, v in dict(outputs).items()})
@@ -387,17 +398,18 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
 
     def series(key: str) -> np.ndarray:
         kind, _, joint = key.partition(":")
-        if joint and kind in ("clearance", "peak_force", "mean_force"):
+        if joint and kind in ("clearance", "design_force", "peak_force", "mean_force"):
             if joint not in hist_c[0]:
                 raise ConfigError(f"limit {key!r}: unknown joint {joint!r}; joints: {', '.join(hist_c[0])}")
-            src = {"clearance": hist_c, "peak_force": hist_peak, "mean_force": hist_mean}[kind]
+            src = {"clearance": hist_c, "design_force": hist_design, "peak_force": hist_peak,
+                   "mean_force": hist_mean}[kind]
             if joint not in src[0]:
                 raise ConfigError(f"limit {key!r}: joint {joint!r} does not wear in this run; wearing joints: "
                                   f"{', '.join(names)}")
             return np.array([s[joint] for s in src])
         if key not in hist_out[0]:
             raise ConfigError(f"limit {key!r}: not an output of the simulator ({', '.join(hist_out[0]) or 'none'})"
-                              f" nor clearance:/peak_force:/mean_force:<joint>")
+                              f" nor clearance:/design_force:/peak_force:/mean_force:<joint>")
         return np.array([o[key] for o in hist_out])
 
     def crossings() -> dict[str, float | None]:
@@ -446,6 +458,7 @@ def wear_life(machine: Any, hours: float, limits: Mapping[str, Any] | None = Non
         hours=hh,
         clearance={j: np.array([s[j] for s in hist_c]) for j in hist_c[0]},
         peak_force={j: np.array([s[j] for s in hist_peak]) for j in names},
+        design_force={j: np.array([s[j] for s in hist_design]) for j in names},
         mean_force={j: np.array([s[j] for s in hist_mean]) for j in names},
         growth_rate={j: np.array([r[k] for r in hist_rate]) for k, j in enumerate(names)},
         outputs={k: np.array([o.get(k, math.nan) for o in hist_out]) for k in hist_out[0]},

@@ -23,9 +23,11 @@ from numba import njit
 from berryshaker.contact.pair_law import LUBRICATED_RESTITUTION_VELOCITY
 from berryshaker.multibody.dopri import _dense_state
 from berryshaker.multibody.force_elements import _law, fint_is_contact, forces
-from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, FF_C, FF_D, FF_E, FF_K, FF_MONOTONE, FF_N,
-                                          FI_LAW, FIRST_DONE, FIRST_IMPACTS, FIRST_PEAK, FIRST_TIME, FIRST_V_IMP,
-                                          N_EO)
+from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, EP_DURATION, EP_IMPULSE, EP_PEAK, EP_T0, EP_V,
+                                          FF_C, FF_D, FF_E, FF_K, FF_MONOTONE, FF_N, FI_LAW, FIRST_DONE,
+                                          FIRST_EP_COUNT, FIRST_EP_IMPULSE, FIRST_EP_OPEN, FIRST_EP_PEAK, FIRST_EP_T0,
+                                          FIRST_EP_V, FIRST_IMPACTS, FIRST_LOG, FIRST_PEAK, FIRST_TIME, FIRST_V_IMP,
+                                          N_EO, N_EP)
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 #: approach speed (m/s) from which a located contact onset counts as an impact (``first[:, FIRST_IMPACTS]``): the
@@ -234,6 +236,13 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_st
     :func:`interior_peak_forces` evaluates the force there.  The penetrations, forces and rates at the step's end
     become the next step's start values (``pen_start``, ``f_start``, ``pdot_start``).
 
+    A ``first`` wider than ``layout.N_FIRST`` also logs every contact episode of a contact element that closes at
+    t >= stats_from (``layout.FIRST_EP_*``, the log from ``layout.FIRST_LOG``): its onset time and approach speed,
+    its peak force (step ends and the interior peaks, whose search then also runs where a step may raise the open
+    episode's peak), its impulse (the trapezoid rule over its accepted steps, from zero force at the located onset)
+    and its duration; an episode is logged when it opens again (an episode still open at the run's end is not).
+    The log changes no step: the extra interior-peak evaluations leave the state as it was.
+
     Parameters
     ----------
     t : float
@@ -262,10 +271,28 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_st
     eout = work[5]
     nf = eout.shape[0]
     onset = False
+    log = first.shape[1] > FIRST_LOG
+    cap = (first.shape[1] - FIRST_LOG) // N_EP
     for j in range(nf):
         u_peak[j] = -1.0
         pe = eout[j, EO_PEN]
         fn = eout[j, EO_FN]
+        if log and first[j, FIRST_EP_OPEN] > 0.0:
+            # the open episode's impulse over this step (trapezoid; the force at a located onset is zero)
+            first[j, FIRST_EP_IMPULSE] += 0.5 * (f_start[j] + abs(fn)) * h
+            if abs(fn) > first[j, FIRST_EP_PEAK]:
+                first[j, FIRST_EP_PEAK] = abs(fn)
+            if pe <= 0.0:
+                n = int(first[j, FIRST_EP_COUNT])
+                if n < cap:
+                    c = FIRST_LOG + N_EP * n
+                    first[j, c + EP_T0] = first[j, FIRST_EP_T0]
+                    first[j, c + EP_V] = first[j, FIRST_EP_V]
+                    first[j, c + EP_PEAK] = first[j, FIRST_EP_PEAK]
+                    first[j, c + EP_IMPULSE] = first[j, FIRST_EP_IMPULSE]
+                    first[j, c + EP_DURATION] = t - first[j, FIRST_EP_T0]
+                first[j, FIRST_EP_COUNT] = n + 1.0
+                first[j, FIRST_EP_OPEN] = 0.0
         if pe > 0.0:
             if not in_contact[j]:
                 onset = True
@@ -278,6 +305,12 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_st
                 v_imp[j] = vi if vi > 1e-6 else 1e-6
                 if t >= stats_from and vi >= IMPACT_COUNT_SPEED and fint_is_contact(model, j):
                     first[j, FIRST_IMPACTS] += 1.0
+                if log and t >= stats_from and fint_is_contact(model, j):
+                    first[j, FIRST_EP_OPEN] = 1.0
+                    first[j, FIRST_EP_T0] = t
+                    first[j, FIRST_EP_V] = vi
+                    first[j, FIRST_EP_PEAK] = abs(fn)
+                    first[j, FIRST_EP_IMPULSE] = 0.5 * (f_start[j] + abs(fn)) * h
                 if first[j, FIRST_DONE] == 0.0:
                     first[j, FIRST_TIME] = t
                     first[j, FIRST_V_IMP] = vi
@@ -299,6 +332,8 @@ def record_contacts(t, t_old, h, stats_from, model, state, work, pen_start, f_st
                 low = first[j, FIRST_PEAK]
             if t >= stats_from and peaks[j] < low:
                 low = peaks[j]
+            if log and first[j, FIRST_EP_OPEN] > 0.0 and first[j, FIRST_EP_PEAK] < low:
+                low = first[j, FIRST_EP_PEAK]
             if (1.0 + PEAK_BOUND_MARGIN) * _step_force_bound(model, j, v_imp[j], h, pen_start[j],
                                                              pdot_start[j], pe, eout[j, EO_PENDOT]) <= low:
                 search = False
@@ -399,3 +434,5 @@ def interior_peak_forces(t, t_old, h, stats_from, model, state, work, k, ytmp, y
             first[j, FIRST_PEAK] = f_in
         if t >= stats_from and f_in > peaks[j]:
             peaks[j] = f_in
+        if first.shape[1] > FIRST_LOG and first[j, FIRST_EP_OPEN] > 0.0 and f_in > first[j, FIRST_EP_PEAK]:
+            first[j, FIRST_EP_PEAK] = f_in

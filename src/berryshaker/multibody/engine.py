@@ -528,7 +528,8 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
         n_out = t_out.shape[0]
     return PreparedRun(cm, state, work, y, t_out, float(rtol), atol, float(max_step), stats_from, budget,
                        float(duration), np.zeros((n_out, 2 * cm.n)), np.zeros((n_out, nf, L.N_EO)),
-                       np.zeros((n_out, cm.m)), np.zeros(nf), np.zeros((nf, L.N_FIRST)), np.zeros(L.N_INFO),
+                       np.zeros((n_out, cm.m)), np.zeros(nf), np.zeros((nf, L.first_columns(duration - stats_from))),
+                       np.zeros(L.N_INFO),
                        sim.specialised)
 
 

@@ -146,6 +146,36 @@ N_INFO = 6
 #: flag (0 not yet, 1 in the first episode, 2 after it), impacts counted over the statistics window
 FIRST_TIME, FIRST_V_IMP, FIRST_PEAK, FIRST_DONE, FIRST_IMPACTS = range(5)
 N_FIRST = 5
+#: a ``first`` wider than N_FIRST also keeps the contact-episode log of each contact element over the statistics
+#: window (:func:`berryshaker.multibody.contact_events.record_contacts`): episodes logged so far (every closed one,
+#: also those beyond the log's capacity), the open episode's flag (1 open), onset time, approach speed, peak force
+#: and impulse so far; then the log from column :data:`FIRST_LOG` on, :data:`N_EP` entries per closed episode
+(FIRST_EP_COUNT, FIRST_EP_OPEN, FIRST_EP_T0, FIRST_EP_V, FIRST_EP_PEAK, FIRST_EP_IMPULSE) = range(5, 11)
+FIRST_LOG = 11
+#: one logged episode: onset time (s), approach speed at onset (m/s), peak |normal force| (N, interior peaks
+#: included), impulse (N s, the trapezoid over the accepted steps) and duration (s, onset to the first step end
+#: found open)
+EP_T0, EP_V, EP_PEAK, EP_IMPULSE, EP_DURATION = range(5)
+N_EP = 5
+#: capacity of the episode log per second of statistics window (episodes/s): the reference harvester's busiest
+#: joint closes about 300 times a second, chatter included
+EPISODES_PER_SECOND = 2000
+
+
+def first_columns(window: float) -> int:
+    """Columns of integrate's ``first`` with an episode log for a statistics window of ``window`` seconds.
+
+    Parameters
+    ----------
+    window : float
+        Length of the statistics window (s).
+
+    Returns
+    -------
+    int
+        :data:`FIRST_LOG` plus :data:`N_EP` entries for each of max(64, ``EPISODES_PER_SECOND x window``) episodes.
+    """
+    return FIRST_LOG + N_EP * max(64, int(np.ceil(EPISODES_PER_SECOND * max(window, 0.0))))
 #: layout of integrate's optional ``resume`` array (a run in chunks): the step count at which to pause (<= 0:
 #: none), started flag, then the loop's state (time, step size, the size to resume with after an onset cut, the
 #: PI controller's last error, last step rejected, accepted / rejected / cut steps, largest constraint residual,

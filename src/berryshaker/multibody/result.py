@@ -127,6 +127,25 @@ class MultibodyResult:
             out[name] = int(self.first[cm.frc_names.index(name), L.FIRST_IMPACTS])
         return out
 
+    def contact_episodes(self, name: str):
+        """The contact episodes of a clearance element over the statistics window (the integrator's log:
+        onset, approach speed, peak force, impulse, duration; :class:`~berryshaker.multibody.impacts.ContactEpisodes`).
+
+        Parameters
+        ----------
+        name : str
+            The force element.
+
+        Returns
+        -------
+        ContactEpisodes
+            Its episodes (none for an element that is not a contact, or a run without a log).
+        """
+        from berryshaker.multibody.impacts import episodes_from_log
+
+        k = self.compiled.frc_names.index(name)
+        return episodes_from_log(self.first[k], float(self.t[-1]) - self.stats_from)
+
     def summary(self) -> dict:
         """The JSON of ``simulate --mechanism``: per joint force statistics (clearance joints: contact
         fraction, first impact, ``contact_onsets``), driver torques, integrator statistics.

@@ -5,7 +5,7 @@ interval and the step it comes from (issue 45, item 1).
 :func:`berryshaker.report.html.study_report` is rendered from) and the machine description, and returns:
 
 * per joint: the recommended clearance (virtual L9) with its level-set name, the recommended ISO 286 fit with its
-  clearance range and service interval (clearance life), and the peak collision force at the recommended set
+  clearance range and service interval (clearance life), and the static-equivalent collision force at the recommended set
   (virtual L9, every start of that set);
 * the drive torque (peak, RMS) and the harvest indexes at the recommended set, with their intervals;
 * the operating point and why this efficiency (:mod:`berryshaker.report.harvest_answers`);
@@ -69,7 +69,7 @@ def claims_apply(machine) -> bool:
 
 
 def _joint_answers(summary: dict, machine) -> dict[str, JointAnswers]:
-    """Per joint: recommended clearance (L9), fit and service interval (life), peak collision force (L9)."""
+    """Per joint: recommended clearance (L9), fit and service life (life), static-equivalent collision force (L9)."""
     res = _results(summary)
     rec = _recommended(summary)
     opt = summary.get("optimum") or {}
@@ -87,9 +87,9 @@ def _joint_answers(summary: dict, machine) -> dict[str, JointAnswers]:
                                       "a design value: the L9 test level chosen" + (f" (level {levels})" if levels else ""),
                                       "virtual_l9", "recommended.clearance_mm", "[computed]",
                                       basis=str(basis.get(p, "")))
-        force = _estimate(reps.get(f"peak_force_{p}"), "N", "virtual_l9", f"recommended.replicates.peak_force_{p}")
+        force = _estimate(reps.get(f"design_force_{p}"), "N", "virtual_l9", f"recommended.replicates.design_force_{p}")
         if force:
-            j["peak_force"] = force
+            j["design_force"] = force
         j.update(fits.get(p, {}))
         out[p] = JointAnswers(**j)
     return out
@@ -113,6 +113,8 @@ def _fit_answers(life: dict, machine) -> dict:
     sur = (life or {}).get("surrogate") or {}
     if not fits:
         return {}
+    if life.get("recommended_fits"):
+        return _fits_with_life(life)
     joints = [p for p in machine.pair_names if p in fits]
     try:
         cands = joint_candidates(machine, joints, tuple(sorted({fits[p] for p in joints})))
@@ -138,9 +140,9 @@ def _fit_answers(life: dict, machine) -> dict:
                                       "recommended.fits", "[computed]")
         s, limit = sur.get(p), (life.get("clearance_limit_mm") or {}).get(p)
         if s and limit is not None:
-            r = ClearanceResponse(p, np.asarray(s["clearance_mm"]) * 1e-3, np.asarray(s["peak_force_N"]),
+            r = ClearanceResponse(p, np.asarray(s["clearance_mm"]) * 1e-3, np.asarray(s["design_force_N"]),
                                   np.asarray(s["growth_rate_um_per_h"]) * 1e-6,
-                                  None if s.get("peak_force_se_N") is None else np.asarray(s["peak_force_se_N"]),
+                                  None if s.get("design_force_se_N") is None else np.asarray(s["design_force_se_N"]),
                                   starts=int(s.get("starts", 1)))
             hours = r.hours_to(c0, limit * 1e-3)
             mat = machine.clearance[p].geometry().material_pair
@@ -153,16 +155,69 @@ def _fit_answers(life: dict, machine) -> dict:
                     f"Archard k of {mat} over its range {k_lo:.0e}..{k_hi:.0e} (nominal {k:.0e}, {tag}): the hours "
                     "scale as 1/k", "clearance_life", "surrogate (growth from the fit's mean clearance to the limit "
                     f"{limit:.3g} mm)", f"[computed; k {tag}]", material_pair=mat, limit_mm=float(limit))
-            if r.peak_force_se is not None and r.starts > 1:
+            if r.design_force_se is not None and r.starts > 1:
                 from scipy import stats
 
                 f0 = float(r.force(c0))
-                se = float(np.interp(c0, r.clearance, r.peak_force_se))
+                se = float(np.interp(c0, r.clearance, r.design_force_se))
                 t = float(stats.t.ppf(1 - ALPHA / 2, r.starts - 1))
-                d["fit_peak_force"] = quantity(f0, "N", f0 - t * se, f0 + t * se,
+                d["fit_design_force"] = quantity(f0, "N", f0 - t * se, f0 + t * se,
                                                f"95 % t-interval of the mean of {r.starts} starts, machine without "
                                                "the bush (the life step's surrogate, interpolated)",
-                                               "clearance_life", "surrogate.peak_force_N", "[computed]")
+                                               "clearance_life", "surrogate.design_force_N", "[computed]")
+        out[p] = d
+    return out
+
+
+def _life_quantity(life: dict, where: str):
+    """A joint's service life (:class:`berryshaker.life.service_life.JointLife` as JSON) as a quantity: the hours
+    of its governing mechanism with that mechanism's interval, no number beyond the design life (``reads``)."""
+    design = life["design_life_h"]
+
+    def within(x):
+        return x if x is not None and x <= design else None
+
+    value = within(life["hours"])
+    return quantity(value, "h", within(life["lo"]) if value is not None else None,
+                    within(life["hi"]) if value is not None else None,
+                    f"{life['reads']}; governing: {life['governing']}; interval: {life['uncertainty']}",
+                    "clearance_life", where, "[computed; wear k [assumed]]", limit_mm=float(life["limit_mm"]),
+                    reads=life["reads"], mechanism=life["governing"])
+
+
+def _fit_quantities(fl: dict, where: str) -> dict:
+    """A fit evaluated by the life step (:class:`berryshaker.study.life_drive_records.FitLife` as JSON) as the
+    answers' quantities: its new-machine clearance, the static-equivalent force there and the service life."""
+    from scipy import stats
+
+    out = {"fit_clearance": quantity(fl["clearance_mm"], "mm", fl["clearance_min_mm"], fl["clearance_max_mm"],
+                                     "the fit's new-machine clearance (ISO 286 limits); value: its mean",
+                                     "clearance_life", where, "[computed]"),
+           "service_interval": _life_quantity(fl["life"], where + ".life")}
+    se, n = fl.get("design_force_se_N"), fl.get("starts")
+    f0 = fl["design_force_N"]
+    if se is not None and n:
+        t = float(stats.t.ppf(1 - ALPHA / 2, n - 1))
+        out["fit_design_force"] = quantity(f0, "N", f0 - t * se, f0 + t * se, "static-equivalent force (p95 of the "
+                                           f"impact peaks) at the fit's mean clearance, machine without the bush; "
+                                           f"95 % t-interval of the mean of {n} starts", "clearance_life", where,
+                                           "[computed]", n=n)
+    else:
+        out["fit_design_force"] = quantity(f0, "N", None, None, "static-equivalent force at the fit's mean "
+                                           "clearance (one start)", "clearance_life", where, "[computed]")
+    return out
+
+
+def _fits_with_life(life: dict) -> dict:
+    """Per joint: the recommended fit and the drawing's, each with its new-machine clearance, load and life."""
+    out = {}
+    for p, fl in life["recommended_fits"].items():
+        d = {"fit": fl["fit"], **_fit_quantities(fl, f"recommended_fits.{p}")}
+        dr = (life.get("drawing_fits") or {}).get(p)
+        if dr is not None:
+            q = _fit_quantities(dr, f"drawing_fits.{p}")
+            d.update(drawing_fit=dr["fit"], drawing_fit_clearance=q["fit_clearance"],
+                     drawing_service_interval=q["service_interval"])
         out[p] = d
     return out
 
@@ -171,7 +226,7 @@ def _machine_loads(summary: dict) -> Loads:
     rec = _recommended(summary)
     reps = rec.get("replicates") or (summary.get("optimum") or {}).get("intervals") or {}
     out = {}
-    for key, name in (("drive_torque_peak", "drive torque, peak"), ("drive_torque_rms", "drive torque, RMS")):
+    for key, name in (("drive_torque_peak", "drive torque, peak (single maximum)"), ("drive_torque_rms", "drive torque, RMS")):
         q = _estimate(reps.get(key), "N m", "virtual_l9", f"recommended.replicates.{key}")
         if q:
             out[key] = replace(q, label=name)
@@ -247,8 +302,8 @@ def design_answers(summary: dict, machine,
     -------
     DesignAnswers
         ``machine``, ``drive``, ``pairs``, ``claims_apply``, ``recommended`` (code, ``name``: the clearances'
-        name, statement), ``joints`` (per pair: clearance, peak_force, fit, fit_clearance, service_interval,
-        fit_peak_force), ``loads`` (drive torque), ``harvest`` (indexes at the recommended set), ``operating_point``
+        name, statement), ``joints`` (per pair: clearance, design_force, fit, fit_clearance, service_interval,
+        fit_design_force), ``loads`` (drive torque), ``harvest`` (indexes at the recommended set), ``operating_point``
         (:func:`operating_point`), ``differences`` (:func:`differences`), ``tradeoff``, ``why_efficiency``
         (:func:`why_efficiency`), ``comparison`` (with ``reference``) and ``missing`` (steps without results).
     """

@@ -76,6 +76,22 @@ def _cell(q: Quantity | None):
     return _Raw(f"{html.escape(_num(q.value))}{iv}")
 
 
+def _range(q: Quantity | None) -> str:
+    """A fit's clearance range as the second line of a cell."""
+    return "" if q is None else f"<span class='ci'>{_num(q.lo)} .. {_num(q.hi)} mm</span>"
+
+
+def _life_cell(q: Quantity | None):
+    """A service life: its hours and interval within the design life, else how it reads; the governing mechanism
+    under it."""
+    if q is None:
+        return "-"
+    if q.reads is None:  # a life from before the mechanisms
+        return _cell(q)
+    text = html.escape(q.reads)
+    return _Raw(text + (f"<span class='ci'>{html.escape(q.mechanism)}</span>" if q.mechanism else ""))
+
+
 def _src(q: Quantity | None, numbers: dict | None) -> str:
     return "" if q is None else section_label(q.source.step, numbers)
 
@@ -118,19 +134,28 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
             fit = "-" if j.fit is None else j.fit
             q = j.fit_clearance
             rng = "" if q is None else f"<span class='ci'>{_num(q.lo)} .. {_num(q.hi)} mm</span>"
-            rows.append([p, _cell(j.clearance), _cell(j.peak_force),
-                         _Raw(html.escape(str(fit)) + rng), _cell(j.service_interval),
+            rows.append([p, _cell(j.clearance), _cell(j.design_force),
+                         _Raw(html.escape(str(fit)) + rng), _life_cell(j.service_interval),
                          _section_numbers(("virtual_l9", "clearance_life") if j.fit else ("virtual_l9",),
                                           numbers)])
-        parts.append(_table(["joint", "clearance (mm)", "peak collision force (N)", "ISO fit, clearance (mm)",
-                             "service interval (h)", "section"], rows, left=(0, 3),
+        parts.append(_table(["joint", "clearance, worn level (mm)", "static-equivalent collision force (N)",
+                             "fit (new machine), clearance (mm)", "service life (h)", "section"], rows, left=(0, 3),
                             widths=(13, 15, 20, 22, 18, 12)))
-        mats = {j.service_interval.material_pair: j.service_interval.interval
-                for j in joints.values() if j.service_interval is not None}
-        parts.append("<p class='small'>Clearance: the L9's recommended level; peak force: mean over the recommended "
-                     "set's starts (coupled with the bush); fit and service interval: the clearance-life step "
-                     "(hours from the fit's mean clearance to the service limit, on its surrogate).  Service "
-                     "interval range: " + html.escape("; ".join(mats.values()) or "not available") + ".</p>")
+        drawn = [[p, _Raw(html.escape(j.drawing_fit) + _range(j.drawing_fit_clearance)),
+                  _life_cell(j.drawing_service_interval)]
+                 for p, j in joints.items() if j.drawing_fit]
+        if drawn:
+            parts.append(_table(["joint", "fit on the drawing (new machine), clearance (mm)", "service life (h)"],
+                                drawn, left=(0, 1, 2), widths=(13, 40, 47)))
+        mechs = {j.service_interval.mechanism: j.service_interval.interval.split("interval: ", 1)[-1]
+                 for j in joints.values() if j.service_interval is not None and j.service_interval.mechanism}
+        parts.append("<p class='small'>Clearance, worn level: the L9's recommended level (a worn state the virtual "
+                     "test runs at); static-equivalent force: the p95 of the impact peaks of each start's "
+                     "drive-pasts (coupled with the bush), mean over the recommended set's starts; fit (new "
+                     "machine) and service life: the clearance-life step (the governing mechanism's hours from the "
+                     "fit's mean clearance, on its surrogate; never a number beyond the machine's design life).  "
+                     "Governing mechanisms and their dominant uncertainty: "
+                     + html.escape("; ".join(f"{m}: {u}" for m, u in mechs.items()) or "not available") + ".</p>")
     loads = a.loads.quantities() + a.harvest.quantities()
     if loads:
         parts.append("<h3>At the recommended set</h3>")

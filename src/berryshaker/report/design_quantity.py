@@ -25,7 +25,7 @@ class Source(JsonRecord):
         The study step (a key of :data:`berryshaker.report.design_html.STEP_SECTIONS`, which names its report
         section; "machine" for an input of the machine description).
     where : str
-        Where in that step's results (e.g. "recommended.replicates.peak_force_A").
+        Where in that step's results (e.g. "recommended.replicates.design_force_A").
     """
 
     step: str
@@ -67,6 +67,10 @@ class Quantity(JsonRecord):
         The joint's service limit of clearance (mm) the service interval runs to (a service interval only).
     label : str, optional
         The quantity's name in the answers' tables (the loads and harvest indexes at the recommended set).
+    reads : str, optional
+        A service life as the report states it (no number beyond the machine's design life).
+    mechanism : str, optional
+        A service life's governing mechanism.
     """
 
     value: float | None
@@ -83,6 +87,8 @@ class Quantity(JsonRecord):
     material_pair: str | None = optional()
     limit_mm: float | None = optional()
     label: str | None = optional()
+    reads: str | None = optional()
+    mechanism: str | None = optional()
 
 
 @dataclass(frozen=True)
@@ -119,7 +125,7 @@ def quantity(value, unit: str, lo=None, hi=None, interval: str = "", step: str =
         The study step the number comes from (a key of :data:`berryshaker.report.design_html.STEP_SECTIONS`,
         which names its report section).
     where : str
-        Where in that step's results (e.g. "recommended.replicates.peak_force_A").
+        Where in that step's results (e.g. "recommended.replicates.design_force_A").
     tag : str
         Provenance tag.
     **extra

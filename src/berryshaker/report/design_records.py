@@ -315,25 +315,36 @@ class JointAnswers(JsonRecord):
     ----------
     clearance : Quantity, optional
         The recommended clearance (mm), the L9's level, with its ``basis``.
-    peak_force : Quantity, optional
-        Peak collision force at the recommended set (N): mean over its starts, 95 % interval, SD, count.
+    design_force : Quantity, optional
+        Static-equivalent collision force at the recommended set (N; the p95 of the impact peaks of each start's
+        drive-pasts): mean over its starts, 95 % interval, SD, count.
     fit : str, optional
         The recommended ISO 286 fit (e.g. "H11/c11") of the clearance-life step.
     fit_clearance : Quantity, optional
         The fit's clearance (mm): its mean, the range of its ISO 286 limits as the interval.
     service_interval : Quantity, optional
-        Hours (h) of wear from the fit's mean clearance to the service limit, over the range of Archard's k, with
-        ``material_pair`` and ``limit_mm``.
-    fit_peak_force : Quantity, optional
-        Peak collision force at the fit's mean clearance (N), machine without the bush (the life step's surrogate).
+        Service life (h) from the fit's mean clearance: its governing mechanism's hours and interval (None beyond
+        the machine's design life; ``reads`` states it), with ``limit_mm`` and ``mechanism``.
+    fit_design_force : Quantity, optional
+        Static-equivalent collision force at the fit's mean clearance (N), machine without the bush (the life step's
+        surrogate).
+    drawing_fit : str, optional
+        The fit on the user's drawing (``clearance.<pair>.fit``).
+    drawing_fit_clearance : Quantity, optional
+        Its new-machine clearance (mm).
+    drawing_service_interval : Quantity, optional
+        Its service life (h).
     """
 
     clearance: Quantity | None = optional()
-    peak_force: Quantity | None = optional()
+    design_force: Quantity | None = optional()
     fit: str | None = optional()
     fit_clearance: Quantity | None = optional()
     service_interval: Quantity | None = optional()
-    fit_peak_force: Quantity | None = optional()
+    fit_design_force: Quantity | None = optional()
+    drawing_fit: str | None = optional()
+    drawing_fit_clearance: Quantity | None = optional()
+    drawing_service_interval: Quantity | None = optional()
 
 
 @dataclass(frozen=True)
@@ -361,7 +372,7 @@ class Difference(JsonRecord):
     Attributes
     ----------
     response : str
-        The response (e.g. "efficiency", "peak_force_C").
+        The response (e.g. "efficiency", "design_force_C").
     factor : str
         The factor (a clearance pair).
     levels : list of int

@@ -110,7 +110,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     recs = l9.tradeoff
     if recs:
         parts.append("<h3>Trade-off of the candidate clearance sets</h3>")
-        forces = [f"peak_force_N:{p}" for p in pair_names if f"peak_force_N:{p}" in recs[0]]
+        forces = [f"design_force_N:{p}" for p in pair_names if f"design_force_N:{p}" in recs[0]]
         idx = [n for n in ("efficiency", "ripe_removal", "unripe", "damage") if n in recs[0]]
         tq = [c for c in ("drive_torque_peak_Nm", "drive_torque_rms_Nm") if c in recs[0]]
 
@@ -127,12 +127,14 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
         parts.append(_table(header, body, left=(0, len(header) - 1)))
-        loads = (["candidate"] + [f"peak force {c.split(':')[1]} (N)" for c in forces]
-                 + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)])
+        loads = (["candidate"] + [f"static-equivalent force {c.split(':')[1]} (N)" for c in forces]
+                 + ["drive torque peak, single maximum (N m)", "drive torque RMS (N m)"][:len(tq)])
         if len(loads) > 1:
             parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
         parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
-                     "of the same candidates in the second table; 'dominated by' names the dominating candidates by "
+                     "of the same candidates in the second table (a collision force there is the static-equivalent load, the p95 "
+                     "of the impact peaks over each start's drive-pasts, not a run's single largest force); "
+                     "'dominated by' names the dominating candidates by "
                      "run number ('rec.': the recommended set).  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
                      "one, 'beyond noise' being the Tukey-Kramer margin on the ANOVA's error (blocked on the starts), "
@@ -140,7 +142,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
                      "descriptive.  The tiered "
                      "choice is confirmed against this table: a tested run that dominates it becomes the "
                      "recommendation.</p>")
-    _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
+    _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against static-equivalent collision force and drive torque")
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
     _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
     for name in sorted(rep.responses):  # Minitab's effect figures (report.plots.effects), where drawn

@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
+from berryshaker.report.life_tables import life_parts
 from berryshaker.reference_study import EQ18_F
 
 #: a section renderer: input -> (title without its number, HTML parts)
@@ -372,8 +373,7 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
 
 
 def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
-    """Clearance over the machine's life (study step ``clearance_life``): wear growth per joint and the
-    recommended fits.
+    """Clearance over the machine's life (study step ``clearance_life``): wear growth, service life and fits.
 
     Parameters
     ----------
@@ -389,12 +389,7 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     parts = []
     life = inp.res.clearance_life
     if life is not None:
-        rec = life.recommended
-        parts.append(_table(["joint", "clearance now (mm)", f"after {life.horizon_h:g} h (mm)", "service limit (mm)",
-                             "hours to the limit", "recommended fit"],
-                            [[j, g.clearance_mm[0], g.clearance_mm[-1], life.clearance_limit_mm[j],
-                              "not reached" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
-                              rec.fits.get(j, "")] for j, g in life.growth.items()]))
+        parts += life_parts(life)
         parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     return "Clearance life: wear and fits (docs/life.md)", parts

@@ -247,7 +247,7 @@ def l9_replicate_figures(l9: dict, levels_mm: dict, figs: Path, draw: Callable) 
     for name, rows, title in (("l9_effects_harvest.png", [n for n in HARVEST_RESPONSES if n != "unripe_shed"],
                                "Virtual L9: harvest indexes"),
                               ("l9_effects_loads.png", [n for n in rep.get("responses", {})
-                                                        if n.startswith(("peak_force_", "drive_torque_"))],
+                                                        if n.startswith(("design_force_", "peak_force_", "drive_torque_"))],
                                "Virtual L9: machine loads")):
         rows = [n for n in rows if n in rep.get("responses", {})]
         if rows:

@@ -235,7 +235,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     if not any(harvest_sig.values()):
         statement = ("The harvest indexes do not differ meaningfully between any clearance levels (no factor effect "
                      f"beyond the replicate noise, p >= {rep.alpha:g}); the recommendation is decided on what does "
-                     "differ: peak collision forces and drive torque (" + ", ".join(
+                     "differ: static-equivalent collision forces (p95 of the impact peaks) and drive torque (" + ", ".join(
                          f"{n}: {', '.join(rep.responses[n].significant_factors) or 'none'}" for n in loads)
                      + " significant), and the configured clearance where nothing differs.")
     else:

@@ -8,7 +8,7 @@ The range analysis per response (:func:`berryshaker.experiment.analysis.analyze`
 (:func:`berryshaker.experiment.replicates.analyze_replicated`, also the JSON of ``doe analyze``) are the experiment
 layer's records (:mod:`berryshaker.experiment.analysis_records`, :mod:`berryshaker.experiment.replicated_records`);
 :class:`ReplicatedL9` and :class:`L9Optimum` extend them with what the study adds.  What stays a ``dict`` field: the trade-off table's rows (their columns are
-data: ``peak_force_N:A``...) and the sequential-start statistics.
+data: ``design_force_N:A``...) and the sequential-start statistics.
 """
 
 from __future__ import annotations

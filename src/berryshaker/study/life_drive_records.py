@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from berryshaker.records import JsonRecord
+from berryshaker.life.service_life import JointLife
+from berryshaker.records import JsonRecord, optional
 from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 
 
@@ -39,16 +40,52 @@ class RecommendedFits(JsonRecord):
     cost : float
         Manufacturing cost of the fits, summed over hole and shaft of every joint (relative cost units, 1;
         :func:`berryshaker.life.tolerance.tolerance_cost`).
-    peak_force_N : float
-        Peak collision force, the largest over the joints, each at its fit's mean clearance (N).
+    design_force_N : float
+        Static-equivalent collision force, the largest over the joints, each at its fit's mean clearance (N).
     maintenance_interval_h : float
-        Hours until the first joint grows from its fit's mean clearance to its service limit (h).
+        Hours until the first joint grows from its fit's mean clearance to its service limit under the faster wear
+        mode (h; the design's objective, :meth:`~berryshaker.life.clearance_response.ClearanceResponse.service_hours`).
     """
 
     fits: dict[str, str]
     cost: float
-    peak_force_N: float
+    design_force_N: float
     maintenance_interval_h: float
+
+
+@dataclass(frozen=True)
+class FitLife(JsonRecord):
+    """A fit evaluated on the surrogate: the new machine's clearance it gives, the joint's sizing load there and
+    its service life (:func:`berryshaker.study.life_step.fit_life`).
+
+    Attributes
+    ----------
+    fit : str
+        ISO 286 fit designation (e.g. "H8/f7").
+    source : str
+        "drawing" (``clearance.<pair>.fit`` of the description) or "recommended" (the tolerance design's).
+    clearance_min_mm, clearance_mm, clearance_max_mm : float
+        The new machine's clearance by the fit's ISO 286 limits: smallest, mean, largest (mm; radial for a pin,
+        free travel for a roller).
+    design_force_N : float
+        Static-equivalent collision force at the mean clearance (N; the surrogate, machine without the bush).
+    design_force_se_N : float, optional
+        Its standard error over the surrogate's starts (N).
+    starts : int, optional
+        The surrogate's starts per clearance.
+    life : JointLife
+        The joint's service life from the fit's mean clearance.
+    """
+
+    fit: str
+    source: str
+    clearance_min_mm: float
+    clearance_mm: float
+    clearance_max_mm: float
+    design_force_N: float
+    life: JointLife
+    design_force_se_N: float | None = optional()
+    starts: int | None = optional()
 
 
 @dataclass(frozen=True)
@@ -60,9 +97,11 @@ class ClearanceLife(JsonRecord):
     horizon_h : float
         Operating hours of the growth (h).
     growth : dict of str to ClearanceGrowth
-        Per joint its clearance over the hours (mm against h).
+        Per joint its clearance over the hours (mm against h) under the faster wear mode, ended where it reaches
+        its service limit.
     hours_to_limit : dict of str to float or None
-        Per joint the hours from the described clearance to its service limit (h; None: not reached).
+        Per joint the hours from the described clearance (a worn level) to its service limit under the faster wear
+        mode (h; None: not within the machine's design life).
     clearance_limit_mm : dict of str to float
         Per joint its service limit (mm).
     recommended : RecommendedFits
@@ -73,9 +112,16 @@ class ClearanceLife(JsonRecord):
         Coupled runs of the surrogate's grid.
     surrogate : dict of str to dict
         Per joint the surrogate's grid (:meth:`berryshaker.life.clearance_response.ClearanceResponse.to_dict`:
-        clearances mm, peak forces N, growth rates um/h, starts).
+        clearances mm, static-equivalent forces N, growth rates um/h, starts).
     notes : list of str
         What the estimate rests on.
+    life : dict of str to JointLife, optional
+        Per joint its service life from the new machine's clearance (its fit on the drawing, else its described
+        size) by mechanism (:func:`berryshaker.life.service_life.joint_life`).
+    drawing_fits : dict of str to FitLife, optional
+        Per joint with a fit on the drawing (``clearance.<pair>.fit``): that fit evaluated.
+    recommended_fits : dict of str to FitLife, optional
+        Per joint: the recommended fit evaluated.
     """
 
     horizon_h: float
@@ -87,6 +133,9 @@ class ClearanceLife(JsonRecord):
     simulations: int
     surrogate: dict[str, dict]
     notes: list[str]
+    life: dict[str, JointLife] | None = optional()
+    drawing_fits: dict[str, FitLife] | None = optional()
+    recommended_fits: dict[str, FitLife] | None = optional()
 
 
 
@@ -170,4 +219,4 @@ class PoweredDrive(JsonRecord):
     finding: str
 
 
-__all__ = ["ClearanceGrowth", "RecommendedFits", "ClearanceLife", "PoweredLevel", "PoweredDrive"]
+__all__ = ["FitLife", "ClearanceGrowth", "RecommendedFits", "ClearanceLife", "PoweredLevel", "PoweredDrive"]

@@ -1,22 +1,81 @@
-"""Study step "Clearance life": a cheap summary of joint wear and fit choice for the report.
+"""Study step "Clearance life": a cheap summary of joint wear, service life and fit choice for the report.
 
-Three clearances per pair, each from ``harvest.replicates`` perturbed starts (one pair varied at a time, cached
-through the study's runner), give each pair's Archard growth rate and mean peak collision force against its own
-clearance (the tolerance design's surrogate, :mod:`berryshaker.life.clearance_response`).
-From it: the clearance of every pair over 2000 operating hours from the description's sizes
-(dc/dh = r(c) on the interpolant), the hours to each pair's service limit (life.service.service_limits, docs/life.md 4a), and the fit recommended by
-NSGA-II on the surrogate.  Coarse on purpose (3 points per pair, runs of 2 revolutions); ``berryshaker wear``
-re-simulates at every state and ``berryshaker tolerance`` uses a finer grid.
+Three clearances per pair from the tightest candidate fit to the pair's service limit, each from
+``harvest.replicates`` perturbed starts (one pair varied at a time, cached through the study's runner), give each
+pair's Archard growth rate and mean static-equivalent collision force against its own clearance (the tolerance
+design's surrogate, :mod:`berryshaker.life.clearance_response`).  From it: the clearance of every pair over 2000
+operating hours from the description's sizes (the worn levels studied), every pair's service life by mechanism
+from the new machine's clearance (:func:`berryshaker.life.service_life.joint_life`: wear by mode, contact fatigue,
+ISO 281 where the pair is a rolling bearing; the loads re-evaluated as the clearance grows), the fits on the
+drawing and the fits recommended by NSGA-II on the surrogate, each evaluated (new clearance, load, life).  Coarse
+on purpose (3 points per pair, runs of 2 revolutions); ``berryshaker wear`` re-simulates at every state and
+``berryshaker tolerance`` uses a finer grid.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from berryshaker.study.life_drive_records import ClearanceGrowth, ClearanceLife, RecommendedFits
+from berryshaker.study.life_drive_records import ClearanceGrowth, ClearanceLife, FitLife, RecommendedFits
 from berryshaker.study.step_result import StepResult
 
 HORIZON_H = 2000.0
+
+
+def _growth_to_limit(hours: np.ndarray, c: np.ndarray, limit: float) -> ClearanceGrowth:
+    """A joint's clearance (m) over the hours (h), ended where it reaches its service limit (the joint is serviced
+    there: no clearance beyond it is drawn), the crossing interpolated."""
+    over = np.nonzero(c >= limit)[0]
+    if over.size:
+        i = int(over[0])
+        if i == 0:
+            hours, c = hours[:1], np.array([c[0]])
+        else:
+            h = float(np.interp(limit, [c[i - 1], c[i]], [hours[i - 1], hours[i]]))
+            hours, c = np.append(hours[:i], h), np.append(c[:i], limit)
+    return ClearanceGrowth(hours=[float(x) for x in hours], clearance_mm=[float(x) * 1e3 for x in c])
+
+
+def fit_life(machine, joint: str, fit: str, source: str, response, limit: float) -> FitLife:
+    """A fit evaluated on a joint's surrogate: its new-machine clearance (ISO 286 limits), the joint's
+    static-equivalent load at its mean and its service life from there.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description (the joint's geometry).
+    joint : str
+        The pair.
+    fit : str
+        ISO 286 fit designation at the joint's diameter.
+    source : str
+        "drawing" or "recommended".
+    response : ClearanceResponse
+        The joint's surrogate (N, m/h against m).
+    limit : float
+        The joint's service limit (m).
+
+    Returns
+    -------
+    FitLife
+        Clearances (mm), load (N) and life.
+    """
+    from berryshaker.life.fits import parse_fit
+    from berryshaker.life.joint_loads import joint_geometry
+    from berryshaker.life.service_life import joint_life
+    from berryshaker.life.wear import clearance_size_from_fit
+
+    g = joint_geometry(machine, joint)
+    f = parse_fit(fit, g.diameter * 1e3)
+    kind = "revolute" if g.is_pin else "point-line"
+    lo, mean, hi = (clearance_size_from_fit(f, kind, w) for w in ("min", "mean", "max"))
+    se = None
+    if response.design_force_se is not None and response.starts > 1:
+        se = float(np.interp(mean, response.clearance, response.design_force_se))
+    rating = getattr(machine.clearance[joint], "dynamic_load_rating", None)
+    life = joint_life(response, g, mean, limit, f"the {source} fit {fit} (mean of its ISO 286 limits)", rating)
+    return FitLife(fit, source, lo * 1e3, mean * 1e3, hi * 1e3, float(response.force(mean)), life, se,
+                   int(response.starts) if se is not None else None)
 
 
 def step_life(ctx):
@@ -31,8 +90,9 @@ def step_life(ctx):
     -------
     StepResult
         ``data``: a :class:`~berryshaker.study.life_drive_records.ClearanceLife`, ``growth[pair]`` (hours[],
-        clearance_mm[]), ``hours_to_limit[pair]``, ``recommended`` (fits, cost, peak force, maintenance interval),
-        ``front_size``, ``simulations``, ``notes``; one figure.
+        clearance_mm[]), ``hours_to_limit[pair]``, ``recommended`` (fits, cost, static-equivalent force,
+        maintenance interval), ``front_size``, ``simulations``, ``notes``, ``life[pair]`` (by mechanism, from the
+        new machine), ``drawing_fits`` and ``recommended_fits`` (each fit evaluated); one figure.
     """
     from berryshaker.life.service import service_limits
     from berryshaker.life.tolerance import (
@@ -55,23 +115,43 @@ def step_life(ctx):
     resp = clearance_responses(m, joints, grid, ctx.runner, revolutions=2, label="clearance life grid",
                                starts=m.harvest.replicates)
     hours = np.linspace(0.0, HORIZON_H, 21)
-    growth = {j: ClearanceGrowth(hours=hours.tolist(), clearance_mm=(resp[j].grow(sizes[j], hours) * 1e3).tolist())
-              for j in joints}
-    to_limit = {j: resp[j].hours_to(sizes[j], limits[j]) for j in joints}
+    growth = {j: _growth_to_limit(hours, resp[j].grow(sizes[j], hours * resp[j].wear_scale), limits[j]) for j in joints}
+    from berryshaker.life.joint_loads import joint_geometry
+    from berryshaker.life.service_life import DESIGN_LIFE_H, joint_life
+
+    to_limit = {}
+    for j in joints:
+        h = resp[j].service_hours(sizes[j], limits[j])
+        to_limit[j] = None if h > DESIGN_LIFE_H else h
+    drawing = {j: fit_life(m, j, m.clearance[j].fit, "drawing", resp[j], limits[j]) for j in joints
+               if getattr(m.clearance[j], "fit", None)}
+    life = {}
+    for j in joints:
+        if j in drawing:
+            life[j] = drawing[j].life
+        else:
+            life[j] = joint_life(resp[j], joint_geometry(m, j), sizes[j], limits[j],
+                                 "the described size (no fit on the drawing)",
+                                 getattr(m.clearance[j], "dynamic_load_rating", None))
     x, f = nsga2_front(joints, cands, resp, limits, pop_size=40, generations=40, seed=1)
     best = compromise_index(f)
     rec = RecommendedFits(fits={j: cands[j].fits[x[best][k]].designation for k, j in enumerate(joints)},
-                          cost=float(f[best, 0]), peak_force_N=float(f[best, 1]),
+                          cost=float(f[best, 0]), design_force_N=float(f[best, 1]),
                           maintenance_interval_h=float(-f[best, 2]))
+    recommended = {j: fit_life(m, j, rec.fits[j], "recommended", resp[j], limits[j]) for j in joints}
     data = ClearanceLife(
         horizon_h=HORIZON_H, growth=growth, hours_to_limit=to_limit,
         clearance_limit_mm={j: v * 1e3 for j, v in limits.items()}, recommended=rec,
         front_size=int(len(x)), simulations=len(joints) * 3 * m.harvest.replicates,
-        surrogate={j: r.to_dict() for j, r in resp.items()},
+        surrogate={j: r.to_dict() for j, r in resp.items()}, life=life, drawing_fits=drawing or None,
+        recommended_fits=recommended,
         notes=[f"3 clearances per pair, one pair at a time, each the mean over {m.harvest.replicates} perturbed starts "
-               "(2 revolutions each); growth integrated on the interpolated rate (no re-simulation per state)",
+               "(2 revolutions each); growth integrated on the interpolated rate of the faster wear mode (no "
+               "re-simulation per state)",
                *force_fall_notes(resp, m),
-               "Archard k and H of the material pairs dominate the uncertainty (docs/life.md)"])
+               "service life from the new machine's clearance by mechanism: lubricated and abrasive wear, contact "
+               "fatigue, ISO 281 where a roller runs on a rolling bearing; the governing one's interval names its "
+               "dominant uncertainty (Archard k for wear, docs/life.md)"])
     from berryshaker.report.plots.life import plot_clearance_growth
 
     figs = []

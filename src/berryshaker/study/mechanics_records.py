@@ -38,12 +38,18 @@ class ForceStatistics(JsonRecord):
         Root mean square (N or N m).
     p95 : float
         95th percentile (N or N m).
+    static_equivalent : float, optional
+        A multibody run's clearance pair: the p95 of its impact peaks (N; berryshaker.multibody.impacts).
+    fatigue_equivalent : float, optional
+        A multibody run's clearance pair: ISO 281's mean equivalent load of its impact peaks (N).
     """
 
     peak: float
     mean: float
     rms: float
     p95: float
+    static_equivalent: float | None = optional()
+    fatigue_equivalent: float | None = optional()
 
 
 
@@ -218,13 +224,17 @@ class PairStarts(JsonRecord):
     Attributes
     ----------
     peak : StartStatistic
-        The per-start peaks (N).
+        The per-start peaks (N): each run's single largest force, an extreme.
     mean : StartStatistic
         The per-start means (N).
+    static_equivalent : StartStatistic, optional
+        The per-start static-equivalent loads (N): the p95 of the run's impact peaks (a pair closed to an ideal
+        joint: the p95 of its reaction), the load the claims on collision forces are judged on.
     """
 
     peak: StartStatistic
     mean: StartStatistic
+    static_equivalent: StartStatistic | None = optional()
 
 
 @dataclass(frozen=True)

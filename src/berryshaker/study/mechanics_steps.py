@@ -152,7 +152,8 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
     """Per row and pair, the statistics of the per-start collision-force peaks and means over perturbed starts.
 
     ``summaries``: :func:`multibody_row` outputs, row-major (``starts`` per row; a failed run None).  Per row and
-    pair: ``peak`` and ``mean`` each {mean, sd, se, p95 (of the per-start values that ran), values (one per planned
+    pair: ``peak``, ``mean`` and ``static_equivalent`` (the p95 of the run's impact peaks; an ideal joint's: the p95
+    of its reaction) each {mean, sd, se, p95 (of the per-start values that ran), values (one per planned
     start, in the starts' order, None where the run failed: paired comparisons match starts by position)},
     ``starts`` (the runs that finished).
 
@@ -182,11 +183,16 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
         per = {}
         for p in pairs:
             st = {}
-            for key in ("peak", "mean"):
-                v = np.array([x["collision_force_N"][p][key] for x in ss], float)
+            for key in ("peak", "mean", "static_equivalent"):
+                def value(x, key=key):
+                    f = x["collision_force_N"][p]
+                    # an ideal joint (zero clearance) has no impacts: its static-equivalent load is the p95 of its
+                    # smooth reaction
+                    return float(f.get(key, f["p95"]))
+                v = np.array([value(x) for x in ss], float)
                 st[key] = {"mean": float(v.mean()), "sd": float(v.std(ddof=1)), "se": float(v.std(ddof=1) / np.sqrt(v.size)),
                            "p95": float(np.percentile(v, 95)),
-                           "values": [None if x is None else float(x["collision_force_N"][p][key]) for x in chunk]}
+                           "values": [None if x is None else value(x) for x in chunk]}
             per[p] = st
         out[str(r)] = RowStarts.from_json({"pairs": per, "starts": len(ss)})
     return out

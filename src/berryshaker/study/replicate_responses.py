@@ -31,7 +31,9 @@ CONFIDENCE = 0.95
 
 
 def load_responses(pairs) -> list[str]:
-    """Names of the machine-load responses: peak collision force per pair, drive torque peak and RMS.
+    """Names of the machine-load responses: the static-equivalent collision force per pair (the p95 of the impact
+    peaks of a start's drive-pasts, :func:`berryshaker.multibody.impacts.static_equivalent_load`), drive torque
+    peak and RMS.
 
     Parameters
     ----------
@@ -41,9 +43,9 @@ def load_responses(pairs) -> list[str]:
     Returns
     -------
     list of str
-        ``peak_force_<pair>`` per pair, then ``drive_torque_peak`` and ``drive_torque_rms``.
+        ``design_force_<pair>`` per pair, then ``drive_torque_peak`` and ``drive_torque_rms``.
     """
-    return [f"peak_force_{p}" for p in pairs] + ["drive_torque_peak", "drive_torque_rms"]
+    return [f"design_force_{p}" for p in pairs] + ["drive_torque_peak", "drive_torque_rms"]
 
 
 def response_units(pairs) -> dict[str, str]:
@@ -57,9 +59,9 @@ def response_units(pairs) -> dict[str, str]:
     Returns
     -------
     dict of str to str
-        Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for peak forces, "N m" for torques.
+        Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for forces, "N m" for torques.
     """
-    return {**{k: v.unit for k, v in HARVEST_RESPONSES.items()}, **{f"peak_force_{p}": "N" for p in pairs},
+    return {**{k: v.unit for k, v in HARVEST_RESPONSES.items()}, **{f"design_force_{p}": "N" for p in pairs},
             "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
 
 
@@ -67,17 +69,22 @@ def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
     """One start's responses: each harvest response's counted field result, its expectation and counting SD (module
     docstring), and the loads over its branch classes' drive-pasts.
 
-    Peak force and peak torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over
-    all of them (equal durations).
+    Static-equivalent force (``design_force_<pair>``): the p95 of the impact peaks of all the start's drive-pasts
+    together (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); peak
+    torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over all of them (equal
+    durations).
     """
     from berryshaker.harvest.virtual import start_responses
+    from berryshaker.multibody.impacts import static_equivalent_load
 
     r = start_responses(machine, [np.array(o["envelope"]) for o in outs], start)
     out = dict(r["field"])
     out.update({n + EXPECTED: v for n, v in r["expected"].items()})
     out.update({n + COUNT_SD: v for n, v in r["count_sd"].items()})
     for p in machine.pair_names:
-        out[f"peak_force_{p}"] = max(float(o["peak_force_N"].get(p, float("nan"))) for o in outs)
+        if all(p in o.get("impact_peaks_N", {}) for o in outs):
+            out[f"design_force_{p}"] = static_equivalent_load(np.concatenate(
+                [np.asarray(o["impact_peaks_N"][p], float) for o in outs]))
     if all("drive_torque_Nm" in o for o in outs):
         out["drive_torque_peak"] = max(o["drive_torque_Nm"]["peak"] for o in outs)
         out["drive_torque_rms"] = math.sqrt(float(np.mean([o["drive_torque_Nm"]["rms"] ** 2 for o in outs])))

@@ -278,7 +278,7 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
 def replicate_record(machine, table, res) -> dict:
     """What :func:`replicate_run` keeps of one drive-past: the peak stem-force table ``table`` and, from the
-    run ``res``, the peak force of every clearance pair and the drive torque's peak and RMS.
+    run ``res``, the peak force of every clearance pair, each impact's peak and the drive torque's peak and RMS.
 
     Parameters
     ----------
@@ -292,12 +292,18 @@ def replicate_record(machine, table, res) -> dict:
     Returns
     -------
     dict
-        ``envelope`` (the table as nested lists), ``peak_force_N`` (N per pair) and, for a speed-driven
-        machine, ``drive_torque_Nm`` (``peak`` and ``rms``, N m).
+        ``envelope`` (the table as nested lists), ``peak_force_N`` (N per pair: the run's single largest force,
+        an extreme), ``impact_peaks_N`` (per clearance pair, the peak of each of its impacts over the statistics
+        window, N: berryshaker.multibody.impacts) and, for a speed-driven machine, ``drive_torque_Nm`` (``peak``
+        and ``rms``, N m).
     """
     s = res.summary()
     out = {"envelope": table.tolist(),
-           "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]}}
+           "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]},
+           "impact_peaks_N": {}}
+    for p in machine.pair_names:
+        if p in res.compiled.frc_names:
+            out["impact_peaks_N"][p] = res.contact_episodes(p).impacts().peak_N.tolist()
     if s["drivers"]:
         tq = next(iter(s["drivers"].values()))["torque_Nm"]
         out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"]}

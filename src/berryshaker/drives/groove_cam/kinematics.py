@@ -232,6 +232,28 @@ def cam_groove(machine: Machine, n: int = 721):
     return phi, np.vstack([x, y]), inner, outer
 
 
+def groove_profile_at(machine: Machine, phi):
+    """The follower's motion at cam angles ``phi`` and the cam's s0 and offset, what
+    :func:`berryshaker.kinematics.cam.groove_profile` takes to draw walls at any distance from the pitch curve.
+
+    Parameters
+    ----------
+    machine : GrooveCamMachine
+        The machine description.
+    phi : numpy.ndarray
+        Cam angles (rad).
+
+    Returns
+    -------
+    (numpy.ndarray, float, float)
+        SVAJ rows (m, m/rad, ...), s0 (m) and the offset e (m).
+    """
+    from berryshaker.kinematics.cam import follower_svaj
+
+    c = machine.cam
+    return follower_svaj(phi, c.stroke, c.rise_angle, c.far_dwell_angle, c.return_angle, c.law), c.s0, c.offset
+
+
 def mid_stroke_angles(machine: Machine) -> tuple[float, float]:
     """Left and right comb angles (rad) with the push rod at mid-stroke: the swing reference.
 

@@ -339,7 +339,8 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
     ----------
     records : list of dict
         Rows of :func:`berryshaker.study.l9.tradeoff_records` (``efficiency``, ``efficiency_lo``/``_hi``,
-        ``peak_force_N:<joint>`` with ``_lo``/``_hi``, ``drive_torque_peak_Nm``, ``dominated``, ``name``).
+        ``design_force_N:<joint>`` (or ``peak_force_N:<joint>``) with ``_lo``/``_hi``, ``drive_torque_peak_Nm``,
+        ``dominated``, ``name``).
         Filled markers: not dominated beyond noise; open: dominated; a star: the recommended candidate (its
         name contains "recommended").  Force panel: colour of the joint with the largest peak force; torque
         panel: one colour.  Labels are placed clear of the markers and of each other.
@@ -356,9 +357,10 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
         ``points``: per candidate the x/y values drawn in each panel; ``label_offsets`` (points, per panel);
         ``path``.
     """
-    forces = sorted({k for r in records for k in r if k.startswith("peak_force_N:")
+    forces = sorted({k for r in records for k in r if k.startswith(("design_force_N:", "peak_force_N:"))
                      and not k.endswith(("_lo", "_hi", "_noise"))})
-    panels = [("largest peak collision force [N]", "force")]
+    panels = [("largest static-equivalent collision force [N]" if any(k.startswith("design_force_N:") for k in forces)
+               else "largest peak collision force [N]", "force")]
     if all("drive_torque_peak_Nm" in r for r in records):
         panels.append(("peak drive torque [N m]", "torque"))
     torque_colour = SERIES_COLOURS[4]

@@ -118,15 +118,15 @@ def sobol_file_name(output: str) -> str:
 
 
 def plot_fit_front(front: list[dict], recommended: dict, path: Path, *, return_figure: bool = False) -> dict:
-    """Pareto front of fit choices: manufacturing cost against peak collision force, coloured by the maintenance
+    """Pareto front of fit choices: manufacturing cost against static-equivalent collision force, coloured by the maintenance
     interval, the recommended choice ringed.
 
     Parameters
     ----------
-    front : list of {"cost", "peak_force_N", "life_h"}
+    front : list of {"cost", "design_force_N", "life_h"}
         Non-dominated fit choices (cost in relative units [-], force [N], interval [h]).
     recommended : dict
-        ``cost``, ``peak_force_N`` and ``fits`` (joint -> ISO 286 fit) of the chosen compromise.
+        ``cost``, ``design_force_N`` and ``fits`` (joint -> ISO 286 fit) of the chosen compromise.
     path : Path
         PNG file (300 dpi; an SVG of the figure is written beside it).
     return_figure : bool
@@ -138,17 +138,17 @@ def plot_fit_front(front: list[dict], recommended: dict, path: Path, *, return_f
         ``points``: cost, force and life arrays drawn; ``recommended``: (cost, force); ``path``.
     """
     cost = np.array([d["cost"] for d in front], float)
-    force = np.array([d["peak_force_N"] for d in front], float)
+    force = np.array([d["design_force_N"] for d in front], float)
     life = np.array([d["life_h"] for d in front], float)
     fig, ax = new_figure(figsize=(7.5, 4.5))
     sc = ax.scatter(cost, force, c=life, cmap="viridis")
-    ax.scatter([recommended["cost"]], [recommended["peak_force_N"]], s=160, facecolors="none", edgecolors="red",
+    ax.scatter([recommended["cost"]], [recommended["design_force_N"]], s=160, facecolors="none", edgecolors="red",
                label="recommended: " + ", ".join(f"{j} {f}" for j, f in recommended["fits"].items()))
     colour_bar(fig, sc, ax, "maintenance interval [h]")
-    label_axes(ax, "manufacturing cost (relative units) [-]", "peak collision force [N]")
+    label_axes(ax, "manufacturing cost (relative units) [-]", "static-equivalent collision force [N]")
     ax.set_title("Pareto front of fit choices (NSGA-II on the surrogate)", fontsize=10)
     ax.grid(alpha=0.3)
     legend_outside(ax, where="below")
-    return _out(fig, path, {"points": {"cost": cost, "peak_force_N": force, "life_h": life},
-                            "recommended": (float(recommended["cost"]), float(recommended["peak_force_N"]))},
+    return _out(fig, path, {"points": {"cost": cost, "design_force_N": force, "life_h": life},
+                            "recommended": (float(recommended["cost"]), float(recommended["design_force_N"]))},
                 return_figure)
