@@ -177,7 +177,7 @@ def cam_profile(
         ``--out``: Output file, ``*.csv`` or ``*.dxf`` (the extension sets the format).
     fmt : str, optional
         ``--format``: csv (angle + pitch/inner/outer in mm, the tolerance band's walls and the width and running
-        clearance) or dxf (closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL, the band on *_MIN/*_MAX, the
+        clearance) or dxf (closed polylines, mm, layers PITCH/INNER_WALL/OUTER_WALL, the band on ``*_MIN``/``*_MAX``, the
         numbers on NOTES). Default: from the extension of --out.
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
