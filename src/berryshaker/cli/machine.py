@@ -6,10 +6,10 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.markup import escape
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
+from berryshaker.user_text import markup_text
 from berryshaker.outputs import write_provenance
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -96,7 +96,7 @@ def _print_kinematics(s: dict) -> None:
     _print_comb_rows(t, s)
     print_table(("quantity", "value", "closed form"), t, title=f"Kinematics - {s['machine']}")
     for p in s.get("plots", []):
-        out.print(f"wrote {p}")
+        out.print(f"wrote {p}", markup=False)
 
 
 def _print_cam_rows(t, c: dict) -> None:
@@ -287,7 +287,7 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
         write_text_atomic(path, text)
     except OSError as exc:
         raise OutputError(f"cannot write {path} ({exc.strerror or exc}); choose another location") from None
-    err.print(f"wrote {path}")
+    err.print(f"wrote {path}", markup=False)
 
 
 @command(config_app, "validate")
@@ -323,6 +323,6 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
         _print_json({"valid": True, "machine": machine.machine.name, "warnings": warnings})
     else:
         for w in warnings:
-            err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
-        out.print(f"[green]valid[/]: {escape(str(path))} ({escape(machine.machine.name)})"
+            err.print(f"[yellow]warning:[/] {markup_text(w)}", highlight=False)
+        out.print(f"[green]valid[/]: {markup_text(path)} ({markup_text(machine.machine.name)})"
                   + (f" with {len(warnings)} warning(s)" if warnings else ""))

@@ -15,8 +15,10 @@ import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
-from berryshaker.experiment.field_columns import MAX_ROWS, META_COLUMNS
+from berryshaker.experiment.field_columns import MAX_ROWS, MAX_SHEET_BYTES, META_COLUMNS
+from berryshaker.input_files import read_input_file
 from berryshaker.units import unit_dimension, unit_factor
+from berryshaker.user_text import check_user_text
 
 _MISSING = {"", "na", "n/a", "nan", "none", "-"}
 _CELL = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z%µμ/^*·0-9_]*)\s*$")
@@ -126,15 +128,15 @@ def sheet_table(path_or_text) -> pd.DataFrame:
 
 
 def _load_sheet(path_or_text) -> _Sheet:
-    try:
-        if isinstance(path_or_text, str) and "\n" in path_or_text:
-            text = path_or_text
-        else:
-            text = Path(path_or_text).read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise ConfigError(f"results file not found: {path_or_text}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the results file {path_or_text} ({exc}); save it as UTF-8 CSV") from None
+    if isinstance(path_or_text, str) and "\n" in path_or_text:
+        text = path_or_text
+    else:  # a regular file of bounded size only (a FIFO or /dev/zero is refused, never waited on or read for ever)
+        data = read_input_file(Path(path_or_text), "results file", MAX_SHEET_BYTES)
+        try:
+            text = data.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise ConfigError(f"cannot read the results file {path_or_text} (not UTF-8 text at byte {exc.start}); "
+                              "save it as UTF-8 CSV") from None
     text = text.lstrip("\ufeff")
     header = next((ln for ln in text.splitlines() if ln.strip()), "")
     if not header:
@@ -149,6 +151,8 @@ def _load_sheet(path_or_text) -> _Sheet:
     names = [str(h).strip() for h in next(iter(pd.read_csv(io.StringIO(header), sep=sep, header=None, dtype=str,
                                                            keep_default_na=False)
                                                 .itertuples(index=False, name=None)))]
+    for i, h in enumerate(names, 1):  # a header is a name: bounded, no control characters (they reach terminals)
+        check_user_text(h, f"results CSV header, column {i}")
     if any(not h for h in names):
         raise ConfigError(f"results CSV: header column {names.index('') + 1} has no name; name every column "
                           "(as written by `berryshaker doe plan`)")

@@ -22,6 +22,8 @@ META_COLUMNS = ("date", "time", "operator", "weather", "notes", "note", "comment
                 "observer", "site")
 #: largest sheet read; the analysis is linear in the rows, the limit only guards against a wrong file
 MAX_ROWS = 1_000_000
+#: largest sheet file read (bytes): a field sheet of MAX_ROWS short rows; anything larger is the wrong file
+MAX_SHEET_BYTES = 64_000_000
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,6 @@ answers (:mod:`berryshaker.report.design_html`), then the study steps' numbered 
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -18,6 +17,7 @@ from berryshaker.report.headline import report_title, runs_text, verdict_class, 
 from berryshaker.report.html_blocks import CSS, _plain, _Raw, _table
 from berryshaker.report.sections import SectionInput, section_numbers, step_sections, virtual_l9_section
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
+from berryshaker.user_text import html_text
 
 
 def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *,
@@ -55,11 +55,11 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
     reference = claims_apply(machine)  # the study's pairs: its claims can be checked (study/claims.py's rule)
     title = report_title(res.claims) if reference else f"Design study of {machine.machine.name}"
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
-             f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>",
-             f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary.version)}. "
-             f"Total time {summary.timings_s['total']:.1f} s; {html.escape(runs_text(summary.runs))}.  "
-             + (f"{html.escape(verdict_counts(res.claims))} (appendix).  " if reference else "")
+             f"{html_text(machine.machine.name)}</title><style>{CSS}</style></head><body>",
+             f"<h1>{html_text(title)}</h1>",
+             f"<p>Machine: <b>{html_text(machine.machine.name)}</b>. berryshaker {html_text(summary.version)}. "
+             f"Total time {summary.timings_s['total']:.1f} s; {html_text(runs_text(summary.runs))}.  "
+             + (f"{html_text(verdict_counts(res.claims))} (appendix).  " if reference else "")
              + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
              "the end of this report.</p>"]
     # the design answers first, for every machine (report/design.py)
@@ -67,7 +67,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
         parts.append(design_answers_html(design_answers({**summary.to_json(), "results": res.to_json()}, machine),
                                          inp.numbers))
     except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
-        parts.append(f"<p class='small'>Design answers not available: {html.escape(f'{type(exc).__name__}: {exc}')}"
+        parts.append(f"<p class='small'>Design answers not available: {html_text(f'{type(exc).__name__}: {exc}')}"
                      "</p>")
     fails = summary.failures
     parts.append("<h2>Failed runs</h2>")
@@ -99,7 +99,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
         if opt.statement:
-            parts.append(f"<p class='small'>{html.escape(opt.statement)} Index values: mean [95 % interval] over "
+            parts.append(f"<p class='small'>{html_text(opt.statement)} Index values: mean [95 % interval] over "
                          f"{opt.starts or 'the'} perturbed starts, and the SD of one start"
                          + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
                             "value of that index at these clearances, so it reproduces the target by construction "
@@ -111,7 +111,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
     if reference:  # the reference study's claims: an appendix, on its machine only
         _claims_section(parts, res)
     parts.append("<h2>Configuration and provenance</h2>")
-    parts.append(f"<p>berryshaker {html.escape(summary.version)}; timings (s): "
+    parts.append(f"<p>berryshaker {html_text(summary.version)}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary.timings_s.items()) + "</p>")
     parts.append("<p class='small'>Provenance: [study] from the reference study's text, [published] from another "
                  "publication (docs/published_record.md), [assumed] our default where no source gives it, "
@@ -127,7 +127,7 @@ def _claims_section(parts: list, res) -> None:
     """Appendix: the reference study's claims with their verdicts (shown for the study's machine only)."""
     parts.append("<h2>Appendix: claims of the reference study and what our models give</h2>")
     with_criterion = any(c.criterion for c in res.claims)
-    rows = [[c.id, c.claim, _Raw(f'<span class="{verdict_class(c.verdict)}">{html.escape(c.verdict)}</span>'),
+    rows = [[c.id, c.claim, _Raw(f'<span class="{verdict_class(c.verdict)}">{html_text(c.verdict)}</span>'),
              *([_plain(c.criterion)] if with_criterion else []), _plain(c.detail)]
             for c in res.claims]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
@@ -164,10 +164,10 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "") ->
 
     factors = res.factors
     units = {**RESPONSE_UNITS, **(res.response_units or {})}  # the sheet's units first (issue 45)
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-             f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>Results file <code>{html.escape(str(results_file))}</code>; berryshaker "
-             f"{html.escape(str(version))}.</p>"]
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html_text(title)}</title>"
+             f"<style>{CSS}</style></head><body><h1>{html_text(title)}</h1>",
+             f"<p>Results file <code>{html_text(str(results_file))}</code>; berryshaker "
+             f"{html_text(str(version))}.</p>"]
     if factors:
         parts.append("<h2>Factors</h2>")
         parts.append(_table(["factor", "unit", "levels"],
@@ -178,21 +178,21 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "") ->
     method = res.composite.method if isinstance(res, DoeAnalysis) else ""
     parts.append("<h2>Weighted optimum</h2>")
     parts.append("<p>Weights of the composite score: "
-                 f"{html.escape(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
-                 f"{html.escape(method)}.</p>")
+                 f"{html_text(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
+                 f"{html_text(method)}.</p>")
     parts.append(_table(["factor", "level", "setting"], [[f, n if n is not None else "-",
                                                           o.settings.get(f) or "no meaningful difference"]
                                                          for f, n in o.levels.items()], left=(0, 2)))
     if isinstance(res, ReplicatedAnalysis):  # a replicated sheet: effects against the replicate spread
         parts.append(f"<p class='small'>{res.runs} runs x {res.replicates} replicates.  "
-                     f"{html.escape(res.significance_rule)}</p>")
+                     f"{html_text(res.significance_rule)}</p>")
     parts.append(_table(["response", "predicted at the optimum", "unit"],
                         [[r, _fixed([v])[0], units.get(r, "")] for r, v in o.values.items()],
                         left=(0, 2)))
-    parts.append(f"<p class='small'>{html.escape(o.prediction)}</p>")
+    parts.append(f"<p class='small'>{html_text(o.prediction)}</p>")
     for name, ra in res.responses.items():
         unit = units.get(name)
-        parts.append(f"<h2>{html.escape(name)}{f' ({unit})' if unit else ''}: range analysis "
+        parts.append(f"<h2>{html_text(name)}{f' ({html_text(unit)})' if unit else ''}: range analysis "
                      f"({'maximise' if ra.maximize else 'minimise'})</h2>")
         an = ra.anova.factors
         nlev = len(next(iter(ra.factors.values())).level_means)
@@ -208,9 +208,9 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "") ->
         parts.append(_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best level", "ANOVA F", "p"],
                             rows))
         reg = ra.regression
-        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
+        parts.append(f"<p class='small'>Ranking {html_text(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
                      f"rank {reg.full_model_rank} of {len(reg.full_model_terms)} terms; aliased: "
-                     f"{html.escape(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
+                     f"{html_text(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
                      f"R² = {reg.main_effects_quadratic.r2:.3f} with "
                      f"{reg.main_effects_quadratic.residual_df} residual df.</p>")
     parts.append("</body></html>")

@@ -10,7 +10,6 @@ that also reads another step's results names its owning step in its docstring.
 
 from __future__ import annotations
 
-import html
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -18,6 +17,7 @@ from typing import Callable, Sequence
 from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
 from berryshaker.reference_study import EQ18_F
+from berryshaker.user_text import html_text
 
 #: a section renderer: input -> (title without its number, HTML parts)
 Renderer = Callable[["SectionInput"], "tuple[str, list[str]]"]
@@ -108,9 +108,9 @@ def step_sections(steps: Sequence[tuple[str, Sequence[Renderer]]], inp: SectionI
     for name, renderers in steps:
         for k, render in enumerate(renderers):
             title, body = render(inp)
-            parts.append(f"<h2>{inp.numbers[render]}. {html.escape(title, quote=False)}</h2>")
+            parts.append(f"<h2>{inp.numbers[render]}. {html_text(title, quote=False)}</h2>")
             if k == 0 and notes.get(name):
-                parts.append(f"<p class='small'><b>Note:</b> {html.escape(notes[name])}</p>")
+                parts.append(f"<p class='small'><b>Note:</b> {html_text(notes[name])}</p>")
             parts.extend(body)
     return parts
 
@@ -363,7 +363,7 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
         parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
-        parts.append(f"<pre class='text'>{html.escape(rep.text)}</pre>")
+        parts.append(f"<pre class='text'>{html_text(rep.text)}</pre>")
         parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
@@ -395,7 +395,7 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
                             [[j, g.clearance_mm[0], g.clearance_mm[-1], life.clearance_limit_mm[j],
                               "not reached" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
                               rec.fits.get(j, "")] for j, g in life.growth.items()]))
-        parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
+        parts.append("<p class='small'>" + "; ".join(html_text(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     return "Clearance life: wear and fits (docs/life.md)", parts
 
@@ -433,7 +433,7 @@ def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
     rep_text = (f" Every level is the mean of {reps} runs from seeded perturbed starts (clearance joints off centre, "
                 "seeds in summary.json); ripple is shown as mean +- SD, and a trend is stated only where Welch's "
                 "t-test between consecutive levels finds it beyond that spread." if reps else "")
-    parts.append(f"<p>{html.escape(pw.finding)} Energy lost per revolution is the work of each joint's contact "
+    parts.append(f"<p>{html_text(pw.finding)} Energy lost per revolution is the work of each joint's contact "
                  "damping and friction, integrated with the motion; the audit residual is the largest over the "
                  "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
                  f"2-3.{rep_text}</p>")
@@ -467,7 +467,7 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
                f"{bush.modes_per_member} modes each, seed {bush.seed}, plus the instrumented fruit branch)"
                if chosen.load_model == "branches" and bush is not None
                else "the aggregate spring-damper (combs.load_model = aggregate)")
-        parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
+        parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html_text(who)}."
                      f" Per comb, about its shaft; compare {inp.ref(comb_load_section, 'the comb-load section')}'s "
                      "aggregate spring-damper, which loads the combs about 40 times more.</p>")
         parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
@@ -538,7 +538,7 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     def model(r):
         if r.model is None:
             return "-"
-        return _Raw(f"{_num(r.model)} {html.escape(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
+        return _Raw(f"{_num(r.model)} {html_text(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
                     f"{_num(r.hi)}]</span>")
 
     parts.append(_table(["published number", "source", "published", "model [interval]", "verdict", "held out"],

@@ -540,8 +540,8 @@ def fit_canvas(fig, *, pad: float = 0.05) -> bool:
 
 
 def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = True):
-    """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it; close it unless
-    ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
+    """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it, both written
+    together or neither (:func:`berryshaker.outputs.write_files_atomic`); close it unless ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
     figure if kept, else None.
 
     Parameters
@@ -562,12 +562,23 @@ def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = T
     Figure or None
         The figure if kept.
     """
+    import io
     from pathlib import Path
 
+    from berryshaker.outputs import write_files_atomic
+
     fit_canvas(fig)
-    fig.savefig(path, dpi=dpi)
+
+    def rendered(fmt: str, **kw) -> bytes:
+        buf = io.BytesIO()
+        fig.savefig(buf, format=fmt, **kw)
+        return buf.getvalue()
+
+    path = Path(path)
+    files = {path: rendered(path.suffix.lstrip(".").lower() or "png", dpi=dpi)}
     if svg:
-        fig.savefig(Path(path).with_suffix(".svg"))
+        files[path.with_suffix(".svg")] = rendered("svg")
+    write_files_atomic(files)  # the PNG and its SVG together or neither (a full disk: one error, nothing half-written)
     if keep:
         return fig
     pyplot().close(fig)
