@@ -96,7 +96,7 @@ def _print_kinematics(s: dict) -> None:
     _print_comb_rows(t, s)
     print_table(("quantity", "value", "closed form"), t, title=f"Kinematics - {s['machine']}")
     for p in s.get("plots", []):
-        out.print(f"wrote {p}", markup=False)
+        out.print(f"wrote {p}", markup=False, soft_wrap=True)
 
 
 def _print_cam_rows(t, c: dict) -> None:

@@ -137,7 +137,7 @@ def study(
                                                               else "") + ")", markup=False, highlight=False)
     for f in summary.failures:
         out.print(f"[red]failed[/] {markup_text(f.step)} run {f.run} ({markup_text(f.inputs)}): {markup_text(f.error)}")
-    out.print(f"report: {out_dir / 'report.html'}  ({summary.timings_s['total']:.0f} s)", markup=False)
+    out.print(f"report: {out_dir / 'report.html'}  ({summary.timings_s['total']:.0f} s)", markup=False, soft_wrap=True)
 
 
 #: the harvest indexes a ``--model harvest`` sweep prints per point: column, header (unit)
@@ -380,6 +380,6 @@ def sweep(
             if r.error:
                 out.print(f"[red]run {r.index + 1} failed[/]: {markup_text(r.error)}")
     if out_file is not None:
-        out.print(f"wrote {out_file}", markup=False)
+        out.print(f"wrote {out_file}", markup=False, soft_wrap=True)
     if figure is not None:
-        out.print(f"wrote {figure}", markup=False)
+        out.print(f"wrote {figure}", markup=False, soft_wrap=True)

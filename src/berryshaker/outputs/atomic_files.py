@@ -110,6 +110,12 @@ def write_error(path: str | Path, exc: OSError, what: str = "") -> WriteError:
     return out
 
 
+def _fill(fd: int, data: bytes) -> None:
+    """Write ``data`` to the new file ``fd`` and close it (where a full disk shows: ENOSPC on a write or the close)."""
+    with os.fdopen(fd, "wb") as fh:
+        fh.write(data)
+
+
 def write_files_atomic(files: Mapping[str | Path, bytes]) -> None:
     """Write several files so that they appear together, complete, or not at all (a sheet and its printable copy,
     a table's CSV and workbook, a figure's PNG and SVG).
@@ -139,8 +145,7 @@ def write_files_atomic(files: Mapping[str | Path, bytes]) -> None:
             path.parent.mkdir(parents=True, exist_ok=True)
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
             staged.append((tmp, path))
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(data)
+            _fill(fd, data)
             os.chmod(tmp, 0o666 & ~current_umask())  # mkstemp makes 0600; outputs are ordinary files
         for tmp, path in staged:
             backup = None

@@ -220,8 +220,9 @@ def write_calibration_outputs(res, folder: Path, title: str) -> list[Path]:
     written = list(figs.values())
     for name, (header, rows) in calibration_tables(res).items():
         written += list(write_table(folder / f"{name}.csv", header, rows))
-    page = calibration_html(res, title, figs)
-    (folder / "report.html").write_text(page, encoding="utf-8")
+    from berryshaker.outputs import write_text_atomic
+
+    write_text_atomic(folder / "report.html", calibration_html(res, title, figs))
     return written + [folder / "report.html"]
 
 
