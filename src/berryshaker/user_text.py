@@ -36,6 +36,7 @@ _CONTROL_BUT_LINES = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\
 _NAMES = {0x00: "NUL", 0x07: "BEL", 0x08: "BS", 0x09: "TAB", 0x0A: "LF", 0x0D: "CR", 0x1B: "ESC", 0x7F: "DEL",
           0x9B: "CSI", 0x9D: "OSC", 0x202E: "RIGHT-TO-LEFT OVERRIDE"}
 _UNSAFE_IN_FILE_NAME = re.compile(r"[^A-Za-z0-9._-]")
+_MARKUP_TAG = re.compile(r"(\\*)(\[[a-z#/@][^[]*?])")  # rich.markup's tag pattern (RE_TAGS), with its escapes
 #: first characters a spreadsheet reads as a formula (OWASP, "CSV injection")
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
@@ -206,7 +207,8 @@ def terminal_text(value) -> str:
 
 def markup_text(value) -> str:
     """``value`` inside a rich markup string: control characters visible and markup escaped, so ``[red]plots``
-    and ``a[/]b`` print as written.
+    and ``a[/]b`` print as written, a backslash as one backslash (rich's own ``escape`` doubles a trailing one).
+    Put it where plain text follows, never directly before a markup tag (a trailing backslash would escape it).
 
     Parameters
     ----------
@@ -218,9 +220,8 @@ def markup_text(value) -> str:
     str
         The text, safe inside markup.
     """
-    from rich.markup import escape
-
-    return escape(terminal_text(value))
+    # what rich's markup reads as a tag, with the backslashes before it: each doubled, the bracket escaped
+    return _MARKUP_TAG.sub(lambda m: f"{m.group(1)}{m.group(1)}\\{m.group(2)}", terminal_text(value))
 
 
 __all__ = ["FORMULA_STARTS", "MAX_NAME_CHARS", "MAX_TEXT_CHARS", "cell_text", "check_user_text", "control_character",

@@ -21,7 +21,7 @@ from rich.console import Console
 from berryshaker import __version__
 from berryshaker.cli.flag_help import show_flags_as_flags  # importing it patches the help of every command
 from berryshaker.errors import BerryshakerError
-from berryshaker.user_text import markup_text, visible
+from berryshaker.user_text import visible
 
 app = typer.Typer(
     name="berryshaker",
@@ -86,7 +86,9 @@ JsonOpt = typer.Option(False, "--json", help="Print one JSON object on stdout in
 
 
 def _fail(exc: Exception) -> None:
-    err.print(f"[bold red]error:[/] {markup_text(exc)}", highlight=False, markup=True)
+    from rich.text import Text
+
+    err.print(Text.assemble(("error:", "bold red"), " ", visible(str(exc), keep_lines=True)), highlight=False)
     raise typer.Exit(code=2)
 
 

@@ -83,8 +83,9 @@ _WHY = {errno.ENOSPC: "the disk is full", errno.EDQUOT: "the disk quota is excee
 
 
 def write_error(path: str | Path, exc: OSError, what: str = "") -> WriteError:
-    """The :class:`~berryshaker.errors.WriteError` of a write of ``path`` that failed with ``exc``: one line naming
-    the file, the reason in words (``the disk is full (ENOSPC)``) and what to do.
+    """The :class:`~berryshaker.errors.WriteError` of a write of ``path`` that failed with ``exc`` (an
+    :class:`OSError`, or a :class:`WriteError` of a file inside ``path`` to name ``path`` instead): one line naming
+    it, the reason in words (``the disk is full (ENOSPC)``) and what to do.
 
     Parameters
     ----------
@@ -100,8 +101,6 @@ def write_error(path: str | Path, exc: OSError, what: str = "") -> WriteError:
     WriteError
         The error to raise (its ``errno`` is ``exc``'s).
     """
-    if isinstance(exc, WriteError):
-        return exc
     code = errno.errorcode.get(exc.errno or 0, "")
     why = _WHY.get(exc.errno, exc.strerror or str(exc) or type(exc).__name__)
     out = WriteError(f"cannot write {path}: {why}{f' ({code})' if code else ''}; "
@@ -138,11 +137,14 @@ def write_files_atomic(files: Mapping[str | Path, bytes]) -> None:
     """
     staged: list[tuple[str, Path]] = []
     moved: list[tuple[Path, str | None]] = []
+    made: list[Path] = []  # folders created for the files, removed again if nothing is written
     path = None
     try:
         for path, data in files.items():
             path = Path(path)
+            missing = [d for d in (path.parent, *path.parent.parents) if not os.path.lexists(d)]
             path.parent.mkdir(parents=True, exist_ok=True)
+            made += missing
             fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
             staged.append((tmp, path))
             _fill(fd, data)
@@ -164,6 +166,9 @@ def write_files_atomic(files: Mapping[str | Path, bytes]) -> None:
         for tmp, _ in staged:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+        for d in made:  # deepest first: each is empty again
+            with contextlib.suppress(OSError):
+                os.rmdir(d)
         if isinstance(exc, OSError):
             others = len(files) > 1
             raise write_error(path, exc, "none of its files was written" if others else "") from None

@@ -242,8 +242,8 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
         os.chmod(stage, 0o777 & ~current_umask())  # mkdtemp makes 0700; the output is an ordinary folder
         yield stage
         _commit(stage, final, kind)
-    except OSError as exc:  # a full disk while the outputs were written or moved in: one error, nothing half-written
-        if isinstance(exc, OutputError) or exc.errno not in WRITE_ERRNOS:
+    except OSError as exc:  # a full disk while the outputs were written or moved in: one error naming the folder
+        if exc.errno not in WRITE_ERRNOS:
             raise
         raise write_error(f"{kind} output {final}", exc) from None
     finally:
