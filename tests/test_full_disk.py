@@ -10,13 +10,14 @@ from __future__ import annotations
 import errno
 import hashlib
 import os
+import subprocess
 from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
-from berryshaker.outputs import atomic_files, write_files_atomic
+from berryshaker.outputs import atomic_files
 
 runner = CliRunner()
 
@@ -104,6 +105,8 @@ def test_a_full_disk_is_one_message_and_nothing_half_written(name, sheet, tmp_pa
 
 
 def test_a_pair_is_written_together_or_not_at_all(tmp_path, monkeypatch):
+    from berryshaker.outputs import write_files_atomic
+
     a, b = tmp_path / "plan.csv", tmp_path / "plan.html"
     a.write_text("old sheet")
     for at in (1, 2):
@@ -127,3 +130,38 @@ def test_a_pair_is_written_together_or_not_at_all(tmp_path, monkeypatch):
     monkeypatch.undo()
     assert a.read_text() == "old sheet" and not b.exists()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["plan.csv"]
+
+
+@pytest.fixture(scope="module")
+def full_disk(tmp_path_factory):
+    """A real full disk: a small tmpfs filled to the last byte (needs the right to mount, e.g. root; else skipped:
+    the tests above simulate it everywhere)."""
+    mnt = tmp_path_factory.mktemp("full")
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=512k", "tmpfs", str(mnt)], capture_output=True).returncode:
+        pytest.skip("no permission to mount a tmpfs")
+    try:
+        (mnt / "dest").mkdir()
+        (mnt / "dest" / "notes.txt").write_text("the user's")
+        fd = os.open(mnt / "filler", os.O_WRONLY | os.O_CREAT)
+        try:  # every free block taken
+            while True:
+                os.write(fd, b"\0" * 4096)
+        except OSError as exc:
+            assert exc.errno == errno.ENOSPC
+        finally:
+            os.close(fd)
+        yield mnt
+    finally:
+        subprocess.run(["umount", "-l", str(mnt)], capture_output=True)
+
+
+@pytest.mark.parametrize("name", ["kinematics --plot", "doe plan", "cam-profile csv", "config init",
+                                  "doe analyze --out html", "doe analyze --plot"])
+def test_a_real_full_disk_is_one_message_and_nothing_half_written(name, sheet, full_disk):
+    dest = full_disk / "dest"
+    args = [a.replace("DEST", str(dest)).replace("SHEET", str(sheet)) for a in COMMANDS[name]]
+    before = _tree(full_disk)
+    r = runner.invoke(app, args)
+    assert r.exit_code == 2, (name, r.output, r.exception)
+    assert "the disk is full (ENOSPC)" in r.output and "Traceback" not in r.output, r.output
+    assert _tree(full_disk) == before

@@ -13,18 +13,15 @@ import sys
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
-
-from berryshaker.cli import app
 from berryshaker.config import load_machine
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.field_cells import sheet_table
-from berryshaker.input_files import read_input_file
 
-runner = CliRunner()
 
 
 def test_a_regular_file_is_read_whole(tmp_path):
+    from berryshaker.input_files import read_input_file
+
     p = tmp_path / "a.txt"
     p.write_bytes(b"x" * 1000)
     assert read_input_file(p, "config file", 1000) == b"x" * 1000
@@ -58,24 +55,32 @@ def test_special_files_are_refused_at_once(tmp_path, kind):
 
 def test_a_file_that_grows_past_its_bound_is_refused(tmp_path):
     """/proc files report size 0: the bound holds on what is read, not on what fstat says."""
+    from berryshaker.input_files import read_input_file
+
     if not Path("/proc/self/environ").exists():
         pytest.skip("no /proc")
     with pytest.raises(ConfigError, match="more than the 10 bytes"):
         read_input_file("/proc/self/environ", "config file", 10)
 
 
-def test_a_fifo_as_description_or_sheet_is_one_message_not_a_hang(tmp_path):
-    """The reproducers of issue 59: `doe analyze FIFO` and `calibrate FIFO` blocked for ever; now exit 2 with one
-    line each (run in a child process under a hang guard)."""
+def test_fifos_and_devices_are_one_message_not_a_hang_or_endless_memory(tmp_path):
+    """The reproducers of issue 59: `doe analyze FIFO` and `calibrate FIFO` blocked for ever, `/dev/zero` as a sheet
+    grew memory until the process was killed; now exit 2 with one line each.  They run in a child process under a
+    hang guard (60 s) and a memory limit (3 GB of address space), so a regression fails instead of taking the
+    machine down."""
     fifo = tmp_path / "sheet.csv"
     os.mkfifo(fifo)
+    runs = []
+    for f, what in ((str(fifo), "FIFO"), ("/dev/zero", "character device")):
+        runs += [(["doe", "analyze", f, "--maximize", "efficiency"], what), (["calibrate", f], what),
+                 (["config", "validate", f], what), (["kinematics", "--config", f], what)]
     code = f"""
-import json
+import json, resource
+resource.setrlimit(resource.RLIMIT_AS, (3 << 30, 3 << 30))
 from typer.testing import CliRunner
 from berryshaker.cli import app
 out = []
-for args in (["doe", "analyze", {str(fifo)!r}, "--maximize", "efficiency"], ["calibrate", {str(fifo)!r}],
-             ["config", "validate", {str(fifo)!r}]):
+for args, _ in {runs!r}:
     r = CliRunner().invoke(app, args)
     out.append([r.exit_code, r.output])
 print(json.dumps(out))
@@ -86,12 +91,6 @@ print(json.dumps(out))
         r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, env=env)
     except subprocess.TimeoutExpired:
         pytest.fail("a FIFO as a sheet or description hangs")
-    for code_, output in json.loads(r.stdout.strip().splitlines()[-1]):
-        assert code_ == 2 and "FIFO" in output and "Traceback" not in output, output
-
-
-def test_dev_zero_is_refused_before_reading(tmp_path):
-    for args in (["doe", "analyze", "/dev/zero", "--maximize", "efficiency"], ["config", "validate", "/dev/zero"],
-                 ["kinematics", "--config", "/dev/zero"]):
-        r = runner.invoke(app, args)
-        assert r.exit_code == 2 and "character device" in r.output, (args, r.output)
+    assert r.returncode == 0 and r.stdout.strip(), r.stderr[-2000:]  # a MemoryError or a kill ends it otherwise
+    for (args, what), (code_, output) in zip(runs, json.loads(r.stdout.strip().splitlines()[-1])):
+        assert code_ == 2 and what in output and "Traceback" not in output, (args, output)

@@ -19,7 +19,6 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.config import machine_from_dict, reference_toml_text
 from berryshaker.errors import ConfigError
-from berryshaker.outputs import strict_json_text, write_json_atomic
 from berryshaker.records import JsonRecord
 
 cli = CliRunner()
@@ -42,6 +41,15 @@ def test_counts_are_bounded_where_read(flag, value):
     args = (["compare", "--starts", value] if flag == "compare" else
             ["plant", "--convergence", "--replicates", value])
     _refused(args, "--starts" if flag == "compare" else "--replicates", "1000")
+
+
+def test_worker_counts_are_bounded(tmp_path):
+    """`study --workers 100000000` started processes until killed (a hang on two cores)."""
+    from berryshaker.runs.runner import max_workers
+
+    for args in (["study", "--out", str(tmp_path / "s")], ["sweep", "--param", "clearance.A.size=0.1..0.2mm"]):
+        _refused([*args, "--workers", "100000000"], "--workers 100,000,000", f"at most {max_workers()}")
+    assert not (tmp_path / "s").exists()
 
 
 @pytest.mark.parametrize("limit, needle", [
@@ -137,6 +145,8 @@ def _strict(text: str):
 def test_json_outputs_are_strict_and_say_what_was_null(tmp_path):
     """summary.json held 11 NaN values, which strict parsers reject: now null, each listed with its reason, and
     read back as NaN where the record's field is a float."""
+    from berryshaker.outputs import strict_json_text, write_json_atomic
+
     obj = {"results": {"a": _Stat(math.nan).to_json(), "b": [1.0, math.inf]}, "n": 3}
     write_json_atomic(tmp_path / "summary.json", obj)
     saved = _strict((tmp_path / "summary.json").read_text())

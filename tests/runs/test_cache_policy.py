@@ -17,8 +17,7 @@ from typer.testing import CliRunner
 import runner_jobs
 from berryshaker.cli import app
 from berryshaker.errors import ConfigError
-from berryshaker.runs.cache import (_canonical, _sha256, cache_entry_path, run_cache_dir, run_key,
-                                    write_cache_entry)
+from berryshaker.runs.cache import _canonical, _sha256, cache_entry_path, run_key, write_cache_entry
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.outputs import code_fingerprint
 
@@ -68,6 +67,8 @@ def test_impossible_cache_folders_are_one_message_before_any_work(tmp_path, kind
         (tmp_path / "shared").mkdir(mode=0o777)
         os.chmod(tmp_path / "shared", 0o777)
         os.symlink(tmp_path / "shared", target)
+    from berryshaker.runs.cache import run_cache_dir
+
     with pytest.raises(ConfigError, match="--cache|run cache"):
         run_cache_dir(target)
     r = cli.invoke(app, ["wear", "--hours", "1", "--cache", target])
@@ -78,6 +79,8 @@ def test_impossible_cache_folders_are_one_message_before_any_work(tmp_path, kind
 
 
 def test_a_new_cache_folder_is_private(tmp_path):
+    from berryshaker.runs.cache import run_cache_dir
+
     folder = run_cache_dir(tmp_path / "new" / "cache")
     assert stat.S_IMODE(os.stat(folder).st_mode) == 0o700
     assert run_cache_dir(str(folder)) == folder
@@ -86,6 +89,8 @@ def test_a_new_cache_folder_is_private(tmp_path):
 def test_an_entry_of_another_user_is_never_served(tmp_path):
     """A run's entry owned by another user (in a private folder only root can do that) is recomputed, with a
     warning naming it."""
+    from berryshaker.runs.cache import run_cache_dir
+
     if os.geteuid() != 0:
         pytest.skip("making a file of another user needs root")
     cache = run_cache_dir(tmp_path / "cache")

@@ -173,9 +173,9 @@ def check_number(flag: str, value: float, lo: float | None = None, hi: float | N
     flag : str
         The command-line flag, named in the message.
     value : float
-        The value given (NaN and infinities are refused).
+        The value given, in the flag's unit (NaN and infinities are refused).
     lo, hi : float, optional
-        The range's ends (None: no bound on that side).
+        The range's ends, in the flag's unit (None: no bound on that side).
     what : str
         What the value means, named in the message.
     lo_open, hi_open : bool
@@ -184,7 +184,7 @@ def check_number(flag: str, value: float, lo: float | None = None, hi: float | N
     Returns
     -------
     float
-        ``value``.
+        ``value``, in the flag's unit.
 
     Raises
     ------

@@ -9,8 +9,8 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.cli.app import (ConfigOpt, JsonOpt, _load, _print_json, app, check_range, command, err, out,
-                                  print_table)
+from berryshaker.cli.app import (ConfigOpt, JsonOpt, _load, _print_json, app, check_number, check_range, command,
+                                  err, out, print_table)
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import ConfigError
 
@@ -249,6 +249,8 @@ def wear_cmd(
 
     if not (math.isfinite(hours) and 0 < hours <= 1e7):
         raise ConfigError(f"--hours {hours!r}: expected operating hours in (0, 1e7]")
+    if slip is not None:
+        check_number("--slip", slip, 0.0, 1.0, what="the roller's slip ratio, a fraction")
     _check_plot(plot, "wear --plot")
     machine = _load(config)
     joints = _check_joints(machine, joint)

@@ -317,8 +317,8 @@ def sweep(
                 raise BerryshakerError("--figure draws the harvest indexes against one parameter: give --model harvest "
                                        "and exactly one --param")
             check_output_file(figure, allowed_suffixes=(".png", ".svg"))
-        if workers is not None and workers < 1:
-            raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
+        # the runner first: its checks (--workers, --scheduler, --cache) before any work
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         if out_file is not None:
             from berryshaker.outputs import check_output_file
 
@@ -334,7 +334,6 @@ def sweep(
         pts = sample_params(params, method, points, seed)
         validate_points(machine, params, pts, revolutions)  # every point, before any run
         data = machine.model_dump(mode="json")
-        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         kernel_why, kernel_arg = None, {}
         if model == "multibody":
             if specialised is None:

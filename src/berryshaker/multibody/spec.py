@@ -372,6 +372,10 @@ def mechanism_from_dict(data: dict, source: str = "<dict>", units_required: bool
         raise ConfigError(_format_validation_error(err, source).replace("machine description", "mechanism description")) from None
 
 
+#: largest mechanism description read (bytes), as for a machine description
+MAX_MECHANISM_BYTES = 1_000_000
+
+
 def load_mechanism(path: str | Path) -> MechanismSpec:
     """Read a mechanism description from TOML (every dimensional value with its unit) and validate it.
 
@@ -384,12 +388,19 @@ def load_mechanism(path: str | Path) -> MechanismSpec:
     -------
     MechanismSpec
         The validated description (SI inside).
+
+    Raises
+    ------
+    ConfigError
+        Not a regular file of at most 1 MB (:func:`berryshaker.input_files.read_input_file`), not UTF-8 TOML, or
+        invalid values.
     """
+    from berryshaker.input_files import read_input_file
+
     p = Path(path)
-    if not p.is_file():
-        raise ConfigError(f"mechanism file not found: {p}")
+    raw = read_input_file(p, "mechanism file", MAX_MECHANISM_BYTES)  # a regular file of bounded size, never blocking
     try:
-        data = tomllib.loads(p.read_bytes().decode("utf-8-sig"))
+        data = tomllib.loads(raw.decode("utf-8-sig"))
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
     except tomllib.TOMLDecodeError as exc:

@@ -196,7 +196,7 @@ def doe_tables(res) -> dict[str, tuple[list[str], list[list]]]:
                   "R", "best level", "ANOVA F", "p"]
         rows = [[f, *d.level_means, d.range, d.best_level, an[f].f if f in an else "pooled",
                  an[f].p if f in an else None] for f, d in ra.factors.items()]
-        out[f"range_{file_part(name)}"] = (header, rows)
+        out[f"range_{name}"] = (header, rows)
     o = res.optimum
     rows = [["level", f, n if n is not None else "no meaningful difference", o.settings.get(f)]
             for f, n in o.levels.items()]
@@ -206,7 +206,8 @@ def doe_tables(res) -> dict[str, tuple[list[str], list[list]]]:
 
 
 def write_doe_tables(res, folder: str | Path) -> list[Path]:
-    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files.
+    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`; a stem that is not a
+    plain file name made one by :func:`berryshaker.user_text.file_part`); returns the files.
 
     Parameters
     ----------
@@ -221,8 +222,8 @@ def write_doe_tables(res, folder: str | Path) -> list[Path]:
         The CSV and .xlsx files written.
     """
     files = []
-    for stem, (header, rows) in doe_tables(res).items():
-        files += list(write_table(Path(folder) / f"{stem}.csv", header, rows))
+    for stem, (header, rows) in doe_tables(res).items():  # a response's name is never a path (user_text.file_part)
+        files += list(write_table(Path(folder) / f"{file_part(stem)}.csv", header, rows))
     return files
 
 

@@ -72,6 +72,18 @@ def _say_through(ref: weakref.ref) -> Callable[[str], None]:
     return say
 
 
+def max_workers() -> int:
+    """The most local worker processes a runner starts: 4 per usable core, at least 16 (a count beyond it is a slip
+    of the number: starting 100 million processes would take the machine down).
+
+    Returns
+    -------
+    int
+        The bound.
+    """
+    return max(16, 4 * usable_cores())
+
+
 def _ranges(rows: list[int]) -> str:
     """``[1, 2, 3, 7, 9, 10]`` -> ``"1-3, 7, 9-10"``."""
     spans: list[list[int]] = []
@@ -94,7 +106,7 @@ class SweepRunner:
     Parameters
     ----------
     workers : int, optional
-        Local worker processes (default: all cores); must be >= 1.
+        Local worker processes (default: all cores); must be >= 1 and at most :func:`max_workers`.
     scheduler : str, optional
         Dask scheduler address; runs go to that cluster instead of local processes.
     cache_dir : path, optional
@@ -123,6 +135,11 @@ class SweepRunner:
                 ok = False
             if not ok or workers < 1:
                 raise ConfigError(f"--workers must be >= 1 (got {workers!r}); omit it to use all cores")
+            most = max_workers()
+            if workers > most:
+                raise ConfigError(f"--workers {workers:,}: at most {most} local processes here (4 per core, or 16; "
+                                  f"this process may run on {usable_cores()} cores: runs are computation, more "
+                                  "processes than cores only share them); omit it to use all cores")
             self.workers = int(workers)
         self.scheduler = check_scheduler_address(scheduler) if scheduler is not None else None
         self.scheduler_timeout_s = SCHEDULER_TIMEOUT_S
