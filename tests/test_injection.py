@@ -4,6 +4,7 @@ path -- reaches every page, table and terminal line as text.
 * HTML: ``doe analyze --out`` (headers, the sheet's file name), ``doe plan``'s printable sheet, the calibration
   page; no script element, no event handler, no image but the embedded figures (the study report:
   tests/report/test_html.py).
+* figures (``doe analyze --plot``): a ``$`` in a header is text, not TeX (it was a traceback).
 * CSV and xlsx (``doe analyze --plot``): no formula, no cell starting with ``=``, ``+``, ``-``, ``@`` unless
   prefixed by ``'`` (the OWASP rule), every file inside its folder (a header ``../x`` is a name, not a path); a
   control character in a header is one message naming the column, not openpyxl's IllegalCharacterError.
@@ -73,8 +74,8 @@ def _hostile_sheet(folder: Path, headers: list[str], name: str = "sheet.csv") ->
     return p
 
 
-HEADERS = [f"F{SCRIPT}", '=HYPERLINK("http://evil","click")', f"C{IMG}", f"eff{SCRIPT} (kg/min)", "@dmg",
-           "block"]
+HEADERS = [f"F{SCRIPT}", '=HYPERLINK("http://evil","click")', f"C{IMG}$\\frac{{", f"eff{SCRIPT} (kg/min)",
+           "@dmg$^$", "block"]  # "$": matplotlib parsed it as TeX (a ParseSyntaxException traceback)
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +84,7 @@ def analysed(tmp_path_factory):
     base = tmp_path_factory.mktemp("hostile")
     sheet = _hostile_sheet(base, HEADERS, name=f"{IMG}.csv")
     page, plots = base / f"{IMG}.html", base / "plots"
-    r = runner.invoke(app, ["doe", "analyze", str(sheet), "--maximize", f"eff{SCRIPT}", "--minimize", "@dmg",
+    r = runner.invoke(app, ["doe", "analyze", str(sheet), "--maximize", f"eff{SCRIPT}", "--minimize", "@dmg$^$",
                             "--out", str(page), "--plot", str(plots)])
     assert r.exit_code == 0, r.output
     return base, page, plots, r.output

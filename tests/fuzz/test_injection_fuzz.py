@@ -34,7 +34,7 @@ WORK = work_dir("injection")
 #: the pieces an attacker (or an accident) puts in a name: markup, formula starts, terminal controls, bidi
 PIECES = ["<script>", "</script>", "<img src=x onerror=alert(1)>", "&amp;", "&#x3c;", '"', "'", "=", "+", "-",
           "@", "\t", "\r", "\n", "\x1b[31m", "\x1b]0;title\x07", "\x9b2J", "\x9d8;;http://x\x9c", "\u202e", "[red]",
-          "[/]", "[bold", "\\", "\\[x]", "=HYPERLINK(\"http://x\",\"y\")", "@SUM(A1:A9)", "\x00", "\x7f", "µ", "🍓"]
+          "[/]", "[bold", "\\", "\\[x]", "$", "$^$", "$\\frac{", "%", "=HYPERLINK(\"http://x\",\"y\")", "@SUM(A1:A9)", "\x00", "\x7f", "µ", "🍓"]
 hostile = st.lists(st.one_of(st.sampled_from(PIECES), st.text(max_size=4)), max_size=8).map("".join)
 #: what a terminal acts on
 CONTROL = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u202a-\u202e\u2066-\u2069]")
@@ -183,3 +183,18 @@ def test_long_text_is_linear(n, piece):
         assert str(exc).startswith("machine.name: ") and len(str(exc)) < 400
     Console(file=io.StringIO(), width=120).print(rich_table(["name", "n"], [[text[:5000], 1]], width=120))
     assert time.process_time() - t0 < 2.0, (n, piece)
+
+
+@fuzz(5)
+@given(label=hostile, title=hostile)
+def test_figures_draw_any_text(label, title):
+    """A name from a sheet in an axis label, a title and a legend: drawn as text (mathtext is off), never a
+    matplotlib parse error."""
+    from berryshaker.report.style import finish, label_axes, new_figure
+
+    fig, ax = new_figure()
+    ax.plot([0, 1], [0, 1], label=label or "x")
+    ax.set_title(title)
+    label_axes(ax, f"{label} [mm]", f"{title} [-]")
+    ax.legend()
+    finish(fig, WORK / "figure.png", dpi=20, svg=False)

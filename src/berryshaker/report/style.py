@@ -11,6 +11,7 @@ The rules (issue "A report and a command line an engineer is glad to hand on"):
 * long series are thinned by :func:`decimate_minmax`, which keeps each bin's minimum and maximum so the
   drawn peak equals the data peak exactly (plain striding drops impact peaks);
 * tick labels never use an offset or a hidden power of ten (:func:`plain_ticks`);
+* text is text: mathtext is off (:func:`pyplot`), so a ``$`` in a user's name is never parsed as TeX;
 * layout is matplotlib's constrained layout, so outside legends and colour bars are not cut off, and the canvas
   grows where anything still reaches beyond it (:func:`fit_canvas`); PNGs are saved at 300 dpi with an SVG beside.
 
@@ -104,7 +105,9 @@ def require_unit(label: str, *, strict: bool = True) -> str:
 
 
 def pyplot():
-    """matplotlib.pyplot on the Agg backend (no display needed).
+    """matplotlib.pyplot on the Agg backend (no display needed), with mathtext off: a ``$`` in a name from a sheet
+    or a description is text, never parsed as TeX (``eff$^$`` was a ParseSyntaxException traceback); the figures'
+    own labels write powers as Unicode (``m/s²``).
 
     Returns
     -------
@@ -114,6 +117,7 @@ def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False
     import matplotlib.pyplot as plt
 
     return plt
