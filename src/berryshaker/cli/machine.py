@@ -273,7 +273,6 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
         ``--drive``: Comb drive: groove_cam or crank_rocker.
     """
     from berryshaker.config import reference_toml_text
-    from berryshaker.errors import OutputError
     from berryshaker.outputs import check_output_file, write_text_atomic
 
     if path.is_dir():
@@ -282,11 +281,7 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
         _fail(BerryshakerError(f"{path} exists; use --force to overwrite"))
     # a FIFO, device or folder is refused even with --force; so is a parent that is a file or cannot be written
     check_output_file(path, overwrite=force)
-    text = reference_toml_text(drive)
-    try:
-        write_text_atomic(path, text)
-    except OSError as exc:
-        raise OutputError(f"cannot write {path} ({exc.strerror or exc}); choose another location") from None
+    write_text_atomic(path, reference_toml_text(drive))  # a failed write is one WriteError naming the file
     err.print(f"wrote {path}", markup=False)
 
 
