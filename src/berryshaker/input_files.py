@@ -32,7 +32,8 @@ def _size(n: int) -> str:
     return f"{n / 1e6:.3g} MB" if n >= 1_000_000 else f"{n:,} bytes"
 
 
-def read_input_file(path: str | Path, what: str, max_bytes: int) -> bytes:
+def read_input_file(path: str | Path, what: str, max_bytes: int,
+                    fix: str = "save its content to a file and give that file") -> bytes:
     """The bytes of the user's file ``path``, read only if it is a regular file of at most ``max_bytes``.
 
     The file is opened without blocking (``O_NONBLOCK``: a FIFO without a writer does not hang the open) and
@@ -47,6 +48,8 @@ def read_input_file(path: str | Path, what: str, max_bytes: int) -> bytes:
         What it should be, for the messages: ``"config file"``, ``"results file"``.
     max_bytes : int
         The largest file accepted (bytes).
+    fix : str
+        What to do instead of a FIFO, a device or a socket, for the message.
 
     Returns
     -------
@@ -73,16 +76,14 @@ def read_input_file(path: str | Path, what: str, max_bytes: int) -> bytes:
         except OSError:
             mode = stat.S_IFREG
         if not stat.S_ISREG(mode):  # a socket cannot even be opened
-            raise ConfigError(f"{what} {p} is {_kind(mode)}, not a regular file; save its content to a file and give "
-                              "that file") from None
+            raise ConfigError(f"{what} {p} is {_kind(mode)}, not a regular file; {fix}") from None
         raise ConfigError(f"{what} {p} cannot be opened ({exc.strerror or exc}); give a regular file") from None
     try:
         st = os.fstat(fd)
         if stat.S_ISDIR(st.st_mode):
             raise ConfigError(f"{what} {p} is a folder, not a file; give the file inside it")
         if not stat.S_ISREG(st.st_mode):
-            raise ConfigError(f"{what} {p} is {_kind(st.st_mode)}, not a regular file; save its content to a file "
-                              "and give that file")
+            raise ConfigError(f"{what} {p} is {_kind(st.st_mode)}, not a regular file; {fix}")
         if st.st_size > max_bytes:
             raise ConfigError(f"{what} {p}: {_size(st.st_size)}, more than the {_size(max_bytes)} a {what} may have; "
                               "is this the right file?")
