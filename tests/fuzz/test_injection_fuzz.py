@@ -93,7 +93,7 @@ def test_a_field_sheet_page_makes_no_markup_of_its_text(name, cell):
 def test_a_field_test_page_makes_no_markup_of_its_headers(factor, response):
     """``doe analyze --out``'s page of a sheet whose factor and response headers are any text."""
     from berryshaker.experiment.field_results import analyze_sheet
-    from berryshaker.report.html import doe_report
+    from berryshaker.report.doe_page import doe_report
 
     factor, response = factor.strip() or "f", response.strip() or "r"
     if factor == response or CONTROL.search(factor + response) or "," in factor + response \
