@@ -332,20 +332,27 @@ def test_a_marker_entry_that_is_a_symlink_is_kept(tmp_path):
 
 
 def test_an_older_marker_without_digests(tmp_path):
+    """A marker of the earlier format lists files without checksums: whatever the file times say (older than the
+    marker, a marker dated in the future), none of them is replaced or removed (issue 59: svaj.png overwritten and
+    notes.txt deleted); the folder is refused naming them, until they are moved away."""
     out = tmp_path / "out"
     out.mkdir()
     (out / "report.html").write_text("old")
     (out / "gone.csv").write_text("old")
     old = {"package": "berryshaker", "kind": "study", "version": "0.0.9", "files": ["report.html", "gone.csv"],
            "written": "2026-01-01T00:00:00+00:00"}
-    (out / MARKER_NAME).write_text(json.dumps(old))
-    past = time.time() - 400 * 86400  # before the marker was written: trusted as the study's own
-    for f in ("report.html", "gone.csv"):
-        os.utime(out / f, (past, past))
-    (out / "gone.csv").touch()  # ... but this one was modified after it: kept, the study refused
-    with pytest.raises(OutputError, match="gone.csv"):
-        _write("study", out, {"report.html": "new"})
-    os.utime(out / "gone.csv", (past, past))
+    past = time.time() - 400 * 86400  # before the marker was written: the old rule trusted these
+    for written in (old["written"], "2999-01-01T00:00:00+00:00"):  # a marker date in the future trusted every file
+        (out / MARKER_NAME).write_text(json.dumps({**old, "written": written}))
+        for f in ("report.html", "gone.csv"):
+            os.utime(out / f, (past, past))
+        before = _files(out)
+        with pytest.raises(OutputError, match="without checksums") as e:
+            _write("study", out, {"report.html": "new"})
+        assert "gone.csv" in str(e.value) and "report.html" in str(e.value)
+        assert _files(out) == before
+    (out / "gone.csv").unlink()  # the user moved them away: the folder is written
+    (out / "report.html").unlink()
     _write("study", out, {"report.html": "new"})
     assert _files(out) == {"report.html": b"new"}
     # the files of an older marker of another kind are kept, and block their names

@@ -25,6 +25,7 @@ from pydantic import BaseModel, ValidationError
 from berryshaker.drives import get_drive
 from berryshaker.drives.base import MachineBase
 from berryshaker.errors import ConfigError
+from berryshaker.input_files import read_input_file
 from berryshaker.quantity_fields import UNITS_REQUIRED, format_validation_error, plausibility_warnings
 
 #: any drive's machine description
@@ -134,12 +135,9 @@ def reference_toml_text(drive: str = "groove_cam") -> str:
 
 
 def _read_text(p: Path) -> str:
-    if not p.is_file():
-        raise ConfigError(f"config file not found: {p}" + (" (it is a folder)" if p.is_dir() else ""))
-    if p.stat().st_size > _MAX_FILE_BYTES:
-        raise ConfigError(f"{p}: {p.stat().st_size} bytes is too large for a machine description (limit 1 MB)")
+    data = read_input_file(p, "config file", _MAX_FILE_BYTES)  # a regular file of at most 1 MB, never blocking
     try:
-        return p.read_bytes().decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is dropped
+        return data.decode("utf-8-sig")  # a byte-order mark (some Windows editors write one) is dropped
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
 
@@ -165,7 +163,9 @@ def load_machine(path: str | Path | None = None, drive: str = "groove_cam"):
     Raises
     ------
     ConfigError
-        Unreadable file, invalid TOML (arrays or tables nested too deeply included), or invalid values.
+        Unreadable file, not a regular file (a FIFO, a device, a folder) or larger than 1 MB
+        (:func:`berryshaker.input_files.read_input_file`), invalid TOML (arrays or tables nested too deeply
+        included), or invalid values.
     """
     if path is None:
         text, source = reference_toml_text(drive), f"(built-in reference machine, {drive})"

@@ -19,3 +19,9 @@ class SimulationError(BerryshakerError):
 
 class OutputError(BerryshakerError):
     """An output destination is refused (would overwrite the user's files, wrong suffix, not writable...)."""
+
+
+class WriteError(OutputError, OSError):
+    """A file could not be written (a full disk, a read-only disk, no permission): the message names the file and
+    what to do, and nothing was written (no file half-written, no pair of files with one missing).  Also an
+    :class:`OSError`, so code that handles a failed write of its own (the run cache) still does."""

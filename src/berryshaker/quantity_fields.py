@@ -8,7 +8,9 @@ Also the strict base model every description section derives from (unknown keys,
 a plain numeric field refuses ``true`` and lists or tables with the field named), the formatter that turns
 pydantic's errors into located messages (``cam.stroke: must be > 0 ...``), the lookup of a field's physical
 dimension (:func:`field_dimension`, :func:`field_info_at`: sweeps read values with it), the plausibility walk
-over a description (:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`).
+over a description (:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`); the
+types of the names and free text a description holds (:data:`Name`, :data:`FreeText`: bounded, no control
+characters, :func:`berryshaker.user_text.check_user_text`).
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ import types
 import typing
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo
+from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo
 from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
+from berryshaker.user_text import MAX_NAME_CHARS, MAX_TEXT_CHARS, check_user_text
 from berryshaker.units import (
     bare_number_message,
     check_limits,
@@ -166,6 +169,24 @@ TorsionalDamping = Annotated[float, quantity_validator("torsional_damping"), Fie
 #: a friction coefficient: 0 .. 2 (dry rubber on rough steel stays below ~1.5; above 2 is a slip of the number)
 Coefficient = Annotated[float, quantity_validator("dimensionless"), Field(ge=0, le=2, json_schema_extra=display_unit("1"))]
 
+
+
+# ---- names and free text a description holds: bounded, no control characters ------------------------------
+def _user_text(max_chars: int, lines: bool) -> AfterValidator:
+    def check(v: str, info: ValidationInfo) -> str:
+        key = (getattr(info, "field_name", None) or "value") if info is not None else "value"
+        try:
+            return check_user_text(v, key, max_chars, lines=lines)
+        except ConfigError as exc:  # pydantic puts the field's dotted key in front
+            raise ValueError(str(exc).removeprefix(f"{key}: ")) from None
+
+    return AfterValidator(check)
+
+
+#: a name in a description (machine, body, joint, force): at most MAX_NAME_CHARS characters, no control characters
+Name = Annotated[str, _user_text(MAX_NAME_CHARS, lines=False)]
+#: free text in a description (a description): at most MAX_TEXT_CHARS characters, line feeds and tabs allowed
+FreeText = Annotated[str, _user_text(MAX_TEXT_CHARS, lines=True)]
 
 # ---- plain numeric fields: no booleans, no lists or tables where one number belongs ----------------------
 _NUMBER_TYPES = (int, float)

@@ -111,8 +111,53 @@ class JsonRecord:
         pydantic.ValidationError
             A key that is not a field, a missing required field, or a value of the wrong type; the message
             names the field.
+
+        Notes
+        -----
+        Strict JSON has no NaN: a non-finite number is written as null (:func:`berryshaker.outputs.strict_json_text`),
+        and a null read back where the field is a plain ``float`` is NaN again.
         """
-        return _adapter(cls).validate_python(dict(data))
+        return _adapter(cls).validate_python(_nan_for_null(cls, dict(data)))
+
+
+@cache
+def _hints(cls: type) -> dict[str, Any]:
+    import typing
+
+    try:
+        return typing.get_type_hints(cls)
+    except Exception:  # noqa: BLE001 - a hint that does not resolve here: that record's nulls stay None
+        return {}
+
+
+def _nan_for_null(annotation: Any, value: Any) -> Any:
+    """``value`` with every None that sits where ``annotation`` wants a plain ``float`` (not an optional one) made
+    NaN: the strict JSON writer's null for a non-finite number, read back."""
+    import dataclasses
+    import math
+    import types
+    import typing
+
+    if value is None:
+        return math.nan if annotation is float else None
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _nan_for_null(typing.get_args(annotation)[0], value)
+    if isinstance(annotation, type) and dataclasses.is_dataclass(annotation) and isinstance(value, dict):
+        hints = _hints(annotation)
+        return {k: _nan_for_null(hints.get(k, Any), v) for k, v in value.items()}
+    args = typing.get_args(annotation)
+    if origin in (dict, Mapping) and isinstance(value, dict) and len(args) == 2:
+        return {k: _nan_for_null(args[1], v) for k, v in value.items()}
+    if origin in (list, tuple) and isinstance(value, (list, tuple)) and args:
+        if origin is tuple and not (len(args) == 2 and args[1] is Ellipsis):
+            return [_nan_for_null(a, v) for a, v in zip(args, value)] + list(value[len(args):])
+        return [_nan_for_null(args[0], v) for v in value]
+    if origin in (typing.Union, types.UnionType):  # X | None keeps its None (above); a record inside is walked
+        records = [a for a in args if isinstance(a, type) and dataclasses.is_dataclass(a)]
+        if len(records) == 1 and isinstance(value, dict):
+            return _nan_for_null(records[0], value)
+    return value
 
 
 def field_names(record_type: type) -> tuple[str, ...]:

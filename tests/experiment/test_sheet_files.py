@@ -149,15 +149,15 @@ def test_special_files_are_refused_at_once(tmp_path, monkeypatch):
     """Issue 59: a FIFO as a sheet blocked `doe analyze` and `calibrate` forever; /dev/zero grew the memory."""
     fifo = tmp_path / "sheet.csv"
     os.mkfifo(fifo)
-    _refused_in_time(fifo, r"is a FIFO \(named pipe\); give the sheet's file")
+    _refused_in_time(fifo, r"is a FIFO \(named pipe\), not a regular file; give the sheet's file")
     if Path("/dev/zero").exists():
-        _refused_in_time("/dev/zero", r"/dev/zero is a device")
+        _refused_in_time("/dev/zero", r"/dev/zero is a character device")
     _refused_in_time(tmp_path, r"is a folder")
     _refused_in_time(tmp_path / "missing.csv", r"results file not found")
     big = tmp_path / "big.csv"
     big.write_text(_plan(1).to_csv(index=False))
     monkeypatch.setattr(sheet_files.read_sheet_bytes, "__defaults__", ("results file", 100))
-    _refused_in_time(big, r"has [\d,]+ bytes, more than the 100 a field sheet can have")
+    _refused_in_time(big, r"[\d,]+ bytes, more than the 100 bytes a results file may have")
 
 
 def test_doe_analyze_and_calibrate_read_a_workbook_from_the_command_line(tmp_path):

@@ -65,12 +65,10 @@ def _claims(verdicts) -> list[dict]:
             for i, v in enumerate(verdicts)]
 
 
-@pytest.fixture(scope="module")
-def report(tmp_path_factory):
+def _report_text(machine, figs: Path) -> tuple[str, StudyResults]:
+    """The report of the synthetic results on ``machine`` (figures from ``figs``)."""
     from berryshaker.report.plots import plot_bars
 
-    machine = load_machine(None)
-    figs = tmp_path_factory.mktemp("figs")
     plot_bars({"multibody peak": [1.0, 2.0, 3.0, 4.0], "multibody mean": [0.5, 1.0, 1.5, 2.0]},
               ["none", "0.25 mm", "0.5 mm", "0.75 mm"], "collision force at joint A [N]",
               figs / "fig18_rows_A.png", "Clearance A alone", pair="A", reference_index=0)
@@ -95,10 +93,52 @@ def report(tmp_path_factory):
                            timings_s={"total": 3.2, "kinematics": 0.1},
                            runs={"runs": 40, "cached": 40, "computed": 0, "failed": 0, "compute_s": 0.0,
                                  "cached_compute_s": 93.4, "cold_compute_s": 93.4, "elapsed_s": 0.5})
-    text = study_report(res, summary, machine, figs, sections=report_sections())
+    return study_report(res, summary, machine, figs, sections=report_sections()), res
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    machine = load_machine(None)
+    text, res = _report_text(machine, tmp_path_factory.mktemp("figs"))
     out = tmp_path_factory.mktemp("report") / "report.html"
     out.write_text(text, encoding="utf-8")
     return out, text, res, machine
+
+
+#: what a hostile machine description puts in every free-text field (issue 59: a script in [machine] name ran)
+PAYLOAD = """<script>alert("name")</script><img src=x onerror=alert(1)>"'&"""
+
+
+def _tags(text: str) -> list[tuple[str, list]]:
+    from html.parser import HTMLParser
+
+    seen = []
+
+    class Tags(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            seen.append((tag, attrs))
+
+    Tags().feed(text)
+    return seen
+
+
+def test_user_text_in_the_report_is_escaped(tmp_path):
+    """The machine's name and description carry a script and an image with an onerror handler: the report shows
+    them as text; it has no script element, no event-handler attribute and no image that is not an embedded
+    figure."""
+    import tomllib
+
+    from berryshaker.config import machine_from_dict, reference_toml_text
+
+    data = tomllib.loads(reference_toml_text())
+    data["machine"].update(name=PAYLOAD, description=PAYLOAD)
+    machine = machine_from_dict(data, "hostile", units_required=True)
+    text, _ = _report_text(machine, tmp_path)
+    assert PAYLOAD not in text and html.escape(PAYLOAD) in text
+    tags = _tags(text)
+    assert "script" not in {t for t, _ in tags}
+    assert not [(t, a) for t, attrs in tags for a, _ in attrs if a.lower().startswith("on")]
+    assert all((dict(a).get("src") or "").startswith("data:image/") for t, a in tags if t == "img")
 
 
 def test_report_header_and_claims_table(report):

@@ -10,7 +10,6 @@ scripts; errors go to stderr as one clear message with exit code 2 and nothing w
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -18,11 +17,11 @@ from typing import Optional
 
 import typer
 from rich.console import Console
-from rich.markup import escape
 
 from berryshaker import __version__
 from berryshaker.cli.flag_help import show_flags_as_flags  # importing it patches the help of every command
 from berryshaker.errors import BerryshakerError
+from berryshaker.user_text import visible
 
 app = typer.Typer(
     name="berryshaker",
@@ -41,8 +40,45 @@ app.add_typer(doe_app, name="doe")
 
 show_flags_as_flags()  # boolean options show as flags in --help, not as <bool>
 
-out = Console(emoji=False)  # user text such as "peak_force:A" is never an emoji code
-err = Console(stderr=True, soft_wrap=True, emoji=False)
+
+
+class SafeConsole(Console):
+    """The command line's console: every string printed has its control characters made visible
+    (:func:`berryshaker.user_text.visible`: an ESC, OSC or BEL from a machine name or a sheet header shows as
+    ``\\x1b``, never acts on the terminal), and nothing is highlighted (rich's highlighter regex is super-linear
+    on long text, and it colours user text as if it were code).  User text inside a markup string still goes
+    through :func:`berryshaker.user_text.markup_text` (``[red]plots`` is a folder name, not a style).
+
+    Parameters
+    ----------
+    **kwargs
+        Passed to :class:`rich.console.Console` (``highlight`` and ``emoji`` are off).
+    """
+
+    def __init__(self, **kwargs):
+        super().__init__(highlight=False, emoji=False, **kwargs)
+
+    def render_str(self, text: str, **kwargs):
+        """A string to print as :class:`rich.text.Text`, its control characters first made visible (line feeds
+        and tabs kept).
+
+        Parameters
+        ----------
+        text : str
+            The string (markup when ``markup`` is on).
+        **kwargs
+            Passed to :meth:`rich.console.Console.render_str`.
+
+        Returns
+        -------
+        rich.text.Text
+            The text to render.
+        """
+        return super().render_str(visible(text, keep_lines=True), **kwargs)
+
+
+out = SafeConsole()  # user text such as "peak_force:A" is never an emoji code
+err = SafeConsole(stderr=True, soft_wrap=True)
 
 ConfigOpt = typer.Option(None, "--config", "-c", help="Machine description (TOML). Default: built-in reference machine.",
                          exists=False, dir_okay=False)
@@ -50,7 +86,9 @@ JsonOpt = typer.Option(False, "--json", help="Print one JSON object on stdout in
 
 
 def _fail(exc: Exception) -> None:
-    err.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, markup=True)
+    from rich.text import Text
+
+    err.print(Text.assemble(("error:", "bold red"), " ", visible(str(exc), keep_lines=True)), highlight=False)
     raise typer.Exit(code=2)
 
 
@@ -86,30 +124,84 @@ def main(version: bool = typer.Option(False, "--version", callback=_version_cb, 
         _fail(exc)
 
 
-def _finite_json(obj, path: str, nulls: dict[str, str]):
-    """``obj`` with every NaN or infinity replaced by None, its JSON path and value recorded in ``nulls``."""
-    if isinstance(obj, float) and not math.isfinite(obj):
-        nulls[path or "(the result)"] = repr(obj)
-        return None
-    if isinstance(obj, dict):
-        return {k: _finite_json(v, f"{path}.{k}" if path else str(k), nulls) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite_json(v, f"{path}[{i}]", nulls) for i, v in enumerate(obj)]
-    return obj
-
-
 def _print_json(obj) -> None:
     """``obj`` as JSON on stdout.  Never ``NaN`` or ``Infinity`` (not JSON): such a value is written as null and
-    its key listed with the reason under ``"null_values"`` (a top-level object), or the command fails naming it."""
-    nulls: dict[str, str] = {}
-    clean = _finite_json(obj, "", nulls)
-    if nulls:
-        if not isinstance(clean, dict):
-            raise BerryshakerError(f"result {next(iter(nulls))} is not a finite number ({nulls[next(iter(nulls))]})")
-        clean["null_values"] = {k: f"not a finite number ({v}): written as null" for k, v in nulls.items()}
-    sys.stdout.write(json.dumps(clean, indent=2, allow_nan=False) + "\n")
+    its key listed with the reason under ``"null_values"`` (a top-level object), or the command fails naming it
+    (:func:`berryshaker.outputs.strict_json_text`)."""
+    from berryshaker.outputs import strict_json_text
+
+    sys.stdout.write(strict_json_text(obj) + "\n")
 
 
+def check_range(flag: str, value: int, lo: int, hi: int, what: str) -> int:
+    """``value`` if ``lo <= value <= hi``; else a :class:`ConfigError` naming the flag, the range and its meaning
+    (exit code 2 instead of a traceback or a huge allocation deep inside a library).
+
+    Parameters
+    ----------
+    flag : str
+        The command-line flag, named in the message.
+    value : int
+        The value given.
+    lo, hi : int
+        Smallest and largest value accepted.
+    what : str
+        What the value means, named in the message.
+
+    Returns
+    -------
+    int
+        ``value``, unchanged.
+
+    Raises
+    ------
+    BerryshakerError
+        ``value`` is outside ``lo .. hi``.
+    """
+    if not lo <= value <= hi:
+        raise BerryshakerError(f"{flag} {value}: expected a whole number in {lo}..{hi} ({what})")
+    return value
+
+
+def check_number(flag: str, value: float, lo: float | None = None, hi: float | None = None, *, what: str,
+                 lo_open: bool = False, hi_open: bool = False) -> float:
+    """``value`` if it is a finite number in the range (``lo`` .. ``hi``, either end open or absent); else one
+    :class:`BerryshakerError` naming the flag, the value, the range and what the value means, before any work.
+
+    Parameters
+    ----------
+    flag : str
+        The command-line flag, named in the message.
+    value : float
+        The value given, in the flag's unit (NaN and infinities are refused).
+    lo, hi : float, optional
+        The range's ends, in the flag's unit (None: no bound on that side).
+    what : str
+        What the value means, named in the message.
+    lo_open, hi_open : bool
+        The end itself is refused (``--alpha`` lies in (0, 1)).
+
+    Returns
+    -------
+    float
+        ``value``, in the flag's unit.
+
+    Raises
+    ------
+    BerryshakerError
+        Not finite, or outside the range.
+    """
+    v = float(value)
+    low_ok = lo is None or (v > lo if lo_open else v >= lo)
+    high_ok = hi is None or (v < hi if hi_open else v <= hi)
+    if not (math.isfinite(v) and low_ok and high_ok):
+        left = "" if lo is None else ("(" if lo_open else "[") + f"{lo:g}"
+        right = "" if hi is None else f"{hi:g}" + (")" if hi_open else "]")
+        span = (f"{left}, {right}" if lo is not None and hi is not None else
+                f"{'>' if lo_open else '>='} {lo:g}" if lo is not None else f"{'<' if hi_open else '<='} {hi:g}")
+        raise BerryshakerError(f"{flag} {value!r}: expected a finite number {'in ' if lo is not None and hi is not None else ''}"
+                               f"{span} ({what})")
+    return v
 
 
 def table_width(console: Console | None = None) -> int:
@@ -216,8 +308,9 @@ def help_text(doc: str) -> str:
 
 
 def command(parent: typer.Typer, name: str | None = None, **kwargs):
-    """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` becomes one clear
-    message on stderr and exit code 2; Ctrl-C stops with a message and exit code 130 (finished runs stay in the
+    """Register a command on ``parent`` with the one error wrapper: a :class:`BerryshakerError` (and a full or
+    read-only disk, :data:`berryshaker.outputs.WRITE_ERRNOS`) becomes one clear message on stderr and exit code 2;
+    Ctrl-C stops with a message and exit code 130 (finished runs stay in the
     cache); a Python warning raised while the command runs is one line, ``warning: <message>``
     (:func:`show_warning`).
 
@@ -251,6 +344,12 @@ def command(parent: typer.Typer, name: str | None = None, **kwargs):
                     return fn(*args, **kw)
             except BerryshakerError as exc:
                 _fail(exc)
+            except OSError as exc:  # a full disk met where no writer named it: still one line, never a traceback
+                from berryshaker.outputs import WRITE_ERRNOS, write_error
+
+                if exc.errno not in WRITE_ERRNOS:
+                    raise
+                _fail(write_error(exc.filename or "an output", exc))
             except KeyboardInterrupt:
                 err.print("[bold red]interrupted[/]: stopped; finished runs are kept in the cache", highlight=False)
                 raise typer.Exit(code=130) from None

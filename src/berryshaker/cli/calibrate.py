@@ -57,7 +57,7 @@ def calibrate(
     workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process "
                                           "may run on)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder (shared with study and validate)."),
+    cache: Optional[str] = typer.Option(None, "--cache", help="Run cache folder (shared with study and validate)."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of the emulator's design, the sampler and the "
                              "predictive draws (the simulator's starts use the description's harvest.seed)."),
     predict: Optional[list[str]] = typer.Option(None, "--predict", help="A further setting to predict, e.g. "
@@ -126,7 +126,7 @@ def calibrate(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (shared with study and validate).
     seed : int
         ``--seed``: Seed of the emulator's design, the sampler and the predictive draws.

@@ -38,6 +38,9 @@ def _parse_weights(text: Optional[str]) -> Optional[dict]:
         if "=" not in part:
             raise BerryshakerError(f"--weights: {part.strip()!r} is not NAME=VALUE, e.g. efficiency=0.5,damage=0.3")
         k, v = (x.strip() for x in part.split("=", 1))
+        if k in weights:
+            raise BerryshakerError(f"--weights: {k} is given twice ({k}={weights[k]:g} and {k}={v}); give each "
+                                   "response once")
         try:
             weights[k] = float(v)
         except ValueError:
@@ -137,7 +140,8 @@ def doe_plan(
         import hashlib
 
         from berryshaker.experiment.field_sheet import parse_factor, plan_html, plan_table
-        from berryshaker.outputs import check_forced_pair, check_output_file, stamp_html, write_text_atomic
+        from berryshaker.outputs import check_forced_pair, check_output_file, stamp_html, write_files_atomic
+        from berryshaker.report.tables import csv_text as table_csv_text
 
         if seed is not None and seed < 0:
             raise BerryshakerError(f"--seed {seed}: the seed must be an integer >= 0")
@@ -155,11 +159,10 @@ def doe_plan(
             replicates = harvest.replicates if harvest is not None else FIELD_REPLICATES
         _check_replicates(replicates, "rows of the field sheet: it is printed and filled in by hand")
         df = plan_table(array, factors, randomize, seed, replicates=replicates)
-        csv_text = df.to_csv(index=False)
-        write_text_atomic(csv_path, csv_text)
-        write_text_atomic(html_path, stamp_html(plan_html(df, f"berryshaker field sheet: {array} test of "
-                                                          f"{', '.join(names)}"), "doe plan",
-                                                {"csv": hashlib.sha256(csv_text.encode("utf-8")).hexdigest()}))
+        csv_text = table_csv_text(list(df.columns), df.itertuples(index=False, name=None))  # cells neutralised
+        page = stamp_html(plan_html(df, f"berryshaker field sheet: {array} test of {', '.join(names)}"), "doe plan",
+                          {"csv": hashlib.sha256(csv_text.encode("utf-8")).hexdigest()})
+        write_files_atomic({csv_path: csv_text.encode("utf-8"), html_path: page.encode("utf-8")})  # both or neither
     except BerryshakerError as exc:
         _fail(exc)
         return
@@ -312,7 +315,7 @@ def doe_virtual(
     as_json: bool = JsonOpt,
     workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
+    cache: Optional[str] = typer.Option(None, "--cache", help="Run cache folder."),
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=2,
                                              help="Starts per run (>= 2; default harvest.replicates in the "
@@ -373,7 +376,7 @@ def doe_virtual(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder.
     plot : Path, optional
         ``--plot``: Main-effect plots and response surfaces (PNG).

@@ -9,7 +9,8 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.cli.app import ConfigOpt, JsonOpt, _load, _print_json, app, command, err, out, print_table
+from berryshaker.cli.app import (ConfigOpt, JsonOpt, _load, _print_json, app, check_number, check_range, command,
+                                  err, out, print_table)
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import ConfigError
 
@@ -20,36 +21,6 @@ PlotOpt = typer.Option(None, "--plot", help="Folder for PNG figures: new, empty,
                        "(only this command's own unchanged figures there are replaced).")
 #: largest seed (numpy's and SALib's generators take 0 .. 2**32 - 1)
 SEED_MAX = 2**32 - 1
-
-
-def check_range(flag: str, value: int, lo: int, hi: int, what: str) -> int:
-    """``value`` if ``lo <= value <= hi``; else a :class:`ConfigError` naming the flag, the range and its meaning
-    (exit code 2 instead of a traceback or a huge allocation deep inside a library).
-
-    Parameters
-    ----------
-    flag : str
-        The command-line flag, named in the message.
-    value : int
-        The value given.
-    lo, hi : int
-        Smallest and largest value accepted.
-    what : str
-        What the value means, named in the message.
-
-    Returns
-    -------
-    int
-        ``value``, unchanged.
-
-    Raises
-    ------
-    ConfigError
-        ``value`` is outside ``lo .. hi``.
-    """
-    if not lo <= value <= hi:
-        raise ConfigError(f"{flag} {value}: expected a whole number in {lo}..{hi} ({what})")
-    return value
 
 
 def _check_joints(machine, joints, flag: str = "--joint") -> list[str]:
@@ -86,7 +57,7 @@ def _check_plot(plot: Optional[Path], kind: str) -> None:
 _LIMIT_DIMENSION = {"clearance": "length", "design_force": "force", "peak_force": "force", "mean_force": "force"}
 
 
-def parse_limit(spec: str) -> tuple[str, float]:
+def parse_limit(spec: str, machine=None) -> tuple[str, float]:
     """``peak_force:A=8000N``, ``clearance:C=0.5mm`` or ``OUTPUT=VALUE`` -> (key, SI value) for
     :func:`berryshaker.life.wear.wear_life` (a maximum).
 
@@ -95,6 +66,8 @@ def parse_limit(spec: str) -> tuple[str, float]:
     spec : str
         ``KIND:JOINT=VALUE`` (kinds of ``_LIMIT_DIMENSION``, the value with its unit, e.g. "0.5mm", "8000N") or
         ``OUTPUT=VALUE`` (a plain number in the output's SI unit).
+    machine : MachineBase, optional
+        The machine whose clearance pairs ``JOINT`` must name (checked when given).
 
     Returns
     -------
@@ -104,22 +77,61 @@ def parse_limit(spec: str) -> tuple[str, float]:
     Raises
     ------
     ConfigError
-        No ``=``, an unknown kind, or a value that is not a number of the kind's dimension.
+        No ``=``, an unknown kind or joint, or a value that is not a positive number of the kind's dimension
+        within berryshaker's bounds (:data:`berryshaker.units.LIMITS`: a limit is a maximum the joint wears
+        towards, so 0, a negative or a 1e9 mm limit is a slip, not a plan).
     """
-    from berryshaker.units import parse_quantity
+    from berryshaker.units import check_limits, parse_quantity
 
     if "=" not in spec:
         raise ConfigError(f"--limit {spec!r}: expected KIND:JOINT=VALUE, e.g. clearance:C=0.5mm or peak_force:A=8000N")
     key, value = (s.strip() for s in spec.split("=", 1))
-    kind = key.partition(":")[0] if ":" in key else ""
+    kind, _, joint = key.partition(":") if ":" in key else ("", "", "")
     if ":" in key and kind not in _LIMIT_DIMENSION:
         raise ConfigError(f"--limit {spec!r}: kind {kind!r} is not one of {', '.join(_LIMIT_DIMENSION)}")
+    if kind and machine is not None and joint not in machine.pair_names:
+        raise ConfigError(f"--limit {spec!r}: {joint!r} is not a clearance pair of this machine; pairs: "
+                          f"{', '.join(machine.pair_names)}")
     dim = _LIMIT_DIMENSION.get(kind)
     try:
         v = parse_quantity(value, dim, field=f"--limit {key}") if dim else float(value)
     except ValueError:
         raise ConfigError(f"--limit {spec!r}: {value!r} is not a number") from None
+    if not (math.isfinite(v) and v > 0):
+        raise ConfigError(f"--limit {spec!r}: a service limit is a maximum the joint reaches in service: give a "
+                          "positive value")
+    if dim:
+        check_limits(v, dim, f"--limit {key}")
     return key, float(v)
+
+
+def parse_limits(specs: list[str], machine) -> dict[str, float]:
+    """Every ``--limit`` (:func:`parse_limit`), each key once.
+
+    Parameters
+    ----------
+    specs : list of str
+        The ``--limit`` values.
+    machine : MachineBase
+        The machine (its clearance pairs).
+
+    Returns
+    -------
+    dict
+        Key -> limit (SI).
+
+    Raises
+    ------
+    ConfigError
+        A bad limit, or a key given twice.
+    """
+    out: dict[str, float] = {}
+    for spec in specs:
+        key, v = parse_limit(spec, machine)
+        if key in out:
+            raise ConfigError(f"--limit {key} is given twice; give each limit once")
+        out[key] = v
+    return out
 
 
 def _runner(workers, scheduler, cache, progress: bool):
@@ -194,7 +206,7 @@ def wear_cmd(
     load_direction: str = typer.Option("fixed", "--load-direction", help="Pins: fixed (conservative) or rotating."),
     slip: Optional[float] = typer.Option(None, "--slip", help="Roller slip ratio (default 0.05 [assumed])."),
     from_fit: bool = typer.Option(False, "--from-fit", help="Start from each pair's fit (mean clearance), not its size."),
-    cache: Optional[Path] = CacheOpt,
+    cache: Optional[str] = CacheOpt,
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     plot: Optional[Path] = PlotOpt,
@@ -223,7 +235,7 @@ def wear_cmd(
         ``--slip``: Roller slip ratio (dimensionless) (default 0.05 [assumed]).
     from_fit : bool
         ``--from-fit``: Start from each pair's fit (mean clearance), not its size.
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
@@ -237,10 +249,12 @@ def wear_cmd(
 
     if not (math.isfinite(hours) and 0 < hours <= 1e7):
         raise ConfigError(f"--hours {hours!r}: expected operating hours in (0, 1e7]")
+    if slip is not None:
+        check_number("--slip", slip, 0.0, 1.0, what="the roller's slip ratio, a fraction")
     _check_plot(plot, "wear --plot")
     machine = _load(config)
     joints = _check_joints(machine, joint)
-    limits = dict(parse_limit(s) for s in limit) if limit else None
+    limits = parse_limits(limit, machine) if limit else None
     runner = _runner(1, None, cache, progress=False)
     status = None if as_json else err.status("wear: starting")
     if status is not None:
@@ -300,7 +314,7 @@ def sensitivity_cmd(
     seed: int = typer.Option(0, "--seed"),
     workers: Optional[int] = WorkersOpt,
     scheduler: Optional[str] = SchedulerOpt,
-    cache: Optional[Path] = CacheOpt,
+    cache: Optional[str] = CacheOpt,
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     plot: Optional[Path] = PlotOpt,
@@ -330,7 +344,7 @@ def sensitivity_cmd(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
@@ -412,7 +426,7 @@ def tolerance_cmd(
     seed: int = typer.Option(1, "--seed"),
     workers: Optional[int] = WorkersOpt,
     scheduler: Optional[str] = SchedulerOpt,
-    cache: Optional[Path] = CacheOpt,
+    cache: Optional[str] = CacheOpt,
     config: Optional[Path] = ConfigOpt,
     as_json: bool = JsonOpt,
     plot: Optional[Path] = PlotOpt,
@@ -445,7 +459,7 @@ def tolerance_cmd(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs).
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
@@ -464,11 +478,10 @@ def tolerance_cmd(
     _check_plot(plot, "tolerance --plot")
     machine = _load(config)
     lims = {}
-    for s in limit:
-        key, v = parse_limit(s)
+    for key, v in parse_limits(limit, machine).items():
         kind, _, j = key.partition(":")
         if kind != "clearance" or not j:
-            raise ConfigError(f"--limit {s!r}: tolerance takes clearance limits, clearance:<joint>=VALUE")
+            raise ConfigError(f"--limit {key}: tolerance takes clearance limits, clearance:<joint>=VALUE")
         lims[j] = v
     with _runner(workers, scheduler, cache, progress=not as_json) as runner:
         design = tolerance_design(machine, runner, joint or None, [f.strip() for f in fits.split(",") if f.strip()],

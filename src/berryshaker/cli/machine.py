@@ -6,10 +6,10 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.markup import escape
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
+from berryshaker.user_text import markup_text
 from berryshaker.outputs import write_provenance
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -96,7 +96,7 @@ def _print_kinematics(s: dict) -> None:
     _print_comb_rows(t, s)
     print_table(("quantity", "value", "closed form"), t, title=f"Kinematics - {s['machine']}")
     for p in s.get("plots", []):
-        out.print(f"wrote {p}")
+        out.print(f"wrote {p}", markup=False, soft_wrap=True)
 
 
 def _print_cam_rows(t, c: dict) -> None:
@@ -282,7 +282,6 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
         ``--drive``: Comb drive: groove_cam or crank_rocker.
     """
     from berryshaker.config import reference_toml_text
-    from berryshaker.errors import OutputError
     from berryshaker.outputs import check_output_file, write_text_atomic
 
     if path.is_dir():
@@ -291,12 +290,8 @@ def config_init(path: Path = typer.Argument(..., help="Where to write the editab
         _fail(BerryshakerError(f"{path} exists; use --force to overwrite"))
     # a FIFO, device or folder is refused even with --force; so is a parent that is a file or cannot be written
     check_output_file(path, overwrite=force)
-    text = reference_toml_text(drive)
-    try:
-        write_text_atomic(path, text)
-    except OSError as exc:
-        raise OutputError(f"cannot write {path} ({exc.strerror or exc}); choose another location") from None
-    err.print(f"wrote {path}")
+    write_text_atomic(path, reference_toml_text(drive))  # a failed write is one WriteError naming the file
+    err.print(f"wrote {path}", markup=False)
 
 
 @command(config_app, "validate")
@@ -340,8 +335,8 @@ def config_validate(path: Path = typer.Argument(..., help="Machine description t
         _print_json({"valid": True, "machine": machine.machine.name, "warnings": warnings, "notes": notes})
     else:
         for w in warnings:
-            err.print(f"[yellow]warning:[/] {escape(w)}", highlight=False)
+            err.print(f"[yellow]warning:[/] {markup_text(w)}", highlight=False)
         for n in notes:
-            err.print(f"note: {escape(n)}", highlight=False)
-        out.print(f"[green]valid[/]: {escape(str(path))} ({escape(machine.machine.name)})"
+            err.print(f"note: {markup_text(n)}", highlight=False)
+        out.print(f"[green]valid[/]: {markup_text(path)} ({markup_text(machine.machine.name)})"
                   + (f" with {len(warnings)} warning(s)" if warnings else ""))

@@ -14,6 +14,7 @@ from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
     app,
+    check_range,
     command,
     err,
     out,
@@ -44,7 +45,8 @@ def plant(
     convergence_modes: str = typer.Option("4,8,16,32", "--convergence-modes",
                                           help="Mode counts for --convergence, e.g. 4,8,16,32 (the last the reference)."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=2,
-                                             help="Replicates for --convergence (default: harvest.replicates)."),
+                                             help="Replicates for --convergence (default: harvest.replicates; at most "
+                                                  "1000)."),
     separate_runs: bool = typer.Option(False, "--separate-runs", help="--convergence: one run per mode count and "
                                        "seed instead of every mode count as a probe of one run."),
 ):
@@ -71,7 +73,7 @@ def plant(
     convergence_modes : str
         ``--convergence-modes``: Mode counts for --convergence, e.g. 4,8,16,32 (the last the reference).
     replicates : int, optional
-        ``--replicates``: Replicates for --convergence (default: harvest.replicates).
+        ``--replicates``: Replicates for --convergence (default: harvest.replicates; at most 1000).
     separate_runs : bool
         ``--separate-runs``: --convergence: one run per mode count and seed instead of every mode count as a probe
         of one run.
@@ -133,11 +135,24 @@ def _convergence(config, as_json: bool, modes_text: str, replicates, separate_ru
                                    "e.g. 4,8,16,32") from None
         if len(modes) < 2 or any(not 1 <= n <= 64 for n in modes):
             raise BerryshakerError(f"--convergence-modes {modes_text!r}: give two or more mode counts in 1..64")
+        if replicates is not None:
+            from berryshaker.harvest.spec import MAX_COUNT
+
+            check_range("--replicates", replicates, 2, MAX_COUNT, "coupled drive-pasts of the convergence table")
         machine = _load(config)
         if machine.plant is None:
             raise BerryshakerError("the machine description has no [plant] block (see `berryshaker config init`)")
-        res = fruit_force_convergence(machine, modes=sorted(modes), replicates=replicates,
-                                      shared_run=not separate_runs)
+        status = None if as_json else err.status("plant --convergence: starting")
+        if status is not None:
+            status.start()
+        try:
+            res = fruit_force_convergence(machine, modes=sorted(modes), replicates=replicates,
+                                          shared_run=not separate_runs,
+                                          say=(lambda m: status.update(f"plant --convergence: {m}")) if status
+                                          is not None else None)
+        finally:
+            if status is not None:
+                status.stop()
         try:
             res["smallest_converged_modes"] = smallest_converged_modes(res)
         except BerryshakerError:
@@ -228,6 +243,7 @@ def fruit_force_cmd(
             import numpy as np
 
             from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
+            from berryshaker.report.tables import csv_text
             from berryshaker.report.plots import plot_fruit_force
 
             if plot is not None:
@@ -241,8 +257,7 @@ def fruit_force_cmd(
                     cols = ["time_s", "distance_m"] + [f"fruit_{n}_N" for n in res.fruit_force] + \
                         [f"{n}_contact_N" for n in res.contact_force]
                     arr = np.column_stack([res.t, res.distance, *res.fruit_force.values(), *res.contact_force.values()])
-                    write_text_atomic(stage / "fruit_force.csv", ",".join(cols) + "\n" +
-                                      "\n".join(",".join(f"{v:.7g}" for v in row) for row in arr[::5]) + "\n")
+                    write_text_atomic(stage / "fruit_force.csv", csv_text(cols, arr[::5].tolist(), ".7g"))
                     write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(res.machine)})
                 summary["out"] = str(out_dir)
     except BerryshakerError as exc:

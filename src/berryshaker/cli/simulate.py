@@ -10,10 +10,13 @@ import typer
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
 from berryshaker.outputs import write_provenance
+from berryshaker.user_text import markup_text
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
     app,
+    check_number,
+    check_range,
     command,
     out,
     print_table,
@@ -235,6 +238,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
         import numpy as np
 
         from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
+        from berryshaker.report.tables import csv_text
 
         cm = result.compiled
         with staged_directory(out_dir, kind="simulate --out") as stage:
@@ -251,8 +255,7 @@ def _simulate_mechanism_file(path: Path, duration, as_json: bool, out_dir) -> No
                     cols.append(f"{name}.penetration_m")
                     data.append(result.elements[:, k, 1])
             arr = np.column_stack(data)
-            write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
-                              "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+            write_text_atomic(stage / "timeseries.csv", csv_text(cols, arr.tolist(), ".9g"))
             write_json_atomic(stage / "summary.json", {**summary, "provenance": {
                 **provenance(), "mechanism_si": spec.model_dump(mode="json")}})
         summary["out"] = str(out_dir)
@@ -275,6 +278,7 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     import numpy as np
 
     from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.tables import csv_text
     from berryshaker.report.plots import plot_joint_forces
 
     cm = result.compiled
@@ -296,8 +300,7 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
             cols.append("guide_normal_N")
             data.append(result.reaction("guide"))
         arr = np.column_stack(data)
-        write_text_atomic(stage / "timeseries.csv", ",".join(cols) + "\n" +
-                          "\n".join(",".join(f"{v:.9g}" for v in row) for row in arr) + "\n")
+        write_text_atomic(stage / "timeseries.csv", csv_text(cols, arr.tolist(), ".9g"))
         write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(machine)})
         sel = result.t >= result.stats_from
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in machine.clearance_sizes().items())
@@ -323,7 +326,7 @@ def compare(
                                     "chaotic impact sequence, no verdict on the statistics)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes for the replicate starts "
                                           "(default: every core this process may run on)."),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder of the replicate starts "
+    cache: Optional[str] = typer.Option(None, "--cache", help="Run cache folder of the replicate starts "
                                          "(default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE)."),
 ):
     """Run the MLSD and multibody models on the same machine and clearances; compare per pair (eq. 18).
@@ -358,7 +361,7 @@ def compare(
         statistics).
     workers : int, optional
         ``--workers``: Local processes for the replicate starts (default: every core this process may run on).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder of the replicate starts (default ~/.cache/berryshaker/runs or
         $BERRYSHAKER_CACHE).
     """
@@ -366,11 +369,20 @@ def compare(
         from berryshaker.experiment.agreement import model_agreement, model_check
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
 
+        check_number("--alpha", alpha, 0.0, 1.0, lo_open=True, hi_open=True,
+                     what="the significance level of the F test, e.g. 0.05")
+        if starts == 1:
+            raise BerryshakerError("--starts 1 has no spread to measure: give 0 (centred runs only) or >= 2")
+        from berryshaker.harvest.spec import MAX_COUNT
+
+        check_range("--starts", starts, 0, MAX_COUNT, "replicate starts of each model, two runs each")
+        if starts:
+            from berryshaker.runs.cache import run_cache_dir
+
+            run_cache_dir(cache)  # the cache policy before any work
         _check_folders(plot, kind="compare --plot")
         machine = _load(config)
         sizes = parse_clearance_spec(clearance, machine)
-        if starts == 1:
-            raise BerryshakerError("--starts 1 has no spread to measure: give 0 (centred runs only) or >= 2")
         res = model_agreement(machine, sizes, revolutions=revolutions, points=points, alpha=alpha)
         series, t = res.pop("series"), res.pop("t")
         if starts:
@@ -385,7 +397,7 @@ def compare(
             res["failed_starts"] = [{"model": model, "start": o.index + 1, "error": o.error}
                                     for model, outs in (("multibody", mb), ("MLSD", ml)) for o in outs if o.error]
             for f in res["failed_starts"]:
-                err.print(f"[yellow]{f['model']} start {f['start']} failed[/]: {f['error']}")
+                err.print(f"[yellow]{f['model']} start {f['start']} failed[/]: {markup_text(f['error'])}")
             if res["model_check"] is None:
                 raise BerryshakerError("fewer than two replicate starts of a model ran: no spread to judge by")
         res["version"] = __version__
@@ -433,6 +445,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
 
     from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
     from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
+    from berryshaker.report.tables import csv_text
     from berryshaker.report.plots import plot_joint_forces, plot_time_series
 
     with staged_directory(out_dir, kind="simulate --out") as stage:
@@ -440,8 +453,7 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
         data = [result.t, np.degrees(result.t * result.machine.cam.speed)] + [result.state[:, i] for i in range(4)]
         data += [result.results[:, idx] for idx, _ in RESULT_COLUMNS.values()]
         arr = np.column_stack(data)
-        lines = [",".join(cols)] + [",".join(f"{v:.9g}" for v in row) for row in arr]
-        write_text_atomic(stage / "timeseries.csv", "\n".join(lines) + "\n")
+        write_text_atomic(stage / "timeseries.csv", csv_text(cols, arr.tolist(), ".9g"))
         write_json_atomic(stage / "summary.json", {**summary, "provenance": provenance(result.machine)})
         sel = result.t >= result.stats_from
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in result.clearance.items())

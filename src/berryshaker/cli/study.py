@@ -6,10 +6,10 @@ from pathlib import Path
 from typing import Optional
 
 import typer
-from rich.markup import escape
 
 from berryshaker import __version__
 from berryshaker.errors import BerryshakerError
+from berryshaker.user_text import markup_text
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
 from berryshaker.cli.app import (
     ConfigOpt,
@@ -38,7 +38,7 @@ def study(
     out_dir: Path = typer.Option(Path("berryshaker-study"), "--out", help="Output folder: new, empty, or an earlier study's output (then replaced atomically); any other folder is refused."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
-    cache: Optional[Path] = CacheOpt,
+    cache: Optional[str] = CacheOpt,
     no_cache: bool = typer.Option(False, "--no-cache", help="Recompute every run."),
     as_json: bool = JsonOpt,
 ):
@@ -67,7 +67,7 @@ def study(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).
     no_cache : bool
         ``--no-cache``: Recompute every run.
@@ -136,8 +136,8 @@ def study(
                     f"{FIELD_RESULT['damage_rate_pct']} %" + ("; [fitted]: calibrated to that value here" if fitted
                                                               else "") + ")", markup=False, highlight=False)
     for f in summary.failures:
-        out.print(f"[red]failed[/] {f.step} run {f.run} ({f.inputs}): {f.error}")
-    out.print(f"report: {out_dir / 'report.html'}  ({summary.timings_s['total']:.0f} s)")
+        out.print(f"[red]failed[/] {markup_text(f.step)} run {f.run} ({markup_text(f.inputs)}): {markup_text(f.error)}")
+    out.print(f"report: {out_dir / 'report.html'}  ({summary.timings_s['total']:.0f} s)", markup=False, soft_wrap=True)
 
 
 #: the harvest indexes a ``--model harvest`` sweep prints per point: column, header (unit)
@@ -210,7 +210,8 @@ def sweep(
                                     "of the machine description, e.g. clearance.A.size, and the values must have its "
                                     "dimension. Repeat for more parameters, each key once."),
     method: str = typer.Option("grid", "--method", help="grid (ranges get --points levels), lhs or montecarlo."),
-    points: int = typer.Option(3, "--points", "-n", min=1, help="Grid levels per range, or samples for lhs/montecarlo."),
+    points: int = typer.Option(3, "--points", "-n", min=1, help="Grid levels per range, or samples for lhs/montecarlo "
+                               "(at most 100,000 runs in all)."),
     seed: int = typer.Option(0, "--seed", min=0, help="Seed of lhs / montecarlo sampling."),
     model: str = typer.Option("mlsd", "--model", help="mlsd, multibody, or harvest (virtual harvest: ripe removal, "
                               "unripe shedding, damage; coupled machine-plant runs)."),
@@ -234,7 +235,7 @@ def sweep(
                                           "unripe shedding and damage against it (PNG or SVG)."),
     workers: Optional[int] = typer.Option(None, "--workers", help="Local processes (>= 1; default: every core this process may run on, its CPU affinity)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
-    cache: Optional[Path] = CacheOpt,
+    cache: Optional[str] = CacheOpt,
     as_json: bool = JsonOpt,
 ):
     """Factor grid, Latin hypercube or Monte Carlo (tolerances, wear) over any machine parameter.
@@ -254,7 +255,7 @@ def sweep(
     method : str
         ``--method``: grid (ranges get --points levels), lhs or montecarlo.
     points : int
-        ``--points``: Grid levels per range, or samples for lhs/montecarlo.
+        ``--points``: Grid levels per range, or samples for lhs/montecarlo (at most 100,000 runs in all).
     seed : int
         ``--seed``: Seed of lhs / montecarlo sampling.
     model : str
@@ -284,7 +285,7 @@ def sweep(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder (default ~/.cache/berryshaker/runs or $BERRYSHAKER_CACHE).
     as_json : bool
         ``--json``: Print one JSON object on stdout instead of tables.
@@ -316,8 +317,8 @@ def sweep(
                 raise BerryshakerError("--figure draws the harvest indexes against one parameter: give --model harvest "
                                        "and exactly one --param")
             check_output_file(figure, allowed_suffixes=(".png", ".svg"))
-        if workers is not None and workers < 1:
-            raise BerryshakerError(f"--workers {workers}: must be >= 1 (omit it to use all cores)")
+        # the runner first: its checks (--workers, --scheduler, --cache) before any work
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         if out_file is not None:
             from berryshaker.outputs import check_output_file
 
@@ -333,7 +334,6 @@ def sweep(
         pts = sample_params(params, method, points, seed)
         validate_points(machine, params, pts, revolutions)  # every point, before any run
         data = machine.model_dump(mode="json")
-        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
         kernel_why, kernel_arg = None, {}
         if model == "multibody":
             if specialised is None:
@@ -377,8 +377,8 @@ def sweep(
     if failed:
         for r in results:
             if r.error:
-                out.print(f"[red]run {r.index + 1} failed[/]: {escape(r.error)}")
+                out.print(f"[red]run {r.index + 1} failed[/]: {markup_text(r.error)}")
     if out_file is not None:
-        out.print(f"wrote {out_file}")
+        out.print(f"wrote {out_file}", markup=False, soft_wrap=True)
     if figure is not None:
-        out.print(f"wrote {figure}")
+        out.print(f"wrote {figure}", markup=False, soft_wrap=True)

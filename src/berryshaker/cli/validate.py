@@ -20,7 +20,7 @@ def validate(
     workers: Optional[int] = typer.Option(None, "--workers", help="Processes (default: every core this process "
                                           "may run on)."),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help=SCHEDULER_HELP),
-    cache: Optional[Path] = typer.Option(None, "--cache", help="Run cache folder."),
+    cache: Optional[str] = typer.Option(None, "--cache", help="Run cache folder."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=2, max=64,
                                              help="Starts per case (default harvest.replicates)."),
 ):
@@ -51,7 +51,7 @@ def validate(
     scheduler : str, optional
         ``--scheduler``: Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code
         runs where they are loaded): give only a scheduler you trust, on a trusted network or over TLS (tls://).
-    cache : Path, optional
+    cache : str, optional
         ``--cache``: Run cache folder.
     replicates : int, optional
         ``--replicates``: Starts per case (default harvest.replicates).

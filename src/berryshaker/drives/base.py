@@ -37,9 +37,11 @@ from berryshaker.quantity_fields import (
     Coefficient,
     Damping,
     Force,
+    FreeText,
     Length,
     LengthNonNeg,
     Mass,
+    Name,
     Stiffness,
     StrictModel,
     TorsionalDamping,
@@ -47,6 +49,7 @@ from berryshaker.quantity_fields import (
     display_unit,
     quantity_validator,
 )
+from berryshaker.units import check_limits
 
 #: default relative tolerance of a harvester's multibody run (every drive), chosen by the convergence study in
 #: tests/multibody/test_perturbation.py: over 8 perturbed starts and 6 revolutions, the loosest rtol at which no
@@ -236,8 +239,8 @@ class OperationSpec(StrictModel):
 class MachineInfo(StrictModel):
     """Name, description and the comb drive of a machine description."""
 
-    name: str = "unnamed machine"
-    description: str = ""
+    name: Name = "unnamed machine"
+    description: FreeText = ""
     drive: str = "groove_cam"
 
 
@@ -419,7 +422,8 @@ class MachineBase(StrictModel):
         """A validated copy with the clearance sizes (m) replaced for the named pairs.
 
         Every clearance a run uses passes through here (or through loading the description): unknown pairs,
-        negative or non-finite sizes and sizes the geometry cannot hold are refused with the pair named.
+        negative or non-finite sizes, sizes outside a description's bounds (0, or 1 um .. 100 m:
+        :data:`berryshaker.units.LIMITS`) and sizes the geometry cannot hold are refused with the pair named.
 
         Parameters
         ----------
@@ -440,6 +444,7 @@ class MachineBase(StrictModel):
                                   f"{', '.join(self.pair_names)}")
             if isinstance(size, bool) or not isinstance(size, (int, float)) or not math.isfinite(size) or size < 0:
                 raise ConfigError(f"clearance {pair}: size must be a finite length >= 0, got {size!r}")
+            check_limits(float(size), "length", f"clearance {pair}")  # 0, or 1 um .. 100 m, as in a machine file
             data["clearance"][pair]["size"] = float(size)
         from pydantic import ValidationError
 

@@ -15,6 +15,7 @@ import pandas as pd
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.field_columns import MAX_ROWS, META_COLUMNS
 from berryshaker.units import unit_dimension, unit_factor
+from berryshaker.user_text import check_user_text
 
 _MISSING = {"", "na", "n/a", "nan", "none", "-"}
 _CELL = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Za-z%µμ/^*·0-9_]*)\s*$")
@@ -215,6 +216,8 @@ def _table_sheet(df: pd.DataFrame, names: list[str], label: str, sep: str, *, li
                  marks: pd.DataFrame | None = None, worksheet: str | None = None) -> _Sheet:
     """The cells of a CSV or a worksheet (text, header ``names``) checked and normalised into a :class:`_Sheet`:
     every column named once, empty cells None, empty rows dropped, a units row and header units read."""
+    for i, h in enumerate(names, 1):  # a header is a name: bounded, no control characters (they reach terminals)
+        check_user_text(h, f"{label} header, column {i}")
     if any(not h for h in names):
         raise ConfigError(f"{label}: header column {names.index('') + 1} has no name; name every column "
                           "(as written by `berryshaker doe plan`)")

@@ -9,7 +9,6 @@ share are in :mod:`berryshaker.experiment.field_columns`.  Units (of a
 
 from __future__ import annotations
 
-import html
 import math
 import re
 
@@ -23,6 +22,7 @@ from berryshaker.experiment.field_columns import (MAX_ROWS, META_COLUMNS, RAW_CO
                                                   compute_indexes, index_columns, reserved_columns)
 from berryshaker.experiment.field_results import read_results
 from berryshaker.units import MAX_LIST_CHARS, unit_dimension
+from berryshaker.user_text import html_text
 
 def _short(text: str, limit: int = 60) -> str:
     text = repr(text)
@@ -220,17 +220,17 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
         if c in _LABELS:
             return _LABELS[c]
         if c.endswith("_level"):
-            return f"{html.escape(c[:-6])}<br>level"
+            return f"{html_text(c[:-6])}<br>level"
         if "_" in c:
             name, unit = c.split("_", 1)
-            return f"{html.escape(name)}<br>{html.escape(unit)}"
-        return html.escape(c)
+            return f"{html_text(name)}<br>{html_text(unit)}"
+        return html_text(c)
 
     head = "".join(f"<th class='{'fill' if c in fill else 'design'}'>{label(c)}</th>" for c in cols)
     head += "<th class='fill'>notes</th>"
     body = []
     for rec in rows[cols].itertuples(index=False, name=None):
-        cells = "".join(f"<td class='{'fill' if c in fill else 'design'}'>{html.escape(_cell_text(v))}</td>"
+        cells = "".join(f"<td class='{'fill' if c in fill else 'design'}'>{html_text(_cell_text(v))}</td>"
                         for c, v in zip(cols, rec))
         body.append(f"<tr>{cells}<td class='fill'></td></tr>")
     blank = "<span class='blank'></span>"
@@ -248,16 +248,16 @@ def plan_html(df: pd.DataFrame, title: str) -> str:
            "th{background:#eee;font-size:8.5pt;font-weight:600}td.fill{height:2.2em}"
            ".notes{border:1px solid #444;height:5em;margin-top:.6em;padding:3px}"
            "@media print{body{margin:0}th{-webkit-print-color-adjust:exact;print-color-adjust:exact}}")
-    return (f"<!doctype html><html><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
+    return (f"<!doctype html><html><head><meta charset='utf-8'><title>{html_text(title)}</title>"
             f"<style>{css}</style></head><body>"
-            f"<h2>{html.escape(title)}</h2><div class='metas'>{meta}</div>"
+            f"<h2>{html_text(title)}</h2><div class='metas'>{meta}</div>"
             "<p>Run the tests top to bottom (the <b>order</b> column; <b>run</b> is the design's run number, "
             "<b>replicate</b> which repeat of it this row is). "
             "Fill in either the raw masses and duration or the ready indexes; use a decimal point.</p>"
             f"<table><colgroup>{colgroup}</colgroup><thead><tr>{head}</tr></thead>"
             f"<tbody>{''.join(body)}</tbody></table>"
             "<div class='notes'><b>Notes</b> (deviations, breakdowns, re-runs):</div>"
-            f"<p style='font-size:8pt'>berryshaker {html.escape(__version__)}</p></body></html>")
+            f"<p style='font-size:8pt'>berryshaker {html_text(__version__)}</p></body></html>")
 
 
 __all__ = ["ARRAYS", "Factor", "FieldResults", "MAX_ROWS", "META_COLUMNS", "RAW_COLUMNS",

@@ -15,13 +15,11 @@ from __future__ import annotations
 
 import datetime as _dt
 import io
-import os
-import stat
 import zipfile
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from berryshaker.errors import ConfigError
+from berryshaker.input_files import read_input_file
 
 #: largest sheet file read (bytes): a field sheet of MAX_ROWS rows fits; the limit guards against a wrong file
 MAX_SHEET_BYTES = 100 * 2**20
@@ -35,11 +33,10 @@ _OLE2 = b"\xd0\xcf\x11\xe0\xa1\xb1\x1a\xe1"  # the compound file of a legacy .xl
 
 
 def read_sheet_bytes(path, what: str = "results file", limit: int = MAX_SHEET_BYTES) -> bytes:
-    """The bytes of a sheet file, read only if it is a regular file of at most ``limit`` bytes.
-
-    The file is opened without blocking (``O_NONBLOCK``) and checked on the open descriptor (``fstat``), so a FIFO
-    (which would block until someone writes), a device (``/dev/zero`` never ends) or a folder is refused at once,
-    and a file that grows while it is read is refused too.
+    """The bytes of a sheet file, read only if it is a regular file of at most ``limit`` bytes, through the one
+    reader of the user's files (:func:`berryshaker.input_files.read_input_file`: opened without blocking and checked
+    on the open descriptor, so a FIFO, a device such as ``/dev/zero`` or a folder is refused at once, and a file that
+    grows while it is read is refused too).
 
     Parameters
     ----------
@@ -60,38 +57,7 @@ def read_sheet_bytes(path, what: str = "results file", limit: int = MAX_SHEET_BY
     ConfigError
         The file is missing, unreadable, not a regular file or larger than ``limit``.
     """
-    p = Path(path)
-    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0) | getattr(os, "O_BINARY", 0)
-    try:
-        fd = os.open(p, flags)
-    except FileNotFoundError:
-        raise ConfigError(f"{what} not found: {p}") from None
-    except OSError as exc:
-        raise ConfigError(f"cannot read the {what} {p} ({exc.strerror or exc})") from None
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(st.st_mode)
-                    else "a device" if stat.S_ISCHR(st.st_mode) or stat.S_ISBLK(st.st_mode) else "not a regular file")
-            raise ConfigError(f"{what} {p} is {kind}; give the sheet's file (.csv or .xlsx)")
-        if st.st_size > limit:
-            raise ConfigError(f"{what} {p} has {st.st_size:,} bytes, more than the {limit:,} a field sheet can have; "
-                              "is this the right file?")
-        chunks, total = [], 0
-        while True:
-            b = os.read(fd, min(1 << 20, limit + 1 - total))
-            if not b:
-                break
-            chunks.append(b)
-            total += len(b)
-            if total > limit:
-                raise ConfigError(f"{what} {p} grew beyond {limit:,} bytes while it was read; is this the right "
-                                  "file?")
-        return b"".join(chunks)
-    except OSError as exc:
-        raise ConfigError(f"cannot read the {what} {p} ({exc.strerror or exc})") from None
-    finally:
-        os.close(fd)
+    return read_input_file(path, what, limit, fix="give the sheet's file (.csv or .xlsx)")
 
 
 def sheet_kind(data: bytes) -> str:

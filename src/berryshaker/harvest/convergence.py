@@ -48,7 +48,7 @@ def _peaks(res) -> dict:
 
 def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: dict | None = None,
                             rtol: float = COUPLED_RTOL, replicates: int | None = None, shared_run: bool = True,
-                            tolerance: float = 0.03, confidence: float = 0.95) -> dict:
+                            tolerance: float = 0.03, confidence: float = 0.95, say=None) -> dict:
     """Replicate means of the peak stem force (and eq. 16) at each fruit position against the modes kept.
 
     For replicate k (seed s_k = ``harvest.seed`` + 1000 k, the calibration's and the L9's) the machine starts
@@ -88,6 +88,8 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     tolerance, confidence : float
         The convergence tolerance (a relative difference, dimensionless) and the confidence of the t bound (a
         fraction, e.g. 0.95).
+    say : callable, optional
+        Called with a short progress text before each replicate ("replicate 3 of 8").
 
     Returns
     -------
@@ -117,7 +119,9 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     machines = [_with_modes(machine, n) for n in modes]
     peaks = {n: [] for n in modes}
     t0, runs = time.process_time(), 0
-    for sd in seeds:
+    for k, sd in enumerate(seeds):
+        if say is not None:
+            say(f"replicate {k + 1} of {r}")
         pert = machine_start(machine, (sd, MACHINE, c_ref))
         if shared_run:
             res = simulate_fruit_force(machines[0], clearance, rtol=rtol, initial_perturbation=pert,

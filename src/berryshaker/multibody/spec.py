@@ -34,7 +34,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import UNITS_REQUIRED, Angle, Coefficient, SignedLength, quantity_validator, describe_value, read_quantity
+from berryshaker.quantity_fields import (UNITS_REQUIRED, Angle, Coefficient, FreeText, Name, SignedLength, describe_value,
+                                         quantity_validator, read_quantity)
 from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
 from berryshaker.multibody.layout import MAX_TABLE
@@ -73,7 +74,7 @@ class _Strict(BaseModel):
 
 class BodySpec(_Strict):
     """A rigid body: mass (kg), central inertia (kg m^2), initial position of its centre (m) and angle (rad)."""
-    name: str
+    name: Name
     mass: Mass
     inertia: Inertia  # about the centre of mass
     position: Point = (0.0, 0.0)
@@ -111,7 +112,7 @@ class ContactSpec(_Strict):
 
 class JointSpec(_Strict):
     """A joint between two bodies (or a body and ground): ideal or with clearance and a contact law."""
-    name: str
+    name: Name
     type: Literal["revolute", "prismatic", "point_on_line", "cam_roller",
                   "revolute_clearance", "slot_clearance", "groove_clearance"]
     body_i: str
@@ -142,7 +143,7 @@ class JointSpec(_Strict):
 class CamSpec(_Strict):
     """A groove cam's pitch curve (study eq. 1-2) in its body frame (origin = rotation centre)."""
 
-    name: str
+    name: Name
     law: Literal["3-4-5", "cycloidal", "4-5-6-7"] = "3-4-5"
     base_radius: LengthPos
     offset: LengthNN
@@ -154,7 +155,7 @@ class CamSpec(_Strict):
 
 class DriverSpec(_Strict):
     """A driver: imposed angle (constant speed), applied torque, or a torque-speed source on a body."""
-    name: str
+    name: Name
     type: Literal["angle", "torque", "torque_speed"] = "angle"
     body: str
     speed: Annotated[float, quantity_validator("angular_speed")] = 0.0  # rad/s, signed (angle: prescribed; otherwise: initial)
@@ -181,7 +182,7 @@ class ForceSpec(_Strict):
     """A rotational spring-damper between body_i and body_j (or ground), or a constant applied force
     (``force`` = [Fx, Fy] in the frame, N) at ``point`` of body_i."""
 
-    name: str
+    name: Name
     type: Literal["rotational_spring_damper", "force", "geared_spring_damper"] = "rotational_spring_damper"
     body_i: str
     body_j: str = "ground"
@@ -238,7 +239,7 @@ class SimulationSpec(_Strict):
 class BranchContactSpec(_Strict):
     """A point of a body striking the modal body at one station (lateral contact)."""
 
-    name: str
+    name: Name
     body: str
     finger_point: Point  # in the body's frame
     station: float = Field(gt=0, le=1)  # fraction of the branch length
@@ -287,8 +288,8 @@ class ModalBodySpec(_Strict):
 
 class MechanismInfo(_Strict):
     """Name, description and gravity (m/s^2) of a mechanism."""
-    name: str = "mechanism"
-    description: str = ""
+    name: Name = "mechanism"
+    description: FreeText = ""
     gravity: Accel = (0.0, 0.0)
 
 
@@ -371,6 +372,10 @@ def mechanism_from_dict(data: dict, source: str = "<dict>", units_required: bool
         raise ConfigError(_format_validation_error(err, source).replace("machine description", "mechanism description")) from None
 
 
+#: largest mechanism description read (bytes), as for a machine description
+MAX_MECHANISM_BYTES = 1_000_000
+
+
 def load_mechanism(path: str | Path) -> MechanismSpec:
     """Read a mechanism description from TOML (every dimensional value with its unit) and validate it.
 
@@ -383,12 +388,19 @@ def load_mechanism(path: str | Path) -> MechanismSpec:
     -------
     MechanismSpec
         The validated description (SI inside).
+
+    Raises
+    ------
+    ConfigError
+        Not a regular file of at most 1 MB (:func:`berryshaker.input_files.read_input_file`), not UTF-8 TOML, or
+        invalid values.
     """
+    from berryshaker.input_files import read_input_file
+
     p = Path(path)
-    if not p.is_file():
-        raise ConfigError(f"mechanism file not found: {p}")
+    raw = read_input_file(p, "mechanism file", MAX_MECHANISM_BYTES)  # a regular file of bounded size, never blocking
     try:
-        data = tomllib.loads(p.read_bytes().decode("utf-8-sig"))
+        data = tomllib.loads(raw.decode("utf-8-sig"))
     except UnicodeDecodeError as exc:
         raise ConfigError(f"{p}: not UTF-8 text (byte {exc.start}); save the file as UTF-8") from None
     except tomllib.TOMLDecodeError as exc:

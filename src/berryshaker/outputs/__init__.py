@@ -8,14 +8,16 @@
   their sha256; :mod:`.marker`), so a later run of the same command may replace exactly those files while they
   are unchanged -- and never a file the user put there or changed, a file another command wrote, or anything
   reached through a symlink.
-* Single files are written atomically (:func:`write_text_atomic`, :func:`write_json_atomic`;
-  :mod:`.atomic_files`); a sheet and its printable copy are stamped so ``--force`` replaces only its own
+* Single files are written atomically (:func:`write_text_atomic`, :func:`write_json_atomic`: strict JSON, a NaN
+  is null), files that belong together all or none (:func:`write_files_atomic`), a failed write (a full disk) is
+  one :class:`~berryshaker.errors.WriteError` (:mod:`.atomic_files`); a sheet and its printable copy are stamped so ``--force`` replaces only its own
   (:mod:`.paired_files`); every output records its provenance (:mod:`.provenance_record`).
 
 The names callers use are importable from here.
 """
 
-from berryshaker.outputs.atomic_files import (current_umask, file_sha256, write_bytes_atomic, write_json_atomic,
+from berryshaker.outputs.atomic_files import (WRITE_ERRNOS, current_umask, file_sha256, finite_json, strict_json_text,
+                                              write_bytes_atomic, write_error, write_files_atomic, write_json_atomic,
                                               write_text_atomic)
 from berryshaker.outputs.destinations import check_output_file, prepare_output_dir
 from berryshaker.outputs.marker import MARKER_NAME, marker_owners, read_output_marker
@@ -25,8 +27,8 @@ from berryshaker.outputs.staging import (STAGING_TAG, STALE_FOREIGN_STAGING_HOUR
                                          clean_stale_staging, pid_alive, staged_directory)
 
 #: the public names
-__all__ = ["MARKER_NAME", "STAGING_TAG", "STALE_FOREIGN_STAGING_HOURS", "STALE_STAGING_HOURS",
+__all__ = ["MARKER_NAME", "WRITE_ERRNOS", "STAGING_TAG", "STALE_FOREIGN_STAGING_HOURS", "STALE_STAGING_HOURS",
            "check_forced_pair", "check_output_file", "clean_stale_staging", "code_fingerprint", "current_umask", "file_sha256",
-           "marker_owners", "pid_alive", "prepare_output_dir", "provenance", "read_html_stamp", "read_output_marker",
-           "stamp_html", "staged_directory", "write_bytes_atomic", "write_json_atomic", "write_provenance",
-           "write_text_atomic"]
+           "finite_json", "marker_owners", "pid_alive", "prepare_output_dir", "provenance", "read_html_stamp",
+           "read_output_marker", "stamp_html", "staged_directory", "strict_json_text", "write_bytes_atomic",
+           "write_error", "write_files_atomic", "write_json_atomic", "write_provenance", "write_text_atomic"]

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Iterable
 
 from berryshaker.outputs.atomic_files import _absolute
-from berryshaker.outputs.marker import MARKER_NAME, _changed_own_files, read_output_marker
+from berryshaker.outputs.marker import MARKER_NAME, _changed_own_files, read_output_marker, unverified_reason
 
 
 def _check_creatable(path: Path) -> None:
@@ -98,8 +98,9 @@ def prepare_output_dir(path: str | Path, kind: str = "study") -> Path:
     if marker is not None:
         changed = _changed_own_files(p, marker, kind)
         if changed:
+            why = unverified_reason(marker, kind, changed) or " (or became a link or another kind of file)"
             raise OutputError(f"{kind} output {p}: {_shown(changed)} changed since berryshaker wrote "
-                              f"{'it' if len(changed) == 1 else 'them'} (or became a link or another kind of file); "
+                              f"{'it' if len(changed) == 1 else 'them'}{why}; "
                               "refusing to replace or remove it, and nothing was written. Move it away or choose a "
                               "new folder")
         return p

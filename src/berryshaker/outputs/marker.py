@@ -1,8 +1,9 @@
 """The output marker (:data:`MARKER_NAME`, ``.berryshaker-output.json``) that says "berryshaker wrote this folder":
 per command -- ``kind``, e.g. ``"kinematics --plot"`` -- the files it wrote with their sha256.  Read back
 (:func:`read_output_marker`, :func:`marker_owners`), written (``_marker``), and each entry's state in the folder
-now: missing, berryshaker's own unchanged file, or changed (modified, a symlink, reached through a symlink or
-resolving outside the folder: never replaced or removed).
+now: missing, berryshaker's own unchanged file, unverified (an older marker without checksums) or changed (modified,
+a symlink, reached through a symlink or resolving outside the folder); only its own unchanged file is ever replaced
+or removed.
 """
 
 from __future__ import annotations
@@ -68,8 +69,8 @@ def marker_owners(marker: dict | None) -> dict[str, dict[str, str | None]]:
     """Who wrote what, from a marker: ``{command: {relative path: sha256 or None}}``.
 
     A marker of this version records each command's files with their sha256 (``outputs``); an older marker
-    (``kind`` and ``files`` only) gives its files without digests (``None``): such a file is replaced or
-    removed only by the same kind of output and only when it was not modified after the marker was written.
+    (``kind`` and ``files`` only) gives its files without digests (``None``): such a file is never replaced or
+    removed (a file's time is no evidence that the user left it alone).
     Entries that are not plain relative paths inside the folder are dropped.
 
     Parameters
@@ -122,9 +123,11 @@ def _inside(folder: Path, rel: str) -> Path | None:
     return target
 
 
-def _entry_state(folder: Path, rel: str, digest: str | None, written: float | None) -> str:
-    """``"missing"``, ``"ours"`` (the file berryshaker wrote, unchanged) or ``"changed"`` (modified, replaced by
-    a symlink or something else, or reached through a symlink: never touched)."""
+def _entry_state(folder: Path, rel: str, digest: str | None) -> str:
+    """``"missing"``, ``"ours"`` (the file berryshaker wrote, unchanged: its sha256 is the marker's),
+    ``"unverified"`` (listed by an older marker without checksums: nothing tells whether the user changed it, so
+    it is never replaced or removed) or ``"changed"`` (modified, replaced by a symlink or something else, or
+    reached through a symlink: never touched).  The marker's date is no evidence: a file's time can be anything."""
     target = _inside(folder, rel)
     if target is None:
         return "changed"
@@ -136,24 +139,42 @@ def _entry_state(folder: Path, rel: str, digest: str | None, written: float | No
         return "changed"
     if not stat.S_ISREG(st_.st_mode):
         return "changed"
-    if digest is not None:
-        return "ours" if file_sha256(target) == digest else "changed"
-    # an older marker without digests: trust the file only if nobody touched it after the marker was written
-    return "ours" if written is not None and st_.st_mtime <= written + 2.0 else "changed"
-
-
-def _written_time(marker: dict | None) -> float | None:
-    try:
-        return datetime.fromisoformat(marker["written"]).timestamp()
-    except (KeyError, TypeError, ValueError):
-        return None
+    if digest is None:  # an older marker without checksums: file times prove nothing
+        return "unverified"
+    return "ours" if file_sha256(target) == digest else "changed"
 
 
 def _changed_own_files(folder: Path, marker: dict | None, kind: str) -> list[str]:
-    """Files ``kind`` wrote into ``folder`` earlier that were changed since (never replaced or removed)."""
+    """Files ``kind`` wrote into ``folder`` earlier that were changed since, or that an older marker lists without
+    a checksum (never replaced or removed)."""
     owners = marker_owners(marker)
-    written = _written_time(marker)
-    return sorted(rel for rel, d in owners.get(kind, {}).items() if _entry_state(folder, rel, d, written) == "changed")
+    return sorted(rel for rel, d in owners.get(kind, {}).items()
+                  if _entry_state(folder, rel, d) in ("changed", "unverified"))
+
+
+def unverified_reason(marker: dict | None, kind: str, names: list[str]) -> str:
+    """Why files listed by ``kind`` in ``marker`` are refused: changed, or (for an older marker) recorded without
+    checksums.
+
+    Parameters
+    ----------
+    marker : dict or None
+        The marker (:func:`read_output_marker`).
+    kind : str
+        The command.
+    names : list of str
+        The refused files.
+
+    Returns
+    -------
+    str
+        "" when they changed; else the clause saying that the marker holds no checksum for them.
+    """
+    owners = marker_owners(marker).get(kind, {})
+    if any(owners.get(n, "") is None for n in names):
+        return (" (an earlier berryshaker listed them without checksums, so it cannot tell whether you changed "
+                "them)")
+    return ""
 
 
 def _marker(kind: str, owners: dict[str, dict[str, str | None]], previous: dict | None = None) -> dict:

@@ -17,9 +17,10 @@ import time
 from pathlib import Path
 from typing import Iterator
 
-from berryshaker.outputs.atomic_files import _absolute, current_umask, file_sha256, write_json_atomic
+from berryshaker.outputs.atomic_files import (WRITE_ERRNOS, _absolute, current_umask, file_sha256, write_error,
+                                              write_json_atomic)
 from berryshaker.outputs.destinations import _shown, prepare_output_dir
-from berryshaker.outputs.marker import (MARKER_NAME, _entry_state, _inside, _marker, _written_time, marker_owners,
+from berryshaker.outputs.marker import (MARKER_NAME, _entry_state, _inside, _marker, marker_owners, unverified_reason,
                                         read_output_marker)
 
 #: Staging folders are ``.<final name>.berryshaker-staging.<host>-<pid>.<random>`` beside the destination.
@@ -155,13 +156,13 @@ def _commit(stage: Path, final: Path, kind: str) -> None:
         raise OutputError(f"{kind} output {final} received files not written by berryshaker while running; "
                           "nothing was changed there. Choose a new folder")
     owners = marker_owners(marker)
-    written = _written_time(marker)
     mine = owners.get(kind, {})
-    state = {rel: _entry_state(final, rel, d, written) for rel, d in mine.items()}
-    changed = sorted(rel for rel, s in state.items() if s == "changed")
+    state = {rel: _entry_state(final, rel, d) for rel, d in mine.items()}
+    changed = sorted(rel for rel, s in state.items() if s in ("changed", "unverified"))
     if changed:
         raise OutputError(f"{kind} output {final}: {_shown(changed)} changed since berryshaker wrote "
-                          f"{'it' if len(changed) == 1 else 'them'}; nothing was changed there. Move "
+                          f"{'it' if len(changed) == 1 else 'them'}{unverified_reason(marker, kind, changed)}; "
+                          "nothing was changed there. Move "
                           f"{'it' if len(changed) == 1 else 'them'} away or choose a new folder")
     others = {rel: k for k, files in owners.items() if k != kind for rel in files}
     taken, conflicts = [], []
@@ -187,7 +188,7 @@ def _commit(stage: Path, final: Path, kind: str) -> None:
         target.parent.mkdir(parents=True, exist_ok=True)
         os.replace(stage / rel, target)
     for rel in sorted(set(mine) - set(new)):
-        if _entry_state(final, rel, mine[rel], written) == "ours":  # checked again right before removal
+        if _entry_state(final, rel, mine[rel]) == "ours":  # checked again right before removal
             target = final / rel
             target.unlink()
             _remove_empty_parents(target, final)
@@ -209,7 +210,8 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
     :class:`~berryshaker.errors.OutputError`; so does a changed file of this kind).  A marker entry reached
     through a symlink or resolving outside ``final`` is never replaced or removed.  The marker
     :data:`MARKER_NAME` is written last.  On any error or ``KeyboardInterrupt`` the staging folder is removed
-    and ``final`` is unchanged.  Staging folders of earlier killed runs are cleaned up
+    and ``final`` is unchanged; a full disk (:data:`~berryshaker.outputs.WRITE_ERRNOS`) is one
+    :class:`~berryshaker.errors.WriteError` naming the folder.  Staging folders of earlier killed runs are cleaned up
     (:func:`clean_stale_staging`).
 
     Parameters
@@ -240,5 +242,9 @@ def staged_directory(final: str | Path, kind: str = "output") -> Iterator[Path]:
         os.chmod(stage, 0o777 & ~current_umask())  # mkdtemp makes 0700; the output is an ordinary folder
         yield stage
         _commit(stage, final, kind)
+    except OSError as exc:  # a full disk while the outputs were written or moved in: one error naming the folder
+        if exc.errno not in WRITE_ERRNOS:
+            raise
+        raise write_error(f"{kind} output {final}", exc) from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)

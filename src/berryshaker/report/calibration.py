@@ -11,8 +11,9 @@ The result is the :class:`~berryshaker.study.field_calibration.result.Calibratio
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
+
+from berryshaker.user_text import html_text
 
 #: unit shown for a parameter without one (a fraction)
 NO_UNIT = "-"
@@ -219,8 +220,9 @@ def write_calibration_outputs(res, folder: Path, title: str) -> list[Path]:
     written = list(figs.values())
     for name, (header, rows) in calibration_tables(res).items():
         written += list(write_table(folder / f"{name}.csv", header, rows))
-    page = calibration_html(res, title, figs)
-    (folder / "report.html").write_text(page, encoding="utf-8")
+    from berryshaker.outputs import write_text_atomic
+
+    write_text_atomic(folder / "report.html", calibration_html(res, title, figs))
     return written + [folder / "report.html"]
 
 
@@ -243,7 +245,7 @@ def calibration_html(res, title: str, figs: dict[str, Path]) -> str:
     """
     from berryshaker.report.html_blocks import CSS, _img, _table
 
-    e = html.escape
+    e = html_text
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{e(title)}</title>"
              f"<style>{CSS}</style></head><body><h1>{e(title)}</h1>"]
     sh = res.sheet

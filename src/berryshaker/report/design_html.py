@@ -7,7 +7,6 @@ each number with its interval and the report section it comes from.  A section i
 
 from __future__ import annotations
 
-import html
 import math
 
 from berryshaker.report.design_quantity import Quantity
@@ -15,6 +14,7 @@ from berryshaker.report.design_records import DesignAnswers
 from berryshaker.report.html_blocks import _Raw, _table
 from berryshaker.report.sections import (clearance_life_section, harvest_response_section, kinematics_section,
                                          powered_drive_section, virtual_l9_section)
+from berryshaker.user_text import html_text
 
 #: widest table of the section (columns); with fixed column widths every table fits an A4 page
 MAX_COLUMNS = 6
@@ -73,7 +73,7 @@ def _cell(q: Quantity | None):
         return "-"
     iv = "" if q.lo is None or q.hi is None or q.lo == q.hi else \
         f"<span class='ci'>[{_num(q.lo)}, {_num(q.hi)}]</span>"
-    return _Raw(f"{html.escape(_num(q.value))}{iv}")
+    return _Raw(f"{html_text(_num(q.value))}{iv}")
 
 
 def _range(q: Quantity | None) -> str:
@@ -88,8 +88,8 @@ def _life_cell(q: Quantity | None):
         return "-"
     if q.reads is None:  # a life from before the mechanisms
         return _cell(q)
-    text = html.escape(q.reads)
-    return _Raw(text + (f"<span class='ci'>{html.escape(q.mechanism)}</span>" if q.mechanism else ""))
+    text = html_text(q.reads)
+    return _Raw(text + (f"<span class='ci'>{html_text(q.mechanism)}</span>" if q.mechanism else ""))
 
 
 def _src(q: Quantity | None, numbers: dict | None) -> str:
@@ -114,18 +114,18 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
         HTML (no document head; the report's CSS styles it).
     """
     a = answers
-    parts = [f"<h2>Design answers for {html.escape(a.machine)}</h2>"]
+    parts = [f"<h2>Design answers for {html_text(a.machine)}</h2>"]
     rec = a.recommended
     if rec:
-        parts.append(f"<p>Recommended clearances: <b>{html.escape(rec.name)}</b> (L9 code "
-                     f"<code>{html.escape(str(rec.code))}</code>"
+        parts.append(f"<p>Recommended clearances: <b>{html_text(rec.name)}</b> (L9 code "
+                     f"<code>{html_text(str(rec.code))}</code>"
                      + (f", {rec.starts} starts" if rec.starts else "") + ").  Each number below is the "
                      "mean with its 95 % interval under it; the last column names the report section it comes "
                      "from.</p>")
     else:
         parts.append("<p>No recommended clearances: the virtual L9 did not run (see Failed runs).</p>")
     if a.missing:
-        parts.append(f"<p class='small'>Steps without results: {html.escape(', '.join(a.missing))}.</p>")
+        parts.append(f"<p class='small'>Steps without results: {html_text(', '.join(a.missing))}.</p>")
     joints = a.joints
     if joints:
         parts.append("<h3>Per joint</h3>")
@@ -135,13 +135,13 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
             q = j.fit_clearance
             rng = "" if q is None else f"<span class='ci'>{_num(q.lo)} .. {_num(q.hi)} mm</span>"
             rows.append([p, _cell(j.clearance), _cell(j.design_force),
-                         _Raw(html.escape(str(fit)) + rng), _life_cell(j.service_interval),
+                         _Raw(html_text(str(fit)) + rng), _life_cell(j.service_interval),
                          _section_numbers(("virtual_l9", "clearance_life") if j.fit else ("virtual_l9",),
                                           numbers)])
         parts.append(_table(["joint", "clearance, worn level (mm)", "static-equivalent collision force (N)",
                              "fit (new machine), clearance (mm)", "service life (h)", "section"], rows, left=(0, 3),
                             widths=(13, 15, 20, 22, 18, 12)))
-        drawn = [[p, _Raw(html.escape(j.drawing_fit) + _range(j.drawing_fit_clearance)),
+        drawn = [[p, _Raw(html_text(j.drawing_fit) + _range(j.drawing_fit_clearance)),
                   _life_cell(j.drawing_service_interval)]
                  for p, j in joints.items() if j.drawing_fit]
         if drawn:
@@ -155,7 +155,7 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
                      "machine) and service life: the clearance-life step (the governing mechanism's hours from the "
                      "fit's mean clearance, on its surrogate; never a number beyond the machine's design life).  "
                      "Governing mechanisms and their dominant uncertainty: "
-                     + html.escape("; ".join(f"{m}: {u}" for m, u in mechs.items()) or "not available") + ".</p>")
+                     + html_text("; ".join(f"{m}: {u}" for m, u in mechs.items()) or "not available") + ".</p>")
     loads = a.loads.quantities() + a.harvest.quantities()
     if loads:
         parts.append("<h3>At the recommended set</h3>")
@@ -166,7 +166,7 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
     op = a.operating_point
     if op:
         parts.append("<h3>Operating point</h3>")
-        parts.append(f"<p>{html.escape(op.statement)}</p>")
+        parts.append(f"<p>{html_text(op.statement)}</p>")
         if op.speed:
             items = [("drive speed", op.speed), ("shaking frequency", op.frequency),
                      *[(k.replace("_", " "), getattr(op, k)) for k in ("finger_amplitude", "comb_swing",
@@ -175,7 +175,7 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
             parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "section"],
                                 [[n, q.unit, _cell(q), _num(q.sd), _src(q, numbers)] for n, q in items],
                                 left=(0, 1, 4), widths=(30, 12, 22, 14, 22)))
-        parts.append(f"<p class='small'>Rule: {html.escape(op.rule)}; limits: damage "
+        parts.append(f"<p class='small'>Rule: {html_text(op.rule)}; limits: damage "
                      f"{op.limits.damage_pct:g} %, unripe shedding {op.limits.unripe_shed_pct:g} % "
                      f"{op.limits.tag}.</p>")
     diffs = a.differences
@@ -194,7 +194,7 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
                     continue
                 q = d.difference
                 verdict = "<b>differs</b>" if d.beyond_noise else "no difference"
-                cells.append(_Raw(html.escape(("+" if q.value >= 0 else "") + _num(q.value)) + f"<span class='ci'>[{_num(q.lo)}, "
+                cells.append(_Raw(html_text(("+" if q.value >= 0 else "") + _num(q.value)) + f"<span class='ci'>[{_num(q.lo)}, "
                                   f"{_num(q.hi)}] {verdict}</span>"))
             rows.append([f"{n} ({unit})" if unit else n, *cells])
         levels = diffs[0].levels
@@ -208,13 +208,13 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
     if to.candidates:
         parts.append(f"<p class='small'>Trade-off table ({_section_ref('virtual_l9', numbers)}): "
                      f"{to.candidates} candidates, "
-                     f"{to.dominated} dominated beyond the noise.  {html.escape(to.statement or '')}</p>")
+                     f"{to.dominated} dominated beyond the noise.  {html_text(to.statement or '')}</p>")
     why = a.why_efficiency
     if why:
         parts.append("<h3>Why this efficiency</h3>")
-        parts.append(f"<p>{html.escape(why.statement)}</p>")
+        parts.append(f"<p>{html_text(why.statement)}</p>")
         cmp_ = a.comparison
         if cmp_:
-            parts.append(f"<p>{html.escape(cmp_.statement)}</p>")
+            parts.append(f"<p>{html_text(cmp_.statement)}</p>")
     return "\n".join(parts)
 

@@ -8,11 +8,11 @@ plots, response surface), the main-effect plot, the regression note and the anal
 
 from __future__ import annotations
 
-import html
 import math
 from pathlib import Path
 
 from berryshaker.report.html_blocks import CSS, _maybe_img, _num, _table
+from berryshaker.user_text import file_part, html_text
 
 
 def _fixed(values: list, reference: list | None = None) -> list[str]:
@@ -108,7 +108,7 @@ def _desirability_html(res) -> list[str]:
     if d is None:
         return []
     parts = ["<h2>Desirability optimum</h2>",
-             f"<p>{html.escape(d.method)}.  Overall desirability D = {d.overall:.3f}"
+             f"<p>{html_text(d.method)}.  Overall desirability D = {d.overall:.3f}"
              + (f"; {d.ties} level sets reach it" if d.ties > 1 else "") + ".</p>"]
     goal_rows = []
     for name, g in d.goals.items():
@@ -121,7 +121,7 @@ def _desirability_html(res) -> list[str]:
                         [[f, k if k is not None else "-", d.settings.get(f) or "no effect on the goals"]
                          for f, k in d.levels.items()], left=(0, 2)))
     if d.note:
-        parts.append(f"<p class='small'>{html.escape(d.note)}</p>")
+        parts.append(f"<p class='small'>{html_text(d.note)}</p>")
     if len(d.candidates) > 1:
         rows = [[" ".join(f"{f}{k}" for f, k in c.levels.items() if k is not None) or "-", f"{c.overall:.3f}"]
                 for c in d.candidates]
@@ -158,12 +158,12 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
     factors = res.factors
     units = {**response_units(), **(res.response_units or {})}  # the sheet's units first (issue 45)
     fig = Path(figures) if figures is not None else None
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-             f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>Results file <code>{html.escape(str(results_file))}</code>; berryshaker {html.escape(str(version))}."
+    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html_text(title)}</title>"
+             f"<style>{CSS}</style></head><body><h1>{html_text(title)}</h1>",
+             f"<p>Results file <code>{html_text(str(results_file))}</code>; berryshaker {html_text(str(version))}."
              + (f"  {res.runs} runs x {res.replicates} replicates" if replicated else
                 f"  {len(res.composite.score)} runs, one each")
-             + f"; runs told apart by {html.escape(str(res.runs_identified_by or 'run column'))}.</p>"]
+             + f"; runs told apart by {html_text(str(res.runs_identified_by or 'run column'))}.</p>"]
     if factors:
         parts.append("<h2>Factors</h2>")
         parts.append(_table(["factor", "unit", "levels"],
@@ -175,18 +175,18 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
     method = o.method if replicated else res.composite.method
     parts.append("<h2>Weighted optimum</h2>")
     parts.append("<p>Weights of the composite score: "
-                 f"{html.escape(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
-                 f"Rule: {html.escape(method)}.</p>")
+                 f"{html_text(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
+                 f"Rule: {html_text(method)}.</p>")
     parts.append(_table(["factor", "level", "setting"], [[f, n if n is not None else "-",
                                                           o.settings.get(f) or "no meaningful difference"]
                                                          for f, n in o.levels.items()], left=(0, 2)))
     if replicated:
-        parts.append(f"<p class='small'>{html.escape(res.significance_rule)}</p>")
+        parts.append(f"<p class='small'>{html_text(res.significance_rule)}</p>")
     intervals = o.intervals or {}
     parts.append(_table(["response", "predicted at the optimum", "95 % interval", "unit"],
                         [[r, _fixed([v])[0], _interval(intervals.get(r)), units.get(r, "")]
                          for r, v in o.values.items()], left=(0, 3)))
-    parts.append(f"<p class='small'>{html.escape(o.prediction)}"
+    parts.append(f"<p class='small'>{html_text(o.prediction)}"
                  + ("" if replicated else "; interval from the pooled error over Taguchi's effective number of "
                     "replications N / (1 + dof of the factors used)") + ".</p>")
     parts += _desirability_html(res)
@@ -195,8 +195,8 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
                    + (" with 95 % intervals (for comparing levels)" if replicated else ""))
     for name, ra in res.responses.items():
         unit = units.get(name)
-        esc = html.escape(name)
-        parts.append(f"<h2>{esc}{f' ({html.escape(unit)})' if unit else ''} "
+        esc = html_text(name)
+        parts.append(f"<h2>{esc}{f' ({html_text(unit)})' if unit else ''} "
                      f"({'maximise' if ra.maximize else 'minimise'})</h2>")
         an = ra.anova.factors
         nlev = max(len(d.level_means) for d in ra.factors.values())
@@ -212,19 +212,19 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
                          f"{an[f].f:.3g}" if f in an else "pooled", f"{an[f].p:.3g}" if f in an else ""])
         parts.append("<h3>Range analysis</h3>")
         parts.append(_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best level", "ANOVA F", "p"], rows))
-        sq = f" [{html.escape(unit)}²]" if unit else ""
+        sq = f" [{html_text(unit)}²]" if unit else ""
         parts.append("<h3>ANOVA</h3>")
         parts.append(_table(["source", f"SS{sq}", "df", f"MS{sq}", "F", "p"], anova_rows(res, name)))
         err = ra.anova.error
         kind = getattr(err, "kind", None) or ("the residual, with the pooled factor" if ra.anova.pooled else
                                               "the residual")
-        parts.append(f"<p class='small'>F of each factor against the error: {html.escape(kind)}."
+        parts.append(f"<p class='small'>F of each factor against the error: {html_text(kind)}."
                      + ("  With lost plots the sums of squares are Type II and need not add up to the total."
                         if getattr(res, "lost_plots", None) is not None else "") + "</p>")
         reg = ra.regression
-        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
+        parts.append(f"<p class='small'>Ranking {html_text(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
                      f"rank {reg.full_model_rank} of {len(reg.full_model_terms)} terms; aliased: "
-                     f"{html.escape(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
+                     f"{html_text(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
                      f"R² = {reg.main_effects_quadratic.r2:.3f} with "
                      f"{reg.main_effects_quadratic.residual_df} residual df.</p>")
         if fig is not None:
@@ -232,10 +232,10 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
                                   ("residuals", "Residual plots (four in one)"),
                                   ("interactions", "Interaction plots"),
                                   ("surface", "Response surface of the main-effects quadratic model")):
-                _maybe_img(parts, fig / f"{stem}_{name}.png", f"{name}: {caption}")
+                _maybe_img(parts, fig / f"{stem}_{file_part(name)}.png", f"{name}: {caption}")
     if replicated and getattr(res, "text", ""):
         parts.append("<details><summary>The analysis as text</summary>"
-                     f"<pre class='text'>{html.escape(res.text)}</pre></details>")
+                     f"<pre class='text'>{html_text(res.text)}</pre></details>")
     parts.append("</body></html>")
     return "\n".join(parts)
 

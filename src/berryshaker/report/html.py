@@ -7,7 +7,6 @@ answers (:mod:`berryshaker.report.design_html`), then the study steps' numbered 
 
 from __future__ import annotations
 
-import html
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -18,6 +17,7 @@ from berryshaker.report.headline import report_title, runs_text, verdict_class, 
 from berryshaker.report.html_blocks import CSS, _plain, _Raw, _table
 from berryshaker.report.sections import SectionInput, section_numbers, step_sections, virtual_l9_section
 from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
+from berryshaker.user_text import html_text
 
 
 def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *,
@@ -55,11 +55,11 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
     reference = claims_apply(machine)  # the study's pairs: its claims can be checked (study/claims.py's rule)
     title = report_title(res.claims) if reference else f"Design study of {machine.machine.name}"
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>berryshaker study - "
-             f"{html.escape(machine.machine.name)}</title><style>{CSS}</style></head><body>",
-             f"<h1>{html.escape(title)}</h1>",
-             f"<p>Machine: <b>{html.escape(machine.machine.name)}</b>. berryshaker {html.escape(summary.version)}. "
-             f"Total time {summary.timings_s['total']:.1f} s; {html.escape(runs_text(summary.runs))}.  "
-             + (f"{html.escape(verdict_counts(res.claims))} (appendix).  " if reference else "")
+             f"{html_text(machine.machine.name)}</title><style>{CSS}</style></head><body>",
+             f"<h1>{html_text(title)}</h1>",
+             f"<p>Machine: <b>{html_text(machine.machine.name)}</b>. berryshaker {html_text(summary.version)}. "
+             f"Total time {summary.timings_s['total']:.1f} s; {html_text(runs_text(summary.runs))}.  "
+             + (f"{html_text(verdict_counts(res.claims))} (appendix).  " if reference else "")
              + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
              "the end of this report.</p>"]
     # the design answers first, for every machine (report/design.py)
@@ -67,7 +67,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
         parts.append(design_answers_html(design_answers({**summary.to_json(), "results": res.to_json()}, machine),
                                          inp.numbers))
     except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
-        parts.append(f"<p class='small'>Design answers not available: {html.escape(f'{type(exc).__name__}: {exc}')}"
+        parts.append(f"<p class='small'>Design answers not available: {html_text(f'{type(exc).__name__}: {exc}')}"
                      "</p>")
     fails = summary.failures
     parts.append("<h2>Failed runs</h2>")
@@ -99,7 +99,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
         if opt.statement:
-            parts.append(f"<p class='small'>{html.escape(opt.statement)} Index values: mean [95 % interval] over "
+            parts.append(f"<p class='small'>{html_text(opt.statement)} Index values: mean [95 % interval] over "
                          f"{opt.starts or 'the'} perturbed starts, and the SD of one start"
                          + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
                             "value of that index at these clearances, so it reproduces the target by construction "
@@ -111,7 +111,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
     if reference:  # the reference study's claims: an appendix, on its machine only
         _claims_section(parts, res)
     parts.append("<h2>Configuration and provenance</h2>")
-    parts.append(f"<p>berryshaker {html.escape(summary.version)}; timings (s): "
+    parts.append(f"<p>berryshaker {html_text(summary.version)}; timings (s): "
                  + ", ".join(f"{k_} {v:.1f}" for k_, v in summary.timings_s.items()) + "</p>")
     parts.append("<p class='small'>Provenance: [study] from the reference study's text, [published] from another "
                  "publication (docs/published_record.md), [assumed] our default where no source gives it, "
@@ -127,7 +127,7 @@ def _claims_section(parts: list, res) -> None:
     """Appendix: the reference study's claims with their verdicts (shown for the study's machine only)."""
     parts.append("<h2>Appendix: claims of the reference study and what our models give</h2>")
     with_criterion = any(c.criterion for c in res.claims)
-    rows = [[c.id, c.claim, _Raw(f'<span class="{verdict_class(c.verdict)}">{html.escape(c.verdict)}</span>'),
+    rows = [[c.id, c.claim, _Raw(f'<span class="{verdict_class(c.verdict)}">{html_text(c.verdict)}</span>'),
              *([_plain(c.criterion)] if with_criterion else []), _plain(c.detail)]
             for c in res.claims]
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),

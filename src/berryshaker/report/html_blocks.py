@@ -6,9 +6,10 @@ formats in a cell.  Every report module builds its page from these; none of them
 from __future__ import annotations
 
 import base64
-import html
 import re
 from pathlib import Path
+
+from berryshaker.user_text import html_text
 
 CSS = """
 body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;
@@ -40,8 +41,8 @@ WIDE_COLUMNS = 8
 
 def _img(path: Path, caption: str) -> str:
     data = base64.b64encode(Path(path).read_bytes()).decode()
-    return (f'<figure><img alt="{html.escape(caption)}" src="data:image/png;base64,{data}">'
-            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    return (f'<figure><img alt="{html_text(caption)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{html_text(caption)}</figcaption></figure>")
 
 
 def _maybe_img(parts: list, path: Path, caption: str) -> None:
@@ -53,12 +54,12 @@ def _table(header, rows, left=(0,), widths=None) -> str:
     """A table in a div that never gets wider than the page: ``widths`` (percent per column) fixes the columns'
     shares (long texts wrap inside them); tables of :data:`WIDE_COLUMNS` columns or more print smaller."""
     cols = "" if widths is None else "<colgroup>" + "".join(f"<col style='width:{w:g}%'>" for w in widths) + "</colgroup>"
-    h = "".join(f'<th class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html.escape(str(c))}</th>'
+    h = "".join(f'<th class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html_text(str(c))}</th>'
                 for i, c in enumerate(header))
     body = []
     for r in rows:
         body.append("<tr>" + "".join(
-            f'<td class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html.escape(_fmt(c))}</td>'
+            f'<td class="{"l" if i in left else ""}">{c if isinstance(c, _Raw) else html_text(_fmt(c))}</td>'
             for i, c in enumerate(r)) + "</tr>")
     wide = " wide" if len(header) >= WIDE_COLUMNS else ""
     cls = " class='fixed'" if widths is not None else ""

@@ -6,13 +6,13 @@ as HTML parts of the virtual L9 section (:func:`berryshaker.report.sections.virt
 
 from __future__ import annotations
 
-import html
 import re
 from pathlib import Path
 
 from berryshaker.report.design import level_set_name
 from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
 from berryshaker.units import format_tolerance
+from berryshaker.user_text import html_text
 
 
 def _short_candidate(name: str) -> str:
@@ -44,7 +44,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     """
     rep = l9.replicated
     units = l9.response_units or rep.units
-    parts = [f"<p class='small'>Replicates: {html.escape(rep.perturbation.what)}.</p>"]
+    parts = [f"<p class='small'>Replicates: {html_text(rep.perturbation.what)}.</p>"]
     rows = []
     paired = l9.paired
     for name, ra in rep.responses.items():
@@ -85,18 +85,18 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     rec = l9.recommended
     if rec.statement:
         parts.append("<h3>Recommendation and its basis</h3>")
-        parts.append(f"<p><b>{html.escape(rec.name or level_set_name(rec.clearance_mm))}</b> "
-                     f"({html.escape(rec.code)}): {html.escape(rec.statement)}</p>")
+        parts.append(f"<p><b>{html_text(rec.name or level_set_name(rec.clearance_mm))}</b> "
+                     f"({html_text(rec.code)}): {html_text(rec.statement)}</p>")
         parts.append(_table(["factor", "level", "basis"], [[p, rec.levels[p], rec.basis[p]]
                                                           for p in pair_names if p in rec.basis],
                             left=(0, 2)))
-        parts.append(f"<p class='small'>Rule: {html.escape(rec.rule)}.</p>")
-        parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(rec.sequential.statement)}.</p>")
+        parts.append(f"<p class='small'>Rule: {html_text(rec.rule)}.</p>")
+        parts.append(f"<p class='small'>Starts at the recommendation: {html_text(rec.sequential.statement)}.</p>")
     tc = l9.tolerance_check
     if tc.done:
         rt = tc.rtol  # run and check tolerances (dimensionless)
         parts.append("<h3>Solver-tolerance check</h3>")
-        parts.append(f"<p>{html.escape(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
+        parts.append(f"<p>{html_text(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
                      f"re-run at rtol {format_tolerance(rt[1])}"
                      + (f"; velocities held absolutely below rtol x {tc.velocity_scale_m_s:g} m/s at both"
                         if tc.velocity_scale_m_s is not None else "") + ").</p>")
@@ -106,7 +106,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
                             [[n, v.mean_change, v.max_abs_change, v.replicate_sd, v.noise_sd, v.within_replicate_spread]
                              for n, v in tc.responses.items()]))
     else:
-        parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.reason or '')}.</p>")
+        parts.append(f"<p class='small'>Solver-tolerance check not run: {html_text(tc.reason or '')}.</p>")
     recs = l9.tradeoff
     if recs:
         parts.append("<h3>Trade-off of the candidate clearance sets</h3>")

@@ -5,7 +5,7 @@ recommended), each with its new-machine clearance, load and life.  The renderer 
 
 from __future__ import annotations
 
-import html
+from berryshaker.user_text import html_text
 
 from berryshaker.report.html_blocks import _Raw, _table
 
@@ -50,12 +50,12 @@ def life_parts(life) -> list[str]:
         return parts
     parts += ["<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the new "
              "machine's clearance is its fit's (below).  Service limit: "
-              + html.escape(next(iter(life.life.values())).limit_rule) + ".</p>",
+              + html_text(next(iter(life.life.values())).limit_rule) + ".</p>",
               "<h3>Service life of the new machine, by mechanism</h3>",
               _table(["joint", "fit (new machine)", "new clearance (mm)", "service life", "governing mechanism",
                      "dominant uncertainty", "other mechanisms"],
                     [[j, _fit_of(life, j), f"{L.start_mm:.3g}", L.reads, L.governing, L.uncertainty,
-                      _Raw("<br>".join(html.escape(_mechanism_line(m)) for m in L.mechanisms
+                      _Raw("<br>".join(html_text(_mechanism_line(m)) for m in L.mechanisms
                                        if m.mechanism != L.governing))]
                      for j, L in life.life.items()], left=(0, 1, 3, 4, 5, 6))]
     fits = [("drawing", life.drawing_fits or {}), ("recommended", life.recommended_fits or {})]

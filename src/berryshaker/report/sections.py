@@ -10,7 +10,6 @@ that also reads another step's results names its owning step in its docstring.
 
 from __future__ import annotations
 
-import html
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
@@ -19,6 +18,7 @@ from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
 from berryshaker.report.life_tables import life_parts
 from berryshaker.reference_study import EQ18_F
+from berryshaker.user_text import html_text
 
 #: a section renderer: input -> (title without its number, HTML parts)
 Renderer = Callable[["SectionInput"], "tuple[str, list[str]]"]
@@ -109,9 +109,9 @@ def step_sections(steps: Sequence[tuple[str, Sequence[Renderer]]], inp: SectionI
     for name, renderers in steps:
         for k, render in enumerate(renderers):
             title, body = render(inp)
-            parts.append(f"<h2>{inp.numbers[render]}. {html.escape(title, quote=False)}</h2>")
+            parts.append(f"<h2>{inp.numbers[render]}. {html_text(title, quote=False)}</h2>")
             if k == 0 and notes.get(name):
-                parts.append(f"<p class='small'><b>Note:</b> {html.escape(notes[name])}</p>")
+                parts.append(f"<p class='small'><b>Note:</b> {html_text(notes[name])}</p>")
             parts.extend(body)
     return parts
 
@@ -364,7 +364,7 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
         parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
-        parts.append(f"<pre class='text'>{html.escape(rep.text)}</pre>")
+        parts.append(f"<pre class='text'>{html_text(rep.text)}</pre>")
         parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
     _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
     for i, name in enumerate(("efficiency", "unripe", "damage")):
@@ -390,7 +390,7 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     life = inp.res.clearance_life
     if life is not None:
         parts += life_parts(life)
-        parts.append("<p class='small'>" + "; ".join(html.escape(n) for n in life.notes) + "</p>")
+        parts.append("<p class='small'>" + "; ".join(html_text(n) for n in life.notes) + "</p>")
         _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
     return "Clearance life: wear and fits (docs/life.md)", parts
 
@@ -428,7 +428,7 @@ def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
     rep_text = (f" Every level is the mean of {reps} runs from seeded perturbed starts (clearance joints off centre, "
                 "seeds in summary.json); ripple is shown as mean +- SD, and a trend is stated only where Welch's "
                 "t-test between consecutive levels finds it beyond that spread." if reps else "")
-    parts.append(f"<p>{html.escape(pw.finding)} Energy lost per revolution is the work of each joint's contact "
+    parts.append(f"<p>{html_text(pw.finding)} Energy lost per revolution is the work of each joint's contact "
                  "damping and friction, integrated with the motion; the audit residual is the largest over the "
                  "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
                  f"2-3.{rep_text}</p>")
@@ -462,7 +462,7 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
                f"{bush.modes_per_member} modes each, seed {bush.seed}, plus the instrumented fruit branch)"
                if chosen.load_model == "branches" and bush is not None
                else "the aggregate spring-damper (combs.load_model = aggregate)")
-        parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html.escape(who)}."
+        parts.append(f"<p>Comb load moment at the chosen clearances while the bush is in the comb: {html_text(who)}."
                      f" Per comb, about its shaft; compare {inp.ref(comb_load_section, 'the comb-load section')}'s "
                      "aggregate spring-damper, which loads the combs about 40 times more.</p>")
         parts.append(_table(["comb", "peak (N m)", "rms (N m)"],
@@ -532,7 +532,7 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     def model(r):
         if r.model is None:
             return "-"
-        return _Raw(f"{_num(r.model)} {html.escape(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
+        return _Raw(f"{_num(r.model)} {html_text(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
                     f"{_num(r.hi)}]</span>")
 
     parts.append(_table(["published number", "source", "published", "model [interval]", "verdict", "held out"],

@@ -11,6 +11,7 @@ The rules (issue "A report and a command line an engineer is glad to hand on"):
 * long series are thinned by :func:`decimate_minmax`, which keeps each bin's minimum and maximum so the
   drawn peak equals the data peak exactly (plain striding drops impact peaks);
 * tick labels never use an offset or a hidden power of ten (:func:`plain_ticks`);
+* text is text: mathtext is off (:func:`pyplot`), so a ``$`` in a user's name is never parsed as TeX;
 * layout is matplotlib's constrained layout, so outside legends and colour bars are not cut off, and the canvas
   grows where anything still reaches beyond it (:func:`fit_canvas`); PNGs are saved at 300 dpi with an SVG beside.
 
@@ -122,7 +123,9 @@ def require_unit(label: str, *, strict: bool = True) -> str:
 
 
 def pyplot():
-    """matplotlib.pyplot on the Agg backend (no display needed).
+    """matplotlib.pyplot on the Agg backend (no display needed), with mathtext off: a ``$`` in a name from a sheet
+    or a description is text, never parsed as TeX (``eff$^$`` was a ParseSyntaxException traceback); the figures'
+    own labels write powers as Unicode (``m/s²``).
 
     Returns
     -------
@@ -132,6 +135,7 @@ def pyplot():
     import matplotlib
 
     matplotlib.use("Agg")
+    matplotlib.rcParams["text.parse_math"] = False
     import matplotlib.pyplot as plt
 
     return plt
@@ -558,8 +562,8 @@ def fit_canvas(fig, *, pad: float = 0.05) -> bool:
 
 
 def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = True):
-    """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it; close it unless
-    ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
+    """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it, both written
+    together or neither (:func:`berryshaker.outputs.write_files_atomic`); close it unless ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
     figure if kept, else None.
 
     Parameters
@@ -580,12 +584,23 @@ def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = T
     Figure or None
         The figure if kept.
     """
+    import io
     from pathlib import Path
 
+    from berryshaker.outputs import write_files_atomic
+
     fit_canvas(fig)
-    fig.savefig(path, dpi=dpi)
+
+    def rendered(fmt: str, **kw) -> bytes:
+        buf = io.BytesIO()
+        fig.savefig(buf, format=fmt, **kw)
+        return buf.getvalue()
+
+    path = Path(path)
+    files = {path: rendered(path.suffix.lstrip(".").lower() or "png", dpi=dpi)}
     if svg:
-        fig.savefig(Path(path).with_suffix(".svg"))
+        files[path.with_suffix(".svg")] = rendered("svg")
+    write_files_atomic(files)  # the PNG and its SVG together or neither (a full disk: one error, nothing half-written)
     if keep:
         return fig
     pyplot().close(fig)

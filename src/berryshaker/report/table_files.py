@@ -1,8 +1,11 @@
 """Table files: one writer puts a table on disk as CSV and, beside it, as an Excel workbook (.xlsx, openpyxl), so the
 study's tables and those of ``doe analyze`` open in a spreadsheet with numbers as numbers.
 
-Cells: booleans as yes/no, non-finite numbers as empty cells, numpy scalars as Python numbers; the header row is
-bold and frozen in the workbook.  Both files are written atomically (:func:`berryshaker.outputs.write_bytes_atomic`).
+Cells: booleans as yes/no, non-finite numbers as empty cells, numpy scalars as Python numbers, text (headers too)
+neutralised against formula injection and with its control characters visible
+(:func:`berryshaker.user_text.cell_text`: ``=HYPERLINK(...)`` from a sheet header is text, never a live formula);
+the header row is bold and frozen in the workbook, every text cell stored as text.  The two files are written
+together or not at all (:func:`berryshaker.outputs.write_files_atomic`).
 """
 
 from __future__ import annotations
@@ -10,16 +13,19 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 from pathlib import Path
 from typing import Iterable, Sequence
 
 import numpy as np
 
-from berryshaker.outputs import write_bytes_atomic
+from berryshaker.outputs import write_files_atomic
+from berryshaker.user_text import cell_text, file_part
 
 
 def table_cell(v) -> object:
-    """A cell as written to both files: yes/no for booleans, None (empty) for NaN/inf, Python numbers for numpy's.
+    """A cell as written to both files: yes/no for booleans, None (empty) for NaN/inf, Python numbers for numpy's,
+    text neutralised (:func:`berryshaker.user_text.cell_text`).
 
     Parameters
     ----------
@@ -38,12 +44,12 @@ def table_cell(v) -> object:
     if isinstance(v, (float, np.floating)):
         v = float(v)
         return v if math.isfinite(v) else None
-    if v is None or isinstance(v, (int, str)):
+    if v is None or isinstance(v, int):
         return v
-    return str(v)
+    return cell_text(str(v))
 
 
-def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
+def csv_bytes(header: Sequence[str], rows: Iterable[Sequence], float_format: str | None = None) -> bytes:
     """The table as UTF-8 CSV with a header row (empty cell for None).
 
     Parameters
@@ -52,6 +58,8 @@ def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
         Column names.
     rows : iterable of sequences
         One sequence per row (cells: :func:`table_cell`).
+    float_format : str, optional
+        Format of float cells, e.g. ``".9g"`` for a time series (default: Python's shortest exact form).
 
     Returns
     -------
@@ -60,9 +68,11 @@ def csv_bytes(header: Sequence[str], rows: Iterable[Sequence]) -> bytes:
     """
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow([str(h) for h in header])
+    w.writerow([cell_text(str(h)) for h in header])
     for r in rows:
-        w.writerow(["" if c is None else c for c in (table_cell(v) for v in r)])
+        cells = (table_cell(v) for v in r)
+        w.writerow(["" if c is None else format(c, float_format) if float_format and isinstance(c, float) else c
+                    for c in cells])
     return buf.getvalue().encode("utf-8")
 
 
@@ -88,14 +98,18 @@ def xlsx_bytes(header: Sequence[str], rows: Iterable[Sequence], sheet: str = "ta
 
     wb = Workbook()
     ws = wb.active
-    ws.title = (sheet or "table")[:31]
-    ws.append([str(h) for h in header])
+    ws.title = re.sub(r"[\\/?*\[\]:']", "_", sheet or "table")[:31] or "table"  # the characters Excel refuses
+    ws.append([cell_text(str(h)) for h in header])
     for c in ws[1]:
         c.font = Font(bold=True)
+        c.data_type = "s"  # text, never a formula
     widths = [len(str(h)) for h in header]
     for r in rows:
         cells = [table_cell(v) for v in r]
         ws.append(cells)
+        for c in ws[ws.max_row]:
+            if isinstance(c.value, str):
+                c.data_type = "s"  # openpyxl would store a string starting with "=" as a formula
         for j, c in enumerate(cells[:len(widths)]):
             widths[j] = max(widths[j], len(f"{c:.6g}" if isinstance(c, float) else str(c if c is not None else "")))
     ws.freeze_panes = "A2"
@@ -110,7 +124,7 @@ def xlsx_bytes(header: Sequence[str], rows: Iterable[Sequence], sheet: str = "ta
 
 def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence], *,
                 sheet: str | None = None) -> tuple[Path, Path]:
-    """Write a table as ``<stem>.csv`` and ``<stem>.xlsx`` (same rows, same header).
+    """Write a table as ``<stem>.csv`` and ``<stem>.xlsx`` (same rows, same header), both or neither.
 
     Parameters
     ----------
@@ -132,8 +146,7 @@ def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence
     csv_path = path if path.suffix.lower() == ".csv" else path.with_name(path.name + ".csv")
     xlsx_path = csv_path.with_suffix(".xlsx")
     rows = [list(r) for r in rows]
-    write_bytes_atomic(csv_path, csv_bytes(header, rows))
-    write_bytes_atomic(xlsx_path, xlsx_bytes(header, rows, sheet or csv_path.stem))
+    write_files_atomic({csv_path: csv_bytes(header, rows), xlsx_path: xlsx_bytes(header, rows, sheet or csv_path.stem)})
     return csv_path, xlsx_path
 
 
@@ -193,7 +206,8 @@ def doe_tables(res) -> dict[str, tuple[list[str], list[list]]]:
 
 
 def write_doe_tables(res, folder: str | Path) -> list[Path]:
-    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`); returns the files.
+    """Write :func:`doe_tables` into ``folder``, each as CSV and .xlsx (:func:`write_table`; a stem that is not a
+    plain file name made one by :func:`berryshaker.user_text.file_part`); returns the files.
 
     Parameters
     ----------
@@ -208,8 +222,8 @@ def write_doe_tables(res, folder: str | Path) -> list[Path]:
         The CSV and .xlsx files written.
     """
     files = []
-    for stem, (header, rows) in doe_tables(res).items():
-        files += list(write_table(Path(folder) / f"{stem}.csv", header, rows))
+    for stem, (header, rows) in doe_tables(res).items():  # a response's name is never a path (user_text.file_part)
+        files += list(write_table(Path(folder) / f"{file_part(stem)}.csv", header, rows))
     return files
 
 

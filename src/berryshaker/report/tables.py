@@ -1,14 +1,15 @@
-"""The one table writer: CSV files (atomic, UTF-8, a header row) and the same rows as a rich table for the
-terminal, so every command and the study write tables the same way."""
+"""The one table writer: CSV files (atomic, UTF-8, a header row; cells as :mod:`berryshaker.report.table_files`
+writes them) and the same rows as a rich table for the terminal, so every command and the study write tables the
+same way."""
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 import re
 from pathlib import Path
 from typing import Iterable, Sequence
+
+from berryshaker.user_text import visible
 
 
 def _cell(v) -> object:
@@ -19,28 +20,27 @@ def _cell(v) -> object:
     return v
 
 
-def csv_text(header: Sequence[str], rows: Iterable[Sequence]) -> str:
-    """CSV text with a header row; booleans as yes/no, non-finite numbers as empty cells.
+def csv_text(header: Sequence[str], rows: Iterable[Sequence], float_format: str | None = None) -> str:
+    """CSV text with a header row, as the table files write it (:func:`berryshaker.report.table_files.csv_bytes`):
+    booleans as yes/no, non-finite numbers as empty cells, text neutralised against formula injection.
 
     Parameters
     ----------
     header : sequence of str
         Column headers, written as the first row.
     rows : iterable of sequences
-        One sequence of cells per row, written as they are except booleans (yes/no) and non-finite floats
-        (empty).
+        One sequence of cells per row (:func:`berryshaker.report.table_files.table_cell`).
+    float_format : str, optional
+        Format of float cells, e.g. ``".9g"`` (default: Python's shortest exact form).
 
     Returns
     -------
     str
         The CSV text, ``\\n`` line endings, a header row first.
     """
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(header)
-    for r in rows:
-        w.writerow([_cell(v) for v in r])
-    return buf.getvalue()
+    from berryshaker.report.table_files import csv_bytes
+
+    return csv_bytes(header, rows, float_format).decode("utf-8")
 
 
 def write_csv(path: str | Path, header: Sequence[str], rows: Iterable[Sequence]) -> None:
@@ -150,8 +150,9 @@ def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | Non
                justify: Sequence[str] | None = None, width: int | None = None):
     """The same rows as a :class:`rich.table.Table` for the terminal: the one terminal table writer.
 
-    Cells and headers are data, never markup ("[study]" or "[0.1, 0.2]" print as written); a cell may also be a
-    :class:`rich.text.Text` (styled).  Numbers are written to ``digits`` significant digits.  At ``width``
+    Cells, headers and the title are data, never markup ("[study]" or "[0.1, 0.2]" print as written), their
+    control characters made visible (:func:`berryshaker.user_text.visible`: an ESC in a sheet header prints as
+    ``\\x1b``); a cell may also be a :class:`rich.text.Text` (styled).  Numbers are written to ``digits`` significant digits.  At ``width``
     terminal cells (default the terminal's) no number or word is ever split: headers wrap at spaces, dots,
     underscores and slashes, cells wrap at spaces; when even the narrowest such layout is wider than the
     terminal, each row is stacked as "column | value" lines instead.
@@ -181,7 +182,7 @@ def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | Non
     from rich.table import Table
     from rich.text import Text
 
-    header = [str(h) for h in header]
+    header = [visible(str(h), keep_lines=True) for h in header]
     n = len(header)
     just = list(justify) if justify else ["left"] + ["right"] * (n - 1)
     body = []
@@ -192,7 +193,7 @@ def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | Non
                 cells.append(v)
                 continue
             v = _cell(v)
-            cells.append(Text(f"{v:.{digits}g}" if isinstance(v, float) else str(v)))
+            cells.append(Text(f"{v:.{digits}g}" if isinstance(v, float) else visible(str(v), keep_lines=True)))
         body.append(cells + [Text("")] * (n - len(cells)))
     width = int(width or Console().width)
     minw, natural, cell_natural = [], [], []
@@ -202,7 +203,7 @@ def rich_table(header: Sequence[str], rows: Iterable[Sequence], title: str | Non
         cell_natural.append(max([minw[-1]] + [ln for _, ln in tok]))
         natural.append(max([_tokens_width(h)[1], cell_natural[-1]]))
     overhead = 3 * n + 1  # borders and one space of padding each side
-    title_text = Text(title) if title else None
+    title_text = Text(visible(title)) if title else None
     if sum(natural) + overhead <= width or sum(minw) + overhead <= width:
         widths = natural if sum(natural) + overhead <= width else _fit_widths(minw, [cell_natural, natural], width - overhead)
         tb = Table(title=title_text, header_style="bold")

@@ -16,6 +16,8 @@ import functools
 import hashlib
 import json
 import math
+import os
+import stat
 import sys
 import time
 from pathlib import Path
@@ -44,15 +46,60 @@ def default_cache_dir() -> Path:
         The folder is not private (another user owns it or may write it) or cannot be created; ``--cache`` names
         another.
     """
-    from berryshaker.compiled_cache import cache_home, private_folder
+    from berryshaker.compiled_cache import UnsafeCacheFolder, cache_home, private_folder
     from berryshaker.errors import ConfigError
 
     top = cache_home()
     try:
         return private_folder(top / "runs", top)
     except OSError as exc:
-        raise ConfigError(f"run cache {top / 'runs'}: {exc.strerror or exc}; it must be a folder of yours that "
-                          "nobody else can write (give another with --cache or BERRYSHAKER_CACHE)") from None
+        why = str(exc) if isinstance(exc, UnsafeCacheFolder) else exc.strerror or str(exc)
+        raise ConfigError(f"run cache {top / 'runs'}: {why}; it must be a folder of yours that nobody else can write "
+                          "(give another with --cache or BERRYSHAKER_CACHE)") from None
+
+
+def run_cache_dir(chosen: str | Path | None = None) -> Path:
+    """The run cache folder, by one policy whichever way it was chosen: ``--cache`` (``chosen``), else
+    ``$BERRYSHAKER_CACHE``, else the default (:func:`default_cache_dir`).  It must be a real folder of this user that
+    nobody else can write, in a folder others cannot swap it in (:func:`berryshaker.compiled_cache.private_folder`;
+    a new one is created with mode 0700): cached results are served without being recomputed, so a folder another
+    user can write would let them forge a result.
+
+    Parameters
+    ----------
+    chosen : str or Path, optional
+        The folder given with ``--cache`` (or to :class:`~berryshaker.runs.runner.SweepRunner`); None for the
+        environment or the default.
+
+    Returns
+    -------
+    Path
+        The folder, absolute.
+
+    Raises
+    ------
+    ConfigError
+        Empty, not a folder (a file, a FIFO, ``/dev/null``), a symlink, another user's, writable by group or
+        others, or inside a folder others may write; the message names it and the fix.
+    """
+    from berryshaker.compiled_cache import UnsafeCacheFolder, private_folder
+    from berryshaker.errors import ConfigError
+
+    if chosen is None:
+        return default_cache_dir()
+    text = str(chosen)
+    if not text.strip():
+        raise ConfigError("--cache is empty; give a folder of yours (it is created if missing), or leave --cache out "
+                          "for the default (~/.cache/berryshaker/runs, or $BERRYSHAKER_CACHE)")
+    folder = Path(text).expanduser().resolve()  # as $BERRYSHAKER_CACHE is read (compiled_cache.cache_home)
+    try:
+        return private_folder(folder, folder)
+    except UnsafeCacheFolder as exc:
+        raise ConfigError(f"run cache {folder}: {exc}; it must be a folder of yours that nobody else can write "
+                          "(a shared folder would let another user forge a cached result). Give another with "
+                          "--cache") from None
+    except OSError as exc:
+        raise ConfigError(f"run cache {folder}: {exc.strerror or exc}; give a folder of yours with --cache") from None
 
 
 def _jsonable(obj):
@@ -179,6 +226,20 @@ def cache_entry_path(cache_dir: str | Path, key: str) -> Path:
     return Path(cache_dir) / key[:2] / f"{key}.json"
 
 
+#: the largest cache entry read (bytes); a run's result is far smaller
+MAX_ENTRY_BYTES = 256_000_000
+
+
+def _foreign(st: os.stat_result) -> str | None:
+    """Why an entry's file is not this user's own (never served), or None.  (Its mode matters less: the folders
+    above it are private, :func:`run_cache_dir`, so nobody else can reach it to write it.)"""
+    if not stat.S_ISREG(st.st_mode):
+        return "not a regular file"
+    if hasattr(os, "geteuid") and st.st_uid != os.geteuid():
+        return f"owned by another user (uid {st.st_uid}): never served"
+    return None
+
+
 _ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwargs_sha256": str,
                 "value_sha256": str, "wall_s": (int, float)}
 
@@ -200,16 +261,31 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
     entry : dict or None
         The entry when valid.
     problem : str or None
-        None when the entry is valid or there is none; else why the existing file must not be used (not JSON, wrong
-        schema, wrong key or code fingerprint, value checksum mismatch).
+        None when the entry is valid or there is none; else why the existing file must not be used (a symlink, not
+        a regular file, another user's, not JSON, wrong schema, wrong key or code
+        fingerprint, value checksum mismatch).
     """
     path = Path(path)
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
     try:
-        text = path.read_text(encoding="utf-8")
+        fd = os.open(path, flags)
     except FileNotFoundError:
         return None, None
+    except OSError as exc:
+        return None, f"unreadable or a symlink ({type(exc).__name__})"
+    try:
+        st = os.fstat(fd)
+        foreign = _foreign(st)
+        if foreign:
+            return None, foreign
+        with os.fdopen(os.dup(fd), "rb") as fh:
+            text = fh.read(MAX_ENTRY_BYTES + 1).decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         return None, f"unreadable ({type(exc).__name__})"
+    finally:
+        os.close(fd)
+    if len(text) > MAX_ENTRY_BYTES:
+        return None, "larger than any run's result"
     try:
         entry = json.loads(text)
     except ValueError:

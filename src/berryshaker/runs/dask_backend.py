@@ -1,7 +1,9 @@
 """The sweep runner's Dask backend: runs on a Dask distributed cluster when a scheduler address is given.
 
 Runs go to the cluster as tasks (chunks of runs for a run function with a batched twin); the workers read the cache
-(a shared disk, if any) but do not write it: the client stores every finished run (:class:`DaskBackend`).
+(a shared disk, if any) but do not write it: the client stores every finished run (:class:`DaskBackend`).  A
+worker lost mid-run is Dask's to handle (its runs go to another worker, up to ``retries``); a lost scheduler ends
+the map with :class:`SchedulerLost` (never a "failed" run), the finished runs stored.
 """
 
 from __future__ import annotations
@@ -120,6 +122,26 @@ def dask_cores(client) -> int:
         return 1
 
 
+class SchedulerLost(Exception):
+    """The Dask scheduler went away while a map's runs were on the cluster (its connection lost, the runs
+    cancelled): not a failure of any run.  The runner turns it into one message naming the runs not finished
+    (:meth:`berryshaker.runs.runner.SweepRunner.map`).
+
+    Parameters
+    ----------
+    reason : str
+        What Dask said, in a few words (e.g. ``"scheduler-connection-lost"``).
+    """
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+#: the loggers whose tracebacks a lost scheduler prints (silenced while a map runs: the runner says it in one line)
+_QUIET = ("distributed", "tornado", "asyncio")
+
+
 class DaskBackend:
     """Runs a map's jobs on a Dask cluster; the workers read the cache, the client stores each finished run.
 
@@ -142,10 +164,18 @@ class DaskBackend:
         finish : callable
             Called with each outcome as its task completes.
         """
+        import logging
+        from concurrent.futures import CancelledError
+
         from distributed import as_completed
 
         client = self._connect()
         futs = {}
+        loggers = [logging.getLogger(n) for n in list(logging.root.manager.loggerDict)
+                   if n.split(".")[0] in _QUIET] + [logging.getLogger(n) for n in _QUIET]
+        levels = [lg.level for lg in loggers]
+        for lg in loggers:
+            lg.setLevel(logging.CRITICAL + 1)
         try:
             keys = list(ctx["jobs"])
             # a run function with a batched twin: chunks of runs per task (one compiled call each)
@@ -161,7 +191,11 @@ class DaskBackend:
                 chunk = futs[f]
                 try:
                     outs = f.result()
-                except Exception as exc:  # noqa: BLE001 - lost beyond its retries
+                except CancelledError as exc:  # the scheduler is gone (or cancelled the runs): nothing failed
+                    raise SchedulerLost(getattr(exc, "reason", None) or "its runs were cancelled") from None
+                except Exception as exc:  # noqa: BLE001 - a run that raised, or lost beyond its retries
+                    if client.status not in ("running", "newly-created"):
+                        raise SchedulerLost(f"the client's connection is {client.status}") from None
                     outs = [failed_outcome(k, f"{type(exc).__name__}: {exc}") for k in chunk]
                 for out in outs:
                     finish(out)
@@ -172,4 +206,9 @@ class DaskBackend:
                 pass
             raise
         finally:
-            client.close(timeout=2)
+            try:
+                client.close(timeout=2)
+            except Exception:  # noqa: BLE001 - a client whose scheduler is gone may not close cleanly
+                pass
+            for lg, lv in zip(loggers, levels):
+                lg.setLevel(lv)

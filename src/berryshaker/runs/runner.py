@@ -5,7 +5,8 @@ Every finished run is cached on disk under the hash of what computed it -- the f
 resolved arguments and a fingerprint of the berryshaker source code (:func:`code_fingerprint`) -- so an
 interrupted study resumes where it stopped, a repeated one is instant, and a changed model is never served a
 stale result (:mod:`berryshaker.runs.cache`).  Failed runs are recorded with their error (and not cached, so they
-are retried).  Run functions must be module-level (so they pickle) and return JSON-compatible values (dicts, lists,
+are retried); a lost Dask scheduler is no run's failure but the map's: one error naming the runs that did not
+finish, the finished ones cached, so the same command resumes.  Run functions must be module-level (so they pickle) and return JSON-compatible values (dicts, lists,
 numbers, strings).
 
 :class:`SweepRunner` composes the cache with one of three backends sharing one small interface (``run(ctx, finish)``,
@@ -32,12 +33,14 @@ from berryshaker.runs.cache import (  # noqa: F401  (re-exported: the runner's p
     CACHE_SCHEMA,
     cache_entry_path,
     default_cache_dir,
+    run_cache_dir,
     function_name,
     read_cache_entry,
     run_key,
     write_cache_entry,
 )
-from berryshaker.runs.dask_backend import SCHEDULER_TIMEOUT_S, DaskBackend, check_scheduler_address  # noqa: F401
+from berryshaker.runs.dask_backend import (SCHEDULER_TIMEOUT_S, DaskBackend, SchedulerLost,  # noqa: F401
+                                           check_scheduler_address)
 from berryshaker.runs.jobs import (  # noqa: F401
     BATCH_SIZE,
     CHUNKS_PER_WORKER,
@@ -69,6 +72,29 @@ def _say_through(ref: weakref.ref) -> Callable[[str], None]:
     return say
 
 
+def max_workers() -> int:
+    """The most local worker processes a runner starts: 4 per usable core, at least 16 (a count beyond it is a slip
+    of the number: starting 100 million processes would take the machine down).
+
+    Returns
+    -------
+    int
+        The bound.
+    """
+    return max(16, 4 * usable_cores())
+
+
+def _ranges(rows: list[int]) -> str:
+    """``[1, 2, 3, 7, 9, 10]`` -> ``"1-3, 7, 9-10"``."""
+    spans: list[list[int]] = []
+    for r in rows:
+        if spans and r == spans[-1][1] + 1:
+            spans[-1][1] = r
+        else:
+            spans.append([r, r])
+    return ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in spans)
+
+
 class SweepRunner:
     """Runs ``fn(**kwargs)`` for many argument sets with caching, parallelism and a progress bar.
 
@@ -80,11 +106,12 @@ class SweepRunner:
     Parameters
     ----------
     workers : int, optional
-        Local worker processes (default: all cores); must be >= 1.
+        Local worker processes (default: all cores); must be >= 1 and at most :func:`max_workers`.
     scheduler : str, optional
         Dask scheduler address; runs go to that cluster instead of local processes.
     cache_dir : path, optional
-        Cache folder (default :func:`default_cache_dir`).
+        Cache folder (default :func:`default_cache_dir`); checked by the one cache policy
+        (:func:`~berryshaker.runs.cache.run_cache_dir`: a private folder of this user, never ``""``).
     use_cache : bool
         Read and write the cache.
     progress : bool
@@ -108,10 +135,15 @@ class SweepRunner:
                 ok = False
             if not ok or workers < 1:
                 raise ConfigError(f"--workers must be >= 1 (got {workers!r}); omit it to use all cores")
+            most = max_workers()
+            if workers > most:
+                raise ConfigError(f"--workers {workers:,}: at most {most} local processes here (4 per core, or 16; "
+                                  f"this process may run on {usable_cores()} cores: runs are computation, more "
+                                  "processes than cores only share them); omit it to use all cores")
             self.workers = int(workers)
         self.scheduler = check_scheduler_address(scheduler) if scheduler is not None else None
         self.scheduler_timeout_s = SCHEDULER_TIMEOUT_S
-        self.cache_dir = Path(cache_dir) if cache_dir else default_cache_dir()
+        self.cache_dir = run_cache_dir(cache_dir)  # one policy for --cache, $BERRYSHAKER_CACHE and the default
         self.use_cache = use_cache
         self.progress = progress
         self.console = console
@@ -231,6 +263,11 @@ class SweepRunner:
         try:
             if todo:
                 self._backend(todo, ahead).run(ctx, lambda out, advance=True: self._finish(ctx, out, advance))
+        except SchedulerLost as lost:
+            if bar is not None:
+                bar[0].stop()
+                bar = None
+            raise self._scheduler_lost(ctx, n, lost.reason) from None
         except KeyboardInterrupt:
             if bar is not None:
                 bar[0].stop()
@@ -247,6 +284,17 @@ class SweepRunner:
             self.stats["cold_compute_s"] = self.stats["compute_s"] + self.stats["cached_compute_s"]
             self.stats["elapsed_s"] += time.perf_counter() - t_start
         return results  # type: ignore[return-value]
+
+    def _scheduler_lost(self, ctx: dict, n: int, reason: str):
+        """The one-line error of a map whose Dask scheduler went away: the runs (rows, from 1) not finished, and
+        where the finished ones are kept."""
+        from berryshaker.errors import SimulationError
+
+        rows = sorted(i + 1 for k, idx in ctx["todo"].items() if k not in ctx["done"] for i in idx)
+        where = (f"the {n - len(rows)} finished are in the cache {self.cache_dir}: run the same command again to "
+                 "resume" if ctx["cache"] else "nothing was cached (no cache): run the same command again")
+        return SimulationError(f"the Dask scheduler {self.scheduler} was lost ({reason}); {len(rows)} of {n} runs "
+                               f"did not finish (rows {_ranges(rows)}); {where}")
 
     def values(self, fn: Callable, kwargs_list: list[dict], label: str = "runs") -> list:
         """Like :meth:`map`, but raise on the first failed run (for steps that cannot do without every run).

@@ -227,7 +227,8 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
         Bad points listed in the message.
     progress : bool, optional
         Show a progress bar on stderr (about 2 ms per point); default when there are at least
-        :data:`VALIDATE_PROGRESS_FROM` points and stderr is a terminal.
+        :data:`VALIDATE_PROGRESS_FROM` points and stderr is a terminal (without a terminal such a sweep prints one
+        line saying what it validates and about how long it takes).
 
     Raises
     ------
@@ -246,8 +247,12 @@ def validate_points(machine, params: list[SweepParam], points: list[list[float]]
 
     data = machine.model_dump(mode="json")
     bad = []
+    long = len(points) >= VALIDATE_PROGRESS_FROM
     if progress is None:
-        progress = len(points) >= VALIDATE_PROGRESS_FROM and sys.stderr.isatty()
+        progress = long and sys.stderr.isatty()
+    if long and not progress:  # no terminal for a bar: one line, so a long preparation is never silent
+        print(f"validating {len(points):,} sweep points before any run (about {len(points) * 2e-3:.0f} s) ...",
+              file=sys.stderr, flush=True)
     with Progress(console=Console(stderr=True), transient=True, disable=not progress) as bar:
         task = bar.add_task(f"validating {len(points):,} sweep points", total=len(points))
         for i, pt in enumerate(points):

@@ -71,6 +71,7 @@ from berryshaker.study.mechanics_steps import (
 from berryshaker.study.runs import warm_worker
 from berryshaker.study.step_context import PlannedRuns, StudyContext, draw_figure
 from berryshaker.study.step_result import StepResult, StudyOptimum, StudyResults, StudySummary
+from berryshaker.user_text import markup_text
 
 #: the names callers import from here: the machinery's own and the steps', their context and their result
 __all__ = [
@@ -239,7 +240,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
 
     def say(msg):
         if console is not None:
-            console.print(f"[bold cyan]study[/] {msg}")
+            console.print(f"[bold cyan]study[/] {markup_text(msg)}")
 
     ctx = StudyContext(machine, runner, figs, say=say)
     results: dict = ctx.results

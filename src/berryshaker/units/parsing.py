@@ -373,6 +373,9 @@ def parse_quantity(value: object, dimension: str, field: str = "value", units_re
     number = float(number_text)
     if not math.isfinite(number):
         raise ConfigError(f"{field}: {value!r} is not a finite number; {_expected(dimension)}")
+    if number == 0.0 and re.search(r"[1-9]", re.split(r"[eE]", number_text)[0]):  # "1e-999": not zero, but 0.0
+        raise ConfigError(f"{field}: {value!r} is too small to represent (underflow: it would be read as 0); "
+                          f"{_expected(dimension)}")
     if not unit_text:
         if dimension != "dimensionless":
             raise ConfigError(f"{field}: {value!r} has no unit; give a unit, e.g. {EXAMPLES[dimension]}")

@@ -22,6 +22,7 @@ from berryshaker.report.style import (
     legend_outside,
     new_figure,
 )
+from berryshaker.user_text import file_part
 
 _LEVEL_LINES = (LEVEL_COLOURS["level 1"], LEVEL_COLOURS["level 2"], LEVEL_COLOURS["level 3"], *SERIES_COLOURS[4:])
 _LEVEL_MARKERS = ("o", "s", "^", "D", "v", "P")
@@ -272,7 +273,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
                    if isinstance(e, dict) and e.get("error")}
             eff = standardized_effects(levels, y, factor_names, err.get("ms"), err.get("df"),
                                        analysis.get("alpha", 0.05), factor_errors=own or None)
-        n = f"{prefix}pareto_{name}.png"
+        n = f"{prefix}pareto_{file_part(name)}.png"
         plot_pareto_effects(eff, Path(folder) / n, f"{long}: Pareto chart of the standardized effects")
         names.append(n)
         pooled = set(an.get("pooled") or [])
@@ -281,7 +282,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         else:
             res = main_effect_residuals(levels, y, factor_names, [f for f in factor_names if f not in pooled],
                                         blocks=blocks and np.ndim(y) == 2)
-        n = f"{prefix}residuals_{name}.png"
+        n = f"{prefix}residuals_{file_part(name)}.png"
         seq = None
         if order is not None:  # the test order of each observation, run by run, the lost ones left out
             o = np.asarray(order, float).reshape(np.shape(y))
@@ -292,7 +293,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
                        order=seq)
         names.append(n)
         if len(factor_names) >= 2:
-            n = f"{prefix}interactions_{name}.png"
+            n = f"{prefix}interactions_{file_part(name)}.png"
             plot_interactions(interaction_means(levels, y, factor_names), Path(folder) / n,
                               f"{long}: interaction plots", unit=units.get(name), level_values=level_values,
                               factor_units=factor_units)
@@ -365,8 +366,9 @@ def write_doe_figures(fr, res, folder: Path) -> list[str]:
             if fr.replicates >= 2:  # the analysis' run means (least-squares means where plots were lost)
                 y = np.asarray(res["responses"][r]["run_means"], float)
             plot_response_surfaces(fr.values, y, fr.factor_names, quadratic_regression(fr.values, y, fr.factor_names),
-                                   r, folder / f"surface_{r}.png", unit=units.get(r) or None, factor_unit=fu)
-            names.append(f"surface_{r}.png")
+                                   r, folder / f"surface_{file_part(r)}.png", unit=units.get(r) or None,
+                                   factor_unit=fu)
+            names.append(f"surface_{file_part(r)}.png")
     obs = fr.responses_replicated if fr.replicates >= 2 else fr.responses
     names += write_effect_figures(fr.levels, obs, fr.factor_names, res, folder, units=units, level_values=known,
                                   factor_units=fr.units, blocks=fr.replicates >= 2, order=observation_order(fr))

@@ -40,7 +40,7 @@ def plot_svaj(kin, path: Path, title: str = "", *, return_figure: bool = False) 
     fig, axes = new_figure(4, 1, figsize=(8, 9), sharex=True)
     data = {"series": {}}
     for ax, y, lab, key in zip(axes, (kin.s * 1e3, kin.v, kin.a, kin.j),
-                               ("s [mm]", "v [m/s]", "a [m/s$^2$]", "j [m/s$^3$]"), "svaj"):
+                               ("s [mm]", "v [m/s]", "a [m/s²]", "j [m/s³]"), "svaj"):
         ax.plot(deg, y, lw=1.4, color=PAIR_COLOURS["A"])
         label_axes(ax, ylabel=lab)
         ax.grid(alpha=0.3)
@@ -158,7 +158,7 @@ def plot_mode_shapes(modes, modes_fe, path: Path, *, return_figure: bool = False
         step = max(1, len(modes_fe.z) // 25)
         ax.plot(modes_fe.z[::step], modes_fe.shapes[i][::step], "o", ms=3, color=colour)
     ax.axhline(0, color="k", lw=0.5)
-    label_axes(ax, "position along the branch z [m]", r"mode shape [kg$^{-1/2}$]")
+    label_axes(ax, "position along the branch z [m]", "mode shape [1/√kg]")
     ax.set_title("Tapered branch modes: Bessel solution (lines, eq. 15) and finite elements (dots)")
     legend_outside(ax)
     ax.grid(alpha=0.3)

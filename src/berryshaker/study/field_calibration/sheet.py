@@ -260,8 +260,11 @@ def parse_setting(spec: str, targets: list[FactorTarget], machine: Machine) -> n
     Raises
     ------
     ConfigError
-        Not NAME=value pairs, a name that is not a factor of the sheet, a value without or with a wrong unit.
+        Not NAME=value pairs, a name that is not a factor of the sheet, a value without or with a wrong unit, a
+        clearance the machine cannot hold (:meth:`~berryshaker.drives.base.MachineBase.with_clearances`) or a speed
+        outside the simulated range.
     """
+    from berryshaker.quantity_fields import check_drive_speed
     from berryshaker.units import parse_quantity
 
     if not isinstance(spec, str) or len(spec) > 400 or not spec.strip():
@@ -280,5 +283,12 @@ def parse_setting(spec: str, targets: list[FactorTarget], machine: Machine) -> n
         v = parse_quantity(value, dim, f"--predict {name}", units_required=True)
         if not v > 0:
             raise ConfigError(f"--predict {name}={value}: must be > 0")
+        try:  # a setting the machine can run, checked as the description's own values are, before any work
+            if t.kind == "clearance":
+                machine.with_clearances({t.pair: v})
+            else:
+                check_drive_speed(v, f"--predict {name}")
+        except (ConfigError, ValueError) as exc:
+            raise ConfigError(f"--predict {spec!r}: {exc}") from None
         values[names[name]] = v
     return np.array(values, float)
