@@ -102,7 +102,7 @@ def test_the_page_reruns_the_drive_when_a_clearance_changes(tmp_path):
         pytest.skip(f"{CHROMIUM} is missing: install it (apt-get install -y chromium) to run the browser test")
     from playwright.sync_api import sync_playwright  # the test extra
 
-    from berryshaker.explore.app import serve
+    from berryshaker.explore.server import serve
 
     port = _free_port()
     server = serve(load_machine(None), port, cache_dir=tmp_path / "cache", threaded=True)
