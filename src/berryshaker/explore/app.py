@@ -156,7 +156,7 @@ class ExplorePage:
             v = dict(ref.clearance_mm)[info.name]
             self.clearance[info.name] = pn.widgets.EditableFloatSlider(
                 label=f"clearance {info.name} [mm]", start=0.0, end=end, step=step, value=v, format="0.000",
-                fixed_start=None, fixed_end=None, width=width, name=f"clearance-{info.name}")
+                fixed_start=None, fixed_end=None, width=width)
         self.speed = pn.widgets.EditableFloatSlider(label="drive-shaft speed [r/min]", start=20.0,
                                                     end=max(240.0, round(ref.speed_rpm * 2)), step=1.0,
                                                     value=ref.speed_rpm, format="0.0", fixed_start=None,
