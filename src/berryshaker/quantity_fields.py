@@ -25,6 +25,7 @@ from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
 from berryshaker.units import (
+    DISPLAY_UNITS,
     bare_number_message,
     check_limits,
     parse_quantity,
@@ -385,6 +386,42 @@ def field_dimension(info: FieldInfo) -> str | None:
     if shape is not None and shape[0] == "scalar":
         return "dimensionless"
     return None
+
+
+def _display_in(annotation: Any) -> str | None:
+    """The ``display`` unit in an annotation's metadata, or in that of its members (``Length | None``, a tuple of
+    lengths)."""
+    for m in getattr(annotation, "__metadata__", ()):
+        extra = m.json_schema_extra if isinstance(m, FieldInfo) else None
+        if isinstance(extra, dict) and isinstance(extra.get("display"), str):
+            return extra["display"]
+    for arg in typing.get_args(annotation):
+        unit = _display_in(arg)
+        if unit is not None:
+            return unit
+    return None
+
+
+def field_display_unit(info: FieldInfo) -> str | None:
+    """The engineering unit a description field is shown in (``"mm"`` for a length, ``"deg"`` for an angle...):
+    its ``display`` unit, also that of an optional quantity or of the elements of a tuple of quantities, else the
+    engineering unit of its dimension.
+
+    Parameters
+    ----------
+    info : pydantic.fields.FieldInfo
+        The field.
+
+    Returns
+    -------
+    str or None
+        The unit, ``"1"`` for a dimensionless number, None for text, flags and sections.
+    """
+    extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    unit = extra.get("display") if isinstance(extra.get("display"), str) else _display_in(info.annotation)
+    if unit is not None:
+        return unit
+    return DISPLAY_UNITS.get(field_dimension(info))
 
 
 def _section_class(annotation: Any) -> tuple[type[BaseModel] | None, bool]:
