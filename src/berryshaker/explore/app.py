@@ -23,7 +23,7 @@ from bokeh.layouts import row as bk_row
 from bokeh.models import Button, ColumnDataSource, CustomJS, Slider, Span
 from bokeh.plotting import figure
 
-from berryshaker.errors import BerryshakerError, ConfigError
+from berryshaker.errors import BerryshakerError
 from berryshaker.explore import model as em
 from berryshaker.explore.drawing import magnification_range
 from berryshaker.explore.views import (
