@@ -11,6 +11,7 @@
 * Single files are written atomically (:func:`write_text_atomic`, :func:`write_json_atomic`;
   :mod:`.atomic_files`); a sheet and its printable copy are stamped so ``--force`` replaces only its own
   (:mod:`.paired_files`); every output records its provenance (:mod:`.provenance_record`).
+* A run ``simulate --out`` saved is read back strictly by :func:`read_saved_run` (:mod:`.saved_run`).
 
 The names callers use are importable from here.
 """
@@ -21,11 +22,12 @@ from berryshaker.outputs.destinations import check_output_file, prepare_output_d
 from berryshaker.outputs.marker import MARKER_NAME, marker_owners, read_output_marker
 from berryshaker.outputs.paired_files import check_forced_pair, read_html_stamp, stamp_html
 from berryshaker.outputs.provenance_record import code_fingerprint, provenance, write_provenance
+from berryshaker.outputs.saved_run import SavedRun, read_saved_run, split_unit
 from berryshaker.outputs.staging import (STAGING_TAG, STALE_FOREIGN_STAGING_HOURS, STALE_STAGING_HOURS,
                                          clean_stale_staging, pid_alive, staged_directory)
 
 #: the public names
-__all__ = ["MARKER_NAME", "STAGING_TAG", "STALE_FOREIGN_STAGING_HOURS", "STALE_STAGING_HOURS",
+__all__ = ["MARKER_NAME", "STAGING_TAG", "SavedRun", "read_saved_run", "split_unit", "STALE_FOREIGN_STAGING_HOURS", "STALE_STAGING_HOURS",
            "check_forced_pair", "check_output_file", "clean_stale_staging", "code_fingerprint", "current_umask", "file_sha256",
            "marker_owners", "pid_alive", "prepare_output_dir", "provenance", "read_html_stamp", "read_output_marker",
            "stamp_html", "staged_directory", "write_bytes_atomic", "write_json_atomic", "write_provenance",
