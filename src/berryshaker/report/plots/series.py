@@ -133,7 +133,7 @@ def plot_time_series(t, series: dict[str, np.ndarray], ylabel: str, path: Path, 
 
 def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str = "", *,
                       quantity: str = "collision force", unit: str = "N", sharey: bool = False,
-                      n_bins: int = 2000, return_figure: bool = False) -> dict:
+                      peaks: dict[str, float] | None = None, n_bins: int = 2000, return_figure: bool = False) -> dict:
     """One panel per joint (shared time axis), e.g. the four clearance collision forces of
     ``simulate --plot``; each panel in its pair's colour with its peak in the panel title.
 
@@ -150,6 +150,10 @@ def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str =
         Y labels read "<quantity> at <joint> [<unit>]".
     sharey : bool
         One y scale for all panels (compare magnitudes) or one per panel (default: see each waveform).
+    peaks : dict joint -> float, optional
+        The peaks a table beside the figure prints (``simulate``: over every integrator step, which the series
+        written every 0.1 ms can miss between its samples): each panel states this peak and draws it as a dotted
+        line, so figure and table give one number.  Default: the drawn series' peak.
     path : Path
         PNG file (300 dpi; an SVG of the figure is written beside it).
     n_bins : int
@@ -177,9 +181,16 @@ def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str =
         label_axes(ax, ylabel=f"{quantity} at {joint} [{unit}]")
         ax.yaxis.label.set_fontsize(8)
         ex = _extremes(yd)
-        ax.set_title(f"{joint}: peak |value| {ex['peak_abs']:.4g} {unit}", loc="right", fontsize=8)
+        stated = None if peaks is None else peaks.get(name, peaks.get(joint))
+        if stated is None:
+            ax.set_title(f"{joint}: peak |value| {ex['peak_abs']:.4g} {unit}", loc="right", fontsize=8)
+        else:
+            ax.axhline(stated, color=st["color"], linestyle=":", linewidth=0.9)
+            ax.set_title(f"{joint}: peak {stated:.6g} {unit} over every integrator step (dotted; the samples drawn "
+                         f"reach {ex['peak_abs']:.6g} {unit})", loc="right", fontsize=8)
         ax.grid(alpha=0.3)
-        data["series"][name] = {"x": xd, "y": yd, **ex, "input_peak_abs": float(np.max(np.abs(y)))}
+        data["series"][name] = {"x": xd, "y": yd, **ex, "input_peak_abs": float(np.max(np.abs(y))),
+                                "stated_peak": ex["peak_abs"] if stated is None else float(stated)}
     label_axes(axes[-1, 0], xlabel="time [s]")
     fig.suptitle((title or f"{quantity.capitalize()} per joint")
                  + ("" if sharey else "\n(each panel has its own y scale)"), fontsize=11)
