@@ -7,8 +7,12 @@ field's schema (``display``) so every view prints engineering units.
 Also the strict base model every description section derives from (unknown keys, infinities and NaN refused;
 a plain numeric field refuses ``true`` and lists or tables with the field named), the formatter that turns
 pydantic's errors into located messages (``cam.stroke: must be > 0 ...``), the lookup of a field's physical
-dimension (:func:`field_dimension`, :func:`field_info_at`: sweeps read values with it), the plausibility walk
-over a description (:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`).
+dimension and display unit (:func:`field_dimension`, :func:`field_display_unit`, :func:`field_info_at`: sweeps
+read values with them, ``config show`` prints them), the plausibility walk over a description
+(:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`).
+
+long module: the field types, the strict base model, the error formatter and the lookups of a field's dimension
+and unit all read the same field metadata (:class:`QuantityValidator`, the ``display`` unit).
 """
 
 from __future__ import annotations

@@ -44,7 +44,17 @@ def allowed_hosts(host: str) -> tuple[str, ...]:
 
 
 class WrongHostHandler(tornado.web.RequestHandler):
-    """403 for a request whose ``Host`` header names another server (DNS rebinding); says which address to use."""
+    """403 for a request whose ``Host`` header names another server (DNS rebinding); says which address to use.
+
+    Parameters
+    ----------
+    application : tornado.web.Application
+        The server's application (tornado makes one handler per request).
+    request : tornado.httputil.HTTPServerRequest
+        The request refused.
+    **kwargs
+        ``served``, given to :meth:`initialize`.
+    """
 
     def initialize(self, served: str) -> None:
         """Remember the address served.

@@ -476,9 +476,9 @@ def plot_signals(x: tuple[str, np.ndarray, str], ys: dict[str, tuple[np.ndarray,
     Parameters
     ----------
     x : (str, ndarray, str)
-        The abscissa's name, values and unit.
+        The abscissa's name, values (SI) and their unit (e.g. ``("time", t, "s")``).
     ys : dict name -> (ndarray, str)
-        The series' values and units (each the length of ``x``).
+        The series' values (SI) and their units (e.g. ``"N"``, ``"N m"``), each the length of ``x``.
     path : Path
         The figure file (its suffix sets the format: .png at 300 dpi, .svg, .pdf); written atomically, nothing
         beside it.
