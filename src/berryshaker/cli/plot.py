@@ -30,9 +30,10 @@ def plot(
     force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
     as_json: bool = JsonOpt,
 ):
-    """Plot any signals of a saved run against time or against another signal, with the unit of each on its
-    axis (peak-preserving decimation against time: the drawn peak is the saved series' peak).  A name the run
-    does not have is refused with the run's signals listed.
+    """Plot any signals of a saved run (simulate --out) against time or another signal, units on the axes.
+
+    One panel per unit; against time the series are thinned by peak-preserving decimation (the drawn peak is the
+    saved series' peak).  A name the run does not have is refused with the run's signals listed.
     \f
 
     Parameters
@@ -96,9 +97,11 @@ def animate(
     force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
     as_json: bool = JsonOpt,
 ):
-    """An animation of a saved run's comb drive over its last revolution, clearances magnified, joints in contact
-    marked (the drawing of `berryshaker explore`).  The run's simulation is run again from its summary.json and
-    checked against its saved joint forces first: a run saved by a version whose model differs is refused.
+    """An animation of a saved run's comb drive (GIF, or MP4 with ffmpeg) to keep.
+
+    The drawing of `berryshaker explore` over the last revolution: clearances magnified, joints in contact marked.
+    The run's simulation is run again from its summary.json and checked against its saved joint forces first: a
+    run saved by a version whose model differs is refused.
     \f
 
     Parameters
