@@ -11,7 +11,7 @@ import re
 from pathlib import Path
 
 from berryshaker.report.design import level_set_name
-from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
+from berryshaker.report.html_blocks import _details, _maybe_img, _num, _Raw, _table
 from berryshaker.units import format_tolerance
 
 
@@ -56,16 +56,16 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         rows.append([name, units.get(name, ""), float(sum(ra.run_means) / len(ra.run_means)), sd,
                      e.ms ** 0.5, e.df, sig, pr])
     if rows:
-        parts.append("<h3>Replicate spread and significance</h3>")
-        parts.append("<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
+        spread = ["<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
                      "from every comparison.  Per-start SD: the spread of one run's starts; blocked error SD: what "
                      "effects are tested against (the run x start interaction); paired differences: the extreme levels "
                      "of each factor compared start by start, +- one standard error, marked (noise) where that "
                      "contrast's own paired t test over the starts (r - 1 dof) cannot tell them apart; the "
-                     "significant factors come from the F test, which pools the error of every contrast.</p>")
-        parts.append(_table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
-                             "significant factors", "paired differences (last - first level)"],
-                            rows, left=(0, 1, 6, 7)))
+                     "significant factors come from the F test, which pools the error of every contrast.</p>",
+                  _table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
+                          "significant factors", "paired differences (last - first level)"], rows, left=(0, 1, 6, 7))]
+        parts.append(_details("Replicate spread and significance per response (table; the design answers give the "
+                              "paired differences with their intervals)", spread))
     rec = l9.recommended
     if rec.statement:
         parts.append("<h3>Recommendation and its basis</h3>")
@@ -77,18 +77,19 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         parts.append(f"<p class='small'>Rule: {html.escape(rec.rule)}.</p>")
         parts.append(f"<p class='small'>Starts at the recommendation: {html.escape(rec.sequential.statement)}.</p>")
     tc = l9.tolerance_check
+    check: list[str] = []
     if tc.done:
         rt = tc.rtol  # run and check tolerances (dimensionless)
-        parts.append("<h3>Solver-tolerance check</h3>")
-        parts.append(f"<p>{html.escape(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
+        check.append(f"<p>{html.escape(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
                      f"re-run at rtol {format_tolerance(rt[1])}"
                      + (f"; velocities held absolutely below rtol x {tc.velocity_scale_m_s:g} m/s at both"
                         if tc.velocity_scale_m_s is not None else "") + ").</p>")
         fmt = [format_tolerance(x) for x in rt]
-        parts.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
+        check.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
                              "noise of the mean (SD)", "within 2 x noise"],
                             [[n, v.mean_change, v.max_abs_change, v.replicate_sd, v.noise_sd, v.within_replicate_spread]
                              for n, v in tc.responses.items()]))
+        parts.append(_details(f"Solver-tolerance check: {tc.statement}", check))
     else:
         parts.append(f"<p class='small'>Solver-tolerance check not run: {html.escape(tc.reason or '')}.</p>")
     recs = l9.tradeoff
@@ -110,12 +111,12 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
 
         header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
-        parts.append(_table(header, body, left=(0, len(header) - 1)))
+        table = [_table(header, body, left=(0, len(header) - 1))]
         loads = (["candidate"] + [f"peak force {c.split(':')[1]} (N)" for c in forces]
                  + ["drive torque peak (N m)", "drive torque RMS (N m)"][:len(tq)])
         if len(loads) > 1:
-            parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
-        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
+            table.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
+        table.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
                      "of the same candidates in the second table; 'dominated by' names the dominating candidates by "
                      "run number ('rec.': the recommended set).  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "
@@ -124,14 +125,20 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
                      "descriptive.  The tiered "
                      "choice is confirmed against this table: a tested run that dominates it becomes the "
                      "recommendation.</p>")
+        parts.append(_details(f"The {len(recs)} candidates' harvest indexes and machine loads, and which dominate "
+                              "which (tables; the figure below draws them)", table))
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against peak collision force and drive torque")
+    # the main effects, drawn once: with the replicates' 95 % intervals (the single-run figure is not repeated)
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
-    _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    more: list[str] = []
+    _maybe_img(more, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
     for name in sorted(rep.responses):  # Minitab's effect figures (report.plots.effects), where drawn
         for kind, what in (("pareto", "Pareto chart of the standardized effects (t of each factor's linear and "
                                       "quadratic contrasts against the blocked error)"),
                            ("residuals", "Residuals of the main-effects model with blocks: normal probability plot "
                                          "and residuals against fitted values"),
                            ("interactions", "Interaction plots: mean of the starts at each pair of levels")):
-            _maybe_img(parts, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
+            _maybe_img(more, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
+    parts.append(_details("Figures: main effects on the machine loads; per harvest index, Pareto chart of the "
+                          "effects, residuals, interactions", more))
     return parts
