@@ -123,7 +123,10 @@ class ExplorePage:
         self.layout = pn.FlexBox(pn.Column(self.header_controls, width=CONTROLS_WIDTH), main, flex_wrap="wrap",
                                  sizing_mode="stretch_width", name="explore_page")
         # the first run starts once the session is live: an update sent while Panel still builds the session is lost
-        pn.state.onload(self.on_change)
+        if self.doc is not None and self.doc.session_context is not None:
+            pn.state.onload(self.on_change)
+        else:  # no server session (the page built on its own): at once
+            self.on_change()
 
     # ---- threads ---------------------------------------------------------------------------------------
     @staticmethod
