@@ -97,10 +97,10 @@ def validation_cache(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def small_harvest_machine():
-    """The reference machine with one branch class and four bushes: the cheapest description the virtual harvest and
+    """The reference machine with one branch class: the cheapest description the virtual harvest and
     the validation run on."""
     from berryshaker.config import load_machine, machine_from_dict
 
     d = load_machine(None).model_dump()
-    d["harvest"].update(branch_classes=(1.0,), bushes=4)
+    d["harvest"].update(branch_classes=(1.0,))
     return machine_from_dict(d)

@@ -87,14 +87,16 @@ def l9_record(l9: dict) -> VirtualL9:
     rec["check"] = _filled(rec_given.get("check"), _CHECK)
     rec["check"]["tiered"] = _filled(rec["check"]["tiered"], _TIERED)
     runs = [_filled(r, {"run": i + 1, "levels": {}, "clearance_mm": {}, "name": "", "efficiency": 0.0,
-                        "unripe": 0.0, "damage": 0.0, "replicates": {}}) for i, r in enumerate(l9.get("runs") or [])]
+                        "unripe": 0.0, "damage": 0.0, "replicates": {}, "expected": {}})
+             for i, r in enumerate(l9.get("runs") or [])]
     full = _filled(l9, {
         "responses": {}, "weights": {}, "factors": {}, "composite": _COMPOSITE,
         "optimum": {**_OPTIMUM, "decided_levels": {}, "tiered_levels": {}}, "runs": [],
         "response_units": {}, "tradeoff": [], "tradeoff_columns": [],
-        "tolerance_check": {"done": False, "reason": "not run in this test"}, "paired": {}, "observations": {}})
+        "tolerance_check": {"done": False, "reason": "not run in this test"}, "paired": {}, "observations": {},
+        "detectability": {}})
     full.update(replicated=rep, recommended=rec, runs=runs,
                 responses={n: _range_analysis(ra) for n, ra in full["responses"].items()})
     order = ("responses", "weights", "factors", "composite", "optimum", "runs", "replicated", "response_units",
-             "tradeoff", "tradeoff_columns", "recommended", "tolerance_check", "paired", "observations")
+             "tradeoff", "tradeoff_columns", "recommended", "tolerance_check", "paired", "observations", "detectability")
     return VirtualL9.from_json({k: full[k] for k in order} | {k: v for k, v in full.items() if k not in order})

@@ -318,8 +318,9 @@ def test_analyze_field_sheet_is_analyze_sheet(tmp_path):
     for f, n in res.optimum.levels.items():
         assert (pd.isna(lv.loc[f, "level"]) if n is None else lv.loc[f, "level"] == n)
     pred = tables["optimum_predicted"]
-    assert list(pred.columns) == ["value", "unit"]
+    assert list(pred.columns) == ["value", "lo", "hi", "unit"]  # the 95 % interval (issue 58)
     assert pred.loc["efficiency", "value"] == res.optimum.values["efficiency"]
+    assert [pred.loc["efficiency", "lo"], pred.loc["efficiency", "hi"]] == res.optimum.intervals["efficiency"]
     assert pred.loc["efficiency", "unit"] == "kg/min"
 
 

@@ -29,9 +29,8 @@ import numpy as np
 from berryshaker.config import reference_machine
 from berryshaker.harvest import coupled
 from berryshaker.harvest.spec import COUPLED_RTOL
-from berryshaker.harvest.virtual import replicate_seeds, sample_population, stem_force_envelope_run
-from berryshaker.multibody.perturbation import RandomInitialPerturbation
-from berryshaker.study.l9 import _cell, replicate_jobs
+from berryshaker.harvest.virtual import machine_start, replicate_starts, stem_force_envelope_run
+from berryshaker.study.replicate_responses import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_record
 
 from _results import default_out, write_results  # benchmarks/studies/ (the script's own folder) is on sys.path
@@ -50,9 +49,7 @@ def _job(args):
     rtol, scale, job = args
     coupled.COUPLED_VELOCITY_SCALE = scale  # read when the coupled mechanism is built (a forked worker's copy)
     machine = reference_machine()
-    h = machine.harvest
-    pert = RandomInitialPerturbation(tuple(int(s) for s in job["seed"]), h.initial_eccentricity,
-                                     h.start_phase_spread)
+    pert = machine_start(machine, job["seed"])
     c0 = time.process_time()
     table, res = stem_force_envelope_run(machine, job["clearance"], job["scale"], pert, rtol)
     cpu = time.process_time() - c0
@@ -62,14 +59,14 @@ def _job(args):
 def responses(pool, rtol: float, scale: float, replicates: int):
     """Every response of each replicate (name -> array over replicates), mean attempts and CPU per job."""
     machine = reference_machine()
-    seeds = replicate_seeds(machine, replicates)
+    seeds = replicate_starts(machine, replicates)
     jobs = replicate_jobs(machine, CLEARANCE, seeds, rtol=rtol)
     res = pool.map(_job, [(rtol, scale, j) for j in jobs], chunksize=1)
     nc = len(machine.harvest.branch_classes)
     cells = []
     for k, sd in enumerate(seeds):
         part = res[k * nc:(k + 1) * nc]
-        c = _cell(machine, [r[0] for r in part], sample_population(machine, seed=sd))
+        c = _cell(machine, [r[0] for r in part], sd)
         for ci, r in enumerate(part):
             c[f"stem_force_table_mean_class{ci + 1}"] = r[1]
         cells.append(c)

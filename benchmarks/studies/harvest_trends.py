@@ -18,7 +18,7 @@ import numpy as np
 from scipy import stats
 
 from berryshaker.config import machine_from_dict, reference_machine
-from berryshaker.harvest.virtual import HARVEST_INDEXES, response_indexes
+from berryshaker.harvest.virtual import RESPONSES, replicate_starts, shaking_amplitude, start_responses
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.study.l9 import replicate_envelopes, replicate_jobs
 from berryshaker.study.runs import replicate_run
@@ -49,7 +49,7 @@ def main() -> None:
     a = ap.parse_args()
     machine = reference_machine()
     data = machine.model_dump(mode="json")
-    seeds = [machine.harvest.seed + 1000 * k for k in range(a.replicates or machine.harvest.replicates)]
+    seeds = replicate_starts(machine, a.replicates)
     out = {}
     with SweepRunner(workers=a.workers, cache_dir=a.cache) as runner:
         for knob, (key, values, unit, factor) in KNOBS.items():
@@ -60,14 +60,14 @@ def main() -> None:
                 outs = runner.values(replicate_run, replicate_jobs(m, m.clearance_sizes(), seeds, data=d),
                                      f"{knob} {v * factor:g} {unit}")
                 reps = replicate_envelopes(m, outs, seeds)
-                each = [response_indexes(m, env, seed=sd) for env, sd in reps]
+                each = [start_responses(m, env, sd)["expected"] for env, sd in reps]
                 points.append({"value": v * factor, "seeds": [sd for _, sd in reps],
-                               "each": {k: [e[k] for e in each] for k in HARVEST_INDEXES},
-                               "finger_amplitude_mm": each[0]["finger_amplitude_mm"]})
+                               "each": {k: [e[k] for e in each] for k in RESPONSES},
+                               "finger_amplitude_mm": shaking_amplitude(m)["finger_amplitude_mm"]})
             rows = []
             for i, p in enumerate(points):
                 row = {"value": p["value"], "finger_amplitude_mm": p["finger_amplitude_mm"]}
-                for k in HARVEST_INDEXES:
+                for k in RESPONSES:
                     x = np.array(p["each"][k], float)
                     row[k] = float(np.nanmean(x))
                     row[f"{k}_sd"] = float(np.nanstd(x, ddof=1))

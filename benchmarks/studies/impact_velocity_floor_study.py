@@ -12,7 +12,7 @@ reference machine runs with ``restitution_velocity = v_floor`` on all four pairs
 * ``plain``: harvester runs (``drives.simulation.simulate_multibody``, 2 cam revolutions, rtol 1e-6, output
   0.1 ms) over the reference clearances and ``--sets`` sets drawn uniformly 0.8-1.25x around them (seed 2):
   mean / RMS / p95 / peak collision force of each pair over revolution 2, mean drive moment, steps, CPU;
-* ``coupled``: the drive-pasts of the virtual L9's replicates (``harvest.virtual.replicate_seeds``, replicate k
+* ``coupled``: the drive-pasts of the virtual L9's replicates (``harvest.virtual.replicate_starts``, replicate k
   of branch class c from ``RandomInitialPerturbation((seed_k, c), ...)``, exactly as ``study.l9.replicate_jobs``;
   ``harvest.coupled.simulate_fruit_force`` and ``harvest.virtual.stem_force_table``, rtol 1e-6,
   output step ``harvest.virtual.ENVELOPE_OUTPUT_STEP``, at the configured clearances): fruit-force peaks root / middle / end, comb-branch contact
@@ -53,7 +53,7 @@ os.environ.setdefault("BERRYSHAKER_KERNEL", "generic")
 RESULTS = Path(__file__).resolve().parent / "results" / "impact_velocity_floor.json"
 
 FLOORS = (0.0, 1e-5, 3e-5, 1e-4, 3e-4, 1e-3)
-HARVEST_KEYS = ("efficiency_kg_min", "damage_rate_pct", "unripe_rate_pct")
+HARVEST_KEYS = ("efficiency", "damage", "unripe")
 
 
 def with_floor(machine, v_floor: float):
@@ -85,11 +85,11 @@ def plain_run(machine, clearance: dict) -> dict:
 def coupled_run(machine, seed: int, cls: int) -> dict:
     """Replicate ``seed``'s drive-past of branch class ``cls``: peaks, envelope, steps, CPU."""
     from berryshaker.harvest.coupled import simulate_fruit_force
-    from berryshaker.harvest.virtual import ENVELOPE_OUTPUT_STEP, branch_class_machine, stem_force_table
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+    from berryshaker.harvest.virtual import (ENVELOPE_OUTPUT_STEP, MACHINE, branch_class_machine, machine_start,
+                                             stem_force_table)
 
     h = machine.harvest
-    pert = RandomInitialPerturbation((int(seed), int(cls)), h.initial_eccentricity, h.start_phase_spread)
+    pert = machine_start(machine, (int(seed), MACHINE, int(cls)))
     c0 = time.process_time()
     m = branch_class_machine(machine, h.branch_classes[cls])
     r = simulate_fruit_force(m, None, rtol=1e-6, initial_perturbation=pert, output_step=ENVELOPE_OUTPUT_STEP)
@@ -114,7 +114,7 @@ def _save(path: Path, data: dict) -> None:
 
 def run(args) -> None:
     from berryshaker.config import reference_machine
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
 
     path = Path(args.path)
     data = _load(path)
@@ -132,7 +132,7 @@ def run(args) -> None:
                 print(f"plain set {i} v_floor {key:>6}: steps {r['steps']:8d} CPU {r['cpu_s']:6.2f} s", flush=True)
                 _save(path, data)
     if args.part in ("coupled", "both"):
-        seeds = replicate_seeds(m0, args.replicates)
+        seeds = replicate_starts(m0, args.replicates)
         for sd in seeds:
             for c in range(len(m0.harvest.branch_classes)):
                 for key, m in machines.items():
@@ -158,7 +158,7 @@ def _by_floor(runs: dict) -> dict[str, dict[str, dict]]:
 def harvest_by_replicate(runs: dict) -> dict[str, dict[str, dict[str, float]]]:
     """{floor: {seed: harvest indexes}} for every replicate whose branch classes all ran."""
     from berryshaker.config import reference_machine
-    from berryshaker.harvest.virtual import harvest_indexes, sample_population
+    from berryshaker.harvest.virtual import start_responses
 
     m = reference_machine()
     nc = len(m.harvest.branch_classes)
@@ -168,7 +168,7 @@ def harvest_by_replicate(runs: dict) -> dict[str, dict[str, dict[str, float]]]:
             envs = [units.get(f"{sd}|{c}") for c in range(nc)]
             if any(e is None for e in envs):
                 continue
-            h = harvest_indexes(m, [np.array(e["envelope"]) for e in envs], sample_population(m, seed=int(sd)))
+            h = start_responses(m, [np.array(e["envelope"]) for e in envs], int(sd))["expected"]
             out.setdefault(fl, {})[sd] = {k: float(h[k]) for k in HARVEST_KEYS}
     return out
 

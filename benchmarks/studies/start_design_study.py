@@ -30,10 +30,10 @@ import numpy as np
 
 from _results import default_out, write_results
 from berryshaker.config import reference_machine
-from berryshaker.harvest.virtual import harvest_indexes, replicate_seeds, sample_population, stem_force_envelope_run
+from berryshaker.harvest.virtual import replicate_starts, start_responses, stem_force_envelope_run
 from berryshaker.multibody.perturbation import InitialPerturbation, RandomInitialPerturbation
 
-KEYS = ("efficiency_kg_min", "damage_rate_pct", "unripe_rate_pct")
+KEYS = ("efficiency", "damage", "unripe")
 
 
 @dataclass(frozen=True)
@@ -64,7 +64,7 @@ def start_indexes(design: str, seed: int) -> dict:
             pert = PhaseAt((seed, c), h.initial_eccentricity,
                            (u + 2 * math.pi * c / len(classes) + math.pi) % (2 * math.pi) - math.pi)
         tables.append(stem_force_envelope_run(m, None, scale, pert)[0])
-    idx = harvest_indexes(m, tables, sample_population(m, seed=seed))
+    idx = start_responses(m, tables, seed)["expected"]
     return {k: float(idx[k]) for k in KEYS}
 
 
@@ -74,7 +74,7 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=str(default_out("start_design")))
     a = ap.parse_args()
-    seeds = replicate_seeds(reference_machine(), a.starts)
+    seeds = replicate_starts(reference_machine(), a.starts)
     data = {}
     with ProcessPoolExecutor(a.workers) as pool:
         for design in ("independent", "systematic"):

@@ -254,11 +254,28 @@ def test_plan_has_a_replicate_column_and_a_seeded_order_of_all_rows():
     assert len(re.findall(r"<tr>", page)) == 28 and "cate" in page
 
 
+def test_randomised_plan_keeps_each_replicate_block_together():
+    """Issue 58: `doe plan --randomize` drew one order over all runs x replicates while `doe analyze` reads replicate
+    k as block k (a field day, a row of bushes).  Now block k is tests (k - 1) n + 1 .. k n, every run once, in a
+    random order of its own (a different one per block, seeded); one replicate keeps the earlier order."""
+    factors = [parse_factor(s) for s in SPECS]
+    df = plan_table("L9", factors, randomize=True, seed=7, replicates=3)
+    orders = []
+    for k, g in df.groupby("replicate"):
+        assert sorted(g["order"]) == list(range(9 * (k - 1) + 1, 9 * k + 1))
+        assert sorted(g["run"]) == list(range(1, 10))
+        orders.append((g.sort_values("order")["run"]).tolist())
+    assert orders[0] != orders[1] != orders[2] and orders[0] != list(range(1, 10))
+    one = plan_table("L9", factors, randomize=True, seed=7)
+    assert one["order"].tolist() == (np.random.default_rng(7).permutation(9) + 1).tolist()
+
+
 def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_anova():
     """Read back in any row order: responses as (runs, replicates) in run order, their means per run, and the
     pure-error ANOVA of the virtual L9 on them: MS_PE equals the hand-computed replicate variance, A (an effect
     of 0.4 kg/min per level against sigma = 0.1) is significant, C (no effect) is not."""
-    from berryshaker.experiment.replicates import analyze_replicated, pure_error
+    from berryshaker.experiment.error_terms import pure_error
+    from berryshaker.experiment.replicates import analyze_replicated
 
     df, _ = _replicated_sheet()
     shuffled = df.sample(frac=1.0, random_state=3)
@@ -282,8 +299,15 @@ def test_replicated_sheet_reads_back_into_runs_x_replicates_and_a_pure_error_ano
 def test_replicated_sheets_are_checked():
     df, _ = _replicated_sheet()
     df = df.sort_values(["run", "replicate"]).reset_index(drop=True)
-    with pytest.raises(ConfigError, match=r"run 4 has replicate\(s\) \[1, 3\], other runs go up to 3.*missing \[2\]"):
-        read_results(_csv(df.drop(index=10)), ["efficiency"])
+    assert read_results(_csv(df.drop(index=10)), ["efficiency"]).lost == {"efficiency": [[4, 2]]}  # a lost plot
+    typo = df.copy()
+    typo.loc[10, "replicate"] = 4  # replicate 2 of run 4 typed as 4: a block of one row
+    with pytest.raises(ConfigError, match=r"row 12 \(run 4, replicate 4\): replicate 4 holds this row only"):
+        read_results(_csv(typo), ["efficiency"])
+    gap = df.copy()
+    gap.loc[gap["replicate"] == 2, "replicate"] = 5
+    with pytest.raises(ConfigError, match=r"no row has replicate 2, 4, but replicate 5 exists"):
+        read_results(_csv(gap), ["efficiency"])
     dup = df.copy()
     dup.loc[10, "replicate"] = 1
     with pytest.raises(ConfigError, match=r"run 4 appears 2 times \(rows 11, 12\) as replicate 1"):

@@ -7,7 +7,8 @@ from scipy import stats
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import orthogonal_array
-from berryshaker.experiment.replicates import analyze_replicated, describe_replicated, pure_error, replicated_anova
+from berryshaker.experiment.error_terms import pure_error
+from berryshaker.experiment.replicates import analyze_replicated, describe_replicated, replicated_anova
 from berryshaker.experiment.tradeoff import mark_dominated, tradeoff_table
 
 L9 = orthogonal_array("L9") + 1
@@ -127,7 +128,7 @@ def test_tradeoff_table_and_dominance_beyond_noise():
              cand("strong", 4.5, 0.05, 300.0, 10.0)]    # best harvest, but far larger collision force
     t = tradeoff_table(cands)
     assert list(t["name"]) == ["strong", "best", "close", "worse"]
-    assert t.set_index("name").loc["worse", "dominated_by"] == "best, close"
+    assert t.set_index("name").loc["worse", "dominated_by"] == "best; close"
     assert not t.set_index("name").loc[["best", "close", "strong"], "dominated"].any()
     assert {"efficiency_lo", "peak_force_N:A", "clearance_mm:B", "drive_torque_Nm"} <= set(t.columns)
     # with wide intervals nothing is beyond noise

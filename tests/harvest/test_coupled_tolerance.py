@@ -58,9 +58,9 @@ import pytest
 
 from berryshaker.config import reference_machine
 from berryshaker.harvest.spec import COUPLED_RTOL
-from berryshaker.harvest.virtual import replicate_seeds, sample_population
+from berryshaker.harvest.virtual import replicate_starts
 from berryshaker.runs.runner import SweepRunner
-from berryshaker.study.l9 import _cell, replicate_jobs
+from berryshaker.study.replicate_responses import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_run
 
 REPLICATES = 16
@@ -73,12 +73,11 @@ CLEARANCE = {"A": 0.25e-3, "B": 0.2e-3, "C": 0.1e-3, "F": 0.2e-3}
 def _cells(rtol: float, replicates: int) -> dict[str, np.ndarray]:
     """Every response of ``replicates`` replicates at ``rtol``: name -> array over the replicates."""
     machine = reference_machine()
-    seeds = replicate_seeds(machine, replicates)
+    seeds = replicate_starts(machine, replicates)
     nc = len(machine.harvest.branch_classes)
     with SweepRunner(use_cache=False, progress=False) as runner:
         outs = runner.values(replicate_run, replicate_jobs(machine, CLEARANCE, seeds, rtol=rtol))
-    cells = [_cell(machine, outs[k * nc:(k + 1) * nc], sample_population(machine, seed=s))
-             for k, s in enumerate(seeds)]
+    cells = [_cell(machine, outs[k * nc:(k + 1) * nc], s) for k, s in enumerate(seeds)]
     return {n: np.array([c[n] for c in cells]) for n in cells[0]}
 
 

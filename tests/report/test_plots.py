@@ -436,11 +436,12 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     ra = res.responses["efficiency"]
     y = fr.responses_replicated["efficiency"]
     err = ra.anova.error
-    eff = standardized_effects(fr.levels, y, fr.factor_names, err.ms, err.df)
+    own = {f: (a.error.ms, a.error.df) for f, a in ra.anova.factors.items()}  # each factor against its own error
+    eff = standardized_effects(fr.levels, y, fr.factor_names, err.ms, err.df, factor_errors=own)
     for f in fr.factor_names:  # a factor's contrasts carry its ANOVA F: sum of t^2 = df x F
         row = ra.anova.factors[f]
         assert sum(t["t"] ** 2 for t in eff["terms"] if t["factor"] == f) == pytest.approx(row.df * row.f)
-    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, err.df))
+    assert eff["critical_t"] == pytest.approx(stats.t.ppf(0.975, min(e[1] for e in own.values())))
     d = P.plot_pareto_effects(eff, tmp_path / "pareto.png", return_figure=True)
     ax = d["figure"].axes[0]
     widths = [p.get_width() for p in sorted(ax.patches, key=lambda p: -p.get_y())]  # top to bottom
@@ -450,11 +451,19 @@ def test_pareto_residual_and_interaction_plots_draw_the_analysis_table(tmp_path)
     _close(d)
     rr = main_effect_residuals(fr.levels, y, fr.factor_names, blocks=True)
     assert rr["ss"] == pytest.approx(err.ss + ra.anova.lack_of_fit.ss)  # error + lack of fit
-    d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", return_figure=True)
-    axn, axf = d["figure"].axes[:2]
+    order = np.random.default_rng(0).permutation(rr["residuals"].size) + 1  # a test order
+    d = P.plot_residuals(rr, tmp_path / "res.png", unit="kg/min", order=order, return_figure=True)
+    axn, axf, axh, axo = d["figure"].axes[:4]  # Minitab's four in one (issue 58: the histogram and order were missing)
     np.testing.assert_array_equal(axf.get_lines()[0].get_ydata(), rr["residuals"])
     np.testing.assert_array_equal(axn.get_lines()[0].get_xdata(), np.sort(rr["residuals"]))
     assert axf.get_ylabel() == "residual [kg/min]" and not audit_figure(d["figure"])
+    counts, edges = np.histogram(rr["residuals"], bins=len(d["histogram"][0]))
+    np.testing.assert_array_equal([p.get_height() for p in axh.patches], counts)
+    assert sum(counts) == rr["residuals"].size and axh.get_xlabel() == "residual [kg/min]"
+    line = axo.get_lines()[0]
+    np.testing.assert_array_equal(line.get_xdata(), np.arange(1, order.size + 1))  # in test order
+    np.testing.assert_array_equal(line.get_ydata(), rr["residuals"][np.argsort(order)])
+    assert axo.get_xlabel() == "test order [-]"
     _close(d)
     cells = interaction_means(fr.levels, y, fr.factor_names)
     d = P.plot_interactions(cells, tmp_path / "int.png", unit="kg/min", level_values=fr.level_values,

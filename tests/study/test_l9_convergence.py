@@ -9,12 +9,8 @@ import pytest
 
 from berryshaker.experiment.designs import orthogonal_array
 from berryshaker.experiment.noise import sd_standard_error, spread_convergence, standard_error_reached
-from berryshaker.experiment.replicates import (
-    analyze_replicated,
-    block_error,
-    block_variance,
-    paired_differences,
-)
+from berryshaker.experiment.error_terms import block_error, block_variance, paired_differences
+from berryshaker.experiment.replicates import analyze_replicated
 
 L9 = orthogonal_array("L9")[:, :4] + 1
 
@@ -85,6 +81,31 @@ def test_blocks_find_an_effect_that_pure_error_hides_and_paired_differences_cove
     assert found / 40 > 0.95 and hidden / 40 > 0.8
 
 
+def test_a_factor_is_judged_against_its_own_interaction_with_the_starts():
+    """A factor with no mean effect whose effect varies from start to start (each start its own random A slope, the
+    others none): against the pooled run x start error, which the three quiet factors dilute, A is "significant" in
+    far more than 5 % of tests (the anti-conservative verdict of a pooled error); against its own A x start
+    interaction, Greenhouse-Geisser corrected, it keeps the nominal rate (uncorrected it was 11.5 %: the slope lives
+    in one of A's two contrasts, a sphericity violation).  In a saturated L9 the four factors' own interactions add
+    up to the pooled one exactly."""
+    from berryshaker.experiment.error_terms import block_error, factor_block_error
+    from berryshaker.experiment.replicates import replicated_anova
+    from scipy import stats
+
+    rng = np.random.default_rng(21)
+    r, own, pooled, tests = 6, 0, 0, 400
+    for _ in range(tests):
+        slope = rng.normal(0, 0.5, r)[None, :]  # A's effect in each start: zero on average
+        y = rng.normal(0, 1.0, r)[None, :] + (L9[:, :1] - 2) * slope + rng.normal(0, 0.1, (9, r))
+        own += replicated_anova(L9, y, list("ABCF"), blocks=True)["factors"]["A"]["significant"]
+        ss_a = sum(3 * r * (y[L9[:, 0] == k].mean() - y.mean()) ** 2 for k in (1, 2, 3))
+        ss_e, df_e = block_error(y)
+        pooled += stats.f.sf((ss_a / 2) / (ss_e / df_e), 2, df_e) < 0.05
+        assert sum(factor_block_error(L9[:, j], y)[0] for j in range(4)) == pytest.approx(ss_e, rel=1e-10)
+    assert own / tests < 0.09, own / tests
+    assert pooled / tests > 0.15, pooled / tests
+
+
 def test_blocked_null_factors_stay_no_difference_at_the_nominal_rate():
     from berryshaker.experiment.replicates import replicated_anova
 
@@ -97,6 +118,7 @@ def test_blocked_null_factors_stay_no_difference_at_the_nominal_rate():
     # the whole analysis on one such test: blocked, and the paired differences travel with each factor
     b = analyze_replicated(L9, L9.astype(float), list("ABCF"), {"y": y}, {"y": True}, blocks=True)
     assert b.blocks and b.responses["y"].anova.error.df == 8 * 5
+    assert b.responses["y"].anova.factors["A"].error.df == 2 * 5  # A against A x start
     assert len(b.responses["y"].factors["A"].paired) == 3
 
 
@@ -114,7 +136,7 @@ def test_calibrated_yield_carries_the_relative_error_of_the_efficiency_mean(mach
     asking for it is an error naming the model that has one."""
     from berryshaker.config import machine_from_dict
     from berryshaker.errors import ConfigError
-    from berryshaker.harvest.virtual import Z_GRID, calibrate_harvest, harvest_indexes, sample_population
+    from berryshaker.harvest.virtual import Z_GRID, calibrate_harvest, start_responses
 
     rng = np.random.default_rng(4)
     base = np.outer(np.linspace(0.1, 0.5, Z_GRID.size), np.ones(9))
@@ -126,8 +148,9 @@ def test_calibrated_yield_carries_the_relative_error_of_the_efficiency_mean(mach
     weibull = machine_from_dict(d)
     fit = calibrate_harvest(weibull, fit=("efficiency", "damage"), replicates=reps)
     unc = fit["uncertainty"]
-    eff = [harvest_indexes(weibull, e, sample_population(weibull, seed=s, yield_per_bush=fit["yield_per_bush_kg"]),
-                           fit["damage_acceleration_m_s2"])["efficiency_kg_min"] for e, s in reps]
+    d["harvest"].update(yield_per_bush=fit["yield_per_bush_kg"], damage_acceleration=fit["damage_acceleration_m_s2"])
+    fitted = machine_from_dict(d)
+    eff = [start_responses(fitted, e, s)["expected"]["efficiency"] for e, s in reps]
     rel = np.std(eff, ddof=1) / np.sqrt(len(eff)) / np.mean(eff)
     assert unc["yield_per_bush_kg"] / fit["yield_per_bush_kg"] == pytest.approx(rel, rel=1e-9)
     assert unc["damage_acceleration_m_s2"] > 0
@@ -147,7 +170,7 @@ def spread_runner(tmp_path_factory):
 def convergence(machine, spread_runner):
     from berryshaker.study.l9 import start_convergence
 
-    return start_convergence(machine, spread_runner, counts=(4, 8, 16, 32))
+    return start_convergence(machine, spread_runner, counts=(4, 8, 16, 32), families=())
 
 
 def test_the_default_number_of_starts_is_where_the_spread_converges(machine, convergence):
@@ -159,15 +182,20 @@ def test_the_default_number_of_starts_is_where_the_spread_converges(machine, con
     assert convergence["chosen"] == machine.harvest.replicates == HarvestSpec.model_fields["replicates"].default
     t = convergence["table"]
     assert not all(t[k]["rows"][4]["stable"] for k in t if not (t[k]["constant"] or t[k]["negligible"]))
-    eff = t["efficiency"]["rows"]
-    assert eff[32]["sd"] > 0.3  # the noise is real: a start's efficiency varies by far more than three starts showed
-    assert abs(eff[8]["sd"] / eff[32]["sd"] - 1) < 2 * eff[8]["sd_relative_error"]
+    for name in ("efficiency", "efficiency_expected"):  # a field test's spread, and the model's own
+        eff = t[name]["rows"]
+        assert eff[32]["sd"] > 0.3  # the noise is real: a start's efficiency varies by far more than 3 starts showed
+        assert abs(eff[8]["sd"] / eff[32]["sd"] - 1) < 2 * eff[8]["sd_relative_error"]
+    # a field test scatters more than the model's expectation: the counting noise of its few bushes comes on top
+    assert t["efficiency"]["rows"][32]["sd"] > t["efficiency_expected"]["rows"][32]["sd"]
 
 
 def test_the_spread_at_the_recommendation_agrees_with_fresh_starts(machine, convergence, spread_runner):
     """The per-start SD the sequential replication reports at a set (its starts reuse the convergence's runs)
-    against an independent estimate from 24 fresh starts (other seeds, declared here): consistent within their
-    joint sampling error (variance-ratio F test, two-sided p >= 0.001) and within a factor of 2.
+    against an independent estimate from 24 starts of a seed family the project never uses (another SeedSequence
+    entropy): consistent within their joint sampling error (variance-ratio F test, two-sided p >= 0.001) and within
+    a factor of 2, for the model's expectation and the counted field results.  (The full check, 96 fresh starts in
+    three families against the project's 32, is benchmarks/studies/seed_families.py.)
 
     Why not a fixed band of 0.67-1.5: the damage rate is right-skewed (a start whose phase misses the bond picks
     little and bruises the few it picks), and its 24-start SD itself varies from 0.20 to 0.36 between independent
@@ -180,8 +208,12 @@ def test_the_spread_at_the_recommendation_agrees_with_fresh_starts(machine, conv
     cl = machine.clearance_sizes()
     seq = sequential_starts(machine, spread_runner, cl)
     assert seq["reached"]["all_met"] or len(seq["cells"]) == machine.harvest.max_replicates
-    fresh = start_cells(machine, spread_runner, cl, [10**6 + 1000 * k for k in range(24)])
-    for n in ("efficiency", "damage"):
+    from berryshaker.config import machine_from_dict
+
+    d = machine.model_dump(mode="json")
+    d["harvest"]["seed"] = 7919
+    fresh = start_cells(machine_from_dict(d), spread_runner, cl, list(range(24)), d)
+    for n in ("efficiency", "damage", "efficiency_expected", "damage_expected"):
         a = np.array([c[n] for c in seq["cells"]])
         b = np.array([c[n] for c in fresh])
         f = a.var(ddof=1) / b.var(ddof=1)

@@ -3,7 +3,7 @@
 Claim 1 judges the means of each model's collision-force statistics over perturbed (multibody) and turned (MLSD)
 starts at level 2 (benchmarks/HISTORY.md sec. 26).  The count is converged when doubling it leaves every pair's
 verdict unchanged and moves no mean by more than its noise: here the 8-start means of the study against the 16
-starts whose first 8 they are (the seeds of harvest.virtual.replicate_seeds).  (With 8, the closest case, F's
+starts whose first 8 they are (the seeds of harvest.virtual.replicate_starts).  (With 8, the closest case, F's
 p95, is 10.9 +- 6.4 % against 20 %.)
 """
 
@@ -11,7 +11,7 @@ import numpy as np
 
 from berryshaker.config import reference_machine
 from berryshaker.experiment.clearance_sets import level_set
-from berryshaker.harvest.virtual import replicate_seeds
+from berryshaker.harvest.virtual import replicate_starts
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
 from berryshaker.experiment.agreement import model_check
 from berryshaker.study.pipeline import MODEL_CHECK_STARTS
@@ -21,8 +21,8 @@ from berryshaker.study.runs import multibody_row, reduced_row
 def test_model_check_verdicts_are_stable_when_the_starts_double():
     m = reference_machine()
     data, lvl = m.model_dump(mode="json"), level_set(m, MODEL_CHECK_LEVEL)
-    seeds = replicate_seeds(m, 2 * MODEL_CHECK_STARTS)
-    assert seeds[:MODEL_CHECK_STARTS] == replicate_seeds(m, MODEL_CHECK_STARTS)
+    seeds = replicate_starts(m, 2 * MODEL_CHECK_STARTS)
+    assert seeds[:MODEL_CHECK_STARTS] == replicate_starts(m, MODEL_CHECK_STARTS)
     mb = [multibody_row(data, lvl, 3, [s, MODEL_CHECK_LEVEL]) for s in seeds]
     ml = [reduced_row(data, lvl, 3, [s, MODEL_CHECK_LEVEL]) for s in seeds]
     study = model_check(mb[:MODEL_CHECK_STARTS], ml[:MODEL_CHECK_STARTS], m.pair_names)

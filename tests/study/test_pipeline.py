@@ -30,11 +30,9 @@ runner_cli = CliRunner()
 @pytest.fixture(scope="module")
 def fast_config(tmp_path_factory):
     # the pipeline on a cheaper machine: one branch class, two replicates, linear clearance springs
-    text = linear_spring_toml_text(reference_toml_text()).replace(
-        "branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
-        "bushes = 40 ", "bushes = 15 ").replace("replicates = 8 ", "replicates = 2 ").replace(
-        "max_replicates = 32 ", "max_replicates = 2 ").replace(
-        "tolerance_replicates = 2 ", "tolerance_replicates = 1 ")
+    from fast_machine import fast_text
+
+    text = fast_text(linear_spring_toml_text(reference_toml_text()))
     p = tmp_path_factory.mktemp("cfg") / "fast.toml"
     p.write_text(text)
     return p

@@ -5,7 +5,6 @@ reference machine's pairs are not comparable.  The study runs through, and its s
 typed records, key for key."""
 
 import json
-import re
 from pathlib import Path
 
 from typer.testing import CliRunner
@@ -18,11 +17,10 @@ EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "crank_rocker_harve
 
 def _fast(text: str) -> str:
     """The example machine, made cheap the way the reference study's pipeline test makes its machine cheap: one
-    branch class, 15 bushes, two starts per setting."""
-    text = text.replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]")
-    text = re.sub(r"(?m)^bushes = 40 ", "bushes = 15 ", text)
-    return re.sub(r"(?m)^\[harvest\]\n", "[harvest]\nreplicates = 2\nmax_replicates = 2\ntolerance_replicates = 1\n",
-                  text, count=1)
+    branch class, two starts per setting."""
+    from fast_machine import fast_text
+
+    return fast_text(text)
 
 
 def test_a_drive_without_a_reduced_model_runs_the_whole_study(tmp_path):

@@ -1,5 +1,5 @@
 """The harvest model against the published record (berryshaker.study.validation, ``berryshaker validate``) on a
-small machine (one branch class, four bushes, two starts per case): every published machine result it can
+small machine (one branch class, two starts per case): every published machine result it can
 represent gets a model value, an interval and a verdict; inputs and numbers it cannot represent say so."""
 
 import json
@@ -79,11 +79,12 @@ def test_validate_command_prints_the_table_and_json(small, runner, tmp_path):
     from importlib import resources
 
     text = (resources.files("berryshaker") / "drives" / "groove_cam" / "reference.toml").read_text("utf-8")
-    text = text.replace("branch_classes = [0.85, 1.0, 1.15]", "branch_classes = [1.0]").replace(
-        "bushes = 40 ", "bushes = 4  ")
+    from fast_machine import with_values
+
+    text = with_values(text, {"harvest.branch_classes": "[1.0]"})
     cfg = tmp_path / "small.toml"
     cfg.write_text(text, encoding="utf-8")
-    assert tomllib.loads(text)["harvest"]["bushes"] == 4
+    assert tomllib.loads(text)["harvest"]["branch_classes"] == [1.0]
     res = CliRunner().invoke(app, ["validate", "--config", str(cfg), "--replicates", "2", "--workers", "1",
                                    "--json", "--cache", str(runner.cache_dir)])
     assert res.exit_code == 0, res.output

@@ -71,7 +71,8 @@ def _bracket_units(header: str) -> str:
 
 
 def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str | Sequence[str] = (),
-                        weights: Mapping[str, float] | None = None) -> dict[str, pd.DataFrame]:
+                        weights: Mapping[str, float] | None = None, worksheet: str | None = None,
+                        desirability: str | None = None) -> dict[str, pd.DataFrame]:
     """Range analysis, ANOVA and weighted optimum of a filled field sheet, as ``berryshaker doe analyze``.
 
     A thin call of :func:`berryshaker.experiment.field_results.analyze_sheet`; the tables are those
@@ -80,14 +81,20 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
     Parameters
     ----------
     sheet : str, Path or pandas.DataFrame
-        The filled sheet: a CSV file, its text, or a DataFrame in the same layout (:func:`plan_field_sheet`'s, a
-        statistics package's worksheet with units in the header such as ``"Speed (rpm)"``).
+        The filled sheet: a CSV or .xlsx file, a CSV's text, or a DataFrame in the same layout
+        (:func:`plan_field_sheet`'s, a statistics package's worksheet with units in the header such as
+        ``"Speed (rpm)"``).  A replicated sheet that lost plots (a blank response, a deleted row) is analysed by
+        least squares on the plots present (``doe analyze``).
     maximize : str or sequence of str
         Responses where larger is better, e.g. ``"efficiency"``.
     minimize : str or sequence of str
         Responses where smaller is better, e.g. ``["unripe", "damage"]``.
     weights : dict, optional
         Weights of the composite score per response (1, each > 0; default equal).
+    worksheet : str, optional
+        The worksheet of an .xlsx workbook (``--sheet``; default its first).
+    desirability : str, optional
+        Goals of the desirability optimiser (``--desirability``), e.g. ``"efficiency=max:2..5kg/min,damage=min:0..5%"``.
 
     Returns
     -------
@@ -97,7 +104,10 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
         gives none), ``best_level``, ``anova_F [1]`` (NaN: pooled into the error) and ``p [1]``;
         ``"optimum_levels"``: per factor (index ``factor``) the ``level`` chosen (<NA>: no meaningful
         difference) and its ``setting``; ``"optimum_predicted"``: per response (index ``response``) its
-        predicted ``value`` at the optimum and its ``unit``.
+        predicted ``value`` at the optimum, its 95 % interval ``lo``, ``hi`` and its ``unit``; with ``desirability``,
+        ``"desirability_levels"`` (per factor the ``level`` and ``setting`` of the desirability optimum) and
+        ``"desirability_predicted"`` (per response ``value``, ``lo``, ``hi``, ``unit``, the goal's ``d``; its
+        ``attrs["overall"]`` is D).
 
     Raises
     ------
@@ -126,7 +136,8 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
         sheet = sheet.to_csv(index=False)
     elif isinstance(sheet, Path):
         sheet = str(sheet)
-    _, res = analyze_sheet(sheet, senses, dict(weights) if weights is not None else None)
+    _, res = analyze_sheet(sheet, senses, dict(weights) if weights is not None else None, sheet=worksheet,
+                           desirability=desirability)
     out = {}
     units = res.response_units or {}
     for stem, (header, rows) in doe_tables(res).items():
@@ -143,9 +154,21 @@ def analyze_field_sheet(sheet, maximize: str | Sequence[str] = (), minimize: str
     out["optimum_levels"] = pd.DataFrame(
         [{"factor": f, "level": n, "setting": o.settings.get(f)} for f, n in o.levels.items()],
         columns=["factor", "level", "setting"]).astype({"level": "Int64"}).set_index("factor")
+    iv = o.intervals or {}
     out["optimum_predicted"] = pd.DataFrame(
-        [{"response": r, "value": v, "unit": units.get(r, "")} for r, v in o.values.items()],
-        columns=["response", "value", "unit"]).set_index("response")
+        [{"response": r, "value": v, "lo": iv.get(r, [np.nan, np.nan])[0], "hi": iv.get(r, [np.nan, np.nan])[1],
+          "unit": units.get(r, "")} for r, v in o.values.items()],
+        columns=["response", "value", "lo", "hi", "unit"]).set_index("response")
+    d = res.desirability
+    if d is not None:
+        out["desirability_levels"] = pd.DataFrame(
+            [{"factor": f, "level": n, "setting": d.settings.get(f)} for f, n in d.levels.items()],
+            columns=["factor", "level", "setting"]).astype({"level": "Int64"}).set_index("factor")
+        out["desirability_predicted"] = pd.DataFrame(
+            [{"response": r, "value": v, "lo": d.intervals[r][0], "hi": d.intervals[r][1], "unit": units.get(r, ""),
+              "d": d.desirability[r]} for r, v in d.values.items()],
+            columns=["response", "value", "lo", "hi", "unit", "d"]).set_index("response")
+        out["desirability_predicted"].attrs["overall"] = d.overall
     return out
 
 

@@ -9,6 +9,7 @@ from typing import Optional
 import typer
 
 from berryshaker.cli.app import ConfigOpt, JsonOpt, _fail, _load, _print_json, app, command, err, out
+from berryshaker.cli.doe import SHEET_HELP
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import BerryshakerError
 
@@ -34,13 +35,18 @@ def _stage_progress(enabled: bool):
     return bar, progress
 
 
+#: level sets the console lists (the best by the recommendation's score; --json and the report have them all)
+TOP_SETS = 10
+
+
 @command(app, "calibrate")
 def calibrate(
-    sheet: Path = typer.Argument(..., help="Filled field sheet (CSV): the `doe plan` layout, or plain factor columns "
+    sheet: Optional[Path] = typer.Argument(None, help="Filled field sheet (CSV or .xlsx): the `doe plan` layout, or plain factor columns "
                                  "with a replicate or block column as a statistics package writes them.  Factors: "
                                  "clearance pairs of the machine with a length unit (A_mm, 'C (mm)') and the drive "
                                  "speed with a speed unit (speed_rpm).  Responses: efficiency_kg_min, "
                                  "unripe_rate_pct, damage_rate_pct (or the raw masses)."),
+    worksheet: Optional[str] = typer.Option(None, "--sheet", help=SHEET_HELP),
     config: Optional[Path] = ConfigOpt,
     out_dir: Optional[Path] = typer.Option(None, "--out", help="Report folder (report.html, calibration.json, tables "
                                            "as CSV and xlsx, figures): new, empty, or an earlier calibrate output; "
@@ -57,9 +63,13 @@ def calibrate(
     predict: Optional[list[str]] = typer.Option(None, "--predict", help="A further setting to predict, e.g. "
                                                 "A=0.1mm,speed=130rpm (factors of the sheet only; a factor not named "
                                                 "keeps the described value); repeat for more."),
-    discrepancy: float = typer.Option(0.0, "--discrepancy", min=0.0, max=0.99,
-                                      help="Model discrepancy: SD as a fraction of the mean, common to a run's "
-                                      "replicates (default 0 = off)."),
+    discrepancy: float = typer.Option(0.3, "--discrepancy", min=0.0, max=1.0,
+                                      help="Prior scale of the model discrepancy (a Gaussian process over the "
+                                      "settings that absorbs a measured effect the model does not produce), as a "
+                                      "fraction of the sheet's mean; 0 turns it off."),
+    saved: Optional[Path] = typer.Option(None, "--from", help="Predict from the calibration saved in this --out "
+                                         "folder (no runs, no sampling: seconds); with --predict for further "
+                                         "settings.  No sheet argument then."),
     check_settings: int = typer.Option(2, "--check-settings", min=0, max=20,
                                        help="Untested settings simulated to check the emulator's error there."),
     emulator_points: int = typer.Option(40, "--emulator-points", min=8, max=400,
@@ -80,21 +90,29 @@ def calibrate(
     (emcee), and the likelihood carries the simulator's own start-to-start noise.  Output: prior against posterior
     per parameter (identified or not, confounded pairs), posterior predictive checks on the sheet's runs and one
     held-out run, predictions with 90 % intervals of every level set of the sheet's factors (and --predict
-    settings), and a recommendation made on those intervals.  Pedicel stiffness is not calibrated.  Method and
+    settings), and a recommendation made on those intervals.  The likelihood carries a field test's own noise (the
+    model's start-to-start spread, the counting noise of a test of operation.test_duration and a further field noise
+    learnt from the sheet's replicates) and a model discrepancy, so an effect the sheet measured and the model does
+    not produce is named and the predictions follow it.  The --out folder keeps the calibration (calibration_state.npz):
+    `calibrate --from DIR --predict ...` predicts again in seconds.  Pedicel stiffness is not calibrated.  Method and
     priors: docs/calibration.md.
 
     --json keys: parameters (per name: prior, described, posterior_mean, posterior_median, lo90, hi90, width_ratio,
     identified), identified_rule, confounded, predictions (per level set: level_set, setting, tested, named,
     extrapolated, responses: per response mean, lo90, hi90, unit), recommendation, emulator (held_out_theta,
     held_out_settings: rmse, rmse_over_sd, relative_rmse, log_sd_rmse), checks (posterior_predictive, summary,
-    held_out_run), sampler, simulator, sheet, likelihood, discrepancy, limits, timings_s, version, code_sha256,
-    machine_si.
+    held_out_run), sampler, simulator, sheet, likelihood, discrepancy, discrepancies (per response: field_noise,
+    amplitude, residual_effects, verdict), limits, timings_s, version, code_sha256, machine_si.
     \f
 
     Parameters
     ----------
-    sheet : Path
-        Argument: Filled field sheet (CSV).
+    sheet : Path, optional
+        Argument: Filled field sheet (CSV or .xlsx); none with ``--from``.
+    worksheet : str, optional
+        ``--sheet``: The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet).
+        Cells are read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or
+        a boolean is refused where a number belongs.
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
     out_dir : Path, optional
@@ -115,7 +133,9 @@ def calibrate(
     predict : list of str, optional
         ``--predict``: Further settings to predict, e.g. A=0.1mm,speed=130rpm.
     discrepancy : float
-        ``--discrepancy``: Model discrepancy, SD as a fraction of the mean (0 = off).
+        ``--discrepancy``: Prior scale of the model discrepancy, a fraction of the sheet's mean (0 = off).
+    saved : Path, optional
+        ``--from``: Predict from the calibration saved in this folder.
     check_settings : int
         ``--check-settings``: Untested settings simulated to check the emulator's error there.
     emulator_points : int
@@ -127,24 +147,34 @@ def calibrate(
     try:
         from berryshaker.outputs import prepare_output_dir, provenance
         from berryshaker.runs.runner import SweepRunner
-        from berryshaker.study.field_calibration import CalibrationSettings, calibrate as run_calibration
-        from berryshaker.study.field_calibration import parse_setting, read_sheet
+        from berryshaker.study.field_calibration import STATE_FILE, CalibrationSettings, calibrate as run_calibration
+        from berryshaker.study.field_calibration import parse_setting, read_sheet, save_state
 
         machine = _load(config)
+        if saved is not None:
+            if sheet is not None:
+                raise BerryshakerError("give either a sheet to calibrate or --from DIR to predict from a saved "
+                                       "calibration, not both")
+            _predict_saved(saved, machine, predict or [], as_json)
+            return
+        if sheet is None:
+            raise BerryshakerError("give the filled field sheet to calibrate (or --from DIR to predict from a saved "
+                                   "calibration)")
         if out_dir is not None:
             prepare_output_dir(out_dir, kind="calibrate")  # refuse a folder with the user's files before any work
         if machine.plant is None:
             raise BerryshakerError("calibrate needs a [plant] block in the machine description (the harvest model "
                                    "runs on it); add one, e.g. from the reference machine (config init)")
-        fs = read_sheet(sheet, machine)
+        fs = read_sheet(sheet, machine, worksheet)
         named = [parse_setting(p, fs.targets, machine) for p in (predict or [])]
         opts = CalibrationSettings(replicates=replicates, theta_points=emulator_points, check_settings=check_settings,
                                    steps=steps, seed=seed, discrepancy=discrepancy)
         bar, progress = _stage_progress(True)
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True, console=err)
+        state: dict = {}
         with runner:
             try:
-                res = run_calibration(machine, fs, runner, opts, named, progress)
+                res = run_calibration(machine, fs, runner, opts, named, progress, state_out=state)
             finally:
                 bar.stop()
         res = replace(res, sheet=replace(res.sheet, file=str(sheet)), **provenance(machine))
@@ -155,6 +185,7 @@ def calibrate(
             with staged_directory(out_dir, kind="calibrate") as stage:
                 write_calibration_outputs(res, stage, f"Calibration to {sheet.name}")
                 write_json_atomic(stage / "calibration.json", res.to_json())
+                save_state(stage / STATE_FILE, state)
             res = replace(res, out=str(out_dir))
     except BerryshakerError as exc:
         _fail(exc)
@@ -163,6 +194,63 @@ def calibrate(
         _print_json(res.to_json())
         return
     _print_calibration(res)
+
+
+def _predict_saved(folder: Path, machine, predict: list[str], as_json: bool) -> None:
+    """``calibrate --from DIR``: the saved calibration's predictions at every level set and the ``--predict``
+    settings, printed (the best :data:`TOP_SETS`) or as JSON (``predictions``, ``recommendation``, ``from``)."""
+    import json
+
+    from berryshaker.study.field_calibration import (CalibrationResult, FactorTarget, load_state, parse_setting,
+                                                     predict_saved)
+
+    cal_file = Path(folder) / "calibration.json"
+    if not cal_file.is_file():
+        raise BerryshakerError(f"--from {folder}: no calibration.json there; give the --out folder of a calibrate run")
+    cal = CalibrationResult.from_json(json.loads(cal_file.read_text(encoding="utf-8")))
+    if cal.code_sha256 and machine.model_dump(mode="json") != cal.machine_si:
+        raise BerryshakerError(f"--from {folder}: the calibration was made with another machine description; give "
+                               "the same --config as the calibration")
+    state = load_state(folder)
+    from berryshaker.units import parse_unit, unit_dimension
+
+    targets = []
+    for name, f in cal.sheet.factors.items():
+        dim = unit_dimension(f.unit)
+        to_si = parse_unit(f.unit, dim, f"factor {name}")
+        kind, pair = ("drive_speed", "") if f.sets == "drive speed" else ("clearance", f.sets)
+        targets.append(FactorTarget(name, kind, pair, f.unit, to_si, tuple(v * to_si for v in f.levels)))
+    named = [parse_setting(p, targets, machine) for p in predict]
+    preds, rec = predict_saved(state, targets, named, machine)
+    if as_json:
+        _print_json({"from": str(folder), "predictions": [p.to_json() for p in preds], "recommendation": rec})
+        return
+    _print_predictions(preds, rec, [])
+
+
+def _print_predictions(preds, level_set: str, no_difference: list[str]) -> None:
+    """The predictions table on the console: the recommended set, the named settings and the best others (at most
+    :data:`TOP_SETS` rows in all, by the mean efficiency where the sheet has one)."""
+    from berryshaker.cli.app import print_table
+
+    def q(v):
+        return f"{v:.3g}"
+
+    responses = list(preds[0].responses) if preds else []
+    key = "efficiency" if "efficiency" in responses else (responses[0] if responses else None)
+    order = sorted(preds, key=lambda p: (p.level_set != level_set, not p.named,
+                                         -(p.responses[key].mean if key else 0.0)))
+    shown = order[:max(TOP_SETS, sum(p.named for p in preds) + 1)]
+    print_table(["level set", "tested", *[f"{r} ({preds[0].responses[r].unit})" for r in responses]],
+                [[p.level_set + (" (extrapolated)" if p.extrapolated else "") + (" (recommended)" if p.level_set
+                                                                                   == level_set else ""),
+                  "yes" if p.tested else "",
+                  *[f"{q(p.responses[r].mean)} [{q(p.responses[r].lo90)}, "
+                    f"{q(p.responses[r].hi90)}]" for r in responses]] for p in shown],
+                title=f"Predicted field result: mean [90 % interval]; the recommended set, named settings and the best "
+                      f"by {key} ({len(shown)} of {len(preds)}; --json or the report list all)")
+    out.print(f"recommended: {level_set}" + (f"; no difference beyond the intervals from {len(no_difference)} other "
+                                              "level set(s)" if no_difference else ""), markup=False, highlight=False)
 
 
 def _print_calibration(res) -> None:
@@ -182,16 +270,10 @@ def _print_calibration(res) -> None:
         out.print("confounded: " + "; ".join(f"{c.parameters[0]} with {c.parameters[1]} (r = "
                                              f"{c.correlation:+.2f})" for c in res.confounded),
                   markup=False, highlight=False)
-    responses = list(res.predictions[0].responses) if res.predictions else []
-    print_table(["level set", "tested", *[f"{r} ({res.predictions[0].responses[r].unit})" for r in responses]],
-                [[p.level_set + (" (extrapolated)" if p.extrapolated else ""), "yes" if p.tested else "",
-                  *[f"{q(p.responses[r].mean)} [{q(p.responses[r].lo90)}, "
-                    f"{q(p.responses[r].hi90)}]" for r in responses]] for p in res.predictions],
-                title="Predicted field result: mean [90 % interval]")
+    for r, d in res.discrepancies.items():
+        out.print(f"{r}: {d.verdict}", markup=False, highlight=False)
     rec = res.recommendation
-    out.print(f"recommended: {rec.level_set}" + (f"; no difference beyond the intervals from "
-                                                 f"{', '.join(rec.no_difference)}" if rec.no_difference else ""),
-              markup=False, highlight=False)
+    _print_predictions(res.predictions, rec.level_set, rec.no_difference)
     s = res.checks.summary
     em = res.emulator.held_out_theta
     out.print(f"checks: {s.inside} of {s.total} run means inside their 90 % predictive interval; emulator "

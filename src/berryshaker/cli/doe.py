@@ -22,6 +22,7 @@ from berryshaker.cli.app import (
     _load,
     _print_json,
 )
+from berryshaker.cli.doe_print import _print_doe
 from berryshaker.cli.study import SCHEDULER_HELP
 
 
@@ -91,8 +92,9 @@ def doe_plan(
     array: str = typer.Option("L9", "--array", help="L4, L8, L9, L16, L18 or L27."),
     factor: list[str] = typer.Option(..., "--factor", help="NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; "
                                      "repeat."),
-    randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of all runs x replicates "
-                                   "(needs --seed)."),
+    randomize: bool = typer.Option(False, "--randomize", help="Randomise the test order of the runs within each "
+                                   "replicate (needs --seed): replicate k is tested whole before replicate k + 1, as "
+                                   "`doe analyze` reads it as block k (a field day, a row of bushes)."),
     replicates: Optional[int] = typer.Option(None, "--replicates", min=1, help="Times each run is tested (rows = runs "
                                              "x replicates, numbered in a 'replicate' column; >= 2 lets `doe analyze` "
                                              "judge effects against the replicate spread). Default: harvest.replicates "
@@ -115,7 +117,8 @@ def doe_plan(
     factor : list[str]
         ``--factor``: NAME=v1,v2,v3[unit], e.g. A=0.25,0.5,0.75mm; repeat.
     randomize : bool
-        ``--randomize``: Randomise the test order of all runs x replicates (needs --seed).
+        ``--randomize``: Randomise the test order of the runs within each replicate (needs --seed): replicate k is
+        tested whole before replicate k + 1, as `doe analyze` reads it as block k (a field day, a row of bushes).
     replicates : int, optional
         ``--replicates``: Times each run is tested (rows = runs x replicates, numbered in a 'replicate' column; >= 2
         lets `doe analyze` judge effects against the replicate spread). Default: harvest.replicates of --config (the
@@ -164,21 +167,37 @@ def doe_plan(
               f"{len(df)} rows)", markup=False, highlight=False)
 
 
+#: resolution of the figures embedded in ``doe analyze --out *.html`` (sharp on screen and on A4; --plot keeps 300 dpi)
+PAGE_DPI = 150
+
+SHEET_HELP = ("The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet). Cells are "
+              "read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or a "
+              "boolean is refused where a number belongs.")
+
+DESIRABILITY_HELP = ("Derringer-Suich desirability optimiser beside the weighted optimum: per response a goal and its "
+                     "limits with the response's unit, e.g. efficiency=max:2..5kg/min,damage=min:0..5%,"
+                     "unripe=target:1..2..4% (d = 0 outside the limits, 1 at or beyond the better one; D their "
+                     "geometric mean, maximised over every level set of the factors).")
+
+
 @command(doe_app, "analyze")
 def doe_analyze(
-    results: Path = typer.Argument(..., help="Filled field sheet (CSV): `doe plan` columns, plain factor "
+    results: Path = typer.Argument(..., help="Filled field sheet (CSV or .xlsx): `doe plan` columns, plain factor "
                                    "columns holding level values, or a statistics package's worksheet (Minitab: "
                                    "StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated settings are "
                                    "replicates; units in the header, e.g. 'Speed (rpm)')."),
+    sheet: Optional[str] = typer.Option(None, "--sheet", help=SHEET_HELP),
     maximize: str = typer.Option("", "--maximize", help="Responses where larger is better, e.g. efficiency."),
     minimize: str = typer.Option("", "--minimize", help="Responses where smaller is better, e.g. unripe,damage."),
     weights: Optional[str] = typer.Option(None, "--weights", help="Weights of the composite score, e.g. "
                                           "efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a response left out "
                                           "gets no weight). Default: equal weights."),
+    desirability: Optional[str] = typer.Option(None, "--desirability", help=DESIRABILITY_HELP),
     as_json: bool = JsonOpt,
     plot: Optional[Path] = typer.Option(None, "--plot", help="Main-effect plots and response surfaces (PNG)."),
     report: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the analysis to a file: *.html "
-                                          "(printable report) or *.json."),
+                                          "(printable, self-contained: figures embedded, ANOVA tables, the optimum's "
+                                          "intervals) or *.json."),
     force: bool = typer.Option(False, "--force", help="Replace an existing --out file."),
 ):
     """Range analysis, weighted optimum, ANOVA and the eq. 19 regression of a field test.
@@ -189,16 +208,23 @@ def doe_analyze(
     against the run x block interaction, paired differences between levels with their standard errors, 95 %
     intervals, and an optimum that leaves a factor at "no meaningful difference" where no weighted response
     differs significantly (--json: replicated, text, block_column).  Replicate numbers that are not real blocks
-    cost the analysis r - 1 error degrees of freedom and nothing else.
-    Without replicates the weakest factor is pooled into the error.
+    cost the analysis r - 1 error degrees of freedom and nothing else.  A replicated sheet that lost plots (a blank
+    response cell, a deleted row) is analysed by least squares on the plots present (Type II sums of squares,
+    least-squares level means; the lost plots and error degrees of freedom are stated, --json: lost_plots).
+    Without replicates the weakest factor is pooled into the error.  A sheet too small to analyse (one run, a factor
+    with one level, no error degrees of freedom) is refused with the reason.
     \f
 
     Parameters
     ----------
     results : Path
-        Argument: Filled field sheet (CSV): `doe plan` columns, plain factor columns holding level values, or a
-        statistics package's worksheet (Minitab: StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated
+        Argument: Filled field sheet (CSV or .xlsx): `doe plan` columns, plain factor columns holding level values,
+        or a statistics package's worksheet (Minitab: StdOrder, RunOrder, PtType, Blocks are bookkeeping; repeated
         settings are replicates; units in the header, e.g. 'Speed (rpm)').
+    sheet : str, optional
+        ``--sheet``: The worksheet of an .xlsx workbook, by the name on its tab (default: the first worksheet).
+        Cells are read as strictly as a CSV's: a formula is an error naming the cell (paste the values), a date or
+        a boolean is refused where a number belongs.
     maximize : str
         ``--maximize``: Responses where larger is better, e.g. efficiency.
     minimize : str
@@ -206,12 +232,18 @@ def doe_analyze(
     weights : str, optional
         ``--weights``: Weights of the composite score, e.g. efficiency=0.5,damage=0.3,unripe=0.2 (each > 0; a
         response left out gets no weight). Default: equal weights.
+    desirability : str, optional
+        ``--desirability``: Derringer-Suich desirability optimiser beside the weighted optimum: per response a goal
+        and its limits with the response's unit, e.g. efficiency=max:2..5kg/min,damage=min:0..5%,
+        unripe=target:1..2..4% (d = 0 outside the limits, 1 at or beyond the better one; D their geometric mean,
+        maximised over every level set of the factors).
     as_json : bool
         ``--json``: Print one JSON object on stdout instead of tables.
     plot : Path, optional
         ``--plot``: Main-effect plots and response surfaces (PNG).
     report : Path, optional
-        ``--out``: Write the analysis to a file: ``*.html`` (printable report) or ``*.json``.
+        ``--out``: Write the analysis to a file: ``*.html`` (printable, self-contained: figures embedded, ANOVA
+        tables, the optimum's intervals) or ``*.json``.
     force : bool
         ``--force``: Replace an existing --out file.
     """
@@ -230,7 +262,7 @@ def doe_analyze(
 
             prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
-        fr, res = analyze_sheet(results, senses, _parse_weights(weights))
+        fr, res = analyze_sheet(results, senses, _parse_weights(weights), sheet=sheet, desirability=desirability)
         extra = {"results_file": str(results), "version": __version__}  # the JSON's keys after the analysis'
         if plot is not None:
             from berryshaker.outputs import staged_directory
@@ -248,10 +280,18 @@ def doe_analyze(
             if report.suffix.lower() == ".json":
                 write_json_atomic(report, {**res.to_json(), **extra, "provenance": provenance(results_file=str(results))})
             else:
-                from berryshaker.report.html import doe_report
+                import tempfile
 
-                write_text_atomic(report, doe_report(res, f"Field test analysis: {results.name}",
-                                                     results_file=str(results), version=__version__))
+                from berryshaker.report.doe_page import doe_report
+                from berryshaker.report.plots import write_doe_figures
+                from berryshaker.report.plots.figure_files import figure_output
+
+                with tempfile.TemporaryDirectory(prefix="berryshaker-doe-") as figs:  # embedded, then removed
+                    with figure_output(dpi=PAGE_DPI, svg=False):
+                        write_doe_figures(fr, res, Path(figs))
+                    page = doe_report(res, f"Field test analysis: {results.name}", results_file=str(results),
+                                      version=__version__, figures=Path(figs))
+                write_text_atomic(report, page)
             extra["out"] = str(report)
     except BerryshakerError as exc:
         _fail(exc)
@@ -264,81 +304,6 @@ def doe_analyze(
         err.print(f"wrote {p}", markup=False, highlight=False)
     if extra.get("out"):
         err.print(f"wrote {extra['out']}", markup=False, highlight=False)
-
-
-def _decimals(values) -> int:
-    """Decimals that give the largest |value| of a group four significant digits; the whole group is printed
-    with them, so 3 and 3.65 read "3.000" and "3.650", never "3" beside "3.65"."""
-    import math
-
-    vals = [abs(float(v)) for v in values if v is not None and math.isfinite(float(v))]
-    top = max(vals, default=0.0)
-    if top == 0.0:
-        return 3
-    return max(0, min(6, 3 - int(math.floor(math.log10(top)))))
-
-
-def _unit(response: str, res=None) -> str:
-    """" <unit>" of a response: the sheet's own (``res.response_units``) before the package's defaults."""
-    from berryshaker.report.style import RESPONSE_UNITS
-
-    own = getattr(res, "response_units", None) or {}
-    u = {**RESPONSE_UNITS, **{k: v for k, v in own.items() if v}}.get(response, "")
-    return f" {u}" if u else ""
-
-
-def weights_text(res) -> str:
-    """The composite's weights as one line, e.g. "efficiency 0.50, damage 0.30, unripe 0.20 (given, scaled
-    to sum 1)".
-
-    Parameters
-    ----------
-    res : DoeAnalysis or SheetReplicatedAnalysis
-        A DOE analysis (:func:`berryshaker.experiment.field_results.analyze_sheet`) with ``weights`` (response ->
-        weight, (1)) and ``weights_given``.
-
-    Returns
-    -------
-    str
-        "name weight, ..." with the weights to two decimals, and whether they were given or equal.
-    """
-    how = "given with --weights, scaled to sum 1" if res.weights_given else "equal: no --weights given"
-    return ", ".join(f"{k} {v:.2f}" for k, v in res.weights.items()) + f" ({how})"
-
-
-def _print_doe(res) -> None:
-    from berryshaker.experiment.replicated_records import ReplicatedAnalysis
-
-    for name, ra in res.responses.items():
-        nlev = len(next(iter(ra.factors.values())).level_means)
-        rows = []
-        an = ra.anova.factors
-        dec = _decimals([v for d in ra.factors.values() for v in d.level_means])
-        for f, d in ra.factors.items():
-            a = an.get(f)
-            rep = res.factors.get(f)
-            best = str(d.best_level) + (f" ({rep.labels[d.best_level - 1]})" if rep and rep.labels
-                                         and rep.values is not None else "")
-            rows.append([f, *[f"{v:.{dec}f}" for v in d.level_means], f"{d.range:.{dec}f}", best,
-                         f"{a.f:.3g}" if a else "pooled", f"{a.p:.3g}" if a else ""])
-        print_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best", "ANOVA F", "p"], rows,
-                    title=f"{name}{_unit(name, res)} ({'maximise' if ra.maximize else 'minimise'}): range analysis")
-        reg = ra.regression
-        out.print(f"  ranking {' > '.join(ra.ranking)}; eq. 19 full quadratic: rank {reg.full_model_rank} "
-                  f"of {len(reg.full_model_terms)} terms, aliased: {', '.join(reg.aliased_terms) or 'none'}; "
-                  f"main-effects quadratic R² = {reg.main_effects_quadratic.r2:.3f} with "
-                  f"{reg.main_effects_quadratic.residual_df} residual df", markup=False)
-    o = res.optimum
-    settings = o.settings or {}
-    lv = " ".join((f"{f}{n}" if n is not None else f"{f}: no meaningful difference")
-                  + (f" ({settings[f]})" if n is not None and settings.get(f) and not str(settings[f]).startswith(
-                      "level") else "") for f, n in o.levels.items())
-    pred = ", ".join(f"{k} {v:.{_decimals([v])}f}{_unit(k, res)}" for k, v in o.values.items())
-    out.print(f"[bold]weighted optimum[/]: {lv}; predicted {pred}", highlight=False)
-    out.print(f"weights: {weights_text(res)}", markup=False, highlight=False)
-    if isinstance(res, ReplicatedAnalysis):  # replicated sheet: effects judged against the replicate spread
-        out.print(f"{res.runs} runs x {res.replicates} replicates; {res.significance_rule}", markup=False,
-                  highlight=False)
 
 
 @command(doe_app, "virtual")
@@ -360,21 +325,28 @@ def doe_virtual(
 ):
     """The study's L9 clearance test run through the virtual harvest, replicated, and analysed against its noise.
 
-    Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates): start k uses
-    seed + 1000 k for the bushes and for the machine's initial state (eccentricity in every clearance, drive phase
-    at the bush), the same starts for every run, and the analysis treats start k as block k (randomised complete
-    blocks: paired differences between levels, F tests against the run x start interaction).  The recommended set's
-    starts are then extended until every harvest response's mean is known to harvest.se_target of itself (at most
-    harvest.max_replicates); its intervals and per-start SDs come from all of them.  One coupled run per branch
-    class and start goes through the cached sweep runner (a repeat is instant).
+    Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates); each start is one
+    virtual field test: the machine's initial state (eccentricity in every clearance, drive phase at the bush) in
+    every branch class's drive-past, and the bushes a test of operation.test_duration passes with every fruit
+    counted (each kind of draw from its own stream of the seed family harvest.seed).  The same starts serve every
+    run, and the analysis treats start k as block k: each factor is tested against its own interaction with the
+    starts (one verdict per factor and response, also in the paired differences), and beside every effect of the
+    model's expectation stands how many field tests per level it would take to see it.  The recommended set's starts
+    are then extended until every harvest response's expected mean is known to harvest.se_target of itself (at
+    most harvest.max_replicates).  One coupled run per branch class and start goes through the cached sweep runner
+    (a repeat is instant).
 
     --convergence prints how the mean and the SD of each harvest response settle with the number of starts (the
-    study that chose harvest.replicates); --json keys: table (response -> rows -> n -> mean, se, sd, sd_se,
-    sd_relative_error, stable), chosen, configured, rule, seeds, values.
+    study that chose harvest.replicates), for the model's expectation (<name>_expected: the model's spread) and the
+    counted field results (the field's spread), and whether two further seed families give the same spreads;
+    --json keys: table (response -> rows -> n -> mean, se, sd, sd_se, sd_relative_error, stable), chosen, configured,
+    rule, seeds, values, families (per response: sd per family, ratio, ratio_ci, levene_p, agree).
 
     --json keys: runs (levels, clearance_mm, replicate means of efficiency/unripe/damage, replicates: per
-    response {mean, sd, ci, n}); responses (range analysis of the means); replicated (ANOVA against the blocked
-    error: responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
+    response {mean, sd, ci, n} of the counted field results, expected: the model's expectation {mean, sd, ci, n});
+    detectability (response -> factor -> effect, effect_se, field_sd, tests_per_level, l9_replicates); responses
+    (range analysis of the means); replicated (ANOVA, each factor against its own interaction with the starts:
+    responses -> factors -> level_means, level_ci, range_ci, p, significant; significance_rule;
     optimum with choices and tiers; perturbation; seeds); optimum (the recommended levels, decided_levels,
     rule in method, tiered_levels); paired (response -> factor -> the paired difference of the extreme levels,
     e.g. A3 - A1: difference, se, ci, p, beyond_noise); recommended (levels, code, clearance_mm, virtual_harvest,
@@ -492,6 +464,26 @@ def doe_virtual(
     tc = res.get("tolerance_check") or {}
     if tc.get("done"):
         out.print(f"solver tolerance: {tc['statement']}", markup=False, highlight=False)
+    _print_detectability(res)
+
+
+def _print_detectability(res: dict) -> None:
+    """Per harvest response and factor: the model's effect and the field tests per level that would see it."""
+    det = res.get("detectability") or {}
+    if not det:
+        return
+    units = res.get("response_units", {})
+    rows = []
+    for n, per in det.items():
+        for p, d in per.items():
+            sig = res["replicated"]["responses"].get(n, {}).get("factors", {}).get(p, {}).get("significant")
+            tests = d["tests_per_level"]
+            rows.append([n, p, f"{d['effect']:.3g} ± {d['effect_se']:.2g} {units.get(n, '')}",
+                         "differs" if sig else "no difference", f"{d['field_sd']:.3g}",
+                         "-" if tests is None else (">10,000" if tests > 1e4 else f"{tests:.0f}")])
+    print_table(["response", "factor", "model effect (range ± SE)", "verdict", "SD of one field test",
+                 "field tests per level to see it"], rows,
+                title="What a field test would see (two-sided t test, alpha 0.05, power 0.8)")
 
 
 def _start_counts(text: str) -> tuple[int, ...]:

@@ -487,11 +487,14 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
 
 # ---- effects, residuals and interactions as Minitab draws them (issue 45) ---------------------------------------
 def _observations(levels: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Levels per observation (runs x replicates flattened, run by run) and the observations."""
+    """Levels per observation (runs x replicates flattened, run by run) and the observations; lost plots (NaN) left
+    out."""
     y = np.asarray(y, float)
     levels = np.asarray(levels, int)
     r = 1 if y.ndim == 1 else y.shape[1]
-    return np.repeat(levels, r, axis=0), y.reshape(-1)
+    lv, obs = np.repeat(levels, r, axis=0), y.reshape(-1)
+    keep = ~np.isnan(obs)  # a lost plot (NaN) is no observation
+    return (lv, obs) if keep.all() else (lv[keep], obs[keep])
 
 
 def polynomial_contrasts(n_per_level) -> np.ndarray:
@@ -547,7 +550,8 @@ def lenth_pse(estimates) -> float:
 
 
 def standardized_effects(levels: np.ndarray, y: np.ndarray, factor_names: list[str], error_ms: float | None,
-                         error_df: int | None, alpha: float = 0.05) -> dict:
+                         error_df: int | None, alpha: float = 0.05,
+                         factor_errors: dict[str, tuple[float, int]] | None = None) -> dict:
     """Standardized effects of an orthogonal test: every factor's orthogonal polynomial contrasts (linear, quadratic,
     ...) as t statistics, for a Pareto chart of standardized effects.
 
@@ -565,6 +569,9 @@ def standardized_effects(levels: np.ndarray, y: np.ndarray, factor_names: list[s
         m / 3 degrees of freedom for m contrasts.
     alpha : float
         Significance level of the reference line t(1 - alpha/2, df).
+    factor_errors : dict of str to (float, int), optional
+        Per factor the error its own test uses (a blocked analysis: its interaction with the blocks; mean square in
+        the unit of y squared, dof): its contrasts are standardized by it, so the chart's verdicts are the ANOVA's.
 
     Returns
     -------
@@ -594,14 +601,20 @@ def standardized_effects(levels: np.ndarray, y: np.ndarray, factor_names: list[s
     else:
         se = lenth_pse([r["estimate"] for r in rows])
         ms, df, method = se**2, max(1, len(rows) // 3), "Lenth's pseudo standard error (no error degrees of freedom)"
+    dfs = [df]
     for r in rows:
         r.pop("scale")
-        r["se"] = float(se)
-        r["t"] = float(r["estimate"] / se) if se > 0 else (float("inf") if r["estimate"] else 0.0)
-        r["p"] = float(2 * stats.t.sf(abs(r["t"]), df))
+        own = (factor_errors or {}).get(r["factor"])
+        s_r, df_r = (float(np.sqrt(own[0])), int(own[1])) if own and own[1] and own[0] > 0 else (se, df)
+        dfs.append(df_r)
+        r["se"] = float(s_r)
+        r["t"] = float(r["estimate"] / s_r) if s_r > 0 else (float("inf") if r["estimate"] else 0.0)
+        r["p"] = float(2 * stats.t.sf(abs(r["t"]), df_r))
         r["significant"] = bool(r["p"] < alpha)
+    if factor_errors:
+        method = "each factor's own error (its interaction with the blocks)"
     return {"terms": rows, "error": {"ms": ms, "df": df, "method": method},
-            "critical_t": float(stats.t.ppf(1 - alpha / 2, df)), "alpha": alpha}
+            "critical_t": float(stats.t.ppf(1 - alpha / 2, min(dfs[1:] or dfs))), "alpha": alpha}
 
 
 def main_effect_residuals(levels: np.ndarray, y: np.ndarray, factor_names: list[str], terms: list[str] | None = None,

@@ -61,34 +61,6 @@ class FactorEffect(JsonRecord):
 
 
 @dataclass(frozen=True)
-class AnovaTerm(JsonRecord):
-    """One factor's row of an ANOVA table.
-
-    Attributes
-    ----------
-    ss : float
-        Sum of squares (the response's unit squared).
-    df : int
-        Degrees of freedom.
-    ms : float
-        Mean square (the response's unit squared).
-    f : float
-        F ratio against the error (dimensionless).
-    p : float
-        p-value of the F test (dimensionless).
-    significant : bool, optional
-        p < alpha (the replicated analysis only).
-    """
-
-    ss: float
-    df: int
-    ms: float
-    f: float
-    p: float
-    significant: bool | None = optional()
-
-
-@dataclass(frozen=True)
 class ErrorTerm(JsonRecord):
     """An error (or lack-of-fit) line of an ANOVA table.
 
@@ -114,6 +86,38 @@ class ErrorTerm(JsonRecord):
     kind: str | None = optional()
     f: float | None = optional()
     p: float | None = optional()
+
+
+@dataclass(frozen=True)
+class AnovaTerm(JsonRecord):
+    """One factor's row of an ANOVA table.
+
+    Attributes
+    ----------
+    ss : float
+        Sum of squares (the response's unit squared).
+    df : int
+        Degrees of freedom.
+    ms : float
+        Mean square (the response's unit squared).
+    f : float
+        F ratio against the error (dimensionless).
+    p : float
+        p-value of the F test (dimensionless).
+    significant : bool, optional
+        p < alpha (the replicated analysis only).
+    error : ErrorTerm, optional
+        The error this factor is tested against (the replicated analysis only: its own interaction with the
+        blocks, or the pure error).
+    """
+
+    ss: float
+    df: int
+    ms: float
+    f: float
+    p: float
+    significant: bool | None = optional()
+    error: ErrorTerm | None = optional()
 
 
 @dataclass(frozen=True)
@@ -314,12 +318,103 @@ class RangeOptimum(JsonRecord):
         Predicted value per response (the response's unit).
     prediction : str
         The prediction model in words.
+    intervals : dict of str to list of float, optional
+        Each predicted value's interval (the response's unit; a field sheet's analysis: the pooled error over
+        Taguchi's effective number of replications, :func:`berryshaker.experiment.desirability.level_set_prediction`).
     """
 
     levels: dict[str, int]
     settings: dict[str, str]
     values: dict[str, float]
     prediction: str
+    intervals: dict[str, list[float]] | None = optional()
+
+
+@dataclass(frozen=True)
+class Goal(JsonRecord):
+    """One response's goal in the desirability optimiser (``--desirability efficiency=max:2..5kg/min``;
+    :func:`berryshaker.experiment.desirability.parse_desirability`).
+
+    Attributes
+    ----------
+    goal : str
+        "maximize", "minimize" or "target".
+    low : float
+        Lower limit (the response's unit in the sheet, ``unit``).
+    high : float
+        Upper limit (the response's unit).
+    target : float, optional
+        The target (the response's unit); "target" goals only.
+    unit : str
+        The response's unit ('' for none); the limits were given in it or converted to it.
+    """
+
+    goal: str
+    low: float
+    high: float
+    target: float | None = optional()
+    unit: str = ""
+
+
+@dataclass(frozen=True)
+class DesirabilityCandidate(JsonRecord):
+    """A level set and its overall desirability.
+
+    Attributes
+    ----------
+    levels : dict of str to int or None
+        Level (1-based) per factor; None: the factor changes none of the goals' predictions.
+    overall : float
+        Overall desirability D (dimensionless, 0..1).
+    """
+
+    levels: dict[str, int | None]
+    overall: float
+
+
+@dataclass(frozen=True)
+class DesirabilityOptimum(JsonRecord):
+    """The Derringer-Suich desirability optimum over the level sets of the factors
+    (:func:`berryshaker.experiment.desirability.desirability_optimum`).
+
+    Attributes
+    ----------
+    goals : dict of str to Goal
+        Per response its goal and limits.
+    levels : dict of str to int or None
+        The best level set (1-based); None for a factor that changes none of the goals' predictions, and for every
+        factor when no level set meets every goal's limits (``overall`` 0).
+    settings : dict of str to str or None
+        Its label per factor.
+    values : dict of str to float
+        Predicted mean per goal response there (the response's unit).
+    intervals : dict of str to list of float
+        Its interval (the response's unit).
+    desirability : dict of str to float
+        Each goal's desirability d_i there (dimensionless, 0..1).
+    overall : float
+        The overall desirability D, the geometric mean of the d_i (dimensionless).
+    ties : int
+        Level sets with the same D.
+    candidates : list of DesirabilityCandidate
+        The best level sets, best first (at most five).
+    method : str
+        The rule in words.
+    note : str
+        What the result does not tell ('' when nothing).
+    """
+
+    goals: dict[str, Goal]
+    levels: dict[str, int | None]
+    settings: dict[str, str | None]
+    values: dict[str, float]
+    intervals: dict[str, list[float]]
+    desirability: dict[str, float]
+    overall: float
+    ties: int
+    candidates: list[DesirabilityCandidate]
+    method: str
+    note: str
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -347,6 +442,8 @@ class DoeAnalysis(JsonRecord):
         Unit per response ('' where the sheet gives none).
     runs_identified_by : str, optional
         How the sheet's runs were told apart.
+    desirability : DesirabilityOptimum, optional
+        The desirability optimum (``doe analyze --desirability``).
     """
 
     responses: dict[str, RangeAnalysis]
@@ -358,7 +455,9 @@ class DoeAnalysis(JsonRecord):
     weights_given: bool | None = optional()
     response_units: dict[str, str] | None = optional()
     runs_identified_by: str | None = optional()
+    desirability: DesirabilityOptimum | None = optional()
 
 
-__all__ = ["Anova", "AnovaTerm", "CodedRange", "CompositeScore", "DoeAnalysis", "ErrorTerm", "FactorEffect",
+__all__ = ["Anova", "AnovaTerm", "CodedRange", "CompositeScore", "DesirabilityCandidate", "DesirabilityOptimum",
+           "DoeAnalysis", "Goal", "ErrorTerm", "FactorEffect",
            "FactorLevels", "MainQuadratic", "RangeAnalysis", "RangeOptimum", "Regression", "RidgeQuadratic"]

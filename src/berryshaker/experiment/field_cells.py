@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import io
 import re
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
@@ -25,10 +23,12 @@ _CELL = re.compile(r"^\s*([-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?)\s*([A-Z
 class _Sheet:
     """The raw sheet (all cells as text) with the helpers that read cells and name them in errors."""
 
-    def __init__(self, df: pd.DataFrame, decimal_comma: bool, sep: str):
+    def __init__(self, df: pd.DataFrame, decimal_comma: bool, sep: str, label: str = "results CSV"):
         self.df = df
         self.decimal_comma = decimal_comma
         self.sep = sep
+        #: how messages name the sheet: "results CSV", or "results sheet 'Plots'" of a workbook
+        self.label = label
         self.run_label: list[str | None] = [None] * len(df)
         self.adopted_units: dict[str, str] = {}
         #: units read from the header ("Speed (rpm)", "Speed [r/min]") or a units row, per (bare) column name
@@ -37,18 +37,33 @@ class _Sheet:
         self.original: dict[str, str] = {c: c for c in df.columns}
         #: line of the file of data row 0 (header = line 1; a units row below it moves the data one line down)
         self.first_line = 2
+        #: a workbook's row number of each data row (None for a CSV: ``first_line`` + row)
+        self.lines: list[int] | None = None
+        #: a workbook's worksheet name and column index per (bare) column name, for cell names ('Plots'!C5)
+        self.worksheet: str | None = None
+        self.column_index: dict[str, int] = {}
+        #: a workbook's cells that were dates, times or booleans there ("date", ...; None elsewhere), like ``df``
+        self.marks: pd.DataFrame | None = None
 
     def line(self, i: int) -> int:
-        """Line of the file of data row ``i`` (header = line 1)."""
+        """Line of the file (a workbook's row number) of data row ``i`` (header = line 1 in a CSV)."""
+        if self.lines is not None and 0 <= i < len(self.lines):
+            return self.lines[i]
         return i + self.first_line
 
     def row(self, i: int) -> str:
         """"results CSV row N (run R...)" of data row ``i``."""
         label = self.run_label[i] if i < len(self.run_label) else None
-        return f"results CSV row {self.line(i)}" + (f" ({label})" if label else "")
+        return f"{self.label} row {self.line(i)}" + (f" ({label})" if label else "")
 
     def where(self, i: int, col: str) -> str:
-        return f"{self.row(i)}, column {self.original.get(col, col)!r}"
+        """"results CSV row N (run R), column 'X'" (a workbook's cell name after it) of data row ``i``."""
+        text = f"{self.row(i)}, column {self.original.get(col, col)!r}"
+        if self.worksheet is not None and col in self.column_index:
+            from berryshaker.experiment.sheet_files import cell_name
+
+            text += f" (cell {cell_name(self.worksheet, self.line(i), self.column_index[col])})"
+        return text
 
     def text(self, col: str) -> pd.Series:
         return self.df[col]
@@ -61,6 +76,14 @@ class _Sheet:
         """
         s = self.df[col]
         empty = np.array(s.isna(), dtype=bool)
+        if self.marks is not None and col in self.marks.columns:
+            marked = np.flatnonzero(self.marks[col].notna().to_numpy() & ~empty)
+            if len(marked):
+                i = int(marked[0])
+                kind = self.marks[col].iloc[i]
+                raise ConfigError(f"{self.where(i, col)}: {s.iloc[i]!r} is a {kind} in the workbook where a number "
+                                  "belongs (a spreadsheet can turn '3.5' into a date); format the column as a number "
+                                  "and type the value again")
         t = s.fillna("")
         if self.decimal_comma:
             both = t.str.contains(",", regex=False) & t.str.contains(".", regex=False)
@@ -84,7 +107,9 @@ class _Sheet:
                 empty[i] = True
                 continue
             hint = ""
-            if "," in cell and not self.decimal_comma:
+            if "," in cell and self.worksheet is not None:
+                hint = "; decimal comma? type the number as a number in the workbook (3.9)"
+            elif "," in cell and not self.decimal_comma:
                 hint = ("; decimal comma? this sheet is comma-separated, so write 3.9, or save it with ';' as the "
                         "separator (then decimal commas are read)")
             elif m and m.group(2):
@@ -103,14 +128,17 @@ def _unit_factor(unit: str, target: str, where: str) -> float:
     return unit_factor(unit, target, where)
 
 
-def sheet_table(path_or_text) -> pd.DataFrame:
-    """A results sheet's cells as text, read as ``doe analyze`` reads it (UTF-8 with or without a byte-order mark,
-    the separator of its header: comma, semicolon or tab; empty lines skipped).
+def sheet_table(path_or_text, sheet: str | None = None) -> pd.DataFrame:
+    """A results sheet's cells as text, read as ``doe analyze`` reads it: a CSV (UTF-8 with or without a byte-order
+    mark, the separator of its header: comma, semicolon or tab; empty lines skipped) or a worksheet of an .xlsx
+    workbook (:mod:`berryshaker.experiment.sheet_files`: formulas refused, never evaluated).
 
     Parameters
     ----------
     path_or_text : str or Path
-        The CSV file, or its text (a string with a line break).
+        The CSV or .xlsx file, or a CSV's text (a string with a line break).
+    sheet : str, optional
+        The worksheet of a workbook (default its first); refused for a CSV.
 
     Returns
     -------
@@ -120,21 +148,38 @@ def sheet_table(path_or_text) -> pd.DataFrame:
     Raises
     ------
     ConfigError
-        The file is missing, unreadable, empty or not a table.
+        The file is missing, unreadable, not a regular file, too large, empty or not a table.
     """
-    return _load_sheet(path_or_text).df
+    return _load_sheet(path_or_text, sheet).df
 
 
-def _load_sheet(path_or_text) -> _Sheet:
+def _load_sheet(path_or_text, sheet: str | None = None) -> _Sheet:
+    from berryshaker.experiment.sheet_files import read_sheet_bytes, read_workbook, sheet_kind
+
+    if isinstance(path_or_text, str) and "\n" in path_or_text:
+        if sheet is not None:
+            raise ConfigError(f"--sheet {sheet!r} names a worksheet of a workbook; the results are CSV text")
+        return _csv_sheet(path_or_text)
+    data = read_sheet_bytes(path_or_text)  # the one check of the file: regular, bounded, opened without blocking
+    kind = sheet_kind(data)
+    if kind == "xls":
+        raise ConfigError(f"{path_or_text} is a legacy Excel workbook (.xls); save it as .xlsx (Excel Workbook) or as "
+                          "CSV UTF-8 and analyse that")
+    if kind == "xlsx":
+        wb = read_workbook(data, sheet, str(path_or_text), MAX_ROWS)
+        return _workbook_sheet(wb)
+    if sheet is not None:
+        raise ConfigError(f"--sheet {sheet!r} names a worksheet of a workbook; {path_or_text} is a CSV (leave --sheet "
+                          "out)")
     try:
-        if isinstance(path_or_text, str) and "\n" in path_or_text:
-            text = path_or_text
-        else:
-            text = Path(path_or_text).read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise ConfigError(f"results file not found: {path_or_text}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read the results file {path_or_text} ({exc}); save it as UTF-8 CSV") from None
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ConfigError(f"cannot read the results file {path_or_text} ({exc}); save it as UTF-8 CSV or as .xlsx") \
+            from None
+    return _csv_sheet(text)
+
+
+def _csv_sheet(text: str) -> _Sheet:
     text = text.lstrip("\ufeff")
     header = next((ln for ln in text.splitlines() if ln.strip()), "")
     if not header:
@@ -149,41 +194,78 @@ def _load_sheet(path_or_text) -> _Sheet:
     names = [str(h).strip() for h in next(iter(pd.read_csv(io.StringIO(header), sep=sep, header=None, dtype=str,
                                                            keep_default_na=False)
                                                 .itertuples(index=False, name=None)))]
+    return _table_sheet(df, names, "results CSV", sep)
+
+
+def _workbook_sheet(wb) -> _Sheet:
+    """The :class:`_Sheet` of a worksheet read by :func:`berryshaker.experiment.sheet_files.read_workbook`."""
+    names = [str(h).strip() for h in wb.header]
+    df = pd.DataFrame(wb.rows, columns=[f"#{j}" for j in range(len(names))], dtype=object) if wb.rows else \
+        pd.DataFrame({f"#{j}": pd.Series([], dtype=object) for j in range(len(names))})
+    marks = pd.DataFrame(None, index=df.index, columns=df.columns, dtype=object)
+    for (i, j), kind in wb.marked.items():
+        marks.iat[i, j] = kind
+    df.columns = names
+    marks.columns = names
+    return _table_sheet(df, names, f"results sheet {wb.name!r}", ",", lines=list(wb.lines), marks=marks,
+                        worksheet=wb.name)
+
+
+def _table_sheet(df: pd.DataFrame, names: list[str], label: str, sep: str, *, lines: list[int] | None = None,
+                 marks: pd.DataFrame | None = None, worksheet: str | None = None) -> _Sheet:
+    """The cells of a CSV or a worksheet (text, header ``names``) checked and normalised into a :class:`_Sheet`:
+    every column named once, empty cells None, empty rows dropped, a units row and header units read."""
     if any(not h for h in names):
-        raise ConfigError(f"results CSV: header column {names.index('') + 1} has no name; name every column "
+        raise ConfigError(f"{label}: header column {names.index('') + 1} has no name; name every column "
                           "(as written by `berryshaker doe plan`)")
     dup = sorted({h for h in names if names.count(h) > 1})
     if dup:
-        raise ConfigError(f"results CSV: column(s) {dup} appear more than once in the header; keep one of each")
+        raise ConfigError(f"{label}: column(s) {dup} appear more than once in the header; keep one of each")
     df.columns = [str(c).strip() for c in df.columns]
     if len(df) > MAX_ROWS:
-        raise ConfigError(f"results CSV has {len(df)} rows, more than the {MAX_ROWS} a field sheet can have; "
+        raise ConfigError(f"{label} has {len(df)} rows, more than the {MAX_ROWS} a field sheet can have; "
                           "is this the right file?")
     for c in df.columns:
         s = df[c].astype(str).str.strip()
-        df[c] = s.where(~s.str.lower().isin(_MISSING), None)
-    df = df.dropna(how="all").reset_index(drop=True)
+        df[c] = s.where(~s.str.lower().isin(_MISSING) & df[c].notna(), None)
+    keep = df.notna().any(axis=1).to_numpy()
+    df = df[keep].reset_index(drop=True)
+    if lines is not None:
+        lines = [ln for ln, k in zip(lines, keep) if k]
+    if marks is not None:
+        marks = marks[keep].reset_index(drop=True)
     units_row = _units_row(df)
     if units_row is not None:
         df = df.iloc[1:].reset_index(drop=True)
+        if lines is not None:
+            lines = lines[1:]
+        if marks is not None:
+            marks = marks.iloc[1:].reset_index(drop=True)
     bare, header_units, original = [], {}, {}
     for c in df.columns:
         name, unit = _header_unit(c)
         if units_row is not None and units_row.get(c) is not None:
             if unit is not None and _same_unit(unit, units_row[c]) is False:
-                raise ConfigError(f"results CSV column {c!r}: the header says {unit!r}, the units row "
+                raise ConfigError(f"{label} column {c!r}: the header says {unit!r}, the units row "
                                   f"{units_row[c]!r}; keep one unit")
             unit = units_row[c]
         if name in original:
-            raise ConfigError(f"results CSV: columns {original[name]!r} and {c!r} both name {name!r}; keep one")
+            raise ConfigError(f"{label}: columns {original[name]!r} and {c!r} both name {name!r}; keep one")
         original[name] = c
         bare.append(name)
         if unit is not None:
             header_units[name] = unit
     df.columns = bare
-    sheet = _Sheet(df, decimal_comma=sep != ",", sep=sep)
+    sheet = _Sheet(df, decimal_comma=sep != ",", sep=sep, label=label)
     sheet.header_units, sheet.original = header_units, original
     sheet.first_line = 3 if units_row is not None else 2
+    sheet.lines = lines
+    if marks is not None:
+        marks.columns = bare
+        sheet.marks = marks
+    if worksheet is not None:
+        sheet.worksheet = worksheet
+        sheet.column_index = {name: j for j, name in enumerate(bare)}
     return sheet
 
 

@@ -70,7 +70,8 @@ class FieldResults:
     ``level_values[name]`` is the tuple of level values (level 1, 2, ...) or None when the sheet gives only
     level numbers.  A sheet with a ``replicate`` column: ``replicates`` (R, the same for every run),
     ``responses_replicated`` (name -> runs x R) and ``responses`` the replicate means per run; without it R = 1
-    and ``responses_replicated`` is None.  A ``block`` (or ``blocks``) column takes the replicate column's role and
+    and ``responses_replicated`` is None.  A replicated sheet may have lost plots (a blank response, a deleted row):
+    NaN in ``responses_replicated``, listed in ``lost``.  A ``block`` (or ``blocks``) column takes the replicate column's role and
     names the blocks of the analysis (``block_column``: each run once per block).  A sheet without a ``run`` column
     (Minitab's worksheet, a statistics package's export) has its runs told apart by their factor settings: rows with
     the same settings are replicates of one run (``runs_identified_by`` says how they were numbered).
@@ -105,6 +106,10 @@ class FieldResults:
         Unit per response.
     runs_identified_by : str
         How the runs were told apart.
+    lost : dict name -> list of [run, replicate]
+        Per response the lost plots (a blank response cell or a deleted row of a replicated sheet): NaN in
+        ``responses_replicated``, left out of ``responses`` (the means of the replicates present); empty when the
+        sheet is complete.
     """
 
     table: pd.DataFrame
@@ -124,6 +129,8 @@ class FieldResults:
     response_units: dict[str, str] = field(default_factory=dict)
     #: how the runs were told apart: "run column", or "factor settings" with how the repeats were numbered
     runs_identified_by: str = "run column"
+    #: per response the (run, replicate) cells lost (NaN in ``responses_replicated``)
+    lost: dict[str, list[list[int]]] = field(default_factory=dict)
 
 
 def compute_indexes(duration_s, picked_kg, unripe_kg, damaged_kg) -> dict[str, np.ndarray]:

@@ -52,7 +52,7 @@ def _codes_for(sheet: _Sheet, col: str, x: np.ndarray, levels: tuple[float, ...]
         return next(iter(codings.values()))
     shown = ", ".join(f"{v:g}" for v in levels) + (f" {unit}" if unit else "")
     if len(distinct) > 1:
-        raise ConfigError(f"results CSV column {col!r}: its cells read both as {' and as '.join(codings)} of "
+        raise ConfigError(f"{sheet.label} column {col!r}: its cells read both as {' and as '.join(codings)} of "
                           f"factor {fname!r} (levels {shown}) with different meanings; write the level values with "
                           f"the unit (e.g. '{levels[0]:g} {unit or ''}'.strip()) or fill the value column")
     # nothing fits every cell: name the first cell that matches no level value and no level number
@@ -155,13 +155,13 @@ def _resolve_factor(sheet: _Sheet, name: str, code_col: str | None, value_col: s
     return codes, levels, values, unit
 
 
-def _check_orphan_values(cols: list[str], names: set[str], reserved: set[str]) -> None:
+def _check_orphan_values(sheet: _Sheet, cols: list[str], names: set[str], reserved: set[str]) -> None:
     """Refuse a factor's value column (``A_mm``) whose ``A_level`` column is missing while other factors have
     theirs: the factor would otherwise be left out of the analysis without a word."""
     for c in cols:
         su = _split_unit(c) if c not in reserved and not c.endswith("_level") else None
         if su and su[0] not in names:
-            raise ConfigError(f"results CSV: column {c!r} holds the values of factor {su[0]!r}, but its "
+            raise ConfigError(f"{sheet.label}: column {c!r} holds the values of factor {su[0]!r}, but its "
                               f"{su[0] + '_level'!r} column is missing (the other factors have theirs); restore "
                               f"{su[0] + '_level'!r} from the plan, or rename {c!r} if it is not a factor")
 
@@ -178,7 +178,7 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
             code = f"{f.name}_level" if f"{f.name}_level" in cols else None
             value = f.column if f.column in cols else (f.name if f.name in cols else None)
             if code is None and value is None:
-                raise ConfigError(f"results CSV: factor {f.name!r} has neither a {f.name + '_level'!r} nor a "
+                raise ConfigError(f"{sheet.label}: factor {f.name!r} has neither a {f.name + '_level'!r} nor a "
                                   f"{f.column!r} column")
             found.append((f.name, code, value, f.unit, f))
     else:
@@ -189,12 +189,12 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
                 cand = [c for c in cols if c != code and c not in meta and not c.endswith("_level")
                         and (c == name or (c.startswith(name + "_") and (_split_unit(c) or ("", ""))[0] == name))]
                 if len(cand) > 1:
-                    raise ConfigError(f"results CSV: factor {name!r} has several value columns {cand}; keep one")
+                    raise ConfigError(f"{sheet.label}: factor {name!r} has several value columns {cand}; keep one")
                 value = cand[0] if cand else None
                 unit = (sheet.header_units.get(value) if value in sheet.header_units else
                         (_split_unit(value) or (name, ""))[1] if value and value != name else "")
                 found.append((name, code, value, unit, None))
-            _check_orphan_values(cols, {f[0] for f in found}, reserved | meta)
+            _check_orphan_values(sheet, cols, {f[0] for f in found}, reserved | meta)
         else:
             for c in cols:
                 if c in reserved or c in meta:
@@ -206,16 +206,16 @@ def _find_factors(sheet: _Sheet, factors: list[Factor] | None, response_cols: se
                 name, unit = su if su else (c, "")
                 found.append((name, None, c, unit, None))
             if not found:
-                raise ConfigError("results CSV: no factor columns found (<FACTOR>_level columns as written by "
+                raise ConfigError(f"{sheet.label}: no factor columns found (<FACTOR>_level columns as written by "
                                   "`berryshaker doe plan`, or plain factor columns such as A, B or 'Speed (rpm)' "
                                   "holding level values)")
     names = [f[0] for f in found]
     if len(set(names)) != len(names):
-        raise ConfigError(f"results CSV: factor names {names} are not distinct")
+        raise ConfigError(f"{sheet.label}: factor names {names} are not distinct")
     for name, code, value, unit, _ in found:
         for c in (name, value, code):
             if c is not None and c in reserved:
-                raise ConfigError(f"results CSV: factor {name!r} would take the column {c!r}, which is a response, "
+                raise ConfigError(f"{sheet.label}: factor {name!r} would take the column {c!r}, which is a response, "
                                   "raw-measurement or reserved column; rename the factor (e.g. "
                                   f"{name + '_x'!r}) in the sheet")
     used = {c for f in found for c in f[1:3] if c}

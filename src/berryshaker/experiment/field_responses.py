@@ -39,8 +39,12 @@ def _response_unit(sheet: _Sheet, col: str) -> str:
     return su[1] if su else ""
 
 
-def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: str | None = None) -> np.ndarray:
-    """Values of one response per row (file order), checked; indexes computed from raw masses where empty."""
+def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: str | None = None,
+              lost: bool = False) -> np.ndarray:
+    """Values of one response per row (file order), checked; indexes computed from raw masses where empty.
+
+    ``lost``: a row whose response is empty (an index: and every raw mass of it too) is a lost plot, NaN (a
+    replicated sheet); otherwise an empty response is an error."""
     df = sheet.df
     blk = block_column(df)
     numeric_cols = [c for c in df.columns if c not in ("run", "replicate", "order", blk) and c.lower() not in META_COLUMNS
@@ -57,6 +61,14 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: s
     _check_range(sheet, col, vals, ~empty)
     if empty.any() and col in INDEX_COLUMNS:
         need = np.flatnonzero(empty)
+        if lost:  # rows with no raw mass either are lost plots; the others are computed (or refused) below
+            present = [c for c in RAW_COLUMNS if c in df.columns]
+            blank = np.ones(n, bool)
+            for c in present:
+                blank &= np.asarray(df[c].isna(), bool)
+            need = need[~blank[need]]
+            if not len(need):
+                return vals
         raw = {}
         for c in RAW_COLUMNS:
             if c not in df.columns:
@@ -87,8 +99,8 @@ def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: s
                 raise ConfigError(f"{sheet.where(i, 'picked_mass_kg')}: picked mass is 0, so the rate {col!r} is "
                                   "undefined; fill in the rate or check the mass")
         computed = compute_indexes(d, p, u, dm)[col]
-        vals = np.where(empty, computed, vals)
-    elif empty.any():
+        vals[need] = computed[need]
+    elif empty.any() and not lost:
         i = int(np.argmax(empty))
         raise ConfigError(f"{sheet.row(i)}: response {r!r} is empty; fill in "
                           f"{col!r}")

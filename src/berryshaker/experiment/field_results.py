@@ -26,17 +26,20 @@ from berryshaker.experiment.field_cells import BOOKKEEPING_COLUMNS, _load_sheet,
 from berryshaker.experiment.field_columns import META_COLUMNS, Factor, FieldResults
 from berryshaker.experiment.field_factors import _find_factors, _resolve_factor
 from berryshaker.experiment.field_responses import _response, _response_column, _response_unit
-from berryshaker.experiment.field_runs import _check_runs, _orthogonality_problem, _runs_from_settings
+from berryshaker.experiment.field_runs import _check_runs, _orthogonality_problem, _runs_from_settings, _settings_text
 from berryshaker.records import fields_of
 
 
-def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None) -> FieldResults:
+def read_results(path_or_text, responses: list[str], factors: list[Factor] | None = None,
+                 sheet: str | None = None) -> FieldResults:
     """Read a filled field sheet; compute indexes from raw masses where the index cells are empty.
 
     Parameters
     ----------
     path_or_text : path or str
-        CSV file (or its text).  Comma-, semicolon- or tab-separated; in semicolon- and tab-separated
+        CSV or .xlsx file (or a CSV's text).  A workbook's cells are read as strictly as a CSV's
+        (:mod:`berryshaker.experiment.sheet_files`: a formula is an error naming the cell, a date or a boolean is
+        refused where a number belongs).  Comma-, semicolon- or tab-separated; in semicolon- and tab-separated
         sheets a decimal comma is read as a decimal point (it cannot be a separator there); in
         comma-separated sheets a cell such as "3,9" is refused with a hint.
     responses : list of str
@@ -51,6 +54,8 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
         measurement (a response not analysed), not a factor.  Without a ``run`` column the runs are told apart by
         their factor settings (rows with the same settings are replicates).  Units come from the header
         ("Speed (rpm)", "Speed [r/min]", ``A_mm``) or a units row under it.
+    sheet : str, optional
+        The worksheet of an .xlsx workbook (default its first; refused for a CSV).
 
     Notes
     -----
@@ -67,10 +72,10 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     FieldResults
         The sheet as read and checked.
     """
-    sheet = _load_sheet(path_or_text)
+    sheet = _load_sheet(path_or_text, sheet)
     df = sheet.df
     if len(df) == 0:
-        raise ConfigError("results CSV has a header but no rows; fill in the field sheet (one row per run)")
+        raise ConfigError(f"{sheet.label} has a header but no rows; fill in the field sheet (one row per run)")
     has_run = "run" in df.columns
     runs = reps = None
     if has_run:
@@ -100,20 +105,24 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
     r = 1 if reps is None else int(reps.max())
     order = np.lexsort((np.ones_like(runs) if reps is None else reps, runs))  # by run, then replicate
     levels, valuearr = levels[order], valuearr[order]
+    runs_o = runs[order]
+    first = np.searchsorted(runs_o, np.arange(1, int(runs_o.max()) + 1))  # each run's first row (sorted)
     if r > 1:  # the replicates of a run are the same design point
-        lv3 = levels.reshape(-1, r, levels.shape[1])
-        off = np.argwhere((lv3 != lv3[:, :1, :]).any(axis=2))
+        off = np.flatnonzero((levels != levels[first[runs_o - 1]]).any(axis=1))
         if len(off):
-            run_i, k = (int(v) for v in off[0])
-            i = int(order[run_i * r + k])
-            name = names[int(np.argmax(lv3[run_i, k] != lv3[run_i, 0]))]
+            k = int(off[0])
+            run = int(runs_o[k])
+            i = int(order[k])
+            name = names[int(np.argmax(levels[k] != levels[first[run - 1]]))]
             col = next(c for f in found if f[0] == name for c in (f[1], f[2]) if c)
-            raise ConfigError(f"{sheet.where(i, col)}: the levels differ from replicate 1 of run {run_i + 1}; the "
+            rep0 = int(reps[order][first[run - 1]])
+            raise ConfigError(f"{sheet.where(i, col)}: the levels differ from replicate {rep0} of run {run}; the "
                               "replicates of a run repeat the same settings - correct the level or the run number")
-    if levels.shape[1] > 1 and not is_orthogonal(levels):
-        raise ConfigError("results CSV: the factor level columns do not form an orthogonal (balanced) design ("
-                          + _orthogonality_problem(levels, names) + "); was a row edited or a run duplicated?")
-    out = {resp: _response(sheet, resp, factor_cols, resp_col[resp])[order] for resp in responses}
+    run_levels, run_values = levels[first], valuearr[first]
+    if levels.shape[1] > 1 and not is_orthogonal(run_levels):
+        raise ConfigError(f"{sheet.label}: the factor level columns do not form an orthogonal (balanced) design ("
+                          + _orthogonality_problem(run_levels, names) + "); was a row edited or a run duplicated?")
+    out = {resp: _response(sheet, resp, factor_cols, resp_col[resp], lost=r > 1)[order] for resp in responses}
     # the table: sorted by run (and replicate), numbers where the sheet's cells are numbers, level numbers
     # normalised
     table = df.iloc[order].reset_index(drop=True).copy()
@@ -138,37 +147,91 @@ def read_results(path_or_text, responses: list[str], factors: list[Factor] | Non
                 table[vcol] = valuearr[:, j]
     if reps is not None:
         table["replicate"] = reps[order]
-    per_run = slice(None, None, r)
-    replicated = {k: v.reshape(-1, r) for k, v in out.items()} if reps is not None else None
-    means = {k: v.mean(axis=1) for k, v in replicated.items()} if replicated is not None else out
+    replicated, lost = None, {}
+    if reps is not None:
+        what = "block" if block_column(df) not in (None, "replicate") else "replicate"
+        replicated = {}
+        for k, v in out.items():
+            y = np.full((len(first), r), np.nan)
+            y[runs_o - 1, reps[order] - 1] = v
+            none = np.flatnonzero(~np.isfinite(y).any(axis=1))
+            if len(none):
+                raise ConfigError(f"{sheet.label}: run {int(none[0]) + 1} has no {k} value in any {what} (every "
+                                  f"plot of it lost); the analysis needs at least one {what} of every run - fill "
+                                  f"in its {k} or leave {k} out of the analysis")
+            replicated[k] = y
+            lost[k] = [[int(i) + 1, int(j) + 1] for i, j in np.argwhere(~np.isfinite(y))]
+    means = ({k: (np.nanmean(v, axis=1) if lost[k] else v.mean(axis=1)) for k, v in replicated.items()}
+             if replicated is not None else out)
     blk = block_column(df) if reps is not None else None
     if not has_run and reps is not None and not how.startswith("factor settings; repeats numbered by the blocks"):
         blk = None  # a constant Blocks column (Minitab's 1 everywhere) numbers no blocks
-    return FieldResults(table, level_cols, names, means, levels[per_run], valuearr[per_run], level_values, units,
+    return FieldResults(table, level_cols, names, means, run_levels, run_values, level_values, units,
                         ignored, replicates=r, responses_replicated=replicated, block_column=blk,
                         response_units={resp: _response_unit(sheet, resp_col[resp]) for resp in responses},
-                        runs_identified_by=how)
+                        runs_identified_by=how, lost={k: v for k, v in lost.items() if v})
+
+
+def _check_analysable(fr: FieldResults) -> None:
+    """Refuse a sheet too small to analyse, with the reason: a factor with one level (one run, or a column that
+    never changes), or an unreplicated sheet whose factors use every degree of freedom even with one pooled."""
+    if len(fr.levels) == 1:
+        raise ConfigError(f"the sheet cannot be analysed: it holds one run ("
+                          f"{_settings_text(fr.factor_names, fr.levels[0], fr.level_values, fr.units)}"
+                          + (f", {fr.replicates} replicates" if fr.replicates > 1 else "") + "), so every factor has "
+                          "one level; a test compares at least two levels of every factor (the runs of `doe plan`)")
+    for j, name in enumerate(fr.factor_names):
+        ks = np.unique(fr.levels[:, j])
+        if len(ks) < 2:
+            lv = fr.level_values.get(name)
+            shown = (f"{lv[int(ks[0]) - 1]:g}{(' ' + fr.units[name]) if fr.units.get(name) else ''}" if lv is not None
+                     else f"level {int(ks[0])}")
+            raise ConfigError(f"the sheet cannot be analysed: factor {name!r} has one level ({shown}) in all "
+                              f"{len(fr.levels)} runs, so its effect cannot be "
+                              "estimated; a test needs at least two levels of every factor (the runs of the plan: "
+                              "`doe plan`), or leave the column out")
+    if fr.replicates < 2:
+        n = len(fr.levels)
+        dof = sorted(len(np.unique(fr.levels[:, j])) - 1 for j in range(len(fr.factor_names)))
+        left = n - 1 - sum(dof)
+        if left < 1 and len(dof) > 1:  # a saturated array: the weakest factor is pooled into the error
+            left += dof[0]
+        if left < 1:
+            raise ConfigError(f"the sheet cannot be analysed: {n} runs without replicates and factors "
+                              f"{', '.join(fr.factor_names)} using {sum(dof)} degrees of freedom leave none for the "
+                              "error, even with the weakest factor pooled; test every run at least twice (a "
+                              "'replicate' column, `doe plan --replicates 2`) or use a larger array")
 
 
 def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, float] | None = None,
-                  factors: list[Factor] | None = None) -> tuple[FieldResults, DoeAnalysis | SheetReplicatedAnalysis]:
+                  factors: list[Factor] | None = None, sheet: str | None = None,
+                  desirability: str | None = None) -> tuple[FieldResults, DoeAnalysis | SheetReplicatedAnalysis]:
     """Read a filled sheet (:func:`read_results`) and analyse it as ``doe analyze`` does.
 
     A sheet with repeats (a ``replicate`` or ``block`` column, or repeated factor settings) is analysed as
-    randomised complete blocks (:func:`berryshaker.experiment.replicates.analyze_replicated`), one without by range
-    analysis with the weakest factor pooled (:func:`berryshaker.experiment.analysis.analyze`).  The plan's format
+    randomised complete blocks (:func:`berryshaker.experiment.replicates.analyze_replicated`), or, when it lost plots
+    (a blank response, a deleted row), by least squares on the plots present
+    (:func:`berryshaker.experiment.unbalanced.analyze_unbalanced`, ``lost_plots`` says what was lost); one without by
+    range analysis with the weakest factor pooled (:func:`berryshaker.experiment.analysis.analyze`, the optimum's
+    intervals from the pooled error).  A sheet too small to analyse (one run, a factor with one level, no error
+    degrees of freedom left) is refused with the reason.  The plan's format
     and a statistics package's worksheet of the same data give the same analysis.
 
     Parameters
     ----------
     path_or_text : path or str
-        The sheet (CSV) or its text.
+        The sheet (CSV or .xlsx) or a CSV's text.
     senses : dict response -> bool
         True where larger is better; the keys are the responses analysed.
     weights : dict response -> float, optional
         Weights of the composite score (1; default equal).
     factors : list of Factor, optional
         The plan's factors (default: found in the sheet).
+    sheet : str, optional
+        The worksheet of an .xlsx workbook (default its first).
+    desirability : str, optional
+        Goals of the desirability optimiser, e.g. ``efficiency=max:2..5kg/min,damage=min:0..5%``
+        (:func:`berryshaker.experiment.desirability.parse_desirability`): the analysis then has ``desirability``.
 
     Returns
     -------
@@ -181,17 +244,36 @@ def analyze_sheet(path_or_text, senses: dict[str, bool], weights: dict[str, floa
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
 
-    fr = read_results(path_or_text, list(senses), factors)
-    sheet = {"weights_given": weights is not None, "response_units": dict(fr.response_units),
+    fr = read_results(path_or_text, list(senses), factors, sheet=sheet)
+    _check_analysable(fr)
+    extra = {"weights_given": weights is not None, "response_units": dict(fr.response_units),
              "runs_identified_by": fr.runs_identified_by}
-    if fr.replicates >= 2:
+    if fr.replicates >= 2 and fr.lost:  # lost plots: least squares on the plots present
+        from berryshaker.experiment.replicated_records import LostPlots
+        from berryshaker.experiment.unbalanced import analyze_unbalanced, describe_lost
+
+        rep, info = analyze_unbalanced(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses,
+                                       weights, level_values=fr.level_values, units=fr.units)
+        what = "replicate" if fr.block_column in (None, "replicate") else "block"
+        text = "\n".join(describe_lost(info, what) + [describe_replicated(rep)])
+        res = SheetReplicatedAnalysis(**fields_of(rep), block_column=fr.block_column, text=text,
+                                      lost_plots=LostPlots(**info), **extra)
+    elif fr.replicates >= 2:
         rep = analyze_replicated(fr.levels, fr.values, fr.factor_names, fr.responses_replicated, senses, weights,
                                  level_values=fr.level_values, units=fr.units, blocks=True)
         res = SheetReplicatedAnalysis(**fields_of(rep),
-                                      block_column=fr.block_column, text=describe_replicated(rep), **sheet)
+                                      block_column=fr.block_column, text=describe_replicated(rep), **extra)
     else:
+        from berryshaker.experiment.desirability import level_set_prediction
+
         res = replace(analyze(fr.levels, fr.values, fr.factor_names, fr.responses, senses, weights,
-                              level_values=fr.level_values, units=fr.units), replicates=fr.replicates, **sheet)
+                              level_values=fr.level_values, units=fr.units), replicates=fr.replicates, **extra)
+        res = replace(res, optimum=replace(res.optimum, intervals=level_set_prediction(fr, res, res.optimum.levels)[1]))
+    if desirability is not None:
+        from berryshaker.experiment.desirability import desirability_optimum, parse_desirability
+
+        goals = parse_desirability(desirability, list(senses), fr.response_units)
+        res = replace(res, desirability=desirability_optimum(fr, res, goals))
     return fr, res
 
 

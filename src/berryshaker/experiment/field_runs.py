@@ -16,18 +16,18 @@ from berryshaker.experiment.field_cells import _Sheet, block_column
 
 def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
     """Run numbers per row (1..n) and, if the sheet has a ``block`` or ``replicate`` column
-    (:func:`block_column`), repeat numbers per row: every run then has the repeats 1..R once each, with the same R
-    for every run (complete blocks, balanced)."""
+    (:func:`block_column`), repeat numbers per row: every run then has each of the repeats 1..R at most once
+    (:func:`_check_repeats`; a missing one is a lost plot)."""
     if "run" not in sheet.df.columns:
-        raise ConfigError("results CSV: no 'run' column (the field sheet from `berryshaker doe plan` has one)")
+        raise ConfigError(f"{sheet.label}: no 'run' column (the field sheet from `berryshaker doe plan` has one)")
     runs, empty = sheet.numbers("run")
     if empty.any():
         i = int(np.argmax(empty))
-        raise ConfigError(f"results CSV row {sheet.line(i)}, column 'run': empty run number; fill it in")
+        raise ConfigError(f"{sheet.where(i, 'run')}: empty run number; fill it in")
     bad = ~np.isfinite(runs) | (runs != np.round(runs)) | (runs < 1)
     if bad.any():
         i = int(np.argmax(bad))
-        raise ConfigError(f"results CSV row {sheet.line(i)}, column 'run': {sheet.df['run'].iloc[i]!r} is not a run "
+        raise ConfigError(f"{sheet.where(i, 'run')}: {sheet.df['run'].iloc[i]!r} is not a run "
                           "number (1, 2, 3, ...)")
     runs = runs.astype(np.int64)
     sheet.run_label = [f"run {r}" for r in runs]
@@ -39,7 +39,7 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
         bad = empty | ~np.isfinite(reps) | (reps != np.round(reps)) | (reps < 1)
         if bad.any():
             i = int(np.argmax(bad))
-            raise ConfigError(f"results CSV row {sheet.line(i)} (run {runs[i]}), column {col!r}: "
+            raise ConfigError(f"{sheet.where(i, col)}: "
                               f"{sheet.df[col].iloc[i]!r} is not a {what} number (1, 2, 3, ...); fill it in")
         reps = reps.astype(np.int64)
         if reps.max() > 1:
@@ -49,34 +49,41 @@ def _check_runs(sheet: _Sheet) -> tuple[np.ndarray, np.ndarray | None]:
     present = set(runs.tolist())
     if len(present) != n:
         missing = sorted(set(range(1, n + 1)) - present)[:10]
-        raise ConfigError(f"results CSV: runs must be numbered 1..{n} once each"
+        raise ConfigError(f"{sheet.label}: runs must be numbered 1..{n} once each"
                           + (f"; missing run(s) {missing}" if missing else ""))
     return runs, reps
 
 
 def _check_repeats(sheet: _Sheet, runs: np.ndarray, reps: np.ndarray | None, what: str) -> None:
-    """Each run once (per repeat), and with repeats every run has the repeats 1..R once each, the same R for all."""
+    """Each run once (per repeat); with repeats, the repeat numbers 1..R all used and every repeat (a block: a field
+    day, a row of bushes) holding at least two runs.  A run may lack some repeats (a lost plot: a deleted row); the
+    analysis then states what was lost (:mod:`berryshaker.experiment.unbalanced`)."""
     key = runs if reps is None else runs * (int(reps.max()) + 1) + reps
     _, counts = np.unique(key, return_counts=True)
     if (counts > 1).any():
         dup = int(np.unique(key)[np.argmax(counts > 1)])
         rows = [sheet.line(int(i)) for i in np.flatnonzero(key == dup)]
         if reps is None:
-            raise ConfigError(f"results CSV: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
+            raise ConfigError(f"{sheet.label}: run {dup} appears {len(rows)} times (rows {', '.join(map(str, rows))}); "
                               "keep one row per run, or number the repeats of a run in a 'replicate' column "
                               "(`doe plan --replicates`)")
         i = int(np.flatnonzero(key == dup)[0])
-        raise ConfigError(f"results CSV: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
+        raise ConfigError(f"{sheet.label}: run {runs[i]} appears {len(rows)} times (rows {', '.join(map(str, rows))}) "
                           f"as {what} {reps[i]}; keep one row per run and {what}")
-    if reps is not None:
-        r = int(reps.max())
-        for run in sorted(set(runs.tolist())):
-            have = sorted(reps[runs == run].tolist())
-            if have != list(range(1, r + 1)):
-                missing = sorted(set(range(1, r + 1)) - set(have))
-                raise ConfigError(f"results CSV: run {run} has {what}(s) {have}, other runs go up to {r}; every "
-                                  f"run needs {what}s 1..{r} once each (missing {missing}) - fill in the missing "
-                                  f"rows or delete the extra {what}s of the other runs")
+    if reps is None or len(set(runs.tolist())) < 2:
+        return
+    r = int(reps.max())
+    gaps = sorted(set(range(1, r + 1)) - set(reps.tolist()))
+    if gaps:
+        raise ConfigError(f"{sheet.label}: no row has {what} {', '.join(map(str, gaps))}, but {what} {r} exists; "
+                          f"number the {what}s 1..{r} (a typo in a {what} number?)")
+    for k in range(1, r + 1):
+        rows = np.flatnonzero(reps == k)
+        if len(rows) < 2:
+            i = int(rows[0])
+            raise ConfigError(f"{sheet.row(i)}: {what} {k} holds this row only; a {what} (a field day, a row of "
+                              f"bushes) needs at least two runs to compare within it - correct the {what} number "
+                              "(a typo?) or delete the row")
 
 
 def _settings_text(names: list[str], levels_row, level_values: dict, units: dict) -> str:
@@ -163,7 +170,7 @@ def _runs_from_settings(sheet: _Sheet, levels: np.ndarray, names: list[str], lev
             i = int(np.flatnonzero(runs == few)[0])
             j = int(np.flatnonzero(runs == many)[0])
             raise ConfigError(
-                f"results CSV: the settings {_settings_text(names, levels[i], level_values, units)} occur in "
+                f"{sheet.label}: the settings {_settings_text(names, levels[i], level_values, units)} occur in "
                 f"{counts[few - 1]} row(s), the settings {_settings_text(names, levels[j], level_values, units)} in "
                 f"{counts[many - 1]}; rows with the same factor settings are replicates of one run, and every run "
                 "needs the same number of them - add the missing replicates or delete the extra rows (a typo in a "

@@ -103,9 +103,11 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
     ``order`` (the order to test the row in), per factor ``<name>_level`` (1-based level number) and
     ``<name>_<unit>`` (level value), then the raw measurements and the ready indexes, left empty.  Rows are
     runs x replicates, sorted by run and replicate; ``plan_html`` prints them in the ``order`` column's
-    order.  Without ``randomize`` the order is replicate by replicate (every run once, then again); with it,
-    all runs x replicates rows in a random order drawn from ``numpy.random.default_rng(seed)`` (complete
-    randomisation, Montgomery 2013 sec. 1.3; with one replicate the order is the one earlier versions drew).
+    order.  The test order is replicate by replicate (every run once, then again): replicate k is block k of the
+    analysis (``doe analyze``: a field day or a row of bushes shared by every run), so each block is tested whole
+    before the next.  With ``randomize`` the runs are in a random order within each block, a new one per block,
+    drawn from ``numpy.random.default_rng(seed)`` (randomised complete blocks, Montgomery 2013 sec. 4.1; with one
+    replicate the order is the one earlier versions drew).
 
     Parameters
     ----------
@@ -142,8 +144,10 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
     if randomize:
         if seed is None:
             raise ConfigError("--randomize needs --seed N (so the order can be reproduced)")
-        perm = np.random.default_rng(seed).permutation(n * r) + 1
-        # row (run i, replicate k) is test perm[(k - 1) n + i - 1]: with one replicate, the earlier order
+        rng = np.random.default_rng(seed)
+        # within each replicate block: block k's runs are tests (k - 1) n + 1 .. k n in a random order of their own
+        # (with one replicate the order earlier versions drew)
+        perm = np.concatenate([rng.permutation(n) + 1 + k * n for k in range(r)])
         df["order"] = perm[(rep - 1) * n + run - 1]
     else:
         df["order"] = (rep - 1) * n + run

@@ -137,6 +137,51 @@ def spread_convergence(samples: dict[str, np.ndarray], counts=CONVERGENCE_COUNTS
             "sd_relative_error": sd_relative_error}
 
 
+def family_agreement(families: dict[str, dict[str, np.ndarray]], confidence: float = 0.95) -> dict:
+    """Whether independent seed families give the same spread: per response, each family's SD with its sampling
+    error, the first family's SD over the others' pooled SD with its F interval, and Levene's test of equal
+    variances (scipy.stats.levene, median-centred: Brown and Forsythe 1974, robust to heavy tails).
+
+    Parameters
+    ----------
+    families : dict of str to dict of str to numpy.ndarray
+        Family label -> response -> independent replicates (any unit); the first family is the one judged.
+    confidence : float
+        Confidence of the ratio's interval.
+
+    Returns
+    -------
+    dict
+        ``responses``: per response ``sd`` (per family), ``sd_se``, ``n``, ``ratio`` (first / pooled others),
+        ``ratio_ci``, ``levene_p`` and ``agree`` (Levene p >= 1 - confidence); ``families`` (labels), ``rule``.
+    """
+    from scipy import stats
+
+    labels = list(families)
+    if len(labels) < 2:
+        raise ConfigError("family_agreement: give at least two seed families")
+    out = {}
+    for name in families[labels[0]]:
+        xs = [np.asarray(families[f][name], float) for f in labels]
+        xs = [x[np.isfinite(x)] for x in xs]
+        sds = [float(np.std(x, ddof=1)) for x in xs]
+        rest = np.concatenate([x - x.mean() for x in xs[1:]])
+        df1, df2 = xs[0].size - 1, rest.size - (len(xs) - 1)
+        pooled = float(np.sqrt(np.sum(rest**2) / df2)) if df2 > 0 else float("nan")
+        ratio = sds[0] / pooled if pooled > 0 else float("nan")
+        a = 1 - confidence
+        ci = [ratio / math.sqrt(stats.f.ppf(1 - a / 2, df1, df2)), ratio / math.sqrt(stats.f.ppf(a / 2, df1, df2))]
+        lev = float(stats.levene(*xs, center="median").pvalue) if all(np.ptp(x) > 0 for x in xs) else float("nan")
+        out[name] = {"sd": dict(zip(labels, sds)), "sd_se": {f: sd_standard_error(x) for f, x in zip(labels, xs)},
+                     "n": {f: int(x.size) for f, x in zip(labels, xs)}, "ratio": ratio,
+                     "ratio_ci": [float(c) for c in ci], "levene_p": lev,
+                     "agree": bool(not (lev < 1 - confidence))}
+    return {"responses": out, "families": labels, "rule": (
+        f"a family agrees when Levene's test (median-centred) of equal variances across the families gives p >= "
+        f"{1 - confidence:g}; the ratio is the first family's SD over the pooled SD of the others, with its "
+        f"{100 * confidence:g} % F interval")}
+
+
 def standard_error_reached(samples: dict[str, np.ndarray], relative: float, floors: dict[str, float] | None = None
                            ) -> dict:
     """Whether the mean of each response is known to its target: SE = s / sqrt(n) <= max(relative |mean|, floor).

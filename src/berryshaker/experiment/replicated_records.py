@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from berryshaker.experiment.analysis_records import AnovaTerm, ErrorTerm, FactorLevels, Regression
+from berryshaker.experiment.analysis_records import AnovaTerm, DesirabilityOptimum, ErrorTerm, FactorLevels, Regression
 from berryshaker.records import JsonRecord, optional
 
 
 @dataclass(frozen=True)
 class PairedDifference(JsonRecord):
     """Two levels of a factor compared start by start (last minus first level, paired over the blocks;
-    :func:`berryshaker.experiment.replicates.paired_differences`).
+    :func:`berryshaker.experiment.error_terms.paired_differences`).
 
     Attributes
     ----------
@@ -93,7 +93,7 @@ class ReplicatedEffect(JsonRecord):
 
 @dataclass(frozen=True)
 class BlockVariance(JsonRecord):
-    """Variance components of a blocked response (:func:`berryshaker.experiment.replicates.block_variance`).
+    """Variance components of a blocked response (:func:`berryshaker.experiment.error_terms.block_variance`).
 
     Attributes
     ----------
@@ -164,8 +164,8 @@ class ReplicatedResponse(JsonRecord):
         Factors by decreasing range.
     run_means : list of float
         Mean per run (the response's unit).
-    run_sd : list of float
-        Replicate SD per run (the response's unit).
+    run_sd : list of float or None
+        Replicate SD per run (the response's unit); None for a run with a single plot left (a sheet with lost plots).
     best_levels : dict of str to int
         Best level (1-based) per factor.
     significant_factors : list of str
@@ -180,7 +180,7 @@ class ReplicatedResponse(JsonRecord):
     factors: dict[str, ReplicatedEffect]
     ranking: list[str]
     run_means: list[float]
-    run_sd: list[float]
+    run_sd: list[float | None]
     best_levels: dict[str, int]
     significant_factors: list[str]
     anova: ReplicatedAnova
@@ -328,6 +328,38 @@ class ReplicatedAnalysis(JsonRecord):
     notes: list[str]
 
 
+@dataclass(frozen=True)
+class LostPlots(JsonRecord):
+    """The plots a replicated field sheet lost (a blank response, a deleted row) and what they cost
+    (:func:`berryshaker.experiment.unbalanced.analyze_unbalanced`).
+
+    Attributes
+    ----------
+    plots : int
+        Plots planned (runs x replicates).
+    present : dict of str to int
+        Plots with a value, per response.
+    lost : dict of str to list of list of int
+        The [run, replicate] of each lost plot, per response.
+    error_df : dict of str to int
+        The error's degrees of freedom left, per response.
+    balanced_error_df : int
+        The error's degrees of freedom of the complete sheet, (runs - 1)(replicates - 1).
+    lost_df : dict of str to int
+        Error degrees of freedom lost, per response.
+    method : str
+        How the unbalanced sheet is analysed.
+    """
+
+    plots: int
+    present: dict[str, int]
+    lost: dict[str, list[list[int]]]
+    error_df: dict[str, int]
+    balanced_error_df: int
+    lost_df: dict[str, int]
+    method: str
+
+
 @dataclass(frozen=True, kw_only=True)
 class SheetReplicatedAnalysis(ReplicatedAnalysis):
     """:class:`ReplicatedAnalysis` of a filled sheet (:func:`berryshaker.experiment.field_results.analyze_sheet`).
@@ -346,6 +378,11 @@ class SheetReplicatedAnalysis(ReplicatedAnalysis):
         Unit per response ('' where the sheet gives none).
     runs_identified_by : str
         How the sheet's runs were told apart.
+    lost_plots : LostPlots, optional
+        The plots lost and the degrees of freedom they cost; only for a sheet with lost plots (analysed by least
+        squares, :mod:`berryshaker.experiment.unbalanced`).
+    desirability : DesirabilityOptimum, optional
+        The desirability optimum (``doe analyze --desirability``).
     """
 
     block_column: str | None
@@ -353,7 +390,9 @@ class SheetReplicatedAnalysis(ReplicatedAnalysis):
     weights_given: bool
     response_units: dict[str, str]
     runs_identified_by: str
+    lost_plots: LostPlots | None = optional()
+    desirability: DesirabilityOptimum | None = optional()
 
 
-__all__ = ["BlockVariance", "Choice", "PairedDifference", "ReplicatedAnalysis", "ReplicatedAnova", "ReplicatedEffect",
+__all__ = ["BlockVariance", "Choice", "LostPlots", "PairedDifference", "ReplicatedAnalysis", "ReplicatedAnova", "ReplicatedEffect",
            "ReplicatedOptimum", "ReplicatedResponse", "SheetReplicatedAnalysis", "TierChoices"]

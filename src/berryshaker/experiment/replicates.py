@@ -35,80 +35,15 @@ other's intermediate results; split, every half would import the other.
 
 from __future__ import annotations
 
-import functools
 
 import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.analysis import check_inputs, check_weights, factor_levels_report, quadratic_regression
+from berryshaker.experiment.error_terms import (_tukey_half_width, block_variance, error_term, factor_error,
+                                                paired_differences, pure_error, sphericity_epsilon)
 from berryshaker.experiment.replicated_records import ReplicatedAnalysis
-
-
-def pure_error(y: np.ndarray) -> tuple[float, int]:
-    """Pure-error sum of squares and degrees of freedom of a (runs, replicates) array.
-
-    SS_PE = sum_i sum_j (y_ij - ybar_i)^2 with sum_i (r_i - 1) degrees of freedom (here r_i = r).
-
-    Parameters
-    ----------
-    y : ndarray (runs, replicates)
-        Observations (any unit).
-
-    Returns
-    -------
-    (float, int)
-        SS_PE (the unit of y squared) and its degrees of freedom.
-    """
-    y = np.asarray(y, float)
-    return float(np.sum((y - y.mean(axis=1, keepdims=True)) ** 2)), int(y.shape[0] * (y.shape[1] - 1))
-
-
-@functools.lru_cache(maxsize=256)
-def _studentized_range_quantile(confidence: float, k: int, dof: int) -> float:
-    from scipy.stats import studentized_range
-
-    return float(studentized_range.ppf(confidence, k, dof))  # slow (numerical integration): cached
-
-
-def _tukey_half_width(ms: float, dof: int, k: int, n_a: int, n_b: int, confidence: float) -> float:
-    """Tukey-Kramer simultaneous half-width for the difference of two of k means (n_a, n_b observations):
-    q(confidence; k, dof) / sqrt(2) * sqrt(MS_PE (1/n_a + 1/n_b)) (Montgomery 2013, sec. 3.5.7)."""
-    if k < 2 or dof < 1:
-        return float("nan")
-    q = _studentized_range_quantile(float(confidence), int(k), int(dof))
-    return q / np.sqrt(2.0) * float(np.sqrt(ms * (1.0 / n_a + 1.0 / n_b)))
-
-
-def comparison_half_width(ms: float, dof: int, k: int, n: int, confidence: float = 0.95) -> float:
-    """Per-mean comparison half-width h = q(confidence; k, dof) / sqrt(2) sqrt(MS_E / n) of one of k means.
-
-    Two of the k means (n_a, n_b observations) differ beyond noise, simultaneously over all k (k - 1) / 2
-    pairs, iff |a - b| > sqrt(h_a^2 + h_b^2) = q / sqrt(2) sqrt(MS_E (1/n_a + 1/n_b)), the Tukey-Kramer margin
-    of :func:`_tukey_half_width` (Montgomery 2013, sec. 3.5.7) split per mean.  ``ms``, ``dof``: the pure-error
-    mean square and its degrees of freedom; nan if k < 2 or dof < 1; 0 if ms = 0.
-
-    Parameters
-    ----------
-    ms : float
-        Error mean square (the response's unit squared).
-    dof : int
-        Its degrees of freedom.
-    k : int
-        Number of means compared.
-    n : int
-        Observations per mean (>= 1).
-    confidence : float
-        Simultaneous confidence (dimensionless).
-
-    Returns
-    -------
-    float
-        h, in the response's unit.
-    """
-    if n < 1:
-        raise ConfigError(f"comparison half-width: n = {n} observations, need >= 1")
-    return _tukey_half_width(ms, dof, k, n, n, confidence) / np.sqrt(2.0)
 
 
 def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) -> tuple[dict, float, int]:
@@ -125,128 +60,6 @@ def _main_effect_ss(levels: np.ndarray, y: np.ndarray, factor_names: list[str]) 
     ss = {f: (float(table.loc[f"C({c})", "sum_sq"]), int(table.loc[f"C({c})", "df"]))
           for f, c in zip(factor_names, internal)}
     return ss, float(table.loc["Residual", "sum_sq"]), int(round(table.loc["Residual", "df"]))
-
-
-def block_error(y: np.ndarray) -> tuple[float, int]:
-    """Run x block interaction sum of squares and degrees of freedom of a (runs, blocks) array.
-
-    ``SS_E = sum_i sum_k (y_ik - ybar_i. - ybar_.k + ybar_..)^2`` with (n - 1)(r - 1) degrees of freedom: the error of a
-    randomised complete block design with the n runs as treatments and the r blocks (Montgomery 2013, sec. 4.1,
-    eq. 4.7).  Block effects (a start, a field day, a row of bushes shared by every run) cancel from it.
-
-    Parameters
-    ----------
-    y : ndarray (runs, blocks)
-        Observations (any unit).
-
-    Returns
-    -------
-    (float, int)
-        SS_E (the unit of y squared) and its degrees of freedom.
-    """
-    y = np.asarray(y, float)
-    n, r = y.shape
-    e = y - y.mean(axis=1, keepdims=True) - y.mean(axis=0, keepdims=True) + y.mean()
-    return float(np.sum(e**2)), int((n - 1) * (r - 1))
-
-
-def error_term(y: np.ndarray, blocks: bool) -> tuple[float, int]:
-    """The error that effects are judged against: :func:`block_error` with blocks, else :func:`pure_error`.
-
-    Parameters
-    ----------
-    y : ndarray (runs, replicates)
-        Observations (any unit).
-    blocks : bool
-        Replicate k of every run shares block k.
-
-    Returns
-    -------
-    (float, int)
-        The sum of squares (the unit of y squared) and its degrees of freedom.
-    """
-    return block_error(y) if blocks else pure_error(y)
-
-
-def block_variance(y: np.ndarray) -> dict:
-    """Variance components of a blocked (runs, blocks) array: y_ik = mu + tau_i + beta_k + e_ik.
-
-    ``ms_block = n sum_k (ybar_.k - ybar_..)^2 / (r - 1)`` estimates sigma^2 + n sigma_beta^2, ``ms_error`` (the
-    interaction, :func:`block_error`) estimates sigma^2, so sigma_beta^2 = max((ms_block - ms_error) / n, 0)
-    (method of moments, Montgomery 2013, sec. 13.1).  ``per_start_sd`` = sqrt(sigma_beta^2 + sigma^2): the spread of
-    one run's replicates, block included.
-
-    Parameters
-    ----------
-    y : ndarray (runs, blocks)
-        Observations (any unit).
-
-    Returns
-    -------
-    dict
-        ``ms_block``, ``df_block``, ``ms_error``, ``df_error``, ``var_block`` (the unit of y squared) and
-        ``per_start_sd`` (the unit of y).
-    """
-    y = np.asarray(y, float)
-    n, r = y.shape
-    ss_e, df_e = block_error(y)
-    ms_e = ss_e / df_e if df_e else float("nan")
-    ms_b = n * float(np.sum((y.mean(axis=0) - y.mean()) ** 2)) / (r - 1) if r > 1 else float("nan")
-    var_b = max((ms_b - ms_e) / n, 0.0) if np.isfinite(ms_b) and np.isfinite(ms_e) else float("nan")
-    return {"ms_block": ms_b, "df_block": r - 1, "ms_error": ms_e, "df_error": df_e, "var_block": var_b,
-            "per_start_sd": float(np.sqrt(var_b + ms_e)) if np.isfinite(var_b) else float("nan")}
-
-
-def paired_differences(levels_j: np.ndarray, y: np.ndarray, confidence: float = 0.95) -> list[dict]:
-    """Paired (within-block) differences between the levels of one factor.
-
-    Parameters
-    ----------
-    levels_j : ndarray (runs,)
-        The factor's level (1-based) in each run.
-    y : ndarray (runs, blocks)
-        Observations (any unit); column k is block k, shared by every run (a start drawn once and used for every
-        run: common random numbers; a field day or row in a field test).
-    confidence : float
-        Level of the t-intervals (dimensionless).
-
-    Returns
-    -------
-    list of dict
-        For every pair of levels a < b: ``levels`` [a, b], ``difference`` dbar = mean_k d_k with
-        d_k = mean(y_ik, level b) - mean(y_ik, level a) in block k, ``se`` = sd(d) / sqrt(r), ``ci`` (Student t,
-        r - 1 dof), ``p`` (two-sided paired t test), ``beyond_noise`` (p < 1 - confidence).
-
-    Notes
-    -----
-    The paired t test of Student (1908) on the block-wise contrasts: block effects cancel from each d_k, so the
-    standard error is that of the contrast itself, not of the start-to-start spread (Montgomery 2013, sec. 2.5.1).
-    """
-    from scipy import stats
-
-    y = np.asarray(y, float)
-    levels_j = np.asarray(levels_j)
-    r = y.shape[1]
-    ks = sorted(int(v) for v in np.unique(levels_j))
-    means = {k: y[levels_j == k].mean(axis=0) for k in ks}
-    out = []
-    for i, a in enumerate(ks):
-        for b in ks[i + 1:]:
-            d = means[b] - means[a]
-            dbar = float(d.mean())
-            if r < 2:
-                out.append({"levels": [a, b], "difference": dbar, "se": float("nan"), "ci": [float("nan")] * 2,
-                            "p": float("nan"), "beyond_noise": False})
-                continue
-            se = float(d.std(ddof=1) / np.sqrt(r))
-            t = float(stats.t.ppf(0.5 + confidence / 2, r - 1))
-            if se > 0:
-                p = float(2 * stats.t.sf(abs(dbar) / se, r - 1))
-            else:
-                p = 0.0 if dbar != 0 else 1.0
-            out.append({"levels": [a, b], "difference": dbar, "se": se, "ci": [dbar - t * se, dbar + t * se],
-                        "p": p, "beyond_noise": bool(p < 1 - confidence)})
-    return out
 
 
 def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str], alpha: float = 0.05,
@@ -266,19 +79,21 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
     confidence : float
         Level of the intervals (dimensionless; 0.95: 95 %).
     blocks : bool
-        Replicate k of every run shares block k (the same start, field day or row): the error is the run x block
-        interaction (:func:`block_error`, randomised complete blocks) instead of the pure error, and every
-        factor's level pairs get paired differences (:func:`paired_differences`).
+        Replicate k of every run shares block k (the same start, field day or row): each factor is tested against
+        its own interaction with the blocks (:func:`factor_block_error`) instead of the pure error, and every
+        factor's level pairs get paired differences (:func:`paired_differences`), beyond the noise only where the
+        factor's own test is significant (one verdict per factor).
 
     Returns
     -------
     dict
         ``pure_error`` {ss, df, ms}: the spread of each run's replicates (block included); ``error`` {ss, df, ms,
-        kind}: what effects are tested against (the pure error, or the block interaction); ``blocks``
-        (:func:`block_variance`, or None); ``lack_of_fit`` {ss, df, ms, f, p} (df 0 when saturated); ``factors``:
-        per factor ss, df, ms, f, p, significant, level_means, level_se (for comparisons between levels),
-        level_ci, range, range_ci (Tukey-Kramer, for the difference of the extreme levels), hsd (Tukey-Kramer
-        half-width of a level difference), ``paired`` (with blocks) and the levels.
+        kind}: the pooled error (the pure error, or the run x block interaction: the sum of the factors' own
+        interactions in a saturated array); ``blocks`` (:func:`block_variance`, or None); ``lack_of_fit`` {ss, df,
+        ms, f, p} (df 0 when saturated); ``factors``: per factor ss, df, ms, f, p, significant, ``error`` (what it
+        is tested against), level_means, level_se (for comparisons between levels), level_ci, range, range_ci
+        (Tukey-Kramer, for the difference of the extreme levels), hsd (Tukey-Kramer half-width of a level
+        difference), ``paired`` (with blocks) and the levels.
     """
     from scipy import stats
 
@@ -294,15 +109,18 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
         ss_res -= bv["ms_block"] * bv["df_block"]
         df_res -= bv["df_block"]
     ss_lof, df_lof = max(ss_res - ss_e, 0.0), df_res - df_e
-    t = float(stats.t.ppf(0.5 + confidence / 2, df_e)) if df_e else float("nan")
     total = float(np.sum((y - y.mean()) ** 2))
     factors = {}
     for j, f in enumerate(factor_names):
         ssf, dff = ss[f]
         msf = ssf / dff
-        if ms_e > 0:
-            F = msf / ms_e
-            p = float(stats.f.sf(F, dff, df_e))
+        ss_ef, df_ef = factor_error(levels[:, j], y, blocks)
+        ms_ef = ss_ef / df_ef if df_ef else float("nan")
+        eps = sphericity_epsilon(levels[:, j], y) if blocks else 1.0
+        t = float(stats.t.ppf(0.5 + confidence / 2, df_ef)) if df_ef else float("nan")
+        if ms_ef > 0:
+            F = msf / ms_ef
+            p = float(stats.f.sf(F, eps * dff, eps * df_ef))  # Greenhouse-Geisser degrees of freedom
         else:  # identical replicates: no noise estimate; an effect larger than round-off counts as real
             real = ssf > 1e-12 * max(total, 1e-300)
             F, p = (float("inf"), 0.0) if real else (float("nan"), 1.0)
@@ -311,18 +129,24 @@ def replicated_anova(levels: np.ndarray, y: np.ndarray, factor_names: list[str],
         for k in ks:
             obs = y[levels[:, j] == k]
             m = float(obs.mean())
-            se = float(np.sqrt(ms_e / obs.size))
+            se = float(np.sqrt(ms_ef / obs.size))
             means.append(m)
             ses.append(se)
             cis.append([m - t * se, m + t * se])
             nobs.append(obs.size)
         hi, lo = int(np.argmax(means)), int(np.argmin(means))
         R = means[hi] - means[lo]
-        hw = _tukey_half_width(ms_e, df_e, len(ks), nobs[hi], nobs[lo], confidence)
+        hw = _tukey_half_width(ms_ef, df_ef, len(ks), nobs[hi], nobs[lo], confidence)
+        paired = None
+        if blocks:  # one verdict per factor: a pair is beyond the noise only where the factor's own test is
+            paired = [dict(q, beyond_noise=bool(q["beyond_noise"] and p < alpha))
+                      for q in paired_differences(levels[:, j], y, confidence)]
+        own = (f"its own interaction with the blocks ({f} x block; Greenhouse-Geisser epsilon {eps:.3g})" if blocks
+               else "pure error (replicates)")
         factors[f] = {"ss": ssf, "df": dff, "ms": msf, "f": float(F), "p": p, "significant": bool(p < alpha),
+                      "error": {"ss": ss_ef, "df": df_ef, "ms": ms_ef, "kind": own},
                       "levels": ks, "level_means": means, "level_se": ses, "level_ci": cis, "range": R,
-                      "range_ci": [R - hw, R + hw], "hsd": hw, "n_per_level": nobs,
-                      "paired": paired_differences(levels[:, j], y, confidence) if blocks else None}
+                      "range_ci": [R - hw, R + hw], "hsd": hw, "n_per_level": nobs, "paired": paired}
     lof = {"ss": ss_lof, "df": int(df_lof), "ms": ss_lof / df_lof if df_lof > 0 else float("nan")}
     if df_lof > 0 and ms_e > 0:
         lof["f"] = lof["ms"] / ms_e
@@ -408,8 +232,10 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
                           "replicate, which pools the weakest factor into the error)")
     w = check_weights(weights, reps)
     if blocks:
-        err = (f"the run x block interaction of a randomised complete block design ({n} runs x {r} blocks, replicate "
-               f"k of every run in block k: {(n - 1) * (r - 1)} degrees of freedom; block effects cancel)")
+        err = (f"the factor's own interaction with the blocks ({n} runs x {r} blocks, replicate k of every run in block "
+               f"k: (levels - 1) x {r - 1} degrees of freedom per factor, Greenhouse-Geisser corrected; block effects "
+               "cancel, and a factor whose effect varies from block to block is judged against that variation, not "
+               "a pool of all factors')")
     else:
         err = f"the pure (replicate) error, {n} runs x {r} replicates = {n * (r - 1)} degrees of freedom"
     rule = (f"an effect is significant only if p < {alpha:g} (F test of the factor mean square against {err}); "
@@ -450,7 +276,8 @@ def analyze_replicated(levels: np.ndarray, values: np.ndarray, factor_names: lis
             "run_sd": y.std(axis=1, ddof=1).tolist(),
             "best_levels": {f: fac[f]["best_level"] for f in factor_names},
             "significant_factors": [f for f in factor_names if fac[f]["significant"]],
-            "anova": {"factors": {f: {k: an["factors"][f][k] for k in ("ss", "df", "ms", "f", "p", "significant")}
+            "anova": {"factors": {f: {k: an["factors"][f][k] for k in ("ss", "df", "ms", "f", "p", "significant",
+                                                                       "error")}
                                   for f in factor_names},
                       "error": an["error"], "blocks": an["blocks"],
                       "pure_error": an["pure_error"], "lack_of_fit": an["lack_of_fit"], "pooled": [],
@@ -490,7 +317,7 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
             continue
         # composite per observation over the responses this factor significantly affects
         z = sum((w[name] * (1.0 if senses[name] else -1.0) / scale[name]) * reps[name] for name in sig)
-        ss_pe, df_pe = error_term(z, blocks)
+        ss_pe, df_pe = factor_error(levels[:, j], z, blocks)
         ms = ss_pe / df_pe
         ks = sorted(int(v) for v in np.unique(levels[:, j]))
         means = [float(z[levels[:, j] == k].mean()) for k in ks]
@@ -626,7 +453,8 @@ def describe_replicated(res: ReplicatedAnalysis) -> str:
         for f, d in ra.factors.items():
             a = ra.anova.factors[f]
             lm = ", ".join(f"{m:.4g} [{lo:.4g}, {hi:.4g}]" for m, (lo, hi) in zip(d.level_means, d.level_ci))
-            lines.append(f"  {f}: R = {d.range:.4g} [{d.range_ci[0]:.4g}, {d.range_ci[1]:.4g}], F = {a.f:.3g}, "
+            against = f" against {f} x block ({a.error.df} dof)" if blocked and a.error is not None else ""
+            lines.append(f"  {f}: R = {d.range:.4g} [{d.range_ci[0]:.4g}, {d.range_ci[1]:.4g}], F = {a.f:.3g}{against}, "
                          f"p = {a.p:.3g} -> {d.verdict}; level means {lm}"
                          + (" (intervals for comparing levels: the starts' shared luck left out)" if blocked else ""))
             if d.paired:
@@ -692,5 +520,4 @@ def replicate_trend(samples: list[list[float]], alpha: float = TREND_ALPHA) -> d
             "grows": all(s["verdict"] == "up" for s in steps), "alpha": alpha}
 
 
-__all__ = ["analyze_replicated", "block_error", "block_variance", "comparison_half_width", "describe_replicated",
-           "error_term", "paired_differences", "pure_error", "replicated_anova", "replicate_trend"]
+__all__ = ["analyze_replicated", "describe_replicated", "replicated_anova", "replicate_trend"]

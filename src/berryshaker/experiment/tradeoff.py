@@ -14,7 +14,7 @@ the interval stays the one reported.  With noise = q(conf; k, dof) / sqrt(2) sqr
 range of k candidates) this margin is exactly the Tukey-Kramer simultaneous margin q / sqrt(2) sqrt(MS_E (1/n_a
 + 1/n_b)) (Montgomery, *Design and Analysis of Experiments*, 8th ed., 2013, sec. 3.5.7): the comparison of
 all candidates then has the family-wise error of one test, as the level comparisons of a replicated ANOVA do
-(:func:`berryshaker.experiment.replicates.comparison_half_width`).
+(:func:`berryshaker.experiment.error_terms.comparison_half_width`).
 """
 
 from __future__ import annotations
@@ -222,7 +222,8 @@ def better_columns(df: pd.DataFrame, i: int, j: int, senses: dict[str, bool | No
 
 
 def mark_dominated(df: pd.DataFrame, senses: dict[str, bool | None] | None = None, rtol: float = 0.01) -> pd.DataFrame:
-    """A copy of a trade-off table with ``dominated`` (bool) and ``dominated_by`` (names, comma-separated).
+    """A copy of a trade-off table with ``dominated`` (bool) and ``dominated_by`` (names, separated by "; ": a name
+    may hold commas, "A 0.25 mm, B 0.2 mm").
 
     Judged columns: those with a sense (:func:`column_sense`: harvest efficiency larger is better;
     unripe and damage rates, forces, torque, energy smaller is better; clearances descriptive).  Columns
@@ -249,7 +250,7 @@ def mark_dominated(df: pd.DataFrame, senses: dict[str, bool | None] | None = Non
     dom = dominance_matrix(out, senses, rtol)
     names = out["name"].astype(str).to_numpy()
     out["dominated"] = dom.any(axis=0)
-    out["dominated_by"] = [", ".join(names[dom[:, j]]) for j in range(len(out))]
+    out["dominated_by"] = ["; ".join(names[dom[:, j]]) for j in range(len(out))]
     return out
 
 

@@ -9,7 +9,7 @@ which falls as 1/w^2 above the stem frequency, so each added mode contributes le
 
 What is compared is the statistic the harvest uses (docs/harvest.md, "Replicates"): the replicate mean over
 seeded perturbed starts (clearance joints off centre, drive phase at the bush's arrival; the seeds of the
-calibration's and the virtual L9's replicates, :func:`berryshaker.harvest.virtual.replicate_seeds`).  With the
+calibration's and the virtual L9's replicates, :func:`berryshaker.harvest.virtual.replicate_starts`).  With the
 bush as the combs' load the lightly loaded combs rattle in their clearances, and any change of the integrator's
 step sequence -- as a change of the modes kept makes -- moves one run's peak stem force by a few per cent: the
 sensitivity of the clearance chain, not truncation.  :func:`fruit_force_convergence` separates the two: by default
@@ -101,8 +101,7 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     """
     from berryshaker.errors import ConfigError
     from berryshaker.harvest.coupled import simulate_fruit_force
-    from berryshaker.harvest.virtual import replicate_seeds
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+    from berryshaker.harvest.virtual import MACHINE, machine_start, replicate_starts
     from berryshaker.plant.modes import branch_modes
 
     modes = [int(n) for n in modes]
@@ -112,14 +111,14 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     r = int(h.replicates if replicates is None else replicates)
     if r < 2:
         raise ConfigError(f"replicates={r}: give at least 2 (a standard error needs two)")
-    seeds = replicate_seeds(machine, r)
+    seeds = replicate_starts(machine, r)
     classes = list(h.branch_classes)
     c_ref = classes.index(1.0) if 1.0 in classes else 0
     machines = [_with_modes(machine, n) for n in modes]
     peaks = {n: [] for n in modes}
     t0, runs = time.process_time(), 0
     for sd in seeds:
-        pert = RandomInitialPerturbation((sd, c_ref), h.initial_eccentricity, h.start_phase_spread)
+        pert = machine_start(machine, (sd, MACHINE, c_ref))
         if shared_run:
             res = simulate_fruit_force(machines[0], clearance, rtol=rtol, initial_perturbation=pert,
                                        probes=tuple(machines[1:]))

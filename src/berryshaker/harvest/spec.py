@@ -31,7 +31,7 @@ COUPLED_VELOCITY_SCALE = 1.0
 #: largest count of bushes, branches and replicates a description may ask for: the virtual harvest runs every
 #: one of them (a replicate is a coupled run per branch class), so more is a slip of the number, not a plan
 MAX_COUNT = 1000
-#: population seeds are numpy seeds: 0 .. 2**32 - 1 (replicate k adds 1000 k, kept below 2**63)
+#: seed families are numpy SeedSequence entropies: 0 .. 2**32 - 1
 MAX_SEED = 2**32 - 1
 
 
@@ -74,12 +74,18 @@ class HarvestSpec(_Strict):
     bruise_cv: float = Field(0.3, gt=0, lt=2)
     damage_acceleration: Annotated[float, quantity_validator("acceleration"), Field(gt=0, json_schema_extra=display_unit("m/s^2"))] = 300.0
     damage_shape: float = Field(2.0, gt=0, le=100)  # Weibull shape of the damage probability [assumed]
-    bushes: int = Field(40, ge=1, le=MAX_COUNT)  # bushes sampled per virtual test run
+    # berryshaker 0.1's bushes sampled per virtual run: read (and checked) so an older file loads, but not used: the
+    # model's expectation is exact (quadrature) and a virtual field result covers operation.test_duration
+    bushes: int | None = Field(None, ge=1, le=MAX_COUNT)
+    # bush-to-bush CV of the yield (lognormal) [assumed]: a field test passes about 3 bushes, so its efficiency
+    # scatters by about 0.3 / sqrt(3.3) = 16 % from the bushes alone (docs/harvest.md, "Virtual field test")
+    bush_yield_cv: float = Field(0.3, ge=0, lt=2)
+    # seed family of the virtual tests: start k draws each kind of randomness from its own stream
+    # SeedSequence(seed, spawn_key=(k, stream, ...)) (berryshaker.harvest.virtual.seeds)
     seed: int = Field(2024, ge=0, le=MAX_SEED)
-    # starts of each virtual test run (docs/harvest.md, "Replicates"): start k uses seed + 1000 k for its bushes and
-    # for its machine's initial state (clearance eccentricities, drive phase at the bush); 8 = the count at which the
-    # spread of every harvest response is known to 30 % (berryshaker doe virtual --convergence; the test
-    # tests/study/test_l9_convergence.py holds it)
+    # starts of each virtual test run (docs/harvest.md, "Replicates"): each start is one field test (its machine's
+    # initial state in every branch class's drive-past, its bushes and counted fruit); the count is chosen by
+    # berryshaker doe virtual --convergence (tests/study/test_l9_convergence.py holds it)
     replicates: int = Field(8, ge=2, le=MAX_COUNT)
     # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of
     # ``replicates`` until every harvest response's standard error is at most se_target x its mean, or max_replicates

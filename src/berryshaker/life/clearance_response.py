@@ -251,7 +251,7 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
                         label: str = "tolerance grid", starts: int | None = None) -> dict[str, ClearanceResponse]:
     """Run the one-at-a-time grid through the cached runner (:func:`berryshaker.life.runs.wear_rate_run`), each
     point from ``starts`` perturbed starts (seeds (seed_k, 0) of
-    :func:`berryshaker.harvest.virtual.replicate_seeds`, the same at every point; ``starts = 1``: the centred start
+    :func:`berryshaker.harvest.virtual.replicate_starts`, the same at every point; ``starts = 1``: the centred start
     alone; default ``harvest.replicates``), and build each joint's :class:`ClearanceResponse` from the means over
     the starts.
 
@@ -283,13 +283,13 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     ConfigError
         ``starts`` < 1.
     """
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
     from berryshaker.life.runs import wear_rate_run
 
     starts = machine.harvest.replicates if starts is None else starts
     if int(starts) < 1:
         raise ConfigError(f"starts = {starts}: give at least 1 start per grid point")
-    seeds = [None] if int(starts) == 1 else [[sd, 0] for sd in replicate_seeds(machine, int(starts))]
+    seeds = [None] if int(starts) == 1 else [[sd, 0] for sd in replicate_starts(machine, int(starts))]
     data = machine.model_dump(mode="json")
     jobs, where = [], []
     for j in joints:

@@ -140,10 +140,9 @@ def wear_rate_run(machine_data: dict, clearance: dict, revolutions: int = 2, sli
     machine = machine_with_overrides(machine_data)
     pert = None
     if seed is not None:
-        from berryshaker.multibody.perturbation import RandomInitialPerturbation
+        from berryshaker.harvest.virtual import machine_start
 
-        h = machine.harvest
-        pert = RandomInitialPerturbation(tuple(int(x) for x in seed), h.initial_eccentricity, h.start_phase_spread)
+        pert = machine_start(machine, seed)
     loads, outputs = joint_loads(machine, clearance, revolutions=revolutions, slip=slip, initial_perturbation=pert)
     models = joint_wear_models(machine, load_direction=load_direction)
     sized = machine.with_clearances(clearance)

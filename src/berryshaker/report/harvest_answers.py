@@ -69,6 +69,23 @@ def _welch_p(m1, s1, n1, m2, s2, n2) -> float:
     return float(2 * stats.t.sf(abs(t), dof))
 
 
+def _speed_rows(hr: dict) -> list[dict]:
+    """The harvest-response step's rows (JSON) as flat columns: per response its column (``ripe_removal_pct`` ...)
+    holding the model's mean and ``<column>_sd`` the model's start-to-start SD
+    (berryshaker.harvest.virtual.replicate_response)."""
+    from berryshaker.harvest.virtual import RESPONSES
+
+    out = []
+    for r in hr.get("rows") or []:
+        flat = {k: v for k, v in r.items() if k != "responses"}
+        for n, sp in (r.get("responses") or {}).items():
+            if n in RESPONSES:
+                col = RESPONSES[n].column
+                flat[col], flat[col + "_sd"], flat[col + "_field_sd"] = sp["mean"], sp["sd"], sp["field_sd"]
+        out.append(flat)
+    return out
+
+
 def _differs(a: dict, b: dict, key: str) -> bool | None:
     """Whether two harvest-response rows' means of ``key`` differ beyond the noise (Welch, two-sided p < 0.05, on
     their replicates' SDs); None when a row has fewer than 2 replicates (no noise to judge by)."""
@@ -112,7 +129,7 @@ def operating_point(summary: dict, machine=None, damage_limit_pct: float = DAMAG
         with the reason), ``statement``; None without the step.
     """
     hr = _results(summary).get("harvest_response") or {}
-    rows = [r for r in hr.get("rows") or [] if "ripe_removal_pct" in r]
+    rows = [r for r in _speed_rows(hr) if "ripe_removal_pct" in r]
     if not rows:
         return None
     own = hr.get("configured_rpm")
@@ -254,7 +271,7 @@ def why_efficiency(summary: dict, machine) -> WhyEfficiency | None:
     ripe_part = rem.value / 100 * y * (1 - uf) * bpm
     unripe_part = (shed.value if shed else 0.0) / 100 * y * uf * bpm
     hr = _results(summary).get("harvest_response") or {}
-    own = next((r for r in hr.get("rows") or [] if hr.get("configured_rpm") is not None
+    own = next((r for r in _speed_rows(hr) if hr.get("configured_rpm") is not None
                 and math.isclose(r["speed_rpm"], hr["configured_rpm"], rel_tol=1e-6)), None)
     freq = own["shaking_frequency_hz"] if own else None
     drivers = _kinematic_drivers(_results(summary).get("kinematics"), machine, freq)

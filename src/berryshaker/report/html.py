@@ -2,7 +2,7 @@
 resolved configuration and package version at the end.  Opens offline; no scripts.  The page opens with the design
 answers at the described operating point (:mod:`berryshaker.report.design_html`), then the study steps' numbered
 sections (:mod:`berryshaker.report.sections`, each its answer with the rest folded), then an appendix (the claims,
-the configuration); the report of ``doe analyze`` is here too.  Tables, figures and the CSS are
+the configuration); the page of ``doe analyze`` is :mod:`berryshaker.report.doe_page`'s.  Tables, figures and the CSS are
 :mod:`berryshaker.report.html_blocks`'.
 """
 
@@ -157,96 +157,3 @@ def _claims_section(parts: list, res) -> None:
     parts.append(_table(["#", "claim (docs/study.md)", "verdict", *(["criterion"] if with_criterion else []),
                          "our numbers"], rows, left=(1, 2, 3, 4),
                         widths=(4, 22, 11, 27, 36) if with_criterion else (4, 32, 12, 52)))
-
-
-
-
-def doe_report(res, title: str, *, results_file: str = "", version: str = "") -> str:
-    """Self-contained, printable HTML of ``doe analyze``: per response the range analysis (level means, range,
-    best level with its value), pooled ANOVA and regression notes; the weighted optimum with the weights used
-    and the predicted responses; the factors' level values and units; input file and package version.
-
-    Parameters
-    ----------
-    res : DoeAnalysis or SheetReplicatedAnalysis
-        The analysis of ``doe analyze`` (:func:`berryshaker.experiment.field_results.analyze_sheet`).
-    title : str
-        Title of the page.
-    results_file : str
-        The analysed sheet's file name.
-    version : str
-        The package version.
-
-    Returns
-    -------
-    str
-        The HTML document.
-    """
-    from berryshaker.experiment.analysis_records import DoeAnalysis
-    from berryshaker.experiment.replicated_records import ReplicatedAnalysis
-    from berryshaker.report.style import RESPONSE_UNITS
-
-    factors = res.factors
-    units = {**RESPONSE_UNITS, **(res.response_units or {})}  # the sheet's units first (issue 45)
-    parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html.escape(title)}</title>"
-             f"<style>{CSS}</style></head><body><h1>{html.escape(title)}</h1>",
-             f"<p>Results file <code>{html.escape(str(results_file))}</code>; berryshaker "
-             f"{html.escape(str(version))}.</p>"]
-    if factors:
-        parts.append("<h2>Factors</h2>")
-        parts.append(_table(["factor", "unit", "levels"],
-                            [[f, d.unit or "-", ", ".join(f"{n}: {lab}" for n, lab in zip(d.level_numbers, d.labels))]
-                             for f, d in factors.items()], left=(0, 1, 2)))
-    o = res.optimum
-    how = "given with --weights, scaled to sum 1" if res.weights_given else "equal (no --weights given)"
-    method = res.composite.method if isinstance(res, DoeAnalysis) else ""
-    parts.append("<h2>Weighted optimum</h2>")
-    parts.append("<p>Weights of the composite score: "
-                 f"{html.escape(', '.join(f'{k} {v:.2f}' for k, v in res.weights.items()))} ({how}).  "
-                 f"{html.escape(method)}.</p>")
-    parts.append(_table(["factor", "level", "setting"], [[f, n if n is not None else "-",
-                                                          o.settings.get(f) or "no meaningful difference"]
-                                                         for f, n in o.levels.items()], left=(0, 2)))
-    if isinstance(res, ReplicatedAnalysis):  # a replicated sheet: effects against the replicate spread
-        parts.append(f"<p class='small'>{res.runs} runs x {res.replicates} replicates.  "
-                     f"{html.escape(res.significance_rule)}</p>")
-    parts.append(_table(["response", "predicted at the optimum", "unit"],
-                        [[r, _fixed([v])[0], units.get(r, "")] for r, v in o.values.items()],
-                        left=(0, 2)))
-    parts.append(f"<p class='small'>{html.escape(o.prediction)}</p>")
-    for name, ra in res.responses.items():
-        unit = units.get(name)
-        parts.append(f"<h2>{html.escape(name)}{f' ({unit})' if unit else ''}: range analysis "
-                     f"({'maximise' if ra.maximize else 'minimise'})</h2>")
-        an = ra.anova.factors
-        nlev = len(next(iter(ra.factors.values())).level_means)
-        means = [v for d in ra.factors.values() for v in d.level_means]
-        rows = []
-        for f, d in ra.factors.items():
-            cells = _fixed(list(d.level_means) + [d.range], reference=means)
-            labels = factors[f].labels if f in factors else []
-            best = d.best_level
-            rows.append([f, *cells, f"{best}" + (f" ({labels[best - 1]})" if len(labels) >= best and
-                                                   factors[f].values is not None else ""),
-                         f"{an[f].f:.3g}" if f in an else "pooled", f"{an[f].p:.3g}" if f in an else ""])
-        parts.append(_table(["factor", *[f"k{j + 1}" for j in range(nlev)], "R", "best level", "ANOVA F", "p"],
-                            rows))
-        reg = ra.regression
-        parts.append(f"<p class='small'>Ranking {html.escape(' > '.join(ra.ranking))}.  Eq. 19 full quadratic: "
-                     f"rank {reg.full_model_rank} of {len(reg.full_model_terms)} terms; aliased: "
-                     f"{html.escape(', '.join(reg.aliased_terms) or 'none')}.  Main-effects quadratic model: "
-                     f"R² = {reg.main_effects_quadratic.r2:.3f} with "
-                     f"{reg.main_effects_quadratic.residual_df} residual df.</p>")
-    parts.append("</body></html>")
-    return "\n".join(parts)
-
-
-def _fixed(values: list, reference: list | None = None) -> list[str]:
-    """Numbers of one group with the same decimals: four significant digits for the group's largest |value|
-    (so 3 and 3.65 print as 3.000 and 3.650)."""
-    import math
-
-    ref = [abs(float(v)) for v in (reference if reference is not None else values) if math.isfinite(float(v))]
-    top = max(ref, default=0.0)
-    dec = 3 if top == 0.0 else max(0, min(6, 3 - int(math.floor(math.log10(top)))))
-    return [f"{float(v):.{dec}f}" for v in values]

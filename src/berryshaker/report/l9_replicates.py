@@ -16,7 +16,7 @@ from berryshaker.units import format_tolerance
 
 
 def _short_candidate(name: str) -> str:
-    """A trade-off candidate's short label: "run 3 (A1B3C3F3)" -> "3", "recommended (A1B1C1F3)" -> "rec."."""
+    """A trade-off candidate's short label: "run 3 (A 0.25 mm, ...)" -> "3", "recommended (...)" -> "rec."."""
     m = re.match(r"run (\d+)\b", name)
     if m:
         return m.group(1)
@@ -49,23 +49,40 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     paired = l9.paired
     for name, ra in rep.responses.items():
         sd = ra.anova.pure_error.ms ** 0.5
-        e = ra.anova.error
         sig = ", ".join(f"{f} (p = {ra.factors[f].p:.2g})" for f in ra.significant_factors) or "none"
         pr = "; ".join(f"{f}{q.levels[1]} - {f}{q.levels[0]}: {q.difference:+.3g} +- {q.se:.2g}"
-                       + ("" if q.beyond_noise else " (noise)") for f, q in paired.get(name, {}).items())
-        rows.append([name, units.get(name, ""), float(sum(ra.run_means) / len(ra.run_means)), sd,
-                     e.ms ** 0.5, e.df, sig, pr])
+                       + ("" if q.beyond_noise else " (no difference)") for f, q in paired.get(name, {}).items())
+        rows.append([name, units.get(name, ""), float(sum(ra.run_means) / len(ra.run_means)), sd, sig, pr])
     if rows:
-        spread = ["<p class='small'>The starts are blocks: start k is the same for every run, so its luck cancels "
-                     "from every comparison.  Per-start SD: the spread of one run's starts; blocked error SD: what "
-                     "effects are tested against (the run x start interaction); paired differences: the extreme levels "
-                     "of each factor compared start by start, +- one standard error, marked (noise) where that "
-                     "contrast's own paired t test over the starts (r - 1 dof) cannot tell them apart; the "
-                     "significant factors come from the F test, which pools the error of every contrast.</p>",
-                  _table(["response", "unit", "grand mean", "per-start SD", "blocked error SD", "dof",
-                          "significant factors", "paired differences (last - first level)"], rows, left=(0, 1, 6, 7))]
         parts.append(_details("Replicate spread and significance per response (table; the design answers give the "
-                              "paired differences with their intervals)", spread))
+                              "paired differences with their intervals)", [
+            "<p class='small'>Each start is one virtual field test (its machine start and the bushes and "
+            "fruit it counts), and the starts are blocks: start k is the same for every run, so its luck "
+            "cancels from every comparison.  Per-start SD: the spread of one run's field tests; each factor "
+            "is tested against its own interaction with the starts, one verdict per factor and response; "
+            "paired differences: the extreme levels of each factor compared start by start, +- one "
+            "standard error, with that verdict.</p>",
+            _table(["response", "unit", "grand mean", "per-start SD", "significant factors",
+                    "paired differences (last - first level)"], rows, left=(0, 1, 4, 5))]))
+    det = getattr(l9, "detectability", None) or {}
+    if det:
+        drows = []
+        for name, per in det.items():
+            ra = rep.responses.get(name)
+            for f, d in per.items():
+                n = d.tests_per_level
+                drows.append([name, f, f"{d.effect:.3g} ± {d.effect_se:.2g} {units.get(name, '')}",
+                              "differs" if ra is not None and ra.factors[f].significant else "no difference",
+                              f"{d.field_sd:.3g}", "-" if n is None else (">10,000" if n > 1e4 else f"{n:.0f}")])
+        parts.append("<details><summary>What a field test would see: the model's effects against the noise of one "
+                     "field test</summary>")
+        parts.append("<p class='small'>Model effect: the range of the factor's level means of the model's expectation "
+                     "(the starts shared, so paired); SD of one field test: the counted field results' spread at one "
+                     "setting; field tests per level: what a two-sided t test at alpha 0.05 needs to see that effect "
+                     "with power 0.8 (statsmodels TTestIndPower).</p>")
+        parts.append(_table(["response", "factor", "model effect (range ± SE)", "verdict", "SD of one field test",
+                             "field tests per level"], drows, left=(0, 1, 3)))
+        parts.append("</details>")
     rec = l9.recommended
     if rec.statement:
         parts.append("<h3>Recommendation and its basis</h3>")
@@ -106,8 +123,8 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         short = {r["name"]: _short_candidate(r["name"]) for r in recs}
 
         def beaten_by(r):
-            names = [n.strip() for n in re.split(r",\s*(?=run |recommended)", r.get("dominated_by") or "") if n.strip()]
-            return ", ".join(short.get(n, n) for n in names) or "-"
+            names = [n.strip() for n in (r.get("dominated_by") or "").split("; ") if n.strip()]
+            return "; ".join(short.get(n, n) for n in names) or "-"
 
         header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]

@@ -500,20 +500,19 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
         parts.append("<p>Not available (see Failed runs).</p>")
         return title, parts
     reps = next((r.replicates for r in hr.rows if r.replicates), None)
-    parts.append("<p>Ripe removal (% of the ripe mass), unripe shedding (% of the unripe mass) and damage (% of the "
-                 "picked mass) of the seeded virtual harvest against the drive-shaft speed, one comb cycle per "
-                 "revolution, at the configured clearances; every other value as described."
-                 + (f" Each row is the mean over {reps} replicates from perturbed starts (the calibration's "
-                    "statistic and seeds) with the SD over the replicates." if reps else "") + "</p>")
+    parts.append("<p>The harvest responses of the seeded virtual harvest against the drive-shaft speed, one comb cycle "
+                 "per revolution, at the configured clearances; every other value as described."
+                 + (f" Each cell is the model's expectation over {reps} perturbed starts ± the model's start-to-start "
+                    "SD, and in brackets the SD of one counted field test (the field's test-to-test spread)."
+                    if reps else "") + "</p>")
+    names = list(hr.rows[0].responses) if hr.rows else []
 
-    def _sd(mean, sd):  # mean with the replicates' SD
-        return f"{mean:.3g} ± {sd:.2g}"
+    def _sd(s):  # the expectation with the model's SD and the field test's
+        return f"{s.mean:.3g} ± {s.sd:.2g} ({s.field_sd:.2g})"
 
-    parts.append(_table(["drive speed (r/min)", "frequency (Hz)", "ripe removal (%)", "unripe shedding (%)",
-                         "damage (%)", "efficiency (kg/min)"],
-                        [[r.speed_rpm, r.shaking_frequency_hz, _sd(r.ripe_removal_pct, r.ripe_removal_pct_sd),
-                          _sd(r.unripe_shed_pct, r.unripe_shed_pct_sd), _sd(r.damage_rate_pct, r.damage_rate_pct_sd),
-                          _sd(r.efficiency_kg_min, r.efficiency_kg_min_sd)]
+    parts.append(_table(["drive speed (r/min)", "frequency (Hz)"]
+                        + [f"{n.replace('_', ' ')} ({hr.rows[0].responses[n].unit})" for n in names],
+                        [[r.speed_rpm, r.shaking_frequency_hz, *[_sd(r.responses[n]) for n in names]]
                          for r in hr.rows]))
     _maybe_img(parts, figs / "harvest_vs_frequency.png", "Virtual harvest against shaking frequency")
     cal = hr.calibration

@@ -566,12 +566,19 @@ model_run.batch = model_runs
 model_run.cache_key_ignores = ("specialised",)  # the kernel: bitwise the same summary (multibody.specialised)
 
 
-#: outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response)
-HARVEST_COLUMNS = ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct", "unripe_rate_pct",
-                   "efficiency_kg_min", "shaking_frequency_hz", "comb_swing_deg", "finger_amplitude_mm",
-                   # replicate SDs and count (harvest_response is a replicate mean over perturbed starts)
-                   "ripe_removal_pct_sd", "unripe_shed_pct_sd", "damage_rate_pct_sd", "unripe_rate_pct_sd",
-                   "efficiency_kg_min_sd", "replicates")
+def harvest_output_columns() -> list[str]:
+    """Outputs of a ``--model harvest`` point (berryshaker.harvest.virtual.harvest_response): every harvest
+    response's mean with its model, field and counting spreads (the response table's columns), the shaking
+    frequency and amplitude, the number of starts.
+
+    Returns
+    -------
+    list of str
+        Column names (their units in the names).
+    """
+    from berryshaker.harvest.virtual import harvest_columns
+
+    return [*harvest_columns(), "shaking_frequency_hz", "comb_swing_deg", "finger_amplitude_mm", "replicates"]
 
 
 def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list[RunResult]) -> tuple[list, list]:
@@ -614,7 +621,7 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
                 vals["input_power_W"] = r.value["input_power_W"]
                 for name, e in r.value["energy_per_revolution_J"].items():
                     vals[f"energy_lost_{name.replace(' ', '_')}_J_per_rev"] = e
-            for key in HARVEST_COLUMNS:  # --model harvest
+            for key in harvest_output_columns():  # --model harvest
                 if key in r.value:
                     vals[key] = r.value[key]
         for k in vals:

@@ -11,37 +11,44 @@ from dataclasses import dataclass
 from berryshaker.records import JsonRecord, optional
 
 
+@dataclass(frozen=True)
+class ResponseSpread(JsonRecord):
+    """One harvest response over a setting's starts (:func:`berryshaker.harvest.virtual.replicate_response`).
+
+    Attributes
+    ----------
+    mean : float
+        Mean of the model's expectation over the starts (its unit).
+    sd : float
+        The model's start-to-start SD (its unit).
+    field_sd : float
+        The field's test-to-test SD: of the counted field results (its unit).
+    count_sd : float
+        The counting noise of one field test (RMS over the starts; its unit).
+    unit : str
+        The response's unit.
+    """
+
+    mean: float
+    sd: float
+    field_sd: float
+    count_sd: float
+    unit: str
+
+
 @dataclass(frozen=True, kw_only=True)
 class HarvestSpeedRow(JsonRecord):
-    """The harvest indexes at one drive speed: replicate means over perturbed starts and their SDs
+    """The harvest responses at one drive speed over perturbed starts
     (:func:`berryshaker.harvest.virtual.replicate_response`).
 
     Attributes
     ----------
     speed_rpm : float
         Drive-shaft speed (r/min).
-    ripe_removal_pct : float
-        Ripe removal, % of the ripe mass (%).
-    ripe_removal_pct_sd : float
-        Its SD over the replicates (%).
-    unripe_shed_pct : float
-        Unripe shedding, % of the unripe mass (%).
-    unripe_shed_pct_sd : float
-        Its SD over the replicates (%).
-    damage_rate_pct : float
-        Damage, % of the picked mass (%).
-    damage_rate_pct_sd : float
-        Its SD over the replicates (%).
-    unripe_rate_pct : float
-        Unripe share of the picked mass (%).
-    unripe_rate_pct_sd : float
-        Its SD over the replicates (%).
-    efficiency_kg_min : float
-        Picking efficiency (kg/min).
-    efficiency_kg_min_sd : float
-        Its SD over the replicates (kg/min).
+    responses : dict of str to ResponseSpread
+        Every harvest response (berryshaker.harvest.virtual.RESPONSES) by name.
     replicates : int
-        Replicates (perturbed starts) averaged.
+        Starts averaged.
     shaking_frequency_hz : float
         Comb shaking frequency (Hz).
     comb_swing_deg : float or None
@@ -51,20 +58,35 @@ class HarvestSpeedRow(JsonRecord):
     """
 
     speed_rpm: float
-    ripe_removal_pct: float
-    ripe_removal_pct_sd: float
-    unripe_shed_pct: float
-    unripe_shed_pct_sd: float
-    damage_rate_pct: float
-    damage_rate_pct_sd: float
-    unripe_rate_pct: float
-    unripe_rate_pct_sd: float
-    efficiency_kg_min: float
-    efficiency_kg_min_sd: float
+    responses: dict[str, ResponseSpread]
     replicates: int
     shaking_frequency_hz: float
     comb_swing_deg: float | None = optional()
     finger_amplitude_mm: float | None = optional()
+
+    @classmethod
+    def from_columns(cls, speed_rpm: float, row: dict) -> "HarvestSpeedRow":
+        """The record of one :func:`berryshaker.harvest.virtual.replicate_response` row (its columns).
+
+        Parameters
+        ----------
+        speed_rpm : float
+            Drive-shaft speed (r/min).
+        row : dict
+            The row's columns.
+
+        Returns
+        -------
+        HarvestSpeedRow
+            Its responses by name.
+        """
+        from berryshaker.harvest.virtual import RESPONSES
+
+        spreads = {n: ResponseSpread(mean=row[r.column], sd=row[f"{r.column}_sd"], field_sd=row[f"{r.column}_field_sd"],
+                                     count_sd=row[f"{r.column}_count_sd"], unit=r.unit) for n, r in RESPONSES.items()}
+        extra = {k: row[k] for k in ("comb_swing_deg", "finger_amplitude_mm") if k in row}
+        return cls(speed_rpm=float(speed_rpm), responses=spreads, replicates=int(row["replicates"]),
+                   shaking_frequency_hz=float(row["shaking_frequency_hz"]), **extra)
 
 
 @dataclass(frozen=True)

@@ -53,14 +53,14 @@ def _fruit_start_jobs(ctx: StudyContext) -> list[dict]:
     """Perturbed starts (``harvest.replicates``, the virtual harvest's seeds) of the fruit-force branch's drive-past
     at the configured clearances and at the three level sets: the fruit force's claims judged on replicate means
     (set-major; the same jobs as the virtual harvest's for that branch class, shared through the cache)."""
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
     from berryshaker.study.l9 import replicate_jobs
 
     last = n_rows(ctx.machine)
     c = _fruit_class(ctx.machine)
-    seeds = replicate_seeds(ctx.machine)
+    seeds = replicate_starts(ctx.machine)
     sets = [ctx.machine.clearance_sizes()] + [clearance_row(ctx.machine, r) for r in (last - 2, last - 1, last)]
-    return [j for cl in sets for j in replicate_jobs(ctx.machine, cl, seeds, data=ctx.data) if j["seed"][1] == c]
+    return [j for cl in sets for j in replicate_jobs(ctx.machine, cl, seeds, data=ctx.data) if j["seed"][2] == c]
 
 
 def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
@@ -279,13 +279,13 @@ def _response_runs(ctx: StudyContext) -> tuple[list[float], list, list[list[dict
 
     from berryshaker.config import machine_from_dict
     from berryshaker.harvest.virtual import with_drive_speed
-    from berryshaker.study.l9 import replicate_jobs, replicate_seeds
+    from berryshaker.study.l9 import replicate_jobs, replicate_starts
 
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
     speeds = sorted(set(RESPONSE_SPEEDS_RPM) | {round(own, 6)})
     datas = [with_drive_speed(ctx.data, rpm * 2 * math.pi / 60) if not math.isclose(rpm, own) else ctx.data
              for rpm in speeds]
-    seeds = replicate_seeds(ctx.machine)
+    seeds = replicate_starts(ctx.machine)
     cal_cl = ctx.machine.clearance_sizes()
     machines = [machine_from_dict(d) for d in datas]
     return speeds, machines, [replicate_jobs(m, cal_cl, seeds, data=d) for m, d in zip(machines, datas)]
@@ -334,13 +334,13 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     from berryshaker.harvest.calibration import calibration_table
     from berryshaker.harvest.virtual import calibrate_harvest, replicate_response
     from berryshaker.report import plots as P
-    from berryshaker.study.l9 import replicate_envelopes, replicate_seeds
+    from berryshaker.study.l9 import replicate_envelopes, replicate_starts
     from berryshaker.study.runs import replicate_run
 
     ctx.say("harvest against shaking frequency, calibration")
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
     speeds, machines, per_speed = _response_runs(ctx)
-    seeds = replicate_seeds(ctx.machine)
+    seeds = replicate_starts(ctx.machine)
     outs = ctx.collect(replicate_run, [j for jobs in per_speed for j in jobs], RESPONSE_LABEL,
                        lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
                                  f"r/min, branch class x{j['scale']:g}, seed {j['seed']}")
@@ -389,7 +389,7 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
             fit = calibrate_harvest(ctx.machine, replicates=reps)
     ff = ctx.results.get("fruit_force")  # a FruitForceStep, or None when that step produced no data
     chosen = None if ff is None or ff.chosen is None else ff.chosen.summary.to_json()
-    data = HarvestResponse(rows=[HarvestSpeedRow(**r) for r in rows], configured_rpm=own,
+    data = HarvestResponse(rows=[HarvestSpeedRow.from_columns(r["speed_rpm"], r) for r in rows], configured_rpm=own,
                            calibration=Calibration.from_json(calibration_table(ctx.machine, chosen, fit)))
     return StepResult("harvest_response", data, figs)
 

@@ -38,13 +38,14 @@ import numpy as np
 
 from berryshaker.experiment.clearance_sets import l9_runs, level_code
 from berryshaker.experiment.replicated_records import ReplicatedAnalysis
-from berryshaker.harvest.virtual import replicate_seeds  # one home; re-exported here
+from berryshaker.harvest.virtual import replicate_starts  # one home; re-exported here
 from berryshaker.records import fields_of
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.report.design import level_set_name
 from berryshaker.study.l9_records import (
     Confirmation,
     Estimate,
+    FieldDetectability,
     L9Optimum,
     L9Run,
     PairedDifference,
@@ -57,10 +58,9 @@ from berryshaker.study.l9_records import (
 )
 from berryshaker.study.replicate_responses import (
     CONFIDENCE,
+    EXPECTED,
     HARVEST_RESPONSES,
-    RESPONSE_RESOLUTION,
     RTOL_RUN,
-    _cell,
     cells_from_outputs,
     interval,
     load_responses,
@@ -81,10 +81,10 @@ from berryshaker.study.tradeoff_confirmation import (
 
 #: the names callers import from here: the L9's own and its parts'
 __all__ = [
-    "CONFIDENCE", "CONFIRMATION_RULE", "HARVEST_RESPONSES", "RESPONSE_RESOLUTION", "RTOL_CHECK", "RTOL_RUN",
+    "CONFIDENCE", "CONFIRMATION_RULE", "HARVEST_RESPONSES", "RTOL_CHECK", "RTOL_RUN",
     "TRADEOFF_SENSES", "cells_from_outputs", "check_solver_tolerance", "confirm_recommendation",
     "fitted_here", "interval", "l9_jobs", "load_responses", "paired_summary", "replicate_envelopes", "replicate_jobs",
-    "replicate_seeds", "response_units", "sequential_starts", "start_cells", "start_convergence", "tolerance_verdict",
+    "replicate_starts", "response_units", "sequential_starts", "start_cells", "start_convergence", "tolerance_verdict",
     "tradeoff_records", "virtual_l9",
 ]
 
@@ -128,7 +128,7 @@ def l9_jobs(machine, replicates: int | None = None, data: dict | None = None) ->
     r = int(machine.harvest.replicates if replicates is None else replicates)
     if r < 2:
         raise ConfigError(f"replicates={r}: the replicated L9 needs at least 2 replicates per run")
-    seeds = replicate_seeds(machine, r)
+    seeds = replicate_starts(machine, r)
     data = machine.model_dump(mode="json") if data is None else data
     jobs = [j for cl in runs for j in replicate_jobs(machine, cl, seeds, RTOL_RUN, data)]
     return jobs, f"virtual L9: {len(runs)} runs x {r} replicates, coupled runs"
@@ -162,7 +162,6 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     from berryshaker.experiment.analysis import analyze
     from berryshaker.experiment.designs import orthogonal_array
     from berryshaker.experiment.replicates import analyze_replicated, describe_replicated
-    from berryshaker.harvest.virtual import sample_population
 
     pairs = list(machine.pair_names)
     runs, _codes = l9_runs(machine)
@@ -171,22 +170,24 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     data = machine.model_dump(mode="json")
     jobs, label = l9_jobs(machine, replicates, data)
     r = int(h.replicates if replicates is None else replicates)
-    seeds = replicate_seeds(machine, r)
+    seeds = replicate_starts(machine, r)
     classes = h.branch_classes
 
     def jobs_for(cl, seeds_, rtol=RTOL_RUN):
         return replicate_jobs(machine, cl, seeds_, rtol, data)
 
-    def cells(outs, seeds_, pops_):
-        nc = len(classes)
-        return [_cell(machine, outs[k * nc:(k + 1) * nc], pops_[k]) for k in range(len(seeds_))]
+    def cells(outs, seeds_):
+        return cells_from_outputs(machine, outs, seeds_)
 
     outs = runner.values(replicate_run, jobs, label)
-    pops = [sample_population(machine, seed=s) for s in seeds]
     per = len(seeds) * len(classes)
-    run_cells = [cells(outs[i * per:(i + 1) * per], seeds, pops) for i in range(len(runs))]
-    names = [n for n in run_cells[0][0] if all(np.isfinite(c[n]) for rc in run_cells for c in rc)]
+    run_cells = [cells(outs[i * per:(i + 1) * per], seeds) for i in range(len(runs))]
+    finite = lambda n: all(n in c and np.isfinite(c[n]) for rc in run_cells for c in rc)  # noqa: E731
+    harvest = [n for n in HARVEST_RESPONSES if finite(n)]
+    loads = [n for n in load_responses(pairs) if finite(n)]
+    names = harvest + loads
     y = {n: np.array([[c[n] for c in rc] for rc in run_cells]) for n in names}
+    expected = {n: np.array([[c[n + EXPECTED] for c in rc] for rc in run_cells]) for n in harvest}
     a = orthogonal_array("L9")[:, :len(pairs)] + 1
     values = np.array([[rr[p] * 1e3 for p in pairs] for rr in runs])
     units = response_units(pairs)
@@ -194,27 +195,27 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     # rank differences of any size; the recommendation is the replicated, tiered one below)
     study_idx = ("efficiency", "unripe", "damage")
     an = analyze(a, values, pairs, {n: y[n].mean(axis=1) for n in study_idx}, SENSES, PRIORITY_WEIGHTS)
-    senses = {n: HARVEST_RESPONSES[n][3] if n in HARVEST_RESPONSES else False for n in names}
-    loads = [n for n in load_responses(pairs) if n in y]
+    senses = {n: HARVEST_RESPONSES[n].maximize if n in HARVEST_RESPONSES else False for n in names}
     rep = analyze_replicated(a, values, pairs, y, senses, PRIORITY_WEIGHTS, confidence=CONFIDENCE,
                              level_values={p: tuple(v * 1e3 for v in levels_m[p]) for p in pairs},
                              units={p: "mm" for p in pairs},
                              fallback_weights={n: 1.0 for n in loads} or None, blocks=True)
     perturbation = Perturbation(
         initial_eccentricity=h.initial_eccentricity, start_phase_spread_rad=h.start_phase_spread,
-        what=("start k (block k of every run): seed + 1000 k for the bushes and for every branch class's coupled run "
-              "(seed, class): clearance eccentricities uniform over the disc of "
-              f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform "
-              f"in +-{math.degrees(h.start_phase_spread):.0f} deg"))
+        what=("start k (block k of every run) is one virtual field test: every branch class's coupled drive-past "
+              f"from its own stream of seed family {h.seed} (clearance eccentricities uniform over the disc of "
+              f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform in "
+              f"+-{math.degrees(h.start_phase_spread):.0f} deg) and the bushes and fruit the test counts from another"))
     rep = ReplicatedL9(**fields_of(rep), seeds=seeds, units=units, perturbation=perturbation,
                        text=describe_replicated(rep))
-    # comparisons between runs (they share the starts) use the blocked error; a run's own interval, its own starts
-    err = {n: (rep.responses[n].anova.error.ms, rep.responses[n].anova.error.df) for n in names}
     run_recs = [L9Run(run=i + 1, levels={p: int(a[i, j]) for j, p in enumerate(pairs)},
                       clearance_mm={p: float(values[i, j]) for j, p in enumerate(pairs)},
                       name=level_set_name({p: float(values[i, j]) for j, p in enumerate(pairs)}),
                       **{n: float(y[n][i].mean()) for n in study_idx},
-                      replicates={n: Estimate(**interval(y[n][i])) for n in names}) for i in range(len(runs))]
+                      replicates={n: Estimate(**interval(y[n][i])) for n in names},
+                      expected={n: Estimate(**interval(expected[n][i])) for n in harvest}) for i in range(len(runs))]
+    # comparisons between runs (they share the starts) use the blocked error; a run's own interval, its own starts
+    err = {n: (rep.responses[n].anova.error.ms, rep.responses[n].anova.error.df) for n in names}
 
     # recommendation: the tiered optimum; a factor where nothing differs keeps the configured clearance
     opt = rep.optimum
@@ -249,7 +250,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
         if i is not None:
             return i, cl, run_cells[i]
         o = runner.values(replicate_run, jobs_for(cl, seeds), "virtual harvest at the recommendation")
-        return None, cl, cells(o, seeds, pops)
+        return None, cl, cells(o, seeds)
 
     row, best_cl, rec_cells = rec_cells_at(rec_levels)
     rec_y = {n: np.array([c[n] for c in rec_cells]) for n in names}
@@ -265,12 +266,10 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
         for p in pairs:
             if rec_levels[p] != tiered_levels[p]:
                 # decided on measured evidence, not kept for want of it (claim 8 reads the basis)
-                basis[p] = (f"tested L9 run {row + 1} ({level_code(rec_levels)}) dominates the tiered choice "
-                            f"{check.tiered.code} beyond the noise: level {rec_levels[p]} (the tiered rule "
+                basis[p] = (f"tested L9 run {row + 1} ({run_recs[row].name}) dominates the tiered choice "
+                            f"{check.tiered.name} beyond the noise: level {rec_levels[p]} (the tiered rule "
                             f"gave level {tiered_levels[p]})")
     statement = statement + " " + check.statement
-    opt = L9Optimum(**{**fields_of(opt), "levels": dict(rec_levels)}, decided_levels=opt.levels,
-                    tiered_levels=tiered_levels)
     # the recommended set's starts extended until every harvest response's mean is known to its target; its
     # intervals and SDs come from all of them (the first are the L9's: the same seeds)
     from berryshaker.errors import SimulationError
@@ -284,8 +283,16 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                "statement": f"{len(rec_cells)} starts (the L9's): a further start failed, so the recommendation's "
                             f"intervals rest on these ({exc})"}
     rec_all = {n: np.array([c[n] for c in seq["cells"]]) for n in names}
-    vh = {key: float(np.mean(rec_all[n])) / scale for n, (key, scale, _, _) in HARVEST_RESPONSES.items()
-          if n in rec_all}
+    vh = {HARVEST_RESPONSES[n].column: float(np.nanmean([c[n + EXPECTED] for c in seq["cells"]])) for n in harvest}
+    # the optimum as recommended: its levels, their settings and the recommended set's own values, one set
+    own = {n: interval(rec_all[n]) for n in names}
+    labels = {p: rep.factors[p].labels[rep.factors[p].level_numbers.index(rec_levels[p])] for p in pairs}
+    opt = L9Optimum(**{**fields_of(opt), "levels": dict(rec_levels), "settings": labels,
+                       "values": {n: v["mean"] for n, v in own.items()},
+                       "intervals": {n: v["ci"] for n, v in own.items()},
+                       "prediction": (f"the recommended set's own {len(seq['cells'])} starts: mean and 95 % interval of "
+                                      "the mean (counted field results for the harvest responses)")},
+                    decided_levels=opt.levels, tiered_levels=tiered_levels)
     recommended = L9Recommendation(
         levels=rec_levels, code=level_code(rec_levels), name=level_set_name({p: best_cl[p] * 1e3 for p in pairs}),
         clearance_mm={p: best_cl[p] * 1e3 for p in pairs}, l9_run=None if row is None else row + 1,
@@ -295,14 +302,74 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
         fitted=fitted_here(machine, best_cl), basis=basis,
         rule=(rep.optimum.method + "; a factor with no significant difference keeps the configured clearance; "
               + CONFIRMATION_RULE), statement=statement, check=check)
-    tolerance = check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells,
-                                       {n: float(np.std(rec_all[n], ddof=1)) for n in names}, names)
+    checked = [n + EXPECTED for n in harvest] + loads  # the expectation: the solver's effect without counting noise
+    tolerance = check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, rec_cells,
+                                       {n: float(np.std([c[n] for c in seq["cells"]], ddof=1)) for n in checked},
+                                       checked)
     # the range analysis' keys first (its optimum replaced by the tiered one), then the study's, in that order
     return VirtualL9(responses=an.responses, weights=an.weights, factors=an.factors, composite=an.composite,
                      optimum=opt, runs=run_recs, replicated=rep, response_units=units,
                      tradeoff=tradeoff, tradeoff_columns=tradeoff_columns, recommended=recommended,
                      tolerance_check=tolerance, paired=paired_summary(rep, pairs),
-                     observations={n: np.asarray(y[n]).tolist() for n in names})  # per run and start: the figures' data
+                     observations={n: np.asarray(y[n]).tolist() for n in names},  # per run and start: the figures' data
+                     detectability=detectability(a, pairs, expected, y, rep))
+
+
+def detectability(levels: np.ndarray, pairs, expected: dict[str, np.ndarray], field: dict[str, np.ndarray],
+                  rep: ReplicatedAnalysis, alpha: float = 0.05, power: float = 0.8
+                  ) -> dict[str, dict[str, FieldDetectability]]:
+    """Per harvest response and factor, the model's effect (range of the expectation's level means) and the field
+    tests per level that a two-sided two-sample t test at ``alpha`` needs to see it with ``power``
+    (statsmodels ``TTestIndPower.solve_power``; Cohen 1988), against the SD of one field test (the pooled within-run
+    SD of the counted field results).
+
+    Parameters
+    ----------
+    levels : numpy.ndarray
+        (runs, factors) 1-based levels of the L9 (dimensionless).
+    pairs : list of str
+        The factors.
+    expected : dict of str to numpy.ndarray
+        Per harvest response, (runs, starts) model expectations (its unit).
+    field : dict of str to numpy.ndarray
+        The same responses' counted field results.
+    rep : ReplicatedAnalysis
+        The replicated analysis of the field results (its pure error: the field test's spread).
+    alpha, power : float
+        Significance level and power of the test a field trial would make (dimensionless).
+
+    Returns
+    -------
+    dict of str to dict of str to FieldDetectability
+        Response -> factor -> the effect, its SE, the field SD and the tests it takes.
+    """
+    from statsmodels.stats.power import TTestIndPower
+
+    solver = TTestIndPower()
+    out = {}
+    for n, e in expected.items():
+        field_sd = float(math.sqrt(rep.responses[n].anova.pure_error.ms)) if n in rep.responses else float("nan")
+        per = {}
+        for j, p in enumerate(pairs):
+            ks = sorted(int(v) for v in np.unique(levels[:, j]))
+            by_start = np.array([e[levels[:, j] == k].mean(axis=0) for k in ks])  # (levels, starts)
+            means = by_start.mean(axis=1)
+            hi, lo = int(np.argmax(means)), int(np.argmin(means))
+            d = by_start[hi] - by_start[lo]
+            effect = float(d.mean())
+            se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else float("nan")
+            n_tests = None
+            if effect > 0 and field_sd > 0:
+                es = effect / field_sd
+                try:
+                    n_tests = float(solver.solve_power(effect_size=es, alpha=alpha, power=power, ratio=1.0))
+                except (ValueError, RuntimeError):  # an effect far below the noise: beyond the solver's bracket
+                    n_tests = float("inf")
+                n_tests = max(n_tests, 2.0)
+            per[p] = FieldDetectability(effect=effect, effect_se=se, field_sd=field_sd, tests_per_level=n_tests,
+                                        l9_replicates=None if n_tests is None else n_tests / 3.0)
+        out[n] = per
+    return out
 
 
 def fitted_here(machine, clearance: dict) -> list[str]:
@@ -335,7 +402,9 @@ def fitted_here(machine, clearance: dict) -> list[str]:
 
 def paired_summary(rep: ReplicatedAnalysis, pairs) -> dict[str, dict[str, PairedDifference]]:
     """Per response and factor, the paired difference of its extreme levels (last minus first, e.g. A3 - A1) over
-    the blocks, with its standard error and p (:func:`berryshaker.experiment.replicates.paired_differences`).
+    the blocks, with its standard error and p (:func:`berryshaker.experiment.error_terms.paired_differences`);
+    ``beyond_noise`` is the factor's one verdict (its F test against its own interaction with the starts), so the
+    JSON never says a factor differs in one place and not in another.
 
     Parameters
     ----------
@@ -356,6 +425,7 @@ def paired_summary(rep: ReplicatedAnalysis, pairs) -> dict[str, dict[str, Paired
         for p in pairs:
             pd_ = ra.factors[p].paired or []
             if pd_:
-                per[p] = max(pd_, key=lambda q: q.levels[1] - q.levels[0])
+                q = max(pd_, key=lambda q: q.levels[1] - q.levels[0])
+                per[p] = PairedDifference(**{**fields_of(q), "beyond_noise": bool(ra.factors[p].significant)})
         out[n] = per
     return out

@@ -67,7 +67,11 @@ class L9Run(JsonRecord):
     damage : float
         Replicate mean of the damage rate (%).
     replicates : dict of str to Estimate
-        Every response's mean, SD and interval from this run's starts (response name -> :class:`Estimate`).
+        Every response's mean, SD and interval from this run's starts (response name -> :class:`Estimate`); a harvest
+        response's are those of its counted field results (one per start: a virtual field test).
+    expected : dict of str to Estimate
+        Every harvest response's model expectation over this run's starts: mean, the model's start-to-start SD and
+        the interval of the mean.
     """
 
     run: int
@@ -78,6 +82,36 @@ class L9Run(JsonRecord):
     unripe: float
     damage: float
     replicates: dict[str, Estimate]
+    expected: dict[str, Estimate]
+
+
+@dataclass(frozen=True)
+class FieldDetectability(JsonRecord):
+    """A factor's effect on a harvest response in the model, and how many field tests it would take to see it.
+
+    Attributes
+    ----------
+    effect : float
+        The model's effect: largest minus smallest level mean of the expectation over the L9's starts (the
+        response's unit).
+    effect_se : float
+        Its standard error over the starts (paired: the starts are shared; the response's unit).
+    field_sd : float
+        SD of one field test at one setting (the counted field results' pooled within-run SD: the model's
+        start-to-start spread and the counting noise; the response's unit).
+    tests_per_level : float or None
+        Field tests at each of the two levels for a two-sided t test at alpha 0.05 to see the effect with power 0.8
+        (statsmodels TTestIndPower; dimensionless count); None: no effect to see.
+    l9_replicates : float or None
+        Replicates of a whole field L9 that give as many tests per level (a level is in 3 of the 9 runs;
+        dimensionless count).
+    """
+
+    effect: float
+    effect_se: float
+    field_sd: float
+    tests_per_level: float | None
+    l9_replicates: float | None
 
 
 @dataclass(frozen=True)
@@ -391,7 +425,10 @@ class VirtualL9(JsonRecord):
     paired : dict of str to dict of str to PairedDifference
         Per response and pair, the extreme levels' paired difference.
     observations : dict of str to list of list of float
-        Per response, its value per run and start (the response's unit): the effect figures' data.
+        Per response, its value per run and start (the response's unit; a harvest response's counted field results):
+        the effect figures' data.
+    detectability : dict of str to dict of str to FieldDetectability
+        Per harvest response and factor: the model's effect and the field tests it would take to see it.
     """
 
     responses: dict[str, RangeAnalysis]
@@ -408,6 +445,7 @@ class VirtualL9(JsonRecord):
     tolerance_check: ToleranceCheck
     paired: dict[str, dict[str, PairedDifference]]
     observations: dict[str, list[list[float]]]
+    detectability: dict[str, dict[str, FieldDetectability]]
 
 
 __all__ = ["Confirmation", "Estimate", "L9Optimum", "L9Run", "PairedDifference", "Perturbation", "L9Recommendation",

@@ -83,10 +83,11 @@ def plan_powered_drive(ctx: StudyContext) -> list[PlannedRuns]:
         One: :func:`berryshaker.study.runs.powered_row` at levels 1-3 x :data:`POWERED_REPLICATES`
         starts.
     """
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
+    from berryshaker.harvest.virtual.seeds import POWERED
 
-    seeds = replicate_seeds(ctx.machine, POWERED_REPLICATES)
-    jobs = [dict(machine_data=ctx.data, clearance=level_set(ctx.machine, lv), revolutions=3, seed=[sd, lv])
+    seeds = replicate_starts(ctx.machine, POWERED_REPLICATES)
+    jobs = [dict(machine_data=ctx.data, clearance=level_set(ctx.machine, lv), revolutions=3, seed=[sd, POWERED, lv])
             for lv in POWERED_LEVELS for sd in seeds]
     return [PlannedRuns(powered_row, jobs, f"powered drive, levels 1-3 x {len(seeds)} replicates")]
 
@@ -109,11 +110,11 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
         replicate means (speed ripple %, input power W, energy per revolution J, drive moment N m) with their SDs,
         the trends and the finding; no data when fewer than two levels ran.
     """
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
 
     ctx.say(f"powered drive at clearance levels 1-3, {POWERED_REPLICATES} perturbed starts each")
     levels = POWERED_LEVELS
-    seeds = replicate_seeds(ctx.machine, POWERED_REPLICATES)
+    seeds = replicate_starts(ctx.machine, POWERED_REPLICATES)
     (plan,) = plan_powered_drive(ctx)
     outs = ctx.collect(powered_row, plan.jobs, plan.label,
                        lambda j: f"{describe_clearance(j['clearance'])}, start seed {j['seed']}")

@@ -142,9 +142,10 @@ def _row_start_jobs(ctx: StudyContext, jobs: list[dict]) -> list[dict]:
     row, common random numbers), row-major: the claims on collision forces (2 and 3) are judged on the mean of the
     per-start peaks with its noise, never on one run's peak (the peak of a chaotic impact sequence varies by
     10-30 % between starts)."""
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import replicate_starts
+    from berryshaker.harvest.virtual.seeds import ROWS
 
-    return [dict(j, seed=[sd, 0]) for j in jobs for sd in replicate_seeds(ctx.machine)]
+    return [dict(j, seed=[sd, ROWS]) for j in jobs for sd in replicate_starts(ctx.machine)]
 
 
 def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -> dict[str, RowStarts]:

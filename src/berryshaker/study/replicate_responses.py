@@ -1,8 +1,11 @@
 """The responses of replicated coupled drive-pasts at one clearance set, as the virtual L9
 (:mod:`berryshaker.study.l9`), the calibration, the validation and the harvest-response step read them.
 
-The responses (:data:`HARVEST_RESPONSES`, :func:`load_responses`, :func:`response_units`): harvest indexes and
-machine loads.  A clearance set's replicate jobs (:func:`replicate_jobs`: for every start seed, one
+The responses: the harvest responses of the one table (:data:`HARVEST_RESPONSES`,
+berryshaker.harvest.virtual.responses) and the machine loads (:func:`load_responses`); their units
+(:func:`response_units`).  Each start is one virtual field test: its cell holds every harvest response's counted
+field result (the plain name), the model's expectation (``<name>_expected``) and the counting SD of the test
+(``<name>_count_sd``), and the machine loads.  A clearance set's replicate jobs (:func:`replicate_jobs`: for every start seed, one
 :func:`berryshaker.study.runs.replicate_run` per branch class), each start's responses from their outputs
 (:func:`start_cells`, :func:`cells_from_outputs`; one start's: ``_cell``), the replicates' stem-force envelopes
 (:func:`replicate_envelopes`) and a run's mean with its 95 % interval (:func:`interval`).
@@ -15,19 +18,12 @@ import math
 import numpy as np
 
 from berryshaker.harvest.spec import COUPLED_RTOL
+from berryshaker.harvest.virtual import RESPONSES as HARVEST_RESPONSES
 from berryshaker.study.runs import replicate_run
 
-#: harvest responses: name -> (key of harvest_indexes, factor to the reported unit, unit, larger is better)
-HARVEST_RESPONSES = {
-    "efficiency": ("efficiency_kg_min", 1.0, "kg/min", True),
-    "ripe_removal": ("ripe_picked_fraction", 100.0, "%", True),
-    "unripe": ("unripe_rate_pct", 1.0, "%", False),
-    "unripe_shed": ("unripe_shed_fraction", 100.0, "%", False),
-    "damage": ("damage_rate_pct", 1.0, "%", False),
-}
-#: resolution of each harvest response (its reported unit): a mean this small is "none" (sequential replication does
-#: not chase a relative target below it; the convergence table calls a response below it negligible)
-RESPONSE_RESOLUTION = {"efficiency": 0.01, "ripe_removal": 0.05, "unripe": 0.05, "unripe_shed": 0.05, "damage": 0.05}
+#: suffixes of a start's cell: the model's expectation and the counting SD of its field test (the plain name is the
+#: counted field result)
+EXPECTED, COUNT_SD = "_expected", "_count_sd"
 #: relative tolerance of the coupled runs (their default; the solver-tolerance check re-runs at a tighter one)
 RTOL_RUN = COUPLED_RTOL
 #: confidence of the replicated L9's intervals and comparisons
@@ -63,20 +59,23 @@ def response_units(pairs) -> dict[str, str]:
     dict of str to str
         Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for peak forces, "N m" for torques.
     """
-    return {**{k: v[2] for k, v in HARVEST_RESPONSES.items()}, **{f"peak_force_{p}": "N" for p in pairs},
+    return {**{k: v.unit for k, v in HARVEST_RESPONSES.items()}, **{f"peak_force_{p}": "N" for p in pairs},
             "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
 
 
-def _cell(machine, outs: list[dict], pop) -> dict[str, float]:
-    """One run's replicate: harvest indexes from its branch classes' envelopes, loads over its drive-pasts.
+def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
+    """One start's responses: each harvest response's counted field result, its expectation and counting SD (module
+    docstring), and the loads over its branch classes' drive-pasts.
 
     Peak force and peak torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over
     all of them (equal durations).
     """
-    from berryshaker.harvest.virtual import harvest_indexes
+    from berryshaker.harvest.virtual import start_responses
 
-    h = harvest_indexes(machine, [np.array(o["envelope"]) for o in outs], pop)
-    out = {name: scale * float(h[key]) for name, (key, scale, _, _) in HARVEST_RESPONSES.items()}
+    r = start_responses(machine, [np.array(o["envelope"]) for o in outs], start)
+    out = dict(r["field"])
+    out.update({n + EXPECTED: v for n, v in r["expected"].items()})
+    out.update({n + COUNT_SD: v for n, v in r["count_sd"].items()})
     for p in machine.pair_names:
         out[f"peak_force_{p}"] = max(float(o["peak_force_N"].get(p, float("nan"))) for o in outs)
     if all("drive_torque_Nm" in o for o in outs):
@@ -130,7 +129,7 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
     clearance : dict
         Clearance size (m) per pair.
     seeds : list of int
-        Start seeds.
+        Start numbers (each class's drive-past of start k starts from the spawn key (k, MACHINE, class)).
     rtol : float
         Relative integrator tolerance (dimensionless).
     data : dict, optional
@@ -139,15 +138,17 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
     Returns
     -------
     list of dict
-        One keyword-argument dict per (seed, branch class), seed-major.
+        One keyword-argument dict per (start, branch class), start-major.
     """
     data = machine.model_dump(mode="json") if data is None else data
-    return [dict(machine_data=data, clearance=clearance, scale=s, seed=[sd, c], rtol=rtol)
+    from berryshaker.harvest.virtual import MACHINE
+
+    return [dict(machine_data=data, clearance=clearance, scale=s, seed=[sd, MACHINE, c], rtol=rtol)
             for sd in seeds for c, s in enumerate(machine.harvest.branch_classes)]
 
 
 def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[list[np.ndarray], int]]:
-    """(stem-force envelopes of every branch class, population seed) per replicate from the outputs of
+    """(stem-force envelopes of every branch class, start number) per replicate from the outputs of
     :func:`replicate_jobs` (in their order), the ``replicates`` of
     :func:`berryshaker.harvest.virtual.calibrate_harvest`; a replicate with a failed run (None) is left out.
 
@@ -177,7 +178,7 @@ def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[lis
 def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict | None = None, label: str = "starts",
                 rtol: float = RTOL_RUN, outputs: list | None = None) -> list[dict[str, float]]:
     """Every response (:func:`_cell`: harvest indexes, machine loads) of one clearance set at each start seed: one
-    coupled drive-past per branch class and start through the runner (cached), the start's own population.
+    coupled drive-past per branch class and start through the runner (cached), the start's own field test.
     ``outputs``: a list that receives each start's run outputs (one per branch class, :func:`replicate_run`).
 
     Parameters
@@ -221,15 +222,13 @@ def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, 
     outs : list
         Outputs of :func:`replicate_run`, start-major.
     seeds : list of int
-        The starts' seeds (each start's population is seeded with its seed).
+        The starts' numbers (each start's field test draws from its own stream).
 
     Returns
     -------
     list of dict
-        Per start: every response (harvest indexes in their units, peak forces N, torques N m).
+        Per start: every response (harvest responses in their units with their expectations and counting SDs, peak
+        forces N, torques N m).
     """
-    from berryshaker.harvest.virtual import sample_population
-
     nc = len(machine.harvest.branch_classes)
-    return [_cell(machine, outs[k * nc:(k + 1) * nc], sample_population(machine, seed=sd))
-            for k, sd in enumerate(seeds)]
+    return [_cell(machine, outs[k * nc:(k + 1) * nc], sd) for k, sd in enumerate(seeds)]

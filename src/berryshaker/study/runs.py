@@ -32,12 +32,10 @@ def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3, see
         The multibody summary (:func:`berryshaker.drives.simulation.simulate_multibody`, statistics only).
     """
     from berryshaker.drives.simulation import simulate_multibody
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+    from berryshaker.harvest.virtual import machine_start
 
     machine = machine_from_dict(machine_data)
-    h = machine.harvest
-    pert = None if seed is None else RandomInitialPerturbation(tuple(int(x) for x in seed), h.initial_eccentricity,
-                                                               h.start_phase_spread)
+    pert = None if seed is None else machine_start(machine, seed)
     return simulate_multibody(machine, clearance, revolutions=revolutions, initial_perturbation=pert,
                               series="statistics")[1]
 
@@ -107,11 +105,10 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
         The multibody summary with the driveline's statistics.
     """
     from berryshaker.drives.simulation import simulate_multibody
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+    from berryshaker.harvest.virtual import machine_start
 
     machine = machine_from_dict(machine_data)
-    pert = None if seed is None else RandomInitialPerturbation(
-        tuple(int(x) for x in seed), eccentricity_fraction=machine.harvest.initial_eccentricity)
+    pert = None if seed is None else machine_start(machine, seed)
     return simulate_multibody(machine, clearance, revolutions=revolutions, driveline="powered",
                               initial_perturbation=pert, series="statistics")[1]
 
@@ -119,7 +116,7 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
 def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3) -> list[dict]:
     """Arguments of :func:`multibody_row` and :func:`reduced_row` for the model check's replicate starts (claim 1;
     ``berryshaker compare``): seeds (seed_k, MODEL_CHECK_LEVEL) with seed_k of
-    :func:`berryshaker.harvest.virtual.replicate_seeds`, at ``clearance``.
+    :func:`berryshaker.harvest.virtual.replicate_starts`, at ``clearance``.
 
     Parameters
     ----------
@@ -143,7 +140,7 @@ def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3
         ``harvest.start_phase_spread`` is 0 (every start would be the same run).
     """
     from berryshaker.errors import ConfigError
-    from berryshaker.harvest.virtual import replicate_seeds
+    from berryshaker.harvest.virtual import MODEL_CHECK, replicate_starts
     from berryshaker.reference_study import MODEL_CHECK_LEVEL
 
     if machine.harvest.start_phase_spread == 0:
@@ -151,8 +148,8 @@ def model_check_jobs(machine, clearance: dict, starts: int, revolutions: int = 3
                           "it; its joints start centred) would all be the same run, and copies show no noise; give "
                           "an angle > 0 (the reference: 180 deg)")
     data = machine.model_dump(mode="json")
-    return [dict(machine_data=data, clearance=dict(clearance), revolutions=revolutions, seed=[sd, MODEL_CHECK_LEVEL])
-            for sd in replicate_seeds(machine, starts)]
+    return [dict(machine_data=data, clearance=dict(clearance), revolutions=revolutions,
+                 seed=[k, MODEL_CHECK, MODEL_CHECK_LEVEL]) for k in replicate_starts(machine, starts)]
 
 
 def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
@@ -182,7 +179,10 @@ def reduced_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
     kw = {}
     if seed is not None:
         spread = machine.harvest.start_phase_spread
-        kw["start_angle"] = float(np.random.default_rng(tuple(int(x) for x in seed)).uniform(-spread, spread))
+        from berryshaker.harvest.virtual.seeds import seed_sequence
+
+        kw["start_angle"] = float(np.random.default_rng(seed_sequence(machine.harvest.seed, seed)).uniform(-spread,
+                                                                                                         spread))
     return drive_of(machine).reduced_model(machine, clearance, revolutions=revolutions, **kw).summary()
 
 
@@ -265,13 +265,10 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     dict
         :func:`replicate_record` of the run.
     """
-    from berryshaker.harvest.virtual import stem_force_envelope_run
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+    from berryshaker.harvest.virtual import machine_start, stem_force_envelope_run
 
     machine = machine_from_dict(machine_data)
-    h = machine.harvest
-    pert = RandomInitialPerturbation(tuple(int(s) for s in seed), h.initial_eccentricity, h.start_phase_spread)
-    table, res = stem_force_envelope_run(machine, clearance, scale, pert, rtol)
+    table, res = stem_force_envelope_run(machine, clearance, scale, machine_start(machine, seed), rtol)
     return replicate_record(machine, table, res)
 
 

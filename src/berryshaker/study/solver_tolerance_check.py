@@ -54,7 +54,7 @@ def tolerance_verdict(changes, replicate_sd: float) -> dict:
             "replicate_sd": float(replicate_sd), "noise_sd": noise, "within_replicate_spread": bool(abs(mean) <= 2 * noise)}
 
 
-def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pops, rec_cells, sds, names
+def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, rec_cells, sds, names
                            ) -> ToleranceCheck:
     """The recommended set's first ``harvest.tolerance_replicates`` replicates re-run at :data:`RTOL_CHECK`: each
     response's mean change against the noise of k replicates (:func:`tolerance_verdict`, ``sds``: the per-start
@@ -70,13 +70,11 @@ def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pop
         ``jobs_for(clearance, seeds, rtol)``: the replicate jobs of a clearance set
         (:func:`berryshaker.study.replicate_responses.replicate_jobs`).
     cells : callable
-        ``cells(outputs, seeds, populations)``: every start's responses from its run outputs.
+        ``cells(outputs, seeds)``: every start's responses from its run outputs.
     best_cl : dict
         The recommended clearance size (m) per pair.
     seeds : list of int
-        The recommended set's start seeds.
-    pops : list
-        The starts' bush populations, one per seed.
+        The recommended set's start numbers.
     rec_cells : list of dict
         The recommended set's responses per start at :data:`RTOL_RUN` (each response's unit).
     sds : dict of str to float
@@ -96,7 +94,7 @@ def check_solver_tolerance(machine, runner, jobs_for, cells, best_cl, seeds, pop
         return ToleranceCheck(done=False, reason="harvest.tolerance_replicates = 0")
     s = seeds[:k]
     o = runner.values(replicate_run, jobs_for(best_cl, s, RTOL_CHECK), f"tolerance check: {k} replicates at rtol {format_tolerance(RTOL_CHECK)}")
-    tight = cells(o, s, pops[:k])
+    tight = cells(o, s)
     verdicts = {n: ToleranceVerdict(**tolerance_verdict([tight[j][n] - rec_cells[j][n] for j in range(k)], sds[n]))
                 for n in names}
     bad = [n for n, v in verdicts.items() if not v.within_replicate_spread]

@@ -53,8 +53,8 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
     -------
     dict
         ``records`` / ``columns`` (the final trade-off table: the recommended row's name ends in
-        ", recommended"; a tiered choice that is not an L9 run is the row "tiered choice (code)" or, if kept,
-        "recommended (code)"), ``levels`` (recommended), ``l9_run`` (1-based or None), ``moved``, ``tiered``
+        ", recommended"; a tiered choice that is not an L9 run is the row "tiered choice (its clearances)" or, if kept,
+        "recommended (its clearances)"), ``levels`` (recommended), ``l9_run`` (1-based or None), ``moved``, ``tiered``
         {code, levels, l9_run}, ``dominated_by`` (names of the candidates that dominate the tiered choice),
         ``better_in`` (columns in which the new recommendation beats the tiered choice), ``statement``, ``rule``.
     """
@@ -68,16 +68,17 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
     if row is None and rec_y is None:
         raise ValueError("confirm_recommendation: the tiered choice is not an L9 run, give its replicates rec_y")
     k = nrun + (row is None)
-    run_names = [f"run {i + 1} ({level_code(run_levels[i])})" for i in range(nrun)]
+    run_names = [f"run {i + 1} ({level_set_name({p: run_clearance[i][p] * 1e3 for p in pairs})})" for i in range(nrun)]
     cands = [_candidate(run_names[i], run_clearance[i], {n: y[n][i] for n in names}, names, pairs, pe, k, confidence)
              for i in range(nrun)]
     code = level_code(rec_levels)
+    rec_name = level_set_name({p: rec_clearance[p] * 1e3 for p in pairs})
     if row is None:
-        cands.append(_candidate(f"tiered choice ({code})", rec_clearance, rec_y, names, pairs, pe, k, confidence))
+        cands.append(_candidate(f"tiered choice ({rec_name})", rec_clearance, rec_y, names, pairs, pe, k, confidence))
     start = nrun if row is None else row
     df = pd.DataFrame(tradeoff_table(cands, senses=TRADEOFF_SENSES, rtol=0.01))
     pos = {nm: i for i, nm in enumerate(df["name"])}
-    doms = {nm: [d for d in str(by).split(", ") if d] for nm, by in zip(df["name"], df["dominated_by"])}
+    doms = {nm: [d for d in str(by).split("; ") if d] for nm, by in zip(df["name"], df["dominated_by"])}
     tiered_name = cands[start]["name"]
     cur, seen = tiered_name, {tiered_name}
     while doms[cur]:  # follow the dominating tested runs (table order: non-dominated first) to an undominated one
@@ -93,21 +94,21 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
         if i == final:
             c["name"] += ", recommended"
         elif i == nrun and not moved:
-            c["name"] = f"recommended ({code})"
+            c["name"] = f"recommended ({rec_name})"
     records, columns = tradeoff_records(cands)
-    tiered = {"code": code, "name": level_set_name({p: rec_clearance[p] * 1e3 for p in pairs}),
+    tiered = {"code": code, "name": rec_name,
               "levels": dict(rec_levels), "l9_run": None if row is None else row + 1}
     if moved:
-        statement = (f"The tiered choice {code} is dominated beyond the noise by the tested "
-                     + ", ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
+        statement = (f"The tiered choice ({rec_name}) is dominated beyond the noise by the tested "
+                     + "; ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
                      f"response and better in {', '.join(better)} by more than the Tukey-Kramer margin on the "
                      "ANOVA's blocked error (the additive main-effect model does not hold there: an interaction the L9 cannot "
                      "resolve).")
     elif doms[tiered_name]:
-        statement = (f"The tiered choice {code} is dominated beyond the noise only by "
-                     + ", ".join(doms[tiered_name]) + "; no tested run is undominated among them, so it is kept.")
+        statement = (f"The tiered choice ({rec_name}) is dominated beyond the noise only by "
+                     + "; ".join(doms[tiered_name]) + "; no tested run is undominated among them, so it is kept.")
     else:
-        statement = (f"No candidate dominates the tiered choice {code} beyond the noise (Tukey-Kramer margins on the "
+        statement = (f"No candidate dominates the tiered choice ({rec_name}) beyond the noise (Tukey-Kramer margins on the "
                      "ANOVA's error, as the ANOVA): it is confirmed.")
     return {"records": records, "columns": columns, "levels": dict(run_levels[final]) if moved else dict(rec_levels),
             "l9_run": None if final is None else final + 1, "moved": moved, "tiered": tiered,
@@ -118,7 +119,7 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
 def _candidate(name, cl, yc, names, pairs, pe, k, confidence=CONFIDENCE) -> dict:
     """One trade-off candidate: harvest indexes and loads, each with its 95 % interval (pooled replicate error)
     and its comparison half-width (Tukey-Kramer over the k candidates, :func:`comparison_half_width`)."""
-    from berryshaker.experiment.replicates import comparison_half_width
+    from berryshaker.experiment.error_terms import comparison_half_width
 
     def est(n):
         s = interval(yc[n])

@@ -35,9 +35,8 @@ from berryshaker.config import Machine, machine_from_dict
 #: the published yield whose range widens an efficiency's interval
 YIELD_RANGE_ID = "yield.highbush.bush_season.extension2013"
 
-RESPONSES = {"efficiency": ("efficiency_kg_min", "kg/min"), "unripe": ("unripe_rate_pct", "%"),
-             "unripe_shed": ("unripe_shed_pct", "%"), "damage": ("damage_rate_pct", "%"),
-             "removal": ("ripe_removal_pct", "%")}
+#: the record's response names that are not a harvest response's own name
+RECORD_NAMES = {"removal": "ripe_removal"}
 
 
 @dataclass(frozen=True)
@@ -46,7 +45,7 @@ class Case:
 
     ``changes``: dotted description keys -> SI values applied to the description; ``post``: keys changed after the
     runs (they do not change the coupled runs: bruising, catcher); ``numbers``: record id -> response name of
-    :data:`RESPONSES` (and a factor from the published unit's meaning to the response, e.g. 100 - x);
+    the harvest responses (berryshaker.harvest.virtual.RESPONSES; "removal" is ripe_removal) (and a factor from the published unit's meaning to the response, e.g. 100 - x);
     ``reason``: why the case cannot be set up (then nothing runs).
 
     Attributes
@@ -54,7 +53,7 @@ class Case:
     name : str
         The case as the report names it.
     numbers : dict of str to (str, str)
-        Record id -> (response name of :data:`RESPONSES`, how the published value reads: "value" or
+        Record id -> (response name, how the published value reads: "value" or
         "100 - value").
     changes : dict of str to float
         Description changes before the runs (SI; e.g. ``drive_speed`` in rad/s).
@@ -221,7 +220,9 @@ def case_jobs(machine: Machine, replicates: int | None = None, data: dict | None
     from berryshaker.study.l9 import replicate_jobs
 
     data = machine.model_dump(mode="json") if data is None else data
-    seeds = [machine.harvest.seed + 1000 * k for k in range(int(replicates or machine.harvest.replicates))]
+    from berryshaker.harvest.virtual import replicate_starts
+
+    seeds = replicate_starts(machine, replicates)
     out = []
     for case in cases(machine):
         if case.reason:
@@ -262,7 +263,7 @@ def validate(machine: Machine, runner, replicates: int | None = None, record=Non
         confidence); ``replicates``; ``summary`` (counts of verdicts among held-out rows).
     """
     from berryshaker.harvest.published_record import load_record
-    from berryshaker.harvest.virtual import response_indexes
+    from berryshaker.harvest.virtual import RESPONSES, start_responses
     from berryshaker.study.l9 import replicate_envelopes
     from berryshaker.study.runs import replicate_run
 
@@ -287,9 +288,10 @@ def validate(machine: Machine, runner, replicates: int | None = None, record=Non
             dp = m.model_dump()
             dp["harvest"].update(case.post)
             m = machine_from_dict(dp)
-        each = [response_indexes(m, env, seed=sd) for env, sd in reps]
+        each = [start_responses(m, env, k)["field"] for env, k in reps]  # one counted field test per start
         for rid, (resp, how) in present.items():
-            key, unit = RESPONSES[resp]
+            key = RECORD_NAMES.get(resp, resp)
+            unit = RESPONSES[key].unit
             p = _prediction(np.array([e[key] for e in each], float))
             row = record.loc[rid]
             pub = _published(row, how)

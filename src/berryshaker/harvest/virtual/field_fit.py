@@ -12,8 +12,8 @@ import numpy as np
 from scipy import optimize
 
 from berryshaker.config import Machine
-from berryshaker.harvest.virtual.indexes import harvest_indexes
-from berryshaker.harvest.virtual.population import sample_population
+from berryshaker.harvest.virtual.field_test import HarvestParameters, expected_tally, load_grid
+from berryshaker.harvest.virtual.responses import RESPONSES, response_values
 from berryshaker.harvest.virtual.stem_force_tables import envelopes_for
 
 
@@ -43,13 +43,12 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         Stem-force envelopes (:func:`~berryshaker.harvest.virtual.stem_force_tables.envelopes_for`; N,
         dimensionless load ratios) already computed at these clearances: one drive-past per branch class from
         the unperturbed start, with the description's population (``harvest.seed``).
-    replicates : list of (envelopes, population_seed), optional
-        Replicates of the virtual test run at these clearances (the replicated L9's statistic,
-        docs/harvest.md "Replicates"): per replicate the stem-force envelopes of its perturbed drive-pasts
-        (:func:`berryshaker.study.runs.replicate_run`) and the seed of its population.  Every index is then the
-        mean over the replicates, I = (1/R) sum_k I(envelopes_k, population(seed_k)), and the fit is on that
-        mean (the efficiency stays proportional to the yield per bush, so its fit is still one step).  Takes
-        precedence over ``envelopes``.
+    replicates : list of (envelopes, start number), optional
+        Starts of the virtual test run at these clearances (the replicated L9's statistic, docs/harvest.md
+        "Replicates"): per start the stem-force envelopes of its perturbed drive-pasts
+        (:func:`berryshaker.study.runs.replicate_run`) and its number.  Every index is then the mean over the starts
+        of the model's expectation, I = (1/R) sum_k E_k, and the fit is on that mean (the efficiency stays
+        proportional to the yield per bush, so its fit is still one step).  Takes precedence over ``envelopes``.
 
     Returns
     -------
@@ -78,13 +77,19 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
     else:
         runs = [(envelopes if envelopes is not None else envelopes_for(machine, None), None)]
 
+    grids = [load_grid(machine, env_k) for env_k, _ in runs]
+    described = HarvestParameters.described(machine)
+
     def idx(yb=None, uf=None, ad=None, per_replicate=False):
-        """Indexes averaged over the replicates (one run: that run's indexes); with ``per_replicate`` also each
-        replicate's."""
-        each = [harvest_indexes(machine, env_k, sample_population(machine, seed=seed_k, unripe_fraction=uf,
-                                                                  yield_per_bush=yb), ad) for env_k, seed_k in runs]
-        mean = {k: float(np.nanmean([e[k] for e in each])) for k in each[0]
-                if isinstance(each[0][k], (int, float, np.floating))}
+        """The expectation's indexes averaged over the starts (one run: that run's); with ``per_replicate`` also
+        each start's."""
+        from dataclasses import replace
+
+        m = machine if ad is None else machine.model_copy(
+            update={"harvest": machine.harvest.model_copy(update={"damage_acceleration": ad})})
+        p = replace(described, **{k: v for k, v in (("yield_per_bush", yb), ("unripe_fraction", uf)) if v is not None})
+        each = [{RESPONSES[n].column: v for n, v in response_values(expected_tally(m, g, p)).items()} for g in grids]
+        mean = {k: float(np.nanmean([e[k] for e in each])) for k in each[0]}
         return (mean, each) if per_replicate else mean
 
     yb, uf, ad = machine.harvest.yield_per_bush, machine.harvest.unripe_fraction, machine.harvest.damage_acceleration
@@ -92,7 +97,7 @@ def calibrate_harvest(machine: Machine, targets: dict | None = None, fit: tuple[
         raise ConfigError("no fruit comes off in the virtual harvest (every peak stem force is below its bond): "
                           "the picking indexes cannot be calibrated")
     reachable = {"unripe_rate_pct": idx(yb=yb, uf=0.95)["unripe_rate_pct"] > targets["unripe_rate_pct"]}
-    for _ in range(4):  # the three couple weakly through the sampled population: a few sweeps converge
+    for _ in range(4):  # the unripe fraction moves the efficiency and the yield nothing else: a few sweeps
         if "unripe" in fit and reachable["unripe_rate_pct"]:
             uf = optimize.brentq(lambda u: idx(yb=yb, uf=u)["unripe_rate_pct"] - targets["unripe_rate_pct"],
                                  1e-3, 0.95, xtol=1e-6)

@@ -1,6 +1,11 @@
-"""Replicates of a virtual test run and the harvest response (docs/harvest.md, "Replicates"): the replicate seeds,
-each replicate's stem-force tables from perturbed drive-pasts, the indexes of one replicate and their mean and
-standard deviation over the replicates.  Part of the virtual harvest (berryshaker.harvest.virtual).
+"""Replicates of a virtual test run and the harvest response (docs/harvest.md, "Replicates"): the starts of a run, each
+start's stem-load tables from perturbed drive-pasts, and every response's mean and spreads over the starts.  Part of
+the virtual harvest (berryshaker.harvest.virtual).
+
+Over R starts a response has two spreads: the **model's** (start to start: the SD of the expectation, from the
+machine's initial state and the drive phase at which the comb meets the bush) and the **field's** (test to test:
+the SD of the counted field results, the model's spread plus the counting noise of a field test's few bushes and
+fruit).  The mean is the mean of the expectation.
 """
 
 from __future__ import annotations
@@ -11,16 +16,15 @@ import numpy as np
 
 from berryshaker.config import Machine
 from berryshaker.harvest.shaking import shaking_amplitude
-from berryshaker.harvest.virtual.indexes import harvest_indexes
-from berryshaker.harvest.virtual.population import sample_population
+from berryshaker.harvest.virtual.indexes import start_responses
+from berryshaker.harvest.virtual.responses import RESPONSES
+from berryshaker.harvest.virtual.seeds import MACHINE, seed_sequence, start_numbers
 from berryshaker.harvest.virtual.stem_force_tables import stem_force_envelope_run
 
 
-def replicate_seeds(machine: Machine, replicates: int | None = None) -> list[int]:
-    """Seeds of the replicates of a virtual test run (docs/harvest.md, "Replicates"): ``harvest.seed + 1000 k``,
-    k = 0 .. R - 1, R = ``replicates`` or ``harvest.replicates``; replicate k's drive-past of branch class c
-    starts from the perturbation seeded (seed_k, c), its population is seeded seed_k (the calibration's and
-    the virtual L9's seeds: berryshaker.study.l9 uses this function).
+def replicate_starts(machine: Machine, replicates: int | None = None) -> list[int]:
+    """The start numbers of a virtual test run's replicates: 0 .. R - 1 of the description's seed family
+    (berryshaker.harvest.virtual.seeds), R = ``replicates`` or ``harvest.replicates``.
 
     Parameters
     ----------
@@ -32,21 +36,40 @@ def replicate_seeds(machine: Machine, replicates: int | None = None) -> list[int
     Returns
     -------
     list of int
-        ``harvest.seed + 1000 k`` for k = 0 .. R - 1.
+        0 .. R - 1.
     """
+    return start_numbers(machine.harvest.replicates if replicates is None else replicates)
+
+
+def machine_start(machine: Machine, key):
+    """The seeded initial perturbation of a machine start: spawn key ``key`` (``(k, MACHINE, class)``, ...) of the
+    description's seed family, with ``harvest.initial_eccentricity`` and ``harvest.start_phase_spread``
+    (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+    key : sequence of int
+        Spawn key (berryshaker.harvest.virtual.seeds).
+
+    Returns
+    -------
+    RandomInitialPerturbation
+        Eccentricities uniform over the disc of ``initial_eccentricity`` x each free radius, drive phase uniform in
+        +-``start_phase_spread``.
+    """
+    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+
     h = machine.harvest
-    r = int(h.replicates if replicates is None else replicates)
-    return [h.seed + 1000 * k for k in range(r)]
+    return RandomInitialPerturbation(seed_sequence(h.seed, key), h.initial_eccentricity, h.start_phase_spread)
 
 
 def replicate_envelopes_run(machine: Machine, clearance: dict | None = None, replicates: int | None = None
                             ) -> list[tuple[list[np.ndarray], int]]:
-    """Stem-force envelopes of every branch class for each replicate, with the replicate's population seed:
-    the ``replicates`` of :func:`~berryshaker.harvest.virtual.field_fit.calibrate_harvest` and
-    :func:`replicate_response`.  Replicate k's run of class c starts from
-    :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` ((seed_k, c),
-    ``harvest.initial_eccentricity``, ``harvest.start_phase_spread``), as the calibration's and the L9's
-    (berryshaker.study.runs.replicate_run).
+    """Stem-force tables of every branch class for each start, with the start number (in this process; the study
+    runs the same drive-pasts through its cached runner, berryshaker.study.runs.replicate_run).  Start k's run of
+    class c starts from :func:`machine_start` ``(k, MACHINE, c)``.
 
     Parameters
     ----------
@@ -60,119 +83,102 @@ def replicate_envelopes_run(machine: Machine, clearance: dict | None = None, rep
     Returns
     -------
     list of (list of numpy.ndarray, int)
-        Per replicate: one :func:`~berryshaker.harvest.virtual.stem_force_tables.stem_force_table` per branch
-        class (N, dimensionless load ratios) and the population seed.
+        Per start: one :func:`~berryshaker.harvest.virtual.stem_force_tables.stem_force_table` per branch class
+        (N, dimensionless load ratios) and the start number.
     """
-    from berryshaker.multibody.perturbation import RandomInitialPerturbation
-
-    h = machine.harvest
     out = []
-    for sd in replicate_seeds(machine, replicates):
-        env = [stem_force_envelope_run(machine, clearance, s, RandomInitialPerturbation(
-            (sd, c), h.initial_eccentricity, h.start_phase_spread))[0] for c, s in enumerate(h.branch_classes)]
-        out.append((env, sd))
+    for k in replicate_starts(machine, replicates):
+        env = [stem_force_envelope_run(machine, clearance, s, machine_start(machine, (k, MACHINE, c)))[0]
+               for c, s in enumerate(machine.harvest.branch_classes)]
+        out.append((env, k))
     return out
 
 
+def _finite(values) -> np.ndarray:
+    v = np.asarray(values, float)
+    return v[np.isfinite(v)]  # a rate of a start that picked nothing is undefined
+
+
 def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray], int]]) -> dict:
-    """Replicate mean and standard deviation of every index of :func:`response_indexes` over replicates
-    ``(envelopes, population seed)`` (:func:`replicate_envelopes_run`, or berryshaker.study.l9.replicate_envelopes):
-    I = (1/R) sum_k I_k with I_k the indexes of envelopes_k on the population seeded seed_k (the statistic the
-    calibration fits, :func:`~berryshaker.harvest.virtual.field_fit.calibrate_harvest`).  Keys: every index
-    (mean), ``<index>_sd`` (sample SD over the replicates, ddof 1; 0 for one replicate), ``replicates`` (R),
-    ``shaking_frequency_hz`` and the shaking amplitude (:func:`~berryshaker.harvest.shaking.shaking_amplitude`).
+    """Every response's mean and spreads over starts ``(envelopes, start number)`` (module docstring).
+
+    Keys per response, by its column name (``efficiency_kg_min`` ...): the mean of the model's expectation;
+    ``<column>_sd`` the model's start-to-start SD (ddof 1; 0 for one start); ``<column>_field_sd`` the field's
+    test-to-test SD (of the counted field results); ``<column>_count_sd`` the counting noise of one field test (RMS
+    over the starts).  Then ``replicates`` (R), ``shaking_frequency_hz`` and the shaking amplitude
+    (:func:`~berryshaker.harvest.shaking.shaking_amplitude`).
 
     Parameters
     ----------
     machine : Machine
         Machine description with [plant], [harvest] and [operation].
     replicates : list of (list of numpy.ndarray, int)
-        Per replicate its envelopes (N, dimensionless load ratios) and population seed.
+        Per start its envelopes (N, dimensionless load ratios) and start number.
 
     Returns
     -------
     dict
-        The keys above: index means (%, kg/min), ``<index>_sd`` (same units), ``replicates``,
-        ``shaking_frequency_hz`` (Hz), ``comb_swing_deg`` (deg) and ``finger_amplitude_mm`` (mm).
+        The keys above (the responses' units: kg/min, %), ``shaking_frequency_hz`` (Hz), ``comb_swing_deg`` (deg)
+        and ``finger_amplitude_mm`` (mm).
 
     Raises
     ------
     ConfigError
-        No replicate given.
+        No start given.
     """
     from berryshaker.errors import ConfigError
 
     if not replicates:
-        raise ConfigError("replicate_response: no replicate (every run failed?)")
-    each = [response_indexes(machine, [np.asarray(e) for e in env], seed=sd) for env, sd in replicates]
-    out = {}
-    for key in HARVEST_INDEXES:
-        v = np.array([e[key] for e in each], float)
-        v = v[np.isfinite(v)]  # the unripe rate of a replicate that picked nothing is undefined
-        out[key] = float(np.mean(v)) if len(v) else float("nan")
-        out[f"{key}_sd"] = float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
+        raise ConfigError("replicate_response: no start (every run failed?)")
+    each = [start_responses(machine, env, k) for env, k in replicates]
+    out: dict = {}
+    for n, r in RESPONSES.items():
+        e = _finite([s["expected"][n] for s in each])
+        f = _finite([s["field"][n] for s in each])
+        c = _finite([s["count_sd"][n] for s in each])
+        out[r.column] = float(np.mean(e)) if e.size else float("nan")
+        out[f"{r.column}_sd"] = float(np.std(e, ddof=1)) if e.size > 1 else 0.0
+        out[f"{r.column}_field_sd"] = float(np.std(f, ddof=1)) if f.size > 1 else 0.0
+        out[f"{r.column}_count_sd"] = float(np.sqrt(np.mean(c**2))) if c.size else float("nan")
     out["replicates"] = len(each)
-    out["shaking_frequency_hz"] = each[0]["shaking_frequency_hz"]
-    for key in ("comb_swing_deg", "finger_amplitude_mm"):
-        if key in each[0]:
-            out[key] = each[0][key]
+    out["shaking_frequency_hz"] = machine.drive_speed / (2 * math.pi)
+    out.update(shaking_amplitude(machine))
     return out
 
 
-#: the indexes of :func:`harvest_response` (sweep columns and the removal figure), with their units
-HARVEST_INDEXES = {"ripe_removal_pct": "%", "unripe_shed_pct": "%", "damage_rate_pct": "%",
-                   "unripe_rate_pct": "%", "efficiency_kg_min": "kg/min"}
+def harvest_columns() -> dict[str, str]:
+    """The columns of :func:`replicate_response` for the responses, with their units.
+
+    Returns
+    -------
+    dict of str to str
+        Column -> unit, for every response's mean and its three spreads.
+    """
+    out = {}
+    for r in RESPONSES.values():
+        for suffix in ("", "_sd", "_field_sd", "_count_sd"):
+            out[r.column + suffix] = r.unit
+    return out
 
 
 def harvest_response(machine: Machine, clearance: dict | None = None, replicates: int | None = None) -> dict:
-    """Virtual harvest of one machine setting, as the vibratory-harvesting literature plots it.
+    """Virtual harvest of one machine setting over ``harvest.replicates`` perturbed starts: :func:`replicate_response`
+    of :func:`replicate_envelopes_run`.
 
     Parameters
     ----------
     machine : Machine
-        Machine description (any drive with a [plant] and a [harvest] section); every value, the calibrated
-        population included, as described.
+        Machine description (any drive with a [plant] and a [harvest] section).
     clearance : dict, optional
         Clearance sizes (m).
     replicates : int, optional
-        Replicates R, default ``harvest.replicates`` (the calibration's count and seeds).
+        Starts R, default ``harvest.replicates``.
 
     Returns
     -------
     dict
-        Replicate means over R perturbed starts (:func:`replicate_response`, the statistic the calibration
-        fits) of ripe_removal_pct (ripe mass detached / ripe mass on the bush), unripe_shed_pct (unripe mass
-        detached / unripe mass), damage_rate_pct and unripe_rate_pct (of the picked mass, the study's
-        indexes), efficiency_kg_min; each with ``<index>_sd`` (SD over the replicates); ``replicates``;
-        shaking_frequency_hz (one comb cycle per drive-shaft revolution: drive speed / 2 pi); the shaking
-        amplitude of :func:`~berryshaker.harvest.shaking.shaking_amplitude` (comb_swing_deg,
-        finger_amplitude_mm).  R coupled runs per branch class (:func:`replicate_envelopes_run`).
+        :func:`replicate_response`: every response's mean over the starts with its model, field and counting
+        spreads, ``replicates``, the shaking frequency (one comb cycle per drive-shaft revolution: drive speed /
+        2 pi) and amplitude.
     """
     return replicate_response(machine, replicate_envelopes_run(machine, clearance, replicates))
-
-
-def response_indexes(machine: Machine, envelopes: list[np.ndarray], seed: int | None = None) -> dict:
-    """The indexes of :func:`harvest_response` from stem-force envelopes already computed (one per branch
-    class), on the population seeded ``seed`` (default ``harvest.seed``): one replicate.
-
-    Parameters
-    ----------
-    machine : Machine
-        Machine description with [plant], [harvest] and [operation].
-    envelopes : list of numpy.ndarray
-        One envelope per branch class (N, dimensionless load ratios).
-    seed : int, optional
-        Population seed (default ``harvest.seed``).
-
-    Returns
-    -------
-    dict
-        ``ripe_removal_pct``, ``unripe_shed_pct``, ``damage_rate_pct``, ``unripe_rate_pct`` (%),
-        ``efficiency_kg_min`` (kg/min), ``shaking_frequency_hz`` (Hz) and the keys of
-        :func:`~berryshaker.harvest.shaking.shaking_amplitude`.
-    """
-    idx = harvest_indexes(machine, envelopes, sample_population(machine, seed))
-    return {"ripe_removal_pct": 100.0 * idx["ripe_picked_fraction"],
-            "unripe_shed_pct": 100.0 * idx["unripe_shed_fraction"], "damage_rate_pct": idx["damage_rate_pct"],
-            "unripe_rate_pct": idx["unripe_rate_pct"], "efficiency_kg_min": idx["efficiency_kg_min"],
-            "shaking_frequency_hz": machine.drive_speed / (2 * math.pi), **shaking_amplitude(machine)}

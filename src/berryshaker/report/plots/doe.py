@@ -416,7 +416,8 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
 def plot_replicated_effects(rep: dict, responses: list[str], path: Path, title: str = "", *,
                             level_values: dict | None = None, units: dict | None = None,
                             return_figure: bool = False) -> dict:
-    """Main effects of a replicated test with 95 % intervals of the level means (pure error, t with its dof).
+    """Main effects of a replicated test with 95 % intervals of the level means (the analysis' error: pure, or with
+    blocks the run x block interaction; t with its dof).
 
     ``rep``: :func:`berryshaker.experiment.replicates.analyze_replicated` output; ``responses``: which rows to
     draw.  Drawn by :func:`plot_main_effects` with the interval half-widths as error bars (the grey band is
@@ -449,7 +450,8 @@ def plot_replicated_effects(rep: dict, responses: list[str], path: Path, title: 
     errors = {n: {f: [(hi - lo) / 2 for lo, hi in d["level_ci"]] for f, d in ra["factors"].items()}
               for n, ra in sub["responses"].items()}
     conf = 100 * rep.get("confidence", 0.95)
+    error = "the run x block error, for comparing levels" if rep.get("blocks") else "the pure error"
     return plot_main_effects(sub, path, (title or "Main effects") + f" (error bars: {conf:g} % interval of the level "
-                             f"mean from the pure error, {rep['runs']} runs x {rep['replicates']} replicates)",
+                             f"mean from {error}, {rep['runs']} runs x {rep['replicates']} replicates)",
                              level_values=level_values, response_units=units, errors=errors,
                              return_figure=return_figure)

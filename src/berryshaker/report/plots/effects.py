@@ -1,5 +1,6 @@
-"""Effect figures of an orthogonal test as Minitab draws them: the Pareto chart of standardized effects, the residual
-plots (normal probability plot, residuals against fitted values) and the interaction plots; drawn for ``doe analyze``
+"""Effect figures of an orthogonal test as Minitab draws them: the Pareto chart of standardized effects, the four-in-one
+residual plots (normal probability plot, residuals against fitted values, histogram, residuals against the order) and
+the interaction plots; drawn for ``doe analyze``
 and the study's virtual L9 from :mod:`berryshaker.experiment.analysis` (standardized_effects,
 main_effect_residuals, interaction_means), whose tables they draw.
 """
@@ -77,30 +78,38 @@ def plot_pareto_effects(effects: dict, path: Path, title: str = "", *, return_fi
                             "significant": [r["significant"] for r in terms], "critical_t": crit}, return_figure)
 
 
-def plot_residuals(resid: dict, path: Path, title: str = "", *, unit: str | None = None,
-                   return_figure: bool = False) -> dict:
-    """Residual plots of the main-effects model: normal probability plot of the residuals (with the line through
-    their quartiles) and residuals against fitted values.
+def plot_residuals(resid: dict, path: Path, title: str = "", *, unit: str | None = None, order=None,
+                   order_label: str = "", return_figure: bool = False) -> dict:
+    """Minitab's four-in-one residual plots of the main-effects model: normal probability plot of the residuals
+    (with the line through their quartiles), residuals against fitted values, their histogram and residuals against
+    the observation order (a drift over the test days shows there).
 
     Parameters
     ----------
     resid : dict
         :func:`berryshaker.experiment.analysis.main_effect_residuals` output.
-    unit : str, optional
-        Unit of the response (and so of residuals and fitted values).
     path : Path
         PNG file (300 dpi; an SVG of the figure is written beside it).
     title : str
         Figure title (a default when empty).
+    unit : str, optional
+        Unit of the response (and so of residuals and fitted values).
+    order : array_like, optional
+        The test order of each residual (a field sheet's ``order`` column); default the observations' order (run by
+        run).
+    order_label : str
+        What ``order`` is, for the x axis (default "test order" with ``order``, else "observation (run by run)").
     return_figure : bool
         Leave the figure open and return it under ``"figure"``.
 
     Returns
     -------
     dict
-        ``fitted``, ``residuals``, ``normal_quantiles``, ``sorted_residuals`` as drawn; ``path``, ``svg``.
+        ``fitted``, ``residuals``, ``normal_quantiles``, ``sorted_residuals``, ``histogram`` (counts, edges) and
+        ``order`` as drawn; ``path``, ``svg``.
     """
-    fig, (axn, axf) = new_figure(1, 2, figsize=(9.5, 4.0))
+    fig, axes = new_figure(2, 2, figsize=(9.5, 7.2))
+    (axn, axf), (axh, axo) = axes
     q, s = np.asarray(resid["normal_quantiles"]), np.asarray(resid["sorted_residuals"])
     axn.plot(s, q, "o", ms=4, color=SERIES_COLOURS[0])
     q1, q3 = np.percentile(s, [25, 75])
@@ -117,9 +126,22 @@ def plot_residuals(resid: dict, path: Path, title: str = "", *, unit: str | None
     label_axes(axf, _unit_label("fitted value", unit), _unit_label("residual", unit))
     axf.set_title("Residuals against fitted values", fontsize=9)
     axf.grid(alpha=0.3)
+    bins = int(np.clip(np.ceil(np.sqrt(len(r))), 3, 20))  # the square-root rule, as Minitab's default bins
+    counts, edges, _ = axh.hist(r, bins=bins, color=SERIES_COLOURS[0], edgecolor="#333333", linewidth=0.6)
+    label_axes(axh, _unit_label("residual", unit), "count [-]")
+    axh.set_title("Histogram of the residuals", fontsize=9)
+    axh.grid(alpha=0.3, axis="y")
+    x = np.arange(1, len(r) + 1, dtype=float) if order is None else np.asarray(order, float)
+    idx = np.argsort(x, kind="stable")
+    axo.plot(x[idx], r[idx], "o-", ms=4, lw=0.8, color=SERIES_COLOURS[0])
+    axo.axhline(0.0, color="#555555", lw=0.8)
+    label_axes(axo, order_label or ("test order [-]" if order is not None else "observation (run by run) [-]"),
+               _unit_label("residual", unit))
+    axo.set_title("Residuals against the order", fontsize=9)
+    axo.grid(alpha=0.3)
     fig.suptitle(title or "Residual plots", fontsize=10)
-    return _out(fig, path, {"fitted": f, "residuals": r, "normal_quantiles": q, "sorted_residuals": s},
-                return_figure)
+    return _out(fig, path, {"fitted": f, "residuals": r, "normal_quantiles": q, "sorted_residuals": s,
+                            "histogram": (counts, edges), "order": x}, return_figure)
 
 
 def plot_interactions(cells: dict, path: Path, title: str = "", *, unit: str | None = None,
@@ -196,8 +218,10 @@ def plot_interactions(cells: dict, path: Path, title: str = "", *, unit: str | N
 
 def write_effect_figures(levels, observations: dict, factor_names: list[str], analysis: dict, folder: Path,
                          prefix: str = "", *, units: dict | None = None, level_values: dict | None = None,
-                         factor_units: dict | None = None, blocks: bool = False) -> list[str]:
-    """Pareto chart of standardized effects, residual plots and interaction plots of every response.
+                         factor_units: dict | None = None, blocks: bool = False, order=None) -> list[str]:
+    """Pareto chart of standardized effects, residual plots and interaction plots of every response; a response
+    with lost plots (NaN) is drawn from the least-squares model of its analysis
+    (:mod:`berryshaker.experiment.unbalanced`).
 
     Parameters
     ----------
@@ -220,6 +244,8 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         Level values (the factor's units) and unit per factor, for the interaction plots' axes.
     blocks : bool
         Replicate k of every run in block k: the residuals' model has the block effects (as the analysis).
+    order : array_like (runs,) or (runs, replicates), optional
+        The test order of each observation (a field sheet's ``order`` column), for the residuals against the order.
 
     Returns
     -------
@@ -227,6 +253,7 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         The PNG file names written.
     """
     from berryshaker.experiment.analysis import interaction_means, main_effect_residuals, standardized_effects
+    from berryshaker.experiment.unbalanced import residuals_unbalanced, standardized_effects_unbalanced
 
     units = {**RESPONSE_UNITS, **(units or {})}
     names = []
@@ -237,17 +264,32 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
         an = ra.get("anova") or {}
         err = an.get("error") or {}
         long = RESPONSE_NAMES.get(name, name)
-        eff = standardized_effects(levels, y, factor_names, err.get("ms"), err.get("df"),
-                                   analysis.get("alpha", 0.05))
+        lost = np.ndim(y) == 2 and not np.isfinite(y).all()  # lost plots: the least-squares model of the analysis
+        if lost:
+            eff = standardized_effects_unbalanced(levels, y, factor_names, analysis.get("alpha", 0.05))
+        else:
+            own = {f: (e["error"]["ms"], e["error"]["df"]) for f, e in (an.get("factors") or {}).items()
+                   if isinstance(e, dict) and e.get("error")}
+            eff = standardized_effects(levels, y, factor_names, err.get("ms"), err.get("df"),
+                                       analysis.get("alpha", 0.05), factor_errors=own or None)
         n = f"{prefix}pareto_{name}.png"
         plot_pareto_effects(eff, Path(folder) / n, f"{long}: Pareto chart of the standardized effects")
         names.append(n)
         pooled = set(an.get("pooled") or [])
-        res = main_effect_residuals(levels, y, factor_names, [f for f in factor_names if f not in pooled],
-                                    blocks=blocks and np.ndim(y) == 2)
+        if lost:
+            res = residuals_unbalanced(levels, y)
+        else:
+            res = main_effect_residuals(levels, y, factor_names, [f for f in factor_names if f not in pooled],
+                                        blocks=blocks and np.ndim(y) == 2)
         n = f"{prefix}residuals_{name}.png"
+        seq = None
+        if order is not None:  # the test order of each observation, run by run, the lost ones left out
+            o = np.asarray(order, float).reshape(np.shape(y))
+            seq = o.reshape(-1)[np.isfinite(np.asarray(y, float)).reshape(-1)]
+            seq = seq if np.isfinite(seq).all() else None
         plot_residuals(res, Path(folder) / n, f"{long}: residuals of the main-effects model"
-                       + (f" ({', '.join(sorted(pooled))} pooled)" if pooled else ""), unit=units.get(name))
+                       + (f" ({', '.join(sorted(pooled))} pooled)" if pooled else ""), unit=units.get(name),
+                       order=seq)
         names.append(n)
         if len(factor_names) >= 2:
             n = f"{prefix}interactions_{name}.png"
@@ -256,6 +298,31 @@ def write_effect_figures(levels, observations: dict, factor_names: list[str], an
                               factor_units=factor_units)
             names.append(n)
     return names
+
+
+def observation_order(fr) -> np.ndarray | None:
+    """The test order of every observation of a field sheet, (runs,) or (runs, replicates) as its observations (NaN
+    where a plot was lost), from the sheet's ``order`` column; None without one.
+
+    Parameters
+    ----------
+    fr : FieldResults
+        The sheet as read.
+
+    Returns
+    -------
+    ndarray or None
+        The order (dimensionless).
+    """
+    t = fr.table
+    if "order" not in t.columns or not np.issubdtype(t["order"].dtype, np.number):
+        return None
+    n = len(fr.levels)
+    r = fr.replicates if fr.responses_replicated is not None else 1
+    out = np.full((n, r), np.nan)
+    rep = t["replicate"].to_numpy(int) if "replicate" in t.columns and r > 1 else np.ones(len(t), int)
+    out[t["run"].to_numpy(int) - 1, rep - 1] = t["order"].to_numpy(float)
+    return out if r > 1 else out[:, 0]
 
 
 def write_doe_figures(fr, res, folder: Path) -> list[str]:
@@ -295,10 +362,12 @@ def write_doe_figures(fr, res, folder: Path) -> list[str]:
     if len(fr.factor_names) >= 2:
         fu = {f: (fr.units.get(f) or "-") if f in known else "-" for f in fr.factor_names}
         for r, y in fr.responses.items():
+            if fr.replicates >= 2:  # the analysis' run means (least-squares means where plots were lost)
+                y = np.asarray(res["responses"][r]["run_means"], float)
             plot_response_surfaces(fr.values, y, fr.factor_names, quadratic_regression(fr.values, y, fr.factor_names),
                                    r, folder / f"surface_{r}.png", unit=units.get(r) or None, factor_unit=fu)
             names.append(f"surface_{r}.png")
     obs = fr.responses_replicated if fr.replicates >= 2 else fr.responses
     names += write_effect_figures(fr.levels, obs, fr.factor_names, res, folder, units=units, level_values=known,
-                                  factor_units=fr.units, blocks=fr.replicates >= 2)
+                                  factor_units=fr.units, blocks=fr.replicates >= 2, order=observation_order(fr))
     return names

@@ -1,9 +1,9 @@
-"""The emulator: scikit-learn Gaussian processes of the simulator's replicate mean and SD of every response, per
-simulated setting and joint over (setting, parameters) (:class:`Emulator`), with a batched prediction
-(:class:`FittedGP`).
+"""The emulator: scikit-learn Gaussian processes of the simulator's mean, the model's start-to-start SD and the
+counting SD of one field test of every response, per simulated setting and joint over (setting, parameters)
+(:class:`Emulator`), with a batched prediction (:class:`FittedGP`).
 
 Per response a scikit-learn ``GaussianProcessRegressor`` (ARD Matern 5/2 + white noise, normalised targets) over
-(coded setting, theta on the prior's unit cube) for log(mean + c) and log(SD) of the replicate results, trained on
+(coded setting, theta on the prior's unit cube) for log(mean + c), log(model SD) and log(counting SD), trained on
 a Latin hypercube of theta (scipy.stats.qmc) at the simulated settings; its error is checked on held-out theta
 points and on held-out (untested) settings (:func:`berryshaker.study.field_calibration.workflow.calibrate`).
 """
@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from berryshaker.study.field_calibration.priors import PARAMETER_NAMES, RESPONSE_PARAMETERS, RESPONSES
+from berryshaker.study.field_calibration.priors import (PARAMETER_NAMES, calibrated_responses, count_parameters,
+                                                       mean_parameters)
 from berryshaker.study.field_calibration.sheet import FactorTarget
 
 
@@ -57,12 +58,17 @@ class FittedGP:
     noise : float, optional
         Known variance of the targets (their units squared) added to the kernel's diagonal; default: learned by a
         WhiteKernel.
+    kernel_theta : numpy.ndarray, optional
+        Log hyperparameters of a saved fit (dimensionless): the kernel is rebuilt with them, not optimised
+        (:meth:`from_state`).
     """
 
-    def __init__(self, x: np.ndarray, y: np.ndarray, seed: int, noise: float | None = None):
+    def __init__(self, x: np.ndarray, y: np.ndarray, seed: int, noise: float | None = None,
+                 kernel_theta: np.ndarray | None = None):
         from sklearn.gaussian_process import GaussianProcessRegressor
         from sklearn.gaussian_process.kernels import ConstantKernel, Matern, WhiteKernel
 
+        x, y = np.asarray(x, float), np.asarray(y, float)
         k = ConstantKernel(1.0, (1e-3, 1e3)) * Matern(np.ones(x.shape[1]), (1e-2, 1e3), nu=2.5)
         ystd = float(np.std(y)) or 1.0
         if noise is None:
@@ -70,14 +76,18 @@ class FittedGP:
             alpha = 1e-10
         else:
             alpha = max(noise / ystd**2, 1e-10)  # normalize_y: the diagonal is in units of the targets' variance
+        if kernel_theta is not None:  # a saved fit: its hyperparameters, no optimisation (the same GP, bit for bit)
+            k = k.clone_with_theta(np.asarray(kernel_theta, float))
         import warnings
 
         from sklearn.exceptions import ConvergenceWarning
 
+        self.x_train, self.y_train, self.seed, self.noise = x, y, seed, noise
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", ConvergenceWarning)  # a length scale at its bound: an irrelevant input
             self.gp = GaussianProcessRegressor(k, alpha=alpha, normalize_y=True, n_restarts_optimizer=0,
-                                               optimizer=_bounded_lbfgs, random_state=seed).fit(x, y)
+                                               optimizer=None if kernel_theta is not None else _bounded_lbfgs,
+                                               random_state=seed).fit(x, y)
         kern = self.gp.kernel_
         latent = kern.k1 if noise is None else kern  # ConstantKernel x Matern
         self.amplitude = float(latent.k1.constant_value)
@@ -89,6 +99,33 @@ class FittedGP:
         self.l_inv = solve_triangular(self.gp.L_, np.eye(len(x)), lower=True)
         self.scale = float(np.atleast_1d(self.gp._y_train_std)[0])
         self.offset = float(np.atleast_1d(self.gp._y_train_mean)[0])
+
+    def state(self) -> dict:
+        """What rebuilds this GP without refitting (:meth:`from_state`): its training data and fitted hyperparameters.
+
+        Returns
+        -------
+        dict
+            ``x``, ``y``, ``kernel_theta`` (arrays), ``seed``, ``noise`` (None or the fixed target variance).
+        """
+        return {"x": self.x_train, "y": self.y_train, "kernel_theta": np.asarray(self.gp.kernel_.theta, float),
+                "seed": int(self.seed), "noise": self.noise}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "FittedGP":
+        """The GP of a :meth:`state`.
+
+        Parameters
+        ----------
+        state : dict
+            As :meth:`state` gives it.
+
+        Returns
+        -------
+        FittedGP
+            The same fit (its hyperparameters fixed).
+        """
+        return cls(state["x"], state["y"], int(state["seed"]), state["noise"], kernel_theta=state["kernel_theta"])
 
     def predict(self, x: np.ndarray, with_var: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """Mean and latent variance at ``x``.
@@ -119,25 +156,31 @@ class FittedGP:
 
 @dataclass
 class _ResponseGP:
-    """The two Gaussian processes of one response (log(mean + c) and log SD) on one input layout."""
+    """The three Gaussian processes of one response (log(mean + c), log model SD, log counting SD) on one input
+    layout."""
 
     mean_gp: FittedGP
     logsd_gp: FittedGP
-    columns: list[int]  # theta columns used (indexes into PARAMETER_NAMES)
+    logcsd_gp: FittedGP
+    columns: list[int]  # theta columns of the mean and model-SD GPs (indexes into PARAMETER_NAMES)
+    count_columns: list[int]  # theta columns of the counting-SD GP
     floor: float
     mse_log_mean: float = 0.0  # held-out MSE of log(mean + c)
 
 
 class Emulator:
-    """Gaussian-process emulator of the replicate mean and log SD of every response (efficiency per kg of yield: the
-    yield scales it exactly).
+    """Gaussian-process emulator of the mean, the log model SD and the log counting SD of every response (the
+    efficiency's mean and model SD per kg of yield: the yield scales them exactly; its counting SD is not
+    proportional to the yield and is emulated with the yield as an input).
 
     Two layouts, both scikit-learn ``GaussianProcessRegressor`` with an ARD Matern 5/2 kernel on log(mean + c)
-    (learned white noise) and on log SD (noise fixed at the sampling variance of a log SD over R starts,
-    1 / (2 (R - 1))):
+    (learned white noise), on log model SD (noise fixed at the sampling variance of a log SD over R starts,
+    1 / (2 (R - 1))) and on log counting SD (learned white noise):
 
     * **per setting** over theta on the prior's unit cube (the parameters the response depends on,
-      :data:`RESPONSE_PARAMETERS`): the likelihood at the sheet's settings and the predictions there;
+      :func:`~berryshaker.study.field_calibration.priors.mean_parameters` and
+      :func:`~berryshaker.study.field_calibration.priors.count_parameters`): the likelihood at the sheet's settings
+      and the predictions there;
     * **joint** over (setting coded to -1 .. 1 over the sheet's level ranges, theta), of the setting's effect: the
       difference of log(mean + c) and log SD from the average of the per-setting GPs at the same theta, trained on up
       to :attr:`joint_points` of the simulated points (half of them, with :meth:`fit_joint`'s ``focus``, simulated at
@@ -150,7 +193,7 @@ class Emulator:
     targets : list of FactorTarget
         The sheet's factors.
     responses : list of str
-        Response names (:data:`RESPONSES`).
+        Response names (the calibrated harvest responses).
     seed : int
         Seed of the optimisers and of the joint GP's subsample.
     r_sim : int
@@ -174,6 +217,57 @@ class Emulator:
         self.fit_seconds = 0.0
         self.training_points = 0
 
+    def state(self) -> dict:
+        """Everything :meth:`from_state` needs to rebuild the trained emulator without refitting: nested dicts of
+        arrays and numbers (berryshaker.study.field_calibration.saved writes them).
+
+        Returns
+        -------
+        dict
+            The coding bounds, responses, settings, every GP's :meth:`FittedGP.state` and held-out error.
+        """
+        def rgp(g: _ResponseGP) -> dict:
+            return {"mean": g.mean_gp.state(), "sd": g.logsd_gp.state(), "csd": g.logcsd_gp.state(),
+                    "columns": np.asarray(g.columns), "count_columns": np.asarray(g.count_columns),
+                    "floor": g.floor, "mse_log_mean": g.mse_log_mean}
+
+        return {"lo": self.lo, "hi": self.hi, "responses": list(self.responses), "seed": self.seed,
+                "r_sim": self.r_sim, "joint_points": self.joint_points,
+                "settings": np.asarray(self.settings, float).reshape(len(self.settings), -1),
+                "local": [{r: rgp(g) for r, g in gps.items()} for gps in self.local],
+                "joint": None if self.joint is None else {r: rgp(g) for r, g in self.joint.items()}}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "Emulator":
+        """The emulator of a :meth:`state`.
+
+        Parameters
+        ----------
+        state : dict
+            As :meth:`state` gives it.
+
+        Returns
+        -------
+        Emulator
+            The same emulator (its GPs rebuilt with their fitted hyperparameters).
+        """
+        def rgp(d: dict) -> _ResponseGP:
+            return _ResponseGP(FittedGP.from_state(d["mean"]), FittedGP.from_state(d["sd"]),
+                               FittedGP.from_state(d["csd"]), [int(c) for c in d["columns"]],
+                               [int(c) for c in d["count_columns"]], float(d["floor"]), float(d["mse_log_mean"]))
+
+        em = cls.__new__(cls)
+        em.lo, em.hi = np.asarray(state["lo"], float), np.asarray(state["hi"], float)
+        em.responses = list(state["responses"])
+        em.seed, em.r_sim, em.joint_points = int(state["seed"]), int(state["r_sim"]), int(state["joint_points"])
+        em.settings = [tuple(float(v) for v in row) for row in np.asarray(state["settings"], float)]
+        em._lookup = {}
+        em.local = [{r: rgp(d) for r, d in gps.items()} for gps in state["local"]]
+        em.joint = None if state["joint"] is None else {r: rgp(d) for r, d in state["joint"].items()}
+        em._data = None
+        em.fit_seconds, em.training_points = 0.0, 0
+        return em
+
     def code(self, settings_si) -> np.ndarray:
         """Settings (SI, rows) coded to -1 .. 1 over the sheet's level ranges.
 
@@ -191,26 +285,30 @@ class Emulator:
         span = np.where(self.hi > self.lo, self.hi - self.lo, 1.0)
         return 2.0 * (x - self.lo) / span - 1.0
 
-    def _pair(self, x, mean, sd, r, base: tuple | None = None) -> _ResponseGP:
-        """GPs of log(mean + c) and log SD at inputs ``x``; with ``base`` = (log-mean, log-SD) per point, of the
-        differences from it (the joint GP's setting effect)."""
-        floor = RESPONSES[r][1]
-        cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
-        b_mean, b_sd = base if base is not None else (0.0, 0.0)
+    def _pair(self, x, xc, mean, sd, csd, r, base: tuple | None = None) -> _ResponseGP:
+        """GPs of log(mean + c), log model SD (inputs ``x``) and log counting SD (inputs ``xc``); with ``base`` =
+        (log-mean, log-SD, log counting SD) per point, of the differences from it (the joint GP's setting effect)."""
+        floor = calibrated_responses()[r].floor
+        cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
+        ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
+        b_mean, b_sd, b_csd = base if base is not None else (0.0, 0.0, 0.0)
         g_mean = FittedGP(x, np.log(mean + floor) - b_mean, self.seed)
         g_sd = FittedGP(x, np.log(np.maximum(sd, 1e-3 * floor)) - b_sd, self.seed,
                         noise=1.0 / (2 * (self.r_sim - 1)))
-        return _ResponseGP(g_mean, g_sd, cols, floor)
+        g_csd = FittedGP(xc, np.log(np.maximum(csd, 1e-3 * floor)) - b_csd, self.seed)
+        return _ResponseGP(g_mean, g_sd, g_csd, cols, ccols, floor)
 
-    def _local_average(self, u: np.ndarray, r: str) -> tuple[np.ndarray, np.ndarray]:
-        """Average over the simulated settings of the per-setting GPs' log(mean + c) and log SD at ``u``: the
-        baseline of the joint GP, which models only the setting's effect on top of it."""
-        cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
+    def _local_average(self, u: np.ndarray, r: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Average over the simulated settings of the per-setting GPs' log(mean + c), log model SD and log counting
+        SD at ``u``: the baseline of the joint GP, which models only the setting's effect on top of it."""
+        cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
+        ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
         lm = np.mean([g[r].mean_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
         ls = np.mean([g[r].logsd_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
-        return lm, ls
+        lc = np.mean([g[r].logcsd_gp.predict(u[:, ccols], False)[0] for g in self.local], axis=0)
+        return lm, ls, lc
 
-    def fit(self, settings_si: list, u: np.ndarray, mean: np.ndarray, sd: np.ndarray) -> None:
+    def fit(self, settings_si: list, u: np.ndarray, mean: np.ndarray, sd: np.ndarray, csd: np.ndarray) -> None:
         """Train the per-setting GPs of every response.
 
         Parameters
@@ -219,9 +317,10 @@ class Emulator:
             The simulated settings (SI).
         u : numpy.ndarray
             (n, 6) theta on the prior's unit cube (the same points at every setting).
-        mean, sd : numpy.ndarray
-            (settings, n, responses) replicate mean and SD over the starts, the responses' units (%; efficiency in
-            kg/min per kg of yield).
+        mean, sd, csd : numpy.ndarray
+            (settings, n, responses) mean of the expectation over the starts, the model's start-to-start SD and the
+            counting SD of one field test, the responses' units (%; the efficiency's mean and model SD in kg/min per
+            kg of yield, its counting SD in kg/min).
         """
         t0 = time.perf_counter()
         self.settings = [tuple(float(v) for v in s) for s in settings_si]
@@ -230,10 +329,11 @@ class Emulator:
         for i in range(len(self.settings)):
             gps = {}
             for j, r in enumerate(self.responses):
-                cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
-                gps[r] = self._pair(u[:, cols], mean[i, :, j], sd[i, :, j], r)
+                cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
+                ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
+                gps[r] = self._pair(u[:, cols], u[:, ccols], mean[i, :, j], sd[i, :, j], csd[i, :, j], r)
             self.local.append(gps)
-        self._data = (np.array(self.settings, float), u, mean, sd)
+        self._data = (np.array(self.settings, float), u, mean, sd, csd)
         self.joint = None
         self.training_points = int(len(self.settings) * len(u))
         self.fit_seconds = time.perf_counter() - t0
@@ -244,13 +344,13 @@ class Emulator:
 
         Parameters
         ----------
-        focus : (numpy.ndarray, numpy.ndarray, numpy.ndarray), optional
-            ``(u, mean, sd)``: (k, 6) unit-cube points (dimensionless) and their simulated replicate means and SDs
-            at every simulated setting, (settings, k, responses) in the responses' units (efficiency per kg of
-            yield); they take half of :attr:`joint_points`.
+        focus : (numpy.ndarray, numpy.ndarray, numpy.ndarray, numpy.ndarray), optional
+            ``(u, mean, sd, csd)``: (k, 6) unit-cube points (dimensionless) and their simulated means, model SDs and
+            counting SDs at every simulated setting, (settings, k, responses) as :meth:`fit` takes them; they take
+            half of :attr:`joint_points`.
         """
         t0 = time.perf_counter()
-        s_all, u, mean, sd = self._data
+        s_all, u, mean, sd, csd = self._data
         ns, nu = len(s_all), len(u)
         budget = min(self.joint_points // max(ns, 1), nu)  # per setting: no more than its hypercube
         nf = 0 if focus is None else min(len(focus[0]), budget // 2)
@@ -258,22 +358,25 @@ class Emulator:
         rng = np.random.default_rng(self.seed)
         self.joint = {}
         for j, r in enumerate(self.responses):
-            cols = [PARAMETER_NAMES.index(p) for p in RESPONSE_PARAMETERS[r]]
-            xs, uus, ms, ss = [], [], [], []
+            cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
+            ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
+            xs, xcs, uus, ms, ss, cs = [], [], [], [], [], []
             for i in range(ns):
                 pick = rng.choice(nu, size=per, replace=False)
                 code = self.code(s_all[i:i + 1])
-                xs.append(np.hstack([np.repeat(code, per, axis=0), u[pick][:, cols]]))
-                uus.append(u[pick])
-                ms.append(mean[i, pick, j])
-                ss.append(sd[i, pick, j])
+                parts = [(u[pick], mean[i, pick, j], sd[i, pick, j], csd[i, pick, j])]
                 if nf:
-                    xs.append(np.hstack([np.repeat(code, nf, axis=0), focus[0][:nf][:, cols]]))
-                    uus.append(focus[0][:nf])
-                    ms.append(focus[1][i, :nf, j])
-                    ss.append(focus[2][i, :nf, j])
+                    parts.append((focus[0][:nf], focus[1][i, :nf, j], focus[2][i, :nf, j], focus[3][i, :nf, j]))
+                for uu, mm, s_, c_ in parts:
+                    xs.append(np.hstack([np.repeat(code, len(uu), axis=0), uu[:, cols]]))
+                    xcs.append(np.hstack([np.repeat(code, len(uu), axis=0), uu[:, ccols]]))
+                    uus.append(uu)
+                    ms.append(mm)
+                    ss.append(s_)
+                    cs.append(c_)
             base = self._local_average(np.vstack(uus), r)
-            self.joint[r] = self._pair(np.vstack(xs), np.concatenate(ms), np.concatenate(ss), r, base)
+            self.joint[r] = self._pair(np.vstack(xs), np.vstack(xcs), np.concatenate(ms), np.concatenate(ss),
+                                       np.concatenate(cs), r, base)
         self.fit_seconds += time.perf_counter() - t0
 
     def joint_mse(self, response: str) -> float:
@@ -326,38 +429,42 @@ class Emulator:
 
         Returns
         -------
-        (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        (numpy.ndarray, numpy.ndarray, numpy.ndarray, numpy.ndarray)
             Mean (the response's unit; efficiency per kg of yield), the emulator's variance of it (delta method on
             the log scale: (mean + c)^2 max(GP variance, held-out MSE), the joint GP's MSE :meth:`joint_mse`; unit
-            squared) and the replicate SD.
+            squared), the model's start-to-start SD (efficiency per kg of yield) and the counting SD of one field
+            test (the response's unit).
         """
         settings_si = np.atleast_2d(settings_si)
         u = np.atleast_2d(u)
         n = len(u)
-        lm, var_log, lsd = np.empty(n), np.empty(n), np.empty(n)
+        lm, var_log, lsd, lcsd = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
         uniq, inverse = np.unique(settings_si, axis=0, return_inverse=True)
         groups: dict = {}
         for j, x in enumerate(uniq):
             key = None if joint else self._index(x)
             groups.setdefault(key, []).extend(np.flatnonzero(inverse.ravel() == j).tolist())
-        floor = RESPONSES[response][1]
+        floor = calibrated_responses()[response].floor
         for key, rows in groups.items():
             rows = np.array(rows)
             if key is None:
                 if self.joint is None:
                     self.fit_joint()
                 g = self.joint[response]
-                x = np.hstack([self.code(settings_si[rows]), u[rows][:, g.columns]])
-                b_mean, b_sd = self._local_average(u[rows], response)
+                code = self.code(settings_si[rows])
+                x = np.hstack([code, u[rows][:, g.columns]])
+                xc = np.hstack([code, u[rows][:, g.count_columns]])
+                b_mean, b_sd, b_csd = self._local_average(u[rows], response)
                 mse = self.joint_mse(response)
             else:
                 g = self.local[key][response]
-                x = u[rows][:, g.columns]
-                b_mean, b_sd = 0.0, 0.0
+                x, xc = u[rows][:, g.columns], u[rows][:, g.count_columns]
+                b_mean, b_sd, b_csd = 0.0, 0.0, 0.0
                 mse = g.mse_log_mean
             m, v = g.mean_gp.predict(x, with_var)
             lm[rows] = b_mean + m
             var_log[rows] = np.maximum(v, mse)
             lsd[rows] = b_sd + g.logsd_gp.predict(x, False)[0]
+            lcsd[rows] = b_csd + g.logcsd_gp.predict(xc, False)[0]
         mean = np.maximum(np.exp(lm) - floor, 0.0)
-        return mean, (mean + floor) ** 2 * var_log, np.exp(lsd)
+        return mean, (mean + floor) ** 2 * var_log, np.exp(lsd), np.exp(lcsd)

@@ -193,15 +193,60 @@ def prior_rows(machine: Machine | None = None) -> list[dict]:
              "lo90": p.interval90()[0], "hi90": p.interval90()[1], "source": p.source, "tag": p.tag} for p in params]
 
 
-#: responses of a field sheet the calibration uses: sheet name -> (unit, floor c of the emulated log(mean + c))
-#: (the floor keeps a rate near 0, a count of a few fruit that jumps as single fruit cross their thresholds, from
-#: dominating the log scale: 0.5 % is below a rate's replicate SD on the reference machine, docs/harvest.md)
-RESPONSES = {"efficiency": ("kg/min", 0.05), "unripe": ("%", 0.5), "damage": ("%", 0.5)}
-#: parameters each response depends on (besides the setting); the yield scales the efficiency exactly and is not
-#: emulated; the bruise threshold changes only the damage
+def calibrated_responses() -> dict:
+    """The responses of a field sheet the calibration uses: the rows of the harvest-response table marked
+    ``calibrated`` (berryshaker.harvest.virtual.RESPONSES: unit, floor c of the emulated log(mean + c)).
+
+    Returns
+    -------
+    dict of str to HarvestResponse
+        Name -> row, in the table's order.
+    """
+    from berryshaker.harvest.virtual import RESPONSES
+
+    return {n: r for n, r in RESPONSES.items() if r.calibrated}
+
+
+#: parameters the mean and the model's spread of a response depend on (besides the setting); the yield scales the
+#: efficiency exactly and is not emulated there; the bruise threshold changes only the damage.  A response not listed
+#: depends on every parameter but the yield.  The counting noise of a field test depends on the yield too
+#: (:func:`count_parameters`).
 RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
                        "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
                        "damage": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "bruise_height")}
+
+
+def mean_parameters(response: str) -> tuple[str, ...]:
+    """The parameters the mean and the model's spread of ``response`` depend on (:data:`RESPONSE_PARAMETERS`).
+
+    Parameters
+    ----------
+    response : str
+        Response name.
+
+    Returns
+    -------
+    tuple of str
+        Parameter names.
+    """
+    return RESPONSE_PARAMETERS.get(response, tuple(n for n in PARAMETER_NAMES if n != "yield_per_bush"))
+
+
+def count_parameters(response: str) -> tuple[str, ...]:
+    """The parameters the counting noise of one field test of ``response`` depends on: the mean's and the yield
+    (more fruit per test, a smaller relative counting noise).
+
+    Parameters
+    ----------
+    response : str
+        Response name.
+
+    Returns
+    -------
+    tuple of str
+        Parameter names.
+    """
+    return (*mean_parameters(response), "yield_per_bush")
 
 
 def latin_hypercube(n: int, seed: int, d: int = len(PARAMETERS)) -> np.ndarray:

@@ -10,7 +10,7 @@ per factor) are ``dict`` fields.  Responses are in their own units (efficiency k
 bush in the emulator's checks; unripe and damage rates %); parameters in their SI units
 (:data:`~berryshaker.study.field_calibration.priors.PARAMETERS`).
 
-long module: nineteen small records, one per part of the result, each with its Attributes and units; they form one
+long module: twenty-two small records, one per part of the result, each with its Attributes and units; they form one
 tree, written and read back together, so they stay in one place.
 """
 
@@ -487,6 +487,80 @@ class SheetSummary(JsonRecord):
 
 
 @dataclass(frozen=True)
+class HyperSummary(JsonRecord):
+    """The posterior of a further field noise or a discrepancy amplitude of one response
+    (berryshaker.study.field_calibration.posterior).
+
+    Attributes
+    ----------
+    median : float
+        Posterior median, as a fraction of the sheet's mean of the response (1).
+    lo90, hi90 : float
+        Its central 90 % interval (1).
+    prior_scale : float
+        The half-normal prior's scale (1).
+    """
+
+    median: float
+    lo90: float
+    hi90: float
+    prior_scale: float
+
+
+@dataclass(frozen=True)
+class ResidualEffect(JsonRecord):
+    """A factor's effect on the sheet's residuals from the calibrated model (what the model does not produce).
+
+    Attributes
+    ----------
+    factor : str
+        The sheet's factor.
+    range : float
+        Largest minus smallest level mean of the residuals (the response's unit).
+    f : float
+        F of the factor in the OLS of the residuals on every factor's levels (statsmodels anova_lm, type II; 1).
+    p : float
+        Its p-value (1).
+    beyond_noise : bool
+        p below 0.05 / the number of factors (Bonferroni).
+    """
+
+    factor: str
+    range: float
+    f: float
+    p: float
+    beyond_noise: bool
+
+
+@dataclass(frozen=True)
+class ModelDiscrepancy(JsonRecord):
+    """What the sheet shows that the model does not produce, for one response.
+
+    Attributes
+    ----------
+    scale : float
+        The sheet's mean of the response (its unit): the scale of the two fractions below.
+    unit : str
+        The response's unit.
+    field_noise : HyperSummary
+        The further field noise kappa (beyond the model's field-test noise), SD as a fraction of ``scale``.
+    amplitude : HyperSummary or None
+        The discrepancy's amplitude alpha, SD as a fraction of ``scale``; None with the discrepancy off.
+    residual_effects : list of ResidualEffect
+        Per factor, the residuals' effect at the posterior median of the parameters.
+    verdict : str
+        In words: the model represents the sheet's effects, or which it cannot and what the predictions then do.
+    """
+
+    scale: float
+    unit: str
+    field_noise: HyperSummary
+    amplitude: HyperSummary | None
+    residual_effects: list[ResidualEffect]
+    verdict: str
+
+
+@dataclass(frozen=True)
 class Timings(JsonRecord):
     """Wall times of the calibration's parts.
 
@@ -537,9 +611,11 @@ class CalibrationResult(JsonRecord):
     likelihood : str
         The likelihood in words.
     discrepancy : float
-        Model discrepancy, SD as a fraction of the mean (1; 0: off).
+        Half-normal prior scale of the model discrepancy's amplitude, a fraction of the sheet's mean (1; 0: off).
     discrepancy_text : str
         The discrepancy in words.
+    discrepancies : dict of str to ModelDiscrepancy
+        Per response the further field noise, the discrepancy and the residual effects, with the verdict.
     limits : list of str
         The method's limits.
     timings_s : Timings
@@ -570,6 +646,7 @@ class CalibrationResult(JsonRecord):
     likelihood: str
     discrepancy: float
     discrepancy_text: str
+    discrepancies: dict[str, ModelDiscrepancy]
     limits: list[str]
     timings_s: Timings
     package: str | None = optional()
@@ -580,6 +657,6 @@ class CalibrationResult(JsonRecord):
 
 
 __all__ = ["CalibrationResult", "CheckSummary", "Checks", "Confounding", "EmulatorCheck", "EmulatorSummary",
-           "FactorSummary", "HeldOutRun", "ParameterSummary", "Prediction", "PriorSummary", "CalibrationRecommendation",
+           "FactorSummary", "HeldOutRun", "HyperSummary", "ModelDiscrepancy", "ParameterSummary", "ResidualEffect", "Prediction", "PriorSummary", "CalibrationRecommendation",
            "ResponsePrediction", "RunCheck", "SamplerSummary", "SettingValue", "SheetSummary", "SimulatorSummary",
            "Timings"]

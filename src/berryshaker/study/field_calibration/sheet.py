@@ -13,7 +13,7 @@ import numpy as np
 
 from berryshaker.config import Machine
 from berryshaker.errors import ConfigError
-from berryshaker.study.field_calibration.priors import RESPONSES
+from berryshaker.study.field_calibration.priors import calibrated_responses
 
 
 #: factor names (lower case) read as the drive speed when their unit is an angular speed
@@ -158,17 +158,17 @@ class Sheet:
     level_values: dict = field(default_factory=dict)
 
 
-def _filled_responses(path_or_text) -> list[str]:
-    """The responses of :data:`RESPONSES` a sheet has values for (an index column with a number, or the raw masses)."""
+def _filled_responses(path_or_text, worksheet: str | None = None) -> list[str]:
+    """The calibrated responses a sheet has values for (an index column with a number, or the raw masses)."""
     from berryshaker.experiment.field_columns import INDEX_NAMES, RAW_COLUMNS
     from berryshaker.experiment.field_cells import sheet_table
 
-    df = sheet_table(path_or_text)
+    df = sheet_table(path_or_text, worksheet)
     cols = {c.lower(): c for c in df.columns}
     raw = all(c in df.columns and df[c].notna().any() and (df[c].astype(str).str.strip() != "").any()
               for c in RAW_COLUMNS)
     out = []
-    for r in RESPONSES:
+    for r in calibrated_responses():
         col = INDEX_NAMES[r] if INDEX_NAMES[r] in df.columns else cols.get(r)
         filled = col is not None and df[col].notna().any() and (df[col].astype(str).str.strip() != "").any()
         if filled or raw:
@@ -176,7 +176,7 @@ def _filled_responses(path_or_text) -> list[str]:
     return out
 
 
-def read_sheet(path_or_text, machine: Machine) -> Sheet:
+def read_sheet(path_or_text, machine: Machine, worksheet: str | None = None) -> Sheet:
     """Read a field sheet (``doe plan`` layout or a statistics package's worksheet with a replicate or block column)
     for the calibration (:func:`berryshaker.experiment.field_results.read_results`, strict) and map its factors to
     the machine (:func:`factor_target`).
@@ -184,9 +184,11 @@ def read_sheet(path_or_text, machine: Machine) -> Sheet:
     Parameters
     ----------
     path_or_text : path or str
-        The sheet (CSV) or its text.
+        The sheet (CSV or .xlsx) or a CSV's text.
     machine : Machine
         The machine description.
+    worksheet : str, optional
+        The worksheet of an .xlsx workbook (default its first).
 
     Returns
     -------
@@ -196,16 +198,22 @@ def read_sheet(path_or_text, machine: Machine) -> Sheet:
     Raises
     ------
     ConfigError
-        No response filled in, a factor calibrate cannot simulate, or any error of ``read_results``.
+        No response filled in, a factor calibrate cannot simulate, a lost plot (the likelihood takes every run's
+        replicates), or any error of ``read_results``.
     """
     from berryshaker.experiment.field_results import read_results
 
-    responses = _filled_responses(path_or_text)
+    responses = _filled_responses(path_or_text, worksheet)
     if not responses:
         raise ConfigError("the sheet has no field results: fill in efficiency_kg_min, unripe_rate_pct or "
                           "damage_rate_pct (or the raw masses duration_s, picked_mass_kg, unripe_mass_kg, "
                           "damaged_mass_kg) for every run; calibrate needs at least one response")
-    fr = read_results(path_or_text, responses)
+    fr = read_results(path_or_text, responses, sheet=worksheet)
+    for r, cells in fr.lost.items():
+        where = ", ".join(f"run {i} replicate {k}" for i, k in cells[:6]) + (" ..." if len(cells) > 6 else "")
+        raise ConfigError(f"the sheet lost plots of {r} ({where}); calibrate's likelihood takes every run's "
+                          "replicates, the same number for every run: fill them in (`doe analyze` analyses a sheet "
+                          "with lost plots)")
     targets = [factor_target(machine, n, fr.units.get(n, ""), fr.level_values.get(n)) for n in fr.factor_names]
     settings = np.column_stack([np.asarray(fr.values[:, j], float) * t.to_si for j, t in enumerate(targets)])
     if fr.responses_replicated is not None:

@@ -1,0 +1,455 @@
+"""One field test of the virtual harvest: the model's expectation and one counted field result (docs/harvest.md,
+"Virtual field test").
+
+A field test runs the machine for ``operation.test_duration`` T at the walking speed v: it passes B = v T / s bushes
+(s the plant spacing; 3.33 on the reference machine: 10 s at 30 m/min, 1.5 m spacing), fractions included.  What it
+weighs is a :class:`~berryshaker.harvest.virtual.responses.Tally` of those bushes' fruit.  For one start (one coupled
+drive-past per branch class, their stem-load tables) this module gives
+
+* the **model's expectation** (:func:`expected_tally`): the large-sample mean, by quadrature over what a fruit can
+  be -- branch class (equally likely), position z along the fruit zone (uniform), mass (lognormal, mean m0, CV
+  ``fruit_mass_cv``; Gauss-Legendre nodes in every cell of the stem-load tables, :func:`load_grid`), ripe or unripe (mass fraction
+  ``unripe_fraction``) -- of the probability that it comes off and that it bruises (:func:`node_probabilities`);
+  no sampling noise;
+* the **counting noise of one field test** about that expectation (:func:`count_variance`): each bush its own yield,
+  lognormal with mean ``yield_per_bush`` and CV ``bush_yield_cv``; its fruit a Poisson count of yield / mean mass on
+  the covered part; every fruit picked or not, bruised or not (Bernoulli).  The tally's sums are then a Poisson
+  mixture, Var(S) = E[N] E[g g'] + Var(lambda) E[g] E[g]' (g a fruit's contribution, lambda the covered fruit
+  count's mean), and each response's variance is the delta method's J Var(S) J' (J its gradient in the sums;
+  Cochran 1977, Sampling Techniques, sec. 6.3 for a ratio), so a rate's counting noise falls as 1 / (fruit picked);
+* **one field result** (:func:`field_tally`): the test drawn fruit by fruit from the start's :data:`FIELD` stream --
+  the test's start within the row uniform over one plant spacing, the bushes it covers with their fractions, each
+  bush's yield, each fruit's class, position, mass, ripeness, strength factor, whether it comes off and whether it
+  bruises.  Its spread over starts is a field test's test-to-test spread (the model's start-to-start spread plus
+  the counting noise); :func:`count_variance` is checked against it in the tests.
+
+Detachment and bruising are those of :mod:`berryshaker.harvest.virtual.indexes`' models: ``bond_model`` "pull_shear"
+(a fruit comes off when the peak pull-shear load ratio of its class's mean strengths reaches its strength factor,
+lognormal with mean 1 and CV ``bond_cv`` / ``unripe_bond_cv``: P = Phi((ln g + sigma^2/2) / sigma)) or "study_eq17"
+(the peak stem force against a bond uniform in the study's band); ``damage_model`` "impact" (berryshaker.harvest.
+bruising) or "stem_acceleration" (1 - exp(-(a / a_d)^k)).
+
+The quadrature's node counts are chosen by ``tests/harvest/test_field_test.py`` (every response within 1e-3 of its
+value at twice the nodes).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from berryshaker.config import Machine
+from berryshaker.harvest.virtual.responses import RESPONSES, Tally
+from berryshaker.harvest.virtual.seeds import FIELD, stream
+from berryshaker.harvest.virtual.stem_force_tables import (MASS_FACTORS, Z_GRID, bond_strengths, fruit_peak_force,
+                                                           fruit_peak_load)
+
+#: Gauss-Legendre nodes per stem-load table cell along the fruit zone and in log fruit mass of the expectation's
+#: quadrature (chosen by tests/harvest/test_field_test.py: every response within 1e-4 relative of twice the nodes)
+Z_NODES, MASS_NODES = 2, 2
+
+
+@dataclass(frozen=True)
+class HarvestParameters:
+    """The harvest parameters a tally depends on beyond the stem-load tables (the ones ``calibrate`` learns); each a
+    float or an array of shape (n, 1) (n parameter points, broadcast against the nodes).
+
+    Attributes
+    ----------
+    ripe_pull, unripe_pull : float or numpy.ndarray
+        Mean pull strength of ripe and unripe fruit (N); the shear strength scales with it.
+    bond_cv : float or numpy.ndarray
+        CV of a ripe fruit's strength factor (dimensionless).
+    unripe_fraction : float or numpy.ndarray
+        Unripe share of the fruit (dimensionless).
+    yield_per_bush : float or numpy.ndarray
+        Fruit mass on a bush at the pass (kg).
+    bruise_height : float or numpy.ndarray
+        Median bruise-threshold drop height of the described catching surface (m).
+    """
+
+    ripe_pull: float | np.ndarray
+    unripe_pull: float | np.ndarray
+    bond_cv: float | np.ndarray
+    unripe_fraction: float | np.ndarray
+    yield_per_bush: float | np.ndarray
+    bruise_height: float | np.ndarray
+
+    @classmethod
+    def described(cls, machine: Machine) -> "HarvestParameters":
+        """The description's own values.
+
+        Parameters
+        ----------
+        machine : Machine
+            Machine description with a [harvest] block.
+
+        Returns
+        -------
+        HarvestParameters
+            ``harvest.ripe_pull`` ... (the bruise height of ``harvest.catcher_surface``).
+        """
+        h = machine.harvest
+        bruise = h.bruise_height_hard if h.catcher_surface == "hard" else h.bruise_height_padded
+        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, bruise)
+
+
+@dataclass(frozen=True)
+class LoadGrid:
+    """The quadrature nodes of one start's fruit (branch class x position x mass, flattened) with each node's peak
+    loads from the start's stem-load tables.
+
+    Attributes
+    ----------
+    weight : numpy.ndarray
+        Probability of each node (sums to 1; dimensionless).
+    z : numpy.ndarray
+        Position along the branch (fraction of its length).
+    mass : numpy.ndarray
+        Fruit mass (kg).
+    load_ripe, load_unripe : numpy.ndarray
+        Peak pull-shear load ratio of a ripe / an unripe fruit there at the described mean strengths (dimensionless).
+    force : numpy.ndarray
+        Peak stem-force magnitude (N).
+    """
+
+    weight: np.ndarray
+    z: np.ndarray
+    mass: np.ndarray
+    load_ripe: np.ndarray
+    load_unripe: np.ndarray
+    force: np.ndarray
+
+
+def _piecewise_gauss(edges: np.ndarray, per_cell: int) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Legendre nodes and weights, ``per_cell`` in each interval between consecutive ``edges``."""
+    x, w = np.polynomial.legendre.leggauss(int(per_cell))
+    lo, hi = edges[:-1, None], edges[1:, None]
+    return (0.5 * (lo + hi) + 0.5 * (hi - lo) * x).ravel(), (0.5 * (hi - lo) * w).ravel()
+
+
+def load_grid(machine: Machine, envelopes: list, z_per_cell: int = Z_NODES, mass_per_cell: int = MASS_NODES
+              ) -> LoadGrid:
+    """Quadrature nodes of the fruit of one start and their peak loads (module docstring).
+
+    The tables are linear between their grid lines (:data:`~berryshaker.harvest.virtual.stem_force_tables.Z_GRID`
+    in z, :data:`~berryshaker.harvest.virtual.stem_force_tables.MASS_FACTORS` in log mass), so the nodes are
+    Gauss-Legendre within each cell of the fruit zone and of the log-mass normal (out to 8 standard deviations),
+    weighted by the uniform and the normal density: the integrand is smooth inside a cell.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    envelopes : list of numpy.ndarray
+        One stem-load table per branch class
+        (:func:`~berryshaker.harvest.virtual.stem_force_tables.stem_force_table`; N, dimensionless load ratios).
+    z_per_cell, mass_per_cell : int
+        Gauss-Legendre nodes per table cell in z and in log mass.
+
+    Returns
+    -------
+    LoadGrid
+        One node per branch class, position and mass.
+    """
+    h = machine.harvest
+    m0 = machine.plant.fruit.mass
+    a, b = h.fruit_zone
+    ze = np.unique(np.concatenate([[a, b], Z_GRID[(Z_GRID > a) & (Z_GRID < b)]]))
+    z, wz = _piecewise_gauss(ze, z_per_cell)
+    wz = wz / (b - a) if b > a else np.full(1, 1.0)
+    z = z if b > a else np.full(1, a)
+    sigma = math.sqrt(math.log1p(h.fruit_mass_cv**2))
+    if sigma > 0:  # ln m = ln m0 - sigma^2 / 2 + sigma x, x standard normal; cells at the table's mass factors
+        xb = (np.log(MASS_FACTORS) + 0.5 * sigma**2) / sigma
+        xe = np.unique(np.clip(np.concatenate([[-8.0, 8.0], xb]), -8.0, 8.0))
+        xm, wm = _piecewise_gauss(xe, mass_per_cell)
+        wm = wm * np.exp(-0.5 * xm * xm) / math.sqrt(2 * math.pi)
+        wm = wm / wm.sum()
+        mass = m0 * np.exp(-0.5 * sigma**2 + sigma * xm)
+    else:
+        mass, wm = np.full(1, m0), np.ones(1)
+    zz, mm = np.meshgrid(z, mass, indexing="ij")
+    ww = np.outer(wz, wm)
+    zz, mm, ww = zz.ravel(), mm.ravel(), ww.ravel()
+    st = bond_strengths(machine)
+    nc = len(envelopes)
+    parts = []
+    for env in envelopes:
+        e = np.asarray(env, float)
+        parts.append((fruit_peak_load(e, zz, mm, m0, np.ones(zz.size, bool), st),
+                      fruit_peak_load(e, zz, mm, m0, np.zeros(zz.size, bool), st),
+                      fruit_peak_force(e, zz, mm, m0)))
+    cat = [np.concatenate([p[i] for p in parts]) for i in range(3)]
+    return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), *cat)
+
+
+def _p_below(x, cv):
+    """P(s <= x) for s lognormal with mean 1 and CV cv (cv = 0: a step at 1)."""
+    cv = np.asarray(cv, float)
+    sig = np.sqrt(np.log1p(cv * cv))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        p = special.ndtr((np.log(np.maximum(x, 1e-300)) + 0.5 * sig**2) / np.where(sig > 0, sig, 1.0))
+    return np.where(sig > 0, p, (np.asarray(x) >= 1.0).astype(float))
+
+
+def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None):
+    """Probability that a ripe and an unripe fruit at each node comes off, and that a detached fruit there bruises.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest] (the models, the catching surface, the finger speed).
+    grid : LoadGrid
+        The start's nodes.
+    params : HarvestParameters, optional
+        Parameter values (default the description's); arrays of shape (n, 1) give n rows.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+        P(off | ripe), P(off | unripe), P(bruised | off) per node (shape (nodes,) or (n, nodes); dimensionless).
+    """
+    from berryshaker.harvest.bruising import GRAVITY, bruise_probability, finger_speed
+    from berryshaker.reference_study import RIPE_BOND_N, UNRIPE_BOND_N
+
+    h = machine.harvest
+    p = params or HarvestParameters.described(machine)
+    if h.bond_model == "pull_shear":
+        off_r = _p_below(grid.load_ripe * (h.ripe_pull / np.asarray(p.ripe_pull, float)), p.bond_cv)
+        off_u = _p_below(grid.load_unripe * (h.unripe_pull / np.asarray(p.unripe_pull, float)), h.unripe_bond_cv)
+    else:  # the study's eq. 17: the peak stem force against a bond uniform in the class's band
+        off_r = np.clip((grid.force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
+        off_u = np.clip((grid.force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
+    if h.damage_model == "impact":
+        v_f = finger_speed(machine)
+        hb = np.asarray(p.bruise_height, float)
+        hard_h = hb if h.catcher_surface == "hard" else h.bruise_height_hard
+        p_strike = bruise_probability(v_f * v_f / (2 * GRAVITY), hard_h, h.bruise_cv)
+        fall = h.catcher_drop + grid.z * machine.plant.branch.length
+        q = 1.0 - (1.0 - p_strike) * (1.0 - bruise_probability(fall, hb, h.bruise_cv))
+    else:
+        q = 1.0 - np.exp(-((grid.force / grid.mass) / h.damage_acceleration) ** h.damage_shape)
+    shape = np.broadcast_shapes(np.shape(off_r), np.shape(off_u), np.shape(q))
+    return tuple(np.broadcast_to(x, shape) for x in (off_r, off_u, q))
+
+
+def bushes_per_test(machine: Machine) -> float:
+    """Bushes one field test passes: walking speed x test duration / plant spacing (fractions included).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description ([operation]).
+
+    Returns
+    -------
+    float
+        B (dimensionless; 3.33 on the reference machine).
+    """
+    op = machine.operation
+    return op.walking_speed * op.test_duration / op.plant_spacing
+
+
+def covered_fractions(bushes: float, offset: float) -> np.ndarray:
+    """Fractions of the bushes a stretch of ``bushes`` plant spacings covers when it starts ``offset`` spacings into
+    the first.
+
+    Parameters
+    ----------
+    bushes : float
+        Length of the stretch in plant spacings (> 0; dimensionless).
+    offset : float
+        Where it starts within the first bush's spacing, in [0, 1) (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray
+        Covered fraction of each bush touched (each in (0, 1], summing to ``bushes``).
+    """
+    edges = np.arange(0, math.ceil(offset + bushes) + 1, dtype=float)
+    lo = np.maximum(edges[:-1], offset)
+    hi = np.minimum(edges[1:], offset + bushes)
+    f = hi - lo
+    return f[f > 1e-12]
+
+
+def _mean_square_fraction(bushes: float, points: int = 2000) -> float:
+    """E over a uniform start offset of the sum of squared covered fractions (midpoint rule)."""
+    u = (np.arange(points) + 0.5) / points
+    return float(np.mean([np.sum(covered_fractions(bushes, x) ** 2) for x in u]))
+
+
+def _row(x):
+    """A parameter as one value per parameter point: (n, 1) -> (n,), a scalar unchanged."""
+    x = np.asarray(x, float)
+    return x[..., 0] if x.ndim >= 2 else x
+
+
+def _moments(machine: Machine, grid: LoadGrid, params: HarvestParameters):
+    """Per fruit: E[g] (..., 5) and E[g g'] (..., 5, 5) of its contribution g to the tally's masses (kg, kg^2), and the
+    mean fruit mass (kg)."""
+    off_r, off_u, q = node_probabilities(machine, grid, params)
+    uf = _row(params.unripe_fraction)
+    w, m = grid.weight, grid.mass
+    wm, wm2 = w * m, w * m * m
+    pr, pu = 1.0 - uf, uf
+    s = lambda x, ww: np.sum(ww * x, axis=-1)  # noqa: E731
+    one = np.ones_like(off_r)
+    # g = m (r, 1 - r, r o, (1 - r) o, o d): means
+    eg = np.stack([pr * s(one, wm), pu * s(one, wm), pr * s(off_r, wm), pu * s(off_u, wm),
+                   pr * s(off_r * q, wm) + pu * s(off_u * q, wm)], axis=-1)
+    # second moments (r, o, d indicators: r^2 = r, r (1 - r) = 0, o^2 = o, d^2 = d)
+    shape = eg.shape[:-1] + (5, 5)
+    egg = np.zeros(shape)
+    rr = [(0, 0, pr, one), (0, 2, pr, off_r), (0, 4, pr, off_r * q), (2, 2, pr, off_r), (2, 4, pr, off_r * q),
+          (1, 1, pu, one), (1, 3, pu, off_u), (1, 4, pu, off_u * q), (3, 3, pu, off_u), (3, 4, pu, off_u * q)]
+    for i, j, pi, x in rr:
+        v = pi * s(x, wm2)
+        egg[..., i, j] += v
+        if i != j:
+            egg[..., j, i] += v
+    egg[..., 4, 4] = pr * s(off_r * q, wm2) + pu * s(off_u * q, wm2)  # both ripeness classes
+    return eg, egg, float(np.sum(wm))
+
+
+def expected_tally(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None) -> Tally:
+    """The model's expectation of one field test's tally at this start (module docstring).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    grid : LoadGrid
+        The start's nodes (:func:`load_grid`).
+    params : HarvestParameters, optional
+        Parameter values (default the description's).
+
+    Returns
+    -------
+    Tally
+        Expected masses (kg) of the B bushes a test passes and the test's duration (s).
+    """
+    p = params or HarvestParameters.described(machine)
+    eg, _, m_mean = _moments(machine, grid, p)
+    n_fruit = bushes_per_test(machine) * _row(p.yield_per_bush) / m_mean
+    s = eg * np.asarray(n_fruit)[..., None]
+    return Tally(*(s[..., i] for i in range(5)), np.broadcast_to(machine.operation.test_duration, s.shape[:-1]) * 1.0)
+
+
+def count_variance(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None,
+                   names=None) -> dict:
+    """Variance of each response of one field test about the start's expectation: the counting noise (module
+    docstring: Poisson mixture of the covered bushes' fruit, delta method).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] (``bush_yield_cv``) and [operation].
+    grid : LoadGrid
+        The start's nodes.
+    params : HarvestParameters, optional
+        Parameter values (default the description's).
+    names : iterable of str, optional
+        Responses (default every one of :data:`~berryshaker.harvest.virtual.responses.RESPONSES`).
+
+    Returns
+    -------
+    dict
+        Name -> variance (the response's unit squared; float or (n,) array).
+    """
+    p = params or HarvestParameters.described(machine)
+    eg, egg, m_mean = _moments(machine, grid, p)
+    bushes = bushes_per_test(machine)
+    yb = _row(p.yield_per_bush)
+    lam = bushes * yb / m_mean
+    var_lam = (machine.harvest.bush_yield_cv * yb / m_mean) ** 2 * _mean_square_fraction(bushes)
+    lam, var_lam = np.asarray(lam)[..., None, None], np.asarray(var_lam)[..., None, None]
+    cov = lam * egg + var_lam * eg[..., :, None] * eg[..., None, :]
+    mean = eg * lam[..., 0]
+    dur = machine.operation.test_duration
+    out = {}
+    for n in (RESPONSES if names is None else names):
+        f = RESPONSES[n].value
+        grad = []
+        for j in range(5):
+            step = 1e-6 * np.maximum(np.abs(mean[..., j]), 1e-12)
+            up, dn = mean.copy(), mean.copy()
+            up[..., j] += step
+            dn[..., j] -= step
+            tu, td = (Tally(*(x[..., i] for i in range(5)), dur) for x in (up, dn))
+            grad.append((np.asarray(f(tu), float) - np.asarray(f(td), float)) / (2 * step))
+        jac = np.stack(grad, axis=-1)
+        v = np.einsum("...i,...ij,...j->...", jac, cov, jac)
+        out[n] = float(v) if np.ndim(v) == 0 else v
+    return out
+
+
+def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestParameters | None = None,
+                draw: int = 0) -> Tally:
+    """One field test drawn fruit by fruit from start ``start``'s :data:`~berryshaker.harvest.virtual.seeds.FIELD`
+    stream (module docstring).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    envelopes : list of numpy.ndarray
+        The start's stem-load table per branch class (N, dimensionless load ratios).
+    start : int
+        Start number k (its stream of the description's seed family).
+    params : HarvestParameters, optional
+        Parameter values (scalars; default the description's).
+    draw : int
+        Which field test of that machine start (0: the start's own; others: further bushes behind the same drive-past,
+        spawn key (start, FIELD, draw)).
+
+    Returns
+    -------
+    Tally
+        Counted masses (kg) and the test's duration (s).
+    """
+    from berryshaker.reference_study import RIPE_BOND_N, UNRIPE_BOND_N
+
+    h = machine.harvest
+    p = params or HarvestParameters.described(machine)
+    rng = stream(h.seed, start, FIELD, *((draw,) if draw else ()))
+    m0 = machine.plant.fruit.mass
+    frac = covered_fractions(bushes_per_test(machine), rng.random())
+    cvb = h.bush_yield_cv
+    sb = math.sqrt(math.log1p(cvb * cvb))
+    bush_yield = float(p.yield_per_bush) * np.exp(-0.5 * sb * sb + sb * rng.standard_normal(frac.size))
+    n = int(np.sum(rng.poisson(frac * bush_yield / m0)))
+    sm = math.sqrt(math.log1p(h.fruit_mass_cv**2))
+    mass = m0 * np.exp(-0.5 * sm * sm + sm * rng.standard_normal(n))
+    ripe = rng.random(n) >= float(p.unripe_fraction)
+    z = rng.uniform(*h.fruit_zone, n)
+    cls = rng.integers(0, len(envelopes), n)
+    u_strength = rng.standard_normal(n)
+    u_bond = rng.random(n)
+    u_bruise = rng.random(n)
+    st = bond_strengths(machine)
+    load, force = np.zeros(n), np.zeros(n)
+    for c, env in enumerate(envelopes):
+        sel = cls == c
+        e = np.asarray(env, float)
+        load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st)
+        force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0)
+    if h.bond_model == "pull_shear":
+        load = load * np.where(ripe, h.ripe_pull / float(p.ripe_pull), h.unripe_pull / float(p.unripe_pull))
+        cv = np.where(ripe, float(p.bond_cv), h.unripe_bond_cv)
+        sig = np.sqrt(np.log1p(cv * cv))
+        off = load >= np.exp(-0.5 * sig * sig + sig * u_strength)
+    else:
+        lo = np.where(ripe, RIPE_BOND_N[0], UNRIPE_BOND_N[0])
+        hi = np.where(ripe, RIPE_BOND_N[1], UNRIPE_BOND_N[1])
+        off = force >= lo + u_bond * (hi - lo)
+    q = node_probabilities(machine, LoadGrid(np.ones(n), z, mass, load, load, force), p)[2]
+    bruised = off & (u_bruise < q)
+    tot = lambda sel: float(np.sum(mass[sel]))  # noqa: E731
+    return Tally(tot(ripe), tot(~ripe), tot(off & ripe), tot(off & ~ripe), tot(bruised),
+                 float(machine.operation.test_duration))
+

@@ -1,0 +1,148 @@
+"""One virtual field test (berryshaker.harvest.virtual.field_test) against closed forms and its own Monte Carlo, and
+the seed streams of a start (berryshaker.harvest.virtual.seeds).  The stem-load tables here are made by hand (no
+engine run): a table constant over position and mass is a load every fruit sees alike, for which the expectation has
+a closed form.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from berryshaker.config import reference_machine
+from berryshaker.harvest.virtual import (RESPONSES, HarvestParameters, Tally, bushes_per_test, count_variance,
+                                        expected_tally, field_tally, load_grid, response_values)
+from berryshaker.harvest.virtual.field_test import MASS_NODES, Z_NODES, _mean_square_fraction, covered_fractions
+from berryshaker.harvest.virtual.seeds import FIELD, MACHINE, seed_sequence, stream
+from berryshaker.harvest.virtual.stem_force_tables import MASS_FACTORS, Z_GRID
+
+
+@pytest.fixture(scope="module")
+def machine():
+    return reference_machine()
+
+
+def constant_table(ripe: float, unripe: float, force: float = 0.2) -> np.ndarray:
+    """A stem-load table (Z_GRID x MASS_FACTORS x channels) with one peak load ratio everywhere."""
+    t = np.empty((Z_GRID.size, MASS_FACTORS.size, 3))
+    t[..., 0], t[..., 1], t[..., 2] = force, ripe, unripe
+    return t
+
+
+def shaped_table(scale: float = 1.0) -> np.ndarray:
+    """A table that grows along the branch and with the fruit mass, as a drive-past's does."""
+    z, m = np.meshgrid(Z_GRID, MASS_FACTORS, indexing="ij")
+    ripe = scale * (0.3 + 1.4 * z**1.5) * m**0.6
+    return np.stack([0.2 * ripe, ripe, 0.25 * ripe], axis=-1)
+
+
+def test_a_field_test_passes_the_bushes_its_duration_covers(machine):
+    """10 s at 30 m/min over 1.5 m spacing: 3.33 bushes; the covered fractions sum to that whatever the start
+    offset, and E[sum f^2] over a uniform offset is (n - 1) + 2/3 for a whole number n of spacings (the two end bushes
+    share one, u and 1 - u: E[u^2 + (1 - u)^2] = 2/3)."""
+    assert bushes_per_test(machine) == pytest.approx(10 * 0.5 / 1.5)
+    for u in (0.0, 0.3, 0.999):
+        assert covered_fractions(3.3333, u).sum() == pytest.approx(3.3333)
+    assert _mean_square_fraction(3.0) == pytest.approx(2 + 2 / 3, rel=1e-5)
+
+
+def test_expectation_is_the_closed_form_for_a_uniform_load(machine):
+    """Every fruit loaded to g: P(off) = P(s <= g), s lognormal with mean 1 and CV c, = Phi((ln g + sigma^2/2) /
+    sigma); the test passes B bushes of yield Y: ripe mass B Y (1 - u), efficiency = picked / T."""
+    h = machine.harvest
+    g_r, g_u = 0.9, 0.5
+    t = expected_tally(machine, load_grid(machine, [constant_table(g_r, g_u)] * 3))
+    pr = stats.norm.cdf((math.log(g_r) + 0.5 * math.log1p(h.bond_cv**2)) / math.sqrt(math.log1p(h.bond_cv**2)))
+    pu = stats.norm.cdf((math.log(g_u) + 0.5 * math.log1p(h.unripe_bond_cv**2))
+                        / math.sqrt(math.log1p(h.unripe_bond_cv**2)))
+    b, y, uf = bushes_per_test(machine), h.yield_per_bush, h.unripe_fraction
+    assert t.ripe == pytest.approx(b * y * (1 - uf), rel=1e-9)
+    assert t.unripe == pytest.approx(b * y * uf, rel=1e-9)
+    assert t.ripe_picked == pytest.approx(b * y * (1 - uf) * pr, rel=1e-9)
+    assert t.unripe_picked == pytest.approx(b * y * uf * pu, rel=1e-9)
+    r = response_values(t)
+    assert r["efficiency"] == pytest.approx(60 * b * y * ((1 - uf) * pr + uf * pu) / 10.0, rel=1e-9)
+    assert r["ripe_removal"] == pytest.approx(100 * pr, rel=1e-9)
+
+
+def test_quadrature_nodes_are_converged(machine):
+    """The default nodes per table cell (Z_NODES, MASS_NODES) give every response within 1e-4 of twice as many, on
+    a table shaped like a drive-past's; one node per cell does not (it misses by about 1 %)."""
+    env = [shaped_table(s) for s in (0.85, 1.0, 1.15)]
+    ref = response_values(expected_tally(machine, load_grid(machine, env, 2 * Z_NODES, 2 * MASS_NODES)))
+    got = response_values(expected_tally(machine, load_grid(machine, env)))
+    coarse = response_values(expected_tally(machine, load_grid(machine, env, 1, 1)))
+    for n in RESPONSES:
+        assert got[n] == pytest.approx(ref[n], rel=1e-4), n
+    assert max(abs(coarse[n] / ref[n] - 1) for n in RESPONSES) > 1e-3
+
+
+def test_counting_noise_matches_the_counted_field_tests(machine):
+    """The delta-method variance of one field test about the expectation (count_variance) against 1000 field tests
+    counted fruit by fruit at the same tables: mean within 4 standard errors of the expectation, SD within 10 %
+    (the SD of 1000 draws is known to about 2 %, a ratio estimator's first-order variance to a few % more)."""
+    env = [shaped_table(s) for s in (0.85, 1.0, 1.15)]
+    grid = load_grid(machine, env)
+    e = response_values(expected_tally(machine, grid))
+    v = count_variance(machine, grid)
+    draws = [response_values(field_tally(machine, env, k)) for k in range(1000)]
+    for n in RESPONSES:
+        x = np.array([d[n] for d in draws])
+        x = x[np.isfinite(x)]
+        sd = math.sqrt(v[n])
+        assert abs(x.mean() - e[n]) <= 4 * x.std(ddof=1) / math.sqrt(x.size), n
+        assert x.std(ddof=1) == pytest.approx(sd, rel=0.10), n
+
+
+def test_a_rate_is_a_count_and_scatters_less_with_more_fruit(machine):
+    """Damage and unripe rates are counts of fruit: their counting SD falls as 1/sqrt(yield) (twice the fruit, a
+    factor sqrt 2 less), while the efficiency's grows with the yield (bush-to-bush scatter)."""
+    grid = load_grid(machine, [shaped_table()] * 3)
+    p1 = HarvestParameters.described(machine)
+    from dataclasses import replace
+
+    p2 = replace(p1, yield_per_bush=2 * p1.yield_per_bush)
+    v1, v2 = count_variance(machine, grid, p1), count_variance(machine, grid, p2)
+    assert math.sqrt(v1["damage"] / v2["damage"]) == pytest.approx(math.sqrt(2), rel=1e-6)
+    assert v2["efficiency"] > v1["efficiency"]
+
+
+def test_parameter_rows_broadcast_over_the_nodes(machine):
+    """Parameter arrays of shape (n, 1) give n tallies, each the scalar one."""
+    grid = load_grid(machine, [shaped_table()] * 3)
+    p = HarvestParameters.described(machine)
+    rows = HarvestParameters(ripe_pull=np.array([[0.4], [0.6]]), unripe_pull=np.full((2, 1), p.unripe_pull),
+                             bond_cv=np.full((2, 1), p.bond_cv), unripe_fraction=np.array([[0.1], [0.2]]),
+                             yield_per_bush=np.array([[0.5], [1.0]]), bruise_height=np.full((2, 1), p.bruise_height))
+    both = expected_tally(machine, grid, rows)
+    from dataclasses import replace
+
+    one = expected_tally(machine, grid, replace(p, ripe_pull=0.6, unripe_fraction=0.2, yield_per_bush=1.0))
+    assert float(both.ripe_picked[1]) == pytest.approx(one.ripe_picked, rel=1e-12)
+    assert count_variance(machine, grid, rows)["damage"].shape == (2,)
+
+
+def test_responses_of_a_tally():
+    """The table's responses from a tally by hand: 2 kg picked in 60 s is 2 kg/min, 0.5 kg unripe of it 25 %."""
+    t = Tally(ripe=10.0, unripe=1.0, ripe_picked=1.5, unripe_picked=0.5, damaged=0.2, duration=60.0)
+    r = response_values(t)
+    assert r == pytest.approx({"efficiency": 2.0, "ripe_removal": 15.0, "unripe": 25.0, "unripe_shed": 50.0,
+                               "damage": 10.0})
+    nothing = response_values(Tally(1.0, 1.0, 0.0, 0.0, 0.0, 60.0))
+    assert math.isnan(nothing["damage"]) and nothing["efficiency"] == 0.0
+
+
+def test_the_streams_of_a_start_are_independent_and_reproducible():
+    """Every kind of draw of a start has its own stream: the machine start of class 0 is not the field test's (the
+    earlier scheme's seed s and (s, 0) gave numpy the same entropy, so class 0's start was drawn from its bushes'
+    stream), starts differ, families differ, and the same key gives the same numbers."""
+    assert not np.array_equal(np.random.default_rng(2024).random(4), np.random.default_rng((2024, 1)).random(4))
+    assert np.array_equal(np.random.default_rng(2024).random(4), np.random.default_rng((2024, 0)).random(4))  # why
+    a = stream(2024, 0, MACHINE, 0).random(8)
+    assert np.array_equal(a, stream(2024, 0, MACHINE, 0).random(8))
+    others = [stream(2024, 0, FIELD).random(8), stream(2024, 1, MACHINE, 0).random(8),
+              stream(2025, 0, MACHINE, 0).random(8), stream(2024, 0, MACHINE, 1).random(8),
+              np.random.default_rng(2024).random(8)]
+    assert all(not np.array_equal(a, o) for o in others)
+    assert seed_sequence(7, [3, MACHINE, 2]).spawn_key == (3, MACHINE, 2)
