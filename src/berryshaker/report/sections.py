@@ -10,6 +10,9 @@ that also reads another step's results names its owning step in its docstring.
 Each section shows its answer (the table an engineer reads, at most a figure or two); the rest (further figures, the
 tables behind them, the analyses as text) is folded under a one-line ``<details>`` summary (printed open), so the
 report's body stays about 15 screens long before its appendix.
+
+long module: one renderer per section of the report, and the sections name each other by their renderers
+(:meth:`SectionInput.ref`): split, the modules would import each other.
 """
 
 from __future__ import annotations
