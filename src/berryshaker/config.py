@@ -7,7 +7,9 @@ inside is SI.  A machine file gives every dimensional value with its unit (``spe
 there is an error that shows the fix, and only dimensionless values (coefficients, fractions, counts, ratios)
 are plain numbers.  The provenance tags written in the file's comments ([study], [assumed], [calibrated], [published]: from a
 publication other than the study) are read
-with the values and travel with them into every view (:func:`machine_table`).
+with the values and travel with them into every view (:func:`machine_table`).  A tag is checked against its value:
+a value that differs from the reference machine's (the template ``config init`` writes) while its comment is still
+the template's is the user's, tagged [user] (:func:`checked_tags`).
 
 Geometric feasibility over the whole cycle (assembly, undercut) needs the kinematics and is checked by the
 drive's ``check`` (``berryshaker config validate`` and every simulation call it before any work).
@@ -15,6 +17,8 @@ drive's ``check`` (``berryshaker config validate`` and every simulation call it 
 
 from __future__ import annotations
 
+import functools
+import math
 import re
 import tomllib
 from pathlib import Path
@@ -84,6 +88,27 @@ def machine_from_dict(data: dict[str, Any], source: str = "<dict>", provenance: 
     return machine
 
 
+def _key_comments(text: str) -> dict[str, str]:
+    """The end-of-line comments of a TOML text per dotted key (the comment of the key's line and of the lines
+    after it up to the next key), stripped."""
+    comments: dict[str, str] = {}
+    table = ""
+    last_key = None
+    for raw in text.splitlines():
+        line = raw.strip()
+        m = re.match(r"^\[([A-Za-z0-9_.\-]+)\]", line)
+        if m:
+            table, last_key = m.group(1), None
+            continue
+        m = re.match(r"^([A-Za-z0-9_\-]+)\s*=", line)
+        if m:
+            last_key = f"{table}.{m.group(1)}" if table else m.group(1)
+            comments.setdefault(last_key, "")
+        if "#" in raw and last_key:
+            comments[last_key] = (comments[last_key] + " " + raw.split("#", 1)[1].strip()).strip()
+    return comments
+
+
 def provenance_tags(text: str) -> dict[str, str]:
     """Provenance tag per dotted key, read from a TOML text's end-of-line comments.
 
@@ -100,22 +125,61 @@ def provenance_tags(text: str) -> dict[str, str]:
         Dotted key -> tag (study, assumed, calibrated...).
     """
     tags: dict[str, str] = {}
-    table = ""
-    last_key = None
-    for raw in text.splitlines():
-        line = raw.strip()
-        m = re.match(r"^\[([A-Za-z0-9_.\-]+)\]", line)
-        if m:
-            table, last_key = m.group(1), None
-            continue
-        m = re.match(r"^([A-Za-z0-9_\-]+)\s*=", line)
-        if m:
-            last_key = f"{table}.{m.group(1)}" if table else m.group(1)
-        if "#" in raw and last_key:
-            t = _TAG.search(raw.split("#", 1)[1])
-            if t and last_key not in tags:
-                tags[last_key] = t.group(1)
+    for key, comment in _key_comments(text).items():
+        t = _TAG.search(comment)
+        if t:
+            tags[key] = t.group(1)
     return tags
+
+
+def _same(a, b) -> bool:
+    """Equal values of a description field (floats to 1e-9 relative: SI values converted from the file's units)."""
+    if isinstance(a, float) and isinstance(b, float):
+        return math.isclose(a, b, rel_tol=1e-9, abs_tol=0.0)
+    if isinstance(a, (tuple, list)) and isinstance(b, (tuple, list)):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+    return type(a) is type(b) and a == b
+
+
+def checked_tags(machine, text: str) -> dict[str, str]:
+    """The provenance tags of a user's machine file, each checked against its value (#58).
+
+    A value that differs from the reference machine of its drive (the template ``berryshaker config init``
+    writes, :func:`reference_toml_text`) is the user's: it is tagged ``user`` unless the user wrote its comment
+    (a comment that is not the template's, with its own tag, is believed: ``[published: my test rig]``).  A value
+    equal to the template's keeps the file's tag.  So ``speed = "140 rpm"  # omega [study]`` copied from the
+    template and edited is ``[user]``, not ``[study]``.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine read from ``text``.
+    text : str
+        The file's TOML text.
+
+    Returns
+    -------
+    dict
+        Dotted key -> tag: the file's tags, and ``user`` for every value the file sets to other than the
+        template's without a tag of its own.
+    """
+    tags = provenance_tags(text)
+    template_text = reference_toml_text(machine.DRIVE)
+    template = _reference_of(machine.DRIVE)
+    mine, theirs = _key_comments(text), _key_comments(template_text)
+    ref_values = {key: value for key, value, _info in _leaves(template)}
+    for key, value, _info in _leaves(machine):
+        if key not in mine or (key in ref_values and _same(value, ref_values[key])):
+            continue  # not in the file (its default), or the template's value
+        if mine[key] == theirs.get(key) or key not in tags:  # the template's comment, or no tag of the user's
+            tags[key] = "user"
+    return tags
+
+
+@functools.lru_cache(maxsize=8)
+def _reference_of(drive: str):
+    """The reference machine of a drive (parsed once: it is the template tags are checked against)."""
+    return load_machine(None, drive)
 
 
 def reference_toml_text(drive: str = "groove_cam") -> str:
@@ -179,7 +243,10 @@ def load_machine(path: str | Path | None = None, drive: str = "groove_cam"):
         raise ConfigError(f"{source}: not valid TOML ({_short_text(str(exc))})") from None
     except RecursionError:
         raise ConfigError(f"{source}: not valid TOML (arrays or tables nested too deeply)") from None
-    return machine_from_dict(data, source, provenance_tags(text), units_required=True)
+    machine = machine_from_dict(data, source, provenance_tags(text), units_required=True)
+    if path is not None:  # a user's file: its tags checked against its values
+        object.__setattr__(machine, "__provenance__", checked_tags(machine, text))
+    return machine
 
 
 def _short_text(text: str, limit: int = 200) -> str:
@@ -255,7 +322,8 @@ def reference_machine(drive: str = "groove_cam"):
 
 
 def value_tag(machine, key: str) -> str:
-    """Provenance tag of a dotted key: study, assumed, calibrated, or default (not set in the file).
+    """Provenance tag of a dotted key: study, assumed, calibrated, published, user (a value the user changed from
+    the template, :func:`checked_tags`), or default (not set in the file).
 
     Parameters
     ----------
@@ -273,6 +341,52 @@ def value_tag(machine, key: str) -> str:
     return tags.get(key, "default")
 
 
+def _leaves(model: BaseModel, prefix: str = ""):
+    """(dotted key, value, field info) of every value of a description, in file order."""
+    for name, info in type(model).model_fields.items():
+        value = getattr(model, name)
+        key = f"{prefix}{name}"
+        if isinstance(value, BaseModel):
+            yield from _leaves(value, key + ".")
+        elif isinstance(value, dict) and value and all(isinstance(v, BaseModel) for v in value.values()):
+            for k, v in value.items():
+                yield from _leaves(v, f"{key}.{k}.")
+        else:
+            yield key, value, info
+
+
+def value_text(value, info) -> str:
+    """A description value as ``config show`` prints it: in the field's engineering unit (every element of a tuple
+    too), "auto" for a value left to the model, text and flags as they are.
+
+    Parameters
+    ----------
+    value : object
+        The value (SI).
+    info : pydantic.fields.FieldInfo
+        Its field (:func:`berryshaker.quantity_fields.field_display_unit` gives the unit).
+
+    Returns
+    -------
+    str
+        E.g. ``"20 mm"``, ``"(8, 16) mm"``, ``"0.3"`` (dimensionless), ``"auto"``.
+    """
+    from berryshaker.quantity_fields import field_display_unit
+    from berryshaker.units import ENGINEERING_FACTORS
+
+    unit = field_display_unit(info)
+    factor = ENGINEERING_FACTORS.get(unit, 1.0) if unit else 1.0
+    suffix = "" if unit in (None, "1") else f" {unit}"
+    number = lambda v: f"{v / factor:.6g}" if isinstance(v, float) else str(v)  # noqa: E731
+    if value is None:
+        return "auto"
+    if isinstance(value, float):
+        return number(value) + suffix
+    if isinstance(value, tuple) and value and all(isinstance(v, float) for v in value):
+        return "(" + ", ".join(number(v) for v in value) + ")" + suffix
+    return str(value)
+
+
 def machine_table(machine) -> list[tuple[str, str, str]]:
     """(dotted key, value in engineering units, provenance tag) for every field of the machine, in file order.
 
@@ -284,37 +398,9 @@ def machine_table(machine) -> list[tuple[str, str, str]]:
     Returns
     -------
     list of (str, str, str)
-        The rows; each value is text with its engineering unit ("80 mm").
+        The rows; each value is text with its engineering unit ("80 mm", :func:`value_text`).
     """
-    from berryshaker.units import ENGINEERING_FACTORS
-
-    rows: list[tuple[str, str, str]] = []
-
-    def walk(model: BaseModel, prefix: str) -> None:
-        for name, info in type(model).model_fields.items():
-            value = getattr(model, name)
-            key = f"{prefix}{name}"
-            if isinstance(value, BaseModel):
-                walk(value, key + ".")
-                continue
-            if isinstance(value, dict) and value and all(isinstance(v, BaseModel) for v in value.values()):
-                for k, v in value.items():
-                    walk(v, f"{key}.{k}.")
-                continue
-            extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
-            unit = extra.get("display")
-            if value is None:
-                text = "auto"
-            elif unit and isinstance(value, float) and unit in ENGINEERING_FACTORS:
-                text = f"{value / ENGINEERING_FACTORS[unit]:.6g}" + ("" if unit == "1" else f" {unit}")
-            elif isinstance(value, float):
-                text = f"{value:.6g}" + (f" {unit}" if unit else "")
-            else:
-                text = str(value)
-            rows.append((key, text, value_tag(machine, key)))
-
-    walk(machine, "")
-    return rows
+    return [(key, value_text(value, info), value_tag(machine, key)) for key, value, info in _leaves(machine)]
 
 
 def _restitution_velocity_text(machine, p: str, c) -> str:

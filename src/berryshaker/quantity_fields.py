@@ -7,10 +7,14 @@ field's schema (``display``) so every view prints engineering units.
 Also the strict base model every description section derives from (unknown keys, infinities and NaN refused;
 a plain numeric field refuses ``true`` and lists or tables with the field named), the formatter that turns
 pydantic's errors into located messages (``cam.stroke: must be > 0 ...``), the lookup of a field's physical
-dimension (:func:`field_dimension`, :func:`field_info_at`: sweeps read values with it), the plausibility walk
-over a description (:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`); the
+dimension and display unit (:func:`field_dimension`, :func:`field_display_unit`, :func:`field_info_at`: sweeps
+read values with them, ``config show`` prints them), the plausibility walk over a description
+(:func:`plausibility_warnings`) and the drive-speed limits (:func:`check_drive_speed`); the
 types of the names and free text a description holds (:data:`Name`, :data:`FreeText`: bounded, no control
 characters, :func:`berryshaker.user_text.check_user_text`).
+
+long module: the field types, the strict base model, the error formatter and the lookups of a field's dimension
+and unit all read the same field metadata (:class:`QuantityValidator`, the ``display`` unit).
 """
 
 from __future__ import annotations
@@ -28,6 +32,7 @@ from pydantic.fields import FieldInfo
 from berryshaker.errors import ConfigError
 from berryshaker.user_text import MAX_NAME_CHARS, MAX_TEXT_CHARS, check_user_text
 from berryshaker.units import (
+    DISPLAY_UNITS,
     bare_number_message,
     check_limits,
     parse_quantity,
@@ -407,6 +412,42 @@ def field_dimension(info: FieldInfo) -> str | None:
     if shape is not None and shape[0] == "scalar":
         return "dimensionless"
     return None
+
+
+def _display_in(annotation: Any) -> str | None:
+    """The ``display`` unit in an annotation's metadata, or in that of its members (``Length | None``, a tuple of
+    lengths)."""
+    for m in getattr(annotation, "__metadata__", ()):
+        extra = m.json_schema_extra if isinstance(m, FieldInfo) else None
+        if isinstance(extra, dict) and isinstance(extra.get("display"), str):
+            return extra["display"]
+    for arg in typing.get_args(annotation):
+        unit = _display_in(arg)
+        if unit is not None:
+            return unit
+    return None
+
+
+def field_display_unit(info: FieldInfo) -> str | None:
+    """The engineering unit a description field is shown in (``"mm"`` for a length, ``"deg"`` for an angle...):
+    its ``display`` unit, also that of an optional quantity or of the elements of a tuple of quantities, else the
+    engineering unit of its dimension.
+
+    Parameters
+    ----------
+    info : pydantic.fields.FieldInfo
+        The field.
+
+    Returns
+    -------
+    str or None
+        The unit, ``"1"`` for a dimensionless number, None for text, flags and sections.
+    """
+    extra = info.json_schema_extra if isinstance(info.json_schema_extra, dict) else {}
+    unit = extra.get("display") if isinstance(extra.get("display"), str) else _display_in(info.annotation)
+    if unit is not None:
+        return unit
+    return DISPLAY_UNITS.get(field_dimension(info))
 
 
 def _section_class(annotation: Any) -> tuple[type[BaseModel] | None, bool]:

@@ -201,3 +201,29 @@ def test_readme_command_table_is_one_table_and_cites_docs_study():
     assert "STUDY.md" not in text and "docs/study.md" in text
     assert "nothing you made or changed" in " ".join(text.split())
     assert len(text.splitlines()) < 150  # a page or two: history lives in CHANGELOG.md
+
+
+def test_readme_lists_every_command_a_user_install_what_the_tests_need_and_the_study_time():
+    """#58: no time for a first study, only the test install shown, calibrate and compare-machines missing from the
+    command table, the tests' Chromium and pdftotext said by CI only, "a repeated one takes seconds" (73 CPU-s), no
+    local Dask cluster step by step."""
+    import re
+    from pathlib import Path
+
+    import typer
+
+    text = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    table = text.split("## Commands", 1)[1].split("\n## ", 1)[0]
+    listed = set(re.findall(r"^\| `berryshaker ([a-z-]+)", table, flags=re.M))
+    listed |= {w.strip().strip("`") for row in re.findall(r"^\| `berryshaker ([^|]*)\|", table, flags=re.M)
+               for w in row.split(",") if w.strip().startswith("`")}
+    commands = {c.name or c.callback.__name__.replace("_", "-") for c in app.registered_commands}
+    groups = {g.name for g in app.registered_groups}
+    missing = sorted((commands | groups) - listed)
+    assert not missing, f"commands missing from the README's table: {missing}"
+    assert isinstance(app, typer.Typer)
+    assert re.search(r"pip install -e \.\s", text) and 'pip install -e ".[test]"' in text
+    assert "chromium" in text and "poppler" in text and "pdftotext" in text and ".ci/run" in text
+    assert re.search(r"first study\b.*took [0-9.]+ min", " ".join(text.split()))
+    assert "takes seconds" not in text
+    assert "dask scheduler" in text and "dask worker" in text and "--scheduler tcp://127.0.0.1" in text

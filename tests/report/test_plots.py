@@ -501,3 +501,28 @@ def test_doe_figures_take_the_sheets_units(tmp_path):
     svg = (tmp_path / "main_effects.svg").read_text(encoding="utf-8") + (tmp_path / "surface_efficiency.svg").read_text(
         encoding="utf-8")
     assert "unit?" not in svg
+
+
+def test_signals_one_panel_per_unit_with_the_data_peak(tmp_path):
+    """``berryshaker plot``'s figure: one panel per unit, the drawn peak the data's (decimated against time), each
+    pair's force in the pair's colour (F_A is pair A, not F), every axis with its unit; a phase plot draws every
+    sample."""
+    t, y = _impulsive()
+    ys = {"F_A": (y, "N"), "F_C": (0.5 * y, "N"), "drive_moment": (np.cos(t), "N m")}
+    data = P.plot_signals(("time", t, "s"), ys, tmp_path / "s.png", "signals", return_figure=True)
+    fig = data["figure"]
+    assert list(data["panels"]) == ["N", "N m"] and data["decimated"]
+    for name, (v, unit) in ys.items():
+        drawn = data["panels"][unit][name]
+        assert drawn["peak_abs"] == drawn["input_peak_abs"] == float(np.max(np.abs(v)))
+        assert len(drawn["x"]) < len(t)
+    lines = {ln.get_label(): ln for ax in fig.axes for ln in ax.get_lines()}
+    assert lines["F_A"].get_color().lower() == PAIR_COLOURS["A"].lower()
+    assert lines["F_C"].get_color().lower() == PAIR_COLOURS["C"].lower()
+    assert [ax.get_ylabel() for ax in fig.axes[:2]] == ["F_A, F_C [N]", "drive_moment [N m]"]
+    assert fig.axes[1].get_xlabel() == "time [s]" and not audit_figure(fig)
+    pyplot().close(fig)
+    angle = np.linspace(0.0, 2 * np.pi, 500)
+    phase = P.plot_signals(("theta_D", np.sin(angle), "rad"), {"T_l": (np.cos(angle), "N m")}, tmp_path / "p.svg")
+    assert not phase["decimated"] and len(phase["panels"]["N m"]["T_l"]["x"]) == 500
+    assert (tmp_path / "p.svg").read_text().startswith("<?xml") and not (tmp_path / "s.svg").exists()

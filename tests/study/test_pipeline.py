@@ -3,6 +3,7 @@ headless Chromium, atomic outputs."""
 
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -327,6 +328,57 @@ def test_report_renders_in_headless_chromium(study_out):
     assert all(done and width > 100 for done, width in imgs)
     assert errors == []
     assert "berryshaker study" in title
+
+
+#: measured on a report at 1280 x 900 px: its height up to the appendix, every box's right edge, what the first screen
+#: says, the figures shown (not folded) and where the preformatted statistics are
+_REPORT_JS = """() => {
+  const W = window.innerWidth, a = document.getElementById('appendix');
+  const shown = (el) => { for (let e = el.parentElement; e; e = e.parentElement) {
+      if (e.tagName === 'DETAILS' && !e.open) return false; } return true; };
+  const over = [...document.querySelectorAll('body *')].filter(el => {
+      const r = el.getBoundingClientRect(); return r.width > 0 && r.right > W + 0.5; }).map(el => el.tagName);
+  const first = [...document.querySelectorAll('p, td, th, h1, h2, h3, li')].filter(el => {
+      const r = el.getBoundingClientRect(); return r.top + window.scrollY < 900 && shown(el); })
+      .map(el => el.textContent).join(' ');
+  return {appendix: a ? a.getBoundingClientRect().top + window.scrollY : null,
+          height: document.documentElement.scrollHeight, scroll: document.documentElement.scrollWidth, over: over,
+          first: first, figures: [...document.querySelectorAll('figure img')].filter(shown).map(i => i.alt),
+          pre_folded: [...document.querySelectorAll('pre')].every(p => !shown(p))};
+}"""
+#: the study report's body up to its appendix, at most (#58: the report was 50,378 px, 56 screens): 15 screens of
+#: 900 px.  Measured: 13,061 px for the reference study (`berryshaker study`), this test's fast study a little less
+REPORT_BODY_MAX_PX = 15 * 900
+
+
+def test_report_reads_in_15_screens_at_one_operating_point(study_out):
+    """#58: the report was 56 screens at 1280 px, with two screens of raw monospace statistics, main effects drawn
+    twice and a first screen that mixed operating points (loads at 120 r/min beside "run at 150 r/min")."""
+    out, _, _ = study_out
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("Debian's chromium is not installed (.ci/run installs it)")
+    from playwright import sync_api as pw  # the test extra
+
+    with pw.sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=chromium, args=["--no-sandbox", "--disable-gpu"])
+        page = browser.new_page(viewport={"width": 1280, "height": 900})
+        page.goto((out / "report.html").resolve().as_uri())
+        page.wait_for_load_state("load")
+        got = page.evaluate(_REPORT_JS)
+        browser.close()
+    assert got["scroll"] <= 1280 and not got["over"], got["over"][:5]
+    assert got["appendix"] is not None and got["appendix"] <= REPORT_BODY_MAX_PX, got["appendix"]
+    assert got["height"] > got["appendix"]  # the claims and the configuration follow
+    # the first screen: one operating point, the described one (the reference machine's 120 r/min)
+    speeds = set(re.findall(r"(\d+(?:\.\d+)?) r/min", got["first"]))
+    assert "One operating point" in got["first"] and speeds == {"120"}, speeds
+    # the main effects drawn once, with their intervals; the statistics as text folded
+    assert [a for a in got["figures"] if "Main effects" in a] == ["Main effects on the harvest indexes with 95 % "
+                                                                   "intervals"]
+    assert got["pre_folded"]
+    html = (out / "report.html").read_text()
+    assert "<pre" in html and html.count("<details>") >= 8  # folded, not dropped
 
 
 def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tmp_path, monkeypatch):

@@ -337,6 +337,17 @@ def sweep(machine, params: Mapping[str, Any], model: str = "mlsd", revolutions: 
     ConfigError
         An unknown key, a value of the wrong dimension, or a point the machine's validation refuses (the message
         lists the points).
+    SimulationError
+        Every point failed (the message gives the first one's error); a table with some failed points has NaN in
+        their rows.
+    WorkerStartError
+        The worker processes could not start (:mod:`berryshaker.runs.main_guard`).
+
+    Notes
+    -----
+    In a script, call it under ``if __name__ == "__main__":``: worker processes import the main script again
+    (``spawn`` and ``forkserver`` start methods).  A call outside that block runs its points in this process, one
+    at a time, with a warning (docs/python_api.md, "Scripts").
 
     Examples
     --------
@@ -383,6 +394,10 @@ def sweep(machine, params: Mapping[str, Any], model: str = "mlsd", revolutions: 
         jobs = [dict(machine_data=data, overrides=overrides_of(parsed, pt), model=model, revolutions=revolutions,
                      **({"driveline": driveline} if driveline else {}), **kernel_arg) for pt in pts]
         results = runner.map(model_run, jobs, f"sweep ({method}, {len(jobs)} runs)")
+    if results and all(r.error for r in results):  # no output columns to give: say why instead
+        from berryshaker.errors import SimulationError
+
+        raise SimulationError(f"every one of the {len(results)} points failed; the first: {results[0].error}")
     header, rows = tidy_rows(parsed, pts, results)
     n_fixed = 1 + len(parsed) + 2
     names = (["run"] + [f"{p.key} [{p.unit}]" if p.unit else f"{p.key} [1]" for p in parsed] + ["status", "error"]

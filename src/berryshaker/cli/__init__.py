@@ -9,7 +9,7 @@ message with exit code 2 and nothing written.
 
 from __future__ import annotations
 
-from berryshaker.cli import calibrate, doe, explore, life, machine, plant, simulate, study, validate  # noqa: F401  (register the commands)
+from berryshaker.cli import calibrate, doe, explore, life, machine, plant, plot, simulate, study, validate  # noqa: F401  (register the commands)
 from berryshaker.cli.app import app
 
 __all__ = ["app", "run"]

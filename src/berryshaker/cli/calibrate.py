@@ -169,8 +169,8 @@ def calibrate(
         named = [parse_setting(p, fs.targets, machine) for p in (predict or [])]
         opts = CalibrationSettings(replicates=replicates, theta_points=emulator_points, check_settings=check_settings,
                                    steps=steps, seed=seed, discrepancy=discrepancy)
-        bar, progress = _stage_progress(not as_json)
-        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
+        bar, progress = _stage_progress(True)
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True, console=err)
         state: dict = {}
         with runner:
             try:

@@ -403,7 +403,7 @@ def doe_virtual(
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
         if replicates is not None:
             _check_replicates(replicates, "coupled runs: 9 runs x 3 branch classes each")
-        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True, console=err)
         if convergence:
             from berryshaker.experiment.noise import describe_convergence
             from berryshaker.study.l9 import start_convergence

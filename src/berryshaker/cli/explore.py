@@ -47,7 +47,7 @@ def explore(
     machine = _load(config)
     source = f"machine description {config}" if config is not None else "built-in reference machine"
     err.print("loading the web framework and the drive's model ...", highlight=False)
-    from berryshaker.explore.app import serve
+    from berryshaker.explore.server import serve
 
     out.print(f"berryshaker explore: open http://{host}:{port}/explore  (Ctrl-C stops)", markup=False,
               highlight=False)

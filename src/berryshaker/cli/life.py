@@ -256,7 +256,7 @@ def wear_cmd(
     joints = _check_joints(machine, joint)
     limits = parse_limits(limit, machine) if limit else None
     runner = _runner(1, None, cache, progress=False)
-    status = None if as_json else err.status("wear: starting")
+    status = err.status("wear: starting")
     if status is not None:
         status.start()
     try:
@@ -367,12 +367,22 @@ def sensitivity_cmd(
     # the multibody runs' sizing load of the impacts; the reduced model has no impacts to count: its peak
     stat = "static_equivalent" if model == "multibody" else "peak"
     outputs = output or [f"collision_force_{p}_{stat}" for p in machine.pair_names]
-    with _runner(workers, scheduler, cache, progress=not as_json) as runner:
+    with _runner(workers, scheduler, cache, progress=True) as runner:
         res = machine_sobol(machine, params, outputs, samples, runner, model, revolutions, seed)
         res["runner"] = runner.summary_line()
     res["version"] = __version__
     if plot is not None:
         res["figures"] = _staged_plots(plot, "sensitivity --plot", lambda folder: _plot_sobol(res, folder))
+    for o in res["indices"]:  # on stderr with --json too: the JSON's numbers are read with them
+        rz = res["resolution"][o]
+        if rz["unresolved"]:
+            err.print(f"warning: N = {samples} does not resolve {len(rz['unresolved'])} index(es) of {o} (95 % "
+                      f"half-width above 0.1, or the estimate outside 0..1 beyond its interval): "
+                      f"{'; '.join(rz['unresolved'])}. Try -N {rz['suggested_samples']} "
+                      f"({rz['suggested_samples'] * (len(res['parameters']) + 2)} runs).", markup=False, highlight=False)
+        if rz["negative_within_noise"]:
+            err.print(f"note: negative estimates of {o} are sampling noise around 0 (a Sobol index is >= 0): "
+                      f"{'; '.join(rz['negative_within_noise'])}.", markup=False, highlight=False)
     if as_json:
         _print_json(res)
         return
@@ -386,15 +396,6 @@ def sensitivity_cmd(
         print_table(("parameter", "S1 (1)", "± 95 %", "ST (1)", "± 95 % "),
                     [[k, f(v["S1"]), f(v["S1_conf"]), f(v["ST"]), f(v["ST_conf"])] for k, v in ind.items()],
                     title=f"{o}: mean {res['output_mean'][o]:.4g}{u}, sd {res['output_std'][o]:.3g}{u}")
-        rz = res["resolution"][o]
-        if rz["unresolved"]:
-            err.print(f"warning: N = {samples} does not resolve {len(rz['unresolved'])} index(es) of {o} (95 % "
-                      f"half-width above 0.1, or the estimate outside 0..1 beyond its interval): "
-                      f"{'; '.join(rz['unresolved'])}. Try -N {rz['suggested_samples']} "
-                      f"({rz['suggested_samples'] * (len(res['parameters']) + 2)} runs).", markup=False, highlight=False)
-        if rz["negative_within_noise"]:
-            err.print(f"note: negative estimates of {o} are sampling noise around 0 (a Sobol index is >= 0): "
-                      f"{'; '.join(rz['negative_within_noise'])}.", markup=False, highlight=False)
     out.print("S1, ST and their 95 % bootstrap half-widths are shares of the output's variance (1, dimensionless); "
               "parameters are sampled uniformly over: " + ", ".join(
                   f"{p['key']} {p['lo_display']:g}..{p['hi_display']:g} {p['unit']}".rstrip()
@@ -483,7 +484,7 @@ def tolerance_cmd(
         if kind != "clearance" or not j:
             raise ConfigError(f"--limit {key}: tolerance takes clearance limits, clearance:<joint>=VALUE")
         lims[j] = v
-    with _runner(workers, scheduler, cache, progress=not as_json) as runner:
+    with _runner(workers, scheduler, cache, progress=True) as runner:
         design = tolerance_design(machine, runner, joint or None, [f.strip() for f in fits.split(",") if f.strip()],
                                   lims, points, revolutions, pop_size, generations, seed)
         res = design.to_dict()

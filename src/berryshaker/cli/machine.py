@@ -243,7 +243,8 @@ def config_show(config: Optional[Path] = ConfigOpt, as_json: bool = JsonOpt):
 
     priors = prior_rows(machine) if machine.plant is not None else []  # the priors of `calibrate` (docs/calibration.md)
     if as_json:
-        _print_json({"machine_si": machine.model_dump(mode="json"), "calibration_priors": priors,
+        _print_json({"machine_si": machine.model_dump(mode="json"),
+                     "provenance": {k: tag for k, _v, tag in machine_table(machine)}, "calibration_priors": priors,
                      "version": __version__})
         return
     t = _Rows()

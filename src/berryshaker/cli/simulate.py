@@ -156,7 +156,7 @@ def simulate(
         rows.append([f"{side} comb load moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
                      f"{st['rms']:.2f} N·m"])
     st = summary["drive_moment_Nm"]
-    rows.append(["cam drive moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
+    rows.append([f"{drive.driver} drive moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
     for b, st in summary.get("bearing_reaction_N", {}).items():
         rows.append([f"guide reaction {b}", "", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for b, st in summary.get("guide_reaction_N", {}).items():
@@ -306,7 +306,8 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in machine.clearance_sizes().items())
         plot_joint_forces(result.t[sel], {p: np.abs(arr[sel, 1 + i]) for i, p in enumerate(pairs)},
                           stage / "collision_forces.png",
-                          f"Clearance collision forces (multibody), clearances {sizes_txt}")
+                          f"Clearance collision forces (multibody), clearances {sizes_txt}",
+                          peaks={p: st["peak"] for p, st in summary["collision_force_N"].items()})
 
 
 @command(app)
@@ -390,7 +391,7 @@ def compare(
             from berryshaker.study.runs import model_check_jobs, multibody_row, reduced_row
 
             jobs = model_check_jobs(machine, sizes, starts, revolutions)
-            with SweepRunner(workers=workers, cache_dir=cache, progress=not as_json, console=err) as runner:
+            with SweepRunner(workers=workers, cache_dir=cache, progress=True, console=err) as runner:
                 mb = runner.map(multibody_row, jobs, f"{starts} perturbed starts, multibody")
                 ml = runner.map(reduced_row, jobs, f"{starts} turned starts, MLSD")
             res["model_check"] = model_check([o.value for o in mb], [o.value for o in ml], machine.pair_names)
@@ -459,7 +460,8 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
         sizes_txt = ", ".join(f"{p} {v * 1e3:g} mm" for p, v in result.clearance.items())
         plot_joint_forces(result.t[sel], {p: np.abs(result.series(f"F_{p}_N"))[sel] for p in result.clearance},
                           stage / "collision_forces.png",
-                          f"Clearance collision forces (MLSD, study eq. 8), clearances {sizes_txt}")
+                          f"Clearance collision forces (MLSD, study eq. 8), clearances {sizes_txt}",
+                          peaks={p: st["peak"] for p, st in summary["collision_force_N"].items()})
         plot_time_series(result.t[sel], {"T_l": result.series("T_l_Nm")[sel], "T_r": result.series("T_r_Nm")[sel],
                                          "M (cam)": result.series("drive_moment_Nm")[sel]},
                          "moment [N m]", stage / "moments.png", "Comb load moments and cam drive moment")

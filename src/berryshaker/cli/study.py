@@ -84,7 +84,7 @@ def study(
         if machine.plant is None:
             raise BerryshakerError("the study needs a [plant] block in the machine description")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, use_cache=not no_cache,
-                             progress=not as_json, console=err)
+                             progress=True, console=err)
         if scheduler:
             runner.check_scheduler()
         else:
@@ -97,7 +97,7 @@ def study(
         from berryshaker.study.pipeline import run_study
 
         drive_of(machine).check(machine)
-        summary = run_study(machine, out_dir, runner, console=None if as_json else err)
+        summary = run_study(machine, out_dir, runner, console=err)
     except BerryshakerError as exc:
         if runner is not None:
             runner.abort()  # the workers started for the study (a check that failed after they started)
@@ -318,7 +318,7 @@ def sweep(
                                        "and exactly one --param")
             check_output_file(figure, allowed_suffixes=(".png", ".svg"))
         # the runner first: its checks (--workers, --scheduler, --cache) before any work
-        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json, console=err)
+        runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True, console=err)
         if out_file is not None:
             from berryshaker.outputs import check_output_file
 
@@ -347,8 +347,7 @@ def sweep(
             from berryshaker.runs.sweep import COMPILED_ALREADY
 
             kernel_arg = {"specialised": None if kernel_why == COMPILED_ALREADY else specialised}
-            if not as_json:
-                err.print(f"multibody kernel: {'specialised' if specialised else 'generic'} ({kernel_why})")
+            err.print(f"multibody kernel: {'specialised' if specialised else 'generic'} ({kernel_why})")
         jobs = [dict(machine_data=data, overrides=overrides_of(params, pt), model=model, revolutions=revolutions,
                      **({"driveline": driveline} if driveline else {}),
                      **kernel_arg) for pt in pts]

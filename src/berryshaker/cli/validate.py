@@ -64,7 +64,7 @@ def validate(
         if machine.plant is None:
             raise BerryshakerError("validate needs a [plant] block in the machine description (the harvest model "
                                    "runs on it); add one, e.g. from the reference machine (config init)")
-        with SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=not as_json,
+        with SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True,
                          console=err) as runner:
             res = run_validation(machine, runner, replicates)
         res["version"] = __version__

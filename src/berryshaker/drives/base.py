@@ -508,6 +508,9 @@ class Drive:
         ``reduced_model(machine, clearance, revolutions, start_angle=0.0)``, or None.
     reduced_model_name : str
         Name of the reduced model ("mlsd").
+    driver : str
+        The member the drive shaft turns and the drive moment acts on, in words ("cam", "crank"): the label of the
+        drive moment in tables and figures.
     """
 
     name: str
@@ -520,6 +523,7 @@ class Drive:
     mid_stroke_angles: Callable[..., tuple[float, float]]
     reduced_model: Callable[..., Any] | None = None
     reduced_model_name: str = ""
+    driver: str = "drive shaft"
 
     @property
     def pairs(self) -> tuple[PairInfo, ...]:

@@ -2,7 +2,7 @@
 
 :mod:`.model` holds what the page computes (the settings applied to the machine, the library runs behind each
 view), :mod:`.drawing` the drive drawn from a run, :mod:`.views` what the page draws and prints from a run,
-:mod:`.app` the Panel page and its server.  This module holds the checks the command makes before serving (loopback host, free port); it does not
+:mod:`.app` the Panel page, :mod:`.server` its server (answering only its own host).  This module holds the checks the command makes before serving (loopback host, free port); it does not
 import Panel, so ``berryshaker --help`` stays fast.
 """
 

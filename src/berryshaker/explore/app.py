@@ -12,6 +12,7 @@ computes: docs/explore.md.
 
 from __future__ import annotations
 
+import html
 import math
 import threading
 
@@ -22,32 +23,57 @@ from bokeh.layouts import row as bk_row
 from bokeh.models import Button, ColumnDataSource, CustomJS, Slider, Span
 from bokeh.plotting import figure
 
-from berryshaker.errors import BerryshakerError, ConfigError
+from berryshaker.errors import BerryshakerError
 from berryshaker.explore import model as em
+from berryshaker.explore.drawing import magnification_range
 from berryshaker.explore.views import (
     ANIMATION_JS,
     clearance_table,
+    frame_at,
     frame_data,
     harvest_jobs,
     harvest_table,
+    md_text,
+    wear_limit_lines,
     wear_table,
 )
 from berryshaker.report.style import PAIR_COLOURS, SERIES_COLOURS, decimate_minmax_shared
 
-#: magnification of the clearances in the drawing (the reference machine's free play of 0.1-0.125 mm becomes a
-#: 20-25 mm circle on a 1.3 m drive)
-DEFAULT_MAGNIFY = 200.0
+#: width of the settings column (px); the views share the rest of the window and wrap below this width each
+CONTROLS_WIDTH = 320
+VIEW_MIN_WIDTH = 400
+#: height of the drive's and the forces' figures, and of the harvest and wear figures (px)
+FIGURE_HEIGHT = 380
+CARD_FIGURE_HEIGHT = 300
 
 
 def _colour(pair: str, k: int) -> str:
     return PAIR_COLOURS.get(pair, SERIES_COLOURS[k % len(SERIES_COLOURS)])
 
 
-def _legend_outside(fig) -> None:
-    """The figure's legend to the right of its plot area, off the data (the report's figure rule)."""
+def _legend_outside(fig, ncols: int | None = None) -> None:
+    """The figure's legend below its plot area, off the data (the report's figure rule), in rows of ``ncols``
+    entries (default one row): the plot keeps the container's width."""
     legend = fig.legend[0]
-    legend.location = "top_left"
-    fig.add_layout(legend, "right")
+    legend.orientation = "horizontal"
+    legend.location = "center"
+    if ncols is not None:
+        legend.ncols = ncols
+    fig.add_layout(legend, "below")
+
+
+def _figure(title: str, height: int, **kw):
+    """A Bokeh figure that takes its container's width (at least :data:`VIEW_MIN_WIDTH`)."""
+    return figure(title=title, height=height, sizing_mode="stretch_width", min_width=VIEW_MIN_WIDTH, **kw)
+
+
+def _views(*children) -> pn.FlexBox:
+    """Views side by side where the window is wide enough, else one below the other."""
+    for c in children:
+        c.sizing_mode = "stretch_width"
+        c.min_width = VIEW_MIN_WIDTH
+        c.styles = {**(c.styles or {}), "flex": f"1 1 {VIEW_MIN_WIDTH}px"}
+    return pn.FlexBox(*children, flex_wrap="wrap", sizing_mode="stretch_width")
 
 
 class ExplorePage:
@@ -85,16 +111,22 @@ class ExplorePage:
         self._build_mechanism()
         self._build_harvest(ref)
         self._build_wear()
-        self.header = pn.pane.Markdown(
-            f"## berryshaker explore: {base.machine.name}\n{source}; drive **{base.DRIVE}**.  "
-            "Provenance tags in brackets: *study*, *published*, *assumed* from the description, *set here* where "
-            "this page changed the value, *computed* for model outputs.", sizing_mode="stretch_width")
-        self.layout = pn.Row(
-            pn.Column(self.header_controls, width=360),
-            pn.Column(self.header, self.error, self.status, self.mech_pane, self.peaks,
-                      pn.Row(self.harvest_card, self.wear_card), sizing_mode="stretch_width"),
-            sizing_mode="stretch_width")
-        self.on_change()
+        # the machine's name and the file's path are the user's text: escaped, never markup
+        self.header = pn.pane.HTML(
+            f"<h2 id='explore-title'>berryshaker explore: {html.escape(str(base.machine.name))}</h2>"
+            f"<p>{html.escape(str(source))}; drive <b>{html.escape(base.DRIVE)}</b>.  Provenance tags in brackets: "
+            "<i>study</i>, <i>published</i>, <i>assumed</i> from the description, <i>set here</i> where this page "
+            "changed the value, <i>computed</i> for model outputs.</p>", sizing_mode="stretch_width")
+        main = pn.Column(self.header, self.error, self.status, self.mech_pane, self.peaks,
+                         _views(self.harvest_card, self.wear_card), sizing_mode="stretch_width",
+                         styles={"flex": f"1 1 {VIEW_MIN_WIDTH}px", "min-width": "0"})
+        self.layout = pn.FlexBox(pn.Column(self.header_controls, width=CONTROLS_WIDTH), main, flex_wrap="wrap",
+                                 sizing_mode="stretch_width", name="explore_page")
+        # the first run starts once the session is live: an update sent while Panel still builds the session is lost
+        if self.doc is not None and self.doc.session_context is not None:
+            pn.state.onload(self.on_change)
+        else:  # no server session (the page built on its own): at once
+            self.on_change()
 
     # ---- threads ---------------------------------------------------------------------------------------
     @staticmethod
@@ -118,36 +150,41 @@ class ExplorePage:
 
     def _build_controls(self, ref: em.Settings) -> None:
         base = self.base
+        width = CONTROLS_WIDTH - 20
         self.clearance = {}
         for info in base.PAIRS:
-            lim, why = info.limit(base)
+            # the slider spans the pair's test levels and service limit in fine steps; its field takes any size
+            # (one beyond the geometric limit is refused with a message naming the field)
+            end, step = em.clearance_slider(base, info.name)
             v = dict(ref.clearance_mm)[info.name]
             self.clearance[info.name] = pn.widgets.EditableFloatSlider(
-                label=f"clearance {info.name} [mm]", start=0.0,
-                end=float(f"{lim * 1e3:.3g}"), step=0.01, value=v, format="0.000", fixed_start=None, fixed_end=None,
-                width=320)
+                label=f"clearance {info.name} [mm]", start=0.0, end=end, step=step, value=v, format="0.000",
+                fixed_start=None, fixed_end=None, width=width)
         self.speed = pn.widgets.EditableFloatSlider(label="drive-shaft speed [r/min]", start=20.0,
                                                     end=max(240.0, round(ref.speed_rpm * 2)), step=1.0,
                                                     value=ref.speed_rpm, format="0.0", fixed_start=None,
-                                                    fixed_end=None, width=320)
+                                                    fixed_end=None, width=width)
         sf = em.stroke_field(base)
         self.stroke = None
         if sf is not None:
             self.stroke = pn.widgets.EditableFloatSlider(
                 label=f"{sf[1]} [mm]", start=round(ref.stroke_mm * 0.5, 1), end=round(ref.stroke_mm * 1.5, 1),
-                step=0.5, value=ref.stroke_mm, format="0.0", fixed_start=None, fixed_end=None, width=320)
+                step=0.5, value=ref.stroke_mm, format="0.0", fixed_start=None, fixed_end=None, width=width)
         self.walking = pn.widgets.EditableFloatSlider(label="travel speed [m/min]", start=5.0,
                                                       end=max(60.0, round(ref.walking_speed_m_min * 2)), step=1.0,
                                                       value=ref.walking_speed_m_min, format="0.0", fixed_start=None,
-                                                      fixed_end=None, width=320)
+                                                      fixed_end=None, width=width)
+        # chosen from the clearances with every run (drawing.magnification_range), the user's choice kept while it
+        # still draws a joined linkage
         self.magnify = pn.widgets.FloatSlider(label="clearance magnification in the drawing [x]", start=1.0,
-                                              end=1000.0, step=1.0, value=DEFAULT_MAGNIFY, width=320)
-        self.reset = pn.widgets.Button(label="Reset to the description", color="default", width=320)
-        self.tags = pn.pane.Markdown("", width=340)
+                                              end=1000.0, step=1.0, value=100.0, width=width)
+        self._magnify_auto = True
+        self.reset = pn.widgets.Button(label="Reset to the description", color="default", width=width)
+        self.tags = pn.pane.Markdown("", width=width)
         widgets = [*self.clearance.values(), self.speed, *([self.stroke] if self.stroke else []), self.walking]
         for w in widgets:
             w.param.watch(lambda _e: self.on_change(), "value")
-        self.magnify.param.watch(lambda _e: self._redraw(), "value_throttled")
+        self.magnify.param.watch(lambda _e: self._magnify_changed(), "value_throttled")
         self.reset.on_click(lambda _e: self._reset())
         self.header_controls = pn.Column(pn.pane.Markdown("### Machine settings"), *widgets, self.tags,
                                          self.magnify, self.reset)
@@ -185,7 +222,8 @@ class ExplorePage:
         if self.stroke is not None:
             keys.append((em.stroke_field(self.base)[1], em.stroke_field(self.base)[0]))
         keys.append(("travel speed", "operation.walking_speed"))
-        self.tags.object = "**Provenance**  \n" + "  \n".join(f"{lab}: {self._tag(k, changed)}" for lab, k in keys)
+        self.tags.object = "**Provenance**  \n" + "  \n".join(f"{md_text(lab)}: {md_text(self._tag(k, changed))}"
+                                                            for lab, k in keys)
 
     # ---- mechanism and forces -----------------------------------------------------------------------------
     def _build_mechanism(self) -> None:
@@ -195,8 +233,8 @@ class ExplorePage:
                                        name="explore_joints")
         self.impacts = ColumnDataSource(data=dict(x=[], y=[], name=[]), name="explore_impacts")
         self.groove = ColumnDataSource(data=dict(x=[], y=[]), name="explore_groove")
-        fig = figure(title="Comb drive (clearances magnified)", match_aspect=True, width=700, height=430,
-                     x_axis_label="x [m]", y_axis_label="y [m]", tools="pan,wheel_zoom,reset,save")
+        fig = _figure("Comb drive (clearances magnified)", FIGURE_HEIGHT, match_aspect=True, x_axis_label="x [m]",
+                      y_axis_label="y [m]", tools="pan,wheel_zoom,reset,save")
         if self.base.DRIVE == "groove_cam":
             fig.line("x", "y", source=self.groove, color="#999999", legend_label="cam pitch curve")
         fig.multi_line("xs", "ys", source=self.links, color="colour", line_width=4)
@@ -206,13 +244,12 @@ class ExplorePage:
                     color="#D62728", legend_label="joint in contact")
         _legend_outside(fig)
         self.frame = Slider(start=0, end=1, value=0, step=1, title="frame (drive-shaft angle over the last revolution)",
-                            width=540, name="explore_frame")
+                            sizing_mode="stretch_width", min_width=200, name="explore_frame")
         self.play = Button(label="► play / pause", width=140, name="explore_play")
         self.span = Span(location=0.0, dimension="height", line_color="#444444", line_dash="dashed")
         self.forces = ColumnDataSource(data={"t": [], **{p: [] for p in self.base.pair_names}}, name="explore_forces")
-        ffig = figure(title="Collision force per joint (revolutions 2..3)", width=700, height=430,
-                      x_axis_label="time [s]", y_axis_label="|collision force| [N]",
-                      tools="pan,box_zoom,wheel_zoom,reset,save")
+        ffig = _figure("Collision force per joint (revolutions 2..3)", FIGURE_HEIGHT, x_axis_label="time [s]",
+                       y_axis_label="|collision force| [N]", tools="pan,box_zoom,wheel_zoom,reset,save")
         for k, p in enumerate(self.base.pair_names):
             ffig.line("t", p, source=self.forces, color=_colour(p, k), legend_label=f"{p}", line_width=1.5)
         ffig.legend.click_policy = "hide"
@@ -225,9 +262,11 @@ class ExplorePage:
             if (window._bs_timer) { clearInterval(window._bs_timer); window._bs_timer = null; return; }
             window._bs_timer = setInterval(() => {
                 frame.value = frame.value >= frame.end ? 0 : frame.value + 1; }, 80);"""))
-        # two panes of one document (the frame slider's callback moves the force plot's marker); they wrap on a
-        # narrow window
-        self.mech_pane = pn.FlexBox(pn.pane.Bokeh(bk_column(fig, bk_row(self.play, self.frame))), pn.pane.Bokeh(ffig))
+        # two panes of one document (the frame slider's callback moves the force plot's marker), side by side or
+        # one below the other; shown once the first run has drawn into them (a figure without data has no ranges)
+        self._mech_views = [pn.pane.Bokeh(bk_column(fig, bk_row(self.play, self.frame, sizing_mode="stretch_width"),
+                                                    sizing_mode="stretch_width")), pn.pane.Bokeh(ffig)]
+        self.mech_pane = pn.Column(sizing_mode="stretch_width")
         self.peaks = pn.pane.Markdown("", sizing_mode="stretch_width", name="explore_peaks")
 
     def on_change(self) -> None:
@@ -262,7 +301,7 @@ class ExplorePage:
                 self._later(lambda msg=f"{type(exc).__name__}: {exc}": self._show_error(msg))
 
     def _show_error(self, msg: str) -> None:
-        self.error.object = f"**These settings are refused**: {msg}"
+        self.error.object = f"**These settings are refused**: {md_text(msg)}"
         self.error.visible = True
         self.status.object = "the plots show the last settings that ran"
 
@@ -271,19 +310,32 @@ class ExplorePage:
         self._last_run = run
         t, series = decimate_minmax_shared(run.t, run.forces, n_bins=1500)
         self.forces.data = {"t": t, **{p: series[p] for p in run.forces}}
+        if run.frames is not None:
+            self._choose_magnification(run.frames)
         self._redraw()
+        if not self.mech_pane.objects:
+            self.mech_pane.objects = [_views(*self._mech_views) if run.frames is not None else self._mech_views[1]]
         self.peaks.object = clearance_table(self.base, run, em.changed_keys(self.base, self.settings()))
         how = "from memory" if cached else f"in {run.wall_time_s:.2f} s"
         self.status.object = (f"{run.model} model of the {run.machine.DRIVE} drive, {em.REVOLUTIONS} revolutions, "
                               f"statistics over revolutions 2..{em.REVOLUTIONS}: ran {how}")
 
+    def _choose_magnification(self, frames: dict) -> None:
+        """The magnification slider's range for these clearances, and its value: the default unless the user chose
+        one that still draws a joined linkage (:func:`berryshaker.explore.drawing.magnification_range`)."""
+        default, largest = magnification_range(frames)
+        keep = not self._magnify_auto and self.magnify.value <= largest
+        self._magnify_auto = not keep
+        self.magnify.param.update(end=largest, value=self.magnify.value if keep else default)
+
+    def _magnify_changed(self) -> None:
+        """The user moved the magnification slider (``value_throttled`` follows a drag, never the code)."""
+        self._magnify_auto = False
+        self._redraw()
+
     def _redraw(self) -> None:
         run = self._last_run
-        if run is None:
-            return
-        if run.frames is None:
-            self.frames.data = {}
-            self.links.data = dict(xs=[], ys=[], colour=[])
+        if run is None or run.frames is None:
             return
         data = frame_data(run.frames, self.magnify.value)
         self.frames.data = data
@@ -291,8 +343,6 @@ class ExplorePage:
         self.frame.end = max(n - 1, 1)
         k = min(self.frame.value, n - 1)
         self.frame.value = k
-        from berryshaker.explore.views import frame_at
-
         links, joints, impacts, groove = frame_at(data, k)
         self.links.data, self.joints.data, self.impacts.data, self.groove.data = links, joints, impacts, groove
         self.span.location = float(data["t"][k])
@@ -300,33 +350,35 @@ class ExplorePage:
     # ---- harvest: removal against frequency ------------------------------------------------------------------
     def _build_harvest(self, ref: em.Settings) -> None:
         lo, hi = round(ref.speed_rpm * 0.6), round(ref.speed_rpm * 1.4)
+        width = CONTROLS_WIDTH - 20
         self.h_range = pn.widgets.RangeSlider(label="drive-shaft speeds [r/min]", start=20, end=max(240, hi * 2),
-                                              value=(lo, hi), step=1, width=320)
-        self.h_points = pn.widgets.IntSlider(label="speeds [1]", start=2, end=9, value=5, width=320)
-        self.h_run = pn.widgets.Button(label="Run the virtual harvest", color="primary", width=320)
-        self.h_progress = pn.indicators.Progress(value=0, max=100, width=320, visible=False)
+                                              value=(lo, hi), step=1, width=width)
+        self.h_points = pn.widgets.IntSlider(label="speeds [1]", start=2, end=9, value=5, width=width)
+        self.h_run = pn.widgets.Button(label="Run the virtual harvest", color="primary", width=width)
+        self.h_progress = pn.indicators.Progress(value=0, max=100, width=width, visible=False)
         self.h_status = pn.pane.Markdown("Coupled machine-plant runs: several seconds to a minute per speed, "
-                                         "cached (a repeated speed is read from the cache).", width=420)
+                                         "cached (a repeated speed is read from the cache).",
+                                         sizing_mode="stretch_width")
         self.h_src = ColumnDataSource(data=dict(f=[], ripe=[], unripe=[], damage=[]), name="explore_harvest")
-        fig = figure(title="Removal against shaking frequency", width=520, height=320,
-                     x_axis_label="shaking frequency [Hz]", y_axis_label="share of the fruit [%]",
-                     tools="pan,wheel_zoom,reset,save")
+        fig = _figure("Removal against shaking frequency", CARD_FIGURE_HEIGHT, x_axis_label="shaking frequency [Hz]",
+                      y_axis_label="share of the fruit [%]", tools="pan,wheel_zoom,reset,save")
         for k, (col, lab) in enumerate((("ripe", "ripe removal"), ("unripe", "unripe shed"), ("damage", "damage"))):
             fig.line("f", col, source=self.h_src, color=SERIES_COLOURS[k], legend_label=lab, line_width=2)
             fig.scatter("f", col, source=self.h_src, color=SERIES_COLOURS[k], size=7)
         _legend_outside(fig)
-        self.h_table = pn.pane.Markdown("", width=520)
+        self.h_table = pn.pane.Markdown("", sizing_mode="stretch_width")
         self.h_run.on_click(lambda _e: self._start_harvest())
+        self._h_figure = pn.pane.Bokeh(fig, sizing_mode="stretch_width")
+        self.h_plot = pn.Column(sizing_mode="stretch_width")  # the figure, once there is a result to draw
         self.harvest_card = pn.Card(self.h_range, self.h_points, self.h_run, self.h_progress, self.h_status,
-                                    pn.pane.Bokeh(fig), self.h_table, title="Removal against frequency "
-                                    "(virtual harvest)", width=560)
+                                    self.h_plot, self.h_table, title="Removal against frequency (virtual harvest)")
 
     def _start_harvest(self) -> None:
         try:
             machine = em.build_machine(self.base, self.settings())
             jobs, speeds = harvest_jobs(machine, self.h_range.value, self.h_points.value)
         except BerryshakerError as exc:
-            self.h_status.object = f"**refused**: {exc}"
+            self.h_status.object = f"**refused**: {md_text(exc)}"
             return
         self.h_run.disabled = True
         self.h_progress.visible = True
@@ -364,27 +416,37 @@ class ExplorePage:
                                ripe=[r[1]["ripe_removal_pct"] for r in rows],
                                unripe=[r[1]["unripe_shed_pct"] for r in rows],
                                damage=[r[1]["damage_rate_pct"] for r in rows])
+        if rows and not self.h_plot.objects:
+            self.h_plot.objects = [self._h_figure]
         self.h_table.object = harvest_table(rows, settings)
         self.h_status.object = (f"{len(rows)} speeds ran ({sum(1 for r in rows if r[2])} from the cache)"
-                                + ("; failed: " + "; ".join(errors) if errors else ""))
+                                + ("; failed: " + "; ".join(md_text(e) for e in errors) if errors else ""))
 
     # ---- wear and service interval -------------------------------------------------------------------------
     def _build_wear(self) -> None:
+        width = CONTROLS_WIDTH - 20
         self.w_hours = pn.widgets.FloatInput(label="operating hours to simulate [h]", value=2000.0, start=1.0,
-                                             end=1e6, step=100.0, width=320)
-        self.w_run = pn.widgets.Button(label="Run the wear simulation", color="primary", width=320)
-        self.w_progress = pn.indicators.Progress(value=-1, active=True, width=320, visible=False)
+                                             end=1e6, step=100.0, width=width)
+        self.w_run = pn.widgets.Button(label="Run the wear simulation", color="primary", width=width)
+        self.w_progress = pn.indicators.Progress(value=-1, active=True, width=width, visible=False)
         self.w_status = pn.pane.Markdown("Archard wear of every joint on the multibody model, re-simulated as the "
-                                         "clearances grow (berryshaker wear); each simulation cached.", width=420)
+                                         "clearances grow (berryshaker wear); each simulation cached.",
+                                         sizing_mode="stretch_width")
         self.w_src = ColumnDataSource(data=dict(xs=[], ys=[], colour=[], name=[]), name="explore_wear")
-        fig = figure(title="Clearance growth by wear", width=520, height=320, x_axis_label="operating time [h]",
-                     y_axis_label="clearance [mm]", tools="pan,wheel_zoom,reset,save")
+        # each joint's service limit (docs/life.md), dashed in the joint's colour across the hours simulated
+        self.w_limits = ColumnDataSource(data=dict(xs=[], ys=[], colour=[], name=[]), name="explore_wear_limits")
+        fig = _figure("Clearance growth by wear", CARD_FIGURE_HEIGHT, x_axis_label="operating time [h]",
+                      y_axis_label="clearance [mm]", tools="pan,wheel_zoom,reset,save")
         fig.multi_line("xs", "ys", source=self.w_src, color="colour", line_width=2, legend_field="name")
-        _legend_outside(fig)
-        self.w_table = pn.pane.Markdown("", width=520)
+        fig.multi_line("xs", "ys", source=self.w_limits, color="colour", line_width=1.5, line_dash="dashed",
+                       legend_label="service limit (dashed)")
+        _legend_outside(fig, ncols=2)
+        self.w_table = pn.pane.Markdown("", sizing_mode="stretch_width")
         self.w_run.on_click(lambda _e: self._start_wear())
-        self.wear_card = pn.Card(self.w_hours, self.w_run, self.w_progress, self.w_status, pn.pane.Bokeh(fig),
-                                 self.w_table, title="Wear and service interval", width=560)
+        self._w_figure = pn.pane.Bokeh(fig, sizing_mode="stretch_width")
+        self.w_plot = pn.Column(sizing_mode="stretch_width")  # the figure, once there is a result to draw
+        self.wear_card = pn.Card(self.w_hours, self.w_run, self.w_progress, self.w_status, self.w_plot,
+                                 self.w_table, title="Wear and service interval")
 
     def _start_wear(self) -> None:
         hours = self.w_hours.value
@@ -393,7 +455,7 @@ class ExplorePage:
                 raise BerryshakerError(f"operating hours {hours!r}: give hours in (0, 1e7] h")
             machine = em.build_machine(self.base, self.settings())
         except BerryshakerError as exc:
-            self.w_status.object = f"**refused**: {exc}"
+            self.w_status.object = f"**refused**: {md_text(exc)}"
             return
         self.w_run.disabled = True
         self.w_progress.visible = True
@@ -414,19 +476,22 @@ class ExplorePage:
         self._later(lambda: self._wear_done(res, error, settings))
 
     def _wear_say(self, msg: str) -> None:
-        self.w_status.object = f"wear: {msg}"
+        self.w_status.object = f"wear: {md_text(msg)}"
 
     def _wear_done(self, res, error, settings) -> None:
         self.w_run.disabled = False
         self.w_progress.visible = False
         if error is not None:
-            self.w_status.object = f"**wear failed**: {error}"
+            self.w_status.object = f"**wear failed**: {md_text(error)}"
             return
         joints = res["joints"]
         self.w_src.data = dict(xs=[np.asarray(d["hours"], float) for d in joints.values()],
                                ys=[np.asarray(d["clearance_mm"], float) for d in joints.values()],
                                colour=[_colour(j, k) for k, j in enumerate(joints)],
                                name=[f"{j} ({d['size_convention']})" for j, d in joints.items()])
+        self.w_limits.data = wear_limit_lines(res, [_colour(j, k) for k, j in enumerate(joints)])
+        if not self.w_plot.objects:
+            self.w_plot.objects = [self._w_figure]
         self.w_table.object = wear_table(res)
         self.w_status.object = (f"{res['simulations']} simulations ({res['simulations_from_cache']} from the cache) "
                                 f"in {res['wall_time_s']:.1f} s")
@@ -434,68 +499,3 @@ class ExplorePage:
     def close(self) -> None:
         """The session ended: no page updates any more (runs under way finish into the caches)."""
         self._closed = True
-
-
-def make_app(base, cache_dir=None, workers: int | None = None, source: str = "built-in reference machine"):
-    """The page factory :func:`panel.serve` calls once per browser session.
-
-    Parameters
-    ----------
-    base : MachineBase
-        The machine description.
-    cache_dir : path, optional
-        Cache folder of the long runs.
-    workers : int, optional
-        Local processes of the harvest runs.
-    source : str
-        Where the description came from (the page's header).
-
-    Returns
-    -------
-    callable
-        ``() -> panel layout``; the sessions share one :class:`~berryshaker.explore.model.RunCache`.
-    """
-    runs = em.RunCache()
-
-    def page():
-        p = ExplorePage(base, runs, cache_dir=cache_dir, workers=workers, source=source)
-        pn.state.on_session_destroyed(lambda _ctx: p.close())  # noqa: B023
-        return p.layout
-
-    return page
-
-
-def serve(base, port: int, host: str = "127.0.0.1", cache_dir=None, workers: int | None = None,
-          source: str = "built-in reference machine", threaded: bool = False):
-    """Serve the page on ``host:port`` (loopback only).
-
-    Parameters
-    ----------
-    base : MachineBase
-        The machine description.
-    port : int
-        TCP port (free: :func:`berryshaker.explore.check_port`).
-    host : str
-        Loopback address.
-    cache_dir, workers, source
-        As :func:`make_app`.
-    threaded : bool
-        False: serve until stopped (Ctrl-C raises KeyboardInterrupt here); True: serve in a thread and return it
-        at once (tests; ``.stop()`` ends it).
-
-    Returns
-    -------
-    StoppableThread or None
-        The serving thread (``threaded=True``).
-    """
-    from berryshaker.explore import check_loopback
-
-    check_loopback(host)
-    pn.extension()
-    try:
-        return pn.serve({"explore": make_app(base, cache_dir, workers, source)}, port=port, address=host,
-                        websocket_origin=[f"{host}:{port}", f"localhost:{port}"], show=False, start=True,
-                        threaded=threaded, title="berryshaker explore")
-    except OSError as exc:  # the port taken between the check and the start
-        raise ConfigError(f"the page's server could not start on {host}:{port} ({exc.strerror or exc}): choose "
-                          "another port with --port") from None

@@ -19,6 +19,52 @@ LINK_COLOUR = "#555555"
 COMB_COLOUR = "#8C564B"
 
 
+#: the magnified free play of a joint drawn by default, and at most, as a share of the shortest link it joins (at
+#: the largest the housing circle still leaves most of the link in view, so the linkage reads as joined)
+DEFAULT_PLAY_SHARE = 0.15
+MAX_PLAY_SHARE = 0.4
+#: magnifications of the drawing: at least true scale, at most this
+MAX_MAGNIFY = 1000.0
+
+
+def magnification_range(frames: dict) -> tuple[float, float]:
+    """The drawing's default and largest clearance magnification, from its clearances and links.
+
+    A joint drawn magnified ``k`` times is a circle of radius ``k`` x its free play, and the links that end at it end
+    up to that far from each other; the drawing stays a joined linkage while that radius is a small share of the
+    shortest link ending at the joint.  The default makes the largest such share :data:`DEFAULT_PLAY_SHARE`, the
+    largest magnification :data:`MAX_PLAY_SHARE` (both to two significant digits, within 1 .. :data:`MAX_MAGNIFY`).
+    Link lengths are taken between the points' positions before magnification, in the first frame; a link ends at a
+    joint when one of its ends lies within 1 % of the drawing's extent of the joint's housing, and links shorter than
+    that (the arm of a joint on a bar's axis) are not links a joint could swallow.
+
+    Parameters
+    ----------
+    frames : dict
+        A drawing (:func:`groove_cam_frames`, :func:`multibody_frames`).
+
+    Returns
+    -------
+    (float, float)
+        Default and largest magnification (1 = true scale).
+    """
+    base = {k: np.asarray(b, float)[0] for k, (b, _v) in frames["points"].items()}
+    xy = np.array(list(base.values()))
+    extent = float(np.ptp(xy[:, 0]) + np.ptp(xy[:, 1])) if len(xy) else 0.0
+    lengths = [(a, b, float(np.hypot(*(base[a] - base[b])))) for a, b, _c in frames["links"]]
+    shares = []
+    for _name, housing, _element, play, _contact in frames["joints"]:
+        at = base[housing]
+        near = [ln for a, b, ln in lengths if ln > 0.01 * extent
+                and min(np.hypot(*(base[a] - at)), np.hypot(*(base[b] - at))) <= 0.01 * extent]
+        if play > 0 and near:
+            shares.append(min(near) / play)
+    if not shares:
+        return 1.0, MAX_MAGNIFY
+    two = lambda k: float(f"{min(max(k, 1.0), MAX_MAGNIFY):.2g}")
+    return two(DEFAULT_PLAY_SHARE * min(shares)), two(MAX_PLAY_SHARE * min(shares))
+
+
 def _frame_index(t: np.ndarray, period: float, n_frames: int) -> np.ndarray:
     """Indexes of ``n_frames`` samples equally spaced over the last revolution of the series ``t`` (s)."""
     t_last = t[-1] - period

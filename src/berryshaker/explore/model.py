@@ -161,6 +161,55 @@ def overrides_of(machine, settings: Settings) -> dict[str, float]:
     return out
 
 
+#: a clearance slider spans 0 .. this many times the largest of the pair's test levels, service limit and size
+SLIDER_REACH = 1.5
+#: slider positions over a clearance slider's range (the step is the 1-2-5 value at or below range / this)
+SLIDER_STEPS = 250
+
+
+def _nice_ceil(x: float) -> float:
+    """``x`` rounded up to two significant digits."""
+    scale = 10.0 ** (math.floor(math.log10(x)) - 1)
+    return round(math.ceil(x / scale - 1e-9) * scale, 12)
+
+
+def _step_125(x: float) -> float:
+    """The largest 1-2-5 value (..., 0.001, 0.002, 0.005, 0.01, ...) at or below ``x``."""
+    decade = 10.0 ** math.floor(math.log10(x))
+    return round(max(m for m in (1.0, 2.0, 5.0) if m * decade <= x * (1 + 1e-9)) * decade, 12)
+
+
+def clearance_slider(machine, pair: str) -> tuple[float, float]:
+    """The range and step of a pair's clearance slider (mm): the sizes worth sliding through.
+
+    The slider runs from 0 to :data:`SLIDER_REACH` times the largest of the pair's test levels
+    (:meth:`~berryshaker.drives.base.MachineBase.clearance_levels`), its service limit
+    (:func:`berryshaker.life.service.service_limits`) and its size, rounded up to two digits and never beyond its
+    geometric limit; its step is a 1-2-5 value of at most 1/:data:`SLIDER_STEPS` of that range.  A size beyond
+    the slider's end is typed into its field (and the description's limits still apply).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine as described.
+    pair : str
+        A clearance pair of its drive.
+
+    Returns
+    -------
+    (float, float)
+        The slider's end and step (mm).
+    """
+    from berryshaker.life.service import service_limits
+
+    info = next(i for i in machine.PAIRS if i.name == pair)
+    geometric = info.limit(machine)[0] * 1e3
+    largest = max(max(machine.clearance_levels()[pair]), service_limits(machine, [pair])[pair],
+                  machine.clearance_sizes()[pair]) * 1e3
+    end = min(_nice_ceil(SLIDER_REACH * largest), geometric) if largest > 0 else geometric
+    return end, _step_125(end / SLIDER_STEPS)
+
+
 def _finite(name: str, value, unit: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ConfigError(f"{name}: give a finite number in {unit}, got {value!r}")

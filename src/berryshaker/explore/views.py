@@ -6,7 +6,9 @@ No Panel here: plain data, so the page and its tests read the same values.
 
 from __future__ import annotations
 
+import html
 import math
+import re
 
 import numpy as np
 
@@ -40,6 +42,32 @@ impacts.data = {x: ix, y: iy, name: iname};
 groove.data = {x: Array.from(d.gx[k]), y: Array.from(d.gy[k])};
 span.location = d.t[k];
 """
+
+
+#: ASCII punctuation Markdown may read as markup (CommonMark lets a backslash escape each); ``&<>"'`` are
+#: escaped as HTML instead
+_MARKDOWN_PUNCTUATION = re.compile(r"([!#$%()*+,\-./:;=?@\[\\\]^_`{|}~])")
+
+
+def md_text(value) -> str:
+    """User text (a machine name, a path, an error quoting a value) for a Markdown pane: shown as written,
+    never read as Markdown or HTML, with control characters made visible.
+
+    Control characters become their ``\\xNN`` escape, Markdown's punctuation is backslash-escaped and
+    ``& < > " '`` become HTML entities, so a ``<script>`` in a machine name is text on the page.
+
+    Parameters
+    ----------
+    value : object
+        The text (``str(value)``).
+
+    Returns
+    -------
+    str
+        Markdown source that renders as exactly that text (also inside a table cell).
+    """
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(value))
+    return html.escape(_MARKDOWN_PUNCTUATION.sub(r"\\\1", text), quote=True)
 
 
 def frame_data(frames: dict, magnify: float) -> dict:
@@ -232,6 +260,36 @@ def harvest_table(rows: list, settings: em.Settings) -> str:
             + ", ".join(f"{p} {c:g} mm" for p, c in settings.clearance_mm) + "]")
 
 
+def wear_limit_lines(res: dict, colours: list[str]) -> dict:
+    """The service limit of every joint as a line across the hours simulated, for the wear plot.
+
+    Parameters
+    ----------
+    res : dict
+        The wear result (:func:`berryshaker.life.service.machine_wear`): its ``limits_si`` keyed
+        ``clearance:<joint>`` (m) and ``horizon_h``.
+    colours : list of str
+        The colour of each joint of ``res["joints"]``, in order.
+
+    Returns
+    -------
+    dict
+        Columns ``xs`` (h), ``ys`` (mm), ``colour`` and ``name`` ("<joint> service limit"), one row per joint with
+        a clearance limit.
+    """
+    colour = dict(zip(res["joints"], colours))
+    out = dict(xs=[], ys=[], colour=[], name=[])
+    for key, limit in res.get("limits_si", {}).items():
+        kind, _, joint = key.partition(":")
+        if kind != "clearance" or joint not in colour:
+            continue
+        out["xs"].append([0.0, float(res["horizon_h"])])
+        out["ys"].append([limit * 1e3] * 2)
+        out["colour"].append(colour[joint])
+        out["name"].append(f"{joint} service limit")
+    return out
+
+
 def wear_table(res: dict) -> str:
     """Markdown table of the wear result (:func:`berryshaker.life.service.machine_wear`).
 
@@ -249,11 +307,11 @@ def wear_table(res: dict) -> str:
     lines = ["| joint | material | start | end | maintenance interval |", "|---|---|---|---|---|"]
     for j, d in res["joints"].items():
         mi = d.get("maintenance_interval_h")
-        lines.append(f"| {j} | {d.get('material_pair', '')} | {d['clearance_mm'][0]:.4g} mm | "
+        lines.append(f"| {md_text(j)} | {md_text(d.get('material_pair', ''))} | {d['clearance_mm'][0]:.4g} mm | "
                      f"{d['clearance_mm'][-1]:.4g} mm | "
                      f"{'does not wear' if not d.get('wears', True) else 'not reached' if mi is None else f'{mi:.0f} h'} |")
     mi = res.get("maintenance_interval_h")
     head = "not reached within the horizon" if mi is None else f"{mi:.0f} h"
-    gov = f" ({res['governing_limit']})" if res.get("governing_limit") else ""
+    gov = f" ({md_text(res['governing_limit'])})" if res.get("governing_limit") else ""
     return ("\n".join(lines) + f"\n\n**Service interval: {head}**{gov} [computed: Archard wear on the multibody "
             f"model over {res.get('horizon_h', '')} h]")

@@ -144,8 +144,8 @@ def _range(kind: str):
     return BeforeValidator(convert)
 
 
-LengthRange = Annotated[tuple[float, float], _range("length")]
-AngleRange = Annotated[tuple[float, float], _range("angle")]
+LengthRange = Annotated[tuple[float, float], _range("length"), Field(json_schema_extra=display_unit("mm"))]
+AngleRange = Annotated[tuple[float, float], _range("angle"), Field(json_schema_extra=display_unit("deg"))]
 
 
 class BushSpec(_Strict):

@@ -11,7 +11,7 @@ import math
 
 from berryshaker.report.design_quantity import Quantity
 from berryshaker.report.design_records import DesignAnswers
-from berryshaker.report.html_blocks import _Raw, _table
+from berryshaker.report.html_blocks import _details, _Raw, _table
 from berryshaker.report.sections import (clearance_life_section, harvest_response_section, kinematics_section,
                                          powered_drive_section, virtual_l9_section)
 from berryshaker.user_text import html_text
@@ -96,7 +96,7 @@ def _src(q: Quantity | None, numbers: dict | None) -> str:
     return "" if q is None else section_label(q.source.step, numbers)
 
 
-def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> str:
+def design_answers_html(answers: DesignAnswers, numbers: dict | None = None, at: str = "") -> str:
     """The design answers as the report's opening section: HTML fragments (h2, p, tables of at most
     :data:`MAX_COLUMNS` columns with fixed widths), to go first in the report of every machine.
 
@@ -107,6 +107,9 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
     numbers : dict, optional
         Each section's number in the report, by renderer (:func:`berryshaker.report.sections.section_numbers`):
         the sections the numbers come from are named by these numbers (None: by their short names).
+    at : str
+        The operating point every number but the last part's is at, in words ("drive speed 120 r/min (shaking 2 Hz)
+        and travel speed 30 m/min"); the last part, the drive speed to run with, compares drive speeds and says so.
 
     Returns
     -------
@@ -115,6 +118,9 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
     """
     a = answers
     parts = [f"<h2>Design answers for {html_text(a.machine)}</h2>"]
+    if at:
+        parts.append(f"<p class='op'><b>One operating point:</b> every number in this section is at the described "
+                     f"{html_text(at)}, except the last part, which compares drive speeds.</p>")
     rec = a.recommended
     if rec:
         parts.append(f"<p>Recommended clearances: <b>{html_text(rec.name)}</b> (L9 code "
@@ -163,21 +169,6 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
                             [[q.label, q.unit, _cell(q), _num(q.sd), q.tag, _src(q, numbers)]
                              for q in loads],
                             left=(0, 1, 4, 5), widths=(28, 10, 20, 10, 15, 17)))
-    op = a.operating_point
-    if op:
-        parts.append("<h3>Operating point</h3>")
-        parts.append(f"<p>{html_text(op.statement)}</p>")
-        if op.speed:
-            items = [("drive speed", op.speed), ("shaking frequency", op.frequency),
-                     *[(k.replace("_", " "), getattr(op, k)) for k in ("finger_amplitude", "comb_swing",
-                                                                       "ripe_removal", "unripe_shed", "damage",
-                                                                       "efficiency") if getattr(op, k) is not None]]
-            parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "section"],
-                                [[n, q.unit, _cell(q), _num(q.sd), _src(q, numbers)] for n, q in items],
-                                left=(0, 1, 4), widths=(30, 12, 22, 14, 22)))
-        parts.append(f"<p class='small'>Rule: {html_text(op.rule)}; limits: damage "
-                     f"{op.limits.damage_pct:g} %, unripe shedding {op.limits.unripe_shed_pct:g} % "
-                     f"{op.limits.tag}.</p>")
     diffs = a.differences
     if diffs:
         parts.append("<h3>What differs beyond the noise, and what does not</h3>")
@@ -198,8 +189,14 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
                                   f"{_num(q.hi)}] {verdict}</span>"))
             rows.append([f"{n} ({unit})" if unit else n, *cells])
         levels = diffs[0].levels
-        parts.append(_table(["response", *[f"{f}{levels[1]} - {f}{levels[0]}" for f in factors]], rows, left=(0,),
-                            widths=(100 - 18 * len(factors), *[18] * len(factors))))
+        header = ["response", *[f"{f}{levels[1]} - {f}{levels[0]}" for f in factors]]
+        widths = (100 - 18 * len(factors), *[18] * len(factors))
+        # the harvest indexes shown, the machine loads (collision forces, drive torque) folded
+        loads = [r for r in rows if r[0].startswith(("peak_force", "drive_torque"))]
+        parts.append(_table(header, [r for r in rows if r not in loads], left=(0,), widths=widths))
+        if loads:
+            parts.append(_details("The same for the machine loads: peak collision forces, drive torque",
+                                  [_table(header, loads, left=(0,), widths=widths)]))
         parts.append("<p class='small'>Paired difference of each factor's last and first level over the L9's starts "
                      f"({_section_ref('virtual_l9', numbers)}) with its 95 % interval: 'no difference' where the "
                      "paired t test cannot tell the "
@@ -216,5 +213,22 @@ def design_answers_html(answers: DesignAnswers, numbers: dict | None = None) -> 
         cmp_ = a.comparison
         if cmp_:
             parts.append(f"<p>{html_text(cmp_.statement)}</p>")
+    op = a.operating_point
+    if op:
+        parts.append("<h3>Another operating point: the drive speed to run with</h3>")
+        parts.append("<p class='small'>The numbers above are at the described operating point; these compare the "
+                     f"harvest-response step's drive speeds ({_section_ref('harvest_response', numbers)}).</p>")
+        parts.append(f"<p>{html_text(op.statement)}</p>")
+        if op.speed:
+            items = [("drive speed", op.speed), ("shaking frequency", op.frequency),
+                     *[(k.replace("_", " "), getattr(op, k)) for k in ("finger_amplitude", "comb_swing",
+                                                                       "ripe_removal", "unripe_shed", "damage",
+                                                                       "efficiency") if getattr(op, k) is not None]]
+            parts.append(_table(["quantity", "unit", "mean [95 % interval]", "SD", "section"],
+                                [[n, q.unit, _cell(q), _num(q.sd), _src(q, numbers)] for n, q in items],
+                                left=(0, 1, 4), widths=(30, 12, 22, 14, 22)))
+        parts.append(f"<p class='small'>Rule: {html_text(op.rule)}; limits: damage "
+                     f"{op.limits.damage_pct:g} %, unripe shedding {op.limits.unripe_shed_pct:g} % "
+                     f"{op.limits.tag}.</p>")
     return "\n".join(parts)
 

@@ -1,7 +1,8 @@
 """Self-contained HTML report of the study: every figure embedded (base64 PNG), numbers in tables, the
 resolved configuration and package version at the end.  Opens offline; no scripts.  The page opens with the design
-answers (:mod:`berryshaker.report.design_html`), then the study steps' numbered sections
-(:mod:`berryshaker.report.sections`); the page of ``doe analyze`` is :mod:`berryshaker.report.doe_page`'s.  Tables, figures and the CSS are
+answers at the described operating point (:mod:`berryshaker.report.design_html`), then the study steps' numbered
+sections (:mod:`berryshaker.report.sections`, each its answer with the rest folded), then an appendix (the claims,
+the configuration); the page of ``doe analyze`` is :mod:`berryshaker.report.doe_page`'s.  Tables, figures and the CSS are
 :mod:`berryshaker.report.html_blocks`'.
 """
 
@@ -62,10 +63,10 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
              + (f"{html_text(verdict_counts(res.claims))} (appendix).  " if reference else "")
              + "Values marked [assumed] in the configuration are ours, not the study's (its tables were lost): see "
              "the end of this report.</p>"]
-    # the design answers first, for every machine (report/design.py)
+    # the design answers first, for every machine (report/design.py), at the described operating point
     try:
         parts.append(design_answers_html(design_answers({**summary.to_json(), "results": res.to_json()}, machine),
-                                         inp.numbers))
+                                         inp.numbers, at=operating_point_text(machine)))
     except Exception as exc:  # noqa: BLE001 - the report's other sections stand without its summary
         parts.append(f"<p class='small'>Design answers not available: {html_text(f'{type(exc).__name__}: {exc}')}"
                      "</p>")
@@ -108,6 +109,8 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
                          "</p>")
     # the steps' sections, numbered in the pipeline's order (report/sections.py)
     parts.extend(step_sections(sections, inp, {n: st.note for n, st in steps.items()}))
+    # the appendix: what an engineer looks up, not reads (the tests measure the report's height up to here)
+    parts.append("<div id='appendix' class='appendix'></div>")
     if reference:  # the reference study's claims: an appendix, on its machine only
         _claims_section(parts, res)
     parts.append("<h2>Configuration and provenance</h2>")
@@ -121,6 +124,27 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
                         left=(0, 1, 2)))
     parts.append("</body></html>")
     return "\n".join(parts)
+
+
+def operating_point_text(machine) -> str:
+    """The described operating point in words: drive speed, shaking frequency (one comb cycle per revolution) and
+    travel speed.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine description (SI: rad/s, m/s).
+
+    Returns
+    -------
+    str
+        E.g. "drive speed 120 r/min (shaking 2 Hz) and travel speed 30 m/min".
+    """
+    import math
+
+    rpm = machine.drive_speed * 60.0 / (2 * math.pi)
+    return (f"drive speed {rpm:.4g} r/min (shaking {rpm / 60.0:.3g} Hz) and travel speed "
+            f"{machine.operation.walking_speed * 60.0:.3g} m/min")
 
 
 def _claims_section(parts: list, res) -> None:

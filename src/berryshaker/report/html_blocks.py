@@ -16,7 +16,9 @@ body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;max-width:11
 color:#1d2330;line-height:1.45}h1{font-size:1.7em}h2{border-bottom:2px solid #c9d3e0;padding-bottom:.2em;margin-top:2em}
 table{border-collapse:collapse;margin:.8em 0;font-size:.92em;max-width:100%}td,th{border:1px solid #c9d3e0;
 padding:4px 9px;text-align:right;vertical-align:top}th{background:#eef2f7}td.l,th.l{text-align:left}
-figure{margin:1em 0}figure img{max-width:100%;border:1px solid #dde3eb}figcaption{font-size:.9em;color:#4a5568}
+figure{margin:1em 0}figure img{max-width:min(100%,820px);max-height:640px;width:auto;height:auto;border:1px solid #dde3eb}figcaption{font-size:.9em;color:#4a5568}
+details{margin:.6em 0;border-left:3px solid #c9d3e0;padding-left:.7em}summary{cursor:pointer;color:#2b4c7e}
+details[open]>summary{margin-bottom:.4em}.appendix{border-top:4px double #c9d3e0;margin-top:3em}
 .v-reproduced{background:#e3f6e8}.v-not{background:#fbe4e4}.v-partly{background:#fff5d6}.v-nc{background:#eef}
 .small{font-size:.85em;color:#4a5568}code{background:#f3f5f8;padding:0 3px}
 .wrap{max-width:100%;overflow-x:auto}td,th{overflow-wrap:break-word}thead{display:table-header-group}
@@ -32,17 +34,51 @@ table{page-break-inside:auto;font-size:8pt;max-width:100%}tr{page-break-inside:a
 td,th{padding:2px 4px;-webkit-print-color-adjust:exact;print-color-adjust:exact}
 .wrap{overflow:visible}pre.text{font-size:7pt}.wide table{font-size:7pt}.wide td,.wide th{padding:1px 3px}
 figure{page-break-inside:avoid;break-inside:avoid}figure img{max-width:100%;max-height:23cm;border:none}
-span[class^="v-"]{-webkit-print-color-adjust:exact;print-color-adjust:exact}}
+span[class^="v-"]{-webkit-print-color-adjust:exact;print-color-adjust:exact}
+details::details-content{content-visibility:visible;display:block}details{border-left:none;padding-left:0}}
 """
 
 #: Columns from which a table is printed in the smaller "wide" style.
 WIDE_COLUMNS = 8
 
 
+#: widest embedded figure (pixels): the figure files are 300 dpi (3000 px for a 10 in figure); the page shows a
+#: figure at most 820 CSS px wide, and 1400 px keeps it sharp on a high-density screen and in print (A4: 200 dpi)
+EMBED_MAX_PX = 1400
+
+
+def _png_for_page(path: Path) -> bytes:
+    """A figure file's PNG, scaled down to :data:`EMBED_MAX_PX` wide for embedding (the file keeps its 300 dpi)."""
+    import io
+
+    from PIL import Image
+
+    data = Path(path).read_bytes()
+    with Image.open(io.BytesIO(data)) as im:
+        if im.width <= EMBED_MAX_PX:
+            return data
+        small = im.convert("RGB").resize((EMBED_MAX_PX, round(im.height * EMBED_MAX_PX / im.width)), Image.LANCZOS,
+                                          reducing_gap=2.0)
+        # 256 colours: a figure's lines, text and fills on white keep their look at a fifth of the bytes
+        small = small.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)
+        out = io.BytesIO()
+        small.save(out, format="PNG", compress_level=6)
+        return out.getvalue()
+
+
 def _img(path: Path, caption: str) -> str:
-    data = base64.b64encode(Path(path).read_bytes()).decode()
+    data = base64.b64encode(_png_for_page(path)).decode()
     return (f'<figure><img alt="{html_text(caption)}" src="data:image/png;base64,{data}">'
             f"<figcaption>{html_text(caption)}</figcaption></figure>")
+
+
+def _details(summary: str, parts: list[str]) -> str:
+    """Folded content: ``parts`` under a one-line ``summary`` the reader opens (printed open: the CSS's print
+    rule shows every fold's content).  Empty parts give nothing."""
+    body = "\n".join(p for p in parts if p)
+    if not body:
+        return ""
+    return f"<details><summary>{html_text(summary)}</summary>{body}</details>"
 
 
 def _maybe_img(parts: list, path: Path, caption: str) -> None:

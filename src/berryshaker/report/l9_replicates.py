@@ -10,7 +10,7 @@ import re
 from pathlib import Path
 
 from berryshaker.report.design import level_set_name
-from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
+from berryshaker.report.html_blocks import _details, _maybe_img, _num, _Raw, _table
 from berryshaker.units import format_tolerance
 from berryshaker.user_text import html_text
 
@@ -54,15 +54,16 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
                        + ("" if q.beyond_noise else " (no difference)") for f, q in paired.get(name, {}).items())
         rows.append([name, units.get(name, ""), float(sum(ra.run_means) / len(ra.run_means)), sd, sig, pr])
     if rows:
-        parts.append("<h3>Replicate spread and significance</h3>")
-        parts.append("<p class='small'>Each start is one virtual field test (its machine start and the bushes and "
-                     "fruit it counts), and the starts are blocks: start k is the same for every run, so its luck "
-                     "cancels from every comparison.  Per-start SD: the spread of one run's field tests; each factor "
-                     "is tested against its own interaction with the starts, one verdict per factor and response; "
-                     "paired differences: the extreme levels of each factor compared start by start, +- one "
-                     "standard error, with that verdict.</p>")
-        parts.append(_table(["response", "unit", "grand mean", "per-start SD", "significant factors",
-                             "paired differences (last - first level)"], rows, left=(0, 1, 4, 5)))
+        parts.append(_details("Replicate spread and significance per response (table; the design answers give the "
+                              "paired differences with their intervals)", [
+            "<p class='small'>Each start is one virtual field test (its machine start and the bushes and "
+            "fruit it counts), and the starts are blocks: start k is the same for every run, so its luck "
+            "cancels from every comparison.  Per-start SD: the spread of one run's field tests; each factor "
+            "is tested against its own interaction with the starts, one verdict per factor and response; "
+            "paired differences: the extreme levels of each factor compared start by start, +- one "
+            "standard error, with that verdict.</p>",
+            _table(["response", "unit", "grand mean", "per-start SD", "significant factors",
+                    "paired differences (last - first level)"], rows, left=(0, 1, 4, 5))]))
     det = getattr(l9, "detectability", None) or {}
     if det:
         drows = []
@@ -93,18 +94,19 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         parts.append(f"<p class='small'>Rule: {html_text(rec.rule)}.</p>")
         parts.append(f"<p class='small'>Starts at the recommendation: {html_text(rec.sequential.statement)}.</p>")
     tc = l9.tolerance_check
+    check: list[str] = []
     if tc.done:
         rt = tc.rtol  # run and check tolerances (dimensionless)
-        parts.append("<h3>Solver-tolerance check</h3>")
-        parts.append(f"<p>{html_text(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
+        check.append(f"<p>{html_text(tc.statement)} ({tc.replicates} replicate(s) of the recommended set "
                      f"re-run at rtol {format_tolerance(rt[1])}"
                      + (f"; velocities held absolutely below rtol x {tc.velocity_scale_m_s:g} m/s at both"
                         if tc.velocity_scale_m_s is not None else "") + ").</p>")
         fmt = [format_tolerance(x) for x in rt]
-        parts.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
+        check.append(_table(["response", _Raw(f"mean change <span class='nw'>{fmt[0]}</span> -&gt; <span class='nw'>{fmt[1]}</span>"), "largest change", "replicate SD",
                              "noise of the mean (SD)", "within 2 x noise"],
                             [[n, v.mean_change, v.max_abs_change, v.replicate_sd, v.noise_sd, v.within_replicate_spread]
                              for n, v in tc.responses.items()]))
+        parts.append(_details(f"Solver-tolerance check: {tc.statement}", check))
     else:
         parts.append(f"<p class='small'>Solver-tolerance check not run: {html_text(tc.reason or '')}.</p>")
     recs = l9.tradeoff
@@ -126,12 +128,12 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
 
         header = (["candidate"] + [f"{n} ({units.get(n, '')})" for n in idx] + ["dominated by"])
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
-        parts.append(_table(header, body, left=(0, len(header) - 1)))
+        table = [_table(header, body, left=(0, len(header) - 1))]
         loads = (["candidate"] + [f"static-equivalent force {c.split(':')[1]} (N)" for c in forces]
                  + ["drive torque peak, single maximum (N m)", "drive torque RMS (N m)"][:len(tq)])
         if len(loads) > 1:
-            parts.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
-        parts.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
+            table.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
+        table.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
                      "of the same candidates in the second table (a collision force there is the static-equivalent load, the p95 "
                      "of the impact peaks over each start's drive-pasts, not a run's single largest force); "
                      "'dominated by' names the dominating candidates by "
@@ -142,14 +144,20 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
                      "descriptive.  The tiered "
                      "choice is confirmed against this table: a tested run that dominates it becomes the "
                      "recommendation.</p>")
+        parts.append(_details(f"The {len(recs)} candidates' harvest indexes and machine loads, and which dominate "
+                              "which (tables; the figure below draws them)", table))
     _maybe_img(parts, figs / "l9_tradeoff.png", "Trade-off: efficiency against static-equivalent collision force and drive torque")
+    # the main effects, drawn once: with the replicates' 95 % intervals (the single-run figure is not repeated)
     _maybe_img(parts, figs / "l9_effects_harvest.png", "Main effects on the harvest indexes with 95 % intervals")
-    _maybe_img(parts, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
+    more: list[str] = []
+    _maybe_img(more, figs / "l9_effects_loads.png", "Main effects on the machine loads with 95 % intervals")
     for name in sorted(rep.responses):  # Minitab's effect figures (report.plots.effects), where drawn
         for kind, what in (("pareto", "Pareto chart of the standardized effects (t of each factor's linear and "
                                       "quadratic contrasts against the blocked error)"),
                            ("residuals", "Residuals of the main-effects model with blocks: normal probability plot "
                                          "and residuals against fitted values"),
                            ("interactions", "Interaction plots: mean of the starts at each pair of levels")):
-            _maybe_img(parts, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
+            _maybe_img(more, figs / f"l9_{kind}_{name}.png", f"{name}: {what}")
+    parts.append(_details("Figures: main effects on the machine loads; per harvest index, Pareto chart of the "
+                          "effects, residuals, interactions", more))
     return parts

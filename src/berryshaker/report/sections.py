@@ -6,6 +6,13 @@ typed number, and a section names another by its renderer (:meth:`SectionInput.r
 A renderer takes a :class:`SectionInput` and returns the section's title (without its number) and its HTML parts;
 the note of its step (e.g. why it did not run) is shown under the heading of the step's first section.  A section
 that also reads another step's results names its owning step in its docstring.
+
+Each section shows its answer (the table an engineer reads, at most a figure or two); the rest (further figures, the
+tables behind them, the analyses as text) is folded under a one-line ``<details>`` summary (printed open), so the
+report's body stays about 15 screens long before its appendix.
+
+long module: one renderer per section of the report, and the sections name each other by their renderers
+(:meth:`SectionInput.ref`): split, the modules would import each other.
 """
 
 from __future__ import annotations
@@ -14,7 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
-from berryshaker.report.html_blocks import _maybe_img, _num, _Raw, _table
+from berryshaker.report.html_blocks import _details, _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
 from berryshaker.report.life_tables import life_parts
 from berryshaker.reference_study import EQ18_F
@@ -154,10 +161,12 @@ def kinematics_section(inp: SectionInput) -> tuple[str, list[str]]:
         ["right comb swing", f"{right.min:.2f} .. {right.max:.2f} deg"],
         ["transmission angle", f"{ta.min:.2f} .. {ta.max:.2f} deg"],
         ["comb frequency", f"{k.drive.comb_frequency_hz:.3f} Hz"]]))
+    more: list[str] = []
     for name, cap in (("svaj.png", "Push-rod displacement, velocity, acceleration, jerk (3-4-5 law, corrected return)"),
                       ("groove_profile.png", "Groove cam: pitch curve and walls offset along its normal (corrected eq. 2)"),
                       ("comb_angles.png", "Comb swings, tip speeds and transmission angle (eq. 3)")):
-        _maybe_img(parts, figs / name, cap)
+        _maybe_img(more, figs / name, cap)
+    parts.append(_details("Figures: the push rod's motion, the groove, the comb swings", more))
     return "Kinematics of the drive (eq. 1-3)", parts
 
 
@@ -190,8 +199,10 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
                               ag[p].correlation, ag[p].peak_ratio] for p in PAIR_NAMES]))
         parts.append("<p class='small'>Study: F = " + ", ".join(f"{EQ18_F[p][0]}" for p in EQ18_F) + " against "
                      + ", ".join(f"{EQ18_F[p][1]}" for p in EQ18_F) + ".</p>")
+        curves: list[str] = []
         for i, p in enumerate(PAIR_NAMES):
-            _maybe_img(parts, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
+            _maybe_img(curves, figs / f"fig{14 + i}_agreement_{p}.png", f"Pair {p}: collision force, both models, level 2")
+        parts.append(_details(f"Figures 14-{13 + len(PAIR_NAMES)}: both models' collision force per pair", curves))
     check = res.rows.model_check if res.rows is not None else None
     if check:
         st = check.starts
@@ -221,9 +232,10 @@ def model_agreement_section(inp: SectionInput) -> tuple[str, list[str]]:
             worst = f"{c.worst} {100 * c.relative_difference[c.worst]:.0f} %"
             return f"differs: {worst}" if verdict == "differ" else f"within noise: {worst}"
 
-        parts.append(_table(["row"] + list(PAIR_NAMES),
-                            [[r] + [cell(per[p]) for p in PAIR_NAMES] for r, per in
-                             sorted(row_ag.items(), key=lambda kv: int(kv[0]))], left=tuple(range(len(PAIR_NAMES) + 1))))
+        parts.append(_details("Agreement on every clearance row (table)", [_table(
+            ["row"] + list(PAIR_NAMES), [[r] + [cell(per[p]) for p in PAIR_NAMES] for r, per in
+                                         sorted(row_ag.items(), key=lambda kv: int(kv[0]))],
+            left=tuple(range(len(PAIR_NAMES) + 1)))]))
     return "MLSD model vs multibody contact simulation (eq. 18; Figs. 14-17)", parts
 
 
@@ -257,8 +269,10 @@ def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
                      *[s.collision_force_N[p].mean for p in PAIR_NAMES]])
     parts = [_table(["row", *[f"{p} mm" for p in PAIR_NAMES], *[f"peak {p} (N)" for p in PAIR_NAMES],
                      *[f"mean {p} (N)" for p in PAIR_NAMES]], rows)]
+    bars: list[str] = []
     for i, p in enumerate(PAIR_NAMES):
-        _maybe_img(parts, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
+        _maybe_img(bars, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
+    parts.append(_details(f"Figures 18-{17 + len(PAIR_NAMES)}: collision force against each pair's clearance", bars))
     return title, parts
 
 
@@ -291,8 +305,10 @@ def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
                         [[r, mb[str(r)].load_moment_Nm["left"].peak, mb[str(r)].load_moment_Nm["left"].rms,
                           mb[str(r)].load_moment_Nm["right"].peak, mb[str(r)].load_moment_Nm["right"].rms]
                          for r in (1, *lv) if str(r) in mb]))
+    moments: list[str] = []
     for i, side in enumerate(("left", "right")):
-        _maybe_img(parts, inp.figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
+        _maybe_img(moments, inp.figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
+    parts.append(_details("Figures 22-23: the comb load moments", moments))
     return title, parts
 
 
@@ -317,13 +333,16 @@ def fruit_force_section(inp: SectionInput) -> tuple[str, list[str]]:
                             [[n, d.z_m, d.peak_force_N, "-".join(str(x) for x in d.study_range_N or []),
                               d.eq17.ripe, d.eq17.unripe] for n, d in pos.items()]))
     _maybe_img(parts, inp.figs / "fig24_26_fruit_force.png", "Fruit force against machine-to-plant distance")
-    _maybe_img(parts, inp.figs / "fruit_force_by_level.png", "Peak fruit force at the three level sets")
+    by_level: list[str] = []
+    _maybe_img(by_level, inp.figs / "fruit_force_by_level.png", "Peak fruit force at the three level sets")
+    parts.append(_details("Figure: the peak fruit force at the three level sets", by_level))
     return "Fruit harvesting force (eq. 16-17; Figs. 24-26)", parts
 
 
 def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
-    """The virtual L9 field test (study step ``virtual_l9``): runs, range analysis, the replicated analysis
-    (:func:`berryshaker.report.l9_replicates.l9_replicates_section`), main effects and response surfaces.
+    """The virtual L9 field test (study step ``virtual_l9``): runs, the replicated analysis and the recommendation
+    (:func:`berryshaker.report.l9_replicates.l9_replicates_section`), the main effects (drawn once, with their
+    intervals); folded: the single-run range analyses, the replicated analysis as text and the response surfaces.
 
     Parameters
     ----------
@@ -345,30 +364,37 @@ def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
     parts.append(_table(["run", *[f"{p} mm" for p in PAIR_NAMES], "efficiency (kg/min)", "unripe (%)", "damage (%)"],
                         [[r.run, *[r.clearance_mm[p] for p in PAIR_NAMES], r.efficiency, r.unripe, r.damage]
                          for r in runs]))
+    ranges: list[str] = []
     for name in [n for n in ("efficiency", "unripe", "damage") if n in responses]:
         ra = responses[name]
         an = ra.anova.factors
-        parts.append(f"<h3>{name}: range analysis ({'maximise' if ra.maximize else 'minimise'})</h3>")
-        parts.append(_table(["factor", "k1", "k2", "k3", "R", "best", "ANOVA F", "p"],
-                            [[f, *ra.factors[f].level_means, ra.factors[f].range, ra.factors[f].best_level,
-                              an[f].f if f in an else "pooled", an[f].p if f in an else ""] for f in PAIR_NAMES]))
+        ranges.append(f"<h3>{name}: range analysis ({'maximise' if ra.maximize else 'minimise'})</h3>")
+        ranges.append(_table(["factor", "k1", "k2", "k3", "R", "best", "ANOVA F", "p"],
+                             [[f, *ra.factors[f].level_means, ra.factors[f].range, ra.factors[f].best_level,
+                               an[f].f if f in an else "pooled", an[f].p if f in an else ""] for f in PAIR_NAMES]))
         reg = ra.regression
-        parts.append(f"<p class='small'>Ranking {' > '.join(ra.ranking)}.  Eq. 19 (full quadratic, "
-                     f"{len(reg.full_model_terms)} terms) has rank {reg.full_model_rank} at the nine runs; aliased: "
-                     f"{', '.join(reg.aliased_terms)}.  Fitted instead: the main-effects quadratic model "
-                     f"(R² = {reg.main_effects_quadratic.r2:.3f}, {reg.main_effects_quadratic.residual_df} "
-                     "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
+        ranges.append(f"<p class='small'>Ranking {' > '.join(ra.ranking)}.  Eq. 19 (full quadratic, "
+                      f"{len(reg.full_model_terms)} terms) has rank {reg.full_model_rank} at the nine runs; aliased: "
+                      f"{', '.join(reg.aliased_terms)}.  Fitted instead: the main-effects quadratic model "
+                      f"(R² = {reg.main_effects_quadratic.r2:.3f}, {reg.main_effects_quadratic.residual_df} "
+                      "residual df: it interpolates) and a ridge-regularised full model, labelled as such.</p>")
+    parts.append(_details("The study's range analysis of the nine runs (Table 8: one value per run, no noise)",
+                          ranges))
     rep = l9.replicated if l9 is not None else None
     if rep:
         parts.append(f"<h3>Against its own noise ({len(rep.seeds)} population seeds per run)</h3>")
         parts.append("<p class='small'>Each run's indexes were recomputed for independently sampled bushes; effects are "
                      "tested against that replicate error, and a factor whose effect is not significant is 'no "
                      "meaningful difference' in the recommendation.</p>")
-        parts.append(f"<pre class='text'>{html_text(rep.text)}</pre>")
+        parts.append(_details("The replicated analysis as text (ANOVA tables, paired differences)",
+                              [f"<pre class='text'>{html_text(rep.text)}</pre>"]))
         parts.extend(l9_replicates_section(l9, figs, PAIR_NAMES))
-    _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
+    else:  # the single-run main effects, where there is no replicated analysis to draw them with intervals
+        _maybe_img(parts, figs / "l9_main_effects.png", "Main effects of the virtual L9")
+    surfaces: list[str] = []
     for i, name in enumerate(("efficiency", "unripe", "damage")):
-        _maybe_img(parts, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
+        _maybe_img(surfaces, figs / f"fig{27 + i}_surface_{name}.png", f"Response surfaces: {name}")
+    parts.append(_details("Figures 27-29: response surfaces", surfaces))
     return "Virtual L9 field test (Tables 7-8; Figs. 27-29)", parts
 
 
@@ -489,15 +515,14 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
     _maybe_img(parts, figs / "harvest_vs_frequency.png", "Virtual harvest against shaking frequency")
     cal = hr.calibration
     if cal is not None:
-        parts.append("<p>Calibration: every plant and picking parameter with its provenance; [calibrated] values "
-                     "were fitted to the target named, the quantities below them were not fitted and are "
-                     "held-out comparisons with the study (docs/plant.md).</p>")
-        parts.append(_table(["parameter", "value", "unit", "tag", "target or source"],
-                            [[p.parameter, p.value, p.unit, p.tag, p.target_or_source]
-                             for p in cal.parameters], left=(0, 3, 4)))
-        parts.append(_table(["quantity", "model", "study", "inside the study's range"],
-                            [[h.quantity, h.model, h.study, "-" if h.inside is None else h.inside]
-                             for h in cal.held_out]))
+        parts.append(_details("Calibration: every plant and picking parameter, its provenance, the held-out checks", [
+            "<p>Calibration: every plant and picking parameter with its provenance; [calibrated] values "
+            "were fitted to the target named, the quantities below them were not fitted and are "
+            "held-out comparisons with the study (docs/plant.md).</p>",
+            _table(["parameter", "value", "unit", "tag", "target or source"],
+                   [[p.parameter, p.value, p.unit, p.tag, p.target_or_source] for p in cal.parameters], left=(0, 3, 4)),
+            _table(["quantity", "model", "study", "inside the study's range"],
+                   [[h.quantity, h.model, h.study, "-" if h.inside is None else h.inside] for h in cal.held_out])]))
     return title, parts
 
 

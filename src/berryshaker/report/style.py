@@ -399,7 +399,9 @@ def pair_of(name: str) -> str | None:
     str or None
         The pair's letter.
     """
-    m = re.search(r"(?:^|[^A-Za-z])([ABCF])(?:$|[^A-Za-z])", name)
+    # a force's name first: "F_A" is pair A (not the F before the underscore)
+    m = (re.search(r"(?:^|[^A-Za-z])F_([ABCF])(?:$|[^A-Za-z])", name)
+         or re.search(r"(?:^|[^A-Za-z])([ABCF])(?:$|[^A-Za-z])", name))
     return m.group(1) if m else None
 
 

@@ -35,6 +35,7 @@ from berryshaker.outputs import pid_alive
 from berryshaker.runs import jobs as _jobs
 from berryshaker.runs.cache import cache_entry_path, read_cache_entry, run_key
 from berryshaker.runs.jobs import BATCH_SIZE, batchable, chunk_size, failed_outcome, run_jobs
+from berryshaker.runs.main_guard import WorkerStartError, worker_start_message
 
 #: Process start method of the local pool (override with ``BERRYSHAKER_START_METHOD``): ``forkserver``
 #: where available (Linux, macOS), else ``spawn``.  Workers never inherit the parent's threads or locks
@@ -127,14 +128,18 @@ def one_blas_thread() -> dict[str, int]:
     return before
 
 
-def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool, prime=None) -> None:
-    """Pool-worker initializer: report progress through ``progress``, one BLAS thread (:func:`one_blas_thread`),
+def _worker_init(progress, parent_pid: int, start_method: str, pdeathsig: bool, prime=None, started=None) -> None:
+    """Pool-worker initializer: count this worker in ``started`` (a shared counter: a pool none of whose workers
+    got here died while starting, :meth:`LocalPool.run`), report progress through ``progress``, one BLAS thread (:func:`one_blas_thread`),
     leave Ctrl-C to the parent (it cancels and terminates the pool), and exit when the parent is gone (Linux: a
     kernel death signal; everywhere: a thread polling the parent pid).  With ``forkserver`` the parent is the
     fork server, which exits when the main process dies.  Then ``prime()``, if given
     (:meth:`LocalPool.start_workers`; an error in it is ignored: the runs meet it themselves)."""
     import signal
 
+    if started is not None:
+        with started.get_lock():
+            started.value += 1
     _jobs._PROGRESS = progress
     _BLAS_BEFORE.update(one_blas_thread())
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -210,6 +215,7 @@ class LocalPool:
         self.start_method = start_method
         self._say = say
         self._executor = self._progress_queue = self._finalizer = None
+        self._started = None  # the shared count of the current pool's workers that started (_worker_init)
         # runs started ahead of the map that needs them (:meth:`prefetch`): chunks waiting for an idle worker,
         # the future of every submitted run's chunk, the futures in flight (the feeder keeps at most one chunk
         # per worker in flight, so a map's own runs go first), and runs the workers reported finished
@@ -242,9 +248,10 @@ class LocalPool:
         self._close_pool_only()
         self.drop_broken_ahead()
         mp = multiprocessing.get_context(self.start_method)
-        progress = mp.Queue()
+        progress, self._started = mp.Queue(), mp.Value("i", 0)
         pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=mp, initializer=_worker_init,
-                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG, self._prime))
+                                   initargs=(progress, os.getpid(), self.start_method, _USE_PDEATHSIG, self._prime,
+                                             self._started))
         self._executor, self._progress_queue = pool, progress
         self._finalizer = weakref.finalize(self, _close_pool, pool, progress)
         return pool, progress
@@ -454,7 +461,9 @@ class LocalPool:
         (runs started ahead for later maps keep the shared pool busy meanwhile, and one of them dying must not be
         blamed on the lone run), so that only a run that kills its worker on its own is recorded as failed
         (:data:`WORKER_DEATH`, with the pool's error).  After three such deaths in a row with nothing finishing,
-        the workers die whatever they run (an environment that cannot start them): the rest fail at once.
+        the workers die whatever they run (an environment that cannot start them): the rest fail at once.  A pool
+        that broke before any of its workers started (they died importing the main script,
+        :mod:`berryshaker.runs.main_guard`) raises :class:`~berryshaker.runs.main_guard.WorkerStartError` at once.
 
         Parameters
         ----------
@@ -462,8 +471,15 @@ class LocalPool:
             The map's state (see :mod:`berryshaker.runs.jobs`).
         finish : callable
             Called as ``finish(outcome, advance)`` for each run (``advance``: move the progress bar).
+
+        Raises
+        ------
+        WorkerStartError
+            No worker of the pool started.
         """
         lost = self._run_local(ctx, finish)
+        if lost and self._started is not None and self._started.value == 0:
+            raise WorkerStartError(worker_start_message(self.start_method, len(lost)))
         for attempt in (1, 2):
             if not lost:
                 return

@@ -52,6 +52,7 @@ from berryshaker.runs.jobs import (  # noqa: F401
     execute_job,
     run_jobs,
 )
+from berryshaker.runs.main_guard import SCRIPT_IDIOM, leave_if_bootstrapping, unguarded_main_line
 from berryshaker.runs.local_pool import (  # noqa: F401
     _BLAS_BEFORE,
     BLAS_THREAD_VARIABLES,
@@ -126,6 +127,7 @@ class SweepRunner:
                  use_cache: bool = True, progress: bool = True, console=None, start_method: str | None = None):
         from berryshaker.errors import ConfigError
 
+        leave_if_bootstrapping()  # a worker importing a script that starts runs at its top level (runs.main_guard)
         if workers is None:
             self.workers = usable_cores()
         else:
@@ -364,9 +366,22 @@ class SweepRunner:
         lone run not started ahead (a pool would cost more than it saves); else the local pool."""
         if self.scheduler:
             return DaskBackend(self.connect)
-        if self.workers <= 1 or (len(todo) == 1 and not ahead.intersection(todo)):
+        if self.workers <= 1 or (len(todo) == 1 and not ahead.intersection(todo)) or not self._pool_safe():
             return InProcess()
         return self._local
+
+    def _pool_safe(self) -> bool:
+        """Whether local worker processes can start without running the main script's calls again
+        (:func:`berryshaker.runs.main_guard.unguarded_main_line`); if not, warn once: the runs go in this process."""
+        where = unguarded_main_line(self.start_method)
+        if where is None:
+            return True
+        if "script" not in self._warned:
+            self._warned.add("script")
+            self._warn(f"{where[0]}:{where[1]} starts runs outside `if __name__ == \"__main__\":`, and every worker "
+                       f"process ('{self.start_method}' start method) would run the script again: the runs go in "
+                       f"this process, one at a time ({SCRIPT_IDIOM} to run them on {self.workers} cores)")
+        return False
 
     # ---- the local pool --------------------------------------------------------------------------------
     @property
@@ -414,7 +429,7 @@ class SweepRunner:
         int
             The number of runs queued.
         """
-        if self.scheduler or self.workers <= 1:
+        if self.scheduler or self.workers <= 1 or not self._pool_safe():
             return 0
         return self._local.prefetch(fn, kwargs_list, str(self.cache_dir) if self.use_cache else None,
                                     code_fingerprint(), chunks)
@@ -465,7 +480,7 @@ class SweepRunner:
             The call's future (its exception, if any, is the caller's to look at), or None with one worker or a Dask
             scheduler (nothing to run beside this process).
         """
-        if self.scheduler or self.workers <= 1:
+        if self.scheduler or self.workers <= 1 or not self._pool_safe():
             return None
         return self._local.warm_up(fn, kwargs)
 
@@ -487,7 +502,7 @@ class SweepRunner:
             The workers started: 0 with one worker (its runs run in this process), a Dask scheduler or a pool running
             already.
         """
-        if self.scheduler or self.workers <= 1 or self._executor is not None:
+        if self.scheduler or self.workers <= 1 or self._executor is not None or not self._pool_safe():
             return 0
         return self._local.start_workers(prime)
 

@@ -35,5 +35,5 @@ def _mid(machine):
 DRIVE = Drive(
     name="crank_rocker", title="crank + connecting rod + double rocker", machine_class=CrankRockerMachine,
     reference_package="berryshaker.drives.crank_rocker", check=_check, kinematics_summary=_summary,
-    mechanism=_mechanism, mid_stroke_angles=_mid, reduced_model=None,
+    mechanism=_mechanism, mid_stroke_angles=_mid, reduced_model=None, driver="crank",
 )

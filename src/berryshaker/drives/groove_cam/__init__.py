@@ -42,5 +42,5 @@ def _mlsd(machine, clearance=None, revolutions: int = 3, **kw):
 DRIVE = Drive(
     name="groove_cam", title="groove cam + push rod + double rocker", machine_class=GrooveCamMachine,
     reference_package="berryshaker.drives.groove_cam", check=_check, kinematics_summary=_summary,
-    mechanism=_mechanism, mid_stroke_angles=_mid, reduced_model=_mlsd, reduced_model_name="mlsd",
+    mechanism=_mechanism, mid_stroke_angles=_mid, reduced_model=_mlsd, reduced_model_name="mlsd", driver="cam",
 )

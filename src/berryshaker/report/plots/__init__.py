@@ -43,11 +43,12 @@ from berryshaker.report.plots.series import (
     plot_fruit_force,
     plot_harvest_response,
     plot_joint_forces,
+    plot_signals,
     plot_time_series,
 )
 
 __all__ = ["HARVEST_RESPONSE_SERIES", "plot_bars", "plot_clearance_growth", "plot_comb_angles", "plot_fit_front",
            "plot_fruit_force", "plot_groove", "plot_harvest_response", "plot_interactions", "plot_joint_forces",
            "plot_main_effects", "plot_mode_shapes", "plot_pareto_effects", "plot_replicated_effects",
-           "plot_residuals", "plot_response_surfaces", "plot_sobol", "plot_svaj", "plot_time_series",
+           "plot_residuals", "plot_response_surfaces", "plot_signals", "plot_sobol", "plot_svaj", "plot_time_series",
            "plot_tradeoff", "write_doe_figures", "write_effect_figures", "write_kinematics_figures"]

@@ -1,5 +1,5 @@
-"""Figures of time series (collision forces, joint forces), the fruit force against distance (eq. 16), grouped
-bars and the harvest against a machine setting."""
+"""Figures of time series (collision forces, joint forces, any signals of a saved run), the fruit force against
+distance (eq. 16), grouped bars and the harvest against a machine setting."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from berryshaker.report.style import (
     PAIR_COLOURS,
     SERIES_COLOURS,
     decimate_minmax,
+    decimate_minmax_shared,
     label_axes,
     legend_outside,
     lighter,
@@ -132,7 +133,7 @@ def plot_time_series(t, series: dict[str, np.ndarray], ylabel: str, path: Path, 
 
 def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str = "", *,
                       quantity: str = "collision force", unit: str = "N", sharey: bool = False,
-                      n_bins: int = 2000, return_figure: bool = False) -> dict:
+                      peaks: dict[str, float] | None = None, n_bins: int = 2000, return_figure: bool = False) -> dict:
     """One panel per joint (shared time axis), e.g. the four clearance collision forces of
     ``simulate --plot``; each panel in its pair's colour with its peak in the panel title.
 
@@ -149,6 +150,10 @@ def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str =
         Y labels read "<quantity> at <joint> [<unit>]".
     sharey : bool
         One y scale for all panels (compare magnitudes) or one per panel (default: see each waveform).
+    peaks : dict joint -> float, optional
+        The peaks a table beside the figure prints (``simulate``: over every integrator step, which the series
+        written every 0.1 ms can miss between its samples): each panel states this peak and draws it as a dotted
+        line, so figure and table give one number.  Default: the drawn series' peak.
     path : Path
         PNG file (300 dpi; an SVG of the figure is written beside it).
     n_bins : int
@@ -176,9 +181,16 @@ def plot_joint_forces(t, forces: dict[str, np.ndarray], path: Path, title: str =
         label_axes(ax, ylabel=f"{quantity} at {joint} [{unit}]")
         ax.yaxis.label.set_fontsize(8)
         ex = _extremes(yd)
-        ax.set_title(f"{joint}: peak |value| {ex['peak_abs']:.4g} {unit}", loc="right", fontsize=8)
+        stated = None if peaks is None else peaks.get(name, peaks.get(joint))
+        if stated is None:
+            ax.set_title(f"{joint}: peak |value| {ex['peak_abs']:.4g} {unit}", loc="right", fontsize=8)
+        else:
+            ax.axhline(stated, color=st["color"], linestyle=":", linewidth=0.9)
+            ax.set_title(f"{joint}: peak {stated:.6g} {unit} over every integrator step (dotted; the samples drawn "
+                         f"reach {ex['peak_abs']:.6g} {unit})", loc="right", fontsize=8)
         ax.grid(alpha=0.3)
-        data["series"][name] = {"x": xd, "y": yd, **ex, "input_peak_abs": float(np.max(np.abs(y)))}
+        data["series"][name] = {"x": xd, "y": yd, **ex, "input_peak_abs": float(np.max(np.abs(y))),
+                                "stated_peak": ex["peak_abs"] if stated is None else float(stated)}
     label_axes(axes[-1, 0], xlabel="time [s]")
     fig.suptitle((title or f"{quantity.capitalize()} per joint")
                  + ("" if sharey else "\n(each panel has its own y scale)"), fontsize=11)
@@ -450,3 +462,81 @@ def plot_harvest_response(x, rows: list[dict], xlabel: str, path: Path, title: s
     return _out(fig, path, data, return_figure)
 
 
+
+
+def plot_signals(x: tuple[str, np.ndarray, str], ys: dict[str, tuple[np.ndarray, str]], path: Path,
+                 title: str = "", *, n_bins: int = 2000, return_figure: bool = False) -> dict:
+    """Any signals of a saved run against time or against another signal (``berryshaker plot``): one panel per
+    unit, sharing the abscissa, each series in its pair's colour where it names one.
+
+    Against an abscissa that increases (time, the drive angle) the series are thinned by peak-preserving
+    decimation (:func:`berryshaker.report.style.decimate_minmax_shared`: the drawn peak is the data's); against
+    any other signal (a phase plot) every sample is drawn.
+
+    Parameters
+    ----------
+    x : (str, ndarray, str)
+        The abscissa's name, values (SI) and their unit (e.g. ``("time", t, "s")``).
+    ys : dict name -> (ndarray, str)
+        The series' values (SI) and their units (e.g. ``"N"``, ``"N m"``), each the length of ``x``.
+    path : Path
+        The figure file (its suffix sets the format: .png at 300 dpi, .svg, .pdf); written atomically, nothing
+        beside it.
+    title : str
+        Figure title.
+    n_bins : int
+        Bins of the decimation.
+    return_figure : bool
+        Leave the figure open and return it under ``"figure"``.
+
+    Returns
+    -------
+    dict
+        ``panels``: per unit, the drawn ``x`` and ``y`` of each series with its extremes and the peak |value| of
+        its input (``input_peak_abs``); ``decimated`` (bool); ``xlabel``; ``path``.
+    """
+    import io
+
+    from berryshaker.outputs import write_bytes_atomic
+    from berryshaker.report.style import PRINT_DPI, fit_canvas, pyplot
+
+    x_name, xv, x_unit = x
+    xv = np.asarray(xv, float)
+    units: dict[str, list[str]] = {}
+    for name, (_v, unit) in ys.items():
+        units.setdefault(unit, []).append(name)
+    increasing = bool(np.all(np.diff(xv) > 0))
+    fig, axes = new_figure(len(units), 1, figsize=(10, 2.6 * len(units) + 1.2), sharex=True, squeeze=False)
+    data: dict = {"panels": {}, "decimated": increasing, "xlabel": f"{x_name} [{x_unit}]"}
+    # a pair's series in the pair's colour, any other in a colour no pair has
+    others = [c for c in SERIES_COLOURS if c not in PAIR_COLOURS.values()]
+    colours = {}
+    for name in ys:
+        pair = pair_of(name)
+        colours[name] = PAIR_COLOURS[pair] if pair in PAIR_COLOURS else others[len(colours) % len(others)]
+    for ax, (unit, names) in zip(axes[:, 0], units.items()):
+        values = {n: np.asarray(ys[n][0], float) for n in names}
+        xd, yd = decimate_minmax_shared(xv, values, n_bins) if increasing else (xv, values)
+        panel = data["panels"][unit] = {}
+        for name in names:
+            ax.plot(xd, yd[name], label=name, color=colours[name], linewidth=1.0)
+            panel[name] = {"x": xd, "y": yd[name], **_extremes(yd[name]),
+                           "input_peak_abs": float(np.max(np.abs(values[name])))}
+        label_axes(ax, ylabel=f"{', '.join(names) if len(names) <= 3 else 'signals'} [{unit}]")
+        ax.grid(alpha=0.3)
+        if len(names) > 1:
+            legend_outside(ax)
+    label_axes(axes[-1, 0], xlabel=data["xlabel"])
+    if title:
+        fig.suptitle(title, fontsize=11)
+    path = Path(path)
+    fit_canvas(fig)
+    buf = io.BytesIO()
+    fig.savefig(buf, format=path.suffix.lstrip(".").lower(), dpi=PRINT_DPI)
+    write_bytes_atomic(path, buf.getvalue())
+    data["path"] = str(path)
+    if return_figure:
+        data["figure"] = fig
+    else:
+        pyplot().close(fig)
+    return data
