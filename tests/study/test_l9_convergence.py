@@ -175,11 +175,15 @@ def convergence(machine, spread_runner):
 
 def test_the_default_number_of_starts_is_where_the_spread_converges(machine, convergence):
     """32 starts at the reference machine's clearances: the smallest count at which the SD of every harvest
-    response is known to 30 % and neither it nor the mean leaves its 2-SE band is the description's
-    ``harvest.replicates`` and the field's default; 4 starts are not enough."""
+    response's expectation is known to 30 % and neither it nor the mean leaves its 2-SE band is where the numbers
+    an engineer acts on are taken: the recommended set's starts run on to ``harvest.max_replicates``, which must
+    reach it.  The L9's per-run count ``harvest.replicates`` (8, the field's default) is below it: its blocked
+    error pools the runs (docs/harvest.md "How many starts").  4 starts are not enough."""
     from berryshaker.harvest.spec import HarvestSpec
 
-    assert convergence["chosen"] == machine.harvest.replicates == HarvestSpec.model_fields["replicates"].default
+    assert convergence["chosen"] is not None
+    assert machine.harvest.max_replicates >= convergence["chosen"]
+    assert machine.harvest.replicates == HarvestSpec.model_fields["replicates"].default
     t = convergence["table"]
     assert not all(t[k]["rows"][4]["stable"] for k in t if not (t[k]["constant"] or t[k]["negligible"]))
     for name in ("efficiency", "efficiency_expected"):  # a field test's spread, and the model's own
