@@ -5,9 +5,8 @@ recommended), each with its new-machine clearance, load and life.  The renderer 
 
 from __future__ import annotations
 
+from berryshaker.report.html_blocks import _details, _Raw, _table
 from berryshaker.user_text import html_text
-
-from berryshaker.report.html_blocks import _Raw, _table
 
 
 def _fit_of(life, joint: str) -> str:
@@ -37,21 +36,22 @@ def life_parts(life) -> list[str]:
     Returns
     -------
     list of str
-        HTML fragments (the growth table alone for a record from before the life by mechanism).
+        HTML fragments: the life table, then the fits and the growth folded (the growth table alone for a record
+        from before the life by mechanism).
     """
     rec = life.recommended
-    parts = [_table(["joint", "clearance (worn level, mm)", f"after {life.horizon_h:g} h (mm)", "service limit (mm)",
+    growth = [_table(["joint", "clearance (worn level, mm)", f"after {life.horizon_h:g} h (mm)", "service limit (mm)",
                      "hours to the limit", "recommended fit"],
                     [[j, g.clearance_mm[0], g.clearance_mm[-1] if g.hours[-1] >= life.horizon_h else
                       f"at its limit after {g.hours[-1]:.0f} h", life.clearance_limit_mm[j],
                       "beyond the design life" if life.hours_to_limit[j] is None else life.hours_to_limit[j],
                       rec.fits.get(j, "")] for j, g in life.growth.items()])]
     if not life.life:
-        return parts
-    parts += ["<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the new "
-             "machine's clearance is its fit's (below).  Service limit: "
-              + html_text(next(iter(life.life.values())).limit_rule) + ".</p>",
-              "<h3>Service life of the new machine, by mechanism</h3>",
+        return growth
+    growth.append("<p class='small'>Clearance (worn level): the described size, a worn state the study tests; the new "
+                  "machine's clearance is its fit's (below).  Service limit: "
+                  + html_text(next(iter(life.life.values())).limit_rule) + ".</p>")
+    parts = ["<h3>Service life of the new machine, by mechanism</h3>",
               _table(["joint", "fit (new machine)", "new clearance (mm)", "service life", "governing mechanism",
                      "dominant uncertainty", "other mechanisms"],
                     [[j, _fit_of(life, j), f"{L.start_mm:.3g}", L.reads, L.governing, L.uncertainty,
@@ -63,8 +63,9 @@ def life_parts(life) -> list[str]:
              fl.design_force_N, fl.life.reads, fl.life.governing]
             for src, d in fits for j, fl in sorted(d.items())]
     if rows:
-        parts += ["<h3>Fits (new machine): the drawing's and the recommended, each with its life</h3>",
-                  _table(["joint", "fit (new machine)", "clearance min .. max (mean), mm",
-                          "static-equivalent force at the mean (N)", "service life", "governing mechanism"],
-                         rows, left=(0, 1, 2, 4, 5))]
+        parts.append(_details("Fits (new machine): the drawing's and the recommended, each with its clearance, load "
+                              "and life", [_table(["joint", "fit (new machine)", "clearance min .. max (mean), mm",
+                                                   "static-equivalent force at the mean (N)", "service life",
+                                                   "governing mechanism"], rows, left=(0, 1, 2, 4, 5))]))
+    parts.append(_details("Clearance growth by wear from the described (worn) clearances", growth))
     return parts

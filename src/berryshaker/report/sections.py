@@ -416,8 +416,9 @@ def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
     life = inp.res.clearance_life
     if life is not None:
         parts += life_parts(life)
-        parts.append("<p class='small'>" + "; ".join(html_text(n) for n in life.notes) + "</p>")
-        _maybe_img(parts, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
+        more = ["<p class='small'>" + "; ".join(html_text(n) for n in life.notes) + "</p>"]
+        _maybe_img(more, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
+        parts.append(_details("How the life was found (notes) and the clearance growth against hours (figure)", more))
     return "Clearance life: wear and fits (docs/life.md)", parts
 
 
