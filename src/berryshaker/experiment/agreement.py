@@ -226,8 +226,8 @@ def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict |
     means, d = |m_a - m_b| / max(m_a, m_b), is judged against :data:`STATISTICS_TOLERANCE` with its noise,
     t sqrt(SE_a^2 + SE_b^2) / max(m_a, m_b) with t of :func:`noise_quantile` (:func:`judged_difference`; the
     relative difference's own standard error is at most that fraction to first order).  One run
-    of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw (benchmarks/HISTORY.md
-    sec. 25), a verdict on these means only when the difference is within its noise, and then it says so.
+    of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw, a
+    verdict on these means only when the difference is within its noise, and then it says so.
 
     Parameters
     ----------
