@@ -271,6 +271,8 @@ def specialised_module(model: MechanismModel, n: int, m: int):
         path = write_source(source_folder() / f"bs_specialised_{key}.py", specialised_source(model, n, m))
         name = f"berryshaker_specialised_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:
+            raise ImportError(f"cannot import the generated kernel {path}")
         mod = importlib.util.module_from_spec(spec)
         sys.modules[name] = mod
         try:

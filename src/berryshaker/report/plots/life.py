@@ -47,7 +47,7 @@ def plot_clearance_growth(growth: dict, limits_mm: dict, path: Path, title: str 
         ``series``: per joint the drawn hours and clearance; ``limits``: the drawn limits [mm]; ``path``, ``svg``.
     """
     fig, ax = new_figure(figsize=(7.5, 4.5))
-    data = {"series": {}, "limits": {}}
+    data: dict[str, dict] = {"series": {}, "limits": {}}
     for i, (j, d) in enumerate(growth.items()):
         colour = PAIR_COLOURS.get(j, SERIES_COLOURS[i % len(SERIES_COLOURS)])
         h, c = np.asarray(d["hours"], float), np.asarray(d["clearance_mm"], float)
