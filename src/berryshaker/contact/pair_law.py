@@ -124,7 +124,7 @@ def pair_geometry(kind, size, diameter=None, bearing_length=None, material_pair=
     kind : str
         "pin-in-bore", "roller-in-groove" or "roller-in-slot".
     size : float
-        Clearance size (m): radial for a pin in a bore, free travel for a roller.
+        Clearance size (m, :doc:`/nomenclature`).
     diameter : float, optional
         Pin or roller diameter (m).
     bearing_length : float, optional
