@@ -86,7 +86,7 @@ def plot_sobol(indices: dict, output: str, path: Path, *, return_figure: bool = 
     keys = list(indices)
     x = np.arange(len(keys))
     fig, ax = new_figure(figsize=(max(4.5, 1.3 * len(keys) + 2.5), 4.2))
-    data = {"parameters": keys, "bars": {}, "errors": {}}
+    data: dict = {"parameters": keys, "bars": {}, "errors": {}}
     for off, (s, lab), colour in zip((-0.2, 0.2), (("S1", "first order S1"), ("ST", "total ST")), SERIES_COLOURS):
         v = [indices[k][s] if indices[k][s] is not None else 0.0 for k in keys]
         e = [indices[k][s + "_conf"] if indices[k][s + "_conf"] is not None else 0.0 for k in keys]
