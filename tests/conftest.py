@@ -80,7 +80,7 @@ def linear_spring_toml_text(text: str) -> str:
     """A machine file's text with the 0.1.0 linear clearance springs in place of the steel contact law (every
     ``law = "lankarani_nikravesh"`` line becomes K = 1e8 N/m, C = 2000 N s/m, IMPACT).  Pipeline tests use it to
     halve the cost of every harvester run (0.26 against 0.56 s CPU); the steel contact itself is tested in
-    test_clearance_contact.py and test_multibody_convergence.py."""
+    tests/contact/test_pair_law_clearance.py and tests/multibody/test_impacts_convergence.py."""
     import re
 
     out, n = re.subn(r'law = "lankarani_nikravesh".*\n', 'stiffness = "1e8 N/m"\ndamping = "2000 N*s/m"\n', text)

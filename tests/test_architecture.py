@@ -18,8 +18,6 @@ SRC = Path(berryshaker.__file__).parent
 
 def _modules():
     for info in pkgutil.walk_packages(berryshaker.__path__, "berryshaker."):
-        if info.name.startswith("berryshaker.validation"):
-            continue  # needs the optional exudyn test dependency
         yield importlib.import_module(info.name)
 
 

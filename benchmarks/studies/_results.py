@@ -11,6 +11,19 @@ import time
 from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: the repository's root: paths under it are written relative to it, so a result names no folder of one machine
+ROOT = RESULTS.parents[2]
+
+
+def _in_repo(value):
+    """``value`` with every path under :data:`ROOT` written relative to it (strings, and the items of lists and dicts)."""
+    if isinstance(value, str):
+        return value.replace(str(ROOT) + os.sep, "")
+    if isinstance(value, (list, tuple)):
+        return [_in_repo(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _in_repo(v) for k, v in value.items()}
+    return value
 
 
 def default_out(name: str) -> Path:
@@ -27,7 +40,8 @@ def write_results(path: Path | str, study: str, arguments: dict, data: dict) -> 
                                 cwd=Path(__file__).resolve().parent, check=False).stdout.strip() or None
     except OSError:
         commit = None
-    doc = {"study": study, "command": " ".join([Path(sys.executable).name, *sys.argv]), "arguments": arguments,
+    doc = {"study": study, "command": " ".join([Path(sys.executable).name, *_in_repo(sys.argv)]),
+           "arguments": _in_repo(arguments),
            "commit": commit, "date": time.strftime("%Y-%m-%d"), "python": platform.python_version(),
            "cores": os.cpu_count(), "data": data}
     path.write_text(json.dumps(doc, indent=1, default=float) + "\n", encoding="utf-8")

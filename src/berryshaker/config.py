@@ -142,7 +142,7 @@ def _same(a, b) -> bool:
 
 
 def checked_tags(machine, text: str) -> dict[str, str]:
-    """The provenance tags of a user's machine file, each checked against its value (#58).
+    """The provenance tags of a user's machine file, each checked against its value.
 
     A value that differs from the reference machine of its drive (the template ``berryshaker config init``
     writes, :func:`reference_toml_text`) is the user's: it is tagged ``user`` unless the user wrote its comment

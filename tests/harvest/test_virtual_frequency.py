@@ -14,21 +14,19 @@ runner = CliRunner()
 
 #: the test's machine: the reference with one branch class and two replicates (two coupled runs per speed instead
 #: of the description's nine: 3 classes x 3 replicates); every other value as described
-TEST_HARVEST = {"branch_classes = [0.85, 1.0, 1.15]": "branch_classes = [1.0]", "replicates = 8": "replicates = 2", "max_replicates = 32": "max_replicates = 2"}
+TEST_HARVEST = {"harvest.branch_classes": "[1.0]", "harvest.replicates": "2", "harvest.max_replicates": "2"}
 
 
 @pytest.fixture(scope="module")
 def frequency_sweep(tmp_path_factory):
     """One sweep over 60-150 r/min (three speeds; each point the replicate mean over two perturbed starts of one
     branch class, the calibration's seeds)."""
+    from fast_machine import with_values
+
     from berryshaker.config import reference_toml_text
 
     d = tmp_path_factory.mktemp("freq")
-    text = reference_toml_text()
-    for old, new in TEST_HARVEST.items():
-        assert old in text, old
-        text = text.replace(old, new, 1)
-    (d / "machine.toml").write_text(text)
+    (d / "machine.toml").write_text(with_values(reference_toml_text(), TEST_HARVEST))
     res = runner.invoke(app, ["sweep", "--model", "harvest", "--param", "cam.speed=60..150rpm", "--points", "3",
                               "--config", str(d / "machine.toml"), "--workers", "2", "--cache", str(d / "cache"),
                               "--out", str(d / "removal.csv"), "--figure", str(d / "removal.png")])

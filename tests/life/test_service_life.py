@@ -98,6 +98,7 @@ def test_a_looser_build_never_gets_a_later_limit():
 def test_config_validate_bounds_clearances_and_checks_fits(tmp_path):
     """12 mm radial clearance on a 20 mm pin is refused naming the field; a fit whose smallest clearance is above
     the described size is refused; a size above the fit's range is a worn state of it (a note)."""
+    from fast_machine import with_values
     from typer.testing import CliRunner
 
     from berryshaker.cli import app
@@ -112,7 +113,7 @@ def test_config_validate_bounds_clearances_and_checks_fits(tmp_path):
     for size, msg in (("12 mm", "clearance.C.size = 12 mm is larger than the geometry allows (10% of the 20 mm pin "
                                 "diameter = 2 mm)"),
                       ("0.005 mm", "clearance.C.fit = 'H8/f7' gives 0.01 .. 0.037 mm (radial)")):
-        p.write_text(text.replace('size = "0.1 mm"', f'size = "{size}"', 1))
+        p.write_text(with_values(text, {"clearance.C.size": f'"{size}"'}))
         r = run.invoke(app, ["config", "validate", str(p)])
         assert r.exit_code == 2 and msg in " ".join(r.output.split()), r.output
         assert "Traceback" not in r.output

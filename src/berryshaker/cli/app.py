@@ -297,7 +297,7 @@ def help_text(doc: str) -> str:
     paragraphs = []
     for para in re.split(r"\n\s*\n", text):
         lines = [ln.strip() for ln in para.splitlines() if ln.strip()]
-        out = []
+        out: list[str] = []
         for ln in lines:
             if out and not re.match(r"([-*]|\d+\.)\s", ln):
                 out[-1] += " " + ln

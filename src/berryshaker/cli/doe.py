@@ -31,7 +31,7 @@ def _parse_weights(text: Optional[str]) -> Optional[dict]:
     :func:`berryshaker.experiment.analysis.check_weights` (finite, > 0, analysed responses only)."""
     if text is None:
         return None
-    weights = {}
+    weights: dict[str, float] = {}
     for part in text.split(","):
         if not part.strip():
             continue
@@ -266,7 +266,7 @@ def doe_analyze(
             prepare_output_dir(plot, kind="doe analyze --plot")
         senses = _senses(maximize, minimize)
         fr, res = analyze_sheet(results, senses, _parse_weights(weights), sheet=sheet, desirability=desirability)
-        extra = {"results_file": str(results), "version": __version__}  # the JSON's keys after the analysis'
+        extra: dict = {"results_file": str(results), "version": __version__}  # the JSON's keys after the analysis'
         if plot is not None:
             from berryshaker.outputs import staged_directory
             from berryshaker.report.plots import write_doe_figures

@@ -32,7 +32,7 @@ def show_flags_as_flags() -> None:
         return original(self, ctx)
 
     display_type_rich._berryshaker_flags = True  # type: ignore[attr-defined]
-    TyperOption.display_type_rich = display_type_rich
+    TyperOption.display_type_rich = display_type_rich  # type: ignore[method-assign]  # the patch is the point
 
 
 def help_as_written() -> None:

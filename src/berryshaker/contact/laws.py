@@ -33,7 +33,7 @@ functions (numba), so a law registered at run time is dispatched like the built-
 compiled once per number of registered laws; the built-in set is cached on disk).  The tuple holds each law's
 :class:`LawEntryPoint` (its compiled entry point, typed by the signature alone), not the dispatcher: numba
 re-derives a dispatcher's function type from its compiled overloads at every call of the core, which cost
-0.3 ms of each call (benchmarks/HISTORY.md sec. 17).
+0.3 ms of each call.
 
 The physics and references of each built-in law are in :mod:`berryshaker.contact.force_laws`.
 """

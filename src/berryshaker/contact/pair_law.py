@@ -54,8 +54,7 @@ DEFAULT_RESTITUTION_VELOCITY = 0.05
 #: when the settled pin was later loaded without separating.  The statistics a user sees do not depend on it: from
 #: v_ref = 0 (the published law) to 1 mm/s, harvester-run force statistics (30 clearance sets) and coupled
 #: drive-past fruit forces and harvest indexes (12 replicates) show no difference beyond the replicates' noise;
-#: from 3 mm/s up the 95th percentiles of the collision forces rise (benchmarks/studies/impact_velocity_floor_study.py;
-#: its measurement: benchmarks/HISTORY.md sec. 9).
+#: from 3 mm/s up the 95th percentiles of the collision forces rise (benchmarks/studies/impact_velocity_floor_study.py).
 #: tests/contact/test_pair_law_velocity_floor.py checks this value against a 10x smaller one and fails at 10 mm/s.
 LUBRICATED_RESTITUTION_VELOCITY = 1.0e-3
 #: density of the pin or roller (kg/m^3) in the yield velocity: steel [typical]
@@ -125,7 +124,7 @@ def pair_geometry(kind, size, diameter=None, bearing_length=None, material_pair=
     kind : str
         "pin-in-bore", "roller-in-groove" or "roller-in-slot".
     size : float
-        Clearance size (m): radial for a pin in a bore, free travel for a roller.
+        Clearance size (m, :doc:`/nomenclature`).
     diameter : float, optional
         Pin or roller diameter (m).
     bearing_length : float, optional

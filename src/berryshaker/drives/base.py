@@ -56,8 +56,8 @@ from berryshaker.units import check_limits
 #: statistic of the run's summary differs from rtol 1e-7 beyond 2 standard errors (docs/multibody.md, "Integrator")
 HARVESTER_RTOL = 1e-5
 #: velocity scale (m/s) of a harvester run's error control (``simulation.velocity_scale``: a velocity's error is
-#: held below rtol x (this + |v|)), chosen by the same criterion (benchmarks/studies/velocity_scale_study.py, its
-#: measurement benchmarks/HISTORY.md sec. 25): against rtol 1e-7 over 8 perturbed starts and 6 revolutions,
+#: held below rtol x (this + |v|)), chosen by the same criterion (benchmarks/studies/velocity_scale_study.py):
+#: against rtol 1e-7 over 8 perturbed starts and 6 revolutions,
 #: 1 m/s (the combs' speed scale) shifts no statistic by more than 0.03 % beyond 2 standard errors, on both drives,
 #: for 5-9 % fewer steps than the engine's 0.1 m/s; 3 m/s shifts p95s by 3 % and the drive moment's peak by 5 %
 HARVESTER_VELOCITY_SCALE = 1.0

@@ -176,7 +176,7 @@ def simulate_multibody(machine, clearance: dict[str, float] | None = None, revol
     machine : MachineBase
         Any drive's machine description.
     clearance : dict, optional
-        Clearance sizes (m) per pair name; missing pairs keep the description's value.
+        Clearance size (m) per pair (:doc:`/nomenclature`); a pair left out keeps the description's.
     revolutions : int
         Drive-shaft revolutions (>= 2; statistics exclude the first).
     rtol : float

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
+from scipy import integrate, stats
 
 
 def f_statistic(a, b):
@@ -80,7 +80,7 @@ def impact_statistics(t, f, period: float | None = None) -> dict:
     t = np.asarray(t, float)
     f = np.abs(np.asarray(f, float))
     span = float(t[-1] - t[0]) or 1.0
-    impulse = float(np.trapezoid(f, t)) if hasattr(np, "trapezoid") else float(np.trapz(f, t))
+    impulse = float(integrate.trapezoid(f, t))
     per = impulse / span * (period if period else span)
     return {"mean": float(f.mean()), "rms": float(np.sqrt(np.mean(f**2))), "p95": float(np.percentile(f, 95)),
             "impulse_per_revolution": per}
@@ -226,8 +226,8 @@ def ensemble_agreement(a_runs: list[dict], b_runs: list[dict], tolerance: dict |
     means, d = |m_a - m_b| / max(m_a, m_b), is judged against :data:`STATISTICS_TOLERANCE` with its noise,
     t sqrt(SE_a^2 + SE_b^2) / max(m_a, m_b) with t of :func:`noise_quantile` (:func:`judged_difference`; the
     relative difference's own standard error is at most that fraction to first order).  One run
-    of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw (benchmarks/HISTORY.md
-    sec. 25), a verdict on these means only when the difference is within its noise, and then it says so.
+    of a chaotic impact sequence is one draw: a verdict on single runs flips with the draw, a
+    verdict on these means only when the difference is within its noise, and then it says so.
 
     Parameters
     ----------
@@ -400,7 +400,7 @@ def model_agreement(machine, clearance: dict[str, float] | None = None, revoluti
     machine : MachineBase
         The machine description (its drive must have a reduced model).
     clearance : dict pair -> float, optional
-        Clearance sizes (m); missing pairs keep the description's.
+        Clearance size (m) per pair (:doc:`/nomenclature`); a pair left out keeps the description's.
     revolutions : int
         Drive revolutions (>= 2; statistics exclude the first).
     points : int

@@ -485,7 +485,7 @@ def analyze(levels: np.ndarray, values: np.ndarray, factor_names: list[str], res
     return DoeAnalysis.from_json(out)
 
 
-# ---- effects, residuals and interactions as Minitab draws them (issue 45) ---------------------------------------
+# ---- effects, residuals and interactions as Minitab draws them -------------------------------------------------
 def _observations(levels: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Levels per observation (runs x replicates flattened, run by run) and the observations; lost plots (NaN) left
     out."""

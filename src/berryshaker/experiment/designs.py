@@ -30,8 +30,8 @@ ARRAYS = {
 def _l27() -> np.ndarray:
     base = np.array(list(itertools.product(range(3), repeat=3)))  # 27 x 3
     vecs = []
-    for v in itertools.product(range(3), repeat=3):
-        v = np.array(v)
+    for t in itertools.product(range(3), repeat=3):
+        v = np.array(t)
         if not v.any():
             continue
         if v[np.nonzero(v)[0][0]] != 1:  # one representative per line through the origin

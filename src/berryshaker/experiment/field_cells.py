@@ -186,7 +186,7 @@ def _csv_sheet(text: str) -> _Sheet:
     if not header:
         raise ConfigError("results CSV is empty; fill in the field sheet from `berryshaker doe plan`")
     counts = {s: header.count(s) for s in (",", ";", "\t")}
-    sep = max(counts, key=counts.get)
+    sep = max(counts, key=lambda s: counts[s])
     try:
         df = pd.read_csv(io.StringIO(text), sep=sep, dtype=str, keep_default_na=False, skipinitialspace=True,
                          skip_blank_lines=True)
@@ -244,7 +244,9 @@ def _table_sheet(df: pd.DataFrame, names: list[str], label: str, sep: str, *, li
             lines = lines[1:]
         if marks is not None:
             marks = marks.iloc[1:].reset_index(drop=True)
-    bare, header_units, original = [], {}, {}
+    bare: list[str] = []
+    header_units: dict = {}
+    original: dict = {}
     for c in df.columns:
         name, unit = _header_unit(c)
         if units_row is not None and units_row.get(c) is not None:
@@ -318,7 +320,7 @@ def _units_row(df: pd.DataFrame) -> dict[str, str] | None:
     units = {c: _unit_or_none(v) for c, v in filled.items()}
     if any(u is None for u in units.values()) or sum(1 for u in units.values() if u) < 2:
         return None
-    if any(_CELL.match(v) and not _CELL.match(v).group(2) for v in filled.values()):  # a bare number: data
+    if any((m := _CELL.match(v)) and not m.group(2) for v in filled.values()):  # a bare number: data
         return None
     return {c: units.get(c) for c in df.columns}
 

@@ -41,7 +41,7 @@ def _response_unit(sheet: _Sheet, col: str) -> str:
     return su[1] if su else ""
 
 
-def _response(sheet: _Sheet, r: str, factor_cols: set[str] = frozenset(), col: str | None = None,
+def _response(sheet: _Sheet, r: str, factor_cols: set[str] | frozenset[str] = frozenset(), col: str | None = None,
               lost: bool = False) -> np.ndarray:
     """Values of one response per row (file order), checked; indexes computed from raw masses where empty.
 

@@ -155,8 +155,8 @@ def plan_table(array: str, factors: list[Factor], randomize: bool = False, seed:
     for f, c in zip(factors, cols):
         df[f"{f.name}_level"] = a[rows, c] + 1
         df[f.column] = [f.levels[i] for i in a[rows, c]]
-    for c in RAW_COLUMNS + index_columns():
-        df[c] = np.nan
+    for name in RAW_COLUMNS + index_columns():
+        df[name] = np.nan
     return df
 
 

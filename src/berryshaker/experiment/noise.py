@@ -99,7 +99,8 @@ def spread_convergence(samples: dict[str, np.ndarray], counts=CONVERGENCE_COUNTS
     counts = sorted({int(c) for c in counts if 2 <= int(c) <= N})
     if not counts:
         raise ConfigError(f"spread_convergence: {N} replicates; give counts between 2 and {N}")
-    table, constant = {}, []
+    table: dict[str, dict] = {}
+    constant: list[str] = []
     for name, v in arrays.items():
         v = v[:N]
         if not np.all(np.isfinite(v)):

@@ -301,7 +301,8 @@ def _weighted_optimum(levels, factor_names, reps, senses, w, out, alpha, confide
     for name, y in reps.items():
         m = y.mean(axis=1)
         scale[name] = float(m.max() - m.min())
-    choices, chosen = {}, {}
+    choices: dict = {}
+    chosen: dict = {}
     for j, f in enumerate(factor_names):
         sig = [name for name in reps if name in w and scale[name] > 0
                and out["responses"][name]["factors"][f]["significant"]]
@@ -399,7 +400,8 @@ TIERED_RULE = ("two tiers, never ranking noise: per factor, the primary response
 
 def _tiered_optimum(primary: dict, fallback: dict, factor_names, reps, out, confidence) -> dict:
     """Merge a primary and a fallback :func:`_weighted_optimum` per factor (:data:`TIERED_RULE`)."""
-    choices, chosen = {}, {}
+    choices: dict = {}
+    chosen: dict = {}
     for f in factor_names:
         p, s = primary["choices"][f], fallback["choices"][f]
         if p["level"] is not None:

@@ -224,9 +224,11 @@ def read_workbook(data: bytes, sheet: str | None, source: str, max_rows: int) ->
 
 
 def _worksheet_cells(ws, name: str, source: str, max_rows: int) -> WorkbookSheet:
-    header = None
+    header: list | None = None
     header_line = 0
-    rows, lines, marked = [], [], {}
+    rows: list[list] = []
+    lines: list[int] = []
+    marked: dict = {}
     for line, cells in enumerate(ws.iter_rows(), start=1):
         if len(cells) > MAX_COLUMNS:
             raise ConfigError(f"{source}: worksheet {name!r} row {line} has {len(cells):,} columns, more than "

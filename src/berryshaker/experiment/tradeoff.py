@@ -105,7 +105,7 @@ def _flatten(c: dict) -> dict:
     if "name" not in c:
         raise ConfigError("trade-off candidate without 'name'")
     name = str(c["name"])
-    row = {"name": name}
+    row: dict = {"name": name}
 
     def put(col: str, x, where: str) -> None:
         m, lo, hi = _estimate(x, where)

@@ -406,7 +406,8 @@ def _optimum(levels, factor_names, reps, senses, w, out, fits, alpha, confidence
     """Per factor a level from the responses it significantly affects (as the balanced analysis' weighted optimum),
     the composite's level means least-squares means of the plots where every response used is present."""
     scale = {k: float(np.ptp(out["responses"][k]["run_means"])) for k in reps}
-    choices, chosen = {}, {}
+    choices: dict = {}
+    chosen: dict = {}
     for j, f in enumerate(factor_names):
         sig = [k for k in reps if k in w and scale[k] > 0 and out["responses"][k]["factors"][f]["significant"]]
         pvals = {k: out["responses"][k]["factors"][f]["p"] for k in reps}

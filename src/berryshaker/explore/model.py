@@ -44,7 +44,7 @@ class Settings:
     Attributes
     ----------
     clearance_mm : tuple of (str, float)
-        Clearance size per pair (mm): radial for a pin in a bore, free travel for a roller.
+        Clearance size per pair (mm, :doc:`/nomenclature`).
     speed_rpm : float
         Drive-shaft speed (r/min).
     stroke_mm : float or None

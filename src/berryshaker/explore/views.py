@@ -278,7 +278,7 @@ def wear_limit_lines(res: dict, colours: list[str]) -> dict:
         a clearance limit.
     """
     colour = dict(zip(res["joints"], colours))
-    out = dict(xs=[], ys=[], colour=[], name=[])
+    out: dict[str, list] = dict(xs=[], ys=[], colour=[], name=[])
     for key, limit in res.get("limits_si", {}).items():
         kind, _, joint = key.partition(":")
         if kind != "clearance" or joint not in colour:

@@ -303,7 +303,7 @@ def drive_past(machine: Machine, clearance: dict[str, float] | None = None, rtol
     (:class:`~berryshaker.harvest.coupled_branch.BranchMotion`), for callers that evaluate the branch elsewhere
     (the stem-force envelopes over the whole fruit zone,
     berryshaker.harvest.virtual.stem_force_tables.stem_force_envelope_run).  The same run, step for step, as :func:`simulate_fruit_force` with the same arguments (no probes): the fruit forces, the comb load
-    moments and their summary are left out (~40 ms of a replicate's ~0.5 s, benchmarks/HISTORY.md sec. 22).
+    moments and their summary are left out (~40 ms of a replicate's ~0.5 s).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The published record: numbers from the literature a harvest model can be checked against (issue #43).
+"""The published record: numbers from the literature a harvest model can be checked against.
 
 The data live in ``harvest/published/record.toml`` (package data): a table of sources (full citations, with
 the fields that could not be seen listed in ``citation_gaps``) and one ``[[entry]]`` per published number
@@ -33,7 +33,7 @@ SCHEMA = 1
 #: claim that could not be confirmed
 CONFIDENCE = ("checked", "secondary", "unverified")
 
-#: allowed ``topic`` values (issue #43's five questions)
+#: allowed ``topic`` values: bond forces, other harvesters' results, bruising, yield, frequency response
 TOPICS = ("bond_force", "harvester_result", "bruise", "yield", "frequency_response")
 
 #: dimensions the record uses that :data:`berryshaker.units.DIMENSIONS` does not name, mapped to the one

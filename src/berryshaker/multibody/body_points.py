@@ -3,7 +3,7 @@ force applied at a point (the kinematics every constraint row and force element 
 
 Absolute planar coordinates q = (x, y, phi) per body (docs/multibody.md, "Formulation"); body -1 is the ground.
 
-Reference counting (benchmarks/HISTORY.md sec. 10).  The compiled core's functions but the integrator's loop are
+Reference counting.  The compiled core's functions but the integrator's loop are
 compiled with ``_nrt=False``: none of them allocates, and without the numba runtime a call no longer increments and
 decrements the reference count of every array it receives (an atomic operation each; ``accelerations`` takes the
 31 arrays of the model, state and work tuples and passes most of them on to ``constraints`` and ``forces``): ~1/3

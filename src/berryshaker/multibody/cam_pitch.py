@@ -139,7 +139,6 @@ def pitch_foot_speed(lx, ly, cam, guess):
 #: the groove contacts' foot memory (state ``psi_f``, 3 nf long): per force element k the last foot parameter
 #: psi (rad; NaN: none yet) at [k], its rate psi' (rad/s) at [nf + k] and the time it was found (s) at [2 nf + k].
 #: Newton starts from psi + psi' (t - t_found): one curve evaluation instead of two to three from psi alone
-#: (benchmarks/HISTORY.md sec. 17)
 FOOT_MEMORY = 3
 
 

@@ -33,7 +33,7 @@ EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 #: approach speed (m/s) from which a located contact onset counts as an impact (``first[:, FIRST_IMPACTS]``): the
 #: greased pairs' impact-velocity floor (contact.pair_law.LUBRICATED_RESTITUTION_VELOCITY).  Slower closings are a
 #: pin settling into its bore (down to 1 um/s): their number depends on the tolerance and on how the chatter of a
-#: loaded roller is resolved, the faster ones' does not (benchmarks/HISTORY.md sec. 16)
+#: loaded roller is resolved, the faster ones' does not
 IMPACT_COUNT_SPEED = LUBRICATED_RESTITUTION_VELOCITY
 # relative margin of the interior-peak skip (record_contacts: a monotone law's step bound below every maximum it
 # feeds)

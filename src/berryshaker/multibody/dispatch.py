@@ -1,7 +1,7 @@
 """Calling the compiled core from Python without numba's typing of the arguments at every call.
 
 numba's dispatcher types every argument at every call, in Python for tuples: the kernel's model, state and work
-tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/HISTORY.md sec. 23).
+tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself.
 :func:`call_compiled` calls the specialisation a function used for the same argument types directly, keyed by
 :func:`_type_key`, which follows numba's own typing rules (tests/multibody/test_dispatch.py).
 """
@@ -55,8 +55,8 @@ def call_compiled(fn, *args):
     first call with the same argument types in this process.
 
     numba's dispatcher types every argument at every call, in Python for tuples: the kernel's model, state and
-    work tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself (benchmarks/HISTORY.md
-    sec. 23); a harvester run made two such calls, a perturbed start one per continuation step.  The first call
+    work tuples (~30 arrays) cost ~0.2 ms per call, against ~15 us for the call itself; a
+    harvester run made two such calls, a perturbed start one per continuation step.  The first call
     goes through the dispatcher (which compiles or loads the specialisation); the specialisation it used is then
     called directly for arguments of the same :func:`_type_key`, which follows numba's own typing rules, so the
     same compiled code runs on the same arguments.  Arguments whose types the key does not cover always go

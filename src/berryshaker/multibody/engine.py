@@ -160,13 +160,13 @@ def compile_engine(spec: MechanismSpec, parts: tuple[str, ...] = ENGINE_PARTS) -
     ``spec``'s runs, without running anything.
 
     The integrator (``kernel.integrate``) calls a chain of ~50 compiled functions, compiled one after the other
-    on first use: about 16 s of one core on a fresh install (benchmarks/HISTORY.md sec. 19-20).  Compiling a part
+    on first use: about 16 s of one core on a fresh install.  Compiling a part
     compiles the callees it needs that are not compiled yet and writes everything to the cache, so two processes
     can share the work: one compiles ``"forces"`` and ``"step_forces"`` (which share the contact laws' calls and
     only small geometry helpers with the rest) while the other compiles ``"projection"`` and ``"step_events"``,
     then ``"right_hand_side"`` once the first is done; a run then compiles only the integrator itself and loads
     the rest.  (About 3.5 + 0.7 s against 2.8 + 0.9 s of one core; with ``"step"`` whole on the projection's side
-    the forces' process idled ~3 s, benchmarks/HISTORY.md sec. 22.)
+    the forces' process idled ~3 s.)
 
     Parameters
     ----------

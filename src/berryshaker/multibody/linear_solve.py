@@ -107,7 +107,7 @@ def _spd_solve(plan, W, b, m):
     and the pivots' reciprocals 1/d_i on it (so the assembly never has to clear anything): row i first forms
     c_ij = L_ij d_j = W_ji - sum_k c_ik L_jk, then L_ij = c_ij / d_j and d_i = W_ii - sum_j c_ij L_ij.  One
     division per row and no square root: the chain of dependent long-latency operations is about a third of the
-    Cholesky factorisation's it replaced (benchmarks/HISTORY.md sec. 24).  Each row's forward substitution
+    Cholesky factorisation's.  Each row's forward substitution
     (L z = b) runs as soon as the row is factored (split into two passes the harvester's integration was ~4 %
     slower); back substitution L^T x = D^-1 z over each column's extent i .. ``plan[i, 1]``.  A pivot that is not
     positive (a singular constraint set) is replaced by 1e-300.  No scratch array (no allocation).

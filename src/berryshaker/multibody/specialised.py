@@ -4,8 +4,8 @@ mechanism's structure, compiled once per structure and cached on disk.
 The generic kernel (:mod:`berryshaker.multibody.kernel`) serves every mechanism with one compiled integrator: its
 constraint loop and multiplier solve follow index arrays (``ctype``, ``cint``, ``crow`` and the solve plan of
 :func:`berryshaker.multibody.sparsity.solve_plan`).  In a right-hand side those index loads sit on the chain of
-dependent operations that bounds each stage (benchmarks/HISTORY.md sec. 24, 27): a hand-written slider-crank
-right-hand side with the same arithmetic ran the step 38 % faster (sec. 29).  This module writes that code for any
+dependent operations that bounds each stage: a hand-written slider-crank
+right-hand side with the same arithmetic ran the step 38 % faster.  This module writes that code for any
 mechanism, from the structure alone:
 
 * ``constraints``: per constraint block, :func:`~berryshaker.multibody.constraint_rows.block_start` and the block
@@ -19,7 +19,7 @@ mechanism, from the structure alone:
 * the right-hand side ``dynamics.accelerations`` and everything on the integrator's path that calls it
   (:data:`GENERIC_SOURCES`: the loop ``kernel.integrate_resumable``, which alone evaluates it, and
   ``kernel.integrate``): the generic kernel's own source, compiled in the generated module so that they call the
-  two functions above; every other name they use is imported from its generic module (the constraint projection after a step stays generic; sec. 29).  The generator refuses to
+  two functions above; every other name they use is imported from its generic module (the constraint projection after a step stays generic).  The generator refuses to
   write a module in which a generic function it imports would reach the generic constraints or solve
   (:func:`_check_generic_sources`), so a new caller of ``accelerations`` cannot leave the specialised kernel
   quietly running the generic one.
@@ -31,7 +31,7 @@ The values (masses, lengths, stiffnesses, speeds) stay arguments: every mechanis
 sweep, a tolerance study, perturbed starts) shares one compiled integrator.  The source is written to
 ``<numba cache>/specialised/`` (the package's digest folder, :mod:`berryshaker.compiled_cache`, so an update of
 the package starts afresh) and numba caches its compiled code beside the package's; a structure costs about
-10-20 s of compilation once per machine (benchmarks/HISTORY.md sec. 29) and about 0.1 s to load after that.  Asked
+10-20 s of compilation once per machine and about 0.1 s to load after that.  Asked
 for with ``[simulation] specialised = true``, ``simulate_mechanism(..., specialised=True)`` or by ``berryshaker
 sweep`` when a sweep has the runs to pay for it; a run left to choose (the default) takes it once this machine has
 compiled it (:func:`is_compiled`, :func:`berryshaker.multibody.engine.integrator`), so no run waits for a
@@ -61,7 +61,7 @@ GENERATOR_VERSION = 4
 #: integrator's path that calls ``accelerations`` (and so the constraint rows and the solve), callers after callees
 GENERIC_SOURCES = (dynamics.accelerations, kernel.integrate_resumable, kernel.integrate)
 #: the generic functions that call the constraint rows or the solve and stay generic in the generated module: the
-#: projection after a step (specialising it cost 3.8 s more compilation for little, benchmarks/HISTORY.md sec. 29)
+#: projection after a step (specialising it cost 3.8 s more compilation for little)
 GENERIC_KEPT = (dynamics.project,)
 
 _LOADED: dict[str, object] = {}
@@ -271,6 +271,8 @@ def specialised_module(model: MechanismModel, n: int, m: int):
         path = write_source(source_folder() / f"bs_specialised_{key}.py", specialised_source(model, n, m))
         name = f"berryshaker_specialised_{key}"
         spec = importlib.util.spec_from_file_location(name, path)
+        if spec is None or spec.loader is None:
+            raise ImportError(f"cannot import the generated kernel {path}")
         mod = importlib.util.module_from_spec(spec)
         sys.modules[name] = mod
         try:

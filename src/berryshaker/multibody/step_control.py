@@ -87,7 +87,7 @@ def next_step_size(h, err, err_old, last_rejected, h_max):
 @njit(cache=True, _nrt=False)
 def record_step_size(info, h):
     """Count an accepted step of size h in the histogram after the first N_INFO entries of ``info``
-    (benchmarks/HISTORY.md sec. 6; the first and last bins take what falls outside).
+    (the first and last bins take what falls outside).
 
     Parameters
     ----------

@@ -102,7 +102,7 @@ def write_error(path: str | Path, exc: OSError, what: str = "") -> WriteError:
         The error to raise (its ``errno`` is ``exc``'s).
     """
     code = errno.errorcode.get(exc.errno or 0, "")
-    why = _WHY.get(exc.errno, exc.strerror or str(exc) or type(exc).__name__)
+    why = _WHY.get(exc.errno or 0, exc.strerror or str(exc) or type(exc).__name__)
     out = WriteError(f"cannot write {path}: {why}{f' ({code})' if code else ''}; "
                      f"{what or 'nothing was written there'}. Free space or choose another location")
     out.errno = exc.errno
@@ -138,7 +138,7 @@ def write_files_atomic(files: Mapping[str | Path, bytes]) -> None:
     staged: list[tuple[str, Path]] = []
     moved: list[tuple[Path, str | None]] = []
     made: list[Path] = []  # folders created for the files, removed again if nothing is written
-    path = None
+    path: str | Path = ""  # the file being staged, named by an error
     try:
         for path, data in files.items():
             path = Path(path)

@@ -84,7 +84,7 @@ def clean_stale_staging(parent: str | Path, max_age_hours: float = STALE_STAGING
         The folders removed.
     """
     parent = Path(parent)
-    removed = []
+    removed: list = []
     try:
         entries = list(parent.iterdir())
     except OSError:

@@ -1,5 +1,5 @@
 """The design report of the machine a study was run on: the answers an engineer brings to the study, each with its
-interval and the step it comes from (issue 45, item 1).
+interval and the step it comes from.
 
 :func:`design_answers` reads the study's results (the dict ``summary.json`` holds, the one
 :func:`berryshaker.report.html.study_report` is rendered from) and the machine description, and returns:

@@ -156,7 +156,7 @@ def doe_report(res, title: str, *, results_file: str = "", version: str = "", fi
 
     replicated = hasattr(res, "significance_rule")
     factors = res.factors
-    units = {**response_units(), **(res.response_units or {})}  # the sheet's units first (issue 45)
+    units = {**response_units(), **(res.response_units or {})}  # the sheet's own units win
     fig = Path(figures) if figures is not None else None
     parts = [f"<!doctype html><html lang='en'><head><meta charset='utf-8'><title>{html_text(title)}</title>"
              f"<style>{CSS}</style></head><body><h1>{html_text(title)}</h1>",

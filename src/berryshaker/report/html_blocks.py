@@ -57,7 +57,7 @@ def _png_for_page(path: Path) -> bytes:
     with Image.open(io.BytesIO(data)) as im:
         if im.width <= EMBED_MAX_PX:
             return data
-        small = im.convert("RGB").resize((EMBED_MAX_PX, round(im.height * EMBED_MAX_PX / im.width)), Image.LANCZOS,
+        small = im.convert("RGB").resize((EMBED_MAX_PX, round(im.height * EMBED_MAX_PX / im.width)), Image.Resampling.LANCZOS,
                                           reducing_gap=2.0)
         # 256 colours: a figure's lines, text and fills on white keep their look at a fifth of the bytes
         small = small.quantize(colors=256, method=Image.Quantize.FASTOCTREE, dither=Image.Dither.NONE)

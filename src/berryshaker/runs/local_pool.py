@@ -99,7 +99,7 @@ def one_blas_thread() -> dict[str, int]:
     A pool worker is one process per core, so a BLAS call that fans out over every core (OpenBLAS's default)
     oversubscribes the machine, and OpenBLAS's idle threads busy-wait after each call, taking CPU from the
     other workers' runs.  Measured on the 2-core machine: the study's runs took 153 s of CPU with two BLAS
-    threads per worker and 109-113 s with one (benchmarks/HISTORY.md sec. 18).  Dask's nanny does the same for its
+    threads per worker and 109-113 s with one.  Dask's nanny does the same for its
     workers (``distributed.nanny.pre-spawn-environ``).  A thread count the user set in the environment
     (:data:`BLAS_THREAD_VARIABLES`) is kept: ``OPENBLAS_NUM_THREADS`` or ``MKL_NUM_THREADS`` leaves the BLAS
     libraries alone, ``OMP_NUM_THREADS`` the OpenMP ones.

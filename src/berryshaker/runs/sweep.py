@@ -464,7 +464,7 @@ def model_run(machine_data: dict, overrides: dict, model: str = "mlsd", revoluti
 
 
 #: runs per worker from which ``berryshaker sweep`` picks the specialised kernel for a structure it has not compiled
-#: yet: its 10-20 s of compilation against ~24 ms saved per harvester run (benchmarks/HISTORY.md sec. 29)
+#: yet: its 10-20 s of compilation against ~24 ms saved per harvester run
 SPECIALISE_FROM_RUNS_PER_WORKER = 600
 #: :func:`choose_specialised`'s reason when the first point's structure is compiled: then every run is left to choose
 #: (each takes the specialised kernel if its own structure is compiled), not forced to compile its structure

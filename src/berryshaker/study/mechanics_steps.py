@@ -93,7 +93,7 @@ def step_agreement(ctx: StudyContext) -> StepResult:
 
 
 #: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
-#: comparisons allow for (benchmarks/HISTORY.md sec. 26)
+#: comparisons allow for
 MODEL_CHECK_STARTS = 8
 
 
@@ -132,7 +132,7 @@ def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
         plans.append(PlannedRuns(multibody_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} perturbed starts, "
                                                        "multibody"))
         # (started with the multibody runs, after the engine step: beside the engine's compilation on two cores
-        # they slowed it by more than they took, benchmarks/HISTORY.md sec. 26)
+        # they slowed it by more than they took)
         plans.append(PlannedRuns(reduced_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} turned starts, {name}"))
     return plans
 

@@ -89,8 +89,8 @@ class StudyContext:
     def draw(self, fn, *args, **kwargs) -> None:
         """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
         a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
-        virtual L9's figures took ~3 s of this process at the end of its step while both workers idled,
-        benchmarks/HISTORY.md sec. 22.)  The figure functions set their whole style themselves
+        virtual L9's figures took ~3 s of this process at the end of its step while both workers idled.)
+        The figure functions set their whole style themselves
         (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
         by a program that calls :func:`~berryshaker.study.pipeline.run_study` does not reach the workers.
 

@@ -125,14 +125,14 @@ class _WrongKindError(_UnitSyntaxError):
 
 
 def _tokenise_unit(text: str) -> list[tuple[str, str]]:
-    tokens = []
+    tokens: list[tuple[str, str]] = []
     pos = 0
     while pos < len(text):
         m = _UNIT_TOKEN.match(text, pos)
         if m is None:
             hint = " (use a decimal point, not a comma)" if text[pos] == "," else ""
             raise _UnitSyntaxError(f"unexpected character {text[pos]!r}{hint}")
-        if m.lastgroup != "space":
+        if m.lastgroup is not None and m.lastgroup != "space":
             tokens.append((m.lastgroup, m.group()))
         pos = m.end()
     return tokens

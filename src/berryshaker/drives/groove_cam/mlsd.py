@@ -100,7 +100,7 @@ class MLSDResult:
     peaks : ndarray
         (N_R,) max |.| over accepted steps after the first revolution (SI).
     clearance : dict
-        Clearance size per pair (m).
+        Clearance size (m) per pair (:doc:`/nomenclature`).
     revolutions : int
         Cam revolutions simulated.
     steps : int
@@ -300,7 +300,7 @@ def simulate_mlsd(machine: Machine, clearance: dict[str, float] | None = None, r
     machine : Machine
         The groove-cam machine.
     clearance : dict, optional
-        Clearance sizes (m) per pair name A, B, C, F; missing pairs keep the machine's value (validated by
+        Clearance size (m) per pair (:doc:`/nomenclature`); a pair left out keeps the machine's (validated by
         :meth:`~berryshaker.drives.base.MachineBase.with_clearances`).
     revolutions : int
         Cam revolutions to simulate (>= 2); statistics use revolutions 2..N (the first is start-up).

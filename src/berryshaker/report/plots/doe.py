@@ -195,7 +195,7 @@ def _unit_of(factor_unit, name: str) -> str:
 
 
 def plot_response_surfaces(values, y, names, reg, response: str, path: Path, *, unit: str | None = None,
-                           factor_unit: str = "mm", margin: float = 0.08, model=None,
+                           factor_unit: str | dict[str, str] = "mm", margin: float = 0.08, model=None,
                            return_figure: bool = False) -> dict:
     """Response surfaces of the identifiable main-effects quadratic model for factor pairs (study
     Figs. 27-29; the study's full eq. 19 is not identifiable from 9 runs, docs/study.md, eq. 19).

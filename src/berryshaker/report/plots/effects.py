@@ -178,7 +178,7 @@ def plot_interactions(cells: dict, path: Path, title: str = "", *, unit: str | N
     nrows = max(1, math.ceil(len(names) / ncols))
     fig, axes = new_figure(nrows, ncols, figsize=(3.3 * ncols + 1.6, 2.8 * nrows + 0.9), squeeze=False,
                            sharey=True)
-    data = {"pairs": {}}
+    data: dict[str, dict] = {"pairs": {}}
     nlines = 0
 
     def shown(f, k):

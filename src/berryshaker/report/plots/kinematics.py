@@ -38,7 +38,7 @@ def plot_svaj(kin, path: Path, title: str = "", *, return_figure: bool = False) 
     """
     deg = np.degrees(kin.phi)
     fig, axes = new_figure(4, 1, figsize=(8, 9), sharex=True)
-    data = {"series": {}}
+    data: dict[str, dict] = {"series": {}}
     for ax, y, lab, key in zip(axes, (kin.s * 1e3, kin.v, kin.a, kin.j),
                                ("s [mm]", "v [m/s]", "a [m/s²]", "j [m/s³]"), "svaj"):
         ax.plot(deg, y, lw=1.4, color=PAIR_COLOURS["A"])

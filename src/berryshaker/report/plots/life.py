@@ -47,7 +47,7 @@ def plot_clearance_growth(growth: dict, limits_mm: dict, path: Path, title: str 
         ``series``: per joint the drawn hours and clearance; ``limits``: the drawn limits [mm]; ``path``, ``svg``.
     """
     fig, ax = new_figure(figsize=(7.5, 4.5))
-    data = {"series": {}, "limits": {}}
+    data: dict[str, dict] = {"series": {}, "limits": {}}
     for i, (j, d) in enumerate(growth.items()):
         colour = PAIR_COLOURS.get(j, SERIES_COLOURS[i % len(SERIES_COLOURS)])
         h, c = np.asarray(d["hours"], float), np.asarray(d["clearance_mm"], float)
@@ -86,7 +86,7 @@ def plot_sobol(indices: dict, output: str, path: Path, *, return_figure: bool = 
     keys = list(indices)
     x = np.arange(len(keys))
     fig, ax = new_figure(figsize=(max(4.5, 1.3 * len(keys) + 2.5), 4.2))
-    data = {"parameters": keys, "bars": {}, "errors": {}}
+    data: dict = {"parameters": keys, "bars": {}, "errors": {}}
     for off, (s, lab), colour in zip((-0.2, 0.2), (("S1", "first order S1"), ("ST", "total ST")), SERIES_COLOURS):
         v = [indices[k][s] if indices[k][s] is not None else 0.0 for k in keys]
         e = [indices[k][s + "_conf"] if indices[k][s + "_conf"] is not None else 0.0 for k in keys]

@@ -1,4 +1,4 @@
-"""The result of :func:`~berryshaker.study.field_calibration.calibrate` as typed records (issue #46):
+"""The result of :func:`~berryshaker.study.field_calibration.calibrate` as typed records:
 :class:`CalibrationResult` and its parts.  The command ``berryshaker calibrate`` writes
 :meth:`CalibrationResult.to_json` (``--json``, ``calibration.json``) and :mod:`berryshaker.report.calibration`
 reads the attributes (without importing these classes: the report layer is below the study layer).

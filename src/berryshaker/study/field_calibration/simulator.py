@@ -145,7 +145,8 @@ class Simulator:
         from berryshaker.study.runs import replicate_run
 
         todo = [t for t in dict.fromkeys(starts) if t not in self.grids]
-        jobs, spans = [], []
+        jobs: list = []
+        spans: list = []
         for s in sorted({t[0] for t in todo}):
             d, cl = setting_data(self.data, self.machine, self.targets, self.settings[s])
             m = self.machine_at(s)
