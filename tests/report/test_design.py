@@ -108,7 +108,7 @@ def test_every_joint_has_its_answers(which, request):
         # the service interval: the life step's growth from the fit's mean clearance, k over its range
         si = j.service_interval
         assert si.lo < si.value < si.hi and "Archard k" in si.interval and "[assumed]" in si.tag
-    for q in (a.loads.drive_torque_peak, a.loads.drive_torque_rms):
+    for q in (a.loads.drive_torque_design, a.loads.drive_torque_rms):
         assert q.unit == "N m" and q.lo <= q.value and q.label.startswith("drive torque")
     assert all(getattr(a.harvest, k) is not None for k in ("efficiency", "ripe_removal", "damage"))
     assert a.recommended.name == level_set_name(summary["results"]["l9"]["recommended"]["clearance_mm"])
@@ -355,7 +355,7 @@ def test_json_form_keeps_the_keys_of_the_dicts(reference):
     assert list(joint) == ["clearance", "design_force", "fit", "fit_clearance", "service_interval"]  # no peak force SE
     assert list(joint["clearance"]) == ["value", "unit", "lo", "hi", "interval", "source", "tag", "basis"]
     assert list(joint["service_interval"])[-2:] == ["material_pair", "limit_mm"]
-    assert list(j["loads"]["drive_torque_peak"])[-3:] == ["sd", "n", "label"]
+    assert list(j["loads"]["drive_torque_design"])[-3:] == ["sd", "n", "label"]
     assert list(j["differences"][0]) == ["response", "factor", "levels", "beyond_noise", "verdict", "p", "difference"]
     assert list(j["differences"][0]["difference"])[-1] == "se"
     assert list(j["operating_point"])[-6:] == ["within_limits", "rule", "limits", "no_difference", "excluded",

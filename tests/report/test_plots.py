@@ -329,7 +329,7 @@ def _tradeoff_records():
     recs = []
     for name, (eff, force, torque) in pts.items():
         r = {"name": name, "efficiency": eff, "efficiency_lo": eff - 0.17, "efficiency_hi": eff + 0.17,
-             "drive_torque_peak_Nm": torque, "drive_torque_peak_Nm_lo": torque - 33, "drive_torque_peak_Nm_hi": torque + 33,
+             "drive_torque_design_Nm": torque, "drive_torque_design_Nm_lo": torque - 33, "drive_torque_design_Nm_hi": torque + 33,
              "dominated": not name.startswith(("run 1 ", "recommended"))}
         for p, f in zip("ABCF", (0.3 * force, 0.3 * force, force, 0.98 * force)):
             r[f"design_force_N:{p}"], r[f"design_force_N:{p}_lo"], r[f"design_force_N:{p}_hi"] = f, 0.75 * f, 1.25 * f
@@ -362,7 +362,7 @@ def test_tradeoff_labels_clear_of_markers_and_each_other_and_a_torque_legend(tmp
             for X, Y in marks:  # 3 points of marker radius must stay clear of every label
                 assert not (b.x0 - 3 * px < X < b.x1 + 3 * px and b.y0 - 3 * px < Y < b.y1 + 3 * px), t.get_text()
     legend = [t.get_text() for t in fig.axes[-1].get_legend().get_texts()]
-    assert "recommended: A1B1C1F3" in legend and "right: peak drive torque" in legend
+    assert "recommended: A1B1C1F3" in legend and "right: design drive torque" in legend
     assert "left: largest force at joint C" in legend and "force at joint B" not in " ".join(legend)
     torque_colours = {line.get_color() for line in axes[1].get_lines() if line.get_marker() in ("o", "*")}
     assert torque_colours.isdisjoint({c.lower() for c in PAIR_COLOURS.values()} | set(PAIR_COLOURS.values()))

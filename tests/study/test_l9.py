@@ -97,11 +97,11 @@ def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
     harvest = {"efficiency": _replicated({}, 1.0, base=4.0), "damage": _replicated({}, 0.3, base=2.0),
                "unripe": _replicated({}, 0.2, base=1.0)}
     loads = {"peak_force_A": _replicated({"A": (0.0, 800.0, 1500.0)}, 50.0, base=5000.0),
-             "drive_torque_peak": _replicated({"C": (30.0, 10.0, 0.0)}, 2.0, base=120.0)}
-    senses = {"efficiency": True, "damage": False, "unripe": False, "peak_force_A": False, "drive_torque_peak": False}
+             "drive_torque_design": _replicated({"C": (30.0, 10.0, 0.0)}, 2.0, base=120.0)}
+    senses = {"efficiency": True, "damage": False, "unripe": False, "peak_force_A": False, "drive_torque_design": False}
     res = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest, **loads}, senses,
                              {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
-                             fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
+                             fallback_weights={"peak_force_A": 1.0, "drive_torque_design": 1.0})
     for n in harvest:
         assert res.responses[n].significant_factors == []
     ch = res.optimum.choices
@@ -114,7 +114,7 @@ def test_all_noise_harvest_indexes_decide_on_forces_and_torque():
     loads2 = dict(loads, peak_force_A=_replicated({"B": (0.0, 900.0, 300.0)}, 50.0, base=5000.0))
     res2 = analyze_replicated(L9, L9.astype(float), FACTORS, {**harvest2, **loads2}, senses,
                               {"efficiency": 0.5, "damage": 0.3, "unripe": 0.2},
-                              fallback_weights={"peak_force_A": 1.0, "drive_torque_peak": 1.0})
+                              fallback_weights={"peak_force_A": 1.0, "drive_torque_design": 1.0})
     b = res2.optimum.choices["B"]
     assert b.level == 3 and b.tier == "primary + fallback"
 
@@ -199,7 +199,7 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
     s = virtual_json
     assert len(s["runs"]) == 9 and s["replicated"]["replicates"] == 2
     names = ["efficiency", "ripe_removal", "unripe", "unripe_shed", "damage", "design_force_A", "design_force_B",
-             "design_force_C", "design_force_F", "drive_torque_peak", "drive_torque_rms"]
+             "design_force_C", "design_force_F", "drive_torque_design", "drive_torque_rms"]
     for run in s["runs"]:
         for n in names:
             est = run["replicates"][n]
@@ -242,7 +242,7 @@ def test_doe_virtual_json_carries_spread_significance_and_tradeoff(virtual_json)
     rows = s["tradeoff"]
     assert len(rows) in (9, 10) and sum("recommended" in r["name"] for r in rows) == 1
     for col in ("efficiency", "efficiency_lo", "efficiency_hi", "damage", "design_force_N:A", "design_force_N:F_hi",
-                "drive_torque_peak_Nm", "drive_torque_rms_Nm", "dominated", "dominated_by", "clearance_mm:A"):
+                "drive_torque_design_Nm", "drive_torque_rms_Nm", "dominated", "dominated_by", "clearance_mm:A"):
         assert col in rows[0] and col in s["tradeoff_columns"]
     assert any(not r["dominated"] for r in rows)
     # the same seeds give the same replicates (explicit seeds, reproducible)

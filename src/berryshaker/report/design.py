@@ -226,7 +226,7 @@ def _machine_loads(summary: dict) -> Loads:
     rec = _recommended(summary)
     reps = rec.get("replicates") or (summary.get("optimum") or {}).get("intervals") or {}
     out = {}
-    for key, name in (("drive_torque_peak", "drive torque, peak (single maximum)"), ("drive_torque_rms", "drive torque, RMS")):
+    for key, name in (("drive_torque_design", "drive torque, design (p95 of the per-revolution peaks)"), ("drive_torque_rms", "drive torque, RMS")):
         q = _estimate(reps.get(key), "N m", "virtual_l9", f"recommended.replicates.{key}")
         if q:
             out[key] = replace(q, label=name)

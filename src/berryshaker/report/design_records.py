@@ -354,13 +354,14 @@ class Loads(QuantitySet):
 
     Attributes
     ----------
-    drive_torque_peak : Quantity, optional
-        Peak drive torque (N m).
+    drive_torque_design : Quantity, optional
+        Design drive torque: the p95 of the per-revolution peaks of the drive moment
+        (berryshaker.multibody.drive_loads.design_torque; N m).
     drive_torque_rms : Quantity, optional
         RMS drive torque (N m).
     """
 
-    drive_torque_peak: Quantity | None = optional()
+    drive_torque_design: Quantity | None = optional()
     drive_torque_rms: Quantity | None = optional()
 
 

@@ -114,7 +114,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         parts.append("<h3>Trade-off of the candidate clearance sets</h3>")
         forces = [f"design_force_N:{p}" for p in pair_names if f"design_force_N:{p}" in recs[0]]
         idx = [n for n in ("efficiency", "ripe_removal", "unripe", "damage") if n in recs[0]]
-        tq = [c for c in ("drive_torque_peak_Nm", "drive_torque_rms_Nm") if c in recs[0]]
+        tq = [c for c in ("drive_torque_design_Nm", "drive_torque_rms_Nm") if c in recs[0]]
 
         def cell(r, c):  # the mean, its interval on a second line: narrow columns, short rows
             lo, hi = r.get(f"{c}_lo", r[c]), r.get(f"{c}_hi", r[c])
@@ -130,7 +130,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         body = [[r["name"]] + [cell(r, c) for c in idx] + [beaten_by(r)] for r in recs]
         table = [_table(header, body, left=(0, len(header) - 1))]
         loads = (["candidate"] + [f"static-equivalent force {c.split(':')[1]} (N)" for c in forces]
-                 + ["drive torque peak, single maximum (N m)", "drive torque RMS (N m)"][:len(tq)])
+                 + ["drive torque, design: p95 of the per-revolution peaks (N m)", "drive torque RMS (N m)"][:len(tq)])
         if len(loads) > 1:
             table.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
         table.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "

@@ -32,8 +32,9 @@ CONFIDENCE = 0.95
 
 def load_responses(pairs) -> list[str]:
     """Names of the machine-load responses: the static-equivalent collision force per pair (the p95 of the impact
-    peaks of a start's drive-pasts, :func:`berryshaker.multibody.impacts.static_equivalent_load`), drive torque
-    peak and RMS.
+    peaks of a start's drive-pasts, :func:`berryshaker.multibody.impacts.static_equivalent_load`), the design drive
+    torque (the p95 of the per-revolution peaks of the start's drive-pasts,
+    :func:`berryshaker.multibody.drive_loads.design_torque`) and the RMS drive torque.
 
     Parameters
     ----------
@@ -43,9 +44,9 @@ def load_responses(pairs) -> list[str]:
     Returns
     -------
     list of str
-        ``design_force_<pair>`` per pair, then ``drive_torque_peak`` and ``drive_torque_rms``.
+        ``design_force_<pair>`` per pair, then ``drive_torque_design`` and ``drive_torque_rms``.
     """
-    return [f"design_force_{p}" for p in pairs] + ["drive_torque_peak", "drive_torque_rms"]
+    return [f"design_force_{p}" for p in pairs] + ["drive_torque_design", "drive_torque_rms"]
 
 
 def response_units(pairs) -> dict[str, str]:
@@ -62,7 +63,7 @@ def response_units(pairs) -> dict[str, str]:
         Response name -> unit: the harvest responses' ("kg/min", "%"), "N" for forces, "N m" for torques.
     """
     return {**{k: v.unit for k, v in HARVEST_RESPONSES.items()}, **{f"design_force_{p}": "N" for p in pairs},
-            "drive_torque_peak": "N m", "drive_torque_rms": "N m"}
+            "drive_torque_design": "N m", "drive_torque_rms": "N m"}
 
 
 def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
@@ -70,9 +71,10 @@ def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
     docstring), and the loads over its branch classes' drive-pasts.
 
     Static-equivalent force (``design_force_<pair>``): the p95 of the impact peaks of all the start's drive-pasts
-    together (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); peak
-    torque: the largest over the branch classes' drive-pasts; RMS torque: the RMS over all of them (equal
-    durations).
+    together (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); design
+    torque (``drive_torque_design``): the p95 of the per-revolution peaks of the drive moment over all the start's
+    drive-pasts (berryshaker.multibody.drive_loads; the single largest moment is an extreme, not a response); RMS
+    torque: the RMS over all of them (equal durations).
     """
     from berryshaker.harvest.virtual import start_responses
     from berryshaker.multibody.impacts import static_equivalent_load
@@ -86,7 +88,11 @@ def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
             out[f"design_force_{p}"] = static_equivalent_load(np.concatenate(
                 [np.asarray(o["impact_peaks_N"][p], float) for o in outs]))
     if all("drive_torque_Nm" in o for o in outs):
-        out["drive_torque_peak"] = max(o["drive_torque_Nm"]["peak"] for o in outs)
+        from berryshaker.multibody.drive_loads import design_torque
+
+        if all("revolution_peaks" in o["drive_torque_Nm"] for o in outs):
+            out["drive_torque_design"] = design_torque(np.concatenate(
+                [np.asarray(o["drive_torque_Nm"]["revolution_peaks"], float) for o in outs]))
         out["drive_torque_rms"] = math.sqrt(float(np.mean([o["drive_torque_Nm"]["rms"] ** 2 for o in outs])))
     return out
 

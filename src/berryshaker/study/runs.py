@@ -4,6 +4,8 @@ JSON-compatible values."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from berryshaker.config import machine_from_dict
@@ -294,8 +296,9 @@ def replicate_record(machine, table, res) -> dict:
     dict
         ``envelope`` (the table as nested lists), ``peak_force_N`` (N per pair: the run's single largest force,
         an extreme), ``impact_peaks_N`` (per clearance pair, the peak of each of its impacts over the statistics
-        window, N: berryshaker.multibody.impacts) and, for a speed-driven machine, ``drive_torque_Nm`` (``peak``
-        and ``rms``, N m).
+        window, N: berryshaker.multibody.impacts) and, for a speed-driven machine, ``drive_torque_Nm`` (``peak``: the
+        run's single largest moment, an extreme; ``rms``; ``revolution_peaks``: the peak |M| of each whole
+        revolution; ``fatigue_equivalent``: berryshaker.multibody.drive_loads; all N m).
     """
     s = res.summary()
     out = {"envelope": table.tolist(),
@@ -305,8 +308,16 @@ def replicate_record(machine, table, res) -> dict:
         if p in res.compiled.frc_names:
             out["impact_peaks_N"][p] = res.contact_episodes(p).impacts().peak_N.tolist()
     if s["drivers"]:
-        tq = next(iter(s["drivers"].values()))["torque_Nm"]
-        out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"]}
+        from berryshaker.multibody.drive_loads import fatigue_equivalent_torque, revolution_peaks
+
+        name = next(iter(s["drivers"]))
+        tq = s["drivers"][name]["torque_Nm"]
+        sel = res.t >= res.stats_from - 1e-12
+        m = res.reaction(name)[sel]
+        out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"],
+                                  "revolution_peaks": revolution_peaks(res.t[sel], m, res.stats_from,
+                                                                       2 * math.pi / machine.drive_speed).tolist(),
+                                  "fatigue_equivalent": fatigue_equivalent_torque(m)}
     return out
 
 

@@ -129,7 +129,7 @@ def _candidate(name, cl, yc, names, pairs, pe, k, confidence=CONFIDENCE) -> dict
     c = {"name": name, "clearance_mm": {p: cl[p] * 1e3 for p in pairs},
          "harvest": {n: est(n) for n in HARVEST_RESPONSES if n in names},
          "design_force_N": {p: est(f"design_force_{p}") for p in pairs if f"design_force_{p}" in names}}
-    for n, key in (("drive_torque_peak", "drive_torque_peak_Nm"), ("drive_torque_rms", "drive_torque_rms_Nm")):
+    for n, key in (("drive_torque_design", "drive_torque_design_Nm"), ("drive_torque_rms", "drive_torque_rms_Nm")):
         if n in names:
             c[key] = est(n)
     return c

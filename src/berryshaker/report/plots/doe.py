@@ -333,13 +333,13 @@ def _place_point_labels(ax, items: list[tuple[float, float, str | None, float]],
 
 def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_figure: bool = False) -> dict:
     """Trade-off of the candidate clearance sets: picking efficiency (mean and 95 % interval) against the
-    largest peak collision force over the joints and against the peak drive torque (means and intervals).
+    largest peak collision force over the joints and against the design drive torque (p95 of the per-revolution peaks; means and intervals).
 
     Parameters
     ----------
     records : list of dict
         Rows of :func:`berryshaker.study.l9.tradeoff_records` (``efficiency``, ``efficiency_lo``/``_hi``,
-        ``design_force_N:<joint>`` (or ``peak_force_N:<joint>``) with ``_lo``/``_hi``, ``drive_torque_peak_Nm``,
+        ``design_force_N:<joint>`` (or ``peak_force_N:<joint>``) with ``_lo``/``_hi``, ``drive_torque_design_Nm``,
         ``dominated``, ``name``).
         Filled markers: not dominated beyond noise; open: dominated; a star: the recommended candidate (its
         name contains "recommended").  Force panel: colour of the joint with the largest peak force; torque
@@ -361,8 +361,8 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
                      and not k.endswith(("_lo", "_hi", "_noise"))})
     panels = [("largest static-equivalent collision force [N]" if any(k.startswith("design_force_N:") for k in forces)
                else "largest peak collision force [N]", "force")]
-    if all("drive_torque_peak_Nm" in r for r in records):
-        panels.append(("peak drive torque [N m]", "torque"))
+    if all("drive_torque_design_Nm" in r for r in records):
+        panels.append(("design drive torque (p95 of the per-revolution peaks) [N m]", "torque"))
     torque_colour = SERIES_COLOURS[4]
     fig, axes = new_figure(1, len(panels), figsize=(5.2 * len(panels) + 1.8, 4.2), squeeze=False, sharey="row")
     data = {"points": []}
@@ -379,7 +379,7 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
                 rec_name = rec_name[len("recommended ("):].rstrip(")")
         point = {"name": rec["name"], "efficiency": y}
         for j, (_, kind) in enumerate(panels):
-            key = max(forces, key=lambda k: rec[k]) if kind == "force" else "drive_torque_peak_Nm"
+            key = max(forces, key=lambda k: rec[k]) if kind == "force" else "drive_torque_design_Nm"
             used.add(key)
             x = rec[key]
             xerr = [[x - rec.get(f"{key}_lo", x)], [rec.get(f"{key}_hi", x) - x]]
@@ -408,7 +408,7 @@ def plot_tradeoff(records: list[dict], path: Path, title: str = "", *, return_fi
     handles += [Line2D([], [], ls="none", marker="o", color=PAIR_COLOURS.get(k.split(":")[-1], SERIES_COLOURS[0]),
                        label=f"left: largest force at joint {k.split(':')[-1]}") for k in forces if k in used]
     if len(panels) > 1:
-        handles.append(Line2D([], [], ls="none", marker="o", color=torque_colour, label="right: peak drive torque"))
+        handles.append(Line2D([], [], ls="none", marker="o", color=torque_colour, label="right: design drive torque"))
     legend_outside(axes[0, -1], handles=handles, labels=[h.get_label() for h in handles])
     fig.suptitle(title or "Trade-off of the candidate clearance sets (star = recommended)", fontsize=9)
     data["label_offsets"] = [_place_point_labels(axes[0, j], labels[j]) for j in range(len(panels))]
