@@ -70,8 +70,9 @@ STARTS = 8  # seeded perturbed starts per tolerance
 #: the sizing loads of the impacts (multibody.impacts: the p95 of the impact peaks, ISO 281's mean equivalent load)
 #: are held to the samples' p95 tolerance: over 8 starts the crank-rocker's fewer impacts know them to ~3 % (SE), its
 #: differences 0.1-2 % (the coupled runs' 5 % criterion: tests/multibody/test_impacts_convergence.py)
+#: the drive's design torque (the p95 of 5 per-revolution peaks here) is held to the peak's tolerance
 TOLERANCE = {"peak": 0.10, "mean": 0.02, "mean_abs": 0.02, "rms": 0.06, "p95": 0.08, "static_equivalent": 0.08,
-             "fatigue_equivalent": 0.08}
+             "fatigue_equivalent": 0.08, "design": 0.10}
 TOL_DRIVE_MEAN = 1e-3
 SUMMARY_GROUPS = ("collision_force_N", "load_moment_Nm", "drive_moment_Nm")
 DRIVES = ("groove_cam", "crank_rocker")  # the default serves every drive, so every drive is checked

@@ -326,8 +326,11 @@ def sweep(machine, params: Mapping[str, Any], model: str = "mlsd", revolutions: 
     pandas.DataFrame
         One row per point: ``run``, each parameter as ``<key> [<unit>]`` in the unit it was given in (SI for
         numbers), ``status`` ("ok" or "failed"), ``error``, then the outputs, NaN for a failed point:
-        ``collision_force_<pair>_peak [N]`` (and ``_mean``, ``_rms``), ``load_moment_<side>_peak [N m]``,
-        ``drive_moment_peak [N m]``, ``drive_moment_rms [N m]``; powered: ``cam_speed_mean [rpm]``,
+        multibody: ``collision_force_<pair>_static_equivalent [N]`` (the p95 of the pair's impact peaks, the load
+        to size from) and ``drive_moment_design [N m]`` (the p95 of the per-revolution peaks); every model:
+        ``collision_force_<pair>_peak [N]`` and ``drive_moment_peak [N m]`` (the run's single largest value, an
+        extreme, not a sizing load), ``collision_force_<pair>_mean [N]`` (and ``_rms``),
+        ``load_moment_<side>_peak [N m]``, ``drive_moment_rms [N m]``; powered: ``cam_speed_mean [rpm]``,
         ``speed_ripple [%]``, ``input_power [W]``, ``energy_lost_<joint> [J/rev]``; harvest:
         ``ripe_removal [%]``, ``unripe_shed [%]``, ``damage_rate [%]``, ``efficiency [kg/min]`` and their
         ``_sd`` over the replicate starts, ``shaking_frequency [Hz]``, ``comb_swing [deg]``...

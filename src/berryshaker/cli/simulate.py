@@ -156,18 +156,21 @@ def simulate(
         rows.append([f"{side} comb load moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
                      f"{st['rms']:.2f} N·m"])
     st = summary["drive_moment_Nm"]
-    rows.append([f"{drive.driver} drive moment", "", "", f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m", f"{st['rms']:.2f} N·m"])
+    design = f"{st['design']:.2f} N·m" if "design" in st else "-"
+    rows.append([f"{drive.driver} drive moment", "", design, f"{st['peak']:.2f} N·m", f"{st['mean']:.2f} N·m",
+                 f"{st['rms']:.2f} N·m"])
     for b, st in summary.get("bearing_reaction_N", {}).items():
         rows.append([f"guide reaction {b}", "", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N", f"{st['rms']:.1f} N"])
     for b, st in summary.get("guide_reaction_N", {}).items():
         if isinstance(st, dict):
             rows.append([f"guide reaction {b}", "", "", f"{st['peak']:.1f} N", f"{st['mean']:.1f} N",
                          f"{st['rms']:.1f} N"])
-    print_table(("quantity", "clearance", "static-equivalent", "peak (extreme)", "mean", "rms"), rows,
+    print_table(("quantity", "clearance", "design (p95)", "peak (extreme)", "mean", "rms"), rows,
                 title=f"{model} model - {machine.machine.name}")
     if any("static_equivalent" in st for st in summary["collision_force_N"].values()):
-        out.print("static-equivalent: the p95 of the pair's impact peaks over the statistics window (the load to size "
-                  "from, docs/life.md \"Sizing loads\"); peak: the run's single largest force, an extreme",
+        out.print("design (p95): a pair's static-equivalent load, the p95 of its impact peaks over the statistics "
+                  "window, and the drive's design torque, the p95 of its per-revolution peaks (the loads to size from, "
+                  "docs/life.md \"Sizing loads\"); peak: the run's single largest value, an extreme",
                   markup=False, highlight=False)
     if summary.get("load_moment_Nm"):
         out.print(load_moment_note(summary.get("load_model") or "aggregate (no plant in this run)"), markup=False,
@@ -518,12 +521,15 @@ def compare_machines_cmd(
             items = list(r["collision_force_N"].items())
             if k < len(items):
                 p, st = items[k]
-                cells.append(f"{p} ({r['clearance_mm'][p]:g} mm): peak {st['peak']:.0f} N, mean {st['mean']:.0f} N")
+                design = f"static-equivalent {st['static_equivalent']:.0f} N, " if "static_equivalent" in st else ""
+                cells.append(f"{p} ({r['clearance_mm'][p]:g} mm): {design}mean {st['mean']:.0f} N, "
+                             f"extreme {st['peak']:.0f} N")
             else:
                 cells.append("")
         rows.append([f"clearance pair {k + 1} (in chain order)", *cells])
-    rows.append(["drive moment peak / rms", *[f"{r['drive_moment_Nm']['peak']:.1f} / {r['drive_moment_Nm']['rms']:.1f} N m"
-                                              for r in res.values()]])
+    rows.append(["drive moment design (p95) / rms / extreme",
+                 *[f"{r['drive_moment_Nm'].get('design', float('nan')):.1f} / {r['drive_moment_Nm']['rms']:.1f} / "
+                   f"{r['drive_moment_Nm']['peak']:.1f} N m" for r in res.values()]])
     rows.append(["comb load moment rms L / R (aggregate bush spring, per comb)", *[f"{r['load_moment_Nm']['left']:.1f} / {r['load_moment_Nm']['right']:.1f} N m"
                                                  for r in res.values()]])
     if fruit_force:

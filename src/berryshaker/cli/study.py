@@ -169,7 +169,8 @@ def sweep_display(header: list[str], rows: list[list], n_params: int) -> tuple[l
         The rows with those columns; harvest outputs as "mean±SD" text (three and two significant digits).
     """
     base = header[: n_params + 2]
-    cols = [c for c in header if c.endswith("_peak_N")][:4]
+    # the sizing loads where the model gives them (multibody: the p95 of the impact peaks), else the run's extremes
+    cols = [c for c in header if c.endswith("_static_equivalent_N")][:4] or [c for c in header if c.endswith("_peak_N")][:4]
     cols += [c for c in ("speed_ripple_percent", "input_power_W") if c in header]
     harvest = [(k, h) for k, h in HARVEST_SHOWN if k in header]
     if not harvest:

@@ -53,7 +53,8 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
     clearance reports its ideal joint's reaction force, not a collision force (``pair_state`` says which).
     ``drive_moment_Nm``: the moment the drive applies to its shaft in the direction of rotation; ``mean`` is its
     signed mean over revolutions 2..N (mean drive power / speed), ``mean_abs`` the mean of its magnitude, as in
-    the MLSD summary.  ``contact_onsets``: impacts per pair (:func:`contact_onsets`), ``contact_onsets_located``
+    the MLSD summary; ``design`` and ``fatigue_equivalent`` the sizing torques (:func:`drive_torque_loads`),
+    ``peak`` the run's single largest moment (an extreme).  ``contact_onsets``: impacts per pair (:func:`contact_onsets`), ``contact_onsets_located``
     their total; ``event_cuts``: integrator steps cut back to an onset (the whole run).
 
     Parameters
@@ -107,6 +108,7 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
         out["load_model"] = "aggregate (no plant in this run)"
     out["drive_moment_Nm"]["mean_abs"] = out["drive_moment_Nm"]["mean"]
     out["drive_moment_Nm"]["mean"] = float(np.mean(torque[sel]))
+    out["drive_moment_Nm"].update(drive_torque_loads(machine, result, torque))
     onsets = contact_onsets(result, machine.pair_names)
     out.update(steps=int(result.info[0]), rejected_steps=int(result.info[1]),
                contact_onsets=onsets, contact_onsets_located=int(sum(onsets.values())),
@@ -118,6 +120,32 @@ def multibody_summary(machine, result: MultibodyResult) -> dict:
         shaft = cm.spec.bodies[int(cm.model.fint[cm.frc_names.index("mesh"), 1])].name
         out.update(driveline_summary(result, shaft))
     return out
+
+
+def drive_torque_loads(machine, result: MultibodyResult, torque: np.ndarray) -> dict[str, float]:
+    """The drive shaft's sizing torques over the run's statistics window (:mod:`berryshaker.multibody.drive_loads`):
+    ``design`` (the p95 of the per-revolution peaks of |M|) and ``fatigue_equivalent`` ((mean |M|^3)^(1/3)), both
+    N m; NaN for a run shorter than one revolution after the start-up.
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The machine description the run was made from (its drive speed, rad/s, sets the revolution).
+    result : MultibodyResult
+        The run.
+    torque : numpy.ndarray
+        The drive moment at the run's samples (N m), :func:`drive_moment`.
+
+    Returns
+    -------
+    dict
+        ``design``, ``fatigue_equivalent`` (N m).
+    """
+    from berryshaker.multibody.drive_loads import design_torque, fatigue_equivalent_torque, revolution_peaks
+
+    sel = result.t >= result.stats_from - 1e-12
+    peaks = revolution_peaks(result.t, torque, result.stats_from, 2 * math.pi / machine.drive_speed)
+    return {"design": design_torque(peaks), "fatigue_equivalent": fatigue_equivalent_torque(torque[sel])}
 
 
 def impact_loads_of(result: MultibodyResult, pair: str) -> dict[str, float]:

@@ -21,7 +21,8 @@ def compare_machines(machines: dict[str, object], revolutions: int = 3, fruit_fo
     -------
     dict
         Per label: ``drive``, ``comb_swing_deg`` (left, right: peak-to-peak), ``comb_frequency_hz``,
-        ``collision_force_N`` (per pair: peak, mean, rms), ``drive_moment_Nm`` (peak, rms, mean),
+        ``collision_force_N`` (per pair: static_equivalent, mean, rms and peak, the extreme), ``drive_moment_Nm``
+        (design, fatigue_equivalent, rms, mean and peak, the extreme),
         ``load_moment_Nm`` (left, right: rms) and, with ``fruit_force``, ``fruit_force_peak_N`` per position.
     """
     from berryshaker.drives import drive_of

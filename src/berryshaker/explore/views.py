@@ -187,7 +187,8 @@ def clearance_table(base, run: em.MechanismRun, changed: set) -> str:
     out = "\n".join(lines)
     dm = s.get("drive_moment_Nm", {})
     if dm:
-        out += f"\n\nDrive moment: peak {dm['peak']:.1f} N m, rms {dm['rms']:.1f} N m.  "
+        design = f"design torque (p95 of the revolutions' peaks) {dm['design']:.1f} N m, " if "design" in dm else ""
+        out += f"\n\nDrive moment: {design}rms {dm['rms']:.1f} N m, extreme {dm['peak']:.1f} N m.  "
     out += (f"\nForces and impacts {tag}; forces are magnitudes; static-equivalent: the p95 of the impact peaks (the "
             "multibody model; a load to size from), peak: the run's single largest force over every integrator step "
             "(an extreme).")

@@ -612,6 +612,8 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
         vals = {}
         if r.value:
             for pair, s in r.value.get("collision_force_N", {}).items():
+                if "static_equivalent" in s:  # the sizing load (multibody); "peak" is the run's extreme
+                    vals[f"collision_force_{pair}_static_equivalent_N"] = s["static_equivalent"]
                 for stat in ("peak", "mean", "rms"):
                     vals[f"collision_force_{pair}_{stat}_N"] = s[stat]
             for side, s in r.value.get("load_moment_Nm", {}).items():
@@ -619,6 +621,8 @@ def tidy_rows(params: list[SweepParam], points: list[list[float]], results: list
                 vals[f"load_moment_{side}_rms_Nm"] = s["rms"]
             d = r.value.get("drive_moment_Nm", {})
             if d:
+                if "design" in d:  # the design torque (multibody); "peak" is the run's extreme
+                    vals["drive_moment_design_Nm"] = d["design"]
                 vals["drive_moment_peak_Nm"], vals["drive_moment_rms_Nm"] = d["peak"], d["rms"]
             if r.value.get("driveline_mode") == "powered":  # powered driveline (drives/powered.py)
                 vals["cam_speed_mean_rpm"] = r.value["cam_speed_rpm"]["mean"]
