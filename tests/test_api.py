@@ -89,10 +89,7 @@ def test_simulate_mlsd_is_the_reduced_model(machine):
     for b, st in ref["bearing_reaction_N"].items():
         assert summary.loc[b, "peak_force [N]"] == st["peak"] and np.isnan(summary.loc[b, "clearance [mm]"])
     # the whole summary rides along: moments in N m
-    dm = summary.attrs["summary"]["drive_moment_Nm"]
-    assert dm["peak"] == ref["drive_moment_Nm"]["peak"]
-    # the design torque (p95 of the revolutions' peaks) lies between the RMS and the run's extreme
-    assert dm["rms"] < dm["fatigue_equivalent"] < dm["design"] <= dm["peak"]
+    assert summary.attrs["summary"]["drive_moment_Nm"]["peak"] == ref["drive_moment_Nm"]["peak"]
     # the time series: SI, units in the names, the same samples
     assert series.index.name == "time [s]"
     np.testing.assert_array_equal(series.index.to_numpy(), result.t)

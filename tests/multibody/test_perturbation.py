@@ -163,3 +163,12 @@ if __name__ == "__main__":  # print the comparison
     for k, v in compare(_ensemble(rtol), _ensemble(rtol / 10)).items():
         print(f"{k:36s} {100 * v['difference']:+7.2f} +- {100 * v['se']:.2f} %  (tol {100 * v['tolerance']:g} %)"
               f"  {'ok' if v['ok'] else 'FAIL'}")
+
+
+@pytest.mark.parametrize("drive", DRIVES)
+def test_drive_torque_sizing_loads_lie_between_rms_and_extreme(drive, default_rtol):
+    """The design torque (p95 of the revolutions' peaks) is at most the run's single extreme and above the
+    cube-mean fatigue-equivalent torque, which is above the RMS (a power mean of higher order)."""
+    st = _statistics(default_rtol, 0, drive)
+    assert (st["drive_moment_Nm.rms"] < st["drive_moment_Nm.fatigue_equivalent"] < st["drive_moment_Nm.design"]
+            <= st["drive_moment_Nm.peak"])

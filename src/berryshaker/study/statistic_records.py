@@ -47,6 +47,12 @@ class DriveMoment(JsonRecord):
         95th percentile of the magnitude (N m).
     mean_abs : float
         Mean of the magnitude (N m).
+    design : float or None
+        The sizing value: the 95th percentile of the revolutions' peak magnitudes (N m); the single ``peak`` is the
+        extreme, kept for reference, not a design load.
+    fatigue_equivalent : float or None
+        The cube-mean magnitude (mean |M|^3)^(1/3) over the window (N m;
+        :func:`berryshaker.drives.simulation.drive_torque_loads`).
     """
 
     peak: float
@@ -54,6 +60,8 @@ class DriveMoment(JsonRecord):
     rms: float
     p95: float
     mean_abs: float
+    design: float | None = optional()
+    fatigue_equivalent: float | None = optional()
 
 
 @dataclass(frozen=True)
