@@ -1,6 +1,6 @@
 """berryshaker: design and tune comb-oscillation blueberry harvesters with transmission clearance.
 
-The package follows the physics chain of the reference study (see ``docs/`` and STUDY.md):
+The package follows the physics chain of the reference study (see ``docs/study.md``):
 ``kinematics`` (cam, double rocker) -> ``contact`` (force laws, clearance joints) -> ``dynamics``
 (MLSD clearance model) -> ... Everything inside is SI (m, s, rad, N); units are converted only at the
 edges (config files, CLI).

@@ -39,8 +39,8 @@ def test_analytic_rates_match_finite_differences(machine):
 
 
 def test_reference_swing_and_transmission_angle(machine):
-    """Left swing = atan((h/2)/drop) = atan(20/120) = 9.46 deg (geometry of STUDY.md sec. 4);
-    right swing about 8.7 deg and transmission angle 80-98 deg (STUDY.md sec. 4)."""
+    """Left swing = atan((h/2)/drop) = atan(20/120) = 9.46 deg (geometry of docs/study.md sec. 6);
+    right swing about 8.7 deg and transmission angle 80-98 deg (docs/study.md sec. 6)."""
     k = check_machine(machine)
     d0, e0 = mid_stroke_angles(machine)
     left = np.degrees(k.theta_d - d0)

@@ -53,7 +53,7 @@ def test_analytic_and_finite_element_modes_agree(tip):
 
 
 def test_reference_branch_first_mode_near_the_drive_frequency():
-    # STUDY.md sec. 4: the reference plant is chosen so that the first mode is about 2 Hz
+    # docs/study.md sec. 6: the reference plant is chosen so that the first mode is about 2 Hz
     assert analytic_modes(REF, 1).frequency_hz[0] == pytest.approx(2.009, abs=2e-3)
 
 

@@ -91,7 +91,7 @@ class CombContactSpec(_Strict):
     exponent: Annotated[float, Field(gt=0, le=3)] | None = None
     finger: FingerSpec = FingerSpec()
     damping: Annotated[float, quantity_validator("damping"), Field(ge=0, json_schema_extra=display_unit("N*s/m"))] = 7.8  # cmax
-    penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [STUDY.md]
+    penetration_depth: Length = 1e-4  # d of IMPACT: full damping reached [assumed; docs/study.md sec. 6]
     station_left: float = Field(0.7, gt=0, le=1)  # z_l / l, where the left comb meets the branch
     station_right: float = Field(0.7, gt=0, le=1)  # z_r / l
     finger_radius: Length = 0.45  # distance from the comb shaft to the striking finger section (m)
