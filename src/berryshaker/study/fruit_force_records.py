@@ -190,6 +190,29 @@ class FruitForceSummary(JsonRecord):
     clearance_mm: dict[str, float]
 
 
+@dataclass(frozen=True)
+class BandLevels(JsonRecord):
+    """One link's signal of a drive-past split at the impact band's cutoff
+    (:func:`berryshaker.harvest.transmission.impact_transmission`).
+
+    Attributes
+    ----------
+    unit : str
+        Unit of the two RMS values ("N" for a force, "m/s^2" for the branch's acceleration).
+    shaking_band_rms : float
+        RMS of the fluctuation below the cutoff (N, or m/s^2 for an acceleration: ``unit``).
+    impact_band_rms : float
+        RMS above the cutoff, the part the clearance impacts make (N, or m/s^2 for an acceleration: ``unit``).
+    impact_share : float
+        The impact band's share of the mean-square fluctuation (dimensionless, 0..1).
+    """
+
+    unit: str
+    shaking_band_rms: float
+    impact_band_rms: float
+    impact_share: float
+
+
 @dataclass(frozen=True, kw_only=True)
 class DrivePast(JsonRecord):
     """One coupled drive-past (:func:`berryshaker.study.runs.fruit_force_run`).
@@ -204,12 +227,16 @@ class DrivePast(JsonRecord):
         Stem force per named fruit along ``distance`` (N), decimated; absent in summary.json.
     peaks_exact : dict of str to float
         Exact peak stem force per named fruit (N).
+    transmission : dict of str to BandLevels or None
+        The shaking and impact bands of each link from the pins to the fruit, in chain order
+        (:func:`berryshaker.harvest.transmission.impact_transmission`).
     """
 
     summary: FruitForceSummary
     distance: list[float] | None = optional()
     forces: dict[str, list[float]] | None = optional()
     peaks_exact: dict[str, float]
+    transmission: dict[str, BandLevels] | None = optional()
 
 
 
@@ -256,5 +283,5 @@ class FruitForceStep(JsonRecord):
     branch_class: float
 
 
-__all__ = ["Eq17Verdict", "FruitPosition", "PedicelSummary", "ContactPeak", "BushSample",
+__all__ = ["BandLevels", "Eq17Verdict", "FruitPosition", "PedicelSummary", "ContactPeak", "BushSample",
            "FruitForceSummary", "DrivePast", "FruitStartSet", "FruitForceStep"]

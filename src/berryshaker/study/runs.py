@@ -207,9 +207,11 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
     -------
     dict
         ``summary`` (:meth:`berryshaker.harvest.coupled.FruitForceResult.summary`), ``distance`` (m) and
-        ``forces`` (N per fruit) decimated to about 2000 points, ``peaks_exact`` (N per fruit).
+        ``forces`` (N per fruit) decimated to about 2000 points, ``peaks_exact`` (N per fruit), ``transmission``
+        (:func:`berryshaker.harvest.transmission.impact_transmission`).
     """
     from berryshaker.harvest.coupled import simulate_fruit_force
+    from berryshaker.harvest.transmission import impact_transmission
     from berryshaker.report.style import decimate_minmax_shared
 
     r = simulate_fruit_force(machine_from_dict(machine_data), clearance)
@@ -217,7 +219,8 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
     distance, forces = decimate_minmax_shared(r.distance, r.fruit_force, 2000)
     return {"summary": r.summary(), "distance": distance.tolist(),
             "forces": {k: v.tolist() for k, v in forces.items()},
-            "peaks_exact": {k: float(np.max(np.abs(v))) for k, v in r.fruit_force.items()}}
+            "peaks_exact": {k: float(np.max(np.abs(v))) for k, v in r.fruit_force.items()},
+            "transmission": impact_transmission(r)}
 
 
 def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
