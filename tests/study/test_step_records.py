@@ -97,7 +97,7 @@ def test_the_readers_read_the_records(tmp_path):
     _, parts = S.fruit_force_section(inp)
     assert "left on the bush" in parts[0] and "0.25-0.4" in parts[0]
     _, parts = S.validation_section(inp)
-    assert "Held out: 7 numbers, 2 consistent, 5 not reproduced" in parts[0] and "hunau2014" in parts[1]
+    assert "Held out: 9 numbers: 2 consistent, 5 not reproduced, 0 without a verdict, 2 not comparable" in parts[0] and "hunau2014" in parts[1]
     _, parts = S.harvest_response_section(inp)
     assert "12 branches (6 simulated members with 2 modes each, seed 12" in parts[0]
     assert any("branch E" in p for p in parts)

@@ -28,16 +28,17 @@ def validate(
     interval and a verdict.
 
     Every published number the model can represent is set up as a case on the machine description (its
-    configured clearances and speed for the reference study's field result; the same comb and plant at another
-    shaking speed or on a hard catching surface for other published harvests) and run from harvest.replicates
-    perturbed starts through the cached runner.  A machine result is compared with the 95 % prediction interval
-    of one field result (mean +- t SD sqrt(1 + 1/R)); published model inputs (bond strengths) read "input";
-    numbers the model cannot represent read "not represented" with the reason.  Nothing is fitted to any of these
-    numbers, so every machine result is held out and decides its verdict.  Sources and how far each number can be
-    trusted: docs/published_record.md.
+    configured clearances and speed for the reference study's field result; the same comb and plant onto soft
+    and hard catching surfaces for other published harvests) and run from harvest.replicates perturbed starts
+    through the cached runner.  A machine result is compared with the 95 % prediction interval of one field
+    result (mean +- t SD sqrt(1 + 1/R)); an interval wider than a factor of ten reads "no verdict" (an
+    efficiency, whose yield per bush is known only to x5, says at which yield the model would match);
+    published model inputs (bond strengths) read "input"; a machine or operating point the description does not
+    represent reads "not comparable" with the reason.  Nothing is fitted to any of these numbers: every row but
+    the inputs is held out.  Sources and how far each number can be trusted: docs/published_record.md.
 
     --json keys: rows (id, quantity, case, source (citation), source_key, published, unit, model, lo, hi: the interval the verdict uses,
-    noise_lo, noise_hi: start-to-start noise only, verdict, held_out, how, confidence), replicates, summary (held_out, consistent, not_reproduced, inputs, not_represented), version.
+    noise_lo, noise_hi: start-to-start noise only, verdict, held_out, how, confidence), replicates, summary (held_out, consistent, not_reproduced, no_verdict, not_comparable, inputs), version.
     \f
 
     Parameters
@@ -85,6 +86,7 @@ def validate(
     out.print(rich_table(["published number", "case", "published", "model [interval]", "verdict"], rows,
                          title=f"The harvest model against the published record ({res['replicates']} starts per case)"))
     s = res["summary"]
-    out.print(f"held out: {s['held_out']} numbers, {s['consistent']} consistent, {s['not_reproduced']} not "
-              f"reproduced; {s['inputs']} model inputs; {s['not_represented']} not represented.  Sources: "
+    out.print(f"held out: {s['held_out']} numbers: {s['consistent']} consistent, {s['not_reproduced']} not "
+              f"reproduced, {s['no_verdict']} without a verdict, {s['not_comparable']} not comparable; "
+              f"{s['inputs']} model inputs.  Sources: "
               "validate --json (source), docs/published_record.md.", markup=False, highlight=False)

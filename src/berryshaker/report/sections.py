@@ -594,9 +594,11 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     parts = [f"<p>Every published number the model can represent, set up on this machine and run from "
              f"{val.replicates} perturbed starts: the model's value with the 95 % prediction interval of one "
              "field result (an efficiency's widened by the published yield's range), the verdict, and whether the "
-             "number was held out (nothing is fitted to any of them; model inputs read 'input').  Held out: "
-             f"{s.held_out} numbers, {s.consistent} consistent, {s.not_reproduced} not reproduced; "
-             f"{s.inputs} inputs; {s.not_represented} not represented.</p>"]
+             "number was held out (nothing is fitted to any of them; model inputs read 'input').  An interval "
+             "wider than a factor of ten gives no verdict; a machine this description does not represent is not "
+             f"comparable.  Held out: {s.held_out} numbers: {s.consistent} consistent, {s.not_reproduced} not "
+             f"reproduced, {s.no_verdict} without a verdict, {s.not_comparable} not comparable; {s.inputs} "
+             "inputs.</p>"]
 
     def model(r):
         if r.model is None:

@@ -193,19 +193,19 @@ class ValidationRow(JsonRecord):
     unit : str
         Unit of ``published``, ``model`` and the interval.
     model : float or None
-        The model's value (replicate mean; the input for a model input; the row's unit); None when not represented.
+        The model's value (replicate mean; the input for a model input; the row's unit); None when not comparable.
     lo : float or None
-        Low end of the interval the verdict uses (the row's unit); None when not represented.
+        Low end of the interval the verdict uses (the row's unit); None when not comparable.
     hi : float or None
-        High end of that interval (the row's unit); None when not represented.
+        High end of that interval (the row's unit); None when not comparable.
     noise_lo : float or None
         Low end of the start-to-start noise's interval alone (the row's unit).
     noise_hi : float or None
         High end of that interval (the row's unit).
     verdict : str
-        "consistent", "not reproduced (model / published = ...)", "input" or "not represented".
+        "consistent", "not reproduced (...)", "no verdict (...)", "not comparable" or "input".
     held_out : bool
-        Whether the number was held out (nothing fitted to it).
+        Whether the number was held out (nothing fitted to it: every row but the model inputs).
     how : str
         How the case represents the published machine and how the interval was formed.
     confidence : str
@@ -237,22 +237,25 @@ class ValidationSummary(JsonRecord):
     Attributes
     ----------
     held_out : int
-        Held-out numbers.
+        Published numbers nothing was fitted to (every row but the model inputs).
     consistent : int
         Held-out numbers inside the model's interval.
     not_reproduced : int
         Held-out numbers outside it.
+    no_verdict : int
+        Held-out numbers whose interval is too wide to decide (more than a factor of ten).
+    not_comparable : int
+        Held-out numbers of a machine or operating point the description does not represent.
     inputs : int
         Published numbers used as model inputs.
-    not_represented : int
-        Published numbers the model cannot represent.
     """
 
     held_out: int
     consistent: int
     not_reproduced: int
+    no_verdict: int
+    not_comparable: int
     inputs: int
-    not_represented: int
 
 
 @dataclass(frozen=True)

@@ -16,9 +16,23 @@ prediction interval scaled by that range (low end x low / typical, high end x hi
 interval is given beside it (``noise_lo``, ``noise_hi``).  The indexes that are shares of the picked mass (unripe
 rate, damage) do not depend on the yield.
 
-Verdicts (held-out numbers only): "consistent" when the published value lies inside the interval, otherwise "not
-reproduced" with the ratio model / published.  Nothing in the reference description is fitted to any of these
-numbers (docs/harvest.md "Yield"), so every machine result is held out.
+Verdicts, on held-out numbers only, and only where they can fail: "consistent" when the published value lies inside
+the interval, otherwise "not reproduced" with the ratio model / published.  A published value inside an interval
+whose ends differ by more than a factor of :data:`NO_VERDICT_SPAN` (an efficiency, whose yield per bush is known
+only to a factor of five) decides nothing: the row reads "no verdict" and says at which yield per bush the model
+would give the published value.  A published
+number whose machine or operating point this description does not represent (another shaker, an unpublished
+amplitude or finger geometry) is listed as "not comparable" with the reason, and no run is made for it.
+
+Pack-out (the packed share of the harvested fruit) is read from a start's field result as 100 - unripe rate - damage
+rate: the model culls only unripe and bruised fruit (no soft, split or stemmed fruit, no debris), so its pack-out is
+an upper bound of a field pack-out and the published value is consistent when it does not exceed the interval's top.
+A published "no difference" between two settings is compared with the paired difference over the starts: consistent
+when the model's difference lies within what one field test at each setting could resolve, +- t(0.975, R - 1)
+sqrt(2) SD, SD the field results' spread at the first setting.
+
+Nothing in the reference description is fitted to any of these numbers (docs/harvest.md "Yield"), so every number but
+the model inputs is held out.
 """
 
 from __future__ import annotations
@@ -37,6 +51,9 @@ YIELD_RANGE_ID = "yield.highbush.bush_season.extension2013"
 #: the record's response names that are not a harvest response's own name
 RECORD_NAMES = {"removal": "ripe_removal"}
 
+#: an interval whose ends differ by more than this factor is no verdict (dimensionless)
+NO_VERDICT_SPAN = 10.0
+
 
 @dataclass(frozen=True)
 class Case:
@@ -45,23 +62,27 @@ class Case:
     ``changes``: dotted description keys -> SI values applied to the description; ``post``: keys changed after the
     runs (they do not change the coupled runs: bruising, catcher); ``numbers``: record id -> response name of
     the harvest responses (berryshaker.harvest.virtual.RESPONSES; "removal" is ripe_removal) (and a factor from the published unit's meaning to the response, e.g. 100 - x);
-    ``reason``: why the case cannot be set up (then nothing runs).
+    ``reason``: why the case cannot be set up or compared (then nothing runs); ``versus``: ``harvest`` keys of a
+    second setting on the same runs, for a published difference between two settings.
 
     Attributes
     ----------
     name : str
         The case as the report names it.
     numbers : dict of str to (str, str)
-        Record id -> (response name, how the published value reads: "value" or
-        "100 - value").
+        Record id -> (response name or "packout", how the published value reads: "value", "100 - value",
+        "upper bound" (the model's value bounds the published one from above) or "difference" (``post`` minus
+        ``versus``)).
     changes : dict of str to float
         Description changes before the runs (SI; e.g. ``drive_speed`` in rad/s).
     post : dict of str to object
         ``harvest`` keys changed after the runs (bruising, catcher).
     reason : str
-        Why the case cannot be set up (empty when it can).
+        Why the case cannot be set up or compared (empty when it can).
     note : str
         How the case represents the published machine.
+    versus : dict of str to object
+        ``harvest`` keys of the second setting of a published difference (empty otherwise).
     """
 
     name: str
@@ -70,6 +91,7 @@ class Case:
     post: dict[str, object] = field(default_factory=dict)
     reason: str = ""
     note: str = ""
+    versus: dict[str, object] = field(default_factory=dict)
 
 
 def cases(machine: Machine) -> list[Case]:
@@ -84,8 +106,9 @@ def cases(machine: Machine) -> list[Case]:
     Returns
     -------
     list of Case
-        The reference study's case (groove cam only), the GYL062 picker, conventional harvesters on a hard
-        surface and Chen et al.'s picker (not set up: its reason).
+        The reference study's case (groove cam only), soft and hard catch surfaces (pack-out), conventional
+        harvesters on a hard surface, and the published machines this description does not represent (not
+        comparable: the reason).
     """
     own = [] if getattr(machine, "DRIVE", "") != "groove_cam" else [
         Case("reference study at its chosen clearances (A1B1C1F3), 120 r/min, 30 m/min",
@@ -95,21 +118,36 @@ def cases(machine: Machine) -> list[Case]:
              note="the description's clearances and operating point (the study's machine for the reference "
                   "description)")]
     return own + [
-        Case("GYL062 towed vibratory picker, 'Bluecrop', at 24 rad/s (3.8 Hz)",
-             {"machine.gyl062.hunau2014.efficiency": ("efficiency", "value"),
-              "machine.gyl062.hunau2014.green_drop": ("unripe", "value"),
-              "machine.gyl062.hunau2014.fruit_damage": ("damage", "value")},
-             changes={"drive_speed": 24.0},
-             note="this description's comb and plant driven at the GYL062's shaking speed (its own geometry is not "
-                  "published); green drop read as the unripe share of the picked mass, as the study defines it"),
+        Case("soft and hard catch surfaces under this machine (modified over-the-row harvesters, 2017)",
+             {"machine.modified_otr.devetter2019.packout_duke": ("packout", "upper bound"),
+              "machine.modified_otr.devetter2019.packout_draper": ("packout", "upper bound"),
+              "machine.modified_otr.devetter2019.soft_vs_hard": ("packout", "difference")},
+             post={"catcher_surface": "padded"}, versus={"catcher_surface": "hard"},
+             note="this description's comb and plant onto a padded, then a hard catching surface (the same starts); "
+                  "pack-out read as 100 - unripe rate - damage rate of the picked mass, an upper bound (the model "
+                  "culls only unripe and bruised fruit)"),
         Case("conventional over-the-row harvesters on a hard catching surface (1992, 'Bluecrop')",
              {"bruise.sound_share.conventional_machine.brown1996": ("damage", "100 - value")},
              post={"catcher_surface": "hard"},
              note="this description with a hard catching surface; the published share damage-free or slightly "
                   "bruised, 22 %, read as 78 % bruised"),
+        Case("GYL062 towed vibratory picker, 'Bluecrop'",
+             {"machine.gyl062.hunau2014.efficiency": ("efficiency", "value"),
+              "machine.gyl062.hunau2014.green_drop": ("unripe", "value"),
+              "machine.gyl062.hunau2014.fruit_damage": ("damage", "value")},
+             reason="not comparable: the GYL062's shaking amplitude and finger geometry are not published, so this "
+                    "comb driven at its speed says nothing about it"),
         Case("Chen et al. small vibrating picker",
              {"machine.chen.picking_rate": ("removal", "value"), "machine.chen.green_shedding": ("unripe_shed", "value")},
-             reason="its shaking frequency, amplitude and finger geometry are not in the abstract that was read"),
+             reason="not comparable: its shaking frequency, amplitude and finger geometry are not in the abstract "
+                    "that was read"),
+        Case("hand-held shakers over soft catch surfaces",
+             {"machine.handheld.takeda2017.packable_max": ("packout", "value"),
+              "machine.handheld_otr.sargent2020.packout_meadowlark": ("packout", "value"),
+              "machine.handheld_otr.sargent2020.packout_farthing": ("packout", "value"),
+              "shake.immature_fraction.malladi2013.shb_max": ("unripe", "value")},
+             reason="not comparable: a hand-held shaker on single branches (its frequency, amplitude and contact are "
+                    "not published) is not a comb machine"),
     ]
 
 
@@ -126,6 +164,38 @@ def _prediction(values: np.ndarray, confidence: float = 0.95) -> dict:
     sd = float(np.std(v, ddof=1)) if n > 1 else float("nan")
     half = float(stats.t.ppf(0.5 + confidence / 2, n - 1) * sd * math.sqrt(1 + 1 / n)) if n > 1 else float("nan")
     return {"mean": mean, "sd": sd, "n": int(n), "lo": max(0.0, mean - half), "hi": mean + half}
+
+
+def _with_harvest(machine: Machine, changes: dict) -> Machine:
+    """``machine`` with ``harvest`` keys changed after the runs (bruising, catcher); itself when none."""
+    if not changes:
+        return machine
+    d = machine.model_dump()
+    d["harvest"].update(changes)
+    return machine_from_dict(d)
+
+
+def _values(field_results: list[dict], key: str) -> np.ndarray:
+    """One value per start: a harvest response, or the pack-out 100 - unripe - damage (%; module docstring)."""
+    if key == "packout":
+        return np.array([100.0 - e["unripe"] - e["damage"] for e in field_results], float)
+    return np.array([e[key] for e in field_results], float)
+
+
+def _difference_row(row, published: float, case: Case, first: np.ndarray, second: np.ndarray) -> dict:
+    """A published difference between the case's two settings against the model's paired difference over the
+    starts, with the resolution of one field test at each setting (module docstring)."""
+    d = first - second
+    n = int(np.isfinite(d).sum())
+    mean = float(np.nanmean(d))
+    sd_field = float(np.nanstd(first, ddof=1))
+    half = float(stats.t.ppf(0.975, n - 1) * math.sqrt(2.0) * sd_field)
+    lo, hi = mean - half, mean + half
+    verdict = "consistent" if lo <= published <= hi else f"not reproduced (model difference {mean:+.3g} points)"
+    how = (f"{case.note}; paired over {n} starts: {', '.join(f'{k} = {v}' for k, v in case.post.items())} minus "
+           f"{', '.join(f'{k} = {v}' for k, v in case.versus.items())}, +- what one field test at each setting "
+           f"resolves (t sqrt 2 x the field SD {sd_field:.3g} points)")
+    return _row(row, published, mean, lo, hi, "%", verdict, True, how, case.name)
 
 
 def _published(row, how: str) -> float:
@@ -259,7 +329,8 @@ def validate(machine: Machine, runner, replicates: int | None = None, record=Non
         ``rows``: one per published number (id, quantity, case, source (the citation), source_key (its key in the
         record), published, unit, model, lo, hi (the
         interval the verdict uses), noise_lo, noise_hi (start-to-start noise only), verdict, held_out, how,
-        confidence); ``replicates``; ``summary`` (counts of verdicts among held-out rows).
+        confidence); ``replicates``; ``summary`` (held-out rows, and the counts of each verdict: consistent,
+        not reproduced, no verdict, not comparable; model inputs).
     """
     from berryshaker.harvest.published_record import load_record
     from berryshaker.harvest.virtual import RESPONSES, start_responses
@@ -276,36 +347,53 @@ def validate(machine: Machine, runner, replicates: int | None = None, record=Non
         if m is None:
             for rid, (resp, how) in present.items():
                 row = record.loc[rid]
-                rows.append(_row(row, _published(row, how), None, None, None, str(row["unit"]), "not represented",
-                                 False, case.reason, case.name))
+                rows.append(_row(row, _published(row, how), None, None, None, str(row["unit"]), "not comparable",
+                                 True, case.reason, case.name))
             continue
         outs = collect(replicate_run, jobs, f"validation: {case.name}")
         reps = replicate_envelopes(m, outs, seeds)
         if len(reps) < 2:
             continue
-        if case.post:
-            dp = m.model_dump()
-            dp["harvest"].update(case.post)
-            m = machine_from_dict(dp)
-        each = [start_responses(m, env, k)["field"] for env, k in reps]  # one counted field test per start
+        each = [start_responses(_with_harvest(m, case.post), env, k)["field"] for env, k in reps]
+        other = ([start_responses(_with_harvest(m, case.versus), env, k)["field"] for env, k in reps]
+                 if case.versus else None)
         for rid, (resp, how) in present.items():
-            key = RECORD_NAMES.get(resp, resp)
-            unit = RESPONSES[key].unit
-            p = _prediction(np.array([e[key] for e in each], float))
             row = record.loc[rid]
             pub = _published(row, how)
+            if how == "difference":
+                assert other is not None
+                rows.append(_difference_row(row, pub, case, _values(each, resp), _values(other, resp)))
+                continue
+            key = RECORD_NAMES.get(resp, resp)
+            unit = "%" if key == "packout" else RESPONSES[key].unit
+            p = _prediction(_values(each, key))
+            if unit == "%":  # a share: the interval stays inside 0..100 %
+                p["hi"] = min(p["hi"], 100.0)
             lo, hi, text = p["lo"], p["hi"], ""
             if resp == "efficiency":
                 lo, hi = p["lo"] * ylo, p["hi"] * yhi
                 text = f", widened by the published yield's range (x{ylo:.2g} .. x{yhi:.2g})"
-            inside = lo <= pub <= hi
-            verdict = "consistent" if inside else f"not reproduced (model / published = {p['mean'] / pub:.2g})"
+            if how == "upper bound":
+                inside = pub <= hi
+                text += "; the model's value bounds the published one from above"
+            else:
+                inside = lo <= pub <= hi
+            if inside and lo > 0 and hi / lo > NO_VERDICT_SPAN:  # a "consistent" that could not have failed
+                y = m.harvest.yield_per_bush * pub / p["mean"] if resp == "efficiency" and p["mean"] > 0 else None
+                verdict = (f"no verdict (the interval spans more than x{NO_VERDICT_SPAN:g}"
+                           + (f"; the model gives the published value at {y:.2g} kg of fruit per bush, described "
+                              f"{m.harvest.yield_per_bush:.2g} kg)" if y is not None else ")"))
+            elif inside:
+                verdict = "consistent"
+            else:
+                verdict = f"not reproduced (model / published = {p['mean'] / pub:.2g})"
             rows.append(_row(row, pub, p["mean"], lo, hi, unit, verdict, True,
                              f"{case.note}; 95 % prediction interval of one field result over {p['n']} starts "
                              f"(SD {p['sd']:.3g} {unit}){text}", case.name, (p["lo"], p["hi"])))
     held = [r for r in rows if r["held_out"]]
     summary = {"held_out": len(held), "consistent": sum(r["verdict"] == "consistent" for r in held),
                "not_reproduced": sum(r["verdict"].startswith("not reproduced") for r in held),
-               "inputs": sum(r["verdict"] == "input" for r in rows),
-               "not_represented": sum(r["verdict"] == "not represented" for r in rows)}
+               "no_verdict": sum(r["verdict"].startswith("no verdict") for r in held),
+               "not_comparable": sum(r["verdict"] == "not comparable" for r in held),
+               "inputs": sum(r["verdict"] == "input" for r in rows)}
     return {"rows": rows, "replicates": len(planned[0][3]) if planned else 0, "summary": summary}
