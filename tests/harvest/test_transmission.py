@@ -66,7 +66,7 @@ def test_the_report_states_the_filtering_it_measured():
 
     ff = SimpleNamespace(level_rows=[14, 15, 16], rows={"14": past(0.75, 0.014, 1e-4), "16": past(0.86, 0.021, 1.3e-4)})
     html = "".join(transmission_parts(ff))
-    assert "86 % of the pins' force fluctuation, 2.1 % of the fingers' force" in html
+    assert "are 86 % of the pins' force fluctuation at level set 3, 2.1 % of the fingers'" in html
     assert "at most 0.013 % of a stem force" in html
     assert "75 → 86" in html
     ff.rows.pop("16")

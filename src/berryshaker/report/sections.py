@@ -370,16 +370,14 @@ def transmission_parts(ff) -> list[str]:
     if pins and stems and "fingers" in b:
         span = f"{100 * min(pins):.0f}" + ("" if f"{100 * min(pins):.0f}" == f"{100 * max(pins):.0f}"
                                            else f"-{100 * max(pins):.0f}")
-        text = (f"<p>Why the harvest barely depends on the clearances: the clearance impacts live above "
-                f"{IMPACT_BAND_HZ:g} Hz.  At level set 3 they are {span} % of "
-                f"the pins' force fluctuation, {100 * b['fingers'].impact_share:.2g} % of the fingers' force on the "
-                f"branch and at most {100 * max(stems):.2g} % of a stem force: the nylon fingers, the branch and the "
-                "pedicel filter them out, and what detaches fruit is the shaking band (one drive-past per level set; "
-                "docs/harvest.md, \"From the pin to the fruit\").</p>")
-    return [f"<h3>From the pin to the fruit: the shaking band (below {IMPACT_BAND_HZ:g} Hz) and the impact band "
-            "(above), level set 1 → level set 3</h3>",
-            _table(["link", "unit", "shaking-band RMS", "impact-band RMS", "impact share of the fluctuation (%)"],
-                   rows), text]
+        text = (f"<p>The clearance impacts (above {IMPACT_BAND_HZ:g} Hz) are {span} % of the pins' force "
+                f"fluctuation at level set 3, {100 * b['fingers'].impact_share:.2g} % of the fingers' and at most "
+                f"{100 * max(stems):.2g} % of a stem force: fingers, branch and pedicel filter them out, so the "
+                "clearances barely move the harvest (docs/harvest.md, \"From the pin to the fruit\").</p>")
+    return [text, _details(f"Table: from the pin to the fruit, the shaking band (below {IMPACT_BAND_HZ:g} Hz) and "
+                           "the impact band (above), level set 1 → level set 3",
+                           [_table(["link", "unit", "shaking-band RMS", "impact-band RMS",
+                                    "impact share of the fluctuation (%)"], rows)])]
 
 
 def virtual_l9_section(inp: SectionInput) -> tuple[str, list[str]]:
@@ -591,14 +589,12 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
     if val is None:
         return title, ["<p>Not available (see Failed runs).</p>"]
     s = val.summary
-    parts = [f"<p>Every published number the model can represent, set up on this machine and run from "
-             f"{val.replicates} perturbed starts: the model's value with the 95 % prediction interval of one "
-             "field result (an efficiency's widened by the published yield's range), the verdict, and whether the "
-             "number was held out (nothing is fitted to any of them; model inputs read 'input').  An interval "
-             "wider than a factor of ten gives no verdict; a machine this description does not represent is not "
-             f"comparable.  Held out: {s.held_out} numbers: {s.consistent} consistent, {s.not_reproduced} not "
-             f"reproduced, {s.no_verdict} without a verdict, {s.not_comparable} not comparable; {s.inputs} "
-             "inputs.</p>"]
+    parts = [f"<p>Every published number the model can represent, run from {val.replicates} perturbed starts: the "
+             "model's value with the 95 % prediction interval of one field result (an efficiency's widened by the "
+             "published yield's range; wider than x10: no verdict) and the verdict; nothing is fitted to any of "
+             f"them but the inputs.  Held out: {s.held_out} numbers: {s.consistent} consistent, "
+             f"{s.not_reproduced} not reproduced, {s.no_verdict} without a verdict, {s.not_comparable} not "
+             f"comparable; {s.inputs} inputs.</p>"]
 
     def model(r):
         if r.model is None:
@@ -606,9 +602,20 @@ def validation_section(inp: SectionInput) -> tuple[str, list[str]]:
         return _Raw(f"{_num(r.model)} {html_text(r.unit)}<br><span class='small'>[{_num(r.lo)}, "
                     f"{_num(r.hi)}]</span>")
 
-    parts.append(_table(["published number", "source", "published", "model [interval]", "verdict", "held out"],
-                        [[r.quantity, r.source_key, f"{_num(r.published)} {r.unit}", model(r),
-                          r.verdict, "yes" if r.held_out else "no"]
-                         for r in val.rows],
-                        left=(0, 1, 4)))
+    header = ["published number", "source", "published", "model [interval]", "verdict", "held out"]
+
+    def rows(keep):
+        return [[r.quantity, r.source_key, f"{_num(r.published)} {r.unit}", model(r), r.verdict,
+                 "yes" if r.held_out else "no"] for r in val.rows if keep(r)]
+
+    parts.append(_table(header, rows(lambda r: r.verdict != "not comparable"), left=(0, 1, 4)))
+    other = [r for r in val.rows if r.verdict == "not comparable"]
+    if other:
+        reasons = sorted({r.how for r in other})
+        parts.append(_details(f"Table: {len(other)} published numbers of machines this description does not "
+                              "represent (not comparable)",
+                              [_table(["published number", "source", "published", "case"],
+                                      [[r.quantity, r.source_key, f"{_num(r.published)} {r.unit}", r.case]
+                                       for r in other], left=(0, 1, 3)),
+                               "<p>" + html_text("; ".join(reasons)) + ".</p>"]))
     return title, parts
