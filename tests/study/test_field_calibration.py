@@ -28,6 +28,7 @@ import numpy as np
 import pytest
 
 from berryshaker.experiment.field_sheet import parse_factor
+from berryshaker.harvest.bruising import median_height
 from berryshaker.study import field_calibration as fc
 
 FACTORS = ("C=0.1,0.2mm", "speed=100,150rpm")
@@ -114,7 +115,7 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     d = at_setting.model_dump()
     d["harvest"].update(ripe_pull=0.6, ripe_shear=0.6 * h.ripe_shear / h.ripe_pull, unripe_pull=1.5,
                         unripe_shear=1.5 * h.unripe_shear / h.unripe_pull, bond_cv=0.3, unripe_fraction=0.2,
-                        yield_per_bush=1.1, bruise_height_padded=0.9)
+                        yield_per_bush=1.1, safe_drop_height_padded=0.9 / float(median_height(1.0, h.safe_fractile, h.bruise_cv)))
     scaled = machine_from_dict(d)
     outs = runner.values(replicate_run, replicate_jobs(at_setting, clearance, seeds, data=data))
     for k, (env, start) in enumerate(replicate_envelopes(at_setting, outs, seeds)):

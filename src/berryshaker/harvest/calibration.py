@@ -158,9 +158,18 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
                   if yield_tag == "[calibrated]" else "2.3 kg per highbush bush per season over 3 passes "
                   "(docs/harvest.md, Yield)") + refit("yield_per_bush_kg")))
     if h.damage_model == "impact":
+        from berryshaker.harvest.bruising import bruise_medians
+
+        hard50, pad50 = bruise_medians(h)
         rows += [
-            ("bruising drop height, hard / padded", f"{h.bruise_height_hard:g} / {h.bruise_height_padded:g}", "m",
+            ("bruising: extensive above (hard) / safe up to (padded)",
+             f"{h.extensive_drop_height_hard:g} / {h.safe_drop_height_padded:g}", "m",
              "[published]", "Brown et al. 1996 drop tests (docs/harvest.md, Bruising)"),
+            ("bruising: P(bruise) at those heights; median hard / padded",
+             f"{h.extensive_fractile:g} / {h.safe_fractile:g}; {hard50:.3g} / {pad50:.3g} m", "", "[assumed]",
+             "lognormal thresholds (docs/harvest.md, Bruising)"),
+            ("fruit struck by a finger", h.strike_probability, "1", "[assumed]",
+             "at a phase of the swing uniform over the cycle (docs/harvest.md, Bruising)"),
             ("bruising threshold CV, catcher", f"{h.bruise_cv:g}, {h.catcher_surface} at "
              f"{h.catcher_drop:g} m below the branch root", "", "[assumed]", "docs/harvest.md"),
         ]

@@ -14,9 +14,10 @@ Chain (docs/harvest.md):
    (ripe 0.47 / 0.23 N, Kong et al. 2014 [published]), reaches its lognormal strength factor (mean 1, CV
    ``bond_cv`` or ``unripe_bond_cv``); the study's eq. 17 bands on the stem-force magnitude are the labelled
    alternative ``"study_eq17"``.
-4. Damage (``damage_model = "impact"``): a detached fruit is bruised by its strike (the fingers' peak speed)
-   or its fall onto the catching surface, against drop-test bruising thresholds (berryshaker.harvest.bruising,
-   Brown et al. 1996); the former Weibull law in the stem force's acceleration is ``"stem_acceleration"``.
+4. Damage (``damage_model = "impact"``): a detached fruit is bruised by its impacts added up as a cumulative drop
+   height (a finger's strike on a share of the fruit, the fall onto the catching surface), against drop-test
+   bruising thresholds (berryshaker.harvest.bruising, Brown et al. 1996: the cushioned safe height a low fractile);
+   the former Weibull law in the stem force's acceleration is ``"stem_acceleration"``.
 5. The responses of one table (:mod:`~berryshaker.harvest.virtual.responses`): efficiency, ripe removal, unripe
    rate, unripe shed, damage rate, each a function of the test's tally.
 

@@ -91,11 +91,13 @@ class HarvestParameters:
         Returns
         -------
         HarvestParameters
-            ``harvest.ripe_pull`` ... (the bruise height of ``harvest.catcher_surface``).
+            ``harvest.ripe_pull`` ... (the median bruise height of ``harvest.catcher_surface``,
+            berryshaker.harvest.bruising.catcher_median).
         """
+        from berryshaker.harvest.bruising import catcher_median
+
         h = machine.harvest
-        bruise = h.bruise_height_hard if h.catcher_surface == "hard" else h.bruise_height_padded
-        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, bruise)
+        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, catcher_median(h))
 
 
 @dataclass(frozen=True)
@@ -214,7 +216,7 @@ def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParamete
     (numpy.ndarray, numpy.ndarray, numpy.ndarray)
         P(off | ripe), P(off | unripe), P(bruised | off) per node (shape (nodes,) or (n, nodes); dimensionless).
     """
-    from berryshaker.harvest.bruising import GRAVITY, bruise_probability, finger_speed
+    from berryshaker.harvest.bruising import impact_damage
     from berryshaker.reference_study import RIPE_BOND_N, UNRIPE_BOND_N
 
     h = machine.harvest
@@ -226,12 +228,7 @@ def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParamete
         off_r = np.clip((grid.force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
         off_u = np.clip((grid.force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
     if h.damage_model == "impact":
-        v_f = finger_speed(machine)
-        hb = np.asarray(p.bruise_height, float)
-        hard_h = hb if h.catcher_surface == "hard" else h.bruise_height_hard
-        p_strike = bruise_probability(v_f * v_f / (2 * GRAVITY), hard_h, h.bruise_cv)
-        fall = h.catcher_drop + grid.z * machine.plant.branch.length
-        q = 1.0 - (1.0 - p_strike) * (1.0 - bruise_probability(fall, hb, h.bruise_cv))
+        q = impact_damage(machine, grid.z, p.bruise_height)
     else:
         q = 1.0 - np.exp(-((grid.force / grid.mass) / h.damage_acceleration) ** h.damage_shape)
     shape = np.broadcast_shapes(np.shape(off_r), np.shape(off_u), np.shape(q))
