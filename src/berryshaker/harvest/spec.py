@@ -68,6 +68,14 @@ class HarvestSpec(_Strict):
     unripe_shear: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 1.0
     bond_cv: float = Field(0.24, ge=0, lt=2)  # CV of a ripe fruit's strengths (lognormal)
     unripe_bond_cv: float = Field(0.40, ge=0, lt=2)  # CV of an unripe fruit's strengths (lognormal)
+    # ripeness stages (docs/harvest.md, "Ripeness stages"): unripe_fraction is the mass share of green + pink + red
+    # fruit (what a field test counts as unripe), unripe_stage_mix the shares of green, pink and red within it
+    # [assumed 0.5 / 0.25 / 0.25]; unripe_pull / unripe_shear / unripe_bond_cv are the green fruit's; pink and red
+    # pulls default to the geometric interpolation between green and blue in the stage index [assumed rule]
+    unripe_stage_mix: tuple[Annotated[float, Field(ge=0, le=1)], Annotated[float, Field(ge=0, le=1)],
+                            Annotated[float, Field(ge=0, le=1)]] = (0.5, 0.25, 0.25)
+    pink_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] | None = None
+    red_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] | None = None
     # damage (docs/harvest.md, "Bruising"): "impact" = bruising of published drop tests at the fruit's impacts, added
     # up as a cumulative drop height (a finger's strike on a share of the fruit, the fall onto the catching surface); "stem_acceleration" = the Weibull law in
     # the acceleration of the stem force with damage_acceleration and damage_shape (the former model, kept as a
@@ -119,6 +127,14 @@ class HarvestSpec(_Strict):
                     raise ValueError(f"harvest.{old} (a median bruising height) is no longer read: give the height the "
                                      f"drop tests report, {new} (docs/harvest.md \"Bruising\")")
         return data
+
+    @model_validator(mode="after")
+    def _stage_mix_sums_to_one(self):
+        total = sum(self.unripe_stage_mix)
+        if abs(total - 1.0) > 1e-6:
+            raise ValueError(f"unripe_stage_mix = {list(self.unripe_stage_mix)} sums to {total:g}: give the shares of "
+                             "green, pink and red fruit within the unripe mass, summing to 1")
+        return self
 
     @model_validator(mode="after")
     def _max_covers_replicates(self):
