@@ -54,8 +54,14 @@ def test_expectation_is_the_closed_form_for_a_uniform_load(machine):
     g_r, g_u = 0.9, 0.5
     t = expected_tally(machine, load_grid(machine, [constant_table(g_r, g_u)] * 3))
     pr = stats.norm.cdf((math.log(g_r) + 0.5 * math.log1p(h.bond_cv**2)) / math.sqrt(math.log1p(h.bond_cv**2)))
-    pu = stats.norm.cdf((math.log(g_u) + 0.5 * math.log1p(h.unripe_bond_cv**2))
-                        / math.sqrt(math.log1p(h.unripe_bond_cv**2)))
+    # unripe: green, pink, red by their shares of the unripe mass; stage k's pull P_g^(1-k/3) P_b^(k/3), its load
+    # ratio g_u P_g / P_k, its CV linear between green's and blue's (docs/harvest.md, "Ripeness stages")
+    pu = 0.0
+    for k, c in enumerate(h.unripe_stage_mix):
+        p_k = h.unripe_pull ** (1 - k / 3) * h.ripe_pull ** (k / 3)
+        cv_k = h.unripe_bond_cv * (1 - k / 3) + h.bond_cv * k / 3
+        s_k = math.sqrt(math.log1p(cv_k**2))
+        pu += c * stats.norm.cdf((math.log(g_u * h.unripe_pull / p_k) + 0.5 * s_k**2) / s_k)
     b, y, uf = bushes_per_test(machine), h.yield_per_bush, h.unripe_fraction
     assert t.ripe == pytest.approx(b * y * (1 - uf), rel=1e-9)
     assert t.unripe == pytest.approx(b * y * uf, rel=1e-9)

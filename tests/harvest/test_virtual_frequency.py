@@ -83,8 +83,12 @@ def test_calibration_lists_fitted_and_held_out():
     calibrated = [p for p in t["parameters"] if p["tag"] == "[calibrated]"]
     assert {p["parameter"] for p in calibrated} == {"yield per bush"}  # only what the fit fitted
     assert all("[study]" in p["target_or_source"] for p in calibrated)
-    assert tags["unripe fraction"] == "[assumed]"
-    assert tags["ripe pull / shear strength"] == tags["bruising drop height, hard / padded"] == "[published]"
+    assert tags["unripe fraction (green + pink + red)"] == tags["unripe stage mix green / pink / red"] == "[assumed]"
+    assert tags["pink / red pull strength"] == "[assumed]"
+    assert tags["ripe pull / shear strength"] == "[published]"
+    assert tags["bruising: extensive above (hard) / safe up to (padded)"] == "[published]"
+    assert tags["bruising: P(bruise) at those heights; median hard / padded"] == "[assumed]"
+    assert tags["fruit struck by a finger"] == "[assumed]"
     # without a fit nothing is calibrated: the description's values come from published data
     assert not [p for p in calibration_table(m, fruit, {})["parameters"] if p["tag"] == "[calibrated]"]
     held = {h["quantity"]: h for h in t["held_out"]}

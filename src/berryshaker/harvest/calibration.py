@@ -140,11 +140,18 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
          "", "[assumed]", "bush 1.5-1.7 m tall [study]"),
     ]
     if h.bond_model == "pull_shear":
+        from berryshaker.harvest.ripeness import stage_pulls
+
+        pulls = stage_pulls(h.ripe_pull, h.unripe_pull, h.pink_pull, h.red_pull)
         rows += [
             ("ripe pull / shear strength", f"{h.ripe_pull:g} / {h.ripe_shear:g}", "N", "[published]",
              "Kong et al. 2014 (docs/harvest.md, Bond)"),
-            ("unripe pull / shear strength", f"{h.unripe_pull:g} / {h.unripe_shear:g}", "N", "[study] / [assumed]",
-             "eq. 17's 1.0-3.6 N as a lognormal's central 90 %; the ripe shear/pull ratio"),
+            ("unripe (green) pull / shear strength", f"{h.unripe_pull:g} / {h.unripe_shear:g}", "N",
+             "[study] / [assumed]", "eq. 17's 1.0-3.6 N as a lognormal's central 90 %; the ripe shear/pull ratio"),
+            ("pink / red pull strength", f"{float(pulls[1]):.3g} / {float(pulls[2]):.3g}", "N",
+             "[assumed]" if h.pink_pull is None and h.red_pull is None else "[described]",
+             "geometric interpolation between green and blue in the stage index (docs/harvest.md, Ripeness "
+             "stages)"),
             ("strength CV ripe / unripe (lognormal)", f"{h.bond_cv:g} / {h.unripe_bond_cv:g}", "1",
              "[published] / [study]", "Kong et al. 2014 shear 0.22-0.48 N over ripening / eq. 17's band, each as "
              "a central 90 %"),
@@ -158,9 +165,18 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
                   if yield_tag == "[calibrated]" else "2.3 kg per highbush bush per season over 3 passes "
                   "(docs/harvest.md, Yield)") + refit("yield_per_bush_kg")))
     if h.damage_model == "impact":
+        from berryshaker.harvest.bruising import bruise_medians
+
+        hard50, pad50 = bruise_medians(h)
         rows += [
-            ("bruising drop height, hard / padded", f"{h.bruise_height_hard:g} / {h.bruise_height_padded:g}", "m",
+            ("bruising: extensive above (hard) / safe up to (padded)",
+             f"{h.extensive_drop_height_hard:g} / {h.safe_drop_height_padded:g}", "m",
              "[published]", "Brown et al. 1996 drop tests (docs/harvest.md, Bruising)"),
+            ("bruising: P(bruise) at those heights; median hard / padded",
+             f"{h.extensive_fractile:g} / {h.safe_fractile:g}; {hard50:.3g} / {pad50:.3g} m", "", "[assumed]",
+             "lognormal thresholds (docs/harvest.md, Bruising)"),
+            ("fruit struck by a finger", h.strike_probability, "1", "[assumed]",
+             "at a phase of the swing uniform over the cycle (docs/harvest.md, Bruising)"),
             ("bruising threshold CV, catcher", f"{h.bruise_cv:g}, {h.catcher_surface} at "
              f"{h.catcher_drop:g} m below the branch root", "", "[assumed]", "docs/harvest.md"),
         ]
@@ -172,8 +188,10 @@ def calibration_table(machine: Machine, fruit_summary: dict | None = None, harve
             ("damage shape", h.damage_shape, "1", "[assumed]", "docs/harvest.md"),
         ]
     rows += [
-        ("unripe fraction", h.unripe_fraction, "1", "[assumed]",
+        ("unripe fraction (green + pink + red)", h.unripe_fraction, "1", "[assumed]",
          f"not fitted: the unripe rate ({STUDY_TARGETS['unripe_rate_pct']} % [study]) is held out"),
+        ("unripe stage mix green / pink / red", " / ".join(f"{c:g}" for c in h.unripe_stage_mix), "1",
+         "[assumed]", "green for weeks, the coloured stages a few days each (docs/harvest.md, Ripeness stages)"),
         ("fruit-mass CV", h.fruit_mass_cv, "1", "[assumed]", "docs/harvest.md"),
     ]
     params = [{"parameter": r[0], "value": r[1], "unit": r[2], "tag": r[3], "target_or_source": r[4]} for r in rows]

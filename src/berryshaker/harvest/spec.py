@@ -35,6 +35,15 @@ MAX_COUNT = 1000
 MAX_SEED = 2**32 - 1
 
 
+#: former median bruising heights -> the fields that replace them (read from what Brown et al. 1996 report)
+RENAMED_BRUISE_FIELDS = {
+    "bruise_height_padded": 'safe_drop_height_padded = "1.2 m" (cushioning prevented bruising up to it) with '
+                            "safe_fractile = 0.05 (P(bruise) there)",
+    "bruise_height_hard": 'extensive_drop_height_hard = "0.15 m" (extensive bruising above it) with '
+                          "extensive_fractile = 0.5 (P(bruise) there)",
+}
+
+
 class HarvestSpec(_Strict):
     """Plant population and picking-outcome model of the virtual harvest (docs/harvest.md).
 
@@ -59,18 +68,32 @@ class HarvestSpec(_Strict):
     unripe_shear: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 1.0
     bond_cv: float = Field(0.24, ge=0, lt=2)  # CV of a ripe fruit's strengths (lognormal)
     unripe_bond_cv: float = Field(0.40, ge=0, lt=2)  # CV of an unripe fruit's strengths (lognormal)
-    # damage (docs/harvest.md, "Bruising"): "impact" = bruising of published drop tests at the fruit's impacts
-    # (the strike at its branch speed, the fall onto the catching surface); "stem_acceleration" = the Weibull law in
+    # ripeness stages (docs/harvest.md, "Ripeness stages"): unripe_fraction is the mass share of green + pink + red
+    # fruit (what a field test counts as unripe), unripe_stage_mix the shares of green, pink and red within it
+    # [assumed 0.5 / 0.25 / 0.25]; unripe_pull / unripe_shear / unripe_bond_cv are the green fruit's; pink and red
+    # pulls default to the geometric interpolation between green and blue in the stage index [assumed rule]
+    unripe_stage_mix: tuple[Annotated[float, Field(ge=0, le=1)], Annotated[float, Field(ge=0, le=1)],
+                            Annotated[float, Field(ge=0, le=1)]] = (0.5, 0.25, 0.25)
+    pink_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] | None = None
+    red_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] | None = None
+    # damage (docs/harvest.md, "Bruising"): "impact" = bruising of published drop tests at the fruit's impacts, added
+    # up as a cumulative drop height (a finger's strike on a share of the fruit, the fall onto the catching surface); "stem_acceleration" = the Weibull law in
     # the acceleration of the stem force with damage_acceleration and damage_shape (the former model, kept as a
     # labelled alternative)
     damage_model: Literal["impact", "stem_acceleration"] = "impact"
     catcher_drop: Annotated[float, quantity_validator("length"), Field(ge=0, le=5, json_schema_extra=display_unit("m"))] = 0.0
     catcher_surface: Literal["padded", "hard"] = "padded"
-    # bruising threshold: a fruit's equivalent drop height at which it bruises is lognormal with this median per
-    # surface and CV (Brown et al. 1996: extensive bruising above 150 mm onto a hard surface; cushioning that
-    # prevented bruising up to 0.6-1.2 m), docs/harvest.md "Bruising"
-    bruise_height_hard: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 0.15
-    bruise_height_padded: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 1.2
+    # bruising thresholds from what the drop tests give (Brown et al. 1996; docs/harvest.md "Bruising"): a fruit's
+    # equivalent drop height at which it bruises is lognormal with CV bruise_cv; its median per surface is read from a
+    # height at which a stated share of the fruit bruises.  Padded: cushioning prevented bruising up to 0.6-1.2 m, a
+    # safe height, P(bruise) = safe_fractile there [assumed 5 %]; hard: extensive bruising above 150 mm, read as the
+    # height at which extensive_fractile of the fruit bruise [assumed 0.5: "extensive" as most of the fruit]
+    safe_drop_height_padded: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 1.2
+    safe_fractile: float = Field(0.05, gt=0, lt=0.5)
+    extensive_drop_height_hard: Annotated[float, quantity_validator("length"), Field(gt=0, le=10, json_schema_extra=display_unit("m"))] = 0.15
+    extensive_fractile: float = Field(0.5, gt=0, lt=1)
+    # share of the detached fruit a comb finger strikes (at a phase of its swing uniform over the cycle) [assumed]
+    strike_probability: float = Field(0.5, ge=0, le=1)
     bruise_cv: float = Field(0.3, gt=0, lt=2)
     damage_acceleration: Annotated[float, quantity_validator("acceleration"), Field(gt=0, json_schema_extra=display_unit("m/s^2"))] = 300.0
     damage_shape: float = Field(2.0, gt=0, le=100)  # Weibull shape of the damage probability [assumed]
@@ -94,6 +117,24 @@ class HarvestSpec(_Strict):
     initial_eccentricity: float = Field(1.0, ge=0, le=1)  # of each joint's free radius [assumed]
     start_phase_spread: NonNegAngle = 3.141592653589793  # drive phase at arrival +- this (rad) [assumed]
     tolerance_replicates: int = Field(2, ge=0, le=MAX_COUNT)  # replicates re-run at rtol 1e-7 for the tolerance check
+
+    @model_validator(mode="before")
+    @classmethod
+    def _renamed_bruise_heights(cls, data):
+        if isinstance(data, dict):
+            for old, new in RENAMED_BRUISE_FIELDS.items():
+                if old in data:
+                    raise ValueError(f"harvest.{old} (a median bruising height) is no longer read: give the height the "
+                                     f"drop tests report, {new} (docs/harvest.md \"Bruising\")")
+        return data
+
+    @model_validator(mode="after")
+    def _stage_mix_sums_to_one(self):
+        total = sum(self.unripe_stage_mix)
+        if abs(total - 1.0) > 1e-6:
+            raise ValueError(f"unripe_stage_mix = {list(self.unripe_stage_mix)} sums to {total:g}: give the shares of "
+                             "green, pink and red fruit within the unripe mass, summing to 1")
+        return self
 
     @model_validator(mode="after")
     def _max_covers_replicates(self):

@@ -12,11 +12,13 @@ Chain (docs/harvest.md):
 3. Detachment (``bond_model = "pull_shear"``): a fruit comes off when the peak over the drive-past of its
    pull-shear load ratio, sqrt((F_pull/P)^2 + (F_shear/S)^2) with its class's mean pull and shear strengths
    (ripe 0.47 / 0.23 N, Kong et al. 2014 [published]), reaches its lognormal strength factor (mean 1, CV
-   ``bond_cv`` or ``unripe_bond_cv``); the study's eq. 17 bands on the stem-force magnitude are the labelled
+   ``bond_cv`` or its stage's); unripe fruit are green, pink or red (berryshaker.harvest.ripeness: green's bond
+   from the study's eq. 17, pink and red interpolated), all counted as unripe; the study's eq. 17 bands on the stem-force magnitude are the labelled
    alternative ``"study_eq17"``.
-4. Damage (``damage_model = "impact"``): a detached fruit is bruised by its strike (the fingers' peak speed)
-   or its fall onto the catching surface, against drop-test bruising thresholds (berryshaker.harvest.bruising,
-   Brown et al. 1996); the former Weibull law in the stem force's acceleration is ``"stem_acceleration"``.
+4. Damage (``damage_model = "impact"``): a detached fruit is bruised by its impacts added up as a cumulative drop
+   height (a finger's strike on a share of the fruit, the fall onto the catching surface), against drop-test
+   bruising thresholds (berryshaker.harvest.bruising, Brown et al. 1996: the cushioned safe height a low fractile);
+   the former Weibull law in the stem force's acceleration is ``"stem_acceleration"``.
 5. The responses of one table (:mod:`~berryshaker.harvest.virtual.responses`): efficiency, ripe removal, unripe
    rate, unripe shed, damage rate, each a function of the test's tally.
 

@@ -9,7 +9,7 @@ drive-past per branch class, their stem-load tables) this module gives
 * the **model's expectation** (:func:`expected_tally`): the large-sample mean, by quadrature over what a fruit can
   be -- branch class (equally likely), position z along the fruit zone (uniform), mass (lognormal, mean m0, CV
   ``fruit_mass_cv``; Gauss-Legendre nodes in every cell of the stem-load tables, :func:`load_grid`), ripe or unripe (mass fraction
-  ``unripe_fraction``) -- of the probability that it comes off and that it bruises (:func:`node_probabilities`);
+  ``unripe_fraction``; an unripe fruit green, pink or red by ``unripe_stage_mix``, berryshaker.harvest.ripeness) -- of the probability that it comes off and that it bruises (:func:`node_probabilities`);
   no sampling noise;
 * the **counting noise of one field test** about that expectation (:func:`count_variance`): each bush its own yield,
   lognormal with mean ``yield_per_bush`` and CV ``bush_yield_cv``; its fruit a Poisson count of yield / mean mass on
@@ -25,7 +25,8 @@ drive-past per branch class, their stem-load tables) this module gives
 
 Detachment and bruising are those of :mod:`berryshaker.harvest.virtual.indexes`' models: ``bond_model`` "pull_shear"
 (a fruit comes off when the peak pull-shear load ratio of its class's mean strengths reaches its strength factor,
-lognormal with mean 1 and CV ``bond_cv`` / ``unripe_bond_cv``: P = Phi((ln g + sigma^2/2) / sigma)) or "study_eq17"
+lognormal with mean 1 and CV ``bond_cv`` or its stage's: P = Phi((ln g + sigma^2/2) / sigma), mixed over the
+unripe stages by their shares) or "study_eq17"
 (the peak stem force against a bond uniform in the study's band); ``damage_model`` "impact" (berryshaker.harvest.
 bruising) or "stem_acceleration" (1 - exp(-(a / a_d)^k)).
 
@@ -91,11 +92,13 @@ class HarvestParameters:
         Returns
         -------
         HarvestParameters
-            ``harvest.ripe_pull`` ... (the bruise height of ``harvest.catcher_surface``).
+            ``harvest.ripe_pull`` ... (the median bruise height of ``harvest.catcher_surface``,
+            berryshaker.harvest.bruising.catcher_median).
         """
+        from berryshaker.harvest.bruising import catcher_median
+
         h = machine.harvest
-        bruise = h.bruise_height_hard if h.catcher_surface == "hard" else h.bruise_height_padded
-        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, bruise)
+        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, catcher_median(h))
 
 
 @dataclass(frozen=True)
@@ -214,24 +217,21 @@ def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParamete
     (numpy.ndarray, numpy.ndarray, numpy.ndarray)
         P(off | ripe), P(off | unripe), P(bruised | off) per node (shape (nodes,) or (n, nodes); dimensionless).
     """
-    from berryshaker.harvest.bruising import GRAVITY, bruise_probability, finger_speed
+    from berryshaker.harvest.bruising import impact_damage
+    from berryshaker.harvest.ripeness import unripe_stage_strengths
     from berryshaker.reference_study import RIPE_BOND_N, UNRIPE_BOND_N
 
     h = machine.harvest
     p = params or HarvestParameters.described(machine)
     if h.bond_model == "pull_shear":
         off_r = _p_below(grid.load_ripe * (h.ripe_pull / np.asarray(p.ripe_pull, float)), p.bond_cv)
-        off_u = _p_below(grid.load_unripe * (h.unripe_pull / np.asarray(p.unripe_pull, float)), h.unripe_bond_cv)
+        off_u = sum(c * _p_below(grid.load_unripe * f, cv) for c, f, cv in  # green, pink, red by their shares
+                    unripe_stage_strengths(h, p.ripe_pull, p.unripe_pull, p.bond_cv))
     else:  # the study's eq. 17: the peak stem force against a bond uniform in the class's band
         off_r = np.clip((grid.force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
         off_u = np.clip((grid.force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
     if h.damage_model == "impact":
-        v_f = finger_speed(machine)
-        hb = np.asarray(p.bruise_height, float)
-        hard_h = hb if h.catcher_surface == "hard" else h.bruise_height_hard
-        p_strike = bruise_probability(v_f * v_f / (2 * GRAVITY), hard_h, h.bruise_cv)
-        fall = h.catcher_drop + grid.z * machine.plant.branch.length
-        q = 1.0 - (1.0 - p_strike) * (1.0 - bruise_probability(fall, hb, h.bruise_cv))
+        q = impact_damage(machine, grid.z, p.bruise_height)
     else:
         q = 1.0 - np.exp(-((grid.force / grid.mass) / h.damage_acceleration) ** h.damage_shape)
     shape = np.broadcast_shapes(np.shape(off_r), np.shape(off_u), np.shape(q))
@@ -414,6 +414,7 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
     Tally
         Counted masses (kg) and the test's duration (s).
     """
+    from berryshaker.harvest.ripeness import unripe_stage_strengths
     from berryshaker.reference_study import RIPE_BOND_N, UNRIPE_BOND_N
 
     h = machine.harvest
@@ -440,9 +441,15 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
         e = np.asarray(env, float)
         load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st)
         force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0)
+    u_stage = rng.random(n)  # drawn last: the earlier draws are those of a model without stages
     if h.bond_model == "pull_shear":
-        load = load * np.where(ripe, h.ripe_pull / float(p.ripe_pull), h.unripe_pull / float(p.unripe_pull))
-        cv = np.where(ripe, float(p.bond_cv), h.unripe_bond_cv)
+        stages = unripe_stage_strengths(h, float(p.ripe_pull), float(p.unripe_pull), float(p.bond_cv))
+        edges = np.cumsum([c for c, _, _ in stages])
+        k = np.minimum(np.searchsorted(edges, u_stage, side="right"), len(stages) - 1)  # green, pink, red
+        f_u = np.array([float(f) for _, f, _ in stages])[k]
+        cv_u = np.array([float(cv) for _, _, cv in stages])[k]
+        load = load * np.where(ripe, h.ripe_pull / float(p.ripe_pull), f_u)
+        cv = np.where(ripe, float(p.bond_cv), cv_u)
         sig = np.sqrt(np.log1p(cv * cv))
         off = load >= np.exp(-0.5 * sig * sig + sig * u_strength)
     else:

@@ -9,7 +9,8 @@ gives the model's expectation (a tally of expected masses, :func:`berryshaker.ha
 and one field result (a tally of counted fruit, :func:`berryshaker.harvest.virtual.field_test.field_tally`).
 
 The study's indexes (Lyu et al. 2024, sec. 2.6): picking efficiency = picked mass / test time (kg/min); unripe
-(shedding) rate = unripe picked mass / picked mass (%); damage rate = damaged mass / picked mass (%); the shaker
+(shedding) rate = unripe picked mass / picked mass (%), unripe meaning green, pink and red fruit, what a field test
+counts as unripe (berryshaker.harvest.ripeness); damage rate = damaged mass / picked mass (%); the shaker
 literature's removal fractions (ripe removal = ripe picked / ripe on the bush, unripe shed = unripe picked / unripe on
 the bush, %) beside them.
 
@@ -181,11 +182,13 @@ register_response(HarvestResponse(
     "ripe mass detached / ripe mass on the stretch", lambda t: _ratio(t.ripe_picked, t.ripe)))
 register_response(HarvestResponse(
     "unripe", "%", False, 0.05, "unripe rate",
-    "unripe mass detached / mass detached (the study's Y2)", lambda t: _ratio(t.unripe_picked, t.picked),
+    "unripe (green, pink and red) mass detached / mass detached (the study's Y2)",
+    lambda t: _ratio(t.unripe_picked, t.picked),
     study_index=True, calibrated=True, column="unripe_rate_pct"))
 register_response(HarvestResponse(
     "unripe_shed", "%", False, 0.05, "unripe shed",
-    "unripe mass detached / unripe mass on the stretch", lambda t: _ratio(t.unripe_picked, t.unripe)))
+    "unripe (green, pink and red) mass detached / unripe mass on the stretch",
+    lambda t: _ratio(t.unripe_picked, t.unripe)))
 register_response(HarvestResponse(
     "damage", "%", False, 0.05, "damage rate",
     "bruised mass / mass detached (the study's Y3)", lambda t: _ratio(t.damaged, t.picked),

@@ -33,7 +33,8 @@ class Parameter:
     Attributes
     ----------
     name : str
-        Name (the ``harvest`` key it sets; ``bruise_height`` sets the described catching surface's threshold).
+        Name (the ``harvest`` key it sets; ``bruise_height`` sets the described catching surface's median
+        threshold, berryshaker.harvest.bruising.catcher_median).
     unit : str
         SI unit of its values ("" for a fraction).
     distribution : str
@@ -123,10 +124,11 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("yield_per_bush", "kg", "lognormal", 0.30, 1.51,
               "MSU Extension 2013: 2-10 lb (0.9-4.5 kg) per highbush bush and season, over three machine passes "
               "[assumed], as the central 90 %", "[published range; passes and reading assumed]"),
-    Parameter("bruise_height", "m", "lognormal", 0.60, 2.40,
-              "Brown et al. 1996: cushioning prevented bruising for drops up to 0.6-1.2 m (padded catcher); the "
-              "central 90 % from the smallest safe height to twice the largest is our choice; a hard catcher: "
-              "0.075-0.30 m about Brown's 0.15 m", "[published lower end; upper end assumed]"),
+    Parameter("bruise_height", "m", "lognormal", 0.97, 3.90,
+              "median bruise height of a padded catcher: Brown et al. 1996's cushioning prevented bruising for drops "
+              "up to 0.6-1.2 m, safe heights read as the 5 % fractile at CV 0.3 (median x 1.62: 0.97-1.95 m); the "
+              "central 90 % from the smaller's median to twice the larger's is our choice; a hard catcher: "
+              "0.075-0.30 m about Brown's 0.15 m", "[published lower end; fractile and upper end assumed]"),
 )
 PARAMETER_NAMES = tuple(p.name for p in PARAMETERS)
 #: the hard catching surface's bruise-threshold prior (replaces the padded one when the description's surface is hard)
@@ -166,8 +168,10 @@ def described_values(machine: Machine) -> dict[str, float]:
     dict of str to float
         Name -> value (N, fractions, kg, m).
     """
+    from berryshaker.harvest.bruising import catcher_median
+
     h = machine.harvest
-    bruise = h.bruise_height_hard if h.catcher_surface == "hard" else h.bruise_height_padded
+    bruise = catcher_median(h)
     return {"ripe_pull": h.ripe_pull, "unripe_pull": h.unripe_pull, "bond_cv": h.bond_cv,
             "unripe_fraction": h.unripe_fraction, "yield_per_bush": h.yield_per_bush, "bruise_height": bruise}
 
@@ -188,7 +192,8 @@ def prior_rows(machine: Machine | None = None) -> list[dict]:
     """
     params = parameters_for(machine) if machine is not None else PARAMETERS
     hard = machine is not None and machine.harvest.catcher_surface == "hard"
-    keys = {"bruise_height": "bruise_height_hard" if hard else "bruise_height_padded"}
+    keys = {"bruise_height": ("median bruise height of extensive_drop_height_hard" if hard else
+                              "median bruise height of safe_drop_height_padded")}
     return [{"name": p.name, "key": f"harvest.{keys.get(p.name, p.name)}", "unit": p.unit, "prior": p.describe(),
              "lo90": p.interval90()[0], "hi90": p.interval90()[1], "source": p.source, "tag": p.tag} for p in params]
 
