@@ -87,7 +87,7 @@ def main() -> None:
                     f"{k} {r[k]:.3g} +- {r[k + '_sd']:.2g}" + (f" (step {r[k + '_step']['mean']:+.3g} +- "
                                                                   f"{r[k + '_step']['se']:.2g})" if k + "_step" in r
                                                                   else "")
-                    for k in ("ripe_removal_pct", "unripe_shed_pct", "damage_rate_pct")))
+                    for k in ("ripe_removal", "unripe_shed", "damage")))
     write_results(default_out("harvest_trends"), "harvest_trends", {"replicates": len(seeds)}, out)
 
 
