@@ -164,6 +164,26 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
     return out
 
 
+def planned_runs_cached(machine, runner) -> bool:
+    """Whether every run the steps plan (:data:`PLANS`) is in ``runner``'s cache: a study that then starts no
+    worker (its figures are drawn in this process).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    runner : SweepRunner
+        The study's runner.
+
+    Returns
+    -------
+    bool
+        True when every planned run's cache entry is present.
+    """
+    ctx = StudyContext(machine, runner, Path("."))
+    return all(runner.all_cached(p.fn, p.jobs) for p in planned_runs(ctx))
+
+
 def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
     """Compile the multibody engine's projection and event helpers here while a worker compiles its force
     evaluation and the step helpers that call it (``study.runs.warm_worker``, started as the future ``warm``), wait
@@ -252,9 +272,11 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
         # the engine compiled on two cores when runs need it: a worker its forces, this process the rest
         # (compile_engine_beside); on two cores the reduced model's runs wait for that (a third process would
         # slow both down, and they are not what the study waits for)
+        plans = [p for p in plans if not runner.all_cached(p.fn, p.jobs)]
+        # nothing planned to compute: no worker is started for the figures either (they are drawn here)
+        ctx.draw_in_workers = bool(plans)
         warm = None
-        if runner.workers > 1 and not runner.scheduler and any(p.engine and not runner.all_cached(p.fn, p.jobs)
-                                                               for p in plans):
+        if runner.workers > 1 and not runner.scheduler and any(p.engine for p in plans):
             warm = runner.warm_up(warm_worker, dict(machine_data=ctx.data))
         defer = warm is not None and usable_cores() < 3
         if not defer:
