@@ -414,6 +414,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> StudySummary:
     """
     from berryshaker.outputs import staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.html import study_report
+    from berryshaker.report.html_blocks import page_figure_cache
     from berryshaker.study.tables import strip_series, write_tables
 
     with staged_directory(out_dir, kind="study") as stage:
@@ -426,7 +427,8 @@ def run_study(machine, out_dir: Path, runner, console=None) -> StudySummary:
         write_tables(machine, results, tables)
         write_json_atomic(stage / "summary.json", {**summary.to_json(), "results": strip_series(results.to_json()),
                                                    "machine_si": machine.model_dump(mode="json")})
-        write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps,
-                                                              sections=report_sections()))
+        with page_figure_cache(runner.cache_dir / "page-figures" if runner.use_cache else None):
+            page = study_report(results, summary, machine, figs, steps, sections=report_sections())
+        write_text_atomic(stage / "report.html", page)
     return summary
 
