@@ -15,6 +15,9 @@ the accepted steps, so time per step = median / steps.  Cases:
   default rtol) in the multibody engine (``drives.simulation.simulate_multibody``) and in the MLSD model;
 * one coupled drive-past (the reference machine driven past its bush, ``harvest.coupled.simulate_fruit_force``
   at the coupled runs' default rtol: the run the virtual harvest repeats per replicate and branch class);
+* the perturbed assembly of 8 drive-past starts (the coupled mechanism, each start's clearance joints off centre
+  and its drive turned by up to 180 deg: up to 16 continuation steps, ``multibody.perturbation``), as every
+  replicate drive-past assembles its start;
 * sweep throughput: 8 harvester runs over clearance sets drawn 0.5-1.5x around the reference (seed 1), one by one
   and batched (``drives.simulation.simulate_multibody_batch``, one compiled call, one thread), as
   ``berryshaker sweep --model multibody`` runs them.
@@ -121,6 +124,20 @@ def test_coupled_drive_past(benchmark, machine):
     run = lambda: simulate_fruit_force(machine)  # noqa: E731
     run()
     benchmark.pedantic(run, rounds=3, iterations=1)
+
+
+def test_perturbed_assembly(benchmark, machine):
+    from berryshaker.harvest.coupled import coupled_mechanism
+    from berryshaker.multibody.perturbation import RandomInitialPerturbation
+
+    benchmark.group = "perturbed assembly, 8 drive-past starts"
+    spec, _ = coupled_mechanism(machine)
+    starts = [RandomInitialPerturbation((k, 1, 0), 1.0, math.pi).for_spec(spec) for k in range(8)]
+    turned = [(p, p.shifted_drivers(spec)) for p in starts]
+    run = lambda: [p.assemble(s) for p, s in turned]  # noqa: E731
+    run()
+    benchmark.pedantic(run, rounds=10, iterations=1)
+    benchmark.extra_info.update(starts=len(starts))
 
 
 @pytest.mark.parametrize("mode", ["one_by_one", "batched"])

@@ -255,3 +255,34 @@ def test_report_fits_an_a4_page_width_on_screen(report):
     # the trade-off table's rows stay short (they were ~300 px tall with its last column squeezed)
     trade = text[text.index("<h3>Trade-off"):]
     assert trade.count("<tr>") >= 2 * len(res.l9.tradeoff)  # indexes and machine loads: two tables
+
+
+def test_a_kept_page_figure_is_the_scaled_one(tmp_path):
+    """A figure's page PNG read from the page-figure folder is the bytes the scaling gives; a figure scaled once is
+    read back, not scaled again, and a changed figure file is scaled anew."""
+    import berryshaker.report.html_blocks as hb
+    from berryshaker.report.plots.figure_files import _out
+    from berryshaker.report.style import new_figure
+
+    def figure(name, y):
+        fig, ax = new_figure()
+        ax.plot([0.0, 1.0, 2.0], y)
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        return Path(_out(fig, tmp_path / name, {}, False)["path"])
+
+    a, b = figure("a.png", [0.0, 1.0, 0.5]), figure("b.png", [0.0, 2.0, 0.5])
+    scaled = hb._png_for_page(a)
+    folder = tmp_path / "kept"
+    with hb.page_figure_cache(folder):
+        assert hb._png_for_page(a) == scaled
+        kept = list(folder.rglob("*.png"))
+        assert len(kept) == 1
+        scale = hb._scaled_png
+        try:
+            hb._scaled_png = None  # read back, not scaled
+            assert hb._png_for_page(a) == scaled
+        finally:
+            hb._scaled_png = scale
+        assert hb._png_for_page(b) == hb._png_for_page(b) != scaled
+        assert len(list(folder.rglob("*.png"))) == 2

@@ -85,16 +85,17 @@ def study(
             raise BerryshakerError("the study needs a [plant] block in the machine description")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, use_cache=not no_cache,
                              progress=True, console=err)
+        from berryshaker.study.pipeline import planned_runs_cached, run_study
+
         if scheduler:
             runner.check_scheduler()
-        else:
+        elif not planned_runs_cached(machine, runner):
             from berryshaker.study.runs import import_run_modules
 
             # the workers start and import what their runs need while this process checks the description's
-            # geometry (its kernels compiled on a fresh install) and imports the pipeline
+            # geometry (its kernels compiled on a fresh install); with every planned run cached none is started
             runner.start_workers(import_run_modules)
         from berryshaker.drives import drive_of
-        from berryshaker.study.pipeline import run_study
 
         drive_of(machine).check(machine)
         summary = run_study(machine, out_dir, runner, console=err)

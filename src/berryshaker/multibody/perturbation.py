@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from berryshaker.errors import ConfigError
-from berryshaker.multibody.assembly import initial_state
+from berryshaker.multibody.assembly import Assembly
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 
@@ -99,7 +99,9 @@ class InitialPerturbation:
 
         Each offset joint is assembled as an ideal joint through its pin point moved by -d (so that the pin
         centre sits A_i d from the bore centre); the driver turn is followed by continuation from the
-        unperturbed assembly (Newton from the previous configuration at each step).
+        unperturbed assembly (Newton from the previous configuration at each step).  The assembly's mechanism
+        is compiled once (:class:`berryshaker.multibody.assembly.Assembly`); the offsets and each step's
+        driver angles are moved in its compiled records.
 
         Parameters
         ----------
@@ -111,19 +113,19 @@ class InitialPerturbation:
         numpy.ndarray
             Positions, then velocities (m, rad; m/s, rad/s).
         """
-        data = spec.model_dump()
-        for j in data["joints"]:
-            if j["name"] in self.joint_offsets:
-                dx, dy = self.joint_offsets[j["name"]]
-                j["point_i"] = [j["point_i"][0] - float(dx), j["point_i"][1] - float(dy)]
-        offset = mechanism_from_dict(data, "(perturbed assembly)")  # validated once; the steps only turn drivers
+        assembly = Assembly(spec)
+        for j in spec.joints:
+            if j.name in self.joint_offsets:
+                dx, dy = self.joint_offsets[j.name]
+                assembly.move_joint_point(j.name, (j.point_i[0] - float(dx), j.point_i[1] - float(dy)))
         turn = max((abs(float(v)) for v in self.driver_phases.values()), default=0.0)
         n = max(1, int(math.ceil(turn / PHASE_CONTINUATION_STEP)))
         q = None
         for k in range(n + 1) if turn > 0 else (n,):
-            drivers = [d.model_copy(update={"angle0": d.angle0 - float(self.driver_phases[d.name]) * (1 - k / n)})
-                       if d.name in self.driver_phases else d for d in offset.drivers]
-            y = initial_state(offset.model_copy(update={"drivers": drivers}), q)
+            for d in spec.drivers:
+                if d.name in self.driver_phases:
+                    assembly.turn_driver(d.name, d.angle0 - float(self.driver_phases[d.name]) * (1 - k / n))
+            y = assembly.state(q)
             q = y[:len(y) // 2]
         return y
 

@@ -6,7 +6,12 @@ formats in a cell.  Every report module builds its page from these; none of them
 from __future__ import annotations
 
 import base64
+import contextlib
+import contextvars
+import hashlib
+import os
 import re
+import stat
 from pathlib import Path
 
 from berryshaker.user_text import html_text
@@ -47,13 +52,67 @@ WIDE_COLUMNS = 8
 EMBED_MAX_PX = 1400
 
 
+#: folder of the page PNGs already scaled (:func:`page_figure_cache`); None: every figure is scaled anew
+_PAGE_CACHE: contextvars.ContextVar = contextvars.ContextVar("page_figure_cache", default=None)
+
+
+@contextlib.contextmanager
+def page_figure_cache(folder: str | Path | None):
+    """Inside the block a figure's page PNG (:data:`EMBED_MAX_PX` wide) is read from ``folder`` when the same
+    figure file was scaled before, by the same code and imaging library, and stored there when not; None: no
+    folder.  The stored PNG is the bytes the scaling gives, so the page is the same either way.
+
+    Parameters
+    ----------
+    folder : str or Path or None
+        A private folder of this user's (the study passes one inside its run cache).
+
+    Yields
+    ------
+    None
+        Inside the block page PNGs are kept in ``folder``.
+    """
+    token = _PAGE_CACHE.set(None if folder is None else Path(folder))
+    try:
+        yield
+    finally:
+        _PAGE_CACHE.reset(token)
+
+
 def _png_for_page(path: Path) -> bytes:
-    """A figure file's PNG, scaled down to :data:`EMBED_MAX_PX` wide for embedding (the file keeps its 300 dpi)."""
+    """A figure file's PNG, scaled down to :data:`EMBED_MAX_PX` wide for embedding (the file keeps its 300 dpi);
+    read from the :func:`page_figure_cache` folder when it holds this figure's."""
+    data = Path(path).read_bytes()
+    folder = _PAGE_CACHE.get()
+    if folder is None:
+        return _scaled_png(data)
+    import PIL
+
+    from berryshaker.outputs import code_fingerprint, write_bytes_atomic
+
+    key = hashlib.sha256(f"{code_fingerprint()}\0{PIL.__version__}\0{EMBED_MAX_PX}\0".encode() + data).hexdigest()
+    kept = folder / key[:2] / f"{key}.png"
+    try:
+        st = os.lstat(kept)
+        if stat.S_ISREG(st.st_mode) and (not hasattr(os, "geteuid") or st.st_uid == os.geteuid()):
+            return kept.read_bytes()
+    except OSError:
+        pass
+    small = _scaled_png(data)
+    try:
+        kept.parent.mkdir(parents=True, exist_ok=True)
+        write_bytes_atomic(kept, small)
+    except OSError:
+        pass  # a page PNG not kept is scaled again next time
+    return small
+
+
+def _scaled_png(data: bytes) -> bytes:
+    """The PNG ``data`` scaled down to :data:`EMBED_MAX_PX` wide, 256 colours (as it is when not wider)."""
     import io
 
     from PIL import Image
 
-    data = Path(path).read_bytes()
     with Image.open(io.BytesIO(data)) as im:
         if im.width <= EMBED_MAX_PX:
             return data

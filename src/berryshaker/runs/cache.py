@@ -240,6 +240,27 @@ def _foreign(st: os.stat_result) -> str | None:
     return None
 
 
+def cache_entry_present(path: str | Path) -> bool:
+    """Whether an entry's file is there to be read: a regular file of this user's (a symlink is not followed).  Its
+    content is not read or checked; :func:`read_cache_entry` does that where the value is used.
+
+    Parameters
+    ----------
+    path : str or Path
+        The entry's file (:func:`cache_entry_path`).
+
+    Returns
+    -------
+    bool
+        True when the file is there and this user's own.
+    """
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    return _foreign(st) is None
+
+
 _ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwargs_sha256": str,
                 "value_sha256": str, "wall_s": (int, float)}
 

@@ -33,7 +33,7 @@ from typing import Callable
 
 from berryshaker.outputs import pid_alive
 from berryshaker.runs import jobs as _jobs
-from berryshaker.runs.cache import cache_entry_path, read_cache_entry, run_key
+from berryshaker.runs.cache import cache_entry_path, cache_entry_present, read_cache_entry, run_key
 from berryshaker.runs.jobs import BATCH_SIZE, batchable, chunk_size, failed_outcome, run_jobs
 from berryshaker.runs.main_guard import WorkerStartError, worker_start_message
 
@@ -317,7 +317,7 @@ class LocalPool:
                 key = run_key(fn, kw)
                 if key in jobs or key in known:
                     continue
-                if cache and read_cache_entry(cache_entry_path(cache, key), key, fp)[0] is not None:
+                if cache and cache_entry_present(cache_entry_path(cache, key)):  # read by the map
                     continue
                 jobs[key] = kw
             keys = list(jobs)

@@ -32,6 +32,7 @@ from berryshaker.runs import dask_backend
 from berryshaker.runs.cache import (  # noqa: F401  (re-exported: the runner's public names)
     CACHE_SCHEMA,
     cache_entry_path,
+    cache_entry_present,
     default_cache_dir,
     run_cache_dir,
     function_name,
@@ -436,7 +437,8 @@ class SweepRunner:
 
     def all_cached(self, fn: Callable, kwargs_list: list[dict]) -> bool:
         """Whether every run of ``fn`` with these arguments is in the cache (for this code): a :meth:`map` of them
-        would start no worker.
+        would start no worker.  The entries' files are looked for, not read (a damaged one is met, and run again,
+        by the map).
 
         Parameters
         ----------
@@ -452,13 +454,8 @@ class SweepRunner:
         """
         if not self.use_cache:
             return not kwargs_list
-        fp = code_fingerprint()
-        cache = str(self.cache_dir)
-        for kw in kwargs_list:
-            key = run_key(fn, kw)
-            if read_cache_entry(cache_entry_path(cache, key), key, fp)[0] is None:
-                return False
-        return True
+        cache = str(self.cache_dir)  # the key holds the code fingerprint: an entry present is this code's
+        return all(cache_entry_present(cache_entry_path(cache, run_key(fn, kw))) for kw in kwargs_list)
 
     def warm_up(self, fn: Callable, kwargs: dict | None = None) -> Future | None:
         """Call ``fn(**kwargs)`` in a pool worker now, for its side effects (e.g. compiling kernels into numba's

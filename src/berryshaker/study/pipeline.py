@@ -164,6 +164,26 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
     return out
 
 
+def planned_runs_cached(machine, runner) -> bool:
+    """Whether every run the steps plan (:data:`PLANS`) is in ``runner``'s cache: a study that then starts no
+    worker (its figures are drawn in this process).
+
+    Parameters
+    ----------
+    machine : MachineBase
+        The study's machine description.
+    runner : SweepRunner
+        The study's runner.
+
+    Returns
+    -------
+    bool
+        True when every planned run's cache entry is present.
+    """
+    ctx = StudyContext(machine, runner, Path("."))
+    return all(runner.all_cached(p.fn, p.jobs) for p in planned_runs(ctx))
+
+
 def compile_engine_beside(machine, warm, timeout: float = 60.0) -> str | None:
     """Compile the multibody engine's projection and event helpers here while a worker compiles its force
     evaluation and the step helpers that call it (``study.runs.warm_worker``, started as the future ``warm``), wait
@@ -252,9 +272,11 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
         # the engine compiled on two cores when runs need it: a worker its forces, this process the rest
         # (compile_engine_beside); on two cores the reduced model's runs wait for that (a third process would
         # slow both down, and they are not what the study waits for)
+        plans = [p for p in plans if not runner.all_cached(p.fn, p.jobs)]
+        # nothing planned to compute: no worker is started for the figures either (they are drawn here)
+        ctx.draw_in_workers = bool(plans)
         warm = None
-        if runner.workers > 1 and not runner.scheduler and any(p.engine and not runner.all_cached(p.fn, p.jobs)
-                                                               for p in plans):
+        if runner.workers > 1 and not runner.scheduler and any(p.engine for p in plans):
             warm = runner.warm_up(warm_worker, dict(machine_data=ctx.data))
         defer = warm is not None and usable_cores() < 3
         if not defer:
@@ -392,6 +414,7 @@ def run_study(machine, out_dir: Path, runner, console=None) -> StudySummary:
     """
     from berryshaker.outputs import staged_directory, write_json_atomic, write_text_atomic
     from berryshaker.report.html import study_report
+    from berryshaker.report.html_blocks import page_figure_cache
     from berryshaker.study.tables import strip_series, write_tables
 
     with staged_directory(out_dir, kind="study") as stage:
@@ -404,7 +427,8 @@ def run_study(machine, out_dir: Path, runner, console=None) -> StudySummary:
         write_tables(machine, results, tables)
         write_json_atomic(stage / "summary.json", {**summary.to_json(), "results": strip_series(results.to_json()),
                                                    "machine_si": machine.model_dump(mode="json")})
-        write_text_atomic(stage / "report.html", study_report(results, summary, machine, figs, steps,
-                                                              sections=report_sections()))
+        with page_figure_cache(runner.cache_dir / "page-figures" if runner.use_cache else None):
+            page = study_report(results, summary, machine, figs, steps, sections=report_sections())
+        write_text_atomic(stage / "report.html", page)
     return summary
 

@@ -53,6 +53,8 @@ class StudyContext:
         :class:`~berryshaker.study.step_result.StudyResults`: ``rows``, ``fruit_force`` ...).
     drawing : list
         Figures being drawn in pool workers: (future, pickled call).
+    draw_in_workers : bool
+        Whether :meth:`draw` may use a pool worker (False: every figure is drawn in this process).
     engine_compiled : callable
         Called by the step that compiles the multibody engine once it has (then the planned runs that need it
         start).
@@ -65,6 +67,7 @@ class StudyContext:
     say: Callable[[str], None] = field(default=None)
     results: dict = field(default_factory=dict)  # records of the steps run so far, by result name
     drawing: list = field(default_factory=list)  # figures drawn in pool workers: (future, pickled call)
+    draw_in_workers: bool = True  # False: every figure is drawn in this process (a study with nothing to compute)
     # called by the step that compiles the multibody engine once it has (run_steps then starts the planned runs
     # that need it, while that step still plots)
     engine_compiled: Callable[[], None] = field(default=None)
@@ -88,7 +91,7 @@ class StudyContext:
 
     def draw(self, fn, *args, **kwargs) -> None:
         """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
-        a pool worker when the runner has a local pool, else here; :meth:`finish_drawing` waits for it.  (The
+        a pool worker when the runner has a local pool and :attr:`draw_in_workers`, else here; :meth:`finish_drawing` waits for it.  (The
         virtual L9's figures took ~3 s of this process at the end of its step while both workers idled.)
         The figure functions set their whole style themselves
         (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
@@ -107,6 +110,9 @@ class StudyContext:
 
         # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
         # change meanwhile (the next steps and the claims add to the results)
+        if not self.draw_in_workers:
+            fn(*args, **kwargs)
+            return
         payload = pickle.dumps((fn, args, kwargs))
         fut = self.runner.warm_up(draw_figure, dict(payload=payload))
         if fut is None:
