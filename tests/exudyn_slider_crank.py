@@ -30,9 +30,17 @@ def run_exudyn_slider_crank(spec, y0, duration: float, step: float, spectral_rad
         End time and fixed time step (s).
     """
     import exudyn as exu
-    from exudyn.itemInterface import (CoordinateConstraint, MarkerBodyPosition, MarkerNodeCoordinate, NodePointGround, NodeRigidBody2D,
-                                      ObjectConnectorCartesianSpringDamper, ObjectGround, ObjectJointRevolute2D,
-                                      ObjectRigidBody2D)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        MarkerBodyPosition,
+        MarkerNodeCoordinate,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectConnectorCartesianSpringDamper,
+        ObjectGround,
+        ObjectJointRevolute2D,
+        ObjectRigidBody2D,
+    )
 
     from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 

@@ -25,7 +25,6 @@ import pytest
 
 numpydoc_validate = pytest.importorskip("numpydoc.validate", reason="the docs extra: pip install -e '.[docs]'")
 from numpydoc.docscrape import ClassDoc, FunctionDoc  # noqa: E402
-
 from pydantic import BaseModel  # noqa: E402
 
 import berryshaker  # noqa: E402

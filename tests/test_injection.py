@@ -158,8 +158,9 @@ def test_calibration_page_shows_hostile_text_as_text(tmp_path):
     """The page of `calibrate --out`: the sheet's file name (its title), the level sets' and the factors' names."""
     import dataclasses
 
-    from berryshaker.report.calibration import write_calibration_outputs
     from study.test_field_calibration import _small_result
+
+    from berryshaker.report.calibration import write_calibration_outputs
 
     res = _small_result()
     preds = [dataclasses.replace(p, level_set=f"{p.level_set}{SCRIPT}") for p in res.predictions]

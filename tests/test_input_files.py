@@ -13,10 +13,10 @@ import sys
 from pathlib import Path
 
 import pytest
+
 from berryshaker.config import load_machine
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.field_cells import sheet_table
-
 
 
 def test_a_regular_file_is_read_whole(tmp_path):

@@ -16,12 +16,12 @@ from berryshaker.outputs import (
     MARKER_NAME,
     check_output_file,
     clean_stale_staging,
+    current_umask,
     prepare_output_dir,
     provenance,
     read_output_marker,
     staged_directory,
 )
-from berryshaker.outputs import current_umask
 from berryshaker.outputs.staging import _host_tag
 
 

@@ -9,8 +9,16 @@ import time
 import pytest
 
 from berryshaker.errors import ConfigError
-from berryshaker.user_text import (cell_text, check_user_text, control_character, file_part, html_text, markup_text,
-                                   terminal_text, visible)
+from berryshaker.user_text import (
+    cell_text,
+    check_user_text,
+    control_character,
+    file_part,
+    html_text,
+    markup_text,
+    terminal_text,
+    visible,
+)
 
 
 def test_html_text_escapes_markup_and_quotes():

@@ -18,13 +18,13 @@ class's peak stem-force table.  Printed per scale: step attempts and CPU per rep
 
 from __future__ import annotations
 
-import os
-
 import argparse
 import multiprocessing
+import os
 import time
 
 import numpy as np
+from _results import default_out, write_results  # benchmarks/studies/ (the script's own folder) is on sys.path
 
 from berryshaker.config import reference_machine
 from berryshaker.harvest import coupled
@@ -32,8 +32,6 @@ from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.harvest.virtual import machine_start, replicate_starts, stem_force_envelope_run
 from berryshaker.study.replicate_responses import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_record
-
-from _results import default_out, write_results  # benchmarks/studies/ (the script's own folder) is on sys.path
 
 # the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised
 # one once compiled on this machine: multibody.specialised)

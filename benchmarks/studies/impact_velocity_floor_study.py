@@ -38,9 +38,9 @@ PATH defaults to benchmarks/studies/results/impact_velocity_floor.json.
 from __future__ import annotations
 
 import argparse
-import os
 import json
 import math
+import os
 import time
 from pathlib import Path
 
@@ -85,8 +85,13 @@ def plain_run(machine, clearance: dict) -> dict:
 def coupled_run(machine, seed: int, cls: int) -> dict:
     """Replicate ``seed``'s drive-past of branch class ``cls``: peaks, envelope, steps, CPU."""
     from berryshaker.harvest.coupled import simulate_fruit_force
-    from berryshaker.harvest.virtual import (ENVELOPE_OUTPUT_STEP, MACHINE, branch_class_machine, machine_start,
-                                             stem_force_table)
+    from berryshaker.harvest.virtual import (
+        ENVELOPE_OUTPUT_STEP,
+        MACHINE,
+        branch_class_machine,
+        machine_start,
+        stem_force_table,
+    )
 
     h = machine.harvest
     pert = machine_start(machine, (int(seed), MACHINE, int(cls)))

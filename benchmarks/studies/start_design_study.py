@@ -27,8 +27,8 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-
 from _results import default_out, write_results
+
 from berryshaker.config import reference_machine
 from berryshaker.harvest.virtual import replicate_starts, start_responses, stem_force_envelope_run
 from berryshaker.multibody.perturbation import InitialPerturbation, RandomInitialPerturbation

@@ -27,13 +27,12 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tests"))
 
 from _results import default_out, write_results  # noqa: E402  (benchmarks/studies/, the script's own folder)
-
 from test_multibody_convergence import compare, summary_statistics  # noqa: E402
 
 from berryshaker.config import reference_machine  # noqa: E402
 from berryshaker.drives import drive_of  # noqa: E402
-from berryshaker.multibody.engine import simulate_mechanism  # noqa: E402
 from berryshaker.drives.simulation import multibody_summary  # noqa: E402
+from berryshaker.multibody.engine import simulate_mechanism  # noqa: E402
 from berryshaker.multibody.perturbation import RandomInitialPerturbation  # noqa: E402
 
 # the generic kernel unless the caller sets BERRYSHAKER_KERNEL (a run left to choose would take a specialised

@@ -101,7 +101,6 @@ def run_exu(spec, y0, h, period, repeats):
     """Metrics, best-of-``repeats`` SolveDynamic wall and CPU times (s) of Exudyn's two-revolution run
     (metrics None if the solver fails).  Runs over 5 s are not repeated."""
     import exudyn
-
     from exudyn_models import run_exudyn
 
     best, best_cpu = math.inf, math.inf

@@ -53,11 +53,21 @@ def build_exudyn_mechanism(spec, y0, prescribed=None):
         (SystemContainer, MainSystem, dict of contact object indices by joint name).
     """
     import exudyn as exu
-    from exudyn.itemInterface import (CoordinateConstraint, CoordinateSpringDamper, MarkerBodyPosition,
-                                      MarkerBodyRigid, MarkerNodeCoordinate, NodeGenericData,
-                                      NodePointGround, NodeRigidBody2D, ObjectContactSphereSphere,
-                                      ObjectGround, ObjectJointPrismatic2D, ObjectJointRevolute2D,
-                                      ObjectRigidBody2D)
+    from exudyn.itemInterface import (
+        CoordinateConstraint,
+        CoordinateSpringDamper,
+        MarkerBodyPosition,
+        MarkerBodyRigid,
+        MarkerNodeCoordinate,
+        NodeGenericData,
+        NodePointGround,
+        NodeRigidBody2D,
+        ObjectContactSphereSphere,
+        ObjectGround,
+        ObjectJointPrismatic2D,
+        ObjectJointRevolute2D,
+        ObjectRigidBody2D,
+    )
 
     from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 

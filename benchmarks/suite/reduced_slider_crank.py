@@ -37,8 +37,8 @@ import time
 import numpy as np
 from numba import njit
 
-from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
 from berryshaker.multibody.contact_events import EVENT_TOL, _onset_fraction
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_D, DOPRI_E
 from berryshaker.multibody.step_control import BETA, EXPO1, SAFETY
 
 _A = np.asarray(DOPRI_A, float)

@@ -86,8 +86,9 @@ def test_reduced_slider_crank_per_step(benchmark, sc):
 
 def test_reduced_model_matches_engine(sc):
     """Not timed: the hand-reduced model and the engine agree on the first impact (independent formulations)."""
-    from berryshaker.multibody.engine import simulate_mechanism
     from reduced_slider_crank import simulate_reduced_slider_crank
+
+    from berryshaker.multibody.engine import simulate_mechanism
 
     spec, _ = sc
     r = simulate_mechanism(spec, duration=1e-3, rtol=1e-10, output_step=OUTPUT_STEP)

@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 
 import pytest
-
 from exudyn_contact_ladder import exudyn_first_peak, hunt_crossley_slider_crank
 
 #: accuracy level -> (engine rtol, Exudyn fixed step h in s)

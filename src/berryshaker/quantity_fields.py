@@ -30,7 +30,6 @@ from pydantic import AfterValidator, BaseModel, BeforeValidator, ConfigDict, Fie
 from pydantic.fields import FieldInfo
 
 from berryshaker.errors import ConfigError
-from berryshaker.user_text import MAX_NAME_CHARS, MAX_TEXT_CHARS, check_user_text
 from berryshaker.units import (
     DISPLAY_UNITS,
     bare_number_message,
@@ -39,6 +38,7 @@ from berryshaker.units import (
     plausibility_warning,
     unit_dimension,
 )
+from berryshaker.user_text import MAX_NAME_CHARS, MAX_TEXT_CHARS, check_user_text
 
 
 @dataclasses.dataclass(frozen=True, slots=True)

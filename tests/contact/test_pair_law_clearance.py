@@ -9,8 +9,8 @@ import pytest
 
 from berryshaker.config import load_machine, pair_contact_rows, reference_machine
 from berryshaker.contact.conformal import hysteresis_factor, line_contact_approach
-from berryshaker.contact.pin_in_bore import pin_in_bore_law
 from berryshaker.contact.pair_law import FIT_FORCE_RANGE, pair_geometry, resolve_pair_contact
+from berryshaker.contact.pin_in_bore import pin_in_bore_law
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 from berryshaker.drives.simulation import simulate_multibody
 from berryshaker.errors import ConfigError

@@ -167,9 +167,9 @@ def test_study_step_powered_drive(tmp_path):
     """The study's powered-drive step at levels 1-3, replicated from perturbed starts: ripple and energy lost
     per joint, trends judged against the replicate spread, and its report section."""
     from berryshaker.report.sections import SectionInput, powered_drive_section
-    from berryshaker.study.step_result import StudyResults
     from berryshaker.runs.runner import SweepRunner
     from berryshaker.study.pipeline import POWERED_REPLICATES, StudyContext, step_powered_drive
+    from berryshaker.study.step_result import StudyResults
 
     machine = reference_machine()
     ctx = StudyContext(machine, SweepRunner(workers=1, cache_dir=tmp_path / "c", progress=False), tmp_path)

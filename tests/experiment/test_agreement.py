@@ -4,13 +4,12 @@ import json
 
 import numpy as np
 import pytest
+from drives.groove_cam.test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.drives.simulation import simulate_multibody
 from berryshaker.experiment.agreement import curve_agreement, f_critical, f_statistic
-
-from drives.groove_cam.test_mlsd import ZERO, _modified, newton_euler_inverse_dynamics
 
 
 def test_ideal_multibody_harvester_equals_newton_euler(machine):

@@ -24,6 +24,7 @@ import stat
 from contextlib import contextmanager
 from pathlib import Path
 
+from fuzzing import fuzz, work_dir
 from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -31,7 +32,6 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.errors import BerryshakerError, ConfigError, OutputError, WriteError
 from berryshaker.outputs import atomic_files, staged_directory, write_files_atomic
-from fuzzing import fuzz, work_dir
 
 runner = CliRunner()
 WORK = work_dir("faults")

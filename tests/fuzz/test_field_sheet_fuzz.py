@@ -12,6 +12,7 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 from hypothesis import given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -19,7 +20,6 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.config import load_machine, machine_warnings, validate_machine
 from berryshaker.errors import ConfigError, GeometryError
-from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 
 runner = CliRunner()
 WORK = work_dir("descriptions")

@@ -20,6 +20,7 @@ import textwrap
 from pathlib import Path
 
 import pytest
+from fuzzing import fuzz, work_dir
 from hypothesis import example, given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -27,7 +28,6 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.config import machine_from_dict, reference_machine, validate_machine
 from berryshaker.errors import ConfigError, GeometryError, SimulationError
-from fuzzing import fuzz, work_dir
 
 runner = CliRunner()
 WORK = work_dir("hangs")

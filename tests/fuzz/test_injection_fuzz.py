@@ -19,6 +19,7 @@ import time
 from html.parser import HTMLParser
 
 import pandas as pd
+from fuzzing import fuzz, work_dir
 from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 from rich.console import Console
@@ -28,7 +29,6 @@ from berryshaker.experiment.field_sheet import plan_html
 from berryshaker.report.table_files import csv_bytes, xlsx_bytes
 from berryshaker.report.tables import rich_table
 from berryshaker.user_text import FORMULA_STARTS, cell_text, check_user_text, html_text, markup_text, visible
-from fuzzing import fuzz, work_dir
 
 WORK = work_dir("injection")
 #: the pieces an attacker (or an accident) puts in a name: markup, formula starts, terminal controls, bidi

@@ -13,6 +13,7 @@ import re
 
 import pint
 import pytest
+from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 from hypothesis import given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -24,7 +25,6 @@ from berryshaker.errors import ConfigError, GeometryError
 from berryshaker.experiment.field_sheet import parse_factor, plan_table, read_results
 from berryshaker.quantity_fields import field_dimension, field_info_at
 from berryshaker.units import LIMITS, parse_quantity
-from fuzzing import REFERENCE, fuzz, toml_leaves, work_dir
 
 runner = CliRunner()
 WORK = work_dir("input")

@@ -20,6 +20,7 @@ import stat
 from pathlib import Path, PurePosixPath
 
 import pytest
+from fuzzing import fuzz, work_dir
 from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
@@ -27,7 +28,6 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.errors import OutputError
 from berryshaker.outputs import MARKER_NAME, read_output_marker, staged_directory
-from fuzzing import fuzz, work_dir
 
 runner = CliRunner()
 WORK = work_dir("outputs")

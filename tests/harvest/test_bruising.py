@@ -6,14 +6,20 @@ dependence on the fall and the finger speed."""
 import math
 
 import numpy as np
-
 import pytest
 from scipy import integrate, stats
 
 from berryshaker.config import load_machine, machine_from_dict
 from berryshaker.errors import ConfigError
-from berryshaker.harvest.bruising import (GRAVITY, bruise_medians, bruise_probability, cumulative_damage,
-                                          finger_speed, impact_damage, median_height)
+from berryshaker.harvest.bruising import (
+    GRAVITY,
+    bruise_medians,
+    bruise_probability,
+    cumulative_damage,
+    finger_speed,
+    impact_damage,
+    median_height,
+)
 
 
 def test_bruise_probability_is_the_lognormal_threshold_law():

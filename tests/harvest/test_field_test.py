@@ -11,8 +11,17 @@ import pytest
 from scipy import stats
 
 from berryshaker.config import reference_machine
-from berryshaker.harvest.virtual import (RESPONSES, HarvestParameters, Tally, bushes_per_test, count_variance,
-                                        expected_tally, field_tally, load_grid, response_values)
+from berryshaker.harvest.virtual import (
+    RESPONSES,
+    HarvestParameters,
+    Tally,
+    bushes_per_test,
+    count_variance,
+    expected_tally,
+    field_tally,
+    load_grid,
+    response_values,
+)
 from berryshaker.harvest.virtual.field_test import MASS_NODES, Z_NODES, _mean_square_fraction, covered_fractions
 from berryshaker.harvest.virtual.seeds import FIELD, MACHINE, seed_sequence, stream
 from berryshaker.harvest.virtual.stem_force_tables import MASS_FACTORS, Z_GRID

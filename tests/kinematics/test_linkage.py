@@ -58,7 +58,8 @@ def test_crank_rocker_transmission_angle_is_the_unfolded_law_of_cosines_angle():
     from pathlib import Path
 
     from berryshaker.config import load_machine
-    from berryshaker.drives.crank_rocker.kinematics import cycle_kinematics as cr_kinematics, kinematics_summary
+    from berryshaker.drives.crank_rocker.kinematics import cycle_kinematics as cr_kinematics
+    from berryshaker.drives.crank_rocker.kinematics import kinematics_summary
 
     m = load_machine(Path(__file__).parents[2] / "examples" / "crank_rocker_harvester.toml")
     k = cr_kinematics(m, 720)

@@ -9,9 +9,16 @@ import numpy as np
 import pytest
 
 from berryshaker.errors import ConfigError
-from berryshaker.life.contact_fatigue import (ISO281_FATIGUE_STRESS, basic_rating_life, clearance_at_pressure,
-                                              contact_pressure, pair_modulus, reliability_factor,
-                                              rolling_equivalent_load, shakedown_pressure)
+from berryshaker.life.contact_fatigue import (
+    ISO281_FATIGUE_STRESS,
+    basic_rating_life,
+    clearance_at_pressure,
+    contact_pressure,
+    pair_modulus,
+    reliability_factor,
+    rolling_equivalent_load,
+    shakedown_pressure,
+)
 
 
 def test_roller_on_flat_is_hertz_line_contact():

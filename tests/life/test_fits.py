@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from berryshaker.errors import ConfigError
 import berryshaker.life.iso286_data as data
+from berryshaker.errors import ConfigError
 from berryshaker.life.fits import clearance_range_fit, fit_summary, iso_fit, parse_fit
 from berryshaker.life.iso286_limits import (
     HOLE_LETTERS,

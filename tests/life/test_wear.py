@@ -236,8 +236,8 @@ def test_one_service_limit_rule_for_every_caller():
     0.2 mm) are below 2.5 % of their 30 mm rollers and 20 mm pins; the tolerance design and the study's name for
     the default limits give the same numbers."""
     from berryshaker.config import load_machine
-    from berryshaker.life.service import service_limit, service_limits
     from berryshaker.life.clearance_response import default_clearance_limits
+    from berryshaker.life.service import service_limit, service_limits
 
     m = load_machine(None)
     lim = service_limits(m)

@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 
 from berryshaker.multibody.assembly import Assembly, initial_state
-from berryshaker.multibody.perturbation import (PHASE_CONTINUATION_STEP, InitialPerturbation,
-                                                 RandomInitialPerturbation)
+from berryshaker.multibody.perturbation import PHASE_CONTINUATION_STEP, InitialPerturbation, RandomInitialPerturbation
 from berryshaker.multibody.spec import mechanism_from_dict
 
 

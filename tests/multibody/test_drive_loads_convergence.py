@@ -25,7 +25,6 @@ TOLERANCE = 0.05
 @functools.cache
 def _rows(rtol, modes):
     from berryshaker.config import load_machine, machine_from_dict
-
     from berryshaker.harvest.virtual import stem_force_envelope_run
     from berryshaker.multibody.drive_loads import design_torque, fatigue_equivalent_torque, revolution_peaks
     from berryshaker.multibody.perturbation import RandomInitialPerturbation

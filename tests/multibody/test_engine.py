@@ -9,9 +9,9 @@ import pytest
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
+from berryshaker.errors import ConfigError, GeometryError, SimulationError
 from berryshaker.multibody.engine import initial_state, simulate_mechanism
 from berryshaker.multibody.spec import load_mechanism, mechanism_from_dict
-from berryshaker.errors import ConfigError, GeometryError, SimulationError
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "slider_crank_clearance.toml"
 R, L, W = 0.05, 0.12, 5000 * 2 * math.pi / 60

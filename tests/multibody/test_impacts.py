@@ -10,8 +10,7 @@ import numpy as np
 import pytest
 
 from berryshaker.multibody.engine import simulate_mechanism
-from berryshaker.multibody.impacts import (ContactEpisodes, fatigue_equivalent_load, impact_loads,
-                                           static_equivalent_load)
+from berryshaker.multibody.impacts import ContactEpisodes, fatigue_equivalent_load, impact_loads, static_equivalent_load
 from berryshaker.multibody.spec import load_mechanism
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "slider_crank_clearance.toml"

@@ -15,7 +15,6 @@ from unittest.mock import patch
 import numba
 import numpy as np
 import pytest
-from multibody.test_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
 
 from berryshaker.config import reference_machine
 from berryshaker.drives.simulation import simulate_multibody
@@ -27,6 +26,7 @@ from berryshaker.multibody.engine import integrator, simulate_mechanism
 from berryshaker.multibody.linear_solve import _constrained_solve
 from berryshaker.multibody.model import MechanismModel
 from berryshaker.multibody.sparsity import solve_plan
+from multibody.test_sparsity import _SYNTHETIC, CASES, _random_state, _synthetic
 
 
 def _model(ctype, cint, crow, plan):

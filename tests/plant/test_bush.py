@@ -119,7 +119,6 @@ def test_comb_load_is_the_sum_of_branch_reactions(machine, load_model):
 
 def test_aggregate_and_branches_are_never_both(machine):
     from berryshaker.harvest.coupled import bush_members, coupled_mechanism
-
     from berryshaker.plant.bush import member_weight
 
     m = _with(machine, combs__load_model="aggregate")

@@ -11,9 +11,16 @@ from scipy import integrate
 from berryshaker.errors import ConfigError
 from berryshaker.plant.branch import Branch
 from berryshaker.plant.modes import analytic_modes
-from berryshaker.plant.pedicel import (damping_ratio, force_transmissibility, fruit_branch_modes, modal_mass_ratio,
-                                       natural_frequency, peak_stem_force, stem_response,
-                                       two_way_stem_force_frf)
+from berryshaker.plant.pedicel import (
+    damping_ratio,
+    force_transmissibility,
+    fruit_branch_modes,
+    modal_mass_ratio,
+    natural_frequency,
+    peak_stem_force,
+    stem_response,
+    two_way_stem_force_frf,
+)
 
 M0, K, C = 1.8e-3, 82.3, 0.077
 BRANCH = Branch(0.012, 0.004, 1.2, 0.83e9, 850.0, 0.07)

@@ -24,10 +24,18 @@ from berryshaker.records import JsonRecord
 from berryshaker.report.design import claims_apply, design_answers, level_set_name
 from berryshaker.report.design_html import MAX_COLUMNS, STEP_SECTIONS, design_answers_html
 from berryshaker.report.design_quantity import Quantity, Source, quantity
-from berryshaker.report.design_records import (Comparison, DesignAnswers, Difference, JointAnswers, KinematicDrivers,
-                                               OperatingPoint, PublishedReference, Tradeoff, WhyEfficiency)
-from berryshaker.report.harvest_answers import (compare_efficiency, operating_point, published_reference,
-                                                why_efficiency)
+from berryshaker.report.design_records import (
+    Comparison,
+    DesignAnswers,
+    Difference,
+    JointAnswers,
+    KinematicDrivers,
+    OperatingPoint,
+    PublishedReference,
+    Tradeoff,
+    WhyEfficiency,
+)
+from berryshaker.report.harvest_answers import compare_efficiency, operating_point, published_reference, why_efficiency
 
 DATA = Path(__file__).parents[1] / "data" / "report_sections.json"
 CRANK = Path(__file__).parents[1].parent / "examples" / "crank_rocker_harvester.toml"

@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from l9_records_data import l9_record
 
 from berryshaker.config import load_machine, machine_table
 from berryshaker.report.html import report_title, runs_text, study_report
-from berryshaker.study.pipeline import report_sections
 from berryshaker.study.claims import ClaimVerdict
+from berryshaker.study.pipeline import report_sections
 from berryshaker.study.step_result import StudyResults, StudySummary
-from l9_records_data import l9_record
 
 PAIRS = ("A", "B", "C", "F")
 #: the virtual L9 (replicated, with its significance text and trade-off table), the powered drive, the clearance

@@ -12,14 +12,14 @@ import os
 import stat
 
 import pytest
+import runner_jobs
 from typer.testing import CliRunner
 
-import runner_jobs
 from berryshaker.cli import app
 from berryshaker.errors import ConfigError
+from berryshaker.outputs import code_fingerprint
 from berryshaker.runs.cache import _canonical, _sha256, cache_entry_path, run_key, write_cache_entry
 from berryshaker.runs.runner import SweepRunner
-from berryshaker.outputs import code_fingerprint
 
 cli = CliRunner()
 

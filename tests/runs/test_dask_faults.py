@@ -16,8 +16,8 @@ import time
 from pathlib import Path
 
 import pytest
-
 import runner_jobs
+
 from berryshaker.errors import SimulationError
 from berryshaker.runs.runner import SweepRunner
 

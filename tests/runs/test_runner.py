@@ -14,11 +14,11 @@ import time
 from pathlib import Path
 
 import pytest
+import runner_jobs as J
 
 import berryshaker.runs.cache as C
 import berryshaker.runs.jobs as JOBS
 import berryshaker.runs.runner as R
-import runner_jobs as J
 from berryshaker.errors import ConfigError
 from berryshaker.runs.runner import SweepRunner, cache_entry_path, read_cache_entry, run_jobs, run_key
 

@@ -2,12 +2,12 @@
 that only matches the study because a factor was left at the configured (the study's) clearance."""
 
 import numpy as np
+from l9_records_data import l9_record
 
 from berryshaker.experiment.agreement import ensemble_agreement, judged_difference, summary_statistics_agreement
 from berryshaker.study import claims as C
 from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 from berryshaker.study.step_result import StudyResults
-from l9_records_data import l9_record
 
 
 def _pair(agree=True):

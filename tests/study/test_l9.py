@@ -8,21 +8,25 @@ from pathlib import Path
 import numpy as np
 import pydantic
 import pytest
+from conftest import linear_spring_toml_text
 from scipy import stats
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
-from conftest import linear_spring_toml_text
 from berryshaker.errors import ConfigError
+from berryshaker.experiment.analysis_records import CompositeScore, FactorLevels, RangeAnalysis
+from berryshaker.experiment.designs import orthogonal_array
+from berryshaker.experiment.replicated_records import Choice, ReplicatedResponse
+from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 from berryshaker.harvest.spec import COUPLED_RTOL
 from berryshaker.study.l9_records import (
     Estimate,
     L9Optimum,
+    L9Recommendation,
     L9Run,
     PairedDifference,
     Perturbation,
-    L9Recommendation,
     ReplicatedL9,
     SequentialStarts,
     TieredChoice,
@@ -30,10 +34,6 @@ from berryshaker.study.l9_records import (
     ToleranceVerdict,
     VirtualL9,
 )
-from berryshaker.experiment.analysis_records import CompositeScore, FactorLevels, RangeAnalysis
-from berryshaker.experiment.designs import orthogonal_array
-from berryshaker.experiment.replicated_records import Choice, ReplicatedResponse
-from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 
 L9 = orthogonal_array("L9") + 1
 FACTORS = ["A", "B", "C", "F"]

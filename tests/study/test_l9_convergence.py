@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from berryshaker.experiment.designs import orthogonal_array
-from berryshaker.experiment.noise import sd_standard_error, spread_convergence, standard_error_reached
 from berryshaker.experiment.error_terms import block_error, block_variance, paired_differences
+from berryshaker.experiment.noise import sd_standard_error, spread_convergence, standard_error_reached
 from berryshaker.experiment.replicates import analyze_replicated
 
 L9 = orthogonal_array("L9")[:, :4] + 1
@@ -88,9 +88,10 @@ def test_a_factor_is_judged_against_its_own_interaction_with_the_starts():
     interaction, Greenhouse-Geisser corrected, it keeps the nominal rate (uncorrected it was 11.5 %: the slope lives
     in one of A's two contrasts, a sphericity violation).  In a saturated L9 the four factors' own interactions add
     up to the pooled one exactly."""
+    from scipy import stats
+
     from berryshaker.experiment.error_terms import block_error, factor_block_error
     from berryshaker.experiment.replicates import replicated_anova
-    from scipy import stats
 
     rng = np.random.default_rng(21)
     r, own, pooled, tests = 6, 0, 0, 400

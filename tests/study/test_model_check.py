@@ -10,10 +10,10 @@ p95, is 10.9 +- 6.4 % against 20 %.)
 import numpy as np
 
 from berryshaker.config import reference_machine
+from berryshaker.experiment.agreement import model_check
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.harvest.virtual import replicate_starts
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
-from berryshaker.experiment.agreement import model_check
 from berryshaker.study.pipeline import MODEL_CHECK_STARTS
 from berryshaker.study.runs import multibody_row, reduced_row
 

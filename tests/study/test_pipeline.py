@@ -14,11 +14,11 @@ import time
 from pathlib import Path
 
 import pytest
+from conftest import linear_spring_toml_text
 from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import reference_toml_text
-from conftest import linear_spring_toml_text
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.runs.sweep import model_run, parse_param, sample_params
 from berryshaker.study.claims import check_claims

@@ -5,8 +5,8 @@ error of a figure function stops the study (raised once, not drawn again)."""
 import os
 
 import pytest
-
 import runner_jobs as J
+
 from berryshaker.config import reference_machine
 from berryshaker.runs.runner import SweepRunner
 from berryshaker.study.pipeline import StudyContext

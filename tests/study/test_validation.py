@@ -82,12 +82,11 @@ def test_the_study_case_is_for_the_study_drive_only():
 def test_validate_command_prints_the_table_and_json(small, runner, tmp_path):
     """The command on the same small description (its runs come from the cache of the library call)."""
     import tomllib
+    from importlib import resources
 
     from typer.testing import CliRunner
 
     from berryshaker.cli import app
-
-    from importlib import resources
 
     text = (resources.files("berryshaker") / "drives" / "groove_cam" / "reference.toml").read_text("utf-8")
     from fast_machine import with_values

@@ -147,8 +147,14 @@ def calibrate(
     try:
         from berryshaker.outputs import prepare_output_dir, provenance
         from berryshaker.runs.runner import SweepRunner
-        from berryshaker.study.field_calibration import STATE_FILE, CalibrationSettings, calibrate as run_calibration
-        from berryshaker.study.field_calibration import parse_setting, read_sheet, save_state
+        from berryshaker.study.field_calibration import (
+            STATE_FILE,
+            CalibrationSettings,
+            parse_setting,
+            read_sheet,
+            save_state,
+        )
+        from berryshaker.study.field_calibration import calibrate as run_calibration
 
         machine = _load(config)
         if saved is not None:
@@ -201,8 +207,13 @@ def _predict_saved(folder: Path, machine, predict: list[str], as_json: bool) -> 
     settings, printed (the best :data:`TOP_SETS`) or as JSON (``predictions``, ``recommendation``, ``from``)."""
     import json
 
-    from berryshaker.study.field_calibration import (CalibrationResult, FactorTarget, load_state, parse_setting,
-                                                     predict_saved)
+    from berryshaker.study.field_calibration import (
+        CalibrationResult,
+        FactorTarget,
+        load_state,
+        parse_setting,
+        predict_saved,
+    )
 
     cal_file = Path(folder) / "calibration.json"
     if not cal_file.is_file():

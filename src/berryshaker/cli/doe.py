@@ -8,22 +8,22 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.errors import BerryshakerError
-from berryshaker.outputs import write_provenance
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
+    _fail,
+    _load,
+    _print_json,
     command,
     doe_app,
     err,
     out,
     print_table,
-    _fail,
-    _load,
-    _print_json,
 )
 from berryshaker.cli.doe_print import _print_doe
 from berryshaker.cli.study import SCHEDULER_HELP
+from berryshaker.errors import BerryshakerError
+from berryshaker.outputs import write_provenance
 
 
 def _parse_weights(text: Optional[str]) -> Optional[dict]:
@@ -392,8 +392,8 @@ def doe_virtual(
         largest).
     """
     try:
-        from berryshaker.runs.runner import SweepRunner
         from berryshaker.outputs import prepare_output_dir
+        from berryshaker.runs.runner import SweepRunner
         from berryshaker.study.l9 import virtual_l9
 
         if plot is not None:

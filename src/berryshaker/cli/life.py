@@ -9,8 +9,19 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.cli.app import (ConfigOpt, JsonOpt, _load, _print_json, app, check_number, check_range, command,
-                                  err, out, print_table)
+from berryshaker.cli.app import (
+    ConfigOpt,
+    JsonOpt,
+    _load,
+    _print_json,
+    app,
+    check_number,
+    check_range,
+    command,
+    err,
+    out,
+    print_table,
+)
 from berryshaker.cli.study import SCHEDULER_HELP
 from berryshaker.errors import ConfigError
 

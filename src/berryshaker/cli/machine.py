@@ -8,22 +8,22 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.errors import BerryshakerError
-from berryshaker.user_text import markup_text
-from berryshaker.outputs import write_provenance
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
+    _fail,
+    _load,
+    _print_json,
     app,
     command,
     config_app,
     err,
     out,
     print_table,
-    _fail,
-    _load,
-    _print_json,
 )
+from berryshaker.errors import BerryshakerError
+from berryshaker.outputs import write_provenance
+from berryshaker.user_text import markup_text
 
 
 @command(app)

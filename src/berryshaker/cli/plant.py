@@ -8,21 +8,21 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.errors import BerryshakerError
-from berryshaker.outputs import write_provenance
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
+    _fail,
+    _load,
+    _print_json,
     app,
     check_range,
     command,
     err,
     out,
     print_table,
-    _fail,
-    _load,
-    _print_json,
 )
+from berryshaker.errors import BerryshakerError
+from berryshaker.outputs import write_provenance
 
 
 def _branch_of(machine):
@@ -82,8 +82,8 @@ def plant(
         _convergence(config, as_json, convergence_modes, replicates, separate_runs)
         return
     try:
-        from berryshaker.plant.modes import analytic_modes, fe_modes
         from berryshaker.outputs import prepare_output_dir
+        from berryshaker.plant.modes import analytic_modes, fe_modes
 
         if plot is not None:
             prepare_output_dir(plot, kind="plant --plot")
@@ -227,8 +227,8 @@ def fruit_force_cmd(
     try:
         from berryshaker.experiment.clearance_sets import parse_clearance_spec
         from berryshaker.harvest.coupled import simulate_fruit_force
-        from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
         from berryshaker.outputs import prepare_output_dir
+        from berryshaker.reference_study import FRUIT_FORCE_N as STUDY_FRUIT_FORCE_N
 
         for folder, flag in ((plot, "--plot"), (out_dir, "--out")):
             if folder is not None:
@@ -243,8 +243,8 @@ def fruit_force_cmd(
             import numpy as np
 
             from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
-            from berryshaker.report.tables import csv_text
             from berryshaker.report.plots import plot_fruit_force
+            from berryshaker.report.tables import csv_text
 
             if plot is not None:
                 with staged_directory(plot, kind="fruit-force --plot") as stage:

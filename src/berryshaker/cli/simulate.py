@@ -8,23 +8,23 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.errors import BerryshakerError
-from berryshaker.outputs import write_provenance
-from berryshaker.user_text import markup_text
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
+    _fail,
+    _load,
+    _print_json,
     app,
     check_number,
     check_range,
     command,
+    err,
     out,
     print_table,
-    _fail,
-    _load,
-    _print_json,
-    err,
 )
+from berryshaker.errors import BerryshakerError
+from berryshaker.outputs import write_provenance
+from berryshaker.user_text import markup_text
 
 
 def _check_folders(*folders, kind: str = "simulate --out") -> None:
@@ -281,8 +281,8 @@ def _write_multibody(out_dir: Path, result, summary: dict, machine) -> None:
     import numpy as np
 
     from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from berryshaker.report.tables import csv_text
     from berryshaker.report.plots import plot_joint_forces
+    from berryshaker.report.tables import csv_text
 
     cm = result.compiled
     with staged_directory(out_dir, kind="simulate --out") as stage:
@@ -449,8 +449,8 @@ def _write_simulation(out_dir: Path, result, summary: dict) -> None:
 
     from berryshaker.drives.groove_cam.mlsd import RESULT_COLUMNS
     from berryshaker.outputs import provenance, staged_directory, write_json_atomic, write_text_atomic
-    from berryshaker.report.tables import csv_text
     from berryshaker.report.plots import plot_joint_forces, plot_time_series
+    from berryshaker.report.tables import csv_text
 
     with staged_directory(out_dir, kind="simulate --out") as stage:
         cols = ["time_s", "cam_angle_deg", "x_m", "theta_D_rad", "u_m", "theta_E_rad"] + list(RESULT_COLUMNS)

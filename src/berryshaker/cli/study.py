@@ -8,22 +8,21 @@ from typing import Optional
 import typer
 
 from berryshaker import __version__
-from berryshaker.errors import BerryshakerError
-from berryshaker.user_text import markup_text
-from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
 from berryshaker.cli.app import (
     ConfigOpt,
     JsonOpt,
+    _fail,
+    _load,
+    _print_json,
     app,
     command,
     err,
     out,
     print_table,
-    _fail,
-    _load,
-    _print_json,
 )
-
+from berryshaker.errors import BerryshakerError
+from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
+from berryshaker.user_text import markup_text
 
 #: --scheduler's help: Dask exchanges pickles with the scheduler and its workers
 SCHEDULER_HELP = ("Dask scheduler address, e.g. tls://10.0.0.5:8786. Runs and results travel as pickles (code runs "

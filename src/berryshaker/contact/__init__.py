@@ -13,7 +13,12 @@ from berryshaker.contact.force_laws import (
     mlsd,
 )
 from berryshaker.contact.friction import coulomb_friction, viscous_friction
-from berryshaker.contact.joints import ContactKinematics, closest_point_on_curve, point_line_clearance, revolute_clearance
+from berryshaker.contact.joints import (
+    ContactKinematics,
+    closest_point_on_curve,
+    point_line_clearance,
+    revolute_clearance,
+)
 from berryshaker.contact.pin_in_bore import pin_in_bore_stiffness
 from berryshaker.contact.stiffness import effective_modulus, roller_on_flat_stiffness
 

@@ -13,7 +13,6 @@ the bodies approach).  Every law returns the magnitude of the repulsive normal f
 
 from __future__ import annotations
 
-
 import functools
 
 import numpy as np

@@ -7,7 +7,6 @@ law and Johnson's line contact).
 
 from __future__ import annotations
 
-
 STEEL_E = 207e9  # Pa (Flores & Ambrosio 2004 use 207 GPa)
 STEEL_NU = 0.3
 

@@ -36,7 +36,6 @@ from berryshaker.quantity_fields import (
     quantity_validator,
 )
 
-
 #: a power, read by the one strict parser ("1.5 kW", "750 W"; "1,5 kW" and "1.5 kW * 1000" are refused)
 Power = Annotated[float, quantity_validator("power", "kW"), Field(gt=0, json_schema_extra={"display": "kW"})]
 Torque = Annotated[float, quantity_validator("torsional_stiffness"), Field(json_schema_extra={"display": "N*m"})]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import re
+
 import numpy as np
 import pandas as pd
 

@@ -9,8 +9,14 @@ import numpy as np
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.field_cells import _Sheet, _split_unit, block_column, is_bookkeeping
-from berryshaker.experiment.field_columns import (META_COLUMNS, RAW_COLUMNS, index_columns, index_names, index_units,
-                                                  compute_indexes)
+from berryshaker.experiment.field_columns import (
+    META_COLUMNS,
+    RAW_COLUMNS,
+    compute_indexes,
+    index_columns,
+    index_names,
+    index_units,
+)
 
 
 def _response_column(sheet: _Sheet, r: str) -> str:

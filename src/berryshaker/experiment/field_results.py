@@ -20,13 +20,13 @@ import pandas as pd
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.analysis_records import DoeAnalysis
-from berryshaker.experiment.replicated_records import SheetReplicatedAnalysis
 from berryshaker.experiment.designs import is_orthogonal
 from berryshaker.experiment.field_cells import BOOKKEEPING_COLUMNS, _load_sheet, block_column, is_bookkeeping
 from berryshaker.experiment.field_columns import META_COLUMNS, Factor, FieldResults
 from berryshaker.experiment.field_factors import _find_factors, _resolve_factor
 from berryshaker.experiment.field_responses import _response, _response_column, _response_unit
 from berryshaker.experiment.field_runs import _check_runs, _orthogonality_problem, _runs_from_settings, _settings_text
+from berryshaker.experiment.replicated_records import SheetReplicatedAnalysis
 from berryshaker.records import fields_of
 
 

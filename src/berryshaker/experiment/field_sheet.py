@@ -18,11 +18,20 @@ import pandas as pd
 from berryshaker import __version__
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.designs import ARRAYS, assign_factors, orthogonal_array
-from berryshaker.experiment.field_columns import (MAX_ROWS, META_COLUMNS, RAW_COLUMNS, Factor, FieldResults,
-                                                  compute_indexes, index_columns, reserved_columns)
+from berryshaker.experiment.field_columns import (
+    MAX_ROWS,
+    META_COLUMNS,
+    RAW_COLUMNS,
+    Factor,
+    FieldResults,
+    compute_indexes,
+    index_columns,
+    reserved_columns,
+)
 from berryshaker.experiment.field_results import read_results
 from berryshaker.units import MAX_LIST_CHARS, unit_dimension
 from berryshaker.user_text import html_text
+
 
 def _short(text: str, limit: int = 60) -> str:
     text = repr(text)

@@ -35,14 +35,20 @@ other's intermediate results; split, every half would import the other.
 
 from __future__ import annotations
 
-
 import numpy as np
 import pandas as pd
 
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.analysis import check_inputs, check_weights, factor_levels_report, quadratic_regression
-from berryshaker.experiment.error_terms import (_tukey_half_width, block_variance, error_term, factor_error,
-                                                paired_differences, pure_error, sphericity_epsilon)
+from berryshaker.experiment.error_terms import (
+    _tukey_half_width,
+    block_variance,
+    error_term,
+    factor_error,
+    paired_differences,
+    pure_error,
+    sphericity_epsilon,
+)
 from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 
 

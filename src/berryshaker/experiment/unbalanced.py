@@ -41,9 +41,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from berryshaker.errors import ConfigError
-from berryshaker.experiment.analysis import check_weights, factor_levels_report, polynomial_contrasts, quadratic_regression
-from berryshaker.experiment.replicated_records import ReplicatedAnalysis
+from berryshaker.experiment.analysis import (
+    check_weights,
+    factor_levels_report,
+    polynomial_contrasts,
+    quadratic_regression,
+)
 from berryshaker.experiment.error_terms import _studentized_range_quantile
+from berryshaker.experiment.replicated_records import ReplicatedAnalysis
 from berryshaker.experiment.replicates import PREDICTION_RULE
 
 

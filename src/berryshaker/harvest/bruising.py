@@ -167,8 +167,9 @@ def bruise_probability(drop_height, median_height: float, cv: float):
 
 @functools.lru_cache(maxsize=64)
 def _finger_speed(machine_json: str) -> float:
-    from berryshaker.config import machine_from_dict
     import json
+
+    from berryshaker.config import machine_from_dict
 
     m = machine_from_dict(json.loads(machine_json))
     return shaking_amplitude(m)["finger_amplitude_mm"] * 1e-3 * m.drive_speed

@@ -16,14 +16,14 @@ import math
 import numpy as np
 
 from berryshaker.config import Machine
-from berryshaker.multibody import layout as mb
-from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
-from berryshaker.multibody.spec import mechanism_from_dict
-from berryshaker.errors import ConfigError
 from berryshaker.drives import drive_of
+from berryshaker.errors import ConfigError
 from berryshaker.harvest.coupled_branch import BranchMotion, branch_motion, bush_members, plant_modes, stem_forces
 from berryshaker.harvest.fruit_force import STUDY_FRUIT_FORCE_N, FruitForceResult
 from berryshaker.harvest.spec import COUPLED_RTOL, COUPLED_VELOCITY_SCALE
+from berryshaker.multibody import layout as mb
+from berryshaker.multibody.engine import MultibodyResult, simulate_mechanism
+from berryshaker.multibody.spec import mechanism_from_dict
 from berryshaker.plant.bush import member_weight
 
 __all__ = ["AGGREGATE_LOAD_FORCES", "STUDY_FRUIT_FORCE_N", "BranchMotion", "FruitForceResult", "branch_motion",

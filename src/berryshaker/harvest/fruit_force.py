@@ -14,7 +14,6 @@ from berryshaker.harvest.coupled_branch import BranchMotion, bush_members
 from berryshaker.multibody.engine import MultibodyResult
 from berryshaker.plant.response import harvest_verdict
 
-
 #: the study's fruit-force ranges (N) at the root, middle and end of the branch [study, claim 5]
 STUDY_FRUIT_FORCE_N = {"root": (0.25, 0.4), "middle": (0.65, 0.9), "end": (0.8, 1.2)}
 

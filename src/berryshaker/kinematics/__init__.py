@@ -9,7 +9,7 @@ from berryshaker.kinematics.cam import (
     pitch_curve_curvature,
     pressure_angle,
 )
-from berryshaker.kinematics.linkage import left_comb_angle, four_bar_position, four_bar_rates, transmission_angle
+from berryshaker.kinematics.linkage import four_bar_position, four_bar_rates, left_comb_angle, transmission_angle
 
 __all__ = [
     "FOLLOWER_LAWS",

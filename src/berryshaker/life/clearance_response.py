@@ -317,10 +317,10 @@ def clearance_responses(machine, joints, grid: dict[str, np.ndarray], runner, re
     ConfigError
         ``starts`` < 1.
     """
+    from berryshaker.contact.wear import wear_scale
     from berryshaker.harvest.virtual import replicate_starts
     from berryshaker.life.joint_loads import joint_geometry
     from berryshaker.life.runs import wear_rate_run
-    from berryshaker.contact.wear import wear_scale
 
     starts = machine.harvest.replicates if starts is None else starts
     if int(starts) < 1:

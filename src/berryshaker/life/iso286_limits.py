@@ -20,8 +20,8 @@ import math
 import re
 from dataclasses import dataclass
 
-from berryshaker.errors import ConfigError
 import berryshaker.life.iso286_data as data
+from berryshaker.errors import ConfigError
 
 #: Hole letters this module can evaluate.
 HOLE_LETTERS: tuple[str, ...] = ("A", "B", "C", "D", "E", "F", "G", "H", "JS", "K", "M", "N", "P")

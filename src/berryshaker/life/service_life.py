@@ -178,8 +178,14 @@ def joint_life(response, geometry, start: float, limit: float, start_from: str, 
         The governing mechanism, its interval and every mechanism's hours.
     """
     from berryshaker.contact.wear import MATERIAL_PAIRS
-    from berryshaker.life.contact_fatigue import (basic_rating_life, clearance_at_pressure, contact_pressure,
-                                                   pair_modulus, reliability_factor, shakedown_pressure)
+    from berryshaker.life.contact_fatigue import (
+        basic_rating_life,
+        clearance_at_pressure,
+        contact_pressure,
+        pair_modulus,
+        reliability_factor,
+        shakedown_pressure,
+    )
     from berryshaker.life.service import SERVICE_RULE
 
     mp = MATERIAL_PAIRS[geometry.material_pair]

@@ -69,7 +69,7 @@ class Assembly:
         self._n_target = target.n
         self._n_base_target = target.n_base
         self._windup0 = list(target.state_windup0)
-        self._blocks = {}  # (is a driver, name) -> constraint block
+        self._blocks: dict[tuple[bool, str], int] = {}  # (is a driver, name) -> constraint block
         for k, name in enumerate(ideal.con_names):
             self._blocks.setdefault((int(ideal.model.ctype[k]) == L.CON_DRIVER, name), k)
         self._plan_stale = False

@@ -25,8 +25,14 @@ from berryshaker.compiled_cache import kernel_choice
 from berryshaker.errors import BerryshakerError
 from berryshaker.multibody import engine
 from berryshaker.multibody import kernel as mb
-from berryshaker.multibody.engine import (MultibodyResult, PreparedRun, finish_run, integrate_in_chunks, prepare_run,
-                                          resumable)
+from berryshaker.multibody.engine import (
+    MultibodyResult,
+    PreparedRun,
+    finish_run,
+    integrate_in_chunks,
+    prepare_run,
+    resumable,
+)
 from berryshaker.multibody.model import FLOAT_FIELDS, STRUCTURE_FIELDS, MechanismModel
 from berryshaker.multibody.spec import MechanismSpec
 from berryshaker.multibody.specialised import mark_compiled

@@ -16,9 +16,25 @@ from numba import njit
 
 from berryshaker.multibody.body_points import _body_origin, _point
 from berryshaker.multibody.cam_pitch import pitch_foot
-from berryshaker.multibody.layout import (CF_ANGLE0, CF_REL_ANGLE, CF_SIX, CF_SIY, CF_SJX, CF_SJY, CF_SPEED,
-                                          CF_UX, CF_UY, CI_BODY_I, CI_BODY_J, CI_CAM, CON_CAM_ROLLER, CON_DRIVER,
-                                          CON_POINT_LINE, CON_PRISMATIC, CON_REVOLUTE)
+from berryshaker.multibody.layout import (
+    CF_ANGLE0,
+    CF_REL_ANGLE,
+    CF_SIX,
+    CF_SIY,
+    CF_SJX,
+    CF_SJY,
+    CF_SPEED,
+    CF_UX,
+    CF_UY,
+    CI_BODY_I,
+    CI_BODY_J,
+    CI_CAM,
+    CON_CAM_ROLLER,
+    CON_DRIVER,
+    CON_POINT_LINE,
+    CON_PRISMATIC,
+    CON_REVOLUTE,
+)
 
 
 @njit(cache=True, _nrt=False)

@@ -23,11 +23,37 @@ from numba import njit
 from berryshaker.contact.pair_law import LUBRICATED_RESTITUTION_VELOCITY
 from berryshaker.multibody.dopri import _dense_state
 from berryshaker.multibody.force_elements import _law, fint_is_contact, forces
-from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, EP_DURATION, EP_IMPULSE, EP_PEAK, EP_T0, EP_V,
-                                          FF_C, FF_D, FF_E, FF_K, FF_MONOTONE, FF_N, FI_LAW, FIRST_DONE,
-                                          FIRST_EP_COUNT, FIRST_EP_IMPULSE, FIRST_EP_OPEN, FIRST_EP_PEAK, FIRST_EP_T0,
-                                          FIRST_EP_V, FIRST_IMPACTS, FIRST_LOG, FIRST_PEAK, FIRST_TIME, FIRST_V_IMP,
-                                          N_EO, N_EP)
+from berryshaker.multibody.layout import (
+    EO_FN,
+    EO_PEN,
+    EO_PENDOT,
+    EP_DURATION,
+    EP_IMPULSE,
+    EP_PEAK,
+    EP_T0,
+    EP_V,
+    FF_C,
+    FF_D,
+    FF_E,
+    FF_K,
+    FF_MONOTONE,
+    FF_N,
+    FI_LAW,
+    FIRST_DONE,
+    FIRST_EP_COUNT,
+    FIRST_EP_IMPULSE,
+    FIRST_EP_OPEN,
+    FIRST_EP_PEAK,
+    FIRST_EP_T0,
+    FIRST_EP_V,
+    FIRST_IMPACTS,
+    FIRST_LOG,
+    FIRST_PEAK,
+    FIRST_TIME,
+    FIRST_V_IMP,
+    N_EO,
+    N_EP,
+)
 
 EVENT_TOL = 1e-9  # m: contact onset is located to within this penetration
 #: approach speed (m/s) from which a located contact onset counts as an impact (``first[:, FIRST_IMPACTS]``): the

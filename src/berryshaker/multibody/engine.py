@@ -27,8 +27,14 @@ from berryshaker.multibody import kernel
 from berryshaker.multibody import layout as L
 from berryshaker.multibody.assembly import initial_state
 from berryshaker.multibody.compiled import CompiledMechanism, _state_and_work, compile_mechanism
-from berryshaker.multibody.contact_events import (_crossing_rate, _interior_peak, _onset_fraction, _step_force_bound,
-                                                  first_onset_fraction, record_contacts)
+from berryshaker.multibody.contact_events import (
+    _crossing_rate,
+    _interior_peak,
+    _onset_fraction,
+    _step_force_bound,
+    first_onset_fraction,
+    record_contacts,
+)
 from berryshaker.multibody.dispatch import _type_key, call_compiled
 from berryshaker.multibody.dopri import _dense_state
 from berryshaker.multibody.dynamics import accelerations, project
@@ -38,9 +44,14 @@ from berryshaker.multibody.result import MultibodyResult
 from berryshaker.multibody.sampling import _write_sample
 from berryshaker.multibody.spec import MechanismSpec
 from berryshaker.multibody.specialised import is_compiled, mark_compiled, specialised_integrator
-from berryshaker.multibody.step_control import (load_resume, next_step_size, onset_cut_size, record_step_size,
-                                                rejected_step_size, save_resume)
-
+from berryshaker.multibody.step_control import (
+    load_resume,
+    next_step_size,
+    onset_cut_size,
+    record_step_size,
+    rejected_step_size,
+    save_resume,
+)
 
 #: what the written series of a run may cover (:func:`simulate_mechanism`'s ``series``)
 SERIES = {"whole": "every output sample of the run",

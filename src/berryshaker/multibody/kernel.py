@@ -38,13 +38,36 @@ from numba import njit
 from berryshaker.multibody.contact_events import first_onset_fraction, interior_peak_forces, record_contacts
 from berryshaker.multibody.dopri import _dense_state, dense_coefficients, error_norm, stage_state
 from berryshaker.multibody.dynamics import accelerations, constraint_residuals, project
-from berryshaker.multibody.layout import (EO_FN, EO_PEN, EO_PENDOT, INFO_ACCEPTED, INFO_CUTS, INFO_MAX_RESIDUAL,
-                                          INFO_REJECTED, INFO_STATUS, INFO_T_FAIL, N_EO, N_INFO, RS_LIMIT, RS_STARTED,
-                                          STATUS_BUDGET, STATUS_NONFINITE, STATUS_OK, STATUS_PAUSED,
-                                          STATUS_PROJECTION, STATUS_UNDERFLOW)
+from berryshaker.multibody.layout import (
+    EO_FN,
+    EO_PEN,
+    EO_PENDOT,
+    INFO_ACCEPTED,
+    INFO_CUTS,
+    INFO_MAX_RESIDUAL,
+    INFO_REJECTED,
+    INFO_STATUS,
+    INFO_T_FAIL,
+    N_EO,
+    N_INFO,
+    RS_LIMIT,
+    RS_STARTED,
+    STATUS_BUDGET,
+    STATUS_NONFINITE,
+    STATUS_OK,
+    STATUS_PAUSED,
+    STATUS_PROJECTION,
+    STATUS_UNDERFLOW,
+)
 from berryshaker.multibody.sampling import _write_sample, sample_at_end, sample_inside
-from berryshaker.multibody.step_control import (load_resume, next_step_size, onset_cut_size, record_step_size,
-                                                rejected_step_size, save_resume)
+from berryshaker.multibody.step_control import (
+    load_resume,
+    next_step_size,
+    onset_cut_size,
+    record_step_size,
+    rejected_step_size,
+    save_resume,
+)
 
 
 @njit(cache=True)

@@ -13,7 +13,6 @@ from berryshaker.errors import ConfigError
 from berryshaker.multibody.assembly import Assembly
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
-
 #: largest driver rotation (rad) between two Newton assemblies when a perturbation turns a driver's start angle
 PHASE_CONTINUATION_STEP = 0.2
 #: joint types whose clearance a perturbation may use, with the free radius (m) as a fraction of ``clearance``

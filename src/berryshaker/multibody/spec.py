@@ -34,11 +34,20 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import (UNITS_REQUIRED, Angle, Coefficient, FreeText, Name, SignedLength, describe_value,
-                                         quantity_validator, read_quantity)
-from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 from berryshaker.errors import ConfigError
 from berryshaker.multibody.layout import MAX_TABLE
+from berryshaker.quantity_fields import (
+    UNITS_REQUIRED,
+    Angle,
+    Coefficient,
+    FreeText,
+    Name,
+    SignedLength,
+    describe_value,
+    quantity_validator,
+    read_quantity,
+)
+from berryshaker.quantity_fields import format_validation_error as _format_validation_error
 
 Mass = Annotated[float, quantity_validator("mass"), Field(gt=0)]
 Inertia = Annotated[float, quantity_validator("inertia"), Field(gt=0)]

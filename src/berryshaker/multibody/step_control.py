@@ -13,8 +13,21 @@ import math
 import numpy as np
 from numba import njit
 
-from berryshaker.multibody.layout import (N_INFO, N_RESUME, RS_ACC, RS_CUTS, RS_ERR_OLD, RS_H, RS_H_RESUME, RS_IO,
-                                          RS_LAST_REJ, RS_MAX_RES, RS_REJ, RS_STARTED, RS_T)
+from berryshaker.multibody.layout import (
+    N_INFO,
+    N_RESUME,
+    RS_ACC,
+    RS_CUTS,
+    RS_ERR_OLD,
+    RS_H,
+    RS_H_RESUME,
+    RS_IO,
+    RS_LAST_REJ,
+    RS_MAX_RES,
+    RS_REJ,
+    RS_STARTED,
+    RS_T,
+)
 
 SAFETY = 0.9  # step-size safety factor
 BETA = 0.04  # PI step-size control: weight of the previous step's error (Hairer & Wanner's DOPRI5 default)

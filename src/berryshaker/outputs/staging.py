@@ -17,11 +17,24 @@ import time
 from pathlib import Path
 from typing import Iterator
 
-from berryshaker.outputs.atomic_files import (WRITE_ERRNOS, _absolute, current_umask, file_sha256, write_error,
-                                              write_json_atomic)
+from berryshaker.outputs.atomic_files import (
+    WRITE_ERRNOS,
+    _absolute,
+    current_umask,
+    file_sha256,
+    write_error,
+    write_json_atomic,
+)
 from berryshaker.outputs.destinations import _shown, prepare_output_dir
-from berryshaker.outputs.marker import (MARKER_NAME, _entry_state, _inside, _marker, marker_owners, unverified_reason,
-                                        read_output_marker)
+from berryshaker.outputs.marker import (
+    MARKER_NAME,
+    _entry_state,
+    _inside,
+    _marker,
+    marker_owners,
+    read_output_marker,
+    unverified_reason,
+)
 
 #: Staging folders are ``.<final name>.berryshaker-staging.<host>-<pid>.<random>`` beside the destination.
 STAGING_TAG = ".berryshaker-staging."

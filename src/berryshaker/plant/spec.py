@@ -8,7 +8,8 @@ from typing import Annotated, Literal
 
 from pydantic import BeforeValidator, Field, ValidationInfo, model_validator
 
-from berryshaker.quantity_fields import Length, LengthNonNeg, StrictModel as _Strict, display_unit, quantity_validator, describe_value
+from berryshaker.quantity_fields import Length, LengthNonNeg, describe_value, display_unit, quantity_validator
+from berryshaker.quantity_fields import StrictModel as _Strict
 
 
 class BranchSpec(_Strict):

@@ -22,10 +22,26 @@ from __future__ import annotations
 from dataclasses import replace
 
 from berryshaker.report.design_quantity import ALPHA, _estimate, _recommended, _results, quantity
-from berryshaker.report.design_records import (DesignAnswers, Difference, JointAnswers, Loads, PublishedReference,
-                                               Recommended, Tradeoff, TradeoffCandidate, WhyEfficiency)
-from berryshaker.report.harvest_answers import (DAMAGE_LIMIT_PCT, UNRIPE_LIMIT_PCT, _harvest, compare_efficiency,
-                                                operating_point, published_reference, why_efficiency)
+from berryshaker.report.design_records import (
+    DesignAnswers,
+    Difference,
+    JointAnswers,
+    Loads,
+    PublishedReference,
+    Recommended,
+    Tradeoff,
+    TradeoffCandidate,
+    WhyEfficiency,
+)
+from berryshaker.report.harvest_answers import (
+    DAMAGE_LIMIT_PCT,
+    UNRIPE_LIMIT_PCT,
+    _harvest,
+    compare_efficiency,
+    operating_point,
+    published_reference,
+    why_efficiency,
+)
 
 
 def level_set_name(clearances_mm: dict, unit: str = "mm") -> str:

@@ -12,8 +12,13 @@ import math
 from berryshaker.report.design_quantity import Quantity
 from berryshaker.report.design_records import DesignAnswers
 from berryshaker.report.html_blocks import _details, _Raw, _table
-from berryshaker.report.sections import (clearance_life_section, harvest_response_section, kinematics_section,
-                                         powered_drive_section, virtual_l9_section)
+from berryshaker.report.sections import (
+    clearance_life_section,
+    harvest_response_section,
+    kinematics_section,
+    powered_drive_section,
+    virtual_l9_section,
+)
 from berryshaker.user_text import html_text
 
 #: widest table of the section (columns); with fixed column widths every table fits an A4 page

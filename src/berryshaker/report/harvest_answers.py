@@ -20,8 +20,16 @@ import math
 from dataclasses import replace
 
 from berryshaker.report.design_quantity import ALPHA, _estimate, _recommended, _results, quantity
-from berryshaker.report.design_records import (Comparison, ExcludedSpeed, HarvestIndexes, KinematicDrivers,
-                                               OperatingPoint, PublishedReference, SpeedLimits, WhyEfficiency)
+from berryshaker.report.design_records import (
+    Comparison,
+    ExcludedSpeed,
+    HarvestIndexes,
+    KinematicDrivers,
+    OperatingPoint,
+    PublishedReference,
+    SpeedLimits,
+    WhyEfficiency,
+)
 
 #: default limits of the operating-point rule (replicate means, %): [assumed], ours, not the study's
 DAMAGE_LIMIT_PCT = 5.0

@@ -12,12 +12,12 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from berryshaker.config import machine_table
+from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, CLEARANCE_LEVELS_MM, FIELD_RESULT
 from berryshaker.report.design import claims_apply, design_answers, level_set_name
 from berryshaker.report.design_html import design_answers_html
 from berryshaker.report.headline import report_title, runs_text, verdict_class, verdict_counts
 from berryshaker.report.html_blocks import CSS, _plain, _Raw, _table
 from berryshaker.report.sections import SectionInput, section_numbers, step_sections, virtual_l9_section
-from berryshaker.reference_study import CHOSEN_CODE, CLEARANCE_LEVELS_MM, CHOSEN_LEVELS, FIELD_RESULT
 from berryshaker.user_text import html_text
 
 

@@ -21,10 +21,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Sequence
 
+from berryshaker.reference_study import EQ18_F
 from berryshaker.report.html_blocks import _details, _maybe_img, _num, _Raw, _table
 from berryshaker.report.l9_replicates import l9_replicates_section
 from berryshaker.report.life_tables import life_parts
-from berryshaker.reference_study import EQ18_F
 from berryshaker.user_text import html_text
 
 #: a section renderer: input -> (title without its number, HTML parts)

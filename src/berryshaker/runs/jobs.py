@@ -23,8 +23,14 @@ import time
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from berryshaker.runs.cache import _canonical, _jsonable, cache_entry_path, function_name, read_cache_entry, \
-    write_cache_entry
+from berryshaker.runs.cache import (
+    _canonical,
+    _jsonable,
+    cache_entry_path,
+    function_name,
+    read_cache_entry,
+    write_cache_entry,
+)
 
 #: Local jobs are sent to the pool in about this many chunks per worker (fewer round trips for short runs,
 #: still balanced across workers when run times differ).

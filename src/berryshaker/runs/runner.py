@@ -34,14 +34,13 @@ from berryshaker.runs.cache import (  # noqa: F401  (re-exported: the runner's p
     cache_entry_path,
     cache_entry_present,
     default_cache_dir,
-    run_cache_dir,
     function_name,
     read_cache_entry,
+    run_cache_dir,
     run_key,
     write_cache_entry,
 )
-from berryshaker.runs.dask_backend import (SCHEDULER_TIMEOUT_S, DaskBackend, SchedulerLost,  # noqa: F401
-                                           check_scheduler_address)
+from berryshaker.runs.dask_backend import SCHEDULER_TIMEOUT_S, DaskBackend, SchedulerLost, check_scheduler_address  # noqa: F401
 from berryshaker.runs.jobs import (  # noqa: F401
     BATCH_SIZE,
     CHUNKS_PER_WORKER,
@@ -53,7 +52,6 @@ from berryshaker.runs.jobs import (  # noqa: F401
     execute_job,
     run_jobs,
 )
-from berryshaker.runs.main_guard import SCRIPT_IDIOM, leave_if_bootstrapping, unguarded_main_line
 from berryshaker.runs.local_pool import (  # noqa: F401
     _BLAS_BEFORE,
     BLAS_THREAD_VARIABLES,
@@ -63,6 +61,7 @@ from berryshaker.runs.local_pool import (  # noqa: F401
     one_blas_thread,
     usable_cores,
 )
+from berryshaker.runs.main_guard import SCRIPT_IDIOM, leave_if_bootstrapping, unguarded_main_line
 
 
 def _say_through(ref: weakref.ref) -> Callable[[str], None]:

@@ -363,9 +363,8 @@ def step_harvest_response(ctx: StudyContext) -> StepResult:
     # the calibration is on the statistic the virtual L9 reports, the mean over perturbed starts at the configured
     # clearances, converged: the configured speed's starts above (the L9's seeds) extended until every harvest
     # response's mean is known to harvest.se_target (study.l9.sequential_starts; identical runs are cached)
-    from berryshaker.study.l9 import cells_from_outputs, sequential_starts
-
     from berryshaker.errors import SimulationError
+    from berryshaker.study.l9 import cells_from_outputs, sequential_starts
 
     fit, seq = None, None
     if cal_out is not None and all(v is not None for v in cal_out):

@@ -11,9 +11,9 @@ import numpy as np
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.experiment.replicates import replicate_trend
 from berryshaker.study.life_drive_records import PoweredDrive, PoweredLevel
-from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 from berryshaker.study.life_step import step_life
 from berryshaker.study.runs import powered_row
+from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
 from berryshaker.study.step_result import FailedRun, StepResult
 

@@ -97,10 +97,10 @@ def step_life(ctx):
     from berryshaker.life.service import service_limits
     from berryshaker.life.tolerance import (
         clearance_responses,
-        joint_candidates,
-        nsga2_front,
         compromise_index,
         force_fall_notes,
+        joint_candidates,
+        nsga2_front,
         response_grid,
     )
 

@@ -14,7 +14,6 @@ from berryshaker.experiment.clearance_sets import level_code
 from berryshaker.report.design import level_set_name
 from berryshaker.study.replicate_responses import CONFIDENCE, HARVEST_RESPONSES, interval
 
-
 #: how the tiered choice is checked against the trade-off table (docs/harvest.md, "Trade-off table")
 CONFIRMATION_RULE = ("the tiered choice is confirmed against the trade-off table, judged with the ANOVA's own noise "
                      "model: a candidate dominates another only if it is no worse in every judged response and better "

@@ -9,7 +9,6 @@ from berryshaker.errors import ConfigError
 from berryshaker.units.formatting import _TWO_PI, ENGINEERING_FACTORS, format_quantity
 from berryshaker.units.parsing import DIMENSIONS, DISPLAY_UNITS, _check_dimension, _noun, _short
 
-
 #: SI magnitudes (lo, hi) that a value may plausibly have in a harvester drive model.  Deliberately wide
 #: (several orders of magnitude around usual values); a value outside is most likely a unit slip.
 #: angular_speed reaches 10000 rpm so the Flores & Ambrosio slider-crank benchmark (5000 rpm) passes.

@@ -9,11 +9,12 @@ from typer.testing import CliRunner
 
 from berryshaker.cli import app
 from berryshaker.config import machine_from_dict
+from berryshaker.config import reference_machine as _ref
 from berryshaker.contact.friction import coulomb_friction
 from berryshaker.drives.groove_cam.mlsd import simulate_mlsd
 from berryshaker.errors import ConfigError
-from berryshaker.experiment.clearance_sets import clearance_row as _row, parse_clearance_spec as _parse
-from berryshaker.config import reference_machine as _ref
+from berryshaker.experiment.clearance_sets import clearance_row as _row
+from berryshaker.experiment.clearance_sets import parse_clearance_spec as _parse
 
 
 def clearance_row(row):

@@ -15,7 +15,7 @@ from typing import ClassVar, Literal
 from pydantic import model_validator
 
 from berryshaker.drives.base import MachineBase, PairInfo
-from berryshaker.quantity_fields import Angle, SignedLength, AngularSpeed, Inertia, Length, Mass, check_drive_speed
+from berryshaker.quantity_fields import Angle, AngularSpeed, Inertia, Length, Mass, SignedLength, check_drive_speed
 from berryshaker.quantity_fields import StrictModel as _Strict
 
 

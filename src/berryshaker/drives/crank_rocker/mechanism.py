@@ -10,10 +10,10 @@ from __future__ import annotations
 
 import math
 
-from berryshaker.drives.crank_rocker.kinematics import check_machine, mid_stroke_angles, rocker_position
-from berryshaker.kinematics.linkage import four_bar_position
 from berryshaker.drives.base import HARVESTER_RTOL, HARVESTER_VELOCITY_SCALE
+from berryshaker.drives.crank_rocker.kinematics import check_machine, mid_stroke_angles, rocker_position
 from berryshaker.drives.powered import is_powered, powered_mechanism
+from berryshaker.kinematics.linkage import four_bar_position
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 
 

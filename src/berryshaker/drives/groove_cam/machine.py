@@ -14,7 +14,6 @@ from typing import Any, ClassVar, Literal
 from pydantic import model_validator
 
 from berryshaker.drives.base import MachineBase, PairInfo
-from berryshaker.reference_study import CLEARANCE_LEVELS_MM
 from berryshaker.quantity_fields import (
     Angle,
     AngularSpeed,
@@ -29,6 +28,7 @@ from berryshaker.quantity_fields import (
     check_drive_speed,
 )
 from berryshaker.quantity_fields import StrictModel as _Strict
+from berryshaker.reference_study import CLEARANCE_LEVELS_MM
 
 
 class Cam(_Strict):

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import math
 
-from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.drives.groove_cam.kinematics import geometry_vector, ideal_state, mid_stroke_angles, require_buildable
 from berryshaker.drives.base import HARVESTER_RTOL, HARVESTER_VELOCITY_SCALE
+from berryshaker.drives.groove_cam.kinematics import geometry_vector, ideal_state, mid_stroke_angles, require_buildable
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.drives.powered import is_powered, powered_mechanism
 from berryshaker.multibody.spec import MechanismSpec, mechanism_from_dict
 

@@ -35,14 +35,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
-from berryshaker.errors import ConfigError, SimulationError
 from berryshaker.drives.groove_cam.kinematics import (
     G_OMEGA,
     geometry_vector,
     ideal_state,
     require_buildable,
 )
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.drives.groove_cam.mlsd_kernel import (  # noqa: F401  (the kernel's names, importable from here)
     EVENT_TOL,
     FORM_HERTZ,
@@ -73,6 +72,7 @@ from berryshaker.drives.groove_cam.mlsd_kernel import (  # noqa: F401  (the kern
     integrate,
     parameter_vector,
 )
+from berryshaker.errors import ConfigError, SimulationError
 
 #: integrator steps (accepted + rejected) per call of the compiled kernel (:func:`integrate`): the run returns to
 #: Python between chunks, where Ctrl-C and the step budget are seen; ~0.1-0.2 s of a quiet core, and a

@@ -12,11 +12,8 @@ import math
 import numpy as np
 from numba import njit
 
-from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
 from berryshaker.contact.force_laws import hertz_kernel, hysteresis_kernel, mlsd_kernel
 from berryshaker.contact.friction import coulomb_friction_kernel
-from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
-from berryshaker.errors import ConfigError
 from berryshaker.drives.groove_cam.kinematics import (
     G_E,
     G_GAMMA,
@@ -33,6 +30,9 @@ from berryshaker.drives.groove_cam.kinematics import (
     ideal_state,
     mid_stroke_angles,
 )
+from berryshaker.drives.groove_cam.machine import GrooveCamMachine as Machine
+from berryshaker.errors import ConfigError
+from berryshaker.multibody.integrators import DOPRI_A, DOPRI_C, DOPRI_E
 
 PAIR_NAMES = ("A", "B", "C", "F")  # the MLSD model's pairs, in its state/result layout
 

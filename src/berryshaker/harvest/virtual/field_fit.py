@@ -16,7 +16,6 @@ from berryshaker.harvest.virtual.field_test import HarvestParameters, expected_t
 from berryshaker.harvest.virtual.responses import RESPONSES, response_values
 from berryshaker.harvest.virtual.stem_force_tables import envelopes_for
 
-
 STUDY_TARGETS = {"efficiency_kg_min": 3.93, "unripe_rate_pct": 3.1, "damage_rate_pct": 2.8}
 
 

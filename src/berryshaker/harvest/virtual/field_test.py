@@ -46,8 +46,13 @@ from scipy import special
 from berryshaker.config import Machine
 from berryshaker.harvest.virtual.responses import RESPONSES, Tally
 from berryshaker.harvest.virtual.seeds import FIELD, stream
-from berryshaker.harvest.virtual.stem_force_tables import (MASS_FACTORS, Z_GRID, bond_strengths, fruit_peak_force,
-                                                           fruit_peak_load)
+from berryshaker.harvest.virtual.stem_force_tables import (
+    MASS_FACTORS,
+    Z_GRID,
+    bond_strengths,
+    fruit_peak_force,
+    fruit_peak_load,
+)
 
 #: Gauss-Legendre nodes per stem-load table cell along the fruit zone and in log fruit mass of the expectation's
 #: quadrature (chosen by tests/harvest/test_field_test.py: every response within 1e-4 relative of twice the nodes)

@@ -10,8 +10,13 @@ import math
 import numpy as np
 
 from berryshaker.config import Machine
-from berryshaker.harvest.virtual.field_test import (HarvestParameters, count_variance, expected_tally, field_tally,
-                                                    load_grid)
+from berryshaker.harvest.virtual.field_test import (
+    HarvestParameters,
+    count_variance,
+    expected_tally,
+    field_tally,
+    load_grid,
+)
 from berryshaker.harvest.virtual.responses import response_values
 from berryshaker.harvest.virtual.stem_force_tables import envelopes_for
 

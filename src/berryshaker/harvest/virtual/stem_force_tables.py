@@ -13,7 +13,6 @@ import numpy as np
 from berryshaker.config import Machine, machine_from_dict
 from berryshaker.harvest.spec import COUPLED_RTOL
 
-
 Z_GRID = np.linspace(0.0, 1.0, 41)
 
 

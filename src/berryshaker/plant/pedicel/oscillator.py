@@ -50,7 +50,6 @@ from scipy import signal
 
 from berryshaker.errors import ConfigError
 
-
 #: standard gravity (m/s^2)
 GRAVITY = 9.80665
 

@@ -10,11 +10,9 @@ from pathlib import Path
 import numpy as np
 
 from berryshaker.report.plots.figure_files import _out
-from berryshaker.report.style import response_units as table_units
 from berryshaker.report.style import (
     BAND_ALPHA,
     PAIR_COLOURS,
-    response_names,
     SERIES_COLOURS,
     colour_bar,
     label_axes,
@@ -22,8 +20,10 @@ from berryshaker.report.style import (
     new_figure,
     plain_ticks,
     require_unit,
+    response_names,
     widen_span,
 )
+from berryshaker.report.style import response_units as table_units
 
 
 def _level_values(analysis: dict, factors: list[str], level_values: dict | None) -> dict:

@@ -15,12 +15,12 @@ import numpy as np
 from berryshaker.report.plots.figure_files import _out
 from berryshaker.report.style import (
     LEVEL_COLOURS,
-    response_names,
-    response_units,
     SERIES_COLOURS,
     label_axes,
     legend_outside,
     new_figure,
+    response_names,
+    response_units,
 )
 from berryshaker.user_text import file_part
 

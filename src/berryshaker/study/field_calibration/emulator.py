@@ -16,10 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from berryshaker.study.field_calibration.priors import (PARAMETER_NAMES, calibrated_responses, count_parameters,
-                                                       mean_parameters)
+from berryshaker.study.field_calibration.priors import (
+    PARAMETER_NAMES,
+    calibrated_responses,
+    count_parameters,
+    mean_parameters,
+)
 from berryshaker.study.field_calibration.sheet import FactorTarget
-
 
 #: most L-BFGS-B iterations of a GP's marginal-likelihood fit: scikit-learn's default (15000) let one fit of the
 #: joint GP on clustered posterior points take over a minute on the reference L9; its hyperparameters converge in far

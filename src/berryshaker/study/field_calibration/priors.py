@@ -22,7 +22,6 @@ from scipy import special
 
 from berryshaker.config import Machine
 
-
 Z90 = 1.6448536269514722  # standard normal 95th percentile: a lognormal's central 90 % is median exp(+-Z90 s)
 
 

@@ -15,7 +15,6 @@ from berryshaker.config import Machine
 from berryshaker.errors import ConfigError
 from berryshaker.study.field_calibration.priors import calibrated_responses
 
-
 #: factor names (lower case) read as the drive speed when their unit is an angular speed
 DRIVE_SPEED_NAMES = ("speed", "drive_speed", "shaft_speed", "cam_speed", "crank_speed", "rotational_speed", "n")
 
@@ -160,8 +159,8 @@ class Sheet:
 
 def _filled_responses(path_or_text, worksheet: str | None = None) -> list[str]:
     """The calibrated responses a sheet has values for (an index column with a number, or the raw masses)."""
-    from berryshaker.experiment.field_columns import RAW_COLUMNS, index_names
     from berryshaker.experiment.field_cells import sheet_table
+    from berryshaker.experiment.field_columns import RAW_COLUMNS, index_names
 
     df = sheet_table(path_or_text, worksheet)
     cols = {c.lower(): c for c in df.columns}

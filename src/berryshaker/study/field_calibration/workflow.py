@@ -25,8 +25,14 @@ import numpy as np
 from berryshaker.config import Machine
 from berryshaker.errors import ConfigError
 from berryshaker.study.field_calibration.emulator import Emulator
-from berryshaker.study.field_calibration.posterior import (DISCREPANCY_LENGTH, DISCREPANCY_SCALE, FIELD_NOISE_SCALE,
-                                                           SheetStatistics, predictive, sample_posterior)
+from berryshaker.study.field_calibration.posterior import (
+    DISCREPANCY_LENGTH,
+    DISCREPANCY_SCALE,
+    FIELD_NOISE_SCALE,
+    SheetStatistics,
+    predictive,
+    sample_posterior,
+)
 from berryshaker.study.field_calibration.priors import (
     PARAMETER_NAMES,
     calibrated_responses,
@@ -36,9 +42,10 @@ from berryshaker.study.field_calibration.priors import (
     theta_of,
 )
 from berryshaker.study.field_calibration.result import (
+    CalibrationRecommendation,
     CalibrationResult,
-    CheckSummary,
     Checks,
+    CheckSummary,
     Confounding,
     EmulatorCheck,
     EmulatorSummary,
@@ -49,7 +56,6 @@ from berryshaker.study.field_calibration.result import (
     ParameterSummary,
     Prediction,
     PriorSummary,
-    CalibrationRecommendation,
     ResidualEffect,
     ResponsePrediction,
     RunCheck,
@@ -61,7 +67,6 @@ from berryshaker.study.field_calibration.result import (
 )
 from berryshaker.study.field_calibration.sheet import FactorTarget, Sheet, level_sets
 from berryshaker.study.field_calibration.simulator import Simulator, start_statistics, training_starts
-
 
 IDENTIFIED_RULE = ("identified: the posterior's central 90 % interval is narrower than half the prior's "
                    "(width ratio < 0.5)")
