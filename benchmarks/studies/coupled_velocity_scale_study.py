@@ -1,7 +1,6 @@
 """The convergence study behind ``harvest.spec.COUPLED_VELOCITY_SCALE`` (1 m/s), the velocity scale of every coupled
 machine-plant run's error control.  Cited by ``src/berryshaker/harvest/spec.py`` (``COUPLED_VELOCITY_SCALE``),
-docs/harvest.md ("Solver tolerance of the coupled runs") and tests/harvest/test_coupled_tolerance.py; its history is
-benchmarks/HISTORY.md sec. 28.  Writes benchmarks/studies/results/coupled_velocity_scale.json (``--out``).
+docs/harvest.md ("Solver tolerance of the coupled runs") and tests/harvest/test_coupled_tolerance.py.  Writes benchmarks/studies/results/coupled_velocity_scale.json (``--out``).
 
 The coupled machine-plant runs (the virtual L9's replicates, the calibration, the harvest against frequency) hold
 a velocity's error absolutely below rtol x the velocity scale.  For each candidate scale, 16 replicates of the

@@ -2,7 +2,7 @@
 
 The study behind the lubricated (greased) pairs' default ``restitution_velocity`` of 1 mm/s (the largest floor with
 no effect; 3 mm/s raises the collision forces' 95th percentiles): cited by ``src/berryshaker/contact/pair_law.py``,
-docs/contact.md sec. 6.4 and tests/contact/test_pair_law_velocity_floor.py; its history is benchmarks/HISTORY.md sec. 9.
+docs/contact.md sec. 6.4 and tests/contact/test_pair_law_velocity_floor.py.
 Writes benchmarks/studies/results/impact_velocity_floor.json (the ``run`` command's path; ~25 min).
 
 The hysteresis laws divide their damping by max(v_imp, v_ref) (docs/contact.md sec. 6.4).  For each

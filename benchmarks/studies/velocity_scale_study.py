@@ -1,6 +1,6 @@
 """The convergence study behind ``drives.base.HARVESTER_VELOCITY_SCALE`` (1 m/s), the velocity scale of a harvester
 run's error control on every drive.  Cited by ``src/berryshaker/drives/base.py`` (``HARVESTER_VELOCITY_SCALE``) and
-docs/multibody.md ("Integrator"); its history is benchmarks/HISTORY.md sec. 25.  Writes
+docs/multibody.md ("Integrator").  Writes
 benchmarks/studies/results/velocity_scale_<drive>.json (``--out``).
 
 For one drive, ensembles of 8 seeded perturbed starts x 6 cam revolutions at rtol 1e-5 and several velocity

@@ -103,8 +103,7 @@ def test_steel_contact_converges_in_rtol(machine):
     """Default accuracy with steel contact on the first impact of every joint, which is deterministic: at the
     default rtol (1e-5) within 2 % of rtol 1e-7, at 1e-6 within 0.5 %.  The statistics over many impacts are
     chaotic and are checked over ensembles of perturbed starts in tests/multibody/test_perturbation.py, which
-    chooses the default (a single run's RMS and peak move by +-4 % and +-8 % with any change of the tolerance:
-    benchmarks/HISTORY.md sec. 7)."""
+    chooses the default (a single run's RMS and peak move by +-4 % and +-8 % with any change of the tolerance)."""
     default = inspect.signature(simulate_multibody).parameters["rtol"].default
     assert default == 1e-5
     runs = {rt: simulate_multibody(machine, revolutions=2, rtol=rt) for rt in (1e-5, 1e-6, 1e-7)}

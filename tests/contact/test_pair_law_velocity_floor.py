@@ -10,7 +10,7 @@ integrator at h ~ 0.1 us when the settled pin was later loaded.  The statistics 
   percentile of the collision force over revolution 2 and the mean drive moment.  The runs are chaotic, so single
   runs are not compared; the paired difference of the set means, relative to the v_ref / 10 mean, d, and its
   standard error over the sets, SE, must satisfy |d| + t SE <= tol (t: Student's 97.5 % quantile, 15 dof; the
-  verdict ``converged`` of berryshaker.harvest.convergence).  Measured (benchmarks/HISTORY.md sec. 9): largest
+  verdict ``converged`` of berryshaker.harvest.convergence).  Measured (benchmarks/studies/impact_velocity_floor_study.py): largest
   |d| + t SE 0.9 % on means, 5.4 % on RMS values, 8.6 % on 95th percentiles, 0.04 % on the drive moment; the
   tolerances sit above.  At a floor 10x too large (10 mm/s against 1 mm/s) the 95th percentiles rise by 16 % (A,
   B) and 36 % (C, F) and the RMS of F by 6 % (|d| + t SE: 20-41 %, 11 %): this test fails there (checked).

@@ -1,5 +1,5 @@
 """Runs that keep only their summary write only the statistics window (``series="statistics"``), and the engine's
-per-call overhead (benchmarks/HISTORY.md sec. 17).
+per-call overhead.
 
 * The summary of a ``series="statistics"`` run is that of a whole run, bit for bit, on both drives, with the
   imposed speed and with the powered driveline (whose energy audit snaps its window to the nearest sample), over

@@ -31,7 +31,7 @@ rtol        collision mean      collision p95      collision peak      drive mom
 
 (These rows were measured with the engine's velocity scale, 0.1 m/s.)  The velocity scale of the error control
 (``simulation.velocity_scale``: a velocity's error is held below rtol x (scale + |v|)) was chosen the same way at
-rtol 1e-5, 8 starts, against rtol 1e-7 at 0.1 m/s (benchmarks/HISTORY.md sec. 25):
+rtol 1e-5, 8 starts, against rtol 1e-7 at 0.1 m/s (benchmarks/studies/velocity_scale_study.py):
 
 =========  ===========================================  ===========================================
 scale      groove cam: step attempts, shifts > 2 SE      crank-rocker: step attempts, shifts > 2 SE

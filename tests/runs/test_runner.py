@@ -565,7 +565,7 @@ def _cores() -> int:
 
 
 def test_pool_workers_run_one_blas_thread(tmp_path):
-    """Each worker is a process per core: its BLAS must not fan out over the cores (benchmarks/HISTORY.md sec. 18)."""
+    """Each worker is a process per core: its BLAS must not fan out over the cores."""
     env = {k: v for k, v in os.environ.items() if k not in R.BLAS_THREAD_VARIABLES}
     probe = _blas_probe(env)
     assert probe["n"] >= 1 and probe["after"] == [1]

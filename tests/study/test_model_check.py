@@ -1,7 +1,7 @@
 """The model check's replicate count (claim 1, study.pipeline.MODEL_CHECK_STARTS) against twice as many starts.
 
 Claim 1 judges the means of each model's collision-force statistics over perturbed (multibody) and turned (MLSD)
-starts at level 2 (benchmarks/HISTORY.md sec. 26).  The count is converged when doubling it leaves every pair's
+starts at level 2.  The count is converged when doubling it leaves every pair's
 verdict unchanged and moves no mean by more than its noise: here the 8-start means of the study against the 16
 starts whose first 8 they are (the seeds of harvest.virtual.replicate_starts).  (With 8, the closest case, F's
 p95, is 10.9 +- 6.4 % against 20 %.)
