@@ -18,16 +18,16 @@ The names callers use are importable from here.
 """
 
 from berryshaker.outputs.atomic_files import (
-                                              WRITE_ERRNOS,
-                                              current_umask,
-                                              file_sha256,
-                                              finite_json,
-                                              strict_json_text,
-                                              write_bytes_atomic,
-                                              write_error,
-                                              write_files_atomic,
-                                              write_json_atomic,
-                                              write_text_atomic,
+    WRITE_ERRNOS,
+    current_umask,
+    file_sha256,
+    finite_json,
+    strict_json_text,
+    write_bytes_atomic,
+    write_error,
+    write_files_atomic,
+    write_json_atomic,
+    write_text_atomic,
 )
 from berryshaker.outputs.destinations import check_output_file, prepare_output_dir
 from berryshaker.outputs.marker import MARKER_NAME, marker_owners, read_output_marker
@@ -35,12 +35,12 @@ from berryshaker.outputs.paired_files import check_forced_pair, read_html_stamp,
 from berryshaker.outputs.provenance_record import code_fingerprint, provenance, write_provenance
 from berryshaker.outputs.saved_run import SavedRun, read_saved_run, split_unit
 from berryshaker.outputs.staging import (
-                                              STAGING_TAG,
-                                              STALE_FOREIGN_STAGING_HOURS,
-                                              STALE_STAGING_HOURS,
-                                              clean_stale_staging,
-                                              pid_alive,
-                                              staged_directory,
+    STAGING_TAG,
+    STALE_FOREIGN_STAGING_HOURS,
+    STALE_STAGING_HOURS,
+    clean_stale_staging,
+    pid_alive,
+    staged_directory,
 )
 
 #: the public names

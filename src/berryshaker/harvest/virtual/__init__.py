@@ -37,41 +37,41 @@ from berryshaker.harvest.shaking import shaking_amplitude
 from berryshaker.harvest.virtual.drive_speed import removal_at_speed, removal_vs_frequency, with_drive_speed
 from berryshaker.harvest.virtual.field_fit import STUDY_TARGETS, calibrate_harvest
 from berryshaker.harvest.virtual.field_test import (
-                                                    HarvestParameters,
-                                                    LoadGrid,
-                                                    bushes_per_test,
-                                                    count_variance,
-                                                    expected_tally,
-                                                    field_tally,
-                                                    load_grid,
+    HarvestParameters,
+    LoadGrid,
+    bushes_per_test,
+    count_variance,
+    expected_tally,
+    field_tally,
+    load_grid,
 )
 from berryshaker.harvest.virtual.indexes import start_responses, virtual_harvest
 from berryshaker.harvest.virtual.replicates import (
-                                                    harvest_columns,
-                                                    harvest_response,
-                                                    machine_start,
-                                                    replicate_envelopes_run,
-                                                    replicate_response,
-                                                    replicate_starts,
+    harvest_columns,
+    harvest_response,
+    machine_start,
+    replicate_envelopes_run,
+    replicate_response,
+    replicate_starts,
 )
 from berryshaker.harvest.virtual.responses import RESPONSES, HarvestResponse, Tally, register_response, response_values
 from berryshaker.harvest.virtual.seeds import FIELD, FRESH_STARTS, MACHINE, MODEL_CHECK, start_numbers
 from berryshaker.harvest.virtual.stem_force_tables import (
-                                                    CH_FORCE,
-                                                    CH_RIPE,
-                                                    CH_UNRIPE,
-                                                    ENVELOPE_OUTPUT_STEP,
-                                                    MASS_FACTORS,
-                                                    Z_GRID,
-                                                    acceleration_envelope,
-                                                    bond_strengths,
-                                                    branch_class_machine,
-                                                    envelopes_for,
-                                                    fruit_peak_force,
-                                                    fruit_peak_load,
-                                                    stem_force_envelope,
-                                                    stem_force_envelope_run,
-                                                    stem_force_table,
+    CH_FORCE,
+    CH_RIPE,
+    CH_UNRIPE,
+    ENVELOPE_OUTPUT_STEP,
+    MASS_FACTORS,
+    Z_GRID,
+    acceleration_envelope,
+    bond_strengths,
+    branch_class_machine,
+    envelopes_for,
+    fruit_peak_force,
+    fruit_peak_load,
+    stem_force_envelope,
+    stem_force_envelope_run,
+    stem_force_table,
 )
 
 __all__ = [

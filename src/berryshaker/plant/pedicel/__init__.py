@@ -13,20 +13,20 @@ This package re-exports the public names of its modules:
 """
 
 from berryshaker.plant.pedicel.oscillator import (
-                                                  GRAVITY,
-                                                  damping_ratio,
-                                                  discretise_foh,
-                                                  force_transmissibility,
-                                                  natural_frequency,
-                                                  stem_response,
+    GRAVITY,
+    damping_ratio,
+    discretise_foh,
+    force_transmissibility,
+    natural_frequency,
+    stem_response,
 )
 from berryshaker.plant.pedicel.peaks import compile_peak_stem_force, peak_stem_force, peak_stem_loads
 from berryshaker.plant.pedicel.two_way import (
-                                                  FruitBranchModes,
-                                                  fruit_branch_modes,
-                                                  fruit_loaded_modes,
-                                                  modal_mass_ratio,
-                                                  two_way_stem_force_frf,
+    FruitBranchModes,
+    fruit_branch_modes,
+    fruit_loaded_modes,
+    modal_mass_ratio,
+    two_way_stem_force_frf,
 )
 
 __all__ = ["GRAVITY", "FruitBranchModes", "compile_peak_stem_force", "damping_ratio", "discretise_foh",
