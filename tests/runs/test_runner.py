@@ -472,7 +472,9 @@ def _gone(pids, timeout):
 
 def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
     import psutil  # a dependency of dask.distributed, one of berryshaker's
-    jobs = [dict(x=float(i), delay=0.5) for i in range(40)]  # 10 s of work on 2 workers: "promptly" is 4x less
+    # 60 s of work on 2 workers, so the signal lands mid-sweep even on a loaded machine; "promptly" is the 10 s
+    # hang guard below
+    jobs = [dict(x=float(i), delay=0.5) for i in range(240)]
     proc = _start(tmp_path, "slow_square", jobs)
     try:
         cache = tmp_path / "cache"
@@ -483,14 +485,14 @@ def test_ctrl_c_stops_promptly_and_keeps_finished_runs(tmp_path, monkeypatch):
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    # promptly: it stopped with most of the 40 runs not done (entries < len(jobs) below); communicate(timeout=10)
+    # promptly: it stopped with most of the runs not done (entries < len(jobs) below); communicate(timeout=10)
     # is the hang guard
     assert proc.returncode == 130, (proc.returncode, err)
     lines = [ln for ln in err.splitlines() if ln.strip()]
     assert len(lines) == 1 and lines[0].startswith("interrupted:") and "run the same command again" in lines[0], err
     entries = [read_cache_entry(p, p.stem)[0] for p in cache.rglob("*.json")]
     assert 3 <= len(entries) < len(jobs) and all(entries)  # finished runs are kept, each entry valid
-    said = int(lines[0].split()[1])  # "interrupted: N of 40 runs had finished..."
+    said = int(lines[0].split()[1])  # "interrupted: N of 240 runs had finished..."
     assert 1 <= said <= len(entries)
     # a hang guard, not a clock: polled, it returns as soon as the workers are gone
     assert _gone(children, 30.0), "worker processes outlived the interrupted sweep"
