@@ -43,7 +43,7 @@ def test_a_kept_figure_is_the_bytes_of_a_fresh_draw_and_is_not_drawn_again(tmp_p
     figs = tmp_path / "s2"
     figs.mkdir()
     args = (SERIES, LABELS, "force [N]", figs / "bars.png")
-    assert fc.restore_figure(cache, fn, args, {}, figs)  # another figure folder: its paths are relative in the key
+    assert fc.restore_figure(cache, fc.figure_key(fn, args, {}, figs), figs)  # its paths are relative in the key
     assert calls == [] and {p.name: p.read_bytes() for p in figs.iterdir()} == fresh
     fc.draw_cached(cache, fn, (SERIES, LABELS, "moment [N m]", figs / "m.png"), {}, figs)
     assert calls == [1]  # another call: drawn
@@ -79,7 +79,11 @@ def test_a_figure_writing_outside_its_folder_or_unpicklable_is_not_kept(tmp_path
     figs.mkdir()
     fc.draw_cached(cache, P.plot_bars, (SERIES, LABELS, "force [N]", tmp_path / "out.png"), {}, figs)
     assert (tmp_path / "out.png").is_file() and not cache.exists()
-    assert fc.figure_key(P.plot_bars, (lambda: 0,), {}, figs) is None
+    import threading
+
+    assert fc.figure_key(P.plot_bars, (threading.Lock(),), {}, figs) is None  # does not pickle
+    assert fc.figure_key(P.plot_bars, (lambda: 0,), {}, figs) is None  # a lambda is not named by its name
+    assert fc.figure_key(P.plot_bars, (np.sum,), {}, figs) is not None
 
 
 class _Runner:
@@ -103,3 +107,20 @@ def test_the_study_context_draws_through_the_cache(tmp_path):
     again.draw(fn, SERIES, LABELS, "force [N]", again.figs / "bars.png")
     assert calls == [] and (again.figs / "bars.png").read_bytes() == (ctx.figs / "bars.png").read_bytes()
     assert StudyContext(reference_machine(), object(), tmp_path).figure_cache is None
+
+
+def test_the_key_reads_what_the_arguments_hold_not_how_they_share_objects(tmp_path):
+    """The same numbers read from the run cache (JSON: a key met twice is one string) and returned by a worker
+    (pickled: each its own) pickle to other bytes; the key is the same."""
+    import pickle
+
+    word = "force [N]"
+    shared = {"a": [word, word], "b": np.arange(3.0)}
+    apart = {"a": ["force [N]", "".join(["force", " [N]"])], "b": np.arange(3.0)}
+    assert pickle.dumps(shared) != pickle.dumps(apart)
+    key = fc.figure_key(P.plot_bars, (shared, tmp_path / "x.png"), {"title": "t"}, tmp_path)
+    assert key == fc.figure_key(P.plot_bars, (apart, tmp_path / "x.png"), {"title": "t"}, tmp_path)
+    assert key != fc.figure_key(P.plot_bars, (shared, tmp_path / "y.png"), {"title": "t"}, tmp_path)
+    assert key != fc.figure_key(P.plot_bars, (shared, tmp_path / "x.png"), {"title": "u"}, tmp_path)
+    assert key != fc.figure_key(P.plot_bars, ({"a": [word, 1], "b": np.arange(3.0)}, tmp_path / "x.png"),
+                                {"title": "t"}, tmp_path)

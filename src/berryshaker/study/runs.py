@@ -70,7 +70,8 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
 
     machine = machine_from_dict(machine_data)
     # eccentricities only: the powered drive starts at rest on the motor's side of the belt, and a turned cam would
-    # not be the state the driveline's own start-up assembles (a phase start crashed the compiled integrator there)
+    # not be the state the driveline's own start-up assembles (a turned start assembles and runs since 0.2.0:
+    # tests/multibody/test_assembly.py)
     pert = None if seed is None else RandomInitialPerturbation(seed_sequence(machine.harvest.seed, seed),
                                                                machine.harvest.initial_eccentricity)
     return simulate_multibody(machine, clearance, revolutions=revolutions, driveline="powered",

@@ -120,21 +120,24 @@ class StudyContext:
         """
         import pickle
 
-        from berryshaker.report.plots.figure_cache import draw_cached, restore_figure
+        from berryshaker.report.plots.figure_cache import draw_cached, figure_key, restore_figure
 
         cache = self.figure_cache
-        if restore_figure(cache, fn, args, kwargs, self.figs):
+        key = None if cache is None else figure_key(fn, args, kwargs, self.figs)
+        if restore_figure(cache, key, self.figs):
             return
+        if key is None:
+            cache = None  # a call that is not kept (its arguments do not pickle, a function of another package)
         # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
         # change meanwhile (the next steps and the claims add to the results)
         if not self.draw_in_workers:
-            draw_cached(cache, fn, args, kwargs, self.figs)
+            draw_cached(cache, fn, args, kwargs, self.figs, key)
             return
         job = dict(payload=pickle.dumps((fn, args, kwargs)), cache=None if cache is None else str(cache),
-                   figs=str(self.figs))
+                   figs=str(self.figs), key=key)
         fut = self.runner.warm_up(draw_figure, job)
         if fut is None:
-            draw_cached(cache, fn, args, kwargs, self.figs)
+            draw_cached(cache, fn, args, kwargs, self.figs, key)
         else:
             self.drawing.append((fut, job))
 
@@ -179,9 +182,9 @@ class StudyContext:
         return [o.value for o in outs]
 
 
-def draw_figure(payload: bytes, cache: str | None = None, figs: str | None = None) -> None:
+def draw_figure(payload: bytes, cache: str | None = None, figs: str | None = None, key: str | None = None) -> None:
     """Draw a figure of :meth:`StudyContext.draw` in a pool worker: ``payload`` is the pickled call
-    ``(fn, args, kwargs)``, kept in the figure cache ``cache`` when given
+    ``(fn, args, kwargs)``, kept in the figure cache ``cache`` under ``key`` when given
     (:func:`berryshaker.report.plots.figure_cache.draw_cached`).
 
     Parameters
@@ -192,6 +195,8 @@ def draw_figure(payload: bytes, cache: str | None = None, figs: str | None = Non
         The figure cache folder; None: keep nothing.
     figs : str, optional
         The figure folder the call writes into (needed with ``cache``).
+    key : str, optional
+        The call's key, as the study computed it before pickling the call.
     """
     import pickle
 
@@ -201,7 +206,7 @@ def draw_figure(payload: bytes, cache: str | None = None, figs: str | None = Non
     if cache is None or figs is None:
         fn(*args, **kwargs)
     else:
-        draw_cached(cache, fn, args, kwargs, figs)
+        draw_cached(cache, fn, args, kwargs, figs, key)
 
 
 @dataclass

@@ -8,8 +8,8 @@ SVG ids, so a figure's files depend only on its call).
 
 The key (:func:`figure_key`) is the sha256 of the function's dotted name, the package's code fingerprint (every
 ``.py`` file of the package, the figure functions and their style included:
-:func:`berryshaker.outputs.code_fingerprint`), the pickled arguments (the figure folder's paths in them relative),
-the figure output settings (:func:`berryshaker.report.plots.figure_files.figure_output`) and the versions of
+:func:`berryshaker.outputs.code_fingerprint`), the arguments (by what they hold, the figure folder's paths in them
+relative: :func:`_digest`), the figure output settings (:func:`berryshaker.report.plots.figure_files.figure_output`) and the versions of
 berryshaker, matplotlib, its FreeType and NumPy.  A call whose arguments do not pickle, or a function outside the
 package, is drawn every time.
 
@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import pickle
 from pathlib import Path
 from typing import Callable
@@ -32,19 +33,68 @@ from typing import Callable
 FIGURE_CACHE_SCHEMA = 1
 #: the largest entry read (bytes): a study's largest figure pair is a few MB
 MAX_FIGURE_BYTES = 64_000_000
-_FIGS = "<figures>"
 
 
-def _relative(value, figs: Path):
-    """``value`` with a path inside ``figs`` written relative to it (the figure folder is a new staging folder in
-    every study); anything else unchanged."""
+def _digest(value, figs: Path, h) -> None:
+    """Feed ``value`` into the hash ``h`` by what it holds, not by how its objects are shared: a pickle writes a
+    string met twice once and then a reference to it, so the same numbers read from the run cache (JSON) and
+    returned by a worker pickled differently.  Containers keep their order (a figure draws in it); a path
+    inside ``figs`` (the figure folder, a new staging folder in every study) counts relative to it; what this
+    does not know is pickled on its own."""
+    import dataclasses
+    import enum
+
+    import numpy as np
+
+    def put(tag: bytes, data: bytes) -> None:
+        h.update(tag + len(data).to_bytes(8, "little") + data)
+
     if isinstance(value, (str, Path)):
-        try:
-            rel = Path(value).resolve().relative_to(figs)
-        except (ValueError, OSError):
-            return value
-        return (_FIGS, rel.as_posix())
-    return value
+        rel = None
+        if os.path.isabs(value):  # (a relative path, or any other text, is not in the figure folder)
+            try:
+                rel = Path(value).resolve().relative_to(figs)
+            except (ValueError, OSError):
+                rel = None
+        if rel is not None:
+            put(b"F", rel.as_posix().encode())
+        elif isinstance(value, Path):
+            put(b"P", str(value).encode("utf-8", "surrogatepass"))
+        else:
+            put(b"s", value.encode("utf-8", "surrogatepass"))
+    elif value is None or isinstance(value, (bool, int, float, complex, bytes, enum.Enum)):
+        put(b"v", f"{type(value).__qualname__}:{value!r}".encode())
+    elif isinstance(value, (list, tuple)):
+        put(b"l" if isinstance(value, list) else b"t", str(len(value)).encode())
+        for v in value:
+            _digest(v, figs, h)
+    elif isinstance(value, dict):
+        put(b"d", str(len(value)).encode())
+        for k, v in value.items():
+            _digest(k, figs, h)
+            _digest(v, figs, h)
+    elif isinstance(value, (set, frozenset)):
+        parts = []
+        for v in value:
+            sub = hashlib.sha256()
+            _digest(v, figs, sub)
+            parts.append(sub.digest())
+        put(b"S", b"".join(sorted(parts)))
+    elif isinstance(value, np.ndarray) and value.dtype != object:
+        put(b"a", f"{value.dtype.str}{value.shape}".encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif isinstance(value, np.ndarray):
+        put(b"A", str(value.shape).encode())
+        _digest(value.tolist(), figs, h)
+    elif isinstance(value, np.generic):
+        put(b"g", value.dtype.str.encode() + value.tobytes())
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        put(b"c", f"{type(value).__module__}.{type(value).__qualname__}".encode())
+        _digest({f.name: getattr(value, f.name) for f in dataclasses.fields(value)}, figs, h)
+    elif callable(value) and "<" not in getattr(value, "__qualname__", "<"):  # a module-level function or class
+        put(b"f", f"{getattr(value, '__module__', '')}.{value.__qualname__}".encode())
+    else:
+        put(b"p", pickle.dumps(value, protocol=5))
 
 
 def figure_key(fn: Callable, args: tuple, kwargs: dict, figs: str | Path) -> str | None:
@@ -78,15 +128,14 @@ def figure_key(fn: Callable, args: tuple, kwargs: dict, figs: str | Path) -> str
     name = f"{getattr(fn, '__module__', '')}.{getattr(fn, '__qualname__', '')}"
     if not name.startswith("berryshaker."):
         return None
-    figs = Path(figs).resolve()
+    call = hashlib.sha256()
     try:
-        call = pickle.dumps((tuple(_relative(a, figs) for a in args),
-                             sorted((k, _relative(v, figs)) for k, v in kwargs.items())), protocol=5)
+        _digest((args, dict(sorted(kwargs.items()))), Path(figs).resolve(), call)
     except Exception:  # noqa: BLE001 - whatever does not pickle is drawn every time
         return None
     head = json.dumps([FIGURE_CACHE_SCHEMA, name, code_fingerprint(), list(_OUTPUT.get()), __version__,
                        matplotlib.__version__, getattr(ft2font, "__freetype_version__", ""), np.__version__])
-    return hashlib.sha256(head.encode() + b"\0" + hashlib.sha256(call).digest()).hexdigest()
+    return hashlib.sha256(head.encode() + b"\0" + call.digest()).hexdigest()
 
 
 def figure_entry_path(folder: str | Path, key: str) -> Path:
@@ -176,19 +225,15 @@ def write_figure_entry(folder: str | Path, key: str, fn_name: str, files: dict[s
     return path
 
 
-def restore_figure(folder: str | Path | None, fn: Callable, args: tuple, kwargs: dict, figs: str | Path) -> bool:
-    """Copy a kept figure of this call into ``figs``; False (nothing written) when there is none.
+def restore_figure(folder: str | Path | None, key: str | None, figs: str | Path) -> bool:
+    """Copy the kept figure ``key`` into ``figs``; False (nothing written) when there is none.
 
     Parameters
     ----------
     folder : str or Path or None
         The figure cache folder; None: no cache.
-    fn : callable
-        The figure function.
-    args : tuple
-        Its positional arguments.
-    kwargs : dict
-        Its keyword arguments.
+    key : str or None
+        The figure call's key (:func:`figure_key`); None: a call that is not kept.
     figs : str or Path
         The figure folder.
 
@@ -199,7 +244,6 @@ def restore_figure(folder: str | Path | None, fn: Callable, args: tuple, kwargs:
     """
     from berryshaker.outputs import write_files_atomic
 
-    key = None if folder is None else figure_key(fn, args, kwargs, figs)
     files = None if folder is None or key is None else read_figure_entry(folder, key)
     if not files:
         return False
@@ -207,7 +251,8 @@ def restore_figure(folder: str | Path | None, fn: Callable, args: tuple, kwargs:
     return True
 
 
-def draw_cached(folder: str | Path | None, fn: Callable, args: tuple, kwargs: dict, figs: str | Path) -> None:
+def draw_cached(folder: str | Path | None, fn: Callable, args: tuple, kwargs: dict, figs: str | Path,
+                key: str | None = None) -> None:
     """Draw ``fn(*args, **kwargs)``, or copy its kept files into ``figs`` (:func:`restore_figure`); a figure drawn
     here is kept in ``folder`` when every file it wrote lies in ``figs`` (a figure not kept is drawn again next time:
     a folder that cannot be written costs only the time).
@@ -224,18 +269,18 @@ def draw_cached(folder: str | Path | None, fn: Callable, args: tuple, kwargs: di
         Its keyword arguments.
     figs : str or Path
         The figure folder the call writes into.
+    key : str, optional
+        The call's key as the caller computed it (:func:`figure_key`; a pool worker is given the study's, since a
+        call pickled again after its trip to the worker may give other bytes); default: computed here.
     """
     from berryshaker.report.style import recording_written
 
-    key = None if folder is None else figure_key(fn, args, kwargs, figs)
+    if folder is not None and key is None:
+        key = figure_key(fn, args, kwargs, figs)
     if folder is None or key is None:
         fn(*args, **kwargs)
         return
-    files = read_figure_entry(folder, key)
-    if files:
-        from berryshaker.outputs import write_files_atomic
-
-        write_files_atomic({Path(figs) / name: data for name, data in files.items()})
+    if restore_figure(folder, key, figs):
         return
     with recording_written() as written:
         fn(*args, **kwargs)
