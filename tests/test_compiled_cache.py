@@ -78,7 +78,7 @@ def test_digest_follows_every_compiled_callee_and_nothing_else(tmp_path):
     calls = _cross_file_cached_calls()
     # the calls that make the digest necessary (module docstring of berryshaker.compiled_cache): the scan must see
     # them, or it checks nothing
-    assert {("berryshaker.multibody.batch", "berryshaker.multibody.kernel"),
+    assert {("berryshaker.multibody.kernel", "berryshaker.multibody.dynamics"),
             ("berryshaker.drives.groove_cam.mlsd_kernel", "berryshaker.drives.groove_cam.kinematics")} <= calls
     for callee in ("berryshaker.kinematics.cam", "berryshaker.contact.friction"):  # from whichever engine module
         assert any(a.startswith("berryshaker.multibody.") and b == callee for a, b in calls), callee

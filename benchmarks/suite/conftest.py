@@ -34,8 +34,6 @@ RATIOS = (
     ("engine (specialised kernel) / hand-reduced slider-crank, time per accepted step",
      "test_slider_crank_per_step[specialised]", "test_reduced_slider_crank_per_step", True),
     ("harvester run, multibody / MLSD", "test_harvester_run[multibody]", "test_harvester_run[mlsd]", False),
-    ("sweep of 8 harvester runs, one by one / batched",
-     "test_sweep_throughput[one_by_one]", "test_sweep_throughput[batched]", False),
 )
 
 

@@ -19,8 +19,7 @@ the accepted steps, so time per step = median / steps.  Cases:
   and its drive turned by up to 180 deg: up to 16 continuation steps, ``multibody.perturbation``), as every
   replicate drive-past assembles its start;
 * sweep throughput: 8 harvester runs over clearance sets drawn 0.5-1.5x around the reference (seed 1), one by one
-  and batched (``drives.simulation.simulate_multibody_batch``, one compiled call, one thread), as
-  ``berryshaker sweep --model multibody`` runs them.
+  as ``berryshaker sweep --model multibody`` runs them.
 """
 
 from __future__ import annotations
@@ -141,27 +140,14 @@ def test_perturbed_assembly(benchmark, machine):
     benchmark.extra_info.update(starts=len(starts))
 
 
-@pytest.mark.parametrize("mode", ["one_by_one", "batched"])
-def test_sweep_throughput(benchmark, machine, mode):
-    import numba
-
-    from berryshaker.drives.simulation import simulate_multibody, simulate_multibody_batch
+def test_sweep_throughput(benchmark, machine):
+    from berryshaker.drives.simulation import simulate_multibody
 
     benchmark.group = f"sweep of {SWEEP_SETS} harvester runs"
     rng = np.random.default_rng(1)
     ref = machine.clearance_sizes()
     sets = [{k: float(v * rng.uniform(0.5, 1.5)) for k, v in ref.items()} for _ in range(SWEEP_SETS)]
-    if mode == "one_by_one":
-        run = lambda: [simulate_multibody(machine, c, specialised=False)[1] for c in sets]  # noqa: E731
-        run()
-        benchmark.pedantic(run, rounds=3, iterations=1)
-    else:
-        threads = numba.get_num_threads()
-        numba.set_num_threads(1)  # CPU per run on one core, comparable with one by one
-        try:
-            run = lambda: simulate_multibody_batch([machine] * len(sets), sets, specialised=False)  # noqa: E731
-            run()
-            benchmark.pedantic(run, rounds=3, iterations=1)
-        finally:
-            numba.set_num_threads(threads)
+    run = lambda: [simulate_multibody(machine, c, specialised=False)[1] for c in sets]  # noqa: E731
+    run()
+    benchmark.pedantic(run, rounds=3, iterations=1)
     benchmark.extra_info.update(runs=SWEEP_SETS)

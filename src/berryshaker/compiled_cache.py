@@ -3,12 +3,12 @@
 numba's on-disk cache (``@njit(cache=True)``) checks only the source file of the function it loads: a kernel that
 calls a compiled function of *another* file carries that callee's machine code in its own cache entry and keeps
 using it after the callee's file changes (https://github.com/numba/numba/issues/6845).  The package has such calls (the multibody engine's
-compiled modules -> ``kinematics.cam`` and ``contact.friction``, ``multibody.batch.integrate_sets`` ->
-``multibody.kernel.integrate``, ``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``,
+compiled modules -> ``kinematics.cam`` and ``contact.friction``, ``multibody.kernel.integrate`` ->
+``multibody.dynamics``, ``drives.groove_cam.kinematics`` -> ``kinematics.cam`` / ``kinematics.linkage``,
 ``drives.groove_cam.mlsd_kernel`` -> ``drives.groove_cam.kinematics`` and ``contact.force_laws``, ...;
 tests/test_compiled_cache.py finds them), and a
-stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path still ran
-the old one from ``integrate_sets``' entry.
+stale entry silently runs the old code: after a change to ``kernel.integrate`` the batched sweep path (removed in
+0.2.0) still ran the old one from its own entry.
 
 So the package points numba at a folder named by a digest of every source file that mentions numba
 (:func:`compiled_sources_digest`): a change to any of them starts an empty folder, and an unchanged package finds

@@ -3,7 +3,7 @@ records (:class:`berryshaker.multibody.assembly.Assembly`): its state is bitwise
 path, which writes each offset and each continuation step's angles into a new description and assembles it
 afresh (:func:`berryshaker.multibody.assembly.initial_state`), for the coupled drive-past (phase turns up to
 180 deg: 16 continuation steps), the harvester alone and the powered driveline (torque-driven bodies,
-auxiliary coordinates)."""
+auxiliary coordinates), turned or not."""
 
 from __future__ import annotations
 
@@ -62,6 +62,27 @@ def test_harvester_assembles_bitwise_as_by_description(machine, driveline):
     spec = drive_of(m).mechanism(m, revolutions=2)
     phase = 0.0 if driveline == "powered" else 0.7  # the powered study runs turn no driver
     _check_bitwise(spec, [RandomInitialPerturbation((k, 5), 1.0, phase) for k in range(3)])
+    if driveline == "powered":  # but a powered start can be turned (one, the description path is slow)
+        _check_bitwise(spec, [RandomInitialPerturbation((0, 5), 1.0, 0.2)])
+
+
+def test_a_powered_start_with_a_turned_drive_assembles_and_runs(machine):
+    """A turned start of the powered driveline: each continuation step starts from the last one's positions, which
+    carry the driveline's auxiliary coordinates (windups, energy accumulators) the assembly's own mechanism does not
+    have all of; they failed to broadcast into its state (after writing past the compiled arrays)."""
+    from berryshaker.drives import drive_of
+    from berryshaker.drives.powered import with_driveline_mode
+    from berryshaker.drives.simulation import simulate_multibody
+    from berryshaker.multibody.compiled import compile_mechanism
+
+    m = with_driveline_mode(machine, "powered")
+    spec = drive_of(m).mechanism(m, revolutions=2)
+    pert = RandomInitialPerturbation((3, 1, 0), 1.0, math.pi).for_spec(spec)
+    y = pert.assemble(pert.shifted_drivers(spec))
+    assert y.shape == (2 * compile_mechanism(spec).n,) and np.all(np.isfinite(y))
+    _, summary = simulate_multibody(m, revolutions=2, initial_perturbation=RandomInitialPerturbation((3, 1, 0), 1.0,
+                                                                                                    math.pi))
+    assert summary["driveline_mode"] == "powered" and math.isfinite(summary["cam_speed_rpm"]["mean"])
 
 
 def test_an_unperturbed_assembly_is_initial_state(machine):

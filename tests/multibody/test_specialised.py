@@ -12,7 +12,6 @@ fast-math), so a generator that reorders one sum fails.
 import math
 from unittest.mock import patch
 
-import numba
 import numpy as np
 import pytest
 
@@ -131,7 +130,7 @@ def _markers_in(folder, monkeypatch):
 
 
 def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(tmp_path, monkeypatch):
-    from berryshaker.runs.sweep import model_runs
+    from berryshaker.runs.sweep import model_run
 
     _markers_in(tmp_path, monkeypatch)
 
@@ -151,17 +150,12 @@ def test_specialised_harvester_run_and_sweep_point_are_bitwise_the_generic_ones(
         used.append((specialised, fn is not kernel.integrate))
         return fn
 
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)  # as the sweep runner's workers run their chunks (BERRYSHAKER_BATCH_THREADS=1)
-    try:
-        with patch("berryshaker.multibody.engine.integrator", spy):
-            generic = model_runs([dict(k, specialised=False) for k in kw])
-            _markers_in(tmp_path / "batch", monkeypatch)  # forget the mark of the single run above
-            special = model_runs([dict(k, specialised=True) for k in kw])
-            auto = model_runs(kw)  # left to choose: marked by the batch path just now, so the specialised kernel
-    finally:
-        numba.set_num_threads(threads)
-    # the sweep's batch path ran the integrator asked for
+    with patch("berryshaker.multibody.engine.integrator", spy):
+        generic = [model_run(**k, specialised=False) for k in kw]
+        _markers_in(tmp_path / "later", monkeypatch)  # forget the mark of the single run above
+        special = [model_run(**k, specialised=True) for k in kw]
+        auto = [model_run(**k) for k in kw]  # left to choose: marked by the sweep's runs just now, so specialised
+    # the sweep's runs ran the integrator asked for
     assert used == [(False, False)] * 2 + [(True, True)] * 2 + [(None, True)] * 2
     assert [untimed(d) for d in generic] == [untimed(d) for d in special]  # equal floats, not close
     assert [untimed(d) for d in auto] == [untimed(d) for d in special]

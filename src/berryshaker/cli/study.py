@@ -227,9 +227,7 @@ def sweep(
              "(the same results bit for bit, about a quarter less time per harvester run, 10-20 s of compilation "
              "the first time on this machine, cached after that), or with the generic one. Default: specialised "
              "when it is compiled already or the sweep has at least 600 runs per worker (the environment variable "
-             "BERRYSHAKER_KERNEL=generic or specialised decides instead). Each worker runs its "
-             "chunks on one thread (the default); with BERRYSHAKER_BATCH_THREADS > 1 the parallel batch runs the "
-             "generic kernel."),
+             "BERRYSHAKER_KERNEL=generic or specialised decides instead)."),
     config: Optional[Path] = ConfigOpt,
     out_file: Optional[Path] = typer.Option(None, "--out", help="Tidy results table (CSV)."),
     figure: Optional[Path] = typer.Option(None, "--figure", help="With --model harvest and one --param: ripe removal, "
@@ -272,8 +270,7 @@ def sweep(
         mechanism's structure (the same results bit for bit, about a quarter less time per harvester run, 10-20 s of
         compilation the first time on this machine, cached after that), or with the generic one. Default:
         specialised when it is compiled already or the sweep has at least 600 runs per worker (the environment
-        variable BERRYSHAKER_KERNEL=generic or specialised decides instead). Each worker runs its chunks on one
-        thread (the default); with BERRYSHAKER_BATCH_THREADS > 1 the parallel batch runs the generic kernel.
+        variable BERRYSHAKER_KERNEL=generic or specialised decides instead).
     config : Path, optional
         ``--config``: Machine description (TOML). Default: built-in reference machine.
     out_file : Path, optional

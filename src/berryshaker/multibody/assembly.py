@@ -111,7 +111,9 @@ class Assembly:
         Parameters
         ----------
         q_start : numpy.ndarray, optional
-            Starting guess of the positions (m, rad); default the description's.
+            Starting guess of the positions (m, rad); default the description's.  Its first coordinates are
+            taken: the bodies' (and the windups'), as many as the assembly's mechanism has, the rest the
+            description's; a state of the description, auxiliary coordinates and all, may be given.
 
         Returns
         -------
@@ -129,7 +131,14 @@ class Assembly:
             ideal.model = md._replace(plan=solve_plan(md.ctype, md.cint, md.cflt, md.crow, ideal.m, ideal.n_base))
             self._plan_stale = False
         state, work = _state_and_work(ideal)
-        y = np.concatenate([ideal.q0 if q_start is None else np.array(q_start, float), np.zeros(ideal.n)])
+        q = ideal.q0.copy()
+        if q_start is not None:
+            # the positions the assembly's own mechanism has: a state of the description (a continuation step's
+            # start, :meth:`state`'s last result) also carries the coordinates only the description has (the
+            # powered driveline's energy accumulators, after its windups), which the assembly leaves out
+            given = np.array(q_start, float)[:ideal.n]
+            q[:len(given)] = given
+        y = np.concatenate([q, np.zeros(ideal.n)])
         res = 0.0
         if ideal.m:
             res = call_compiled(project, 0.0, y, ideal.model, state, work, 60)

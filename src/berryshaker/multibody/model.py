@@ -1,10 +1,9 @@
 """The model record: the arrays of a compiled mechanism that every compiled function of the engine takes, by
 name.
 
-:func:`berryshaker.multibody.compiled.compile_mechanism` builds it (and
-:func:`berryshaker.multibody.batch.integrate_sets` inside its compiled loop, one per parameter set); everything
-reads its fields by name (``model.ctype``).  It is a :class:`typing.NamedTuple`: numba takes it as a heterogeneous
-named tuple, whose attribute reads compile to the same static item reads as the positional tuple it replaced (the
+:func:`berryshaker.multibody.compiled.compile_mechanism` builds it; everything reads its fields by name
+(``model.ctype``).  It is a :class:`typing.NamedTuple`: numba takes it as a heterogeneous named tuple, whose
+attribute reads compile to the same static item reads as the positional tuple it replaced (the
 outputs are bitwise those of the tuple), and positional reads (``model[13]``) keep working for code that has not
 moved to the names.
 :func:`berryshaker.multibody.dispatch._type_key` knows the record, so calls through
@@ -71,9 +70,3 @@ class MechanismModel(NamedTuple):
     plant_p: np.ndarray
     laws: tuple
     plan: np.ndarray
-
-
-#: the fields that may differ between the parameter sets of one batch (floats; :mod:`berryshaker.multibody.batch`)
-FLOAT_FIELDS = ("mass", "inertia", "gravity", "cflt", "fflt", "cams", "modal_w", "modal_z", "phi_tab", "plant_p")
-#: the integer fields that define a mechanism's structure (equal within a batch)
-STRUCTURE_FIELDS = ("ctype", "cint", "crow", "ftype", "fint", "plan")

@@ -9,9 +9,7 @@ import base64
 import contextlib
 import contextvars
 import hashlib
-import os
 import re
-import stat
 from pathlib import Path
 
 from berryshaker.user_text import html_text
@@ -52,6 +50,9 @@ WIDE_COLUMNS = 8
 EMBED_MAX_PX = 1400
 
 
+#: the largest page PNG read from the :func:`page_figure_cache` folder (bytes)
+MAX_PAGE_PNG_BYTES = 64_000_000
+
 #: folder of the page PNGs already scaled (:func:`page_figure_cache`); None: every figure is scaled anew
 _PAGE_CACHE: contextvars.ContextVar = contextvars.ContextVar("page_figure_cache", default=None)
 
@@ -89,15 +90,13 @@ def _png_for_page(path: Path) -> bytes:
     import PIL
 
     from berryshaker.outputs import code_fingerprint, write_bytes_atomic
+    from berryshaker.runs.cache import read_own_file
 
     key = hashlib.sha256(f"{code_fingerprint()}\0{PIL.__version__}\0{EMBED_MAX_PX}\0".encode() + data).hexdigest()
     kept = folder / key[:2] / f"{key}.png"
-    try:
-        st = os.lstat(kept)
-        if stat.S_ISREG(st.st_mode) and (not hasattr(os, "geteuid") or st.st_uid == os.geteuid()):
-            return kept.read_bytes()
-    except OSError:
-        pass
+    stored, _ = read_own_file(kept, MAX_PAGE_PNG_BYTES)  # the run cache's rule: a regular file of this user's
+    if stored is not None:
+        return stored
     small = _scaled_png(data)
     try:
         kept.parent.mkdir(parents=True, exist_ok=True)

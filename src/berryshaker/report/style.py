@@ -23,8 +23,11 @@ decimation) are one contract; split, each check would import the constants it ch
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import re
 import warnings
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -563,6 +566,77 @@ def fit_canvas(fig, *, pad: float = 0.05) -> bool:
     return True
 
 
+#: savefig metadata per format that leaves out the date of the save, so a figure's file depends only on what it
+#: shows (the figure cache's copies are the bytes a fresh draw writes: :mod:`berryshaker.report.plots.figure_cache`)
+FIXED_METADATA = {"svg": {"Date": None}, "pdf": {"CreationDate": None}, "ps": {"CreationDate": None},
+                  "eps": {"CreationDate": None}}
+#: the salt of the SVG's element ids (matplotlib's default is random per process)
+SVG_HASH_SALT = "berryshaker"
+
+
+def rendered(fig, fmt: str, **kw) -> bytes:
+    """The bytes of ``fig`` saved as ``fmt``, the same for the same figure in every process and on every day: no
+    date in the metadata (:data:`FIXED_METADATA`), SVG ids from a fixed salt (:data:`SVG_HASH_SALT`).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    fmt : str
+        The format ("png", "svg", ...).
+    **kw
+        Passed on to ``savefig`` (``dpi``).
+
+    Returns
+    -------
+    bytes
+        The file's content.
+    """
+    import io
+
+    import matplotlib
+
+    buf = io.BytesIO()
+    with matplotlib.rc_context({"svg.hashsalt": SVG_HASH_SALT}):
+        fig.savefig(buf, format=fmt, metadata=FIXED_METADATA.get(fmt), **kw)
+    return buf.getvalue()
+
+
+#: the files the figure functions wrote inside :func:`recording_written` (None outside it)
+_WRITTEN: contextvars.ContextVar = contextvars.ContextVar("figure_files_written", default=None)
+
+
+@contextlib.contextmanager
+def recording_written() -> Iterator[list]:
+    """Inside the block, the paths of the figure files written (:func:`finish`) are appended to the list yielded
+    (what the figure cache keeps of a figure call).
+
+    Yields
+    ------
+    list of Path
+        The files written so far.
+    """
+    paths: list = []
+    token = _WRITTEN.set(paths)
+    try:
+        yield paths
+    finally:
+        _WRITTEN.reset(token)
+
+
+def written(files) -> None:
+    """Record figure files just written (for :func:`recording_written`).
+
+    Parameters
+    ----------
+    files : iterable of path
+        The files.
+    """
+    paths = _WRITTEN.get()
+    if paths is not None:
+        paths.extend(files)
+
+
 def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = True):
     """Save ``fig`` to ``path`` (PNG at ``dpi``) and, with ``svg``, the same figure as SVG beside it, both written
     together or neither (:func:`berryshaker.outputs.write_files_atomic`); close it unless ``keep``.  The canvas is grown first until no label, title or legend is cut (:func:`fit_canvas`).  Returns the
@@ -586,23 +660,17 @@ def finish(fig, path, *, dpi: int = PRINT_DPI, keep: bool = False, svg: bool = T
     Figure or None
         The figure if kept.
     """
-    import io
     from pathlib import Path
 
     from berryshaker.outputs import write_files_atomic
 
     fit_canvas(fig)
-
-    def rendered(fmt: str, **kw) -> bytes:
-        buf = io.BytesIO()
-        fig.savefig(buf, format=fmt, **kw)
-        return buf.getvalue()
-
     path = Path(path)
-    files = {path: rendered(path.suffix.lstrip(".").lower() or "png", dpi=dpi)}
+    files = {path: rendered(fig, path.suffix.lstrip(".").lower() or "png", dpi=dpi)}
     if svg:
-        files[path.with_suffix(".svg")] = rendered("svg")
+        files[path.with_suffix(".svg")] = rendered(fig, "svg")
     write_files_atomic(files)  # the PNG and its SVG together or neither (a full disk: one error, nothing half-written)
+    written(files)
     if keep:
         return fig
     pyplot().close(fig)

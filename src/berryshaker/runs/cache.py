@@ -261,6 +261,49 @@ def cache_entry_present(path: str | Path) -> bool:
     return _foreign(st) is None
 
 
+def read_own_file(path: str | Path, max_bytes: int) -> tuple[bytes | None, str | None]:
+    """The bytes of a cache's file under the caches' one rule: a regular file of this user's, opened without
+    following a symlink, at most ``max_bytes`` long.  The run cache's entries, the study's kept figures
+    (:mod:`berryshaker.report.plots.figure_cache`) and page PNGs (:func:`berryshaker.report.html_blocks.page_figure_cache`)
+    are all read through it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    max_bytes : int
+        The most bytes a valid file has.
+
+    Returns
+    -------
+    data : bytes or None
+        The content; None when there is no file or it must not be used.
+    problem : str or None
+        Why an existing file must not be used (a symlink, not a regular file, another user's, unreadable, too
+        large); None when it was read or there is none.
+    """
+    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    try:
+        fd = os.open(path, flags)
+    except FileNotFoundError:
+        return None, None
+    except OSError as exc:
+        return None, f"unreadable or a symlink ({type(exc).__name__})"
+    try:
+        foreign = _foreign(os.fstat(fd))
+        if foreign:
+            return None, foreign
+        with os.fdopen(os.dup(fd), "rb") as fh:
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        return None, f"unreadable ({type(exc).__name__})"
+    finally:
+        os.close(fd)
+    if len(data) > max_bytes:
+        return None, "larger than any valid entry"
+    return data, None
+
+
 _ENTRY_TYPES = {"schema": int, "key": str, "fingerprint": str, "fn": str, "kwargs_sha256": str,
                 "value_sha256": str, "wall_s": (int, float)}
 
@@ -286,27 +329,13 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
         a regular file, another user's, not JSON, wrong schema, wrong key or code
         fingerprint, value checksum mismatch).
     """
-    path = Path(path)
-    flags = os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    data, problem = read_own_file(path, MAX_ENTRY_BYTES)
+    if data is None:
+        return None, problem
     try:
-        fd = os.open(path, flags)
-    except FileNotFoundError:
-        return None, None
-    except OSError as exc:
-        return None, f"unreadable or a symlink ({type(exc).__name__})"
-    try:
-        st = os.fstat(fd)
-        foreign = _foreign(st)
-        if foreign:
-            return None, foreign
-        with os.fdopen(os.dup(fd), "rb") as fh:
-            text = fh.read(MAX_ENTRY_BYTES + 1).decode("utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
         return None, f"unreadable ({type(exc).__name__})"
-    finally:
-        os.close(fd)
-    if len(text) > MAX_ENTRY_BYTES:
-        return None, "larger than any run's result"
     try:
         entry = json.loads(text)
     except ValueError:

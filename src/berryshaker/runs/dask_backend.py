@@ -1,18 +1,17 @@
 """The sweep runner's Dask backend: runs on a Dask distributed cluster when a scheduler address is given.
 
-Runs go to the cluster as tasks (chunks of runs for a run function with a batched twin); the workers read the cache
-(a shared disk, if any) but do not write it: the client stores every finished run (:class:`DaskBackend`).  A
+Runs go to the cluster as tasks (one run each); the workers read the cache (a shared disk, if any) but do not
+write it: the client stores every finished run (:class:`DaskBackend`).  A
 worker lost mid-run is Dask's to handle (its runs go to another worker, up to ``retries``); a lost scheduler ends
 the map with :class:`SchedulerLost` (never a "failed" run), the finished runs stored.
 """
 
 from __future__ import annotations
 
-import math
 from typing import Callable
 from urllib.parse import urlsplit
 
-from berryshaker.runs.jobs import BATCH_SIZE, CHUNKS_PER_WORKER, batchable, failed_outcome, run_jobs
+from berryshaker.runs.jobs import failed_outcome, run_jobs
 
 #: Seconds to wait for a Dask scheduler before giving up with a ConfigError.
 SCHEDULER_TIMEOUT_S = 5.0
@@ -103,25 +102,6 @@ def connect(scheduler: str | None, timeout_s: float = SCHEDULER_TIMEOUT_S):
             lg.setLevel(lv)
 
 
-def dask_cores(client) -> int:
-    """Threads across the cluster's workers.
-
-    Parameters
-    ----------
-    client : distributed.Client
-        A connected client.
-
-    Returns
-    -------
-    int
-        At least 1 (1 when the scheduler does not say).
-    """
-    try:
-        return max(1, sum(w.get("nthreads", 1) for w in client.scheduler_info()["workers"].values()))
-    except Exception:  # noqa: BLE001 - a scheduler that does not say: assume one
-        return 1
-
-
 class SchedulerLost(Exception):
     """The Dask scheduler went away while a map's runs were on the cluster (its connection lost, the runs
     cancelled): not a failure of any run.  The runner turns it into one message naming the runs not finished
@@ -178,15 +158,10 @@ class DaskBackend:
             lg.setLevel(logging.CRITICAL + 1)
         try:
             keys = list(ctx["jobs"])
-            # a run function with a batched twin: chunks of runs per task (one compiled call each)
-            size = 1
-            if batchable(ctx["fn"]):
-                size = min(BATCH_SIZE, max(1, math.ceil(len(keys) / (CHUNKS_PER_WORKER * dask_cores(client)))))
-            for k0 in range(0, len(keys), size):
-                chunk = keys[k0:k0 + size]
-                f = client.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k]) for k in chunk], ctx["cache"], ctx["fp"],
-                                  False, key=f"berryshaker-{chunk[0]}-{len(chunk)}", pure=False, retries=3)
-                futs[f] = chunk
+            for k in keys:
+                f = client.submit(run_jobs, ctx["fn"], [(k, ctx["jobs"][k])], ctx["cache"], ctx["fp"], False,
+                                  key=f"berryshaker-{k}-1", pure=False, retries=3)
+                futs[f] = [k]
             for f in as_completed(list(futs)):
                 chunk = futs[f]
                 try:

@@ -18,7 +18,6 @@ Backends: :class:`InProcess` (here), :class:`berryshaker.runs.local_pool.LocalPo
 from __future__ import annotations
 
 import math
-import os
 import time
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -113,76 +112,13 @@ def failed_outcome(key: str, error: str) -> dict:
 
 
 _PROGRESS = None  # a multiprocessing queue in pool workers: the key of every finished run
-#: Most runs one batched call takes (a run function with a ``batch`` twin, see :func:`run_jobs`); bounds the
-#: memory of the stacked output series and keeps the progress bar moving.
-BATCH_SIZE = 16
 
 
-def batch_threads() -> int:
-    """Threads of a batched compiled call: ``BERRYSHAKER_BATCH_THREADS`` (default 1: the local pool's worker
-    processes, or Dask's worker threads, already use every core).
-
-    Returns
-    -------
-    int
-        At least 1 (a value that is not an integer counts as 1).
-    """
-    try:
-        return max(1, int(os.environ.get("BERRYSHAKER_BATCH_THREADS", "1")))
-    except ValueError:
-        return 1
-
-
-def execute_batch(fn: Callable, kwargs_list: list[dict]) -> list[dict]:
-    """Run jobs through ``fn.batch`` (one call for all; it returns per job a value or the exception the job
-    raised) and wrap each outcome like :func:`execute_job`; the call's wall time is shared out equally.  If the
-    batched call itself fails, the jobs are run one by one.
+def chunk_size(n: int, workers: int) -> int:
+    """Runs per chunk of a local sweep: about :data:`CHUNKS_PER_WORKER` chunks per worker.
 
     Parameters
     ----------
-    fn : callable
-        A run function with a batched twin (:func:`batchable`).
-    kwargs_list : list of dict
-        The jobs' arguments.
-
-    Returns
-    -------
-    list of dict
-        One outcome per job, as :func:`execute_job`'s.
-    """
-    import numba
-
-    numba.set_num_threads(min(batch_threads(), numba.config.NUMBA_NUM_THREADS))
-    t0 = time.perf_counter()
-    try:
-        raws = fn.batch(kwargs_list)
-        if len(raws) != len(kwargs_list):
-            raise ValueError(f"batch returned {len(raws)} results for {len(kwargs_list)} runs")
-    except Exception:  # noqa: BLE001 - fall back to single runs, which record their own errors
-        return [execute_job(fn, kw) for kw in kwargs_list]
-    wall = (time.perf_counter() - t0) / max(len(kwargs_list), 1)
-    outs = []
-    for raw in raws:
-        if isinstance(raw, BaseException):
-            outs.append({"value": None, "error": f"{type(raw).__name__}: {raw}", "wall_s": wall})
-            continue
-        try:
-            value = _jsonable(raw)
-            _canonical(value)
-            outs.append({"value": value, "error": None, "wall_s": wall})
-        except Exception as exc:  # noqa: BLE001 - as in execute_job
-            outs.append({"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": wall})
-    return outs
-
-
-def chunk_size(fn: Callable, n: int, workers: int) -> int:
-    """Runs per chunk of a local sweep: about :data:`CHUNKS_PER_WORKER` chunks per worker, at most
-    :data:`BATCH_SIZE` for a batchable run function.
-
-    Parameters
-    ----------
-    fn : callable
-        The run function.
     n : int
         Runs to send.
     workers : int
@@ -193,25 +129,7 @@ def chunk_size(fn: Callable, n: int, workers: int) -> int:
     int
         At least 1.
     """
-    size = max(1, math.ceil(n / (CHUNKS_PER_WORKER * max(1, workers))))
-    return min(size, BATCH_SIZE) if batchable(fn) else size
-
-
-def batchable(fn: Callable) -> bool:
-    """Whether ``fn`` has a batched twin ``fn.batch(kwargs_list) -> list`` (e.g.
-    :func:`berryshaker.runs.sweep.model_run`, :func:`berryshaker.study.runs.multibody_row`).
-
-    Parameters
-    ----------
-    fn : callable
-        The run function.
-
-    Returns
-    -------
-    bool
-        True when ``fn.batch`` is callable.
-    """
-    return callable(getattr(fn, "batch", None))
+    return max(1, math.ceil(n / (CHUNKS_PER_WORKER * max(1, workers))))
 
 
 def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, fingerprint: str,
@@ -240,24 +158,17 @@ def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, 
         One outcome per job: key, value, error, wall_s (s), cached, stored, problem (why an existing entry was
         unusable), and store_error when the entry could not be written.
     """
-    batched: dict[str, dict] = {}
-    if batchable(fn) and len(jobs) > 1:
-        # a run function with a batched twin: the chunk's runs not in the cache go through one call
-        todo = [(key, kw) for key, kw in jobs if not (cache_dir and read_cache_entry(
-            cache_entry_path(cache_dir, key), key, fingerprint)[0] is not None)]
-        if len(todo) > 1:
-            batched = dict(zip([k for k, _ in todo], execute_batch(fn, [kw for _, kw in todo])))
     outs = []
     for key, kw in jobs:
         out = None
         problem = None
-        if cache_dir and key not in batched:
+        if cache_dir:
             entry, problem = read_cache_entry(cache_entry_path(cache_dir, key), key, fingerprint)
             if entry is not None:
                 out = {"key": key, "value": entry["value"], "error": None, "wall_s": entry["wall_s"],
                        "cached": True, "stored": True, "problem": None}
         if out is None:
-            res = batched[key] if key in batched else execute_job(fn, kw)
+            res = execute_job(fn, kw)
             out = {"key": key, **res, "cached": False, "stored": False, "problem": problem}
             if store and cache_dir and res["error"] is None:
                 try:
@@ -275,10 +186,8 @@ def run_jobs(fn: Callable, jobs: list[tuple[str, dict]], cache_dir: str | None, 
     return outs
 
 
-
 class InProcess:
-    """The backend of one worker: runs in this process, in chunks of :data:`BATCH_SIZE` for a batchable function
-    (one compiled call each), else one by one."""
+    """The backend of one worker: runs in this process, one by one."""
 
     def run(self, ctx: dict, finish: Callable) -> None:
         """Run every job of the map here.
@@ -290,9 +199,6 @@ class InProcess:
         finish : callable
             Called with each outcome.
         """
-        keys = list(ctx["jobs"])
-        size = BATCH_SIZE if batchable(ctx["fn"]) else 1
-        for k0 in range(0, len(keys), size):
-            for out in run_jobs(ctx["fn"], [(k, ctx["jobs"][k]) for k in keys[k0:k0 + size]], ctx["cache"],
-                                ctx["fp"], True):
+        for k, kw in ctx["jobs"].items():
+            for out in run_jobs(ctx["fn"], [(k, kw)], ctx["cache"], ctx["fp"], True):
                 finish(out)

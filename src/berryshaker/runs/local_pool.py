@@ -34,7 +34,7 @@ from typing import Callable
 from berryshaker.outputs import pid_alive
 from berryshaker.runs import jobs as _jobs
 from berryshaker.runs.cache import cache_entry_path, cache_entry_present, read_cache_entry, run_key
-from berryshaker.runs.jobs import BATCH_SIZE, batchable, chunk_size, failed_outcome, run_jobs
+from berryshaker.runs.jobs import chunk_size, failed_outcome, run_jobs
 from berryshaker.runs.main_guard import WorkerStartError, worker_start_message
 
 #: Process start method of the local pool (override with ``BERRYSHAKER_START_METHOD``): ``forkserver``
@@ -323,10 +323,9 @@ class LocalPool:
             keys = list(jobs)
             if not keys:
                 return 0
-            size = chunk_size(fn, len(keys), min(self.workers, len(keys)))
+            size = chunk_size(len(keys), min(self.workers, len(keys)))
             if chunks is not None:
                 size = max(1, math.ceil(len(keys) / max(1, int(chunks))))
-                size = min(size, BATCH_SIZE) if batchable(fn) else size
             self._queued += [_Chunk(fn, [(k, jobs[k]) for k in keys[k0:k0 + size]], cache, fp)
                              for k0 in range(0, len(keys), size)]
             if self._feeder is None or not self._feeder.is_alive():
@@ -529,7 +528,7 @@ class LocalPool:
             ahead = {k: self._ahead[k] for k in keys if k in self._ahead}
             reported = {k for k in keys if k in self._reported}
         own = [k for k in keys if k not in ahead]
-        size = chunk_size(ctx["fn"], len(own), min(self.workers, max(1, len(own))))
+        size = chunk_size(len(own), min(self.workers, max(1, len(own))))
         return self._run_chunks(ctx, finish, [own[k:k + size] for k in range(0, len(own), size)], ahead, reported)
 
     def _run_chunks(self, ctx: dict, finish: Callable, chunks: list[list[str]], ahead: dict, reported: set,

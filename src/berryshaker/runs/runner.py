@@ -42,13 +42,9 @@ from berryshaker.runs.cache import (  # noqa: F401  (re-exported: the runner's p
 )
 from berryshaker.runs.dask_backend import SCHEDULER_TIMEOUT_S, DaskBackend, SchedulerLost, check_scheduler_address  # noqa: F401
 from berryshaker.runs.jobs import (  # noqa: F401
-    BATCH_SIZE,
     CHUNKS_PER_WORKER,
     InProcess,
     RunResult,
-    batch_threads,
-    batchable,
-    execute_batch,
     execute_job,
     run_jobs,
 )

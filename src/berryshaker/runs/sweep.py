@@ -526,48 +526,6 @@ def choose_specialised(machine_data: dict, overrides: dict, revolutions: int, dr
     return resolve_kernel(explicit, compiled, pays, asked="--specialised" if explicit else "--generic")
 
 
-def model_runs(kwargs_list: list[dict]) -> list:
-    """Batched twin of :func:`model_run` (the sweep runner calls it with a chunk of runs' arguments): multibody
-    points of one mechanism structure share one compiled call.
-
-    Parameters
-    ----------
-    kwargs_list : list of dict
-        The runs' arguments, as :func:`model_run` takes them.
-
-    Returns
-    -------
-    list
-        Per run its summary (dict) or the error it raised.
-    """
-    from berryshaker.drives.simulation import simulate_multibody_batch
-    from berryshaker.errors import BerryshakerError
-
-    out: list = [None] * len(kwargs_list)
-    groups: dict[tuple[int, str | None, bool | None], list[tuple[int, object]]] = {}
-    for i, kw in enumerate(kwargs_list):
-        if kw.get("model", "mlsd") != "multibody":
-            try:
-                out[i] = model_run(**kw)
-            except BerryshakerError as exc:
-                out[i] = exc
-            continue
-        rev = int(kw.get("revolutions", 3))
-        try:
-            machine = point_machine(kw["machine_data"], kw["overrides"], rev, check=False)  # as model_run
-        except BerryshakerError as exc:
-            out[i] = exc
-            continue
-        groups.setdefault((rev, kw.get("driveline"), kw.get("specialised")), []).append((i, machine))
-    for (rev, driveline, specialised), items in groups.items():
-        res = simulate_multibody_batch([m for _, m in items], [{}] * len(items), revolutions=rev, driveline=driveline,
-                                       series="statistics", specialised=specialised)
-        for (i, _), r in zip(items, res):
-            out[i] = r if isinstance(r, BaseException) else r[1]
-    return out
-
-
-model_run.batch = model_runs
 model_run.cache_key_ignores = ("specialised",)  # the kernel: bitwise the same summary (multibody.specialised)
 
 

@@ -42,48 +42,6 @@ def multibody_row(machine_data: dict, clearance: dict, revolutions: int = 3, see
                               series="statistics")[1]
 
 
-def multibody_rows(kwargs_list: list[dict]) -> list:
-    """Batched twin of :func:`multibody_row` (the sweep runner calls it with a chunk of runs' arguments): one
-    compiled call per mechanism structure; per run its summary or the error it raised.
-
-    Parameters
-    ----------
-    kwargs_list : list of dict
-        Keyword arguments of :func:`multibody_row`, one dict per run.
-
-    Returns
-    -------
-    list
-        Per run, in order: its summary dict, or the exception it raised.
-    """
-    from berryshaker.drives.simulation import simulate_multibody_batch
-
-    out: list = [None] * len(kwargs_list)
-    groups: dict[int, list[int]] = {}
-    for i, kw in enumerate(kwargs_list):
-        if kw.get("seed") is not None:  # a perturbed start: one by one (the batch starts every set centred)
-            from berryshaker.errors import BerryshakerError
-
-            try:
-                out[i] = multibody_row(**kw)
-            except BerryshakerError as exc:  # as the batch: the error is this run's result
-                out[i] = exc
-            continue
-        groups.setdefault(int(kw.get("revolutions", 3)), []).append(i)
-    for rev, idx in groups.items():
-        machines, clearances = [], []
-        for i in idx:
-            machines.append(machine_from_dict(kwargs_list[i]["machine_data"]))
-            clearances.append(kwargs_list[i]["clearance"])
-        res = simulate_multibody_batch(machines, clearances, revolutions=rev, series="statistics")
-        for i, r in zip(idx, res):
-            out[i] = r if isinstance(r, BaseException) else r[1]
-    return out
-
-
-multibody_row.batch = multibody_rows
-
-
 def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed: list | None = None) -> dict:
     """Multibody summary of one clearance set with the powered driveline turning the drive shaft
     (drives/powered.py: cam speed, ripple, input power, energy lost per revolution in each joint).  ``seed``:
@@ -112,7 +70,8 @@ def powered_row(machine_data: dict, clearance: dict, revolutions: int = 3, seed:
 
     machine = machine_from_dict(machine_data)
     # eccentricities only: the powered drive starts at rest on the motor's side of the belt, and a turned cam would
-    # not be the state the driveline's own start-up assembles (a phase start crashed the compiled integrator there)
+    # not be the state the driveline's own start-up assembles (a turned start assembles and runs since 0.2.0:
+    # tests/multibody/test_assembly.py)
     pert = None if seed is None else RandomInitialPerturbation(seed_sequence(machine.harvest.seed, seed),
                                                                machine.harvest.initial_eccentricity)
     return simulate_multibody(machine, clearance, revolutions=revolutions, driveline="powered",

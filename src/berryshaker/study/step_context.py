@@ -89,13 +89,25 @@ class StudyContext:
         """The machine as a JSON-compatible dict (what the run functions take)."""
         return self.machine.model_dump(mode="json")
 
+    @property
+    def figure_cache(self) -> Path | None:
+        """The folder of the figures kept between studies (:mod:`berryshaker.report.plots.figure_cache`):
+        ``figures`` in the runner's run cache, under its ownership rule; None when the runner has no cache."""
+        folder = getattr(self.runner, "cache_dir", None)
+        if folder is None or not getattr(self.runner, "use_cache", False):
+            return None
+        return Path(folder) / "figures"
+
     def draw(self, fn, *args, **kwargs) -> None:
-        """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, one PNG out) in
-        a pool worker when the runner has a local pool and :attr:`draw_in_workers`, else here; :meth:`finish_drawing` waits for it.  (The
-        virtual L9's figures took ~3 s of this process at the end of its step while both workers idled.)
-        The figure functions set their whole style themselves
-        (berryshaker.report.style), so a worker draws what this process would; a matplotlib style set globally
-        by a program that calls :func:`~berryshaker.study.pipeline.run_study` does not reach the workers.
+        """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, its PNG and
+        SVG out).  The same call drawn before (same function, code, arguments and library versions) is copied from
+        the :attr:`figure_cache`, the same bytes (:func:`berryshaker.report.plots.figure_cache.draw_cached`; a warm
+        study drew its 33 figures again in ~46 s).  Else it is drawn in a pool worker when the runner has a local
+        pool and :attr:`draw_in_workers`, or here; :meth:`finish_drawing` waits for it.  (The virtual L9's figures
+        took ~3 s of this process at the end of its step while both workers idled.)  The figure functions set their
+        whole style themselves (berryshaker.report.style), so a worker draws what this process would; a matplotlib
+        style set globally by a program that calls :func:`~berryshaker.study.pipeline.run_study` does not reach the
+        workers.
 
         Parameters
         ----------
@@ -108,17 +120,26 @@ class StudyContext:
         """
         import pickle
 
+        from berryshaker.report.plots.figure_cache import draw_cached, figure_key, restore_figure
+
+        cache = self.figure_cache
+        key = None if cache is None else figure_key(fn, args, kwargs, self.figs)
+        if restore_figure(cache, key, self.figs):
+            return
+        if key is None:
+            cache = None  # a call that is not kept (its arguments do not pickle, a function of another package)
         # pickled now: the pool pickles a call's arguments later, in its own thread, and the step's data may
         # change meanwhile (the next steps and the claims add to the results)
         if not self.draw_in_workers:
-            fn(*args, **kwargs)
+            draw_cached(cache, fn, args, kwargs, self.figs, key)
             return
-        payload = pickle.dumps((fn, args, kwargs))
-        fut = self.runner.warm_up(draw_figure, dict(payload=payload))
+        job = dict(payload=pickle.dumps((fn, args, kwargs)), cache=None if cache is None else str(cache),
+                   figs=str(self.figs), key=key)
+        fut = self.runner.warm_up(draw_figure, job)
         if fut is None:
-            fn(*args, **kwargs)
+            draw_cached(cache, fn, args, kwargs, self.figs, key)
         else:
-            self.drawing.append((fut, payload))
+            self.drawing.append((fut, job))
 
     def finish_drawing(self) -> None:
         """Wait for the figures drawn in workers (:meth:`draw`).  A figure whose worker died (the pool broke) or was
@@ -127,12 +148,12 @@ class StudyContext:
         from concurrent.futures.process import BrokenProcessPool
 
         pending, self.drawing = self.drawing, []
-        for fut, payload in pending:
+        for fut, job in pending:
             try:
                 fut.result()
             except (BrokenProcessPool, CancelledError):
                 self.say("a worker drawing a figure stopped; drawing it here")
-                draw_figure(payload)
+                draw_figure(**job)
 
     def collect(self, fn, jobs, label, describe):
         """Run jobs through the sweep runner; failed runs are logged and come back as None.
@@ -161,19 +182,31 @@ class StudyContext:
         return [o.value for o in outs]
 
 
-def draw_figure(payload: bytes) -> None:
+def draw_figure(payload: bytes, cache: str | None = None, figs: str | None = None, key: str | None = None) -> None:
     """Draw a figure of :meth:`StudyContext.draw` in a pool worker: ``payload`` is the pickled call
-    ``(fn, args, kwargs)``.
+    ``(fn, args, kwargs)``, kept in the figure cache ``cache`` under ``key`` when given
+    (:func:`berryshaker.report.plots.figure_cache.draw_cached`).
 
     Parameters
     ----------
     payload : bytes
         The pickled call.
+    cache : str, optional
+        The figure cache folder; None: keep nothing.
+    figs : str, optional
+        The figure folder the call writes into (needed with ``cache``).
+    key : str, optional
+        The call's key, as the study computed it before pickling the call.
     """
     import pickle
 
+    from berryshaker.report.plots.figure_cache import draw_cached
+
     fn, args, kwargs = pickle.loads(payload)
-    fn(*args, **kwargs)
+    if cache is None or figs is None:
+        fn(*args, **kwargs)
+    else:
+        draw_cached(cache, fn, args, kwargs, figs, key)
 
 
 @dataclass

@@ -495,10 +495,8 @@ def plot_signals(x: tuple[str, np.ndarray, str], ys: dict[str, tuple[np.ndarray,
         ``panels``: per unit, the drawn ``x`` and ``y`` of each series with its extremes and the peak |value| of
         its input (``input_peak_abs``); ``decimated`` (bool); ``xlabel``; ``path``.
     """
-    import io
-
     from berryshaker.outputs import write_bytes_atomic
-    from berryshaker.report.style import PRINT_DPI, fit_canvas, pyplot
+    from berryshaker.report.style import PRINT_DPI, fit_canvas, pyplot, rendered, written
 
     x_name, xv, x_unit = x
     xv = np.asarray(xv, float)
@@ -531,9 +529,8 @@ def plot_signals(x: tuple[str, np.ndarray, str], ys: dict[str, tuple[np.ndarray,
         fig.suptitle(title, fontsize=11)
     path = Path(path)
     fit_canvas(fig)
-    buf = io.BytesIO()
-    fig.savefig(buf, format=path.suffix.lstrip(".").lower(), dpi=PRINT_DPI)
-    write_bytes_atomic(path, buf.getvalue())
+    write_bytes_atomic(path, rendered(fig, path.suffix.lstrip(".").lower(), dpi=PRINT_DPI))
+    written([path])
     data["path"] = str(path)
     if return_figure:
         data["figure"] = fig
