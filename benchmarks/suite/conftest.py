@@ -36,6 +36,8 @@ RATIOS = (
     ("harvester run, multibody / MLSD", "test_harvester_run[multibody]", "test_harvester_run[mlsd]", False),
     ("sweep of 8 harvester runs, one by one / batched",
      "test_sweep_throughput[one_by_one]", "test_sweep_throughput[batched]", False),
+    ("stem-force table of a drive-past, with the Miner-Basquin channels / peaks only",
+     "test_stem_force_table[miner]", "test_stem_force_table[peaks]", False),
 )
 
 

@@ -140,3 +140,20 @@ def test_removal_grows_with_shaking_time_for_a_finite_exponent_only():
         else:  # the same peak, up to the pedicel's ringing left from the strike before (0.3 %)
             np.testing.assert_allclose(gf, gs, rtol=5e-3)
             np.testing.assert_allclose(pf, ps, atol=5e-3)
+
+
+def test_the_miner_exponent_is_validated_with_a_clear_error():
+    """harvest.miner_exponent below the tables' smallest exponent (3) or NaN is refused, naming the field and the
+    range; a large value is the peak-only law."""
+    from berryshaker.config import machine_from_dict, reference_machine
+
+    d = reference_machine().model_dump(mode="json")
+    assert reference_machine().harvest.miner_exponent == 8.0
+    for bad in (2.0, float("nan")):
+        d["harvest"]["miner_exponent"] = bad
+        with pytest.raises(ConfigError, match="miner_exponent"):
+            machine_from_dict(d)
+    d["harvest"]["miner_exponent"] = 1e9
+    assert machine_from_dict(d).harvest.miner_exponent == 1e9
+    ch = np.array([[1.0], [1.6], [1.3], [1.1], [1.05], [1.02], [1.01]])
+    assert miner_load(ch, 1e9) == pytest.approx([1.0], rel=1e-6)
