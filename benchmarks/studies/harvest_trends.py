@@ -5,7 +5,7 @@ Every point is the replicate statistic of the study (``harvest.replicates`` pert
 every point: common random numbers), so a step between two points is judged by the paired differences over the
 starts (mean, SE, t p-value), not by the spread of either.  Beside the responses, what explains a step in the
 detachment (docs/harvest.md "Trends"), from the same tables: the ripe removal under the peak-only law
-(``harvest.miner_exponent`` = 1e9), and over the ripe fruit's quadrature nodes the geometric means of the peak load
+(``harvest.miner_exponent`` = 1e9) and at the prior's steepest law (3), and over the ripe fruit's quadrature nodes the geometric means of the peak load
 ratio (``peak_load``) and of the gain of the Miner-Basquin equivalent over it (``miner_gain``: g_eq / max g at the
 described exponent).  Writes benchmarks/studies/results/harvest_trends.json.
 Usage: ``python benchmarks/studies/harvest_trends.py [--workers N] [--cache DIR] [--replicates R]``.
@@ -47,19 +47,21 @@ def variant(data: dict, key: str, value: float) -> dict:
 
 
 #: the explanatory columns beside the responses (module docstring)
-EXTRA = ("ripe_removal_peak_only", "peak_load", "miner_gain")
+EXTRA = ("ripe_removal_peak_only", "ripe_removal_beta3", "peak_load", "miner_gain")
 
 
 def explain(m, env, seed) -> dict:
     """The explanatory columns (:data:`EXTRA`) of one start's tables ``env`` on machine ``m``."""
-    d = m.model_dump(mode="json")
-    d["harvest"]["miner_exponent"] = 1e9  # the peak-only law
-    peak_only = start_responses(machine_from_dict(d), env, seed)["expected"]["ripe_removal"]
+    def removal(beta):
+        d = m.model_dump(mode="json")
+        d["harvest"]["miner_exponent"] = beta
+        return start_responses(machine_from_dict(d), env, seed)["expected"]["ripe_removal"]
+
     g = load_grid(m, [np.asarray(e, float) for e in env])
     w = g.weight / g.weight.sum()
     peak = g.channels_ripe[0]
     gain = miner_load(g.channels_ripe, m.harvest.miner_exponent) / peak
-    return {"ripe_removal_peak_only": peak_only, "peak_load": float(np.exp(np.sum(w * np.log(peak)))),
+    return {"ripe_removal_peak_only": removal(1e9), "ripe_removal_beta3": removal(3.0), "peak_load": float(np.exp(np.sum(w * np.log(peak)))),
             "miner_gain": float(np.exp(np.sum(w * np.log(gain))))}
 
 
