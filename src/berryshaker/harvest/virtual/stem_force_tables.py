@@ -1,7 +1,8 @@
 """Stem-force tables of the branch classes: one coupled drive-past per branch class (the reference branch with its
 diameters scaled, berryshaker.harvest.coupled.drive_past) gives a table of peak stem loads over position along
 the branch (:data:`Z_GRID`) and fruit mass (:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit
-of a population (peak force, peak pull-shear load ratio).  Part of the virtual harvest (berryshaker.harvest.virtual).
+of a population (peak force, peak and Miner-Basquin equivalent pull-shear load ratios).  Part of the virtual
+harvest (berryshaker.harvest.virtual).
 """
 
 from __future__ import annotations

@@ -6,8 +6,9 @@ This package re-exports the public names of its modules:
 * :mod:`~berryshaker.plant.pedicel.oscillator`: the fruit-stem oscillator, its parameters, closed forms
   (natural frequency, damping ratio, force transmissibility) and its response to a branch motion
   (``stem_response``);
-* :mod:`~berryshaker.plant.pedicel.peaks`: the compiled pass giving the peak stem force and the peak pull-shear
-  load ratios of a table of positions x fruit masses over a branch motion (``peak_stem_loads``);
+* :mod:`~berryshaker.plant.pedicel.peaks`: the compiled pass giving the peak stem force, the peak and the
+  Miner-Basquin equivalent pull-shear load ratios of a table of positions x fruit masses over a branch motion
+  (``peak_stem_loads``);
 * :mod:`~berryshaker.plant.pedicel.miner`: detachment that accumulates over load cycles, the Miner-Basquin
   equivalent load ratio of a load-ratio series and its reading at any exponent (``miner_equivalent``,
   ``miner_load``);
