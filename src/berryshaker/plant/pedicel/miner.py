@@ -20,9 +20,9 @@ homogeneous of degree 1 in the loads, so a strength scaled by a divides it by a,
 A load cycle is a reversal of g(t) (a local maximum; g >= 0 is the magnitude of the pull-shear ratio, so a fully
 reversed shear cycle is two reversals, as Basquin's law is written in reversals 2 N_f): a maximum counts once g
 has fallen below (1 - :data:`REVERSAL_GATE`) of it in g^2, and the next one starts once g^2 has risen by the gate
-times the last peak's g^2 above the trough between them (a hysteresis filter of the peak-valley sequence, as
-ASTM E1049-85 sec. 5.4.4 prescribes before counting: ripples of the branch's higher modes on a peak are not cycles
-of their own).  A peak counts only where g > 0.  The gate's 0.1 in g^2 is about 5 % in g [assumed]; the count of
+times the last peak's g^2 above the trough between them (a hysteresis filter of the peak-valley sequence, the
+usual removal of small reversals before cycle counting, cf. ASTM E1049-85: ripples of the branch's higher modes on
+a peak are not cycles of their own).  A peak counts only where g > 0.  The gate's 0.1 in g^2 is about 5 % in g [assumed]; the count of
 a resolved signal does not depend on its sample rate (tests/plant/test_miner.py).
 
 No fatigue exponent of the blueberry pedicel's abscission zone is published to our knowledge, so beta is
