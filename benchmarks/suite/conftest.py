@@ -34,6 +34,8 @@ RATIOS = (
     ("engine (specialised kernel) / hand-reduced slider-crank, time per accepted step",
      "test_slider_crank_per_step[specialised]", "test_reduced_slider_crank_per_step", True),
     ("harvester run, multibody / MLSD", "test_harvester_run[multibody]", "test_harvester_run[mlsd]", False),
+    ("stem-force table of a drive-past, with the Miner-Basquin channels / peaks only",
+     "test_stem_force_table[miner]", "test_stem_force_table[peaks]", False),
 )
 
 

@@ -126,6 +126,33 @@ def test_coupled_drive_past(benchmark, machine):
     benchmark.pedantic(run, rounds=3, iterations=1)
 
 
+@pytest.fixture(scope="module")
+def drive_past_motion(machine):
+    """The reference machine's coupled drive-past (centred start) as the stem-force table's inputs."""
+    from berryshaker.harvest.coupled import drive_past
+    from berryshaker.harvest.virtual import ENVELOPE_OUTPUT_STEP, MASS_FACTORS, Z_GRID, bond_strengths
+
+    _, mo = drive_past(machine, None, output_step=ENVELOPE_OUTPUT_STEP)
+    z = Z_GRID * machine.plant.branch.length
+    y, v, _ = mo.lateral(z, acceleration=False)
+    ped = machine.plant.fruit.pedicel
+    return (mo.t, (y, v), mo.axial(z), MASS_FACTORS * machine.plant.fruit.mass, ped.stiffness, ped.damping,
+            ped.include_weight, bond_strengths(machine))
+
+
+@pytest.mark.parametrize("channels", ["peaks", "miner"])
+def test_stem_force_table(benchmark, drive_past_motion, channels):
+    """The stem-force table's compiled pass (41 positions x 9 masses x 2 fruit classes over a 2.2-s drive-past):
+    peaks only, and with the Miner-Basquin sums at berryshaker.plant.pedicel.MINER_EXPONENTS (the harvest's)."""
+    from berryshaker.plant.pedicel import MINER_EXPONENTS, peak_stem_loads
+
+    benchmark.group = "stem-force table"
+    ex = MINER_EXPONENTS if channels == "miner" else ()
+    run = lambda: peak_stem_loads(*drive_past_motion, ex)  # noqa: E731
+    run()
+    benchmark.pedantic(run, rounds=10, iterations=1)
+
+
 def test_perturbed_assembly(benchmark, machine):
     from berryshaker.harvest.coupled import coupled_mechanism
     from berryshaker.multibody.perturbation import RandomInitialPerturbation

@@ -92,7 +92,8 @@ def trained(small, runner, reference_sheet):
 
 
 def test_simulator_is_the_virtual_harvests_implementation(small, runner):
-    """Scaled strengths, bond CV, unripe fraction and bruise height through :meth:`Simulator.responses` equal the
+    """Scaled strengths, bond CV, unripe fraction, bruise height, Miner exponent and strike share through
+    :meth:`Simulator.responses` equal the
     virtual harvest's expectation (:func:`berryshaker.harvest.virtual.start_responses`) of a description with those
     values on tables at those strengths; a table recomputed at scaled strengths is the cached one / a."""
     from berryshaker.config import machine_from_dict
@@ -107,7 +108,7 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     sim.run(runner, [s], seeds)
     h = small.harvest
     th = {"ripe_pull": 0.6, "unripe_pull": 1.5, "bond_cv": 0.3, "unripe_fraction": 0.2,
-          "yield_per_bush": 1.1, "bruise_height": 0.9}
+          "yield_per_bush": 1.1, "bruise_height": 0.9, "miner_exponent": 5.0, "strike_probability": 0.3}
     names = list(fc.calibrated_responses())
     got, var = sim.responses(s, seeds, np.array([[th[n] for n in fc.PARAMETER_NAMES]]), names)
     data, clearance = fc.setting_data(small.model_dump(mode="json"), small, targets, sim.settings[s])
@@ -115,23 +116,29 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     d = at_setting.model_dump()
     d["harvest"].update(ripe_pull=0.6, ripe_shear=0.6 * h.ripe_shear / h.ripe_pull, unripe_pull=1.5,
                         unripe_shear=1.5 * h.unripe_shear / h.unripe_pull, bond_cv=0.3, unripe_fraction=0.2,
-                        yield_per_bush=1.1, safe_drop_height_padded=0.9 / float(median_height(1.0, h.safe_fractile, h.bruise_cv)))
+                        yield_per_bush=1.1, safe_drop_height_padded=0.9 / float(median_height(1.0, h.safe_fractile, h.bruise_cv)),
+                        miner_exponent=5.0, strike_probability=0.3)
     scaled = machine_from_dict(d)
     outs = runner.values(replicate_run, replicate_jobs(at_setting, clearance, seeds, data=data))
     for k, (env, start) in enumerate(replicate_envelopes(at_setting, outs, seeds)):
         # the cached tables are at the described strengths: their load channels / a are the tables at a x strength
+        from berryshaker.harvest.virtual import miner_channels
+
         e = [t.copy() for t in env]
         for t in e:
-            t[..., 1] *= h.ripe_pull / 0.6
-            t[..., 2] *= h.unripe_pull / 1.5
+            t[..., miner_channels(True)] *= h.ripe_pull / 0.6
+            t[..., miner_channels(False)] *= h.unripe_pull / 1.5
         ref = start_responses(scaled, e, start)
         assert got[0, k] == pytest.approx([ref["expected"][n] for n in names], rel=1e-9)
         assert np.sqrt(var[0, k]) == pytest.approx([ref["count_sd"][n] for n in names], rel=1e-6)
     # homogeneity: the coupled run recomputed with the scaled strengths gives the cached table / a exactly
     table, _ = stem_force_envelope_run(scaled, clearance, 1.0, machine_start(scaled, (seeds[0], MACHINE, 0)))
     cached = np.array(outs[0]["envelope"])
-    assert table[..., 1] == pytest.approx(cached[..., 1] * h.ripe_pull / 0.6, rel=1e-12)
-    assert table[..., 2] == pytest.approx(cached[..., 2] * h.unripe_pull / 1.5, rel=1e-12)
+    from berryshaker.harvest.virtual import miner_channels
+
+    for ripe, a in ((True, h.ripe_pull / 0.6), (False, h.unripe_pull / 1.5)):
+        c = miner_channels(ripe)
+        assert table[..., c] == pytest.approx(cached[..., c] * a, rel=1e-12)
 
 
 def test_a_response_added_to_the_table_is_calibrated(small, trained, reference_sheet):
@@ -298,7 +305,9 @@ def test_emulator_intervals_cover_the_simulator_at_untested_settings(small, runn
 def test_fast_gp_prediction_is_sklearns(trained):
     """:class:`FittedGP` predicts what scikit-learn's ``predict(return_std=True)`` does (latent variance, no noise)."""
     g = trained["emulator"].local[0]["efficiency"].mean_gp
-    x = fc.latin_hypercube(10, 9, 4)
+    from berryshaker.study.field_calibration.priors import mean_parameters
+
+    x = fc.latin_hypercube(10, 9, len(mean_parameters("efficiency")))  # the efficiency GP's parameters
     mean, var = g.predict(x)
     m_ref, s_ref = g.gp.predict(x, return_std=True)
     noise = g.gp.kernel_.k2.noise_level * float(np.atleast_1d(g.gp._y_train_std)[0]) ** 2

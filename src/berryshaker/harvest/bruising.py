@@ -214,8 +214,8 @@ def cumulative_damage(fall, strike_max, catcher_h50, hard_h50, cv, strike_probab
         Median bruise-threshold heights of the catching surface and of a hard surface (the finger) (m).
     cv : float
         CV of the fruit's thresholds (dimensionless).
-    strike_probability : float
-        Share p_s of the detached fruit a finger strikes (dimensionless).
+    strike_probability : float or array_like
+        Share p_s of the detached fruit a finger strikes (dimensionless; an array broadcasts with the others).
 
     Returns
     -------
@@ -231,16 +231,17 @@ def cumulative_damage(fall, strike_max, catcher_h50, hard_h50, cv, strike_probab
     fall = np.asarray(fall, float)
     c50 = np.asarray(catcher_h50, float)
     p_fall = bruise_probability(fall, c50, cv)
-    if strike_probability <= 0.0 or strike_max <= 0.0:
-        return p_fall
+    sp = np.asarray(strike_probability, float)
+    if np.all(sp <= 0.0) or strike_max <= 0.0:
+        return p_fall + 0.0 * sp
     c2, w = _phase_nodes()
     scale = (c50 / np.asarray(hard_h50, float))[..., None]
     h = fall[..., None] + scale * strike_max * c2
     p_struck = np.sum(w * bruise_probability(h, c50[..., None], cv), axis=-1)
-    return strike_probability * p_struck + (1.0 - strike_probability) * p_fall
+    return sp * p_struck + (1.0 - sp) * p_fall
 
 
-def impact_damage(machine: Machine, z, catcher_h50=None) -> np.ndarray:
+def impact_damage(machine: Machine, z, catcher_h50=None, strike_probability=None) -> np.ndarray:
     """Probability that a detached fruit at branch fractions ``z`` is bruised by its impacts (module docstring).
 
     Parameters
@@ -253,6 +254,9 @@ def impact_damage(machine: Machine, z, catcher_h50=None) -> np.ndarray:
     catcher_h50 : float or array_like, optional
         Median threshold of the catching surface (m; default the description's, :func:`catcher_median`); an array of
         shape (n, 1) gives n rows.  On a hard catcher the strike's surface is the same one.
+    strike_probability : float or array_like, optional
+        Share of the detached fruit a finger strikes (dimensionless; default ``harvest.strike_probability``); an
+        array of shape (n, 1) gives n rows.
 
     Returns
     -------
@@ -266,4 +270,5 @@ def impact_damage(machine: Machine, z, catcher_h50=None) -> np.ndarray:
     v_f = finger_speed(machine)
     fall = h.catcher_drop + np.asarray(z, float) * machine.plant.branch.length
     fall, c50, hard_h50 = np.broadcast_arrays(fall, c50, hard_h50)
-    return cumulative_damage(fall, v_f * v_f / (2 * GRAVITY), c50, hard_h50, h.bruise_cv, h.strike_probability)
+    sp = h.strike_probability if strike_probability is None else strike_probability
+    return cumulative_damage(fall, v_f * v_f / (2 * GRAVITY), c50, hard_h50, h.bruise_cv, sp)

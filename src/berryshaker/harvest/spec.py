@@ -67,6 +67,12 @@ class HarvestSpec(_Strict):
     unripe_pull: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 2.05
     unripe_shear: Annotated[float, quantity_validator("force"), Field(gt=0, le=100, json_schema_extra=display_unit("N"))] = 1.0
     bond_cv: float = Field(0.24, ge=0, lt=2)  # CV of a ripe fruit's strengths (lognormal)
+    # cumulative detachment (docs/harvest.md, "Bond"; berryshaker.plant.pedicel.miner): a fruit comes off when its
+    # Miner sum over the drive-past's load cycles, sum_i (g_i / s)^beta (Basquin 1910: N_f = (s / g)^beta; Miner
+    # 1945), reaches 1; beta dimensionless [assumed: no blueberry pedicel fatigue exponent is published], >= 3 (the
+    # stem-load tables carry beta = 3 ... 30 and the peak; a large value, e.g. 1e9, is detachment at the single
+    # largest load)
+    miner_exponent: float = 8.0
     unripe_bond_cv: float = Field(0.40, ge=0, lt=2)  # CV of an unripe fruit's strengths (lognormal)
     # ripeness stages (docs/harvest.md, "Ripeness stages"): unripe_fraction is the mass share of green + pink + red
     # fruit (what a field test counts as unripe), unripe_stage_mix the shares of green, pink and red within it
@@ -127,6 +133,14 @@ class HarvestSpec(_Strict):
                     raise ValueError(f"harvest.{old} (a median bruising height) is no longer read: give the height the "
                                      f"drop tests report, {new} (docs/harvest.md \"Bruising\")")
         return data
+
+    @model_validator(mode="after")
+    def _miner_exponent_in_the_tables(self):
+        if not self.miner_exponent >= 3.0:  # NaN fails too
+            raise ValueError(f"miner_exponent = {self.miner_exponent} is below 3: the Basquin exponent of the cumulative "
+                             "detachment is read between the stem-load tables' exponents 3 ... 30 and the peak (a large "
+                             "value, e.g. 1e9: the single largest load); give a value >= 3")
+        return self
 
     @model_validator(mode="after")
     def _stage_mix_sums_to_one(self):

@@ -24,7 +24,9 @@ drive-past per branch class, their stem-load tables) this module gives
   the counting noise); :func:`count_variance` is checked against it in the tests.
 
 Detachment and bruising are those of :mod:`berryshaker.harvest.virtual.indexes`' models: ``bond_model`` "pull_shear"
-(a fruit comes off when the peak pull-shear load ratio of its class's mean strengths reaches its strength factor,
+(a fruit comes off when the Miner-Basquin equivalent g_eq = (sum_i g_i^beta)^(1/beta) of the pull-shear load ratios
+of its class's mean strengths over the drive-past's load cycles, beta = ``miner_exponent`` (Miner 1945, Basquin
+1910; berryshaker.plant.pedicel.miner), reaches its strength factor,
 lognormal with mean 1 and CV ``bond_cv`` or its stage's: P = Phi((ln g + sigma^2/2) / sigma), mixed over the
 unripe stages by their shares) or "study_eq17"
 (the peak stem force against a bond uniform in the study's band); ``damage_model`` "impact" (berryshaker.harvest.
@@ -50,6 +52,7 @@ from berryshaker.harvest.virtual.stem_force_tables import (
     MASS_FACTORS,
     Z_GRID,
     bond_strengths,
+    fruit_load_channels,
     fruit_peak_force,
     fruit_peak_load,
 )
@@ -76,6 +79,11 @@ class HarvestParameters:
         Fruit mass on a bush at the pass (kg).
     bruise_height : float or numpy.ndarray
         Median bruise-threshold drop height of the described catching surface (m).
+    miner_exponent : float or numpy.ndarray or None
+        Basquin exponent beta of the cumulative detachment (dimensionless; berryshaker.plant.pedicel.miner; None:
+        ``harvest.miner_exponent``).
+    strike_probability : float or numpy.ndarray or None
+        Share of the detached fruit a finger strikes (dimensionless; None: ``harvest.strike_probability``).
     """
 
     ripe_pull: float | np.ndarray
@@ -84,6 +92,8 @@ class HarvestParameters:
     unripe_fraction: float | np.ndarray
     yield_per_bush: float | np.ndarray
     bruise_height: float | np.ndarray
+    miner_exponent: float | np.ndarray | None = None
+    strike_probability: float | np.ndarray | None = None
 
     @classmethod
     def described(cls, machine: Machine) -> "HarvestParameters":
@@ -98,12 +108,13 @@ class HarvestParameters:
         -------
         HarvestParameters
             ``harvest.ripe_pull`` ... (the median bruise height of ``harvest.catcher_surface``,
-            berryshaker.harvest.bruising.catcher_median).
+            berryshaker.harvest.bruising.catcher_median), ``harvest.miner_exponent``, ``harvest.strike_probability``.
         """
         from berryshaker.harvest.bruising import catcher_median
 
         h = machine.harvest
-        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, catcher_median(h))
+        return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, catcher_median(h),
+                   h.miner_exponent, h.strike_probability)
 
 
 @dataclass(frozen=True)
@@ -120,9 +131,15 @@ class LoadGrid:
     mass : numpy.ndarray
         Fruit mass (kg).
     load_ripe, load_unripe : numpy.ndarray
-        Peak pull-shear load ratio of a ripe / an unripe fruit there at the described mean strengths (dimensionless).
+        Equivalent pull-shear load ratio of a ripe / an unripe fruit there at the described mean strengths and Miner
+        exponent (dimensionless).
     force : numpy.ndarray
         Peak stem-force magnitude (N).
+    channels_ripe, channels_unripe : numpy.ndarray or None
+        The peak and the equivalent load ratios at berryshaker.plant.pedicel.MINER_EXPONENTS of a ripe / an unripe
+        fruit there ((1 + n_k, nodes), dimensionless; :func:`~berryshaker.harvest.virtual.stem_force_tables.
+        fruit_load_channels`), read at any exponent by :meth:`loads`; None: ``load_ripe`` / ``load_unripe`` at
+        every exponent.
     """
 
     weight: np.ndarray
@@ -131,6 +148,28 @@ class LoadGrid:
     load_ripe: np.ndarray
     load_unripe: np.ndarray
     force: np.ndarray
+    channels_ripe: np.ndarray | None = None
+    channels_unripe: np.ndarray | None = None
+
+    def loads(self, exponent) -> tuple[np.ndarray, np.ndarray]:
+        """Equivalent load ratios of a ripe and an unripe fruit at each node at Miner exponent ``exponent``.
+
+        Parameters
+        ----------
+        exponent : float or numpy.ndarray or None
+            Basquin exponent beta (dimensionless; (n, 1) gives n rows; None: the grid's own ``load_ripe`` and
+            ``load_unripe``).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            Ripe and unripe load ratios ((nodes,) or (n, nodes); dimensionless).
+        """
+        from berryshaker.plant.pedicel import miner_load
+
+        if exponent is None or self.channels_ripe is None or self.channels_unripe is None:
+            return self.load_ripe, self.load_unripe
+        return miner_load(self.channels_ripe, exponent), miner_load(self.channels_unripe, exponent)
 
 
 def _piecewise_gauss(edges: np.ndarray, per_cell: int) -> tuple[np.ndarray, np.ndarray]:
@@ -184,16 +223,19 @@ def load_grid(machine: Machine, envelopes: list, z_per_cell: int = Z_NODES, mass
     zz, mm = np.meshgrid(z, mass, indexing="ij")
     ww = np.outer(wz, wm)
     zz, mm, ww = zz.ravel(), mm.ravel(), ww.ravel()
+    from berryshaker.plant.pedicel import miner_load
+
     st = bond_strengths(machine)
     nc = len(envelopes)
     parts = []
     for env in envelopes:
         e = np.asarray(env, float)
-        parts.append((fruit_peak_load(e, zz, mm, m0, np.ones(zz.size, bool), st),
-                      fruit_peak_load(e, zz, mm, m0, np.zeros(zz.size, bool), st),
+        parts.append((fruit_load_channels(e, zz, mm, m0, True, st), fruit_load_channels(e, zz, mm, m0, False, st),
                       fruit_peak_force(e, zz, mm, m0)))
-    cat = [np.concatenate([p[i] for p in parts]) for i in range(3)]
-    return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), *cat)
+    cr, cu, force = (np.concatenate([p[i] for p in parts], axis=-1) for i in range(3))
+    beta = machine.harvest.miner_exponent
+    return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), miner_load(cr, beta), miner_load(cu, beta),
+                    force, cr, cu)
 
 
 def _p_below(x, cv):
@@ -229,14 +271,15 @@ def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParamete
     h = machine.harvest
     p = params or HarvestParameters.described(machine)
     if h.bond_model == "pull_shear":
-        off_r = _p_below(grid.load_ripe * (h.ripe_pull / np.asarray(p.ripe_pull, float)), p.bond_cv)
-        off_u = sum(c * _p_below(grid.load_unripe * f, cv) for c, f, cv in  # green, pink, red by their shares
+        load_r, load_u = grid.loads(p.miner_exponent)
+        off_r = _p_below(load_r * (h.ripe_pull / np.asarray(p.ripe_pull, float)), p.bond_cv)
+        off_u = sum(c * _p_below(load_u * f, cv) for c, f, cv in  # green, pink, red by their shares
                     unripe_stage_strengths(h, p.ripe_pull, p.unripe_pull, p.bond_cv))
     else:  # the study's eq. 17: the peak stem force against a bond uniform in the class's band
         off_r = np.clip((grid.force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
         off_u = np.clip((grid.force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
     if h.damage_model == "impact":
-        q = impact_damage(machine, grid.z, p.bruise_height)
+        q = impact_damage(machine, grid.z, p.bruise_height, p.strike_probability)
     else:
         q = 1.0 - np.exp(-((grid.force / grid.mass) / h.damage_acceleration) ** h.damage_shape)
     shape = np.broadcast_shapes(np.shape(off_r), np.shape(off_u), np.shape(q))
@@ -444,7 +487,8 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
     for c, env in enumerate(envelopes):
         sel = cls == c
         e = np.asarray(env, float)
-        load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st)
+        load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st,
+                                    h.miner_exponent if p.miner_exponent is None else float(p.miner_exponent))
         force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0)
     u_stage = rng.random(n)  # drawn last: the earlier draws are those of a model without stages
     if h.bond_model == "pull_shear":

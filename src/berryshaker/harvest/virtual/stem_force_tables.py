@@ -1,7 +1,8 @@
 """Stem-force tables of the branch classes: one coupled drive-past per branch class (the reference branch with its
 diameters scaled, berryshaker.harvest.coupled.drive_past) gives a table of peak stem loads over position along
 the branch (:data:`Z_GRID`) and fruit mass (:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit
-of a population (peak force, peak pull-shear load ratio).  Part of the virtual harvest (berryshaker.harvest.virtual).
+of a population (peak force, peak and Miner-Basquin equivalent pull-shear load ratios).  Part of the virtual
+harvest (berryshaker.harvest.virtual).
 """
 
 from __future__ import annotations
@@ -138,8 +139,29 @@ def branch_class_machine(machine: Machine, scale: float) -> Machine:
 
 
 #: channels of a stem-force table (last axis): the peak stem-force magnitude (N) and the peak pull-shear load ratio
-#: of the ripe and of the unripe fruit (dimensionless, berryshaker.plant.pedicel.peak_stem_loads)
+#: of the ripe and of the unripe fruit (dimensionless, berryshaker.plant.pedicel.peak_stem_loads); then the
+#: Miner-Basquin equivalent load ratios of the ripe and of the unripe fruit at
+#: berryshaker.plant.pedicel.MINER_EXPONENTS (:func:`miner_channels`)
 CH_FORCE, CH_RIPE, CH_UNRIPE = 0, 1, 2
+
+
+def miner_channels(ripe: bool) -> np.ndarray:
+    """Channels of a stem-force table holding the peak and the Miner-Basquin equivalent load ratios of a class.
+
+    Parameters
+    ----------
+    ripe : bool
+        The ripe (True) or the unripe (False) fruit.
+
+    Returns
+    -------
+    numpy.ndarray of int
+        [peak channel, then g_eq at each of berryshaker.plant.pedicel.MINER_EXPONENTS].
+    """
+    from berryshaker.plant.pedicel import MINER_EXPONENTS
+
+    c, k = (0 if ripe else 1), MINER_EXPONENTS.size
+    return np.concatenate([[CH_RIPE + c], 3 + c * k + np.arange(k)])
 
 
 def bond_strengths(machine: Machine) -> list[tuple[float, float]]:
@@ -165,9 +187,11 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
     ``motion``: the branch's :class:`~berryshaker.harvest.coupled_branch.BranchMotion` of a drive-past.  The fruit
     is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (computed for the
     whole table at once by berryshaker.plant.pedicel.peak_stem_loads).  Channels (:data:`CH_FORCE` ...):
-    max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces) and the peak pull-shear load ratio of
-    the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`).  With ``pedicel.rigid`` the force is m x the peak
-    branch acceleration (study eq. 16), taken as pure shear (lateral) for the load ratios.
+    max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces), the peak pull-shear load ratio of
+    the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`), then their Miner-Basquin equivalent
+    load ratios g_eq = (sum_i g_i^beta)^(1/beta) over the load cycles at berryshaker.plant.pedicel.MINER_EXPONENTS
+    (:func:`miner_channels`; Miner 1945, Basquin 1910: berryshaker.plant.pedicel.miner).  With ``pedicel.rigid``
+    the force is m x the branch acceleration (study eq. 16), taken as pure shear (lateral) for the load ratios.
 
     Parameters
     ----------
@@ -179,22 +203,25 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        Shape (len(Z_GRID), len(MASS_FACTORS), 3): channel :data:`CH_FORCE` peak |F| (N), :data:`CH_RIPE` and
-        :data:`CH_UNRIPE` peak pull-shear load ratios (dimensionless).
+        Shape (len(Z_GRID), len(MASS_FACTORS), 3 + 2 len(MINER_EXPONENTS)): channel :data:`CH_FORCE` peak |F|
+        (N), :data:`CH_RIPE` and :data:`CH_UNRIPE` peak pull-shear load ratios, then the equivalent load ratios of
+        the ripe and of the unripe fruit (dimensionless).
     """
-    from berryshaker.plant.pedicel import peak_stem_loads
+    from berryshaker.plant.pedicel import MINER_EXPONENTS, miner_equivalent, peak_stem_loads
 
     pl = machine.plant
     z = Z_GRID * pl.branch.length
     masses = MASS_FACTORS * pl.fruit.mass
     st = bond_strengths(machine)
     if pl.fruit.pedicel.rigid:
-        force = np.outer(np.max(np.abs(motion.lateral(z)[2]), axis=1), masses)
-        return np.stack([force, force / st[0][1], force / st[1][1]], axis=-1)
+        acc = miner_equivalent(np.abs(motion.lateral(z)[2]))  # (n_z, 1 + n_k): peak and g_eq of |a(t)| (m/s^2)
+        per = [np.einsum("zk,m->zmk", acc, masses / sh) for _, sh in st]  # m |a| / S: homogeneous of degree 1
+        return np.concatenate([(acc[:, 0:1] * masses)[..., None], per[0][..., :1], per[1][..., :1],
+                               per[0][..., 1:], per[1][..., 1:]], axis=-1)
     y, v, _ = motion.lateral(z, acceleration=False)
     ped = pl.fruit.pedicel
     return peak_stem_loads(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping,
-                           ped.include_weight, st)
+                           ped.include_weight, st, MINER_EXPONENTS)
 
 
 def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
@@ -237,13 +264,50 @@ def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: 
     return _interp_table(env[..., CH_FORCE] if env.ndim == 3 else env, z, mass, m0)
 
 
-def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
-                    strengths: list[tuple[float, float]]) -> np.ndarray:
-    """Peak pull-shear load ratio (dimensionless) of each fruit against its class's mean strengths.
+def fruit_load_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: bool,
+                        strengths: list[tuple[float, float]]) -> np.ndarray:
+    """The peak and the Miner-Basquin equivalent load ratios of fruit of one class against its mean strengths.
 
-    From the channels of :func:`stem_force_table` (the ripe or the unripe ratio by ``ripe``).  A table without
-    load channels (1-D acceleration envelope or 2-D force table) is read as pure shear: ratio = peak force / mean
-    shear strength ``strengths[c][1]`` (c = 0 ripe, 1 unripe).
+    From the channels of :func:`stem_force_table` (:func:`miner_channels`), interpolated linearly in z and in log
+    mass.  A table of peaks only (three channels) gives its peak channel alone, and one without load channels (1-D
+    acceleration envelope or 2-D force table) is read as pure shear: ratio = peak force / mean shear strength
+    ``strengths[c][1]`` (c = 0 ripe, 1 unripe).
+
+    Parameters
+    ----------
+    envelope : numpy.ndarray
+        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
+    z : numpy.ndarray
+        Fruit positions, fractions of the branch length (dimensionless).
+    mass : numpy.ndarray
+        Fruit masses (kg).
+    m0 : float
+        Mean fruit mass of the table's mass factors (kg).
+    ripe : bool
+        The ripe (True) or the unripe (False) fruit.
+    strengths : list of (float, float)
+        Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
+
+    Returns
+    -------
+    numpy.ndarray (1 + len(MINER_EXPONENTS), n) or (1, n)
+        Row 0 the peak load ratio, rows 1 + k g_eq at berryshaker.plant.pedicel.MINER_EXPONENTS[k] (dimensionless;
+        read at any exponent by berryshaker.plant.pedicel.miner_load).
+    """
+    env = np.asarray(envelope, float)
+    if env.ndim == 3:
+        chans = miner_channels(ripe) if env.shape[-1] > 3 else [CH_RIPE if ripe else CH_UNRIPE]
+        return np.array([_interp_table(env[..., c], z, mass, m0) for c in chans])
+    return (fruit_peak_force(env, z, mass, m0) / strengths[0 if ripe else 1][1])[None]
+
+
+def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
+                    strengths: list[tuple[float, float]], exponent: float = math.inf) -> np.ndarray:
+    """Equivalent pull-shear load ratio (dimensionless) of each fruit against its class's mean strengths.
+
+    The Miner-Basquin equivalent g_eq(beta) = (sum_i g_i^beta)^(1/beta) over the drive-past's load cycles
+    (berryshaker.plant.pedicel.miner, eq. 1; Miner 1945, Basquin 1910) at ``exponent`` beta, read from the
+    channels of :func:`fruit_load_channels` (the ripe or the unripe class by ``ripe``); beta = inf is the peak.
 
     Parameters
     ----------
@@ -259,17 +323,19 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
         Whether each fruit is ripe.
     strengths : list of (float, float)
         Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
+    exponent : float
+        Basquin exponent beta (dimensionless; ``harvest.miner_exponent``; inf: the peak-only law).
 
     Returns
     -------
     numpy.ndarray
-        Peak load ratio of each fruit (dimensionless); it comes off when this reaches its strength factor.
+        Load ratio of each fruit (dimensionless); it comes off when this reaches its strength factor.
     """
-    env = np.asarray(envelope, float)
-    if env.ndim == 3:
-        return np.where(ripe, _interp_table(env[..., CH_RIPE], z, mass, m0),
-                        _interp_table(env[..., CH_UNRIPE], z, mass, m0))
-    return fruit_peak_force(env, z, mass, m0) / np.where(ripe, strengths[0][1], strengths[1][1])
+    from berryshaker.plant.pedicel import miner_load
+
+    ripe = np.asarray(ripe, bool)
+    return np.where(ripe, miner_load(fruit_load_channels(envelope, z, mass, m0, True, strengths), exponent),
+                    miner_load(fruit_load_channels(envelope, z, mass, m0, False, strengths), exponent))
 
 
 def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:

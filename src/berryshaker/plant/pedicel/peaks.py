@@ -12,6 +12,7 @@ import numpy as np
 from numba import njit
 
 from berryshaker.errors import ConfigError
+from berryshaker.plant.pedicel.miner import MINER_EXPONENTS, REVERSAL_GATE, _equivalent, _finish, _register
 from berryshaker.plant.pedicel.oscillator import GRAVITY, _check, _uniform_step, discretise_foh
 
 
@@ -54,7 +55,8 @@ def peak_stem_force(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     return peak_stem_loads(t, lateral, axial, mass, stiffness, damping, weight)[:, :, 0]
 
 
-def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True, strengths=()):
+def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weight=True, strengths=(),
+                    exponents=()):
     """Peak stem-force magnitude and peak pull-shear load ratios of fruit on compliant pedicels.
 
     The stem force of :func:`peak_stem_force`, resolved by its mode of loading: the pedicel of a berry on an
@@ -67,8 +69,10 @@ def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     an elliptical pull-shear interaction (the quadratic failure criterion of combined loading; pull alone
     breaks at P, shear alone at S, as the two test modes of Kong et al. 2014 measure them; the interaction's
     form is [assumed]: no blueberry test under combined loading is known to us).  A fruit whose own strengths
-    are s P and s S comes off when max_t g >= s (berryshaker.harvest.virtual).  Compression along the pedicel
-    does not load the abscission zone in pull.
+    are s P and s S comes off when its Miner-Basquin equivalent load ratio g_eq(beta) = (sum_i g_i^beta)^(1/beta)
+    over the load cycles i of g(t) reaches s (berryshaker.plant.pedicel.miner, eq. 1; Miner 1945, Basquin 1910;
+    beta -> inf: max_t g, the peak-only law).  Compression along the pedicel does not load the abscission zone in
+    pull.
 
     Parameters
     ----------
@@ -84,16 +88,21 @@ def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
         Add the fruit's weight m0 g to the axial force (upright branch, axis vertical).
     strengths : sequence of (float, float)
         Mean pull and shear strengths (P, S) (N) of each fruit class (e.g. ripe, unripe).
+    exponents : sequence of float
+        Basquin exponents beta (dimensionless, > 0) at which to accumulate g_eq (none: the peaks only).
 
     Returns
     -------
-    ndarray (n_z, n_mass, 1 + n_strengths)
-        [..., 0]: max_t |F| (N); [..., 1 + s]: max_t g for strengths s (dimensionless).
+    ndarray (n_z, n_mass, 1 + n_strengths (1 + n_exponents))
+        [..., 0]: max_t |F| (N); [..., 1 + s]: max_t g for strengths s; [..., 1 + n_s + s n_k + k]: g_eq of
+        strengths s at exponents[k] (dimensionless).
 
     References
     ----------
     Kong, Y., et al. (2014).  Journal of Northeast Agricultural University 45(4): blueberry fruit detachment by
     pull along the pedicel and by shear across it (docs/harvest.md, "Bond").
+    Miner, M.A. (1945).  Cumulative damage in fatigue.  J. Appl. Mech. 12: A159-A164.
+    Basquin, O.H. (1910).  The exponential law of endurance tests.  Proc. ASTM 10: 625-630.
     """
     h = _uniform_step(t)
     masses = np.atleast_1d(np.asarray(mass, float))
@@ -114,9 +123,13 @@ def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
         b = np.array([[0.0, 0.0], [k / mj, c / mj]])
         ad[j], bd[j], cdj, ddj = discretise_foh(a, b, np.array([[-k, -c]]), np.array([[k, c]]), h)
         cd[j], dd[j] = cdj[0], ddj[0]
-    out = np.zeros((y.shape[0], len(m), 1 + len(st)))
+    ex = np.ascontiguousarray(np.asarray(exponents, float).reshape(-1))
+    if np.any(~(ex > 0)):
+        raise ConfigError(f"Miner exponents must be > 0, got {exponents}")
+    out = np.zeros((y.shape[0], len(m), 1 + len(st) * (1 + ex.size)))
     _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)),
-                            np.ascontiguousarray(1.0 / st[:, 0]), np.ascontiguousarray(1.0 / st[:, 1]), out)
+                            np.ascontiguousarray(1.0 / st[:, 0]), np.ascontiguousarray(1.0 / st[:, 1]), ex,
+                            REVERSAL_GATE, out)
     return out
 
 
@@ -124,24 +137,32 @@ def compile_peak_stem_force() -> None:
     """Compile (or load from numba's on-disk cache) the kernel of :func:`peak_stem_force`: one call on four
     samples of a branch at rest.  Lets an idle process compile it before the runs that need it."""
     rest = np.zeros((1, 4))
-    peak_stem_loads(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3], strengths=[(0.47, 0.23)])
+    peak_stem_loads(np.arange(4) * 1e-4, (rest, rest), (rest, rest), [1.8e-3], strengths=[(0.47, 0.23)],
+                    exponents=MINER_EXPONENTS)
 
 
 @njit(cache=True)
-def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_shear, out):
-    """out[i, j, 0] = max over time of |(F_lat, F_ax + weight[j])| and out[i, j, 1 + s] = max over time of the
-    pull-shear load ratio g_s of :func:`peak_stem_loads` for the discretised oscillators (mass j at position i;
-    the maxima are taken on the squares).
+def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_shear, exponents, gate, out):
+    """out[i, j, 0] = max over time of |(F_lat, F_ax + weight[j])|, out[i, j, 1 + s] = max over time of the
+    pull-shear load ratio g_s of :func:`peak_stem_loads` and out[i, j, 1 + n_s + s n_k + k] its Miner-Basquin
+    equivalent at exponents[k] (berryshaker.plant.pedicel.miner) for the discretised oscillators (mass j at
+    position i; the maxima are taken on the squares).
 
     Time outermost, positions innermost: at each time the positions' inputs are gathered into contiguous rows and
-    every (mass, position) oscillator advances one step, the positions side by side (the loop vectorises; each
-    oscillator's arithmetic is that of its own recursion, so the numbers do not depend on the order)."""
+    every (mass, position) oscillator advances one step, the positions side by side (each oscillator's arithmetic
+    is that of its own recursion, so the numbers do not depend on the order)."""
     n_z, n_t = y.shape
     n_m = ad.shape[0]
     n_s = inv_pull.shape[0]
+    n_k = exponents.shape[0]
+    half = 0.5 * exponents
     x0, x1, w0, w1 = np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z))
     best = np.zeros((n_m, n_z, 1 + n_s))
+    rising = np.ones((n_m, n_s, n_z), dtype=np.bool_)
+    cand, last, pm = np.zeros((n_m, n_s, n_z)), np.zeros((n_m, n_s, n_z)), np.zeros((n_m, n_s, n_z))
+    sums = np.zeros((n_m, n_s, n_z, n_k))
     u0r, u1r, s0r, s1r = np.empty(n_z), np.empty(n_z), np.empty(n_z), np.empty(n_z)
+    g2r = np.empty((n_s, n_z))
     for n in range(n_t):
         for i in range(n_z):
             u0r[i], u1r[i], s0r[i], s1r[i] = y[i, n], v[i, n], ya[i, n], va[i, n]
@@ -164,11 +185,34 @@ def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_
                     g2 = gp * gp + gs * gs
                     b = best[j, i, 1 + s]
                     best[j, i, 1 + s] = g2 if g2 > b else b
+                    g2r[s, i] = g2
                 x0[j, i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
                 x1[j, i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
                 w0[j, i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
                 w1[j, i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
+            if n_k:  # the reversal count (berryshaker.plant.pedicel.miner; branches: out of the oscillators' loop)
+                for s in range(n_s):
+                    for i in range(n_z):
+                        g2, c = g2r[s, i], cand[j, s, i]
+                        if rising[j, s, i]:
+                            if g2 > c:
+                                cand[j, s, i] = g2
+                            elif g2 < c * (1.0 - gate):
+                                _register(c, j, s, i, pm, sums, half)
+                                last[j, s, i] = c
+                                rising[j, s, i] = False
+                                cand[j, s, i] = g2
+                        elif g2 < c:
+                            cand[j, s, i] = g2
+                        elif g2 > c + gate * last[j, s, i]:
+                            rising[j, s, i] = True
+                            cand[j, s, i] = g2
     for j in range(n_m):
         for i in range(n_z):
             for s in range(1 + n_s):
                 out[i, j, s] = math.sqrt(best[j, i, s])
+            if n_k:
+                for s in range(n_s):
+                    _finish(j, s, i, rising, cand, pm, sums, half)
+                    for k in range(n_k):
+                        out[i, j, 1 + n_s + s * n_k + k] = _equivalent(pm[j, s, i], sums[j, s, i, k], exponents[k])

@@ -3,7 +3,7 @@
 
 The method is one chain, each part's inputs the previous part's outputs; each part is a module of this package:
 
-1. **Parameters and priors** (:mod:`~berryshaker.study.field_calibration.priors`, :data:`PARAMETERS`): the six
+1. **Parameters and priors** (:mod:`~berryshaker.study.field_calibration.priors`, :data:`PARAMETERS`): the eight
    harvest parameters that act only in the post-processing of the coupled runs' stem-load tables, each with a
    prior from the cited ranges, and the prior's unit cube the emulator and the sampler work on.
 2. **The field sheet** (:mod:`~berryshaker.study.field_calibration.sheet`, :func:`read_sheet`): its factors

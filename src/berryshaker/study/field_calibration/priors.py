@@ -3,10 +3,13 @@ calibrated against, and the prior's unit cube the emulator and the sampler work 
 
 The parameters (:data:`PARAMETERS`) act only in the post-processing of the coupled runs' stem-load tables -- ripe
 and unripe mean pull strength (the shear strength scales with it at the described shear/pull ratio), the ripe
-strengths' CV, the unripe mass fraction, the yield per bush and the bruise-threshold height of the described
-catching surface -- each with a prior from the cited ranges (docs/harvest.md, ``harvest/published/record.toml``).
-Pedicel stiffness is *not* calibrated: the tables are computed at the described stiffness, and changing it needs
-new coupled post-processing.
+strengths' CV, the unripe mass fraction, the yield per bush, the bruise-threshold height of the described
+catching surface, the Miner exponent of the cumulative detachment (the tables carry the equivalent load ratios at
+exponents 3-30, berryshaker.plant.pedicel.miner) and the share of the detached fruit a finger strikes -- each with a
+prior from the cited ranges (docs/harvest.md, ``harvest/published/record.toml``) or, where nothing is published,
+bounds of our choice.  Pedicel stiffness is *not* calibrated: it sets the fruit's oscillator, so the stem-load
+tables themselves change with it (a new pass over every coupled run's branch motion, which the cached runs do not
+keep).
 
 A point of the unit cube holds each parameter's prior probability: :func:`theta_of` and :func:`unit_of` map between
 it and the values (SI), :func:`latin_hypercube` draws the emulator's training points on it.
@@ -37,7 +40,7 @@ class Parameter:
     unit : str
         SI unit of its values ("" for a fraction).
     distribution : str
-        "lognormal" (``lo``, ``hi`` its central 90 %) or "uniform" (``lo``, ``hi`` its bounds).
+        "lognormal" (``lo``, ``hi`` its central 90 %), "uniform" or "loguniform" (``lo``, ``hi`` its bounds).
     lo, hi : float
         See ``distribution`` (SI).
     source : str
@@ -70,6 +73,8 @@ class Parameter:
         u = np.asarray(u, float)
         if self.distribution == "uniform":
             return self.lo + u * (self.hi - self.lo)
+        if self.distribution == "loguniform":
+            return np.exp(math.log(self.lo) + u * math.log(self.hi / self.lo))
         mu, s = self.log_median_sigma()
         return np.exp(mu + s * special.ndtri(u))
 
@@ -101,7 +106,7 @@ class Parameter:
         str
             The text.
         """
-        what = "central 90 %" if self.distribution == "lognormal" else "bounds"
+        what = "central 90 %" if self.distribution == "lognormal" else "bounds"  # uniform, loguniform
         return f"{self.distribution}, {what} {self.lo:.3g}-{self.hi:.3g}{(' ' + self.unit) if self.unit else ''}"
 
 
@@ -128,6 +133,13 @@ PARAMETERS: tuple[Parameter, ...] = (
               "up to 0.6-1.2 m, safe heights read as the 5 % fractile at CV 0.3 (median x 1.62: 0.97-1.95 m); the "
               "central 90 % from the smaller's median to twice the larger's is our choice; a hard catcher: "
               "0.075-0.30 m about Brown's 0.15 m", "[published lower end; fractile and upper end assumed]"),
+    Parameter("miner_exponent", "", "loguniform", 3.0, 30.0,
+              "Basquin exponent of the cumulative detachment (Basquin 1910, Miner 1945; docs/harvest.md 'Bond'): "
+              "described 8 [assumed]; no blueberry pedicel fatigue exponent is published; the bounds are our choice, "
+              "from a steep law (8 cycles at half the strength break a fruit) to nearly the peak-only law", "[assumed]"),
+    Parameter("strike_probability", "", "uniform", 0.1, 0.9,
+              "share of the detached fruit a comb finger strikes (docs/harvest.md 'Bruising'): described 0.5 "
+              "[assumed]; the bounds are our choice", "[assumed]"),
 )
 PARAMETER_NAMES = tuple(p.name for p in PARAMETERS)
 #: the hard catching surface's bruise-threshold prior (replaces the padded one when the description's surface is hard)
@@ -150,7 +162,7 @@ def parameters_for(machine: Machine) -> tuple[Parameter, ...]:
         :data:`PARAMETERS`, the hard-surface bruise prior when ``harvest.catcher_surface = "hard"``.
     """
     if machine.harvest.catcher_surface == "hard":
-        return PARAMETERS[:-1] + (HARD_BRUISE,)
+        return tuple(HARD_BRUISE if p.name == "bruise_height" else p for p in PARAMETERS)
     return PARAMETERS
 
 
@@ -165,14 +177,15 @@ def described_values(machine: Machine) -> dict[str, float]:
     Returns
     -------
     dict of str to float
-        Name -> value (N, fractions, kg, m).
+        Name -> value (N, fractions, kg, m, the dimensionless Miner exponent).
     """
     from berryshaker.harvest.bruising import catcher_median
 
     h = machine.harvest
     bruise = catcher_median(h)
     return {"ripe_pull": h.ripe_pull, "unripe_pull": h.unripe_pull, "bond_cv": h.bond_cv,
-            "unripe_fraction": h.unripe_fraction, "yield_per_bush": h.yield_per_bush, "bruise_height": bruise}
+            "unripe_fraction": h.unripe_fraction, "yield_per_bush": h.yield_per_bush, "bruise_height": bruise,
+            "miner_exponent": h.miner_exponent, "strike_probability": h.strike_probability}
 
 
 def prior_rows(machine: Machine | None = None) -> list[dict]:
@@ -212,12 +225,14 @@ def calibrated_responses() -> dict:
 
 
 #: parameters the mean and the model's spread of a response depend on (besides the setting); the yield scales the
-#: efficiency exactly and is not emulated there; the bruise threshold changes only the damage.  A response not listed
+#: efficiency exactly and is not emulated there; the bruise threshold and the finger's strike share change only the
+#: damage.  A response not listed
 #: depends on every parameter but the yield.  The counting noise of a field test depends on the yield too
 #: (:func:`count_parameters`).
-RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
-                       "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction"),
-                       "damage": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "bruise_height")}
+RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent"),
+                       "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent"),
+                       "damage": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "bruise_height",
+                                  "miner_exponent", "strike_probability")}
 
 
 def mean_parameters(response: str) -> tuple[str, ...]:
@@ -281,14 +296,14 @@ def theta_of(u: np.ndarray, params: tuple[Parameter, ...]) -> np.ndarray:
     Parameters
     ----------
     u : numpy.ndarray
-        (n, 6) prior probabilities (dimensionless).
+        (n, len(PARAMETERS)) prior probabilities (dimensionless).
     params : tuple of Parameter
         The parameters (:func:`parameters_for`).
 
     Returns
     -------
     numpy.ndarray
-        (n, 6) values (SI).
+        (n, len(PARAMETERS)) values (SI).
     """
     u = np.atleast_2d(u)
     return np.column_stack([p.ppf(u[:, i]) for i, p in enumerate(params)])
@@ -300,14 +315,14 @@ def unit_of(theta: np.ndarray, params: tuple[Parameter, ...]) -> np.ndarray:
     Parameters
     ----------
     theta : numpy.ndarray
-        (n, 6) values (SI).
+        (n, len(PARAMETERS)) values (SI).
     params : tuple of Parameter
         The parameters.
 
     Returns
     -------
     numpy.ndarray
-        (n, 6) prior probabilities (values outside a uniform prior's bounds are clipped to it).
+        (n, len(PARAMETERS)) prior probabilities (values outside a uniform prior's bounds are clipped to it).
     """
     theta = np.atleast_2d(np.asarray(theta, float))
     cols = []

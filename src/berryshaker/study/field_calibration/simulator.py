@@ -31,7 +31,7 @@ def parameter_rows(theta: np.ndarray):
     Parameters
     ----------
     theta : numpy.ndarray
-        (n, 6) values in :data:`~berryshaker.study.field_calibration.priors.PARAMETER_NAMES` order (SI).
+        (n, len(PARAMETERS)) values in :data:`~berryshaker.study.field_calibration.priors.PARAMETER_NAMES` order (SI).
 
     Returns
     -------
@@ -193,7 +193,7 @@ class Simulator:
         starts : list of int
             Start numbers (run before with :meth:`run`).
         theta : numpy.ndarray
-            (n, 6) parameter values in :data:`~berryshaker.study.field_calibration.priors.PARAMETER_NAMES` order (SI).
+            (n, len(PARAMETERS)) parameter values in :data:`~berryshaker.study.field_calibration.priors.PARAMETER_NAMES` order (SI).
         names : sequence of str
             Harvest responses (berryshaker.harvest.virtual.RESPONSES).
 
