@@ -52,7 +52,7 @@ class SectionInput:
         :func:`section_number`).
     """
 
-    res: object
+    res: Any
     machine: Any
     figs: Path
     numbers: dict = field(default_factory=dict)
