@@ -89,3 +89,18 @@ def test_the_patterns_catch_what_they_are_for():
         assert OUTSIDE.search(path), path
     for path in ("--out /tmp/docs_html", "benchmarks/studies/results/x.json", "~/.cache/berryshaker", "m/work/s"):
         assert not OUTSIDE.search(path), path
+
+
+#: a page citing a history section ("benchmarks/HISTORY.md sec. 12", "(benchmarks/HISTORY.md)"); naming the file
+#: where the rule is stated is not citing it
+DOC_HISTORY = re.compile(r"HISTORY\.md(?:[;,]?\s*sec\.|\))")
+
+
+def test_no_doc_page_cites_a_history_section():
+    """docs/*.md state the current fact, or name the benchmark study or stored result that measures it
+    (benchmarks/README.md), never a section of benchmarks/HISTORY.md."""
+    found = []
+    for path in sorted((ROOT / "docs").rglob("*.md")):
+        text = path.read_text(encoding="utf-8")
+        found += [f"{path.relative_to(ROOT)}:{text.count(chr(10), 0, m.start()) + 1}" for m in DOC_HISTORY.finditer(text)]
+    assert not found, "state the current fact or name the study that measures it: " + ", ".join(found)

@@ -166,10 +166,12 @@ def test_sweep_runs_the_powered_drive_and_reports_ripple(tmp_path):
 def test_study_step_powered_drive(tmp_path):
     """The study's powered-drive step at levels 1-3, replicated from perturbed starts: ripple and energy lost
     per joint, trends judged against the replicate spread, and its report section."""
-    from berryshaker.report.sections import SectionInput, powered_drive_section
+    from berryshaker.report.sections import SectionInput
     from berryshaker.runs.runner import SweepRunner
-    from berryshaker.study.pipeline import POWERED_REPLICATES, StudyContext, step_powered_drive
+    from berryshaker.study.step_context import StudyContext
     from berryshaker.study.step_result import StudyResults
+    from berryshaker.study.steps.powered_drive import POWERED_REPLICATES, powered_drive_section
+    from berryshaker.study.steps.powered_drive import run as step_powered_drive
 
     machine = reference_machine()
     ctx = StudyContext(machine, SweepRunner(workers=1, cache_dir=tmp_path / "c", progress=False), tmp_path)

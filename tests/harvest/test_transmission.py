@@ -56,8 +56,8 @@ def test_the_report_states_the_filtering_it_measured():
     """The fruit-force section's table and sentence read the level sets' records (level set 1 -> 3)."""
     from types import SimpleNamespace
 
-    from berryshaker.report.sections import transmission_parts
     from berryshaker.study.fruit_force_records import BandLevels
+    from berryshaker.study.steps.fruit_force import transmission_parts
 
     def past(pin, fingers, stem):
         return SimpleNamespace(transmission={

@@ -265,7 +265,9 @@ def test_html_tables_fit_an_a4_page(which, request):
 
 def test_sections_are_named_by_the_reports_numbers(reference):
     """The sections the numbers come from are numbered as the report numbers them (by renderer), none typed."""
-    from berryshaker.report.sections import clearance_life_section, harvest_response_section, virtual_l9_section
+    from berryshaker.study.steps.clearance_life import clearance_life_section
+    from berryshaker.study.steps.harvest_response import harvest_response_section
+    from berryshaker.study.steps.virtual_l9 import virtual_l9_section
 
     a = reference[2]
     numbered = design_answers_html(a, {virtual_l9_section: 11, clearance_life_section: 12,

@@ -16,7 +16,7 @@ from berryshaker.report.style import audit_figure, canvas_overflow, pyplot
 SRC = Path(berryshaker.__file__).parent
 
 
-@pytest.mark.parametrize("rel", ["cli/life.py", "study/life_step.py"])
+@pytest.mark.parametrize("rel", ["cli/life.py", "study/steps/clearance_life.py"])
 def test_life_figures_are_drawn_by_report_plots_not_raw_matplotlib(rel):
     tree = ast.parse((SRC / rel).read_text(encoding="utf-8"))
     mods = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}

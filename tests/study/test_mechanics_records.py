@@ -20,7 +20,7 @@ from berryshaker.study.mechanics_records import (
     RowAgreement,
     RowStarts,
 )
-from berryshaker.study.mechanics_steps import row_start_statistics
+from berryshaker.study.steps.clearance_rows import row_start_statistics
 
 #: a reference study's ``agreement``, ``kinematics`` and ``rows`` (rows 1 and 2 of each part), from summary.json
 DATA = json.loads((Path(__file__).parents[1] / "data" / "mechanics_steps.json").read_text(encoding="utf-8"))

@@ -1,4 +1,4 @@
-"""The model check's replicate count (claim 1, study.pipeline.MODEL_CHECK_STARTS) against twice as many starts.
+"""The model check's replicate count (claim 1, study.steps.clearance_rows.MODEL_CHECK_STARTS) against twice as many starts.
 
 Claim 1 judges the means of each model's collision-force statistics over perturbed (multibody) and turned (MLSD)
 starts at level 2.  The count is converged when doubling it leaves every pair's
@@ -14,8 +14,8 @@ from berryshaker.experiment.agreement import model_check
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.harvest.virtual import replicate_starts
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
-from berryshaker.study.pipeline import MODEL_CHECK_STARTS
 from berryshaker.study.runs import multibody_row, reduced_row
+from berryshaker.study.steps.clearance_rows import MODEL_CHECK_STARTS
 
 
 def test_model_check_verdicts_are_stable_when_the_starts_double():

@@ -178,7 +178,7 @@ def test_study_outputs(study_out):
         assert saved["optimum"][k] > 0
     assert saved["optimum"]["unripe_rate_pct"] >= 0
     assert saved["timings_s"]["total"] > 0 and saved["version"]
-    # the runs the study started ahead (pipeline.PLANS) are the ones its steps asked for: none ran unused
+    # the runs the study started ahead (the steps' plans, Step.plan) are the ones its steps asked for: none ran unused
     assert len(list(cache.rglob("*.json"))) == saved["runs"]["computed"] > 0
     assert saved["machine_si"]["cam"]["base_radius"] == 0.08
     for t in ("collision_force_rows.csv", "load_moment_rows.csv", "model_agreement.csv", "model_check.csv",
@@ -190,11 +190,13 @@ def test_study_outputs(study_out):
 
 
 def test_every_step_has_its_field_in_the_study_results():
-    """A step's result name is a field of StudyResults (else the study would fail only after every step ran)."""
+    """The study's own steps' results are the fields of StudyResults, in the step table's order (summary.json's
+    ``results`` in the steps' order); a step added without a field keeps its data in ``other``
+    (tests/study/test_steps.py)."""
     from berryshaker.records import field_names
-    from berryshaker.study.pipeline import STEPS
+    from berryshaker.study.steps import STEPS
 
-    assert [s.result for s in STEPS] == [f for f in field_names(StudyResults) if f not in ("claims", "failures")]
+    assert [s.result for s in STEPS] == [f for f in field_names(StudyResults) if f not in ("claims", "failures", "other")]
 
 
 def test_saved_results_read_back_as_the_typed_records(study_out):
@@ -225,7 +227,7 @@ def test_repeated_study_comes_from_the_cache(study_out, fast_config, tmp_path):
 
 
 def test_failed_study_leaves_an_existing_folder_untouched(fast_config, tmp_path, monkeypatch):
-    import berryshaker.study.harvest_steps as st  # the module whose step_l9 calls virtual_l9
+    import berryshaker.study.steps.virtual_l9 as st  # the module whose run calls virtual_l9
 
     out = tmp_path / "out"
     out.mkdir()
@@ -279,7 +281,7 @@ def test_workers_started_before_the_geometry_check_are_ended_when_it_fails(fast_
 
 
 def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config):
-    """Each step names the renderers of its report sections (pipeline.STEPS, report/sections.py); the report
+    """Each step names the renderers of its report sections (study/steps/, its STEP.sections); the report
     numbers them 1, 2, ... in the steps' order, so no title carries a number, and the design answers' references
     to sections (report.design_html.STEP_SECTIONS) are the numbers the report gives."""
     import html as H
@@ -288,7 +290,8 @@ def test_report_sections_are_numbered_in_the_steps_order(study_out, fast_config)
     from berryshaker.config import load_machine
     from berryshaker.report.design_html import STEP_SECTIONS, section_label
     from berryshaker.report.sections import SectionInput, section_numbers
-    from berryshaker.study.pipeline import STEPS, report_sections
+    from berryshaker.study.pipeline import report_sections
+    from berryshaker.study.steps import STEPS
 
     out, _, _ = study_out
     text = (out / "report.html").read_text()
@@ -385,7 +388,7 @@ def test_report_reads_in_15_screens_at_one_operating_point(study_out):
 
 def test_failed_runs_are_listed_and_the_rest_finishes(fast_config, study_out, tmp_path, monkeypatch):
     """A run that fails inside a sweep is recorded with its error; the study finishes and lists it."""
-    import berryshaker.study.mechanics_steps as st  # the module whose plan_rows and step_rows call multibody_row
+    import berryshaker.study.steps.clearance_rows as st  # the module whose plan and run call multibody_row
 
     real = st.multibody_row
 

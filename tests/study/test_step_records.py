@@ -81,8 +81,13 @@ def test_the_plotted_series_are_optional_and_stripped_from_the_summary():
 def test_the_readers_read_the_records(tmp_path):
     """Claims 5-6, the fruit-force table and the five report sections from the typed records."""
     from berryshaker.config import load_machine
-    from berryshaker.report import sections as S
+    from berryshaker.report.sections import SectionInput
     from berryshaker.study import claims as C
+    from berryshaker.study.steps.clearance_life import clearance_life_section
+    from berryshaker.study.steps.fruit_force import fruit_force_section
+    from berryshaker.study.steps.harvest_response import harvest_response_section
+    from berryshaker.study.steps.powered_drive import powered_drive_section
+    from berryshaker.study.steps.validation import validation_section
     from berryshaker.study.tables import write_tables
 
     res = StudyResults.from_json({**HARVEST, **SECTIONS, "rows": {"multibody": {}, "mlsd": {}, "starts": {}}, "l9": None})
@@ -93,15 +98,15 @@ def test_the_readers_read_the_records(tmp_path):
     machine = load_machine(None)
     write_tables(machine, res, tmp_path)
     assert (tmp_path / "fruit_force.csv").read_text().splitlines()[1].startswith("root,0.24,0.0735")
-    inp = S.SectionInput(res, machine, tmp_path)
-    _, parts = S.fruit_force_section(inp)
+    inp = SectionInput(res, machine, tmp_path)
+    _, parts = fruit_force_section(inp)
     assert "left on the bush" in parts[0] and "0.25-0.4" in parts[0]
-    _, parts = S.validation_section(inp)
+    _, parts = validation_section(inp)
     assert "Held out: 9 numbers: 2 consistent, 5 not reproduced, 0 without a verdict, 2 not comparable" in parts[0] and "hunau2014" in parts[1]
-    _, parts = S.harvest_response_section(inp)
+    _, parts = harvest_response_section(inp)
     assert "12 branches (6 simulated members with 2 modes each, seed 12" in parts[0]
     assert any("branch E" in p for p in parts)
-    _, parts = S.clearance_life_section(inp)
+    _, parts = clearance_life_section(inp)
     assert "H11/c11" in parts[0]
-    _, parts = S.powered_drive_section(inp)
+    _, parts = powered_drive_section(inp)
     assert "+-" in parts[0] and "mean of 4 runs" in parts[1]

@@ -1,8 +1,8 @@
 """The design answers (:func:`berryshaker.report.design.design_answers`) as the study report's opening section:
 tables of at most :data:`MAX_COLUMNS` columns with fixed widths, so nothing is wider than an A4 page (794 CSS px),
-each number with its interval and the report section it comes from.  A section is named by its renderer
+each number with its interval and the report section it comes from.  A section is named by its renderer's name
 (:data:`STEP_SECTIONS`) and numbered as the report numbers it
-(:func:`berryshaker.report.sections.section_numbers`, in the order of ``berryshaker.study.pipeline.STEPS``).
+(:func:`berryshaker.report.sections.section_numbers`, in the order of ``berryshaker.study.steps.STEPS``).
 """
 
 from __future__ import annotations
@@ -12,24 +12,19 @@ import math
 from berryshaker.report.design_quantity import Quantity
 from berryshaker.report.design_records import DesignAnswers
 from berryshaker.report.html_blocks import _details, _Raw, _table
-from berryshaker.report.sections import (
-    clearance_life_section,
-    harvest_response_section,
-    kinematics_section,
-    powered_drive_section,
-    virtual_l9_section,
-)
+from berryshaker.report.sections import section_number
 from berryshaker.user_text import html_text
 
 #: widest table of the section (columns); with fixed column widths every table fits an A4 page
 MAX_COLUMNS = 6
-#: the report section of each step the answers come from: step -> (the renderer of its first section, or None for
-#: the unnumbered configuration at the end; the section's short name); the number is the report's
-STEP_SECTIONS = {"virtual_l9": (virtual_l9_section, "Virtual L9"),
-                 "clearance_life": (clearance_life_section, "Clearance life"),
-                 "powered_drive": (powered_drive_section, "Powered drive"),
-                 "harvest_response": (harvest_response_section, "Harvest response"),
-                 "kinematics": (kinematics_section, "Kinematics"), "machine": (None, "Configuration")}
+#: the report section of each step the answers come from: step -> (the name of the renderer of its first section
+#: (``berryshaker.study.steps``), or None for the unnumbered configuration at the end; the section's short name);
+#: the number is the report's
+STEP_SECTIONS = {"virtual_l9": ("virtual_l9_section", "Virtual L9"),
+                 "clearance_life": ("clearance_life_section", "Clearance life"),
+                 "powered_drive": ("powered_drive_section", "Powered drive"),
+                 "harvest_response": ("harvest_response_section", "Harvest response"),
+                 "kinematics": ("kinematics_section", "Kinematics"), "machine": (None, "Configuration")}
 
 
 def section_label(step: str, numbers: dict | None = None) -> str:
@@ -49,19 +44,19 @@ def section_label(step: str, numbers: dict | None = None) -> str:
         "N. short name", or the short name.
     """
     render, name = STEP_SECTIONS.get(step, (None, step))
-    n = (numbers or {}).get(render)
+    n = section_number(numbers, render)
     return name if n is None else f"{n}. {name}"
 
 
 def _section_ref(step: str, numbers: dict | None) -> str:
     """How the answers name a step's section in a sentence: "section N", or its short name when not numbered."""
-    n = (numbers or {}).get(STEP_SECTIONS[step][0])
+    n = section_number(numbers, STEP_SECTIONS[step][0])
     return STEP_SECTIONS[step][1] if n is None else f"section {n}"
 
 
 def _section_numbers(steps: tuple, numbers: dict | None) -> str:
     """The numbers of the steps' sections in a table cell, "6, 7" (those the report has)."""
-    got = [(numbers or {}).get(STEP_SECTIONS[s][0]) for s in steps]
+    got = [section_number(numbers, STEP_SECTIONS[s][0]) for s in steps]
     return ", ".join(str(n) for n in got if n is not None)
 
 

@@ -1,7 +1,8 @@
 """Self-contained HTML report of the study: every figure embedded (base64 PNG), numbers in tables, the
 resolved configuration and package version at the end.  Opens offline; no scripts.  The page opens with the design
 answers at the described operating point (:mod:`berryshaker.report.design_html`), then the study steps' numbered
-sections (:mod:`berryshaker.report.sections`, each its answer with the rest folded), then an appendix (the claims,
+sections (each its answer with the rest folded; :mod:`berryshaker.report.sections`, the renderers in the
+steps' modules, ``berryshaker.study.steps``), then an appendix (the claims,
 the configuration); the page of ``doe analyze`` is :mod:`berryshaker.report.doe_page`'s.  Tables, figures and the CSS are
 :mod:`berryshaker.report.html_blocks`'.
 """
@@ -17,7 +18,7 @@ from berryshaker.report.design import claims_apply, design_answers, level_set_na
 from berryshaker.report.design_html import design_answers_html
 from berryshaker.report.headline import report_title, runs_text, verdict_class, verdict_counts
 from berryshaker.report.html_blocks import CSS, _plain, _Raw, _table
-from berryshaker.report.sections import SectionInput, section_numbers, step_sections, virtual_l9_section
+from berryshaker.report.sections import SectionInput, section_numbers, step_sections
 from berryshaker.user_text import html_text
 
 
@@ -43,7 +44,7 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
         The steps, for their notes.
     sections : sequence of (str, sequence of callable)
         Per study step in the pipeline's order: its name and the renderers of its report sections
-        (:mod:`berryshaker.report.sections`; ``berryshaker.study.pipeline.report_sections()``).
+        (``berryshaker.study.pipeline.report_sections()``: each step's ``STEP.sections``).
 
     Returns
     -------
@@ -105,9 +106,9 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
                          + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
                             "value of that index at these clearances, so it reproduces the target by construction "
                             "and is not evidence" if fitted else "")
-                         + f" ({inp.ref(virtual_l9_section, 'the virtual L9 section')} gives the trade-off table)."
+                         + f" ({inp.ref('virtual_l9_section', 'the virtual L9 section')} gives the trade-off table)."
                          "</p>")
-    # the steps' sections, numbered in the pipeline's order (report/sections.py)
+    # the steps' sections, numbered in the step table's order (report/sections.py)
     parts.extend(step_sections(sections, inp, {n: st.note for n, st in steps.items()}))
     # the appendix: what an engineer looks up, not reads (the tests measure the report's height up to here)
     parts.append("<div id='appendix' class='appendix'></div>")

@@ -1,4 +1,4 @@
-"""Typed results of the study step ``fruit_force`` (:func:`berryshaker.study.harvest_steps.step_fruit_force`):
+"""Typed results of the study step ``fruit_force`` (:func:`berryshaker.study.steps.fruit_force.run`):
 the coupled drive-pasts at the configured clearances and at the level sets (:class:`DrivePast`, the summary of
 :meth:`berryshaker.harvest.coupled.FruitForceResult.summary` as :class:`FruitForceSummary`) and the perturbed
 starts' peak stem forces (:class:`FruitStartSet`), gathered in :class:`FruitForceStep`.  Their JSON forms are the
@@ -242,7 +242,7 @@ class DrivePast(JsonRecord):
 
 @dataclass(frozen=True)
 class FruitStartSet(JsonRecord):
-    """The perturbed starts of one clearance set (:func:`berryshaker.study.harvest_steps.fruit_start_statistics`).
+    """The perturbed starts of one clearance set (:func:`berryshaker.study.steps.fruit_force.fruit_start_statistics`).
 
     Attributes
     ----------

@@ -1,6 +1,6 @@
-"""Typed results of the study steps ``harvest_response`` (:func:`berryshaker.study.harvest_steps.step_harvest_response`:
+"""Typed results of the study steps ``harvest_response`` (:func:`berryshaker.study.steps.harvest_response.run`:
 :class:`HarvestResponse`, its rows :class:`HarvestSpeedRow` and its :class:`Calibration`) and ``validation``
-(:func:`berryshaker.study.harvest_steps.step_validation`: :class:`Validation`, one :class:`ValidationRow` per
+(:func:`berryshaker.study.steps.validation.run`: :class:`Validation`, one :class:`ValidationRow` per
 published number).  Their JSON forms are the dicts the steps wrote before (:mod:`berryshaker.records`).
 """
 

@@ -1,5 +1,5 @@
-"""Typed results of the study steps ``clearance_life`` (:func:`berryshaker.study.life_step.step_life`:
-:class:`ClearanceLife`) and ``powered_drive`` (:func:`berryshaker.study.life_drive_steps.step_powered_drive`:
+"""Typed results of the study steps ``clearance_life`` (:func:`berryshaker.study.steps.clearance_life.step_life`:
+:class:`ClearanceLife`) and ``powered_drive`` (:func:`berryshaker.study.steps.powered_drive.run`:
 :class:`PoweredDrive`, one :class:`PoweredLevel` per clearance level).  Their JSON forms are the dicts the steps
 wrote before (:mod:`berryshaker.records`).
 """
@@ -56,7 +56,7 @@ class RecommendedFits(JsonRecord):
 @dataclass(frozen=True)
 class FitLife(JsonRecord):
     """A fit evaluated on the surrogate: the new machine's clearance it gives, the joint's sizing load there and
-    its service life (:func:`berryshaker.study.life_step.fit_life`).
+    its service life (:func:`berryshaker.study.steps.clearance_life.fit_life`).
 
     Attributes
     ----------

@@ -1,7 +1,7 @@
-"""Typed results of the study's mechanism steps (:mod:`berryshaker.study.mechanics_steps`): the reduced model
-against the multibody model at the model-check level (:class:`ModelAgreement`, step ``model_agreement``) and every
-clearance row in both models with the perturbed starts, the model check and the per-row agreement
-(:class:`ClearanceRows`, step ``clearance_rows``).  The kinematics step's record is the drives'
+"""Typed results of the study's mechanism steps (:mod:`berryshaker.study.steps.model_agreement`,
+:mod:`berryshaker.study.steps.clearance_rows`): the reduced model against the multibody model at the model-check
+level (:class:`ModelAgreement`, step ``model_agreement``) and every clearance row in both models with the
+perturbed starts, the model check and the per-row agreement (:class:`ClearanceRows`, step ``clearance_rows``).  The kinematics step's record is the drives'
 (:class:`berryshaker.drives.kinematics_record.KinematicsSummary`).
 
 The run summaries (:func:`berryshaker.study.runs.multibody_row`, :func:`~berryshaker.study.runs.reduced_row`) and
@@ -239,7 +239,7 @@ class PairStarts(JsonRecord):
 
 @dataclass(frozen=True)
 class RowStarts(JsonRecord):
-    """A clearance row's perturbed starts (:func:`berryshaker.study.mechanics_steps.row_start_statistics`).
+    """A clearance row's perturbed starts (:func:`berryshaker.study.steps.clearance_rows.row_start_statistics`).
 
     Attributes
     ----------

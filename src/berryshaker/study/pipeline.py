@@ -1,22 +1,20 @@
 """The whole reference study as a pipeline of steps: kinematics, model agreement, clearance rows, fruit force,
 the virtual L9 field test, clearance life, powered drive, harvest against frequency, validation, claims.  Each step
-(:data:`STEPS`) returns a typed :class:`StepResult` (its data, figures and tables) and names the renderers of its
-report sections (:mod:`berryshaker.report.sections`), which the report numbers in the steps' order;
+(:data:`berryshaker.study.steps.STEPS`, one module per step) returns a typed :class:`StepResult` (its data, figures
+and tables) and names the renderers of its report sections, which the report numbers in the steps' order;
 :func:`run_study` runs the steps, writes the outputs atomically into a checked destination and returns the
 summary.
 
-This module holds the machinery: the step table (:data:`STEPS`, :data:`PLANS`), running the steps
-(:func:`run_steps`, with the engine compiled beside a worker, :func:`compile_engine_beside`), the timings and the
-summary (:func:`study_summary`, :func:`l9_summary`).  The steps themselves, each beside its plan and its figures, are
-grouped by area: :mod:`berryshaker.study.mechanics_steps` (kinematics, model agreement, clearance rows),
-:mod:`berryshaker.study.harvest_steps` (fruit force, virtual L9, harvest against frequency, validation) and
-:mod:`berryshaker.study.life_drive_steps` (clearance life, powered drive); what every step gets,
-:class:`StudyContext` and :class:`PlannedRuns`, is in :mod:`berryshaker.study.step_context`.  They are all
-importable from here.
+This module holds the machinery: running the steps (:func:`run_steps`, with the engine compiled beside a worker,
+:func:`compile_engine_beside`), the steps' plans and sections in the table's order (:func:`planned_runs`,
+:func:`report_sections`), the timings and the summary (:func:`study_summary`, :func:`l9_summary`).  The steps
+themselves, each with its plan, its figures and its report sections, are the modules of
+:mod:`berryshaker.study.steps`; what every step gets, :class:`StudyContext` and :class:`PlannedRuns`, is in
+:mod:`berryshaker.study.step_context`.
 
 Every multi-run step goes through :class:`berryshaker.runs.runner.SweepRunner` (cached, resumable, local
 processes or a Dask cluster); the run functions are in :mod:`berryshaker.study.runs`.  A step whose runs are
-known before it starts has a plan (``plan_<step>``, :data:`PLANS`) from which it builds them; :func:`run_steps`
+known before it starts has a plan (``Step.plan``) from which it builds them; :func:`run_steps`
 starts the planned runs ahead in idle workers, so they run while this process compiles, plots and analyses
 (tests/study/test_pipeline.py checks that no planned run goes unused).
 """
@@ -25,9 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from berryshaker import __version__
 from berryshaker.drives import drive_of
@@ -35,114 +31,41 @@ from berryshaker.multibody.engine import compile_engine
 from berryshaker.plant.pedicel import compile_peak_stem_force
 from berryshaker.records import to_json
 from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
-from berryshaker.report import sections as S
 from berryshaker.runs.runner import usable_cores
+from berryshaker.study import steps as study_steps
 from berryshaker.study.claims import check_claims
-from berryshaker.study.harvest_steps import (
-    RESPONSE_LABEL,
-    RESPONSE_SPEEDS_RPM,
-    fruit_start_statistics,
-    l9_replicate_figures,
-    plan_fruit_force,
-    plan_harvest_response,
-    plan_l9,
-    plan_validation,
-    step_fruit_force,
-    step_harvest_response,
-    step_l9,
-    step_validation,
-)
 from berryshaker.study.l9_records import VirtualL9
-from berryshaker.study.life_drive_steps import (
-    POWERED_LEVELS,
-    POWERED_REPLICATES,
-    plan_powered_drive,
-    step_clearance_life,
-    step_powered_drive,
-)
-from berryshaker.study.mechanics_steps import (
-    MODEL_CHECK_STARTS,
-    plan_rows,
-    row_start_statistics,
-    step_agreement,
-    step_kinematics,
-    step_rows,
-)
 from berryshaker.study.runs import warm_worker
-from berryshaker.study.step_context import PlannedRuns, StudyContext, draw_figure
+from berryshaker.study.step_context import PlannedRuns, StudyContext
 from berryshaker.study.step_result import StepResult, StudyOptimum, StudyResults, StudySummary
 from berryshaker.user_text import markup_text
 
-#: the names callers import from here: the machinery's own and the steps', their context and their result
+#: the names callers import from here: the machinery's own, the steps' context and their result
 __all__ = [
-    "ENGINE_STEP", "MODEL_CHECK_STARTS", "PLANS", "POWERED_LEVELS", "POWERED_REPLICATES", "RESPONSE_LABEL",
-    "RESPONSE_SPEEDS_RPM", "STEPS", "PlannedRuns", "Step", "StepResult", "StudyContext", "compile_engine_beside",
-    "draw_figure", "fruit_start_statistics", "l9_replicate_figures", "l9_summary",
-    "plan_fruit_force", "plan_harvest_response", "plan_l9", "plan_powered_drive", "plan_rows", "plan_validation",
-    "planned_runs", "report_sections", "row_start_statistics", "run_steps", "run_study", "step_agreement",
-    "step_clearance_life", "step_fruit_force", "step_harvest_response", "step_kinematics", "step_l9",
-    "step_powered_drive", "step_rows", "step_validation", "study_summary",
+    "ENGINE_STEP", "PlannedRuns", "StepResult", "StudyContext", "compile_engine_beside", "l9_summary",
+    "planned_runs", "report_sections", "run_steps", "run_study", "study_summary",
 ]
 
 
-@dataclass(frozen=True)
-class Step:
-    """One step of the study: what runs it and what renders it.
-
-    Attributes
-    ----------
-    key : str
-        Its name in the timings (``summary.json``'s ``timings_s``) and in :data:`PLANS`.
-    run : callable
-        ``run(ctx) -> StepResult``.
-    result : str
-        Its :class:`StepResult`'s name: the key of its data in the results, and of its note.
-    sections : tuple of callable
-        The renderers of its report sections, in order (:mod:`berryshaker.report.sections`); the report numbers
-        them in the steps' order.
-    """
-
-    key: str
-    run: Callable[[StudyContext], StepResult]
-    result: str
-    sections: tuple = ()
-
-
-#: the study's steps, in the order they run and their sections stand in the report (the machine's own steps,
-#: then the harvest against frequency and the published record); only ``harvest_response`` reads an earlier
-#: step's results (``fruit_force``)
-STEPS = (Step("kinematics", step_kinematics, "kinematics", (S.kinematics_section,)),
-         Step("model_agreement", step_agreement, "agreement", (S.model_agreement_section,)),
-         Step("clearance_rows", step_rows, "rows", (S.collision_force_section, S.comb_load_section)),
-         Step("fruit_force", step_fruit_force, "fruit_force", (S.fruit_force_section,)),
-         Step("virtual_l9", step_l9, "l9", (S.virtual_l9_section,)),
-         Step("clearance_life", step_clearance_life, "clearance_life", (S.clearance_life_section,)),
-         Step("powered_drive", step_powered_drive, "powered_drive", (S.powered_drive_section,)),
-         Step("harvest_response", step_harvest_response, "harvest_response", (S.harvest_response_section,)),
-         Step("validation", step_validation, "validation", (S.validation_section,)))
-
-
 def report_sections() -> list[tuple[str, tuple]]:
-    """The steps' report sections in the steps' order: what :func:`berryshaker.report.html.study_report` renders.
+    """The steps' report sections in the steps' order (:data:`berryshaker.study.steps.STEPS`): what
+    :func:`berryshaker.report.html.study_report` renders.
 
     Returns
     -------
     list of (str, tuple of callable)
         Per step with sections: its result's name and its section renderers.
     """
-    return [(s.result, s.sections) for s in STEPS if s.sections]
+    return [(s.result, s.sections) for s in study_steps.STEPS if s.sections]
 
 
-#: the runs each step will ask for, known before it starts (:class:`PlannedRuns`), by step name
-PLANS = {"clearance_rows": plan_rows, "fruit_force": plan_fruit_force, "virtual_l9": plan_l9,
-         "harvest_response": plan_harvest_response, "validation": plan_validation, "powered_drive": plan_powered_drive}
 #: the step that compiles the multibody engine in this process (its first multibody run)
 ENGINE_STEP = "model_agreement"
 
 
 def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
-    """Every step's :data:`PLANS`, in step order; a step whose plan fails is left out (the step itself reports
-    the error when it runs).
+    """Every step's plan (``Step.plan``), in step order; a step whose plan fails is left out (the step itself
+    reports the error when it runs).
 
     Parameters
     ----------
@@ -155,17 +78,17 @@ def planned_runs(ctx: StudyContext) -> list[PlannedRuns]:
         Every step's planned runs, in step order.
     """
     out = []
-    for step in STEPS:
-        if step.key in PLANS:
+    for step in study_steps.STEPS:
+        if step.plan is not None:
             try:
-                out += PLANS[step.key](ctx)
+                out += step.plan(ctx)
             except Exception:  # noqa: BLE001 - the step will meet (and report) the same error
                 continue
     return out
 
 
 def planned_runs_cached(machine, runner) -> bool:
-    """Whether every run the steps plan (:data:`PLANS`) is in ``runner``'s cache: a study that then starts no
+    """Whether every run the steps plan (``Step.plan``) is in ``runner``'s cache: a study that then starts no
     worker (its figures are drawn in this process).
 
     Parameters
@@ -225,7 +148,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
     """Run every step; return (StudyResults, the StepResults by result name, failures, timings in s).
 
     The steps run in order in this process, but their runs need not wait for them: the runs every step will ask
-    for (:data:`PLANS`) start ahead in the runner's idle workers (``SweepRunner.prefetch``; local pool only).
+    for (``Step.plan``) start ahead in the runner's idle workers (``SweepRunner.prefetch``; local pool only).
     When multibody runs are to be computed, a worker compiles the engine's force evaluation while this process
     compiles the rest of it (:func:`compile_engine_beside`, before :data:`ENGINE_STEP`, whose first multibody
     run then compiles only the integrator).  The reduced model's runs start at once in one worker (on a machine
@@ -283,7 +206,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
             for p in plans:
                 if not p.engine:
                     runner.prefetch(p.fn, p.jobs, chunks=1)
-        engine_ready = not any(step.key == ENGINE_STEP for step in STEPS)
+        engine_ready = not any(step.key == ENGINE_STEP for step in study_steps.STEPS)
 
         def start_planned():
             nonlocal plans
@@ -292,7 +215,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
             plans = []
 
         ctx.engine_compiled = start_planned
-        for step in STEPS:
+        for step in study_steps.STEPS:
             key = step.key
             if engine_ready and plans:
                 start_planned()
@@ -318,7 +241,7 @@ def run_steps(machine, runner, figs: Path, console=None) -> tuple[StudyResults, 
     except BaseException:  # Ctrl-C or an error between maps: runs started ahead stop now (finished ones are cached)
         runner.abort()
         raise
-    done = StudyResults(**results, failures=ctx.failures)
+    done = StudyResults.of_steps(results, ctx.failures)
     done = dataclasses.replace(done, claims=check_claims(done, machine.pair_names))
     timings["total"] = time.perf_counter() - t_all
     return done, steps, ctx.failures, timings

@@ -1,11 +1,10 @@
-"""What every step of the study (:data:`berryshaker.study.pipeline.STEPS`) gets and gives: the study context
+"""What every step of the study (:data:`berryshaker.study.steps.STEPS`) gets and gives: the study context
 (:class:`StudyContext`: the machine, its drive, the runner, the figure folder, the failure log, and figures drawn in
 idle pool workers, :func:`draw_figure`), the runs a step will ask for, known before it starts (:class:`PlannedRuns`),
 and how a run's clearances read in the failure log (:func:`describe_clearance`).
 
-Kept apart from the pipeline that runs the steps, so that the step modules (:mod:`berryshaker.study.mechanics_steps`,
-:mod:`berryshaker.study.harvest_steps`, :mod:`berryshaker.study.life_drive_steps`) import it without importing the
-pipeline that imports them.
+Kept apart from the pipeline that runs the steps, so that the step modules (:mod:`berryshaker.study.steps`)
+import it without importing the pipeline that imports them.
 """
 
 from __future__ import annotations

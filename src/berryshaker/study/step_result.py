@@ -1,11 +1,12 @@
-"""What one study step produces (:class:`StepResult`): the one type every step of :mod:`berryshaker.study.pipeline`
-returns, kept apart from the pipeline so that step modules (e.g. :mod:`berryshaker.study.life_step`) import it
-without importing the pipeline that calls them; and what the whole study produces (:class:`StudyResults`), every
-step's data as its typed record."""
+"""What one study step is (:class:`Step`: its name, its run, its plan and its report sections, declared once in
+its module of :mod:`berryshaker.study.steps`) and produces (:class:`StepResult`: the one type every step returns),
+kept apart from the pipeline so that the step modules import them without importing the pipeline that runs them;
+and what the whole study produces (:class:`StudyResults`), every step's data as its typed record."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any, Callable
 
 from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.records import JsonRecord, optional
@@ -44,6 +45,36 @@ class StepResult:
 
 
 @dataclass(frozen=True)
+class Step:
+    """One step of the study: what runs it, what it plans and what renders it.  Each module of
+    :mod:`berryshaker.study.steps` declares one (its ``STEP``); the step table (:data:`berryshaker.study.steps.STEPS`)
+    names them in order.
+
+    Attributes
+    ----------
+    key : str
+        Its name in the timings (``summary.json``'s ``timings_s``).
+    run : callable
+        ``run(ctx) -> StepResult``.
+    result : str
+        Its :class:`StepResult`'s name: the key of its data in the results (a field of :class:`StudyResults`, or
+        a key of its ``other``), and of its note.
+    sections : tuple of callable
+        The renderers of its report sections, in order (``render(inp) -> (title, parts)``, reading a
+        :class:`berryshaker.report.sections.SectionInput`); the report numbers them in the steps' order.
+    plan : callable or None
+        ``plan(ctx) -> list[PlannedRuns]``: the runs it will ask for, known before it starts (the study starts them
+        ahead in idle workers); None when they are not known before it runs.
+    """
+
+    key: str
+    run: Callable[..., StepResult]  # run(ctx: StudyContext): study/step_context.py imports this module
+    result: str
+    sections: tuple = ()
+    plan: Callable[..., list] | None = None  # plan(ctx: StudyContext) -> list[PlannedRuns]
+
+
+@dataclass(frozen=True)
 class StudyResults(JsonRecord):
     """The study's results: each step's data under its step's result name (None when the step produced none), the
     claims' verdicts and the failed runs.  summary.json's ``results`` is :meth:`to_json` of it without the plotted
@@ -75,6 +106,10 @@ class StudyResults(JsonRecord):
         The claims' verdicts (:func:`berryshaker.study.claims.check_claims`).
     failures : list of FailedRun
         Failed runs: step, run, inputs, error.
+    other : dict or None
+        The data of the steps whose result has no field here, by result name (a step added to the step table
+        needs no field: its data is here, read with :meth:`step_data`; read back from JSON as its JSON form).
+        None (and left out of the JSON form) when every step has its field.
     """
 
     kinematics: KinematicsSummary | None = None
@@ -88,6 +123,45 @@ class StudyResults(JsonRecord):
     validation: Validation | None = None
     claims: list[ClaimVerdict] = field(default_factory=list)
     failures: list[FailedRun] = field(default_factory=list)
+    other: dict[str, Any] | None = optional()
+
+    @classmethod
+    def of_steps(cls, results: dict, failures: list) -> StudyResults:
+        """The results of the steps run, each under its result name: a field where there is one, else in
+        :attr:`other`.
+
+        Parameters
+        ----------
+        results : dict
+            Each step's data by its result name.
+        failures : list of FailedRun
+            Failed runs.
+
+        Returns
+        -------
+        StudyResults
+            The results (without the claims' verdicts).
+        """
+        own = {f.name for f in fields(cls)} - {"claims", "failures", "other"}
+        other = {k: v for k, v in results.items() if k not in own}
+        return cls(**{k: v for k, v in results.items() if k in own}, failures=failures, other=other or None)
+
+    def step_data(self, name: str) -> Any:
+        """A step's data by its result name, whether it has a field or sits in :attr:`other`.
+
+        Parameters
+        ----------
+        name : str
+            The step's result name (``Step.result``).
+
+        Returns
+        -------
+        object
+            Its data (a record; its JSON form when read back from JSON into ``other``), or None.
+        """
+        if name in {f.name for f in fields(self)} - {"claims", "failures", "other"}:
+            return getattr(self, name)
+        return (self.other or {}).get(name)
 
 
 @dataclass(frozen=True)

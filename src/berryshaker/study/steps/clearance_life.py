@@ -1,4 +1,5 @@
-"""Study step "Clearance life": a cheap summary of joint wear, service life and fit choice for the report.
+"""Study step ``clearance_life``: a cheap summary of joint wear, service life and fit choice for the report
+(:func:`run`, :func:`step_life`), with its report section (:func:`clearance_life_section`).
 
 Three clearances per pair from the tightest candidate fit to the pair's service limit, each from
 ``harvest.replicates`` perturbed starts (one pair varied at a time, cached through the study's runner), give each
@@ -16,8 +17,42 @@ from __future__ import annotations
 
 import numpy as np
 
-from berryshaker.study.life_drive_records import ClearanceGrowth, ClearanceLife, FitLife, RecommendedFits
-from berryshaker.study.step_result import StepResult
+from berryshaker.report.life_tables import life_parts
+from berryshaker.report.sections import SectionInput, details, maybe_img
+from berryshaker.study.life_drive_records import (
+    ClearanceGrowth,
+    ClearanceLife,
+    FitLife,
+    RecommendedFits,
+)
+from berryshaker.study.step_context import StudyContext
+from berryshaker.study.step_result import FailedRun, Step, StepResult
+from berryshaker.user_text import html_text
+
+
+def run(ctx: StudyContext) -> StepResult:
+    """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/).
+
+    Parameters
+    ----------
+    ctx : StudyContext
+        The study's machine, runner, figure folder and failure log.
+
+    Returns
+    -------
+    StepResult
+        ``clearance_life``: :func:`step_life`'s result (a
+        :class:`~berryshaker.study.life_drive_records.ClearanceLife`); no data (a note, and a failure logged) when
+        it fails.
+    """
+    ctx.say("clearance life (wear, fits)")
+    try:
+        return step_life(ctx)
+    except Exception as exc:  # noqa: BLE001 - a life estimate must not sink the whole study
+        ctx.failures.append(FailedRun(step="clearance life", run="", inputs="wear and fit surrogate",
+                                      error=f"{type(exc).__name__}: {exc}"))
+        return StepResult("clearance_life", None, note=f"the clearance-life step failed: {exc}")
+
 
 HORIZON_H = 2000.0
 
@@ -165,3 +200,31 @@ def step_life(ctx):
     return StepResult("clearance_life", data, figs,
                       "coarse surrogate of the wear and the fit choice; run `berryshaker wear` and "
                       "`berryshaker tolerance` for the full analyses")
+
+
+def clearance_life_section(inp: SectionInput) -> tuple[str, list[str]]:
+    """Clearance over the machine's life (study step ``clearance_life``): wear growth, service life and fits.
+
+    Parameters
+    ----------
+    inp : SectionInput
+        Results (``clearance_life``, a ``berryshaker.study.life_drive_records.ClearanceLife``: clearances in mm,
+        hours h), machine, figures.
+
+    Returns
+    -------
+    tuple of (str, list of str)
+        Title and HTML parts (none but the title when the step has no results).
+    """
+    parts = []
+    life = inp.res.clearance_life
+    if life is not None:
+        parts += life_parts(life)
+        more = ["<p class='small'>" + "; ".join(html_text(n) for n in life.notes) + "</p>"]
+        maybe_img(more, inp.figs / "life_clearance_growth.png", "Clearance growth by wear against operating hours")
+        parts.append(details("How the life was found (notes) and the clearance growth against hours (figure)", more))
+    return "Clearance life: wear and fits (docs/life.md)", parts
+
+
+#: the step in the study's step table (:data:`berryshaker.study.steps.STEPS`)
+STEP = Step(key="clearance_life", run=run, result="clearance_life", sections=(clearance_life_section,))

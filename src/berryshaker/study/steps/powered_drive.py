@@ -1,7 +1,6 @@
-"""The study's machine-in-service steps: the clearance over the machine's life (:func:`step_clearance_life`: wear
-growth and recommended fits, :func:`berryshaker.study.life_step.step_life`) and the powered drive against clearance
-(:func:`plan_powered_drive`, :func:`step_powered_drive`: speed ripple, input power and energy lost per joint at
-levels 1-3, replicated from perturbed starts).  Steps of :data:`berryshaker.study.pipeline.STEPS`.
+"""Study step ``powered_drive``: the powered drive against clearance (:func:`plan`, :func:`run`: speed ripple, input
+power and energy lost per joint at levels 1-3, replicated from perturbed starts) and its report section
+(:func:`powered_drive_section`).  Its data is a :class:`~berryshaker.study.life_drive_records.PoweredDrive`.
 """
 
 from __future__ import annotations
@@ -10,37 +9,18 @@ import numpy as np
 
 from berryshaker.experiment.clearance_sets import level_set
 from berryshaker.experiment.replicates import replicate_trend
-from berryshaker.study.life_drive_records import PoweredDrive, PoweredLevel
-from berryshaker.study.life_step import step_life
-from berryshaker.study.runs import powered_row
+from berryshaker.report.sections import SectionInput, table
+from berryshaker.study.life_drive_records import (
+    PoweredDrive,
+    PoweredLevel,
+)
+from berryshaker.study.runs import (
+    powered_row,
+)
 from berryshaker.study.statistic_records import DriveMoment, SpeedRange
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
-from berryshaker.study.step_result import FailedRun, StepResult
-
-
-def step_clearance_life(ctx: StudyContext) -> StepResult:
-    """Clearance over the machine's life: wear growth of each joint and the recommended fits (life/).
-
-    Parameters
-    ----------
-    ctx : StudyContext
-        The study's machine, runner, figure folder and failure log.
-
-    Returns
-    -------
-    StepResult
-        ``clearance_life``: :func:`berryshaker.study.life_step.step_life`'s result (a
-        :class:`~berryshaker.study.life_drive_records.ClearanceLife`); no data (a note, and a failure logged) when
-        it fails.
-    """
-    ctx.say("clearance life (wear, fits)")
-    try:
-        return step_life(ctx)
-    except Exception as exc:  # noqa: BLE001 - a life estimate must not sink the whole study
-        ctx.failures.append(FailedRun(step="clearance life", run="", inputs="wear and fit surrogate",
-                                      error=f"{type(exc).__name__}: {exc}"))
-        return StepResult("clearance_life", None, note=f"the clearance-life step failed: {exc}")
-
+from berryshaker.study.step_result import Step, StepResult
+from berryshaker.user_text import html_text
 
 #: replicates of each powered-drive level: seeded perturbed starts (docs/driveline.md sec. 5).  Over 3 revolutions
 #: a single run's ripple scatters by 0.2-1.2 percentage points and its clearance energy loss by 0.014-0.047 J/rev
@@ -69,7 +49,7 @@ def _trend_text(name: str, unit: str, tr: dict, levels: list[str]) -> str:
 POWERED_LEVELS = (1, 2, 3)
 
 
-def plan_powered_drive(ctx: StudyContext) -> list[PlannedRuns]:
+def plan(ctx: StudyContext) -> list[PlannedRuns]:
     """Powered-drive runs: levels 1-3, :data:`POWERED_REPLICATES` seeded perturbed starts each (3 revolutions).
 
     Parameters
@@ -92,7 +72,7 @@ def plan_powered_drive(ctx: StudyContext) -> list[PlannedRuns]:
     return [PlannedRuns(powered_row, jobs, f"powered drive, levels 1-3 x {len(seeds)} replicates")]
 
 
-def step_powered_drive(ctx: StudyContext) -> StepResult:
+def run(ctx: StudyContext) -> StepResult:
     """Powered drive: speed ripple, input power and energy lost per joint against clearance (levels 1-3), the
     driveline of ``[driveline]`` (or its defaults) turning the drive shaft (docs/driveline.md sec. 5).  Each
     level is run from :data:`POWERED_REPLICATES` seeded perturbed starts; the table shows replicate means and
@@ -115,8 +95,8 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
     ctx.say(f"powered drive at clearance levels 1-3, {POWERED_REPLICATES} perturbed starts each")
     levels = POWERED_LEVELS
     seeds = replicate_starts(ctx.machine, POWERED_REPLICATES)
-    (plan,) = plan_powered_drive(ctx)
-    outs = ctx.collect(powered_row, plan.jobs, plan.label,
+    (runs,) = plan(ctx)
+    outs = ctx.collect(powered_row, runs.jobs, runs.label,
                        lambda j: f"{describe_clearance(j['clearance'])}, start seed {j['seed']}")
     data, ripples, losts = {}, {}, {}
     pairs = ctx.machine.pair_names
@@ -150,3 +130,48 @@ def step_powered_drive(ctx: StudyContext) -> StepResult:
         levels=data, replicates=len(seeds), seeds=seeds, ripple_grows_with_clearance=ripple_tr["grows"],
         ripple_trend=ripple_tr, clearance_energy_per_revolution_J=lost, energy_trend=lost_tr,
         energy_grows_with_clearance=lost_tr["grows"], finding=verdict))
+
+
+def powered_drive_section(inp: SectionInput) -> tuple[str, list[str]]:
+    """The powered driveline at clearance levels 1-3 (study step ``powered_drive``).
+
+    Parameters
+    ----------
+    inp : SectionInput
+        Results (``powered_drive``, a ``berryshaker.study.life_drive_records.PoweredDrive``: clearances in mm,
+        speeds r/min, ripple %, power W, energy J/rev), machine.
+
+    Returns
+    -------
+    tuple of (str, list of str)
+        Title and HTML parts: the table, then the finding (none but the title when the step has no results).
+    """
+    title = "Powered drive: speed ripple, input power and energy lost per joint (docs/driveline.md)"
+    pw, pairs = inp.res.powered_drive, inp.pairs
+    if pw is None:
+        return title, []
+    rows = []
+    for lv, d in pw.levels.items():
+        e, sp = d.energy_per_revolution_J, d.cam_speed_rpm
+        ripple = f"{d.speed_ripple_percent:.3g} +- {d.speed_ripple_sd_percent:.2g}"
+        rows.append([lv, ", ".join(f"{p} {d.clearance_mm[p]:g}" for p in pairs),
+                     f"{sp.min:.1f} .. {sp.max:.1f} ({sp.mean:.2f})", ripple,
+                     d.input_power_W, *[e[p] for p in pairs], e.get("belt", 0.0), e.get("mesh", 0.0),
+                     d.audit_relative_residual])
+    parts = [table(["level", "clearance (mm)", "shaft speed min .. max (mean), r/min, replicate means", "ripple (%)",
+                     "input power (W)", *[f"lost in {p} (J/rev)" for p in pairs], "belt (J/rev)",
+                     "mesh (J/rev)", "energy audit residual"], rows, left=(0, 1, 2, 3))]
+    reps = pw.replicates
+    rep_text = (f" Every level is the mean of {reps} runs from seeded perturbed starts (clearance joints off centre, "
+                "seeds in summary.json); ripple is shown as mean +- SD, and a trend is stated only where Welch's "
+                "t-test between consecutive levels finds it beyond that spread." if reps else "")
+    parts.append(f"<p>{html_text(pw.finding)} Energy lost per revolution is the work of each joint's contact "
+                 "damping and friction, integrated with the motion; the audit residual is the largest over the "
+                 "replicates of |motor work - kinetic, stored and dissipated energy| / motor work over revolutions "
+                 f"2-3.{rep_text}</p>")
+    return title, parts
+
+
+#: the step in the study's step table (:data:`berryshaker.study.steps.STEPS`)
+STEP = Step(key="powered_drive", run=run, result="powered_drive", sections=(powered_drive_section,),
+            plan=plan)

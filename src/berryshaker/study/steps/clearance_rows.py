@@ -1,10 +1,7 @@
-"""The study's mechanism steps: the ideal kinematics (:func:`step_kinematics`), the reduced model against the
-multibody model at the model-check level (:func:`step_agreement`), and every clearance row in both models with
-perturbed starts and the model check (:func:`plan_rows`, :func:`step_rows`, :func:`row_start_statistics`), with
-their figures.  Steps of :data:`berryshaker.study.pipeline.STEPS`; their run functions are in
-:mod:`berryshaker.study.runs`.  Their data are typed records: the drives'
-:class:`~berryshaker.drives.kinematics_record.KinematicsSummary`, and :class:`ModelAgreement` and
-:class:`ClearanceRows` (:mod:`berryshaker.study.mechanics_records`).
+"""Study step ``clearance_rows``: every clearance row in both models with perturbed starts and the model check
+(:func:`plan`, :func:`run`, :func:`row_start_statistics`), its figures and its two report sections (collision force
+against clearance, :func:`collision_force_section`; comb load moments, :func:`comb_load_section`).  Its run functions
+are in :mod:`berryshaker.study.runs`; its data is a :class:`~berryshaker.study.mechanics_records.ClearanceRows`.
 """
 
 from __future__ import annotations
@@ -13,84 +10,25 @@ from pathlib import Path
 
 import numpy as np
 
-from berryshaker.drives.kinematics_record import KinematicsSummary
 from berryshaker.errors import ConfigError
 from berryshaker.experiment.clearance_sets import clearance_row, level_set, n_rows
 from berryshaker.reference_study import MODEL_CHECK_LEVEL
+from berryshaker.report.sections import SectionInput, details, maybe_img, table
 from berryshaker.study.mechanics_records import (
     ClearanceRows,
-    ModelAgreement,
     ModelCheck,
     MultibodyRow,
-    PairAgreement,
     ReducedRow,
     RowAgreement,
     RowStarts,
 )
-from berryshaker.study.runs import model_check_jobs, multibody_row, reduced_row
+from berryshaker.study.runs import (
+    model_check_jobs,
+    multibody_row,
+    reduced_row,
+)
 from berryshaker.study.step_context import PlannedRuns, StudyContext, describe_clearance
-from berryshaker.study.step_result import StepResult
-
-
-def step_kinematics(ctx: StudyContext) -> StepResult:
-    """Ideal kinematics over one drive-shaft revolution (study eq. 1-3) and its figures.
-
-    Parameters
-    ----------
-    ctx : StudyContext
-        The study's machine, runner, figure folder and failure log.
-
-    Returns
-    -------
-    StepResult
-        ``kinematics``: the drive's kinematics summary (:class:`KinematicsSummary`; units in the field names) and
-        its figures.
-    """
-    from berryshaker.report import plots as P
-
-    ctx.say("kinematics")
-    kin = ctx.drive.check(ctx.machine)
-    data = KinematicsSummary.from_json(ctx.drive.kinematics_summary(ctx.machine, kin))
-    figs = P.write_kinematics_figures(ctx.machine, kin, ctx.figs) or []
-    return StepResult("kinematics", data, list(figs))
-
-
-def step_agreement(ctx: StudyContext) -> StepResult:
-    """Reduced model vs multibody at the study's model-check level (Table 3, eq. 18).
-
-    Parameters
-    ----------
-    ctx : StudyContext
-        The study's machine, runner, figure folder and failure log.
-
-    Returns
-    -------
-    StepResult
-        ``agreement``: a :class:`ModelAgreement`, the model-check level's clearances (mm) and the per-pair
-        agreement statistics, with one figure per pair; no data (a note) when the drive has no reduced model.
-    """
-    from berryshaker.experiment.agreement import model_agreement
-    from berryshaker.report import plots as P
-
-    if ctx.drive.reduced_model is None:
-        return StepResult("agreement", None, note=f"the {ctx.drive.name} drive has no reduced model: there is "
-                          "nothing to compare the multibody model with (claim 1 is not comparable)")
-    ctx.say(f"{ctx.drive.reduced_model_name.upper()} vs multibody at level {MODEL_CHECK_LEVEL} (eq. 18; compiling "
-            "on the first run)")
-    lvl = level_set(ctx.machine, MODEL_CHECK_LEVEL)
-    ag = model_agreement(ctx.machine, lvl, revolutions=3)
-    ctx.engine_compiled()  # the workers can start the multibody runs while the figures are drawn here
-    figs = []
-    for k, (p, (a, b)) in enumerate(ag["series"].items()):
-        name = f"fig{14 + k}_agreement_{p}.png"
-        P.plot_time_series(ag["t"], {"multibody": a, "MLSD": b}, f"collision force at {p} [N]", ctx.figs / name,
-                           f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})",
-                           zoom="peak")
-        figs.append(name)
-    data = ModelAgreement(clearance_mm={p: v * 1e3 for p, v in lvl.items()},
-                          pairs={p: PairAgreement.from_json(v) for p, v in ag["pairs"].items()})
-    return StepResult("agreement", data, figs)
-
+from berryshaker.study.step_result import Step, StepResult
 
 #: perturbed starts of each model at the model-check level: the means claim 1 judges and the noise its row
 #: comparisons allow for
@@ -101,7 +39,7 @@ def _model_check_jobs(ctx: StudyContext) -> list[dict]:
     return model_check_jobs(ctx.machine, level_set(ctx.machine, MODEL_CHECK_LEVEL), MODEL_CHECK_STARTS)
 
 
-def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
+def plan(ctx: StudyContext) -> list[PlannedRuns]:
     """Every clearance row in the multibody model and, if the drive has one, the reduced model (3 revolutions);
     with a reduced model also :data:`MODEL_CHECK_STARTS` replicate starts of each at the model-check level.
 
@@ -127,7 +65,7 @@ def plan_rows(ctx: StudyContext) -> list[PlannedRuns]:
         plans.append(PlannedRuns(reduced_row, jobs, f"rows 1-{last}, {name}", engine=False))
         try:
             check = _model_check_jobs(ctx)
-        except ConfigError:  # replicates that would be copies: no model check (step_rows says why)
+        except ConfigError:  # replicates that would be copies: no model check (run says why)
             return plans
         plans.append(PlannedRuns(multibody_row, check, f"level {MODEL_CHECK_LEVEL}, {len(check)} perturbed starts, "
                                                        "multibody"))
@@ -198,7 +136,7 @@ def row_start_statistics(summaries: list, pairs, rows: list[int], starts: int) -
     return out
 
 
-def step_rows(ctx: StudyContext) -> StepResult:
+def run(ctx: StudyContext) -> StepResult:
     """Every clearance row (single-factor sweeps and level sets) in the multibody and the reduced model.
 
     Parameters
@@ -216,7 +154,7 @@ def step_rows(ctx: StudyContext) -> StepResult:
     last = n_rows(ctx.machine)
     ctx.say(f"clearance rows 1-{last} (single-factor sweeps and level sets)")
     rows = list(range(1, last + 1))
-    plans = plan_rows(ctx)
+    plans = plan(ctx)
     jobs = plans[0].jobs
     row_of = {id(j): r for j, r in zip(jobs, rows)}
 
@@ -305,3 +243,86 @@ def _plot_rows(machine, rows: ClearanceRows, figs: Path) -> list[str]:
                     f"{side.capitalize()} comb load moment, row 1 and the level sets (study Fig. {22 + k})")
         names.append(name)
     return names
+
+
+def _rows_last(inp: SectionInput) -> int:
+    """The last clearance row: row 1, three per pair, the three level sets."""
+    return 4 + 3 * len(inp.pairs)
+
+
+def collision_force_section(inp: SectionInput) -> tuple[str, list[str]]:
+    """Collision force against clearance on the single-factor rows (study step ``clearance_rows``, its first
+    section).
+
+    Parameters
+    ----------
+    inp : SectionInput
+        Results (``rows``: a ``berryshaker.study.mechanics_records.ClearanceRows``, read by attribute; clearances
+        in mm, forces in N), machine, figures.
+
+    Returns
+    -------
+    tuple of (str, list of str)
+        Title and HTML parts.
+    """
+    res, figs, PAIR_NAMES = inp.res, inp.figs, inp.pairs
+    last = _rows_last(inp)
+    title = f"Collision force against clearance (rows 1-{last - 3}; Figs. 18-21)"
+    if res.rows is None:
+        return title, ["<p>Not available (see Failed runs).</p>"]
+    mb = res.rows.multibody
+    rows = []
+    for r in range(1, last + 1):
+        if str(r) not in mb:
+            continue
+        s = mb[str(r)]
+        rows.append([r, *[s.clearance_mm[p] for p in PAIR_NAMES], *[s.collision_force_N[p].peak for p in PAIR_NAMES],
+                     *[s.collision_force_N[p].mean for p in PAIR_NAMES]])
+    parts = [table(["row", *[f"{p} mm" for p in PAIR_NAMES], *[f"peak {p} (N)" for p in PAIR_NAMES],
+                     *[f"mean {p} (N)" for p in PAIR_NAMES]], rows)]
+    bars: list[str] = []
+    for i, p in enumerate(PAIR_NAMES):
+        maybe_img(bars, figs / f"fig{18 + i}_rows_{p}.png", f"Clearance {p} alone: collision force")
+    parts.append(details(f"Figures 18-{17 + len(PAIR_NAMES)}: collision force against each pair's clearance", bars))
+    return title, parts
+
+
+def comb_load_section(inp: SectionInput) -> tuple[str, list[str]]:
+    """Comb load moments on row 1 and the three level sets (study step ``clearance_rows``, its second section).
+
+    Parameters
+    ----------
+    inp : SectionInput
+        Results (``rows``: a ``berryshaker.study.mechanics_records.ClearanceRows``, read by attribute; moments in
+        N m), machine, figures.
+
+    Returns
+    -------
+    tuple of (str, list of str)
+        Title and HTML parts.
+    """
+    last = _rows_last(inp)
+    lv = (last - 2, last - 1, last)
+    title = f"Comb load moments (rows 1, {lv[0]}-{lv[2]}; Figs. 22-23)"
+    if inp.res.rows is None:
+        return title, ["<p>Not available (see Failed runs).</p>"]
+    mb = inp.res.rows.multibody
+    parts = ["<p class='small'>These machine-only runs have no plant: the load is the aggregate bush model (a "
+             "spring-damper about each comb shaft, 200 N m/rad [assumed]); peak and rms are per comb, about its "
+             "shaft.  It loads the combs about 40 times more than the explicit bush of branches in "
+             f"{inp.ref('harvest_response_section', 'the harvest-response section')} "
+             "(there about 16 N m peak, 1 N m rms; here about 81 N m peak, 48 N m rms; docs/plant.md).</p>"]
+    parts.append(table(["row", "left peak (N m)", "left rms", "right peak", "right rms"],
+                        [[r, mb[str(r)].load_moment_Nm["left"].peak, mb[str(r)].load_moment_Nm["left"].rms,
+                          mb[str(r)].load_moment_Nm["right"].peak, mb[str(r)].load_moment_Nm["right"].rms]
+                         for r in (1, *lv) if str(r) in mb]))
+    moments: list[str] = []
+    for i, side in enumerate(("left", "right")):
+        maybe_img(moments, inp.figs / f"fig{22 + i}_moment_{side}.png", f"{side} comb load moment")
+    parts.append(details("Figures 22-23: the comb load moments", moments))
+    return title, parts
+
+
+#: the step in the study's step table (:data:`berryshaker.study.steps.STEPS`)
+STEP = Step(key="clearance_rows", run=run, result="rows", sections=(collision_force_section, comb_load_section),
+            plan=plan)
