@@ -209,7 +209,8 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
     The machine starts off centre in every clearance and at a random drive phase
     (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with ``seed`` and the description's
-    ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  Returns the peak stem-force table
+    ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  Returns the stem-load table (peaks and
+    Miner-Basquin equivalent load ratios)
     (``envelope``, :func:`berryshaker.harvest.virtual.stem_force_envelope_run`), the peak force of every
     clearance pair over the statistics window (``peak_force_N``, N: contact force of a clearance joint,
     reaction of an ideal one) and the drive torque (``drive_torque_Nm``: peak and RMS, N m; absent for a
@@ -241,7 +242,7 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
 
 
 def replicate_record(machine, table, res) -> dict:
-    """What :func:`replicate_run` keeps of one drive-past: the peak stem-force table ``table`` and, from the
+    """What :func:`replicate_run` keeps of one drive-past: the stem-load table ``table`` (peaks and Miner-Basquin equivalent load ratios) and, from the
     run ``res``, the peak force of every clearance pair, each impact's peak and the drive torque's peak and RMS.
 
     Parameters

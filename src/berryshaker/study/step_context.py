@@ -100,10 +100,9 @@ class StudyContext:
     def draw(self, fn, *args, **kwargs) -> None:
         """Draw a figure (``fn(*args, **kwargs)``, a function of berryshaker.report.plots: data in, its PNG and
         SVG out).  The same call drawn before (same function, code, arguments and library versions) is copied from
-        the :attr:`figure_cache`, the same bytes (:func:`berryshaker.report.plots.figure_cache.draw_cached`; a warm
-        study drew its 33 figures again in ~46 s).  Else it is drawn in a pool worker when the runner has a local
-        pool and :attr:`draw_in_workers`, or here; :meth:`finish_drawing` waits for it.  (The virtual L9's figures
-        took ~3 s of this process at the end of its step while both workers idled.)  The figure functions set their
+        the :attr:`figure_cache`, the same bytes (:func:`berryshaker.report.plots.figure_cache.draw_cached`).  Else
+        it is drawn in a pool worker when the runner has a local pool and :attr:`draw_in_workers`, or here;
+        :meth:`finish_drawing` waits for it.  The figure functions set their
         whole style themselves (berryshaker.report.style), so a worker draws what this process would; a matplotlib
         style set globally by a program that calls :func:`~berryshaker.study.pipeline.run_study` does not reach the
         workers.

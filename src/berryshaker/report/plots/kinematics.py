@@ -166,7 +166,7 @@ def plot_mode_shapes(modes, modes_fe, path: Path, *, return_figure: bool = False
 
 
 
-def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
+def write_kinematics_figures(machine, kin, folder: Path, draw=None) -> list[str]:
     """Kinematics figures of a machine's drive into ``folder`` (comb angles for every drive; SVAJ and the groove
     profile for a groove cam); returns the file names.
 
@@ -178,6 +178,9 @@ def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
         Its kinematics (SI).
     folder : Path
         Where the figures go.
+    draw : callable, optional
+        ``draw(fn, *args, **kwargs)`` draws one figure (the study's ``StudyContext.draw``: cached, in a worker);
+        default: call ``fn`` here.
 
     Returns
     -------
@@ -186,16 +189,20 @@ def write_kinematics_figures(machine, kin, folder: Path) -> list[str]:
     """
     from berryshaker.drives import drive_of
 
+    if draw is None:
+        def draw(fn, *args, **kwargs):
+            fn(*args, **kwargs)
+
     d0, e0 = drive_of(machine).mid_stroke_angles(machine)
     if not hasattr(machine, "cam"):
-        plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
+        draw(plot_comb_angles, kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
         return ["comb_angles.png"]
     from berryshaker.drives.groove_cam.kinematics import cam_groove
 
-    plot_svaj(kin, folder / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
+    draw(plot_svaj, kin, folder / "svaj.png", f"Push-rod SVAJ, {machine.cam.law} law (study eq. 1)")
     _, pitch, inner, outer = cam_groove(machine)
-    plot_groove(pitch, inner, outer, machine.cam.base_radius, folder / "groove_profile.png")
-    plot_comb_angles(kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
+    draw(plot_groove, pitch, inner, outer, machine.cam.base_radius, folder / "groove_profile.png")
+    draw(plot_comb_angles, kin, d0, e0, machine.combs.length, folder / "comb_angles.png")
     return ["svaj.png", "groove_profile.png", "comb_angles.png"]
 
 

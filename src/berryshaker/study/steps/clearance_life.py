@@ -192,8 +192,9 @@ def step_life(ctx):
     figs = []
     try:
         ctx.figs.mkdir(parents=True, exist_ok=True)
-        plot_clearance_growth({j: g.to_json() for j, g in growth.items()}, {j: v * 1e3 for j, v in limits.items()}, ctx.figs / "life_clearance_growth.png",
-                              "Clearance growth by wear (coarse surrogate; dotted: limits)")
+        ctx.draw(plot_clearance_growth, {j: g.to_json() for j, g in growth.items()},
+                 {j: v * 1e3 for j, v in limits.items()}, ctx.figs / "life_clearance_growth.png",
+                 "Clearance growth by wear (coarse surrogate; dotted: limits)")
         figs.append("life_clearance_growth.png")
     except OSError:  # a folder that cannot be written: the step's numbers stand without the figure
         pass

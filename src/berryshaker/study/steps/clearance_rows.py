@@ -206,11 +206,13 @@ def run(ctx: StudyContext) -> StepResult:
     out = ClearanceRows(multibody={r: MultibodyRow.from_json(v) for r, v in multibody.items()},
                         mlsd={r: ReducedRow.from_json(v) for r, v in mlsd.items()}, starts=start_stats,
                         model_check=check, agreement=row_ag)
-    figs = _plot_rows(ctx.machine, out, ctx.figs)
+    figs = _plot_rows(ctx.machine, out, ctx.figs, ctx.draw)
     return StepResult("rows", out, figs, note)
 
 
-def _plot_rows(machine, rows: ClearanceRows, figs: Path) -> list[str]:
+def _plot_rows(machine, rows: ClearanceRows, figs: Path, draw) -> list[str]:
+    """The rows' figures (study Figs. 18-23), each drawn by ``draw(fn, *args, **kwargs)`` (``StudyContext.draw``);
+    returns their file names."""
     from berryshaker.report import plots as P
 
     mb, ml = rows.multibody, rows.mlsd
@@ -228,7 +230,7 @@ def _plot_rows(machine, rows: ClearanceRows, figs: Path) -> list[str]:
             series["MLSD peak"] = [ml[str(r)].collision_force_N[p].peak for r in rr]
         series["multibody mean"] = [mb[str(r)].collision_force_N[p].mean for r in rr]
         name = f"fig{18 + k}_rows_{p}.png"
-        P.plot_bars(series, labels, f"collision force at joint {p} [N]", figs / name,
+        draw(P.plot_bars, series, labels, f"collision force at joint {p} [N]", figs / name,
                     f"Clearance {p} alone (rows {rr[1]}-{rr[-1]}; study Fig. {18 + k})", pair=p, reference_index=0)
         names.append(name)
     rr = [1, last - 2, last - 1, last]
@@ -239,7 +241,7 @@ def _plot_rows(machine, rows: ClearanceRows, figs: Path) -> list[str]:
         if ml:
             series["MLSD rms"] = [ml[str(r)].load_moment_Nm[side].rms for r in rr]
         name = f"fig{22 + k}_moment_{side}.png"
-        P.plot_bars(series, labels, f"{side} comb load moment [N m]", figs / name,
+        draw(P.plot_bars, series, labels, f"{side} comb load moment [N m]", figs / name,
                     f"{side.capitalize()} comb load moment, row 1 and the level sets (study Fig. {22 + k})")
         names.append(name)
     return names

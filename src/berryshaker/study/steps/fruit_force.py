@@ -136,13 +136,13 @@ def run(ctx: StudyContext) -> StepResult:
                           branch_class=ctx.machine.harvest.branch_classes[_fruit_class(ctx.machine)])
     figs = []
     if ff[0] is not None:
-        P.plot_fruit_force(np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
+        ctx.draw(P.plot_fruit_force, np.array(ff[0]["distance"]), {k: np.array(v) for k, v in ff[0]["forces"].items()},
                            FRUIT_FORCE_N, ctx.figs / "fig24_26_fruit_force.png",
                            "Fruit harvesting force at the chosen clearances (study Figs. 24-26)",
                            peaks=ff[0]["peaks_exact"])
         figs.append("fig24_26_fruit_force.png")
     if all(v is not None for v in ff[1:]):
-        P.plot_bars({f"level {i + 1}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
+        ctx.draw(P.plot_bars, {f"level {i + 1}": [ff[i + 1]["peaks_exact"][n] for n in ("root", "middle", "end")]
                      for i, r in enumerate(level_rows)}, ["root", "middle", "end"], "peak fruit force [N]",
                     ctx.figs / "fruit_force_by_level.png",
                     f"Peak fruit force at level sets 1-3 (rows {level_rows[0]}-{level_rows[-1]})")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from berryshaker.config import value_tag
 from berryshaker.report.sections import SectionInput, details, maybe_img, table
 from berryshaker.study.harvest_records import Calibration, HarvestResponse, HarvestSpeedRow
 from berryshaker.study.step_context import PlannedRuns, StudyContext
@@ -104,7 +105,7 @@ def run(ctx: StudyContext) -> StepResult:
             rows.append({"speed_rpm": rpm, **replicate_response(m, reps)})
     figs = []
     if len(rows) > 1:
-        P.plot_harvest_response([r["speed_rpm"] for r in rows], rows, "drive-shaft speed [rpm]",
+        ctx.draw(P.plot_harvest_response, [r["speed_rpm"] for r in rows], rows, "drive-shaft speed [rpm]",
                                 ctx.figs / "harvest_vs_frequency.png",
                                 "Virtual harvest against shaking frequency (configured clearances)",
                                 frequency_hz=[r["shaking_frequency_hz"] for r in rows])
@@ -179,8 +180,14 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
         parts.append("<p>Not available (see Failed runs).</p>")
         return title, parts
     reps = next((r.replicates for r in hr.rows if r.replicates), None)
+    beta = inp.machine.harvest.miner_exponent
     parts.append("<p>The harvest responses of the seeded virtual harvest against the drive-shaft speed, one comb cycle "
-                 "per revolution, at the configured clearances; every other value as described."
+                 "per revolution, at the configured clearances; every other value as described.  A fruit comes off "
+                 "when Miner's sum of its load cycles over the drive-past reaches its strength (Basquin exponent "
+                 f"{beta:g} [{value_tag(inp.machine, 'harvest.miner_exponent')}]), so removal grows with the shaking "
+                 "time.  On the reference machine faster travel still raises removal: the comb enters the bush harder, "
+                 "and the higher peak loads outweigh the shorter shaking time (measured in docs/harvest.md, "
+                 "\"Trends\")."
                  + (f" Each cell is the model's expectation over {reps} perturbed starts ± the model's start-to-start "
                     "SD, and in brackets the SD of one counted field test (the field's test-to-test spread)."
                     if reps else "") + "</p>")

@@ -30,7 +30,7 @@ def run(ctx: StudyContext) -> StepResult:
     ctx.say("kinematics")
     kin = ctx.drive.check(ctx.machine)
     data = KinematicsSummary.from_json(ctx.drive.kinematics_summary(ctx.machine, kin))
-    figs = P.write_kinematics_figures(ctx.machine, kin, ctx.figs) or []
+    figs = P.write_kinematics_figures(ctx.machine, kin, ctx.figs, ctx.draw) or []
     return StepResult("kinematics", data, list(figs))
 
 

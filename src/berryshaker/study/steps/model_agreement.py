@@ -45,7 +45,7 @@ def run(ctx: StudyContext) -> StepResult:
     figs = []
     for k, (p, (a, b)) in enumerate(ag["series"].items()):
         name = f"fig{14 + k}_agreement_{p}.png"
-        P.plot_time_series(ag["t"], {"multibody": a, "MLSD": b}, f"collision force at {p} [N]", ctx.figs / name,
+        ctx.draw(P.plot_time_series, ag["t"], {"multibody": a, "MLSD": b}, f"collision force at {p} [N]", ctx.figs / name,
                            f"Pair {p}: MLSD vs multibody, level {MODEL_CHECK_LEVEL} (study Fig. {14 + k})",
                            zoom="peak")
         figs.append(name)
