@@ -422,8 +422,12 @@ def test_unreachable_scheduler_is_a_quick_config_error(tmp_path, monkeypatch):
 
 
 # ---- interruption and a killed parent (real processes) -------------------------------------------------
+# Ctrl-C's default action in the script: a process started with SIGINT ignored (an xdist worker, nohup, some CI
+# runners) passes that on through exec, and Python then leaves it ignored
 _SCRIPT = textwrap.dedent("""
+    import signal
     import sys
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     sys.path.insert(0, {tests!r})
     import berryshaker.runs.local_pool as L
     import berryshaker.runs.runner as R

@@ -233,11 +233,12 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                         "machine loads"}[c.tier] + f": {c.status}"
     harvest_sig = {n: rep.responses[n].significant_factors for n in HARVEST_RESPONSES if n in rep.responses}
     if not any(harvest_sig.values()):
-        statement = ("The harvest indexes do not differ meaningfully between any clearance levels (no factor effect "
-                     f"beyond the replicate noise, p >= {rep.alpha:g}); the recommendation is decided on what does "
-                     "differ: static-equivalent collision forces (p95 of the impact peaks) and drive torque (" + ", ".join(
-                         f"{n}: {', '.join(rep.responses[n].significant_factors) or 'none'}" for n in loads)
-                     + " significant), and the configured clearance where nothing differs.")
+        differing = [f"{n} ({', '.join(rep.responses[n].significant_factors)})" for n in loads
+                     if rep.responses[n].significant_factors]
+        statement = (f"No harvest index differs between clearance levels beyond the replicate noise (p >= {rep.alpha:g}); "
+                     "the choice rests on the machine loads that do (static-equivalent collision forces, p95 of the "
+                     "impact peaks, and drive torque: " + ("; ".join(differing) or "none differs")
+                     + ") and on the configured clearance where nothing differs.")
     else:
         statement = ("Harvest indexes that differ beyond the replicate noise: " + "; ".join(
             f"{n}: {', '.join(f) or 'none'}" for n, f in harvest_sig.items())

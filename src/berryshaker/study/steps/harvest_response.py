@@ -181,16 +181,13 @@ def harvest_response_section(inp: SectionInput) -> tuple[str, list[str]]:
         return title, parts
     reps = next((r.replicates for r in hr.rows if r.replicates), None)
     beta = inp.machine.harvest.miner_exponent
-    parts.append("<p>The harvest responses of the seeded virtual harvest against the drive-shaft speed, one comb cycle "
-                 "per revolution, at the configured clearances; every other value as described.  A fruit comes off "
-                 "when Miner's sum of its load cycles over the drive-past reaches its strength (Basquin exponent "
-                 f"{beta:g} [{value_tag(inp.machine, 'harvest.miner_exponent')}]), so removal grows with the shaking "
-                 "time.  On the reference machine faster travel still raises removal: the comb enters the bush harder, "
-                 "and the higher peak loads outweigh the shorter shaking time (measured in docs/harvest.md, "
-                 "\"Trends\")."
-                 + (f" Each cell is the model's expectation over {reps} perturbed starts ± the model's start-to-start "
-                    "SD, and in brackets the SD of one counted field test (the field's test-to-test spread)."
-                    if reps else "") + "</p>")
+    tag = value_tag(inp.machine, "harvest.miner_exponent")
+    parts.append("<p>The virtual harvest against the drive-shaft speed (one comb cycle per revolution) at the "
+                 "configured clearances, every other value as described.  Detachment adds up over load cycles "
+                 f"(Miner, Basquin exponent {beta:g} [{tag}]), so removal grows with shaking time (travel speed: "
+                 "docs/harvest.md, \"Trends\")."
+                 + (f" Each cell: the expectation over {reps} perturbed starts ± the start-to-start SD; in brackets "
+                    "one counted field test's SD." if reps else "") + "</p>")
     names = list(hr.rows[0].responses) if hr.rows else []
 
     def _sd(s):  # the expectation with the model's SD and the field test's
