@@ -100,14 +100,15 @@ def study_report(res, summary, machine, figs: Path, steps: dict | None = None, *
             *([[f"study ({CHOSEN_CODE})", *[CLEARANCE_LEVELS_MM[p][CHOSEN_LEVELS[p] - 1] for p in PAIR_NAMES],
                 FIELD_RESULT["efficiency_kg_min"], FIELD_RESULT["unripe_rate_pct"], FIELD_RESULT["damage_rate_pct"]]]
               if tuple(PAIR_NAMES) == tuple(CHOSEN_LEVELS) else [])]))
-        if opt.statement:
-            parts.append(f"<p class='small'>{html_text(opt.statement)} Index values: mean [95 % interval] over "
+        if opt.statement:  # the statement itself stands under the L9's recommendation (its basis), once
+            parts.append("<p class='small'>Why these clearances: "
+                         f"{inp.ref('virtual_l9_section', 'the virtual L9 section')}, its recommendation and basis.  "
+                         f"Index values: mean [95 % interval] over "
                          f"{opt.starts or 'the'} perturbed starts, and the SD of one start"
                          + ("; <b>fitted</b>: the harvest model's calibrated parameters were fitted to the study's "
                             "value of that index at these clearances, so it reproduces the target by construction "
                             "and is not evidence" if fitted else "")
-                         + f" ({inp.ref('virtual_l9_section', 'the virtual L9 section')} gives the trade-off table)."
-                         "</p>")
+                         + " (the same section gives the trade-off table).</p>")
     # the steps' sections, numbered in the step table's order (report/sections.py)
     parts.extend(step_sections(sections, inp, {n: st.note for n, st in steps.items()}))
     # the appendix: what an engineer looks up, not reads (the tests measure the report's height up to here)

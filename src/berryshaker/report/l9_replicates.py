@@ -91,7 +91,8 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
         parts.append(_table(["factor", "level", "basis"], [[p, rec.levels[p], rec.basis[p]]
                                                           for p in pair_names if p in rec.basis],
                             left=(0, 2)))
-        parts.append(f"<p class='small'>Rule: {html_text(rec.rule)}.</p>")
+        parts.append(_details("The rule that chose the levels (two tiers, never ranking noise)",
+                              [f"<p class='small'>{html_text(rec.rule)}.</p>"]))
         parts.append(f"<p class='small'>Starts at the recommendation: {html_text(rec.sequential.statement)}.</p>")
     tc = l9.tolerance_check
     check: list[str] = []

@@ -98,8 +98,10 @@ def confirm_recommendation(run_levels: list[dict], run_clearance: list[dict], y:
     tiered = {"code": code, "name": rec_name,
               "levels": dict(rec_levels), "l9_run": None if row is None else row + 1}
     if moved:
-        statement = (f"The tiered choice ({rec_name}) is dominated beyond the noise by the tested "
-                     + "; ".join(doms[tiered_name]) + f"; the recommendation is {cur}, no worse in every judged "
+        # the dominating runs by number (their clearances are in the L9's table)
+        by = ", ".join(d.split(" (")[0] for d in doms[tiered_name])
+        statement = (f"The tiered choice ({rec_name}) is dominated beyond the noise by the tested {by}; the "
+                     f"recommendation is {cur}, no worse in every judged "
                      f"response and better in {', '.join(better)} by more than the Tukey-Kramer margin on the "
                      "ANOVA's blocked error (the additive main-effect model does not hold there: an interaction the L9 cannot "
                      "resolve).")
