@@ -357,7 +357,7 @@ def doe_virtual(
     replicates (per response mean, sd per start, ci, n), basis per factor, rule, statement, check: the tiered
     choice confirmed against the trade-off table - moved,
     tiered, dominated_by, better_in, statement); tolerance_check (rtol: the runs' and the check's, 1e-5 and 1e-7; per response changes, mean_change,
-    max_abs_change, replicate_sd, noise_sd, within_replicate_spread: |mean_change| <= 2 noise_sd; statement); tradeoff (one row per candidate: name, clearance_mm:<pair>, efficiency,
+    max_abs_change, replicate_sd, noise_sd, within_replicate_spread: |mean_change| <= z noise_sd, z the family-wise band; statement); tradeoff (one row per candidate: name, clearance_mm:<pair>, efficiency,
     ripe_removal, unripe, unripe_shed, damage, design_force_N:<pair>, drive_torque_design_Nm, drive_torque_rms_Nm,
     each with _lo/_hi (95 % interval) and _noise (Tukey-Kramer comparison half-width on the pure error);
     dominated, dominated_by); tradeoff_columns; response_units.

@@ -339,7 +339,8 @@ class ToleranceVerdict(JsonRecord):
     noise_sd : float
         Noise of the mean change, sqrt(2/k) x ``replicate_sd`` (the response's unit).
     within_replicate_spread : bool
-        Whether |mean change| <= 2 ``noise_sd``.
+        Whether |mean change| <= z ``noise_sd`` (z: the check's family-wise band,
+        :func:`berryshaker.study.solver_tolerance_check.band_z`).
     """
 
     changes: list[float]
