@@ -12,12 +12,14 @@ from berryshaker.errors import ConfigError
 from berryshaker.plant.branch import Branch
 from berryshaker.plant.modes import analytic_modes
 from berryshaker.plant.pedicel import (
+    MINER_EXPONENTS,
     damping_ratio,
     force_transmissibility,
     fruit_branch_modes,
     modal_mass_ratio,
     natural_frequency,
     peak_stem_force,
+    peak_stem_loads,
     stem_response,
     two_way_stem_force_frf,
 )
@@ -214,3 +216,43 @@ def test_remembered_discretisation_is_scipys_and_cannot_be_corrupted():
         x[...] = 0.0
     assert all(np.array_equal(x, r) for x, r in zip(discretise_foh(a, b, c, d, 1e-4), ref))
     assert not np.array_equal(discretise_foh(a, b, c, d, 2e-4)[0], ref[0])  # the step is part of the key
+
+
+def _base_motion(n_z=3, n_t=6000, h=1e-4, rest=1500):
+    """Branch displacement and velocity at n_z positions: at rest for ``rest`` samples, then two harmonics (12 and
+    31 Hz, a different amplitude per position) in both directions."""
+    t = np.arange(n_t) * h
+    tau = np.maximum(np.arange(n_t) - rest, 0) * h
+    amp = np.linspace(2e-3, 6e-3, n_z)[:, None]
+    w1, w2 = 2 * math.pi * 12.0, 2 * math.pi * 31.0
+    y = amp * (np.sin(w1 * tau) + 0.4 * np.sin(w2 * tau))
+    v = amp * (w1 * np.cos(w1 * tau) + 0.4 * w2 * np.cos(w2 * tau)) * (np.arange(n_t) >= rest)
+    return t, (y, v), (0.3 * y, 0.3 * v)
+
+
+def test_a_stiffer_pedicel_is_a_lighter_fruit_scaled():
+    """The identity behind reading a stem-load table at another pedicel stiffness
+    (berryshaker.harvest.virtual.stem_force_tables): with its damping scaled alike, a pedicel a times stiffer carries
+    a times the loads of a fruit a times lighter on the described pedicel -- the force with its weight, the peak
+    pull-shear ratios and their Miner-Basquin sums -- to round-off; a stiffness scaled without its damping does not
+    (the identity can fail)."""
+    t, lat, ax = _base_motion()
+    mass = np.array([1.0e-3, 1.8e-3, 3.0e-3])
+    st = [(0.47, 0.23), (2.05, 1.0)]
+    for a in (0.4, 2.5):
+        stiff = peak_stem_loads(t, lat, ax, mass, a * 10.0, a * 0.027, True, st, MINER_EXPONENTS)
+        light = peak_stem_loads(t, lat, ax, mass / a, 10.0, 0.027, True, st, MINER_EXPONENTS)
+        assert stiff == pytest.approx(a * light, rel=1e-12, abs=0)
+        undamped = peak_stem_loads(t, lat, ax, mass, a * 10.0, 0.027, True, st, MINER_EXPONENTS)
+        assert not np.allclose(undamped, a * light, rtol=1e-3)
+
+
+def test_samples_of_rest_before_the_branch_moves_change_nothing():
+    """The pass starts at the last sample before the branch moves: a longer rest before it gives the same peaks and
+    Miner-Basquin sums, bit for bit."""
+    t, lat, ax = _base_motion(rest=1500)
+    t2, lat2, ax2 = _base_motion(n_t=6000 + 2500, rest=4000)
+    mass = np.array([1.8e-3])
+    st = [(0.47, 0.23)]
+    assert np.array_equal(peak_stem_loads(t, lat, ax, mass, 10.0, 0.027, True, st, MINER_EXPONENTS),
+                          peak_stem_loads(t2, lat2, ax2, mass, 10.0, 0.027, True, st, MINER_EXPONENTS))

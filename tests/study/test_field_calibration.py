@@ -77,7 +77,7 @@ def trained(small, runner, reference_sheet):
     params = fc.parameters_for(small)
     responses = list(sheet.observations)
     emulator = fc.Emulator(sheet.targets, responses, 0, R_SIM)
-    u = fc.latin_hypercube(32, 1)
+    u = fc.latin_hypercube(48, 1)
     emulator.fit([sim.settings[i] for i in settings], u, *fc._train(sim, responses, settings, seeds, u, params))
     check = fc._emulator_check(sim, emulator, settings, seeds, fc.latin_hypercube(8, 2), params)
     for gps in emulator.local:
@@ -108,7 +108,8 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     sim.run(runner, [s], seeds)
     h = small.harvest
     th = {"ripe_pull": 0.6, "unripe_pull": 1.5, "bond_cv": 0.3, "unripe_fraction": 0.2,
-          "yield_per_bush": 1.1, "bruise_height": 0.9, "miner_exponent": 5.0, "strike_probability": 0.3}
+          "yield_per_bush": 1.1, "bruise_height": 0.9, "miner_exponent": 5.0, "strike_probability": 0.3,
+          "pedicel_stiffness": small.plant.fruit.pedicel.stiffness}
     names = list(fc.calibrated_responses())
     got, var = sim.responses(s, seeds, np.array([[th[n] for n in fc.PARAMETER_NAMES]]), names)
     data, clearance = fc.setting_data(small.model_dump(mode="json"), small, targets, sim.settings[s])
@@ -139,6 +140,18 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
     for ripe, a in ((True, h.ripe_pull / 0.6), (False, h.unripe_pull / 1.5)):
         c = miner_channels(ripe)
         assert table[..., c] == pytest.approx(cached[..., c] * a, rel=1e-12)
+    # the pedicel stiffness: the simulator reads the cached tables at the scaled stiffness as the virtual harvest
+    # does (berryshaker.harvest.virtual.stem_force_tables), and a stiffer pedicel moves every response
+    from berryshaker.harvest.virtual import HarvestParameters, expected_tally, load_grid, response_values
+
+    k = small.plant.fruit.pedicel.stiffness
+    stiff = np.array([[th[n] if n != "pedicel_stiffness" else 2 * k for n in fc.PARAMETER_NAMES]])
+    got2, _ = sim.responses(s, seeds, stiff, names)
+    env0 = replicate_envelopes(at_setting, outs, seeds)[0][0]
+    hp = HarvestParameters(**dict(zip(fc.PARAMETER_NAMES, stiff[0])))
+    ref2 = response_values(expected_tally(at_setting, load_grid(at_setting, env0), hp), names)
+    assert got2[0, 0] == pytest.approx([ref2[n] for n in names], rel=1e-9)
+    assert np.all(np.abs(got2[0, 0] / got[0, 0] - 1) > 1e-3)
 
 
 def test_a_response_added_to_the_table_is_calibrated(small, trained, reference_sheet):
@@ -163,7 +176,7 @@ def test_a_response_added_to_the_table_is_calibrated(small, trained, reference_s
         settings = sorted(set(trained["idx"]))
         em.fit([sim.settings[i] for i in settings], u, *fc._train(sim, responses, settings, seeds, u, params))
         stats = fc.SheetStatistics.of(em, sheet.settings_si, sheet.observations)
-        post = fc.sample_posterior(em, stats, params, R_SIM, 0, responses, steps=60, walkers=32)
+        post = fc.sample_posterior(em, stats, params, R_SIM, 0, responses, steps=60, walkers=40)
         assert post["hyper"].shape[1] == 2 * len(responses)
 
 

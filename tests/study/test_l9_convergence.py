@@ -137,10 +137,10 @@ def test_calibrated_yield_carries_the_relative_error_of_the_efficiency_mean(mach
     asking for it is an error naming the model that has one."""
     from berryshaker.config import machine_from_dict
     from berryshaker.errors import ConfigError
-    from berryshaker.harvest.virtual import Z_GRID, calibrate_harvest, start_responses
+    from berryshaker.harvest.virtual import MASS_FACTORS, Z_GRID, calibrate_harvest, start_responses
 
     rng = np.random.default_rng(4)
-    base = np.outer(np.linspace(0.1, 0.5, Z_GRID.size), np.ones(9))
+    base = np.outer(np.linspace(0.1, 0.5, Z_GRID.size), np.ones(MASS_FACTORS.size))
     reps = [([base * rng.uniform(0.8, 1.2) for _ in machine.harvest.branch_classes], 100 + k) for k in range(6)]
     with pytest.raises(ConfigError, match="stem_acceleration"):
         calibrate_harvest(machine, fit=("efficiency", "damage"), replicates=reps)

@@ -72,7 +72,7 @@ def calibrate(
                                          "settings.  No sheet argument then."),
     check_settings: int = typer.Option(2, "--check-settings", min=0, max=20,
                                        help="Untested settings simulated to check the emulator's error there."),
-    emulator_points: int = typer.Option(40, "--emulator-points", min=8, max=400,
+    emulator_points: int = typer.Option(48, "--emulator-points", min=8, max=400,
                                         help="Latin-hypercube parameter points per simulated setting (emulator "
                                         "training)."),
     steps: Optional[int] = typer.Option(None, "--steps", min=50, max=100000,
@@ -82,7 +82,9 @@ def calibrate(
     """Calibrate the harvest model to your own field sheet and predict the settings you did not test.
 
     The harvest parameters that act after the coupled runs -- ripe and unripe bond strength, the ripe strengths'
-    spread, the unripe fraction, the yield per bush and the bruise threshold of the catching surface -- get a
+    spread, the unripe fraction, the yield per bush, the bruise threshold of the catching surface, the Miner
+    exponent of the cumulative detachment, the share of the detached fruit a finger strikes and the pedicel
+    stiffness (within a factor 2.5 of the described one, its damping scaled alike) -- get a
     prior from the published ranges (config show lists them) and a posterior from the sheet.  Each setting of the
     sheet is simulated from harvest.replicates perturbed starts (cached, resumable, on a Dask cluster with
     --scheduler); the responses at any parameter value are exact post-processing of those runs, a Gaussian-process

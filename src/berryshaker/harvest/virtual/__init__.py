@@ -44,6 +44,7 @@ from berryshaker.harvest.virtual.field_test import (
     expected_tally,
     field_tally,
     load_grid,
+    stiffness_scale,
 )
 from berryshaker.harvest.virtual.indexes import start_responses, virtual_harvest
 from berryshaker.harvest.virtual.replicates import (
@@ -62,6 +63,7 @@ from berryshaker.harvest.virtual.stem_force_tables import (
     CH_UNRIPE,
     ENVELOPE_OUTPUT_STEP,
     MASS_FACTORS,
+    STIFFNESS_RANGE,
     Z_GRID,
     acceleration_envelope,
     bond_strengths,
@@ -79,12 +81,12 @@ from berryshaker.harvest.virtual.stem_force_tables import (
 __all__ = [
     "CH_FORCE", "CH_RIPE", "CH_UNRIPE", "ENVELOPE_OUTPUT_STEP", "FIELD", "FRESH_STARTS",
     "HarvestParameters", "HarvestResponse", "LoadGrid", "MACHINE", "MASS_FACTORS", "MODEL_CHECK", "RESPONSES",
-    "STUDY_TARGETS", "Tally", "Z_GRID", "acceleration_envelope", "bond_strengths", "branch_class_machine",
+    "STIFFNESS_RANGE", "STUDY_TARGETS", "Tally", "Z_GRID", "acceleration_envelope", "bond_strengths", "branch_class_machine",
     "bushes_per_test", "calibrate_harvest", "count_variance", "envelopes_for", "expected_tally", "field_tally",
     "fruit_load_channels", "fruit_peak_force", "fruit_peak_load", "harvest_columns", "harvest_response", "load_grid",
     "machine_start", "miner_channels",
     "register_response", "removal_at_speed", "removal_vs_frequency", "replicate_envelopes_run",
     "replicate_response", "replicate_starts", "response_values", "shaking_amplitude", "start_numbers",
-    "start_responses", "stem_force_envelope", "stem_force_envelope_run", "stem_force_table", "virtual_harvest",
+    "start_responses", "stiffness_scale", "stem_force_envelope", "stem_force_envelope_run", "stem_force_table", "virtual_harvest",
     "with_drive_speed",
 ]

@@ -1,6 +1,10 @@
 """One field test of the virtual harvest: the model's expectation and one counted field result (docs/harvest.md,
 "Virtual field test").
 
+long module: the expectation, the counting noise and the counted field result are one field test; they share the
+parameters, the nodes and the reading of the tables at the parameters (strengths, Miner exponent, pedicel stiffness),
+and split apart each would re-derive them.
+
 A field test runs the machine for ``operation.test_duration`` T at the walking speed v: it passes B = v T / s bushes
 (s the plant spacing; 3.33 on the reference machine: 10 s at 30 m/min, 1.5 m spacing), fractions included.  What it
 weighs is a :class:`~berryshaker.harvest.virtual.responses.Tally` of those bushes' fruit.  For one start (one coupled
@@ -38,6 +42,7 @@ value at twice the nodes).
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import math
 from dataclasses import dataclass
@@ -84,6 +89,9 @@ class HarvestParameters:
         ``harvest.miner_exponent``).
     strike_probability : float or numpy.ndarray or None
         Share of the detached fruit a finger strikes (dimensionless; None: ``harvest.strike_probability``).
+    pedicel_stiffness : float or numpy.ndarray or None
+        Pedicel stiffness (N/m), its damping scaled with it (berryshaker.harvest.virtual.stem_force_tables: the tables
+        read at another stiffness); None: ``plant.fruit.pedicel.stiffness``.  No effect on a rigid stem.
     """
 
     ripe_pull: float | np.ndarray
@@ -94,6 +102,7 @@ class HarvestParameters:
     bruise_height: float | np.ndarray
     miner_exponent: float | np.ndarray | None = None
     strike_probability: float | np.ndarray | None = None
+    pedicel_stiffness: float | np.ndarray | None = None
 
     @classmethod
     def described(cls, machine: Machine) -> "HarvestParameters":
@@ -108,13 +117,50 @@ class HarvestParameters:
         -------
         HarvestParameters
             ``harvest.ripe_pull`` ... (the median bruise height of ``harvest.catcher_surface``,
-            berryshaker.harvest.bruising.catcher_median), ``harvest.miner_exponent``, ``harvest.strike_probability``.
+            berryshaker.harvest.bruising.catcher_median), ``harvest.miner_exponent``, ``harvest.strike_probability``,
+            ``plant.fruit.pedicel.stiffness``.
         """
         from berryshaker.harvest.bruising import catcher_median
 
         h = machine.harvest
         return cls(h.ripe_pull, h.unripe_pull, h.bond_cv, h.unripe_fraction, h.yield_per_bush, catcher_median(h),
-                   h.miner_exponent, h.strike_probability)
+                   h.miner_exponent, h.strike_probability, machine.plant.fruit.pedicel.stiffness)
+
+
+def stiffness_scale(machine: Machine, params: HarvestParameters | None) -> float | np.ndarray:
+    """The pedicel stiffness of ``params`` over the description's, the scale at which the stem-load tables are read
+    (berryshaker.harvest.virtual.stem_force_tables, module docstring).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [plant] block.
+    params : HarvestParameters or None
+        Parameter values (None, or no ``pedicel_stiffness``: the description's).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        k / k_described (dimensionless; (n, 1) for n parameter rows); 1 for a rigid stem (eq. 16 has no stiffness).
+
+    Raises
+    ------
+    ConfigError
+        A scale outside 1 / STIFFNESS_RANGE .. STIFFNESS_RANGE, where the tables' mass axis ends.
+    """
+    from berryshaker.errors import ConfigError
+    from berryshaker.harvest.virtual.stem_force_tables import STIFFNESS_RANGE
+
+    ped = machine.plant.fruit.pedicel
+    if params is None or params.pedicel_stiffness is None or ped.rigid:
+        return 1.0
+    a = np.asarray(params.pedicel_stiffness, float) / ped.stiffness
+    if np.any(~((a >= (1 - 1e-9) / STIFFNESS_RANGE) & (a <= STIFFNESS_RANGE * (1 + 1e-9)))):
+        raise ConfigError(f"pedicel_stiffness: {np.min(a) * ped.stiffness:.4g}-{np.max(a) * ped.stiffness:.4g} N/m "
+                          f"lies outside {ped.stiffness / STIFFNESS_RANGE:.4g}-{ped.stiffness * STIFFNESS_RANGE:.4g} "
+                          "N/m, a factor 2.5 about plant.fruit.pedicel.stiffness, where the stem-load tables end; "
+                          "describe a pedicel stiffness nearer the one to be read")
+    return float(a) if a.ndim == 0 else a
 
 
 @dataclass(frozen=True)
@@ -140,6 +186,11 @@ class LoadGrid:
         fruit there ((1 + n_k, nodes), dimensionless; :func:`~berryshaker.harvest.virtual.stem_force_tables.
         fruit_load_channels`), read at any exponent by :meth:`loads`; None: ``load_ripe`` / ``load_unripe`` at
         every exponent.
+    tables : NodeTables or None
+        The start's tables at the nodes' positions, to read them at another pedicel stiffness (:meth:`loads`,
+        :meth:`forces`); None: at the described stiffness only.
+    exponent : float
+        The Miner exponent of ``load_ripe`` and ``load_unripe`` (dimensionless).
     """
 
     weight: np.ndarray
@@ -150,26 +201,121 @@ class LoadGrid:
     force: np.ndarray
     channels_ripe: np.ndarray | None = None
     channels_unripe: np.ndarray | None = None
+    tables: "NodeTables | None" = None
+    exponent: float = math.inf
 
-    def loads(self, exponent) -> tuple[np.ndarray, np.ndarray]:
-        """Equivalent load ratios of a ripe and an unripe fruit at each node at Miner exponent ``exponent``.
+    def loads(self, exponent, stiffness_scale=1.0) -> tuple[np.ndarray, np.ndarray]:
+        """Equivalent load ratios of a ripe and an unripe fruit at each node at Miner exponent ``exponent`` and
+        pedicel stiffness scale ``stiffness_scale``.
 
         Parameters
         ----------
         exponent : float or numpy.ndarray or None
-            Basquin exponent beta (dimensionless; (n, 1) gives n rows; None: the grid's own ``load_ripe`` and
-            ``load_unripe``).
+            Basquin exponent beta (dimensionless; (n, 1) gives n rows; None: the grid's own).
+        stiffness_scale : float or numpy.ndarray
+            Pedicel stiffness over the description's (dimensionless; (n, 1) gives n rows;
+            :func:`stiffness_scale`).
 
         Returns
         -------
         (numpy.ndarray, numpy.ndarray)
             Ripe and unripe load ratios ((nodes,) or (n, nodes); dimensionless).
+
+        Raises
+        ------
+        ConfigError
+            A stiffness scale other than 1 on a grid without :attr:`tables`.
         """
         from berryshaker.plant.pedicel import miner_load
 
-        if exponent is None or self.channels_ripe is None or self.channels_unripe is None:
-            return self.load_ripe, self.load_unripe
-        return miner_load(self.channels_ripe, exponent), miner_load(self.channels_unripe, exponent)
+        a = np.asarray(stiffness_scale, float)
+        if np.all(a == 1.0):
+            if exponent is None or self.channels_ripe is None or self.channels_unripe is None:
+                return self.load_ripe, self.load_unripe
+            return miner_load(self.channels_ripe, exponent), miner_load(self.channels_unripe, exponent)
+        beta = np.asarray(self.exponent if exponent is None else exponent, float)
+        if a.size == 1:
+            cr, cu, _ = self._tables().read(float(a.reshape(-1)[0]))
+            return miner_load(cr, beta), miner_load(cu, beta)
+        rows = [self._tables().read(float(ar)) for ar in a.reshape(-1)]  # one reading per parameter row
+        b = np.broadcast_to(beta.reshape(-1), (len(rows),))
+        return (np.array([miner_load(r[0], float(bi)) for r, bi in zip(rows, b)]),
+                np.array([miner_load(r[1], float(bi)) for r, bi in zip(rows, b)]))
+
+    def forces(self, stiffness_scale=1.0) -> np.ndarray:
+        """Peak stem-force magnitude (N) at each node at pedicel stiffness scale ``stiffness_scale``.
+
+        Parameters
+        ----------
+        stiffness_scale : float or numpy.ndarray
+            Pedicel stiffness over the description's (dimensionless; (n, 1) gives n rows).
+
+        Returns
+        -------
+        numpy.ndarray
+            (nodes,) or (n, nodes) forces (N).
+        """
+        a = np.asarray(stiffness_scale, float)
+        if np.all(a == 1.0):
+            return self.force
+        out = np.array([self._tables().read(float(ar))[2][0] for ar in a.reshape(-1)])
+        return out[0] if a.ndim == 0 else out
+
+    def _tables(self) -> "NodeTables":
+        from berryshaker.errors import ConfigError
+
+        if self.tables is None:
+            raise ConfigError("these stem-load tables cannot be read at another pedicel stiffness (not tables of "
+                              "peak stem loads over position and fruit mass); leave pedicel_stiffness at the "
+                              "description's")
+        return self.tables
+
+
+@dataclass(frozen=True)
+class NodeTables:
+    """One start's stem-load tables interpolated to its quadrature nodes' positions, still over the tables' mass
+    axis, so they are read at any pedicel stiffness scale a by the interpolation in log mass alone
+    (berryshaker.harvest.virtual.stem_force_tables, module docstring: a x the table at mass / a).
+
+    Attributes
+    ----------
+    columns : numpy.ndarray
+        (channels, classes, z nodes, len(MASS_FACTORS)) table values at the nodes' positions (N for the force
+        channel, dimensionless load ratios).
+    mass_factor : numpy.ndarray
+        (mass nodes,) node mass over m0 (dimensionless).
+    ripe, unripe, force : numpy.ndarray of int
+        The channels of the ripe and the unripe fruit's load ratios (:func:`~berryshaker.harvest.virtual.
+        stem_force_tables.miner_channels`, or the peak alone) and of the peak force.
+    """
+
+    columns: np.ndarray
+    mass_factor: np.ndarray
+    ripe: np.ndarray
+    unripe: np.ndarray
+    force: np.ndarray
+
+    def read(self, scale: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The ripe and the unripe load channels and the peak force at every node, at stiffness scale ``scale``.
+
+        Parameters
+        ----------
+        scale : float
+            Pedicel stiffness over the tables' (dimensionless).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray, numpy.ndarray)
+            (len(ripe), nodes), (len(unripe), nodes) load ratios (dimensionless) and (1, nodes) forces (N), nodes in
+            the order class, position, mass.
+        """
+        from berryshaker.harvest.virtual.stem_force_tables import mass_weights
+
+        j, w = mass_weights(self.mass_factor / scale)
+        c = self.columns
+        v = scale * ((1 - w) * c[..., j] + w * c[..., j + 1])  # (channels, classes, z nodes, mass nodes)
+        v = v.reshape(c.shape[0], -1)
+        return v[self.ripe], v[self.unripe], v[self.force]
 
 
 def _piecewise_gauss(edges: np.ndarray, per_cell: int) -> tuple[np.ndarray, np.ndarray]:
@@ -225,17 +371,33 @@ def load_grid(machine: Machine, envelopes: list, z_per_cell: int = Z_NODES, mass
     zz, mm, ww = zz.ravel(), mm.ravel(), ww.ravel()
     from berryshaker.plant.pedicel import miner_load
 
-    st = bond_strengths(machine)
     nc = len(envelopes)
-    parts = []
-    for env in envelopes:
-        e = np.asarray(env, float)
-        parts.append((fruit_load_channels(e, zz, mm, m0, True, st), fruit_load_channels(e, zz, mm, m0, False, st),
-                      fruit_peak_force(e, zz, mm, m0)))
-    cr, cu, force = (np.concatenate([p[i] for p in parts], axis=-1) for i in range(3))
+    envs = [np.asarray(env, float) for env in envelopes]
     beta = machine.harvest.miner_exponent
+    if all(e.ndim == 3 and e.shape == envs[0].shape for e in envs):  # tables over position x mass x channels
+        tables = NodeTables(
+            np.stack([np.stack([[np.interp(z, Z_GRID, e[:, j, c]) for j in range(e.shape[1])] for e in envs])
+                      for c in range(envs[0].shape[-1])]).transpose(0, 1, 3, 2),
+            mass / m0, *(np.asarray(x) for x in _table_channels(envs[0].shape[-1])))
+        cr, cu, force = tables.read(1.0)
+        force = force[0]
+    else:  # an acceleration envelope or a force table: read at the nodes, no other stiffness
+        st = bond_strengths(machine)
+        tables = None
+        parts = [(fruit_load_channels(e, zz, mm, m0, True, st), fruit_load_channels(e, zz, mm, m0, False, st),
+                  fruit_peak_force(e, zz, mm, m0)) for e in envs]
+        cr, cu, force = (np.concatenate([p[i] for p in parts], axis=-1) for i in range(3))
     return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), miner_load(cr, beta), miner_load(cu, beta),
-                    force, cr, cu)
+                    force, cr, cu, tables, float(beta))
+
+
+def _table_channels(n_channels: int) -> tuple[list, list, list]:
+    """The ripe and the unripe load channels and the force channel of a table with ``n_channels`` channels."""
+    from berryshaker.harvest.virtual.stem_force_tables import CH_FORCE, CH_RIPE, CH_UNRIPE, miner_channels
+
+    if n_channels > 3:
+        return list(miner_channels(True)), list(miner_channels(False)), [CH_FORCE]
+    return [CH_RIPE], [CH_UNRIPE], [CH_FORCE]
 
 
 def _p_below(x, cv):
@@ -270,18 +432,20 @@ def node_probabilities(machine: Machine, grid: LoadGrid, params: HarvestParamete
 
     h = machine.harvest
     p = params or HarvestParameters.described(machine)
+    a = stiffness_scale(machine, p)
     if h.bond_model == "pull_shear":
-        load_r, load_u = grid.loads(p.miner_exponent)
+        load_r, load_u = grid.loads(p.miner_exponent, a)
         off_r = _p_below(load_r * (h.ripe_pull / np.asarray(p.ripe_pull, float)), p.bond_cv)
         off_u = sum(c * _p_below(load_u * f, cv) for c, f, cv in  # green, pink, red by their shares
                     unripe_stage_strengths(h, p.ripe_pull, p.unripe_pull, p.bond_cv))
     else:  # the study's eq. 17: the peak stem force against a bond uniform in the class's band
-        off_r = np.clip((grid.force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
-        off_u = np.clip((grid.force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
+        force = grid.forces(a)
+        off_r = np.clip((force - RIPE_BOND_N[0]) / (RIPE_BOND_N[1] - RIPE_BOND_N[0]), 0.0, 1.0)
+        off_u = np.clip((force - UNRIPE_BOND_N[0]) / (UNRIPE_BOND_N[1] - UNRIPE_BOND_N[0]), 0.0, 1.0)
     if h.damage_model == "impact":
         q = impact_damage(machine, grid.z, p.bruise_height, p.strike_probability)
     else:
-        q = 1.0 - np.exp(-((grid.force / grid.mass) / h.damage_acceleration) ** h.damage_shape)
+        q = 1.0 - np.exp(-((grid.forces(a) / grid.mass) / h.damage_acceleration) ** h.damage_shape)
     shape = np.broadcast_shapes(np.shape(off_r), np.shape(off_u), np.shape(q))
     return tuple(np.broadcast_to(x, shape) for x in (off_r, off_u, q))
 
@@ -483,13 +647,14 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
     u_bond = rng.random(n)
     u_bruise = rng.random(n)
     st = bond_strengths(machine)
+    a = float(stiffness_scale(machine, p))
     load, force = np.zeros(n), np.zeros(n)
     for c, env in enumerate(envelopes):
         sel = cls == c
         e = np.asarray(env, float)
         load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st,
-                                    h.miner_exponent if p.miner_exponent is None else float(p.miner_exponent))
-        force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0)
+                                    h.miner_exponent if p.miner_exponent is None else float(p.miner_exponent), a)
+        force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0, a)
     u_stage = rng.random(n)  # drawn last: the earlier draws are those of a model without stages
     if h.bond_model == "pull_shear":
         stages = unripe_stage_strengths(h, float(p.ripe_pull), float(p.unripe_pull), float(p.bond_cv))
@@ -505,7 +670,9 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
         lo = np.where(ripe, RIPE_BOND_N[0], UNRIPE_BOND_N[0])
         hi = np.where(ripe, RIPE_BOND_N[1], UNRIPE_BOND_N[1])
         off = force >= lo + u_bond * (hi - lo)
-    q = node_probabilities(machine, LoadGrid(np.ones(n), z, mass, load, load, force), p)[2]
+    # the loads above are read at the pedicel's stiffness already
+    q = node_probabilities(machine, LoadGrid(np.ones(n), z, mass, load, load, force),
+                           dataclasses.replace(p, pedicel_stiffness=None))[2]
     bruised = off & (u_bruise < q)
     tot = lambda sel: float(np.sum(mass[sel]))  # noqa: E731
     return Tally(tot(ripe), tot(~ripe), tot(off & ripe), tot(off & ~ripe), tot(bruised),

@@ -3,6 +3,19 @@ diameters scaled, berryshaker.harvest.coupled.drive_past) gives a table of peak 
 the branch (:data:`Z_GRID`) and fruit mass (:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit
 of a population (peak force, peak and Miner-Basquin equivalent pull-shear load ratios).  Part of the virtual
 harvest (berryshaker.harvest.virtual).
+
+**A table read at another pedicel stiffness** (``stiffness_scale`` a of :func:`fruit_load_channels`,
+:func:`fruit_peak_force`, :func:`fruit_peak_load`; ``calibrate`` learns the stiffness this way).  The fruit are
+one-way coupled (the branch motion y(t) does not depend on them), and the pedicel's damping is taken proportional to
+its stiffness (c / k = 2.7 ms fixed, the stiffness-proportional damping of one viscoelastic material; the damping
+ratio then grows as sqrt(a)).  A fruit of mass m on a pedicel (a k, a c) obeys m x'' + a c (x' - y') + a k (x - y)
+= 0, which divided by a is the equation of a fruit of mass m / a on the described pedicel (k, c): the same motion
+x(t).  Its stem force a [k (y - x) + c (y' - x')] plus its weight m g is a times the force of the fruit of mass
+m / a, weight (m / a) g included.  So every force channel at (a k, m) is a times the table's at (k, m / a), and
+every load ratio (homogeneous of degree 1 in the forces: the pull-shear ratio, its clipping of compression, the
+relative reversal gate and the Miner-Basquin sum) likewise: exact, tested, up to the interpolation in log mass.
+The named fruit of a two-way coupled run load the branch at the described stiffness; their effect on the branch
+motion (a few per cent at the named fruit's own forces, docs/plant.md) is not rescaled.
 """
 
 from __future__ import annotations
@@ -43,8 +56,16 @@ def acceleration_envelope(machine: Machine, clearance: dict[str, float] | None, 
     return np.max(np.abs(acc), axis=1)
 
 
-#: fruit-mass factors (of m0) of the stem-force envelope table; fruit in between are interpolated in log mass
-MASS_FACTORS = np.exp(np.linspace(math.log(0.4), math.log(2.5), 9))
+#: the factor by which a pedicel's stiffness may differ from the description's when a table is read
+#: (:func:`fruit_load_channels`, ``stiffness_scale``): the tables' mass axis covers the fruit masses of the
+#: description (0.4-2.5 m0, beyond 4.5 standard deviations of the fruit-mass CV 0.2) divided by every stiffness scale
+#: from 1 / STIFFNESS_RANGE to STIFFNESS_RANGE, which bounds ``calibrate``'s pedicel-stiffness prior
+STIFFNESS_RANGE = 2.5
+
+#: fruit-mass factors (of m0) of the stem-force table: 0.4-2.5 m0 in 8 equal steps of log mass (0.229) and four
+#: steps more on each side (0.16-6.25 m0), so a stiffness scaled by up to :data:`STIFFNESS_RANGE` either way is read
+#: inside the table; fruit in between are interpolated in log mass
+MASS_FACTORS = np.exp(np.linspace(math.log(0.4 / STIFFNESS_RANGE), math.log(2.5 * STIFFNESS_RANGE), 17))
 
 
 def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, scale: float) -> np.ndarray:
@@ -224,18 +245,36 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
                            ped.include_weight, st, MINER_EXPONENTS)
 
 
+def mass_weights(mass_factor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where fruit of mass ``mass_factor`` x m0 fall on the tables' mass axis: the column j below and the weight w
+    of column j + 1 of the interpolation linear in log mass (masses beyond the axis take its end column).
+
+    Parameters
+    ----------
+    mass_factor : numpy.ndarray
+        Fruit mass over the description's mean mass m0 (dimensionless).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Column indexes j (int) and weights w in [0, 1] (dimensionless): value = (1 - w) T[j] + w T[j + 1].
+    """
+    lm = np.log(np.clip(mass_factor, MASS_FACTORS[0], MASS_FACTORS[-1]))
+    lg = np.log(MASS_FACTORS)
+    j = np.clip(np.searchsorted(lg, lm) - 1, 0, len(lg) - 2)
+    return j, (lm - lg[j]) / (lg[j + 1] - lg[j])
+
+
 def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
     """A (Z_GRID x MASS_FACTORS) table at fractions z and masses ``mass``: linear in z and in log mass."""
     cols = np.array([np.interp(z, Z_GRID, table[:, j]) for j in range(table.shape[1])])  # (n_mass, n_fruit)
-    lm = np.log(np.clip(mass / m0, MASS_FACTORS[0], MASS_FACTORS[-1]))
-    lg = np.log(MASS_FACTORS)
-    j = np.clip(np.searchsorted(lg, lm) - 1, 0, len(lg) - 2)
-    w = (lm - lg[j]) / (lg[j + 1] - lg[j])
+    j, w = mass_weights(mass / m0)
     idx = np.arange(len(z))
     return (1 - w) * cols[j, idx] + w * cols[j + 1, idx]
 
 
-def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
+def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float,
+                     stiffness_scale: float = 1.0) -> np.ndarray:
     """Peak stem force (N) on fruit at fractions z with masses ``mass`` from one branch class's envelope.
 
     A 1-D envelope is a peak acceleration (m/s^2) on Z_GRID (eq. 16: force = m a); a 2-D envelope a stem-force table
@@ -252,6 +291,9 @@ def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: 
         Fruit masses (kg).
     m0 : float
         Mean fruit mass of the table's mass factors (kg).
+    stiffness_scale : float
+        Pedicel stiffness (and damping) over the table's (dimensionless; module docstring: the table at mass / scale,
+        times the scale).
 
     Returns
     -------
@@ -259,13 +301,14 @@ def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: 
         Peak stem force of each fruit (N); masses outside the table's range take its nearest column.
     """
     env = np.asarray(envelope, float)
-    if env.ndim == 1:
+    if env.ndim == 1:  # a rigid stem: m a, with no stiffness to scale
         return mass * np.interp(z, Z_GRID, env)
-    return _interp_table(env[..., CH_FORCE] if env.ndim == 3 else env, z, mass, m0)
+    a = float(stiffness_scale)
+    return a * _interp_table(env[..., CH_FORCE] if env.ndim == 3 else env, z, mass / a, m0)
 
 
 def fruit_load_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: bool,
-                        strengths: list[tuple[float, float]]) -> np.ndarray:
+                        strengths: list[tuple[float, float]], stiffness_scale: float = 1.0) -> np.ndarray:
     """The peak and the Miner-Basquin equivalent load ratios of fruit of one class against its mean strengths.
 
     From the channels of :func:`stem_force_table` (:func:`miner_channels`), interpolated linearly in z and in log
@@ -287,6 +330,8 @@ def fruit_load_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m
         The ripe (True) or the unripe (False) fruit.
     strengths : list of (float, float)
         Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
+    stiffness_scale : float
+        Pedicel stiffness (and damping) over the table's (dimensionless; module docstring).
 
     Returns
     -------
@@ -296,13 +341,15 @@ def fruit_load_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m
     """
     env = np.asarray(envelope, float)
     if env.ndim == 3:
+        a = float(stiffness_scale)
         chans = miner_channels(ripe) if env.shape[-1] > 3 else [CH_RIPE if ripe else CH_UNRIPE]
-        return np.array([_interp_table(env[..., c], z, mass, m0) for c in chans])
-    return (fruit_peak_force(env, z, mass, m0) / strengths[0 if ripe else 1][1])[None]
+        return a * np.array([_interp_table(env[..., c], z, mass / a, m0) for c in chans])
+    return (fruit_peak_force(env, z, mass, m0, stiffness_scale) / strengths[0 if ripe else 1][1])[None]
 
 
 def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
-                    strengths: list[tuple[float, float]], exponent: float = math.inf) -> np.ndarray:
+                    strengths: list[tuple[float, float]], exponent: float = math.inf,
+                    stiffness_scale: float = 1.0) -> np.ndarray:
     """Equivalent pull-shear load ratio (dimensionless) of each fruit against its class's mean strengths.
 
     The Miner-Basquin equivalent g_eq(beta) = (sum_i g_i^beta)^(1/beta) over the drive-past's load cycles
@@ -325,6 +372,8 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
         Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
     exponent : float
         Basquin exponent beta (dimensionless; ``harvest.miner_exponent``; inf: the peak-only law).
+    stiffness_scale : float
+        Pedicel stiffness (and damping) over the table's (dimensionless; module docstring).
 
     Returns
     -------
@@ -334,8 +383,9 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
     from berryshaker.plant.pedicel import miner_load
 
     ripe = np.asarray(ripe, bool)
-    return np.where(ripe, miner_load(fruit_load_channels(envelope, z, mass, m0, True, strengths), exponent),
-                    miner_load(fruit_load_channels(envelope, z, mass, m0, False, strengths), exponent))
+    a = stiffness_scale
+    return np.where(ripe, miner_load(fruit_load_channels(envelope, z, mass, m0, True, strengths, a), exponent),
+                    miner_load(fruit_load_channels(envelope, z, mass, m0, False, strengths, a), exponent))
 
 
 def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:

@@ -127,6 +127,13 @@ def peak_stem_loads(t, lateral, axial, mass, stiffness=10.0, damping=0.027, weig
     if np.any(~(ex > 0)):
         raise ConfigError(f"Miner exponents must be > 0, got {exponents}")
     out = np.zeros((y.shape[0], len(m), 1 + len(st) * (1 + ex.size)))
+    # before the branch moves the oscillators rest (state 0, every sample the same): one such sample gives the same
+    # maxima and reversals as all of them (tested), so the pass starts at the last sample of rest
+    moving = np.flatnonzero(np.any(y != 0, axis=0) | np.any(v != 0, axis=0) | np.any(ya != 0, axis=0)
+                            | np.any(va != 0, axis=0))
+    first = max(int(moving[0]) - 1, 0) if moving.size else max(y.shape[1] - 1, 0)
+    if first:
+        y, v, ya, va = (np.ascontiguousarray(x[:, first:]) for x in (y, v, ya, va))
     _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, m * GRAVITY if weight else np.zeros(len(m)),
                             np.ascontiguousarray(1.0 / st[:, 0]), np.ascontiguousarray(1.0 / st[:, 1]), ex,
                             REVERSAL_GATE, out)

@@ -5,11 +5,10 @@ The parameters (:data:`PARAMETERS`) act only in the post-processing of the coupl
 and unripe mean pull strength (the shear strength scales with it at the described shear/pull ratio), the ripe
 strengths' CV, the unripe mass fraction, the yield per bush, the bruise-threshold height of the described
 catching surface, the Miner exponent of the cumulative detachment (the tables carry the equivalent load ratios at
-exponents 3-30, berryshaker.plant.pedicel.miner) and the share of the detached fruit a finger strikes -- each with a
-prior from the cited ranges (docs/harvest.md, ``harvest/published/record.toml``) or, where nothing is published,
-bounds of our choice.  Pedicel stiffness is *not* calibrated: it sets the fruit's oscillator, so the stem-load
-tables themselves change with it (a new pass over every coupled run's branch motion, which the cached runs do not
-keep).
+exponents 3-30, berryshaker.plant.pedicel.miner), the share of the detached fruit a finger strikes and the pedicel
+stiffness (a table at stiffness a k is a times the table at mass m / a, its damping scaled with it:
+berryshaker.harvest.virtual.stem_force_tables) -- each with a prior from the cited ranges (docs/harvest.md,
+``harvest/published/record.toml``) or, where nothing is published, bounds of our choice.
 
 A point of the unit cube holds each parameter's prior probability: :func:`theta_of` and :func:`unit_of` map between
 it and the values (SI), :func:`latin_hypercube` draws the emulator's training points on it.
@@ -140,6 +139,11 @@ PARAMETERS: tuple[Parameter, ...] = (
     Parameter("strike_probability", "", "uniform", 0.1, 0.9,
               "share of the detached fruit a comb finger strikes (docs/harvest.md 'Bruising'): described 0.5 "
               "[assumed]; the bounds are our choice", "[assumed]"),
+    Parameter("pedicel_stiffness", "N/m", "loguniform", 4.0, 25.0,
+              "no blueberry fruit-stem stiffness is published; the coffee fruit-stem system of the same fruit size "
+              "measured 7.1-8.6 N/m (Villibor et al. 2016), described 10 N/m [assumed, by analogy]; bounds a factor "
+              "2.5 either way of the described stiffness (7.5-18.8 Hz at 1.8 g), where the stem-load tables end; "
+              "damping scaled with it", "[assumed]"),
 )
 PARAMETER_NAMES = tuple(p.name for p in PARAMETERS)
 #: the hard catching surface's bruise-threshold prior (replaces the padded one when the description's surface is hard)
@@ -159,11 +163,24 @@ def parameters_for(machine: Machine) -> tuple[Parameter, ...]:
     Returns
     -------
     tuple of Parameter
-        :data:`PARAMETERS`, the hard-surface bruise prior when ``harvest.catcher_surface = "hard"``.
+        :data:`PARAMETERS`, the hard-surface bruise prior when ``harvest.catcher_surface = "hard"``, the pedicel
+        stiffness's bounds a factor STIFFNESS_RANGE about ``plant.fruit.pedicel.stiffness``.
     """
-    if machine.harvest.catcher_surface == "hard":
-        return tuple(HARD_BRUISE if p.name == "bruise_height" else p for p in PARAMETERS)
-    return PARAMETERS
+    from dataclasses import replace
+
+    from berryshaker.harvest.virtual import STIFFNESS_RANGE
+
+    k = machine.plant.fruit.pedicel.stiffness if machine.plant is not None else 10.0
+    out = []
+    for p in PARAMETERS:
+        if p.name == "bruise_height" and machine.harvest.catcher_surface == "hard":
+            p = HARD_BRUISE
+        elif p.name == "pedicel_stiffness" and k != 10.0:  # a factor STIFFNESS_RANGE about the described stiffness
+            p = replace(p, lo=k / STIFFNESS_RANGE, hi=k * STIFFNESS_RANGE,
+                        source=f"a factor {STIFFNESS_RANGE:g} either way of the described {k:.4g} N/m, where the "
+                               "stem-load tables end; damping scaled with it")
+        out.append(p)
+    return tuple(out)
 
 
 def described_values(machine: Machine) -> dict[str, float]:
@@ -177,7 +194,7 @@ def described_values(machine: Machine) -> dict[str, float]:
     Returns
     -------
     dict of str to float
-        Name -> value (N, fractions, kg, m, the dimensionless Miner exponent).
+        Name -> value (N, fractions, kg, m, the dimensionless Miner exponent, N/m).
     """
     from berryshaker.harvest.bruising import catcher_median
 
@@ -185,7 +202,8 @@ def described_values(machine: Machine) -> dict[str, float]:
     bruise = catcher_median(h)
     return {"ripe_pull": h.ripe_pull, "unripe_pull": h.unripe_pull, "bond_cv": h.bond_cv,
             "unripe_fraction": h.unripe_fraction, "yield_per_bush": h.yield_per_bush, "bruise_height": bruise,
-            "miner_exponent": h.miner_exponent, "strike_probability": h.strike_probability}
+            "miner_exponent": h.miner_exponent, "strike_probability": h.strike_probability,
+            "pedicel_stiffness": machine.plant.fruit.pedicel.stiffness if machine.plant is not None else 10.0}
 
 
 def prior_rows(machine: Machine | None = None) -> list[dict]:
@@ -199,14 +217,15 @@ def prior_rows(machine: Machine | None = None) -> list[dict]:
     Returns
     -------
     list of dict
-        One row per parameter: ``name``, ``key`` (the harvest key it sets), ``unit``, ``prior`` (text),
+        One row per parameter: ``name``, ``key`` (the description key it sets), ``unit``, ``prior`` (text),
         ``lo90``, ``hi90`` (SI), ``source``, ``tag``.
     """
     params = parameters_for(machine) if machine is not None else PARAMETERS
     hard = machine is not None and machine.harvest.catcher_surface == "hard"
-    keys = {"bruise_height": ("median bruise height of extensive_drop_height_hard" if hard else
-                              "median bruise height of safe_drop_height_padded")}
-    return [{"name": p.name, "key": f"harvest.{keys.get(p.name, p.name)}", "unit": p.unit, "prior": p.describe(),
+    keys = {"bruise_height": ("harvest.median bruise height of extensive_drop_height_hard" if hard else
+                              "harvest.median bruise height of safe_drop_height_padded"),
+            "pedicel_stiffness": "plant.fruit.pedicel.stiffness (damping scaled with it)"}
+    return [{"name": p.name, "key": keys.get(p.name, f"harvest.{p.name}"), "unit": p.unit, "prior": p.describe(),
              "lo90": p.interval90()[0], "hi90": p.interval90()[1], "source": p.source, "tag": p.tag} for p in params]
 
 
@@ -229,10 +248,12 @@ def calibrated_responses() -> dict:
 #: damage.  A response not listed
 #: depends on every parameter but the yield.  The counting noise of a field test depends on the yield too
 #: (:func:`count_parameters`).
-RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent"),
-                       "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent"),
+RESPONSE_PARAMETERS = {"efficiency": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent",
+                                      "pedicel_stiffness"),
+                       "unripe": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "miner_exponent",
+                                  "pedicel_stiffness"),
                        "damage": ("ripe_pull", "unripe_pull", "bond_cv", "unripe_fraction", "bruise_height",
-                                  "miner_exponent", "strike_probability")}
+                                  "miner_exponent", "strike_probability", "pedicel_stiffness")}
 
 
 def mean_parameters(response: str) -> tuple[str, ...]:

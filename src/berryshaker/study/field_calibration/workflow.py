@@ -127,7 +127,7 @@ class CalibrationSettings:
     """
 
     replicates: int | None = None
-    theta_points: int = 40
+    theta_points: int = 48
     check_points: int = 8
     check_settings: int = 2
     steps: int | None = None
