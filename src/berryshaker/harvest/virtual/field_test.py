@@ -158,8 +158,8 @@ def stiffness_scale(machine: Machine, params: HarvestParameters | None) -> float
     if np.any(~((a >= (1 - 1e-9) / STIFFNESS_RANGE) & (a <= STIFFNESS_RANGE * (1 + 1e-9)))):
         raise ConfigError(f"pedicel_stiffness: {np.min(a) * ped.stiffness:.4g}-{np.max(a) * ped.stiffness:.4g} N/m "
                           f"lies outside {ped.stiffness / STIFFNESS_RANGE:.4g}-{ped.stiffness * STIFFNESS_RANGE:.4g} "
-                          "N/m, a factor 2.5 about plant.fruit.pedicel.stiffness, where the stem-load tables end; "
-                          "describe a pedicel stiffness nearer the one to be read")
+                          f"N/m, a factor {STIFFNESS_RANGE:g} about plant.fruit.pedicel.stiffness, where the "
+                          "stem-load tables end; describe a pedicel stiffness nearer the one to be read")
     return float(a) if a.ndim == 0 else a
 
 
