@@ -97,3 +97,17 @@ def prime_log(log: str) -> None:
 def prime_fails() -> None:
     """A worker prime that raises."""
     raise RuntimeError("a prime that fails")
+
+
+def table(n: int, seed: int = 0) -> dict:
+    """A float table, an integer vector and a flag array from ``seed`` (numpy arrays in a run's value)."""
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    return {"table": rng.normal(size=(n, 3)) * 1e-7, "counts": np.arange(n, dtype=np.int32),
+            "hit": rng.random(n) > 0.5, "names": np.array(["a", "b"])}
+
+
+def square_tagged(x: float) -> dict:
+    """A value whose dict uses the cache's array tag as a key."""
+    return {"__ndarray__": x * x}

@@ -227,3 +227,21 @@ def test_a_table_read_at_another_pedicel_stiffness_is_the_table_of_that_pedicel(
     assert cr[:40] == pytest.approx(miner_load(by_fruit, machine.harvest.miner_exponent), rel=1e-12)
     with pytest.raises(ConfigError, match="pedicel_stiffness"):
         expected_tally(machine, grid, replace(p, pedicel_stiffness=40.0))
+
+
+def test_table_reading_is_numpy_interp_along_the_branch_bit_for_bit():
+    """The tables are read in one gather for every fruit and channel; along the branch it is numpy.interp's own
+    arithmetic (ends held, a node's value on the node), then linear in log mass, so every number is unchanged."""
+    from berryshaker.harvest.virtual import stem_force_tables as T
+
+    rng = np.random.default_rng(1)
+    table = rng.random((T.Z_GRID.size, T.MASS_FACTORS.size, 4)) * 3
+    z = np.concatenate([rng.random(3000), T.Z_GRID, [1.0 - 1e-17]])
+    mass = rng.lognormal(np.log(1.8e-3), 0.8, z.size)  # some beyond the mass axis's ends
+    j, w = T.mass_weights(mass / 1.8e-3)
+    got = T._interp_table(table, z, mass, 1.8e-3)
+    for c in range(table.shape[-1]):
+        cols = np.array([np.interp(z, T.Z_GRID, table[:, k, c]) for k in range(T.MASS_FACTORS.size)])
+        want = (1 - w) * cols[j, np.arange(z.size)] + w * cols[j + 1, np.arange(z.size)]
+        assert got[:, c].tobytes() == want.tobytes()
+        assert T.along_branch(table, z)[..., c].tobytes() == cols.T.tobytes()

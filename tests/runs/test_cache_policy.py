@@ -18,7 +18,7 @@ from typer.testing import CliRunner
 from berryshaker.cli import app
 from berryshaker.errors import ConfigError
 from berryshaker.outputs import code_fingerprint
-from berryshaker.runs.cache import _canonical, _sha256, cache_entry_path, run_key, write_cache_entry
+from berryshaker.runs.cache import _sha256, cache_entry_path, run_key, value_text, write_cache_entry
 from berryshaker.runs.runner import SweepRunner
 
 cli = CliRunner()
@@ -29,9 +29,10 @@ def _forge(cache, fn, kw, value) -> None:
     can write the folder could do)."""
     key = run_key(fn, kw)
     path = write_cache_entry(cache, key, "forged", kw, {"y": 0.0}, 0.1, code_fingerprint())
-    entry = json.loads(path.read_text())
-    entry["value"], entry["value_sha256"] = value, _sha256(_canonical(value))
-    path.write_text(json.dumps(entry))
+    entry = json.loads(path.read_text().split("\n", 1)[0])
+    body = value_text(value)
+    entry["value_sha256"] = _sha256(body)
+    path.write_text(json.dumps(entry) + "\n" + body)
 
 
 def test_a_folder_others_can_write_is_refused_whichever_way_it_is_chosen(tmp_path, monkeypatch):

@@ -84,17 +84,17 @@ def test_invalid_entry_is_recomputed_with_a_warning(tmp_path, damage, capsys):
     _runner(tmp_path).values(J.counted, [kw])
     path = _entry(tmp_path, J.counted, kw)
     text = path.read_text()
-    entry = json.loads(text)
+    head, body = text.split("\n", 1)
+    entry = json.loads(head)
     if damage == "edit_value":
-        entry["value"]["y"] = 10.0  # hand-edited, checksum no longer matches
-        path.write_text(json.dumps(entry))
+        path.write_text(head + "\n" + body.replace("9.0", "10.0"))  # hand-edited, checksum no longer matches
     elif damage == "empty_object":
         path.write_text("{}")
     elif damage == "truncate":
         path.write_text(text[: len(text) // 2])
     elif damage == "wrong_key":
         entry["key"] = "0" * 64
-        path.write_text(json.dumps(entry))
+        path.write_text(json.dumps(entry) + "\n" + body)
     else:
         path.write_text("[1, 2]")
     r = _runner(tmp_path)
@@ -110,10 +110,34 @@ def test_invalid_entry_is_recomputed_with_a_warning(tmp_path, damage, capsys):
 def test_entry_records_what_computed_it(tmp_path):
     kw = dict(x=2.0, delay=0.05)
     _runner(tmp_path).values(J.slow_square, [kw])
-    e = json.loads(_entry(tmp_path, J.slow_square, kw).read_text())
+    head, body = _entry(tmp_path, J.slow_square, kw).read_text().split("\n", 1)
+    e = json.loads(head)
     assert e["key"] == run_key(J.slow_square, kw) and e["fingerprint"] == R.code_fingerprint()
     assert e["fn"] == "runner_jobs.slow_square" and len(e["kwargs_sha256"]) == 64 and len(e["value_sha256"]) == 64
-    assert e["value"]["y"] == 4.0 and e["wall_s"] > 0.04  # the job sleeps 0.05 s (no upper bound: a busy host)
+    assert json.loads(body)["y"] == 4.0 and e["wall_s"] > 0.04  # the job sleeps 0.05 s (no upper bound: a busy host)
+
+
+def test_arrays_in_a_value_come_back_from_the_cache_bit_for_bit(tmp_path):
+    """A run's numpy arrays are stored as their bytes: the cached value equals the computed one bit for bit and has
+    the same types (arrays stay arrays, other dtypes become lists), and the entry is smaller than decimal text."""
+    import numpy as np
+
+    kw = dict(n=500, seed=3)
+    fresh = _runner(tmp_path).values(J.table, [kw])[0]
+    cached_runner = _runner(tmp_path)
+    cached = cached_runner.values(J.table, [kw])[0]
+    assert cached_runner.stats["cached"] == 1
+    want = J.table(**kw)
+    for v in (fresh, cached):
+        assert v["table"].dtype == np.float64 and v["table"].tobytes() == want["table"].tobytes()
+        assert v["counts"].dtype == np.int64 and v["counts"].tolist() == list(range(500))
+        assert v["hit"].dtype == bool and (v["hit"] == want["hit"]).all() and v["names"] == ["a", "b"]
+    assert _entry(tmp_path, J.table, kw).stat().st_size < len(json.dumps(want["table"].tolist()))
+
+
+def test_a_value_using_the_array_tag_as_a_key_is_an_error_of_the_run(tmp_path):
+    out = _runner(tmp_path).map(J.square_tagged, [{"x": 1.0}])[0]
+    assert out.value is None and C.ARRAY_TAG in out.error
 
 
 def test_worker_reuses_an_entry_written_by_another_sweep(tmp_path):

@@ -96,7 +96,7 @@ def calibrate(
     model's start-to-start spread, the counting noise of a test of operation.test_duration and a further field noise
     learnt from the sheet's replicates) and a model discrepancy, so an effect the sheet measured and the model does
     not produce is named and the predictions follow it.  The --out folder keeps the calibration (calibration_state.npz):
-    `calibrate --from DIR --predict ...` predicts again in seconds.  Pedicel stiffness is not calibrated.  Method and
+    `calibrate --from DIR --predict ...` predicts again in seconds.  Method and
     priors: docs/calibration.md.
 
     --json keys: parameters (per name: prior, described, posterior_mean, posterior_median, lo90, hi90, width_ratio,
@@ -291,7 +291,7 @@ def _print_calibration(res) -> None:
     em = res.emulator.held_out_theta
     out.print(f"checks: {s.inside} of {s.total} run means inside their 90 % predictive interval; emulator "
               "held-out RMSE / replicate SD: " + ", ".join(f"{r} {e.rmse_over_sd:.2f}" for r, e in em.items())
-              + f"; discrepancy {res.discrepancy_text}; pedicel stiffness not calibrated (docs/calibration.md).",
+              + f"; discrepancy {res.discrepancy_text}.",
               markup=False, highlight=False)
     if res.out:
         err.print(f"wrote {res.out}", markup=False, highlight=False)

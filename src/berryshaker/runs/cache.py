@@ -4,14 +4,17 @@ A run's key (:func:`run_key`) is the sha256 of the run function's dotted name, i
 fingerprint of the berryshaker source code (:func:`~berryshaker.outputs.code_fingerprint`), so an interrupted study
 resumes where it stopped, a repeated one is instant, and a changed model is never served a stale result.
 
-Cache entries are JSON files written atomically (no pickle) as each run finishes (:func:`write_cache_entry`); each
-holds its key, the code fingerprint, the function name, a hash of the arguments, the value, the run's wall time and
-a checksum of the value.  An entry that fails validation (:func:`read_cache_entry`: truncated, hand-edited, ``{}``)
-is not used: the runner recomputes and overwrites it, with a one-line warning naming it.
+Cache entries are text files written atomically (no pickle) as each run finishes (:func:`write_cache_entry`): a
+first line of JSON holding the key, the code fingerprint, the function name, a hash of the arguments, the run's wall
+time and the sha256 of the value's text, then the value's JSON text (:func:`value_text`; a numeric numpy array is
+written as its bytes in base64 and read back bit for bit, so a run's tables cost no decimal conversion either way).
+An entry that fails validation (:func:`read_cache_entry`: truncated, hand-edited, ``{}``) is not used: the runner
+recomputes and overwrites it, with a one-line warning naming it.
 """
 
 from __future__ import annotations
 
+import base64
 import functools
 import hashlib
 import json
@@ -27,7 +30,11 @@ from berryshaker import __version__
 from berryshaker.outputs import code_fingerprint
 
 #: Version of the cache-entry layout; part of every key.
-CACHE_SCHEMA = 2
+CACHE_SCHEMA = 3
+
+#: the key that marks a numpy array in a value's text (:func:`value_text`), and the dtypes written so
+ARRAY_TAG = "__ndarray__"
+_ARRAY_DTYPES = {"f": "<f8", "i": "<i8", "b": "|b1"}
 
 
 def default_cache_dir() -> Path:
@@ -124,6 +131,107 @@ def _not_json(obj):
     if isinstance(obj, np.generic):
         return obj.item()
     raise TypeError(f"{type(obj).__name__} is not JSON-compatible (use numbers, strings, lists, dicts)")
+
+
+def run_value(obj):
+    """A run's return value in the form the cache stores: dicts with string keys, lists, numbers, strings, None,
+    and numpy arrays of floats, integers or booleans kept as arrays (float64, int64, bool); other arrays become lists.
+
+    Parameters
+    ----------
+    obj : object
+        What the run function returned.
+
+    Returns
+    -------
+    object
+        The value; its arrays are C-contiguous copies.
+
+    Raises
+    ------
+    TypeError
+        A dict of the value uses the array tag :data:`ARRAY_TAG` as a key (it would be read back as an array).
+    """
+    import numpy as np
+
+    if isinstance(obj, dict):
+        if ARRAY_TAG in obj:
+            raise TypeError(f"a run's value may not use the key {ARRAY_TAG!r}")
+        return {str(k): run_value(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [run_value(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        dt = _ARRAY_DTYPES.get(obj.dtype.kind)
+        return np.array(obj, dtype=dt, order="C") if dt else run_value(obj.tolist())
+    if isinstance(obj, np.generic):
+        return obj.item()
+    return obj
+
+
+def _array_text(obj):
+    import numpy as np
+
+    if isinstance(obj, np.ndarray) and obj.dtype.str in _ARRAY_DTYPES.values():
+        return {ARRAY_TAG: obj.dtype.str, "shape": list(obj.shape),
+                "data": base64.b64encode(np.ascontiguousarray(obj).tobytes()).decode("ascii")}
+    raise TypeError(f"{type(obj).__name__} is not JSON-compatible (use numbers, strings, lists, dicts, arrays)")
+
+
+def value_text(value) -> str:
+    """The JSON text of a run's value (:func:`run_value`) as a cache entry holds it: a numpy array as
+    ``{"__ndarray__": dtype, "shape": [...], "data": base64 of its bytes}``.
+
+    Parameters
+    ----------
+    value : object
+        The value.
+
+    Returns
+    -------
+    str
+        Its text (compact JSON).
+
+    Raises
+    ------
+    TypeError
+        Part of the value is not JSON-compatible.
+    """
+    return json.dumps(value, separators=(",", ":"), default=_array_text)
+
+
+def _array_of(d: dict):
+    """Object hook of :func:`read_value`: a tagged dict back to its array (ValueError when malformed)."""
+    if ARRAY_TAG not in d:
+        return d
+    import numpy as np
+
+    dt, shape, data = d.get(ARRAY_TAG), d.get("shape"), d.get("data")
+    if (set(d) != {ARRAY_TAG, "shape", "data"} or dt not in _ARRAY_DTYPES.values() or not isinstance(data, str)
+            or not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape)):
+        raise ValueError("malformed array")
+    raw = base64.b64decode(data, validate=True)
+    return np.frombuffer(raw, dtype=dt).reshape(shape).copy()
+
+
+def read_value(text: str):
+    """A run's value from its text (:func:`value_text`), arrays restored bit for bit.
+
+    Parameters
+    ----------
+    text : str
+        The value's text.
+
+    Returns
+    -------
+    object
+        The value.
+
+    Raises
+    ------
+    ValueError
+        Not JSON, or an array tag that does not hold an array.
+    """
+    return json.loads(text, object_hook=_array_of)
 
 
 def _canonical(obj) -> str:
@@ -332,21 +440,16 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
     data, problem = read_own_file(path, MAX_ENTRY_BYTES)
     if data is None:
         return None, problem
+    head, sep, body = data.partition(b"\n")
     try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        return None, f"unreadable ({type(exc).__name__})"
-    try:
-        entry = json.loads(text)
-    except ValueError:
-        return None, "not valid JSON (truncated or edited)"
-    if not isinstance(entry, dict):
-        return None, "not a JSON object"
+        entry = json.loads(head.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError):
+        return None, "not a valid entry (truncated or edited)"
+    if not isinstance(entry, dict) or not sep:
+        return None, "not a valid entry (truncated or edited)"
     for name, typ in _ENTRY_TYPES.items():
         if not isinstance(entry.get(name), typ) or isinstance(entry.get(name), bool):
             return None, f"field {name!r} missing or of the wrong type"
-    if "value" not in entry:
-        return None, "field 'value' missing"
     if entry["schema"] != CACHE_SCHEMA:
         return None, f"schema {entry['schema']} (expected {CACHE_SCHEMA})"
     if entry["key"] != key:
@@ -355,12 +458,12 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
         return None, "written by other code"
     if not math.isfinite(entry["wall_s"]) or entry["wall_s"] < 0:
         return None, "impossible wall time"
-    try:
-        ok = _sha256(_canonical(entry["value"])) == entry["value_sha256"]
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
+    if hashlib.sha256(body).hexdigest() != entry["value_sha256"]:
         return None, "value checksum mismatch (edited or damaged)"
+    try:
+        entry["value"] = read_value(body.decode("utf-8"))
+    except (UnicodeDecodeError, ValueError, TypeError):
+        return None, "value unreadable (edited or damaged)"
     return entry, None
 
 
@@ -379,7 +482,7 @@ def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dic
     kwargs : dict
         The run's arguments (stored as their hash).
     value : object
-        The run's JSON-compatible value.
+        The run's value (:func:`run_value`).
     wall_s : float
         Seconds of compute the run took (s).
     fingerprint : str
@@ -392,10 +495,10 @@ def write_cache_entry(cache_dir: str | Path, key: str, fn_name: str, kwargs: dic
     """
     from berryshaker.outputs import write_text_atomic
 
-    entry = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,
-             "kwargs_sha256": _sha256(_canonical(kwargs)), "version": __version__,
-             "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": float(wall_s),
-             "value_sha256": _sha256(_canonical(value)), "value": value}
+    body = value_text(value)
+    head = {"schema": CACHE_SCHEMA, "key": key, "fingerprint": fingerprint, "fn": fn_name,
+            "kwargs_sha256": _sha256(_canonical(kwargs)), "version": __version__,
+            "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "wall_s": float(wall_s), "value_sha256": _sha256(body)}
     path = cache_entry_path(cache_dir, key)
-    write_text_atomic(path, json.dumps(entry, separators=(",", ":")))
+    write_text_atomic(path, json.dumps(head, separators=(",", ":")) + "\n" + body)
     return path

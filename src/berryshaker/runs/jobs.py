@@ -23,11 +23,11 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from berryshaker.runs.cache import (
-    _canonical,
-    _jsonable,
     cache_entry_path,
     function_name,
     read_cache_entry,
+    run_value,
+    value_text,
     write_cache_entry,
 )
 
@@ -67,7 +67,7 @@ class RunResult:
 
 def execute_job(fn: Callable, kwargs: dict) -> dict:
     """Run one job and wrap the outcome; module-level so processes and Dask workers can import it.  A value
-    that is not JSON-compatible is an error of the run.
+    that is not JSON-compatible (:func:`berryshaker.runs.cache.run_value`) is an error of the run.
 
     Parameters
     ----------
@@ -86,8 +86,8 @@ def execute_job(fn: Callable, kwargs: dict) -> dict:
     try:
         raw = fn(**kwargs)
         wall = time.perf_counter() - t0
-        value = _jsonable(raw)
-        _canonical(value)
+        value = run_value(raw)
+        value_text(value)  # not JSON-compatible: an error of the run
         return {"value": value, "error": None, "wall_s": wall}
     except Exception as exc:  # noqa: BLE001 - recorded per run, reported by the caller
         return {"value": None, "error": f"{type(exc).__name__}: {exc}", "wall_s": time.perf_counter() - t0}

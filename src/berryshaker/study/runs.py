@@ -257,19 +257,19 @@ def replicate_record(machine, table, res) -> dict:
     Returns
     -------
     dict
-        ``envelope`` (the table as nested lists), ``peak_force_N`` (N per pair: the run's single largest force,
+        ``envelope`` (the table, numpy.ndarray), ``peak_force_N`` (N per pair: the run's single largest force,
         an extreme), ``impact_peaks_N`` (per clearance pair, the peak of each of its impacts over the statistics
         window, N: berryshaker.multibody.impacts) and, for a speed-driven machine, ``drive_torque_Nm`` (``peak``: the
         run's single largest moment, an extreme; ``rms``; ``revolution_peaks``: the peak |M| of each whole
         revolution; ``fatigue_equivalent``: berryshaker.multibody.drive_loads; all N m).
     """
     s = res.summary()
-    out = {"envelope": table.tolist(),
+    out = {"envelope": table,
            "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]},
            "impact_peaks_N": {}}
     for p in machine.pair_names:
         if p in res.compiled.frc_names:
-            out["impact_peaks_N"][p] = res.contact_episodes(p).impacts().peak_N.tolist()
+            out["impact_peaks_N"][p] = np.asarray(res.contact_episodes(p).impacts().peak_N, float)
     if s["drivers"]:
         from berryshaker.multibody.drive_loads import fatigue_equivalent_torque, revolution_peaks
 
@@ -279,7 +279,7 @@ def replicate_record(machine, table, res) -> dict:
         m = res.reaction(name)[sel]
         out["drive_torque_Nm"] = {"peak": tq["peak"], "rms": tq["rms"],
                                   "revolution_peaks": revolution_peaks(res.t[sel], m, res.stats_from,
-                                                                       2 * math.pi / machine.drive_speed).tolist(),
+                                                                       2 * math.pi / machine.drive_speed),
                                   "fatigue_equivalent": fatigue_equivalent_torque(m)}
     return out
 

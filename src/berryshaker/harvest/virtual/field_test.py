@@ -56,6 +56,7 @@ from berryshaker.harvest.virtual.seeds import FIELD, stream
 from berryshaker.harvest.virtual.stem_force_tables import (
     MASS_FACTORS,
     Z_GRID,
+    along_branch,
     bond_strengths,
     fruit_load_channels,
     fruit_peak_force,
@@ -375,9 +376,7 @@ def load_grid(machine: Machine, envelopes: list, z_per_cell: int = Z_NODES, mass
     envs = [np.asarray(env, float) for env in envelopes]
     beta = machine.harvest.miner_exponent
     if all(e.ndim == 3 and e.shape == envs[0].shape for e in envs):  # tables over position x mass x channels
-        tables = NodeTables(
-            np.stack([np.stack([[np.interp(z, Z_GRID, e[:, j, c]) for j in range(e.shape[1])] for e in envs])
-                      for c in range(envs[0].shape[-1])]).transpose(0, 1, 3, 2),
+        tables = NodeTables(np.stack([along_branch(e, z) for e in envs]).transpose(3, 0, 1, 2),  # (c, class, z, m)
             mass / m0, *(np.asarray(x) for x in _table_channels(envs[0].shape[-1])))
         cr, cu, force = tables.read(1.0)
         force = force[0]
@@ -548,10 +547,39 @@ def expected_tally(machine: Machine, grid: LoadGrid, params: HarvestParameters |
         Expected masses (kg) of the B bushes a test passes and the test's duration (s).
     """
     p = params or HarvestParameters.described(machine)
-    eg, _, m_mean = _moments(machine, grid, p)
+    return _expected(machine, _moments(machine, grid, p), p)
+
+
+def _expected(machine: Machine, moments, p: HarvestParameters) -> Tally:
+    eg, _, m_mean = moments
     n_fruit = bushes_per_test(machine) * _row(p.yield_per_bush) / m_mean
     s = eg * np.asarray(n_fruit)[..., None]
     return Tally(*(s[..., i] for i in range(5)), np.broadcast_to(machine.operation.test_duration, s.shape[:-1]) * 1.0)
+
+
+def expectation(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None,
+                names=None) -> tuple[Tally, dict]:
+    """:func:`expected_tally` and :func:`count_variance` together, from one evaluation of the nodes' probabilities.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    grid : LoadGrid
+        The start's nodes.
+    params : HarvestParameters, optional
+        Parameter values (default the description's).
+    names : iterable of str, optional
+        Responses of the variances (default every one of :data:`~berryshaker.harvest.virtual.responses.RESPONSES`).
+
+    Returns
+    -------
+    (Tally, dict)
+        The expected tally (kg, s) and name -> counting variance (the response's unit squared).
+    """
+    p = params or HarvestParameters.described(machine)
+    moments = _moments(machine, grid, p)
+    return _expected(machine, moments, p), _count_variance(machine, moments, p, names)
 
 
 def count_variance(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None,
@@ -576,7 +604,11 @@ def count_variance(machine: Machine, grid: LoadGrid, params: HarvestParameters |
         Name -> variance (the response's unit squared; float or (n,) array).
     """
     p = params or HarvestParameters.described(machine)
-    eg, egg, m_mean = _moments(machine, grid, p)
+    return _count_variance(machine, _moments(machine, grid, p), p, names)
+
+
+def _count_variance(machine: Machine, moments, p: HarvestParameters, names) -> dict:
+    eg, egg, m_mean = moments
     bushes = bushes_per_test(machine)
     yb = _row(p.yield_per_bush)
     lam = bushes * yb / m_mean

@@ -12,8 +12,7 @@ import numpy as np
 from berryshaker.config import Machine
 from berryshaker.harvest.virtual.field_test import (
     HarvestParameters,
-    count_variance,
-    expected_tally,
+    expectation,
     field_tally,
     load_grid,
 )
@@ -45,8 +44,8 @@ def start_responses(machine: Machine, envelopes: list, start: int, params: Harve
     """
     envelopes = [np.asarray(e, float) for e in envelopes]
     grid = load_grid(machine, envelopes)
-    var = count_variance(machine, grid, params)
-    return {"expected": response_values(expected_tally(machine, grid, params)),
+    tally, var = expectation(machine, grid, params)
+    return {"expected": response_values(tally),
             "field": response_values(field_tally(machine, envelopes, start, params)),
             "count_sd": {n: math.sqrt(v) if np.isfinite(v) and v >= 0 else float("nan") for n, v in var.items()}}
 

@@ -265,12 +265,52 @@ def mass_weights(mass_factor: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return j, (lm - lg[j]) / (lg[j + 1] - lg[j])
 
 
+def _z_cells(z: np.ndarray):
+    """Each fraction's cell of Z_GRID (index i, z - Z_GRID[i], cell width) and whether it lies at or beyond an end."""
+    i = np.clip(np.searchsorted(Z_GRID, z, side="right") - 1, 0, Z_GRID.size - 2)
+    return i, z - Z_GRID[i], Z_GRID[i + 1] - Z_GRID[i], z <= Z_GRID[0], z >= Z_GRID[-1]
+
+
+def along_branch(values: np.ndarray, z) -> np.ndarray:
+    """Values on Z_GRID (axis 0, any trailing axes) at fractions z: numpy.interp of every trailing column, bit for
+    bit (the same arithmetic: slope x offset + left value; ends held; a node's own value on it).
+
+    Parameters
+    ----------
+    values : numpy.ndarray (len(Z_GRID), ...)
+        Values at the grid's fractions (any unit).
+    z : array_like (n,)
+        Fractions of the branch length (dimensionless).
+
+    Returns
+    -------
+    numpy.ndarray (n, ...)
+        The values at z (the unit of ``values``).
+    """
+    z = np.asarray(z, float)
+    i, dz, dx, low, high = _z_cells(z)
+    col = (slice(None),) + (None,) * (values.ndim - 1)
+    v = (values[i + 1] - values[i]) / dx[col] * dz[col] + values[i]
+    v[low], v[high] = values[0], values[-1]
+    return v
+
+
 def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
-    """A (Z_GRID x MASS_FACTORS) table at fractions z and masses ``mass``: linear in z and in log mass."""
-    cols = np.array([np.interp(z, Z_GRID, table[:, j]) for j in range(table.shape[1])])  # (n_mass, n_fruit)
+    """A (Z_GRID x MASS_FACTORS [x channels]) table at fractions z and masses ``mass``: linear in z
+    (:func:`along_branch`'s arithmetic) and in log mass; (n,) or (n, channels)."""
+    z = np.asarray(z, float)
+    i, dz, dx, low, high = _z_cells(z)
     j, w = mass_weights(mass / m0)
-    idx = np.arange(len(z))
-    return (1 - w) * cols[j, idx] + w * cols[j + 1, idx]
+    extra = (slice(None),) * (table.ndim - 2)
+    col = (slice(None),) + (None,) * (table.ndim - 2)
+
+    def along_z(k):  # column k of the table (one per fruit) at each fruit's z
+        f0 = table[(i, k) + extra]
+        v = (table[(i + 1, k) + extra] - f0) / dx[col] * dz[col] + f0
+        v[low], v[high] = table[(0, k[low]) + extra], table[(-1, k[high]) + extra]
+        return v
+
+    return (1 - w[col]) * along_z(j) + w[col] * along_z(j + 1)
 
 
 def fruit_peak_force(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float,
@@ -343,7 +383,7 @@ def fruit_load_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m
     if env.ndim == 3:
         a = float(stiffness_scale)
         chans = miner_channels(ripe) if env.shape[-1] > 3 else [CH_RIPE if ripe else CH_UNRIPE]
-        return a * np.array([_interp_table(env[..., c], z, mass / a, m0) for c in chans])
+        return a * _interp_table(env[..., chans], z, mass / a, m0).T
     return (fruit_peak_force(env, z, mass, m0, stiffness_scale) / strengths[0 if ripe else 1][1])[None]
 
 
@@ -384,8 +424,8 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
 
     ripe = np.asarray(ripe, bool)
     a = stiffness_scale
-    return np.where(ripe, miner_load(fruit_load_channels(envelope, z, mass, m0, True, strengths, a), exponent),
-                    miner_load(fruit_load_channels(envelope, z, mass, m0, False, strengths, a), exponent))
+    return miner_load(np.where(ripe, fruit_load_channels(envelope, z, mass, m0, True, strengths, a),
+                               fruit_load_channels(envelope, z, mass, m0, False, strengths, a)), exponent)
 
 
 def envelopes_for(machine: Machine, clearance: dict[str, float] | None) -> list[np.ndarray]:

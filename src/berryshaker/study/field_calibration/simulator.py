@@ -203,7 +203,7 @@ class Simulator:
             (n, starts, responses) expectations (the responses' units, kg/min and %; NaN where undefined) and
             counting variances (those units squared).
         """
-        from berryshaker.harvest.virtual import count_variance, expected_tally, response_values
+        from berryshaker.harvest.virtual import expectation, response_values
 
         m = self.machine_at(s)
         p = parameter_rows(theta)
@@ -212,8 +212,8 @@ class Simulator:
         var = np.empty_like(mean)
         for i, k in enumerate(starts):
             g = self.grids[(s, k)]
-            e = response_values(expected_tally(m, g, p), names)
-            v = count_variance(m, g, p, names)
+            tally, v = expectation(m, g, p, names)
+            e = response_values(tally, names)
             for j, r in enumerate(names):
                 mean[:, i, j] = np.broadcast_to(e[r], (n,))
                 var[:, i, j] = np.broadcast_to(v[r], (n,))

@@ -24,6 +24,7 @@ import numpy as np
 
 from berryshaker.config import Machine
 from berryshaker.errors import ConfigError
+from berryshaker.harvest.virtual.stem_force_tables import STIFFNESS_RANGE
 from berryshaker.study.field_calibration.emulator import Emulator
 from berryshaker.study.field_calibration.posterior import (
     DISCREPANCY_LENGTH,
@@ -88,7 +89,8 @@ RESIDUAL_RULE = (
 #: calibration's predictions, :func:`predict_saved`, are the calibration's own)
 PREDICTION_SEED = 8
 LIMITS = (
-    "pedicel stiffness is not calibrated: the stem-load tables are computed at the described stiffness",
+    f"the pedicel stiffness is learnt within a factor {STIFFNESS_RANGE:g} of the described one (where the stem-load "
+    "tables' mass axis ends), its damping scaled with it; on a rigid-stem description it is inert (posterior = prior)",
     "unripe bond CV, fruit mass, branch geometry and every machine value stay as described",
     "the model discrepancy is a Gaussian process over the coded settings, additive in the factors: it follows a "
     "measured main effect to untested level sets, not an interaction the sheet cannot resolve",
