@@ -156,19 +156,21 @@ def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_
     position i; the maxima are taken on the squares).
 
     Time outermost, positions innermost: at each time the positions' inputs are gathered into contiguous rows and
-    every (mass, position) oscillator advances one step, the positions side by side (each oscillator's arithmetic
-    is that of its own recursion, so the numbers do not depend on the order)."""
+    every (mass, position) oscillator advances one step, the positions side by side, then the load ratios and the
+    reversal count read the forces kept in rows (each oscillator's arithmetic is that of its own recursion, so the
+    numbers do not depend on the order or the loops' split)."""
     n_z, n_t = y.shape
     n_m = ad.shape[0]
     n_s = inv_pull.shape[0]
     n_k = exponents.shape[0]
     half = 0.5 * exponents
     x0, x1, w0, w1 = np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z)), np.zeros((n_m, n_z))
-    best = np.zeros((n_m, n_z, 1 + n_s))
+    best = np.zeros((n_m, 1 + n_s, n_z))
     rising = np.ones((n_m, n_s, n_z), dtype=np.bool_)
     cand, last, pm = np.zeros((n_m, n_s, n_z)), np.zeros((n_m, n_s, n_z)), np.zeros((n_m, n_s, n_z))
     sums = np.zeros((n_m, n_s, n_z, n_k))
     u0r, u1r, s0r, s1r = np.empty(n_z), np.empty(n_z), np.empty(n_z), np.empty(n_z)
+    lat, pull = np.empty(n_z), np.empty(n_z)
     g2r = np.empty((n_s, n_z))
     for n in range(n_t):
         for i in range(n_z):
@@ -178,25 +180,30 @@ def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_
             a00, a01, a10, a11 = ad[j, 0, 0], ad[j, 0, 1], ad[j, 1, 0], ad[j, 1, 1]
             b00, b01, b10, b11 = bd[j, 0, 0], bd[j, 0, 1], bd[j, 1, 0], bd[j, 1, 1]
             wt = weight[j]
-            for i in range(n_z):
+            p0r, p1r, q0r, q1r, b0r = x0[j], x1[j], w0[j], w1[j], best[j, 0]
+            for i in range(n_z):  # the oscillators: no inner loop, no branch (a select), so it runs in SIMD lanes
                 u0, u1, s0, s1 = u0r[i], u1r[i], s0r[i], s1r[i]
-                p0, p1, q0, q1 = x0[j, i], x1[j, i], w0[j, i], w1[j, i]
+                p0, p1, q0, q1 = p0r[i], p1r[i], q0r[i], q1r[i]
                 f_lat = c0 * p0 + c1 * p1 + d0 * u0 + d1 * u1
                 f_ax = c0 * q0 + c1 * q1 + d0 * s0 + d1 * s1 + wt
                 f2 = f_lat * f_lat + f_ax * f_ax
-                b = best[j, i, 0]
-                best[j, i, 0] = f2 if f2 > b else b
-                pull = f_ax if f_ax > 0.0 else 0.0
-                for s in range(n_s):
-                    gp, gs = pull * inv_pull[s], f_lat * inv_shear[s]
+                b = b0r[i]
+                b0r[i] = f2 if f2 > b else b
+                lat[i] = f_lat
+                pull[i] = f_ax if f_ax > 0.0 else 0.0
+                p0r[i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
+                p1r[i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
+                q0r[i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
+                q1r[i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
+            for s in range(n_s):  # the load ratios of each strength class
+                ip, ish = inv_pull[s], inv_shear[s]
+                bs, gs2 = best[j, 1 + s], g2r[s]
+                for i in range(n_z):
+                    gp, gs = pull[i] * ip, lat[i] * ish
                     g2 = gp * gp + gs * gs
-                    b = best[j, i, 1 + s]
-                    best[j, i, 1 + s] = g2 if g2 > b else b
-                    g2r[s, i] = g2
-                x0[j, i] = a00 * p0 + a01 * p1 + b00 * u0 + b01 * u1
-                x1[j, i] = a10 * p0 + a11 * p1 + b10 * u0 + b11 * u1
-                w0[j, i] = a00 * q0 + a01 * q1 + b00 * s0 + b01 * s1
-                w1[j, i] = a10 * q0 + a11 * q1 + b10 * s0 + b11 * s1
+                    b = bs[i]
+                    bs[i] = g2 if g2 > b else b
+                    gs2[i] = g2
             if n_k:  # the reversal count (berryshaker.plant.pedicel.miner; branches: out of the oscillators' loop)
                 for s in range(n_s):
                     for i in range(n_z):
@@ -217,7 +224,7 @@ def _peak_stem_force_kernel(ad, bd, cd, dd, y, v, ya, va, weight, inv_pull, inv_
     for j in range(n_m):
         for i in range(n_z):
             for s in range(1 + n_s):
-                out[i, j, s] = math.sqrt(best[j, i, s])
+                out[i, j, s] = math.sqrt(best[j, s, i])
             if n_k:
                 for s in range(n_s):
                     _finish(j, s, i, rising, cand, pm, sums, half)
