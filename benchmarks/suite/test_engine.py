@@ -19,7 +19,9 @@ the accepted steps, so time per step = median / steps.  Cases:
   and its drive turned by up to 180 deg: up to 16 continuation steps, ``multibody.perturbation``), as every
   replicate drive-past assembles its start;
 * sweep throughput: 8 harvester runs over clearance sets drawn 0.5-1.5x around the reference (seed 1), one by one
-  as ``berryshaker sweep --model multibody`` runs them.
+  as ``berryshaker sweep --model multibody`` runs them;
+* reading one replicate drive-past's run-cache entry (``runs.cache.read_cache_entry``: arrays as their bytes, the
+  checksum over the text) beside the same value as decimal JSON whose checksum is checked by re-encoding it.
 """
 
 from __future__ import annotations
@@ -178,3 +180,39 @@ def test_sweep_throughput(benchmark, machine):
     run()
     benchmark.pedantic(run, rounds=3, iterations=1)
     benchmark.extra_info.update(runs=SWEEP_SETS)
+
+
+def _replicate_value():
+    """A value the size of one replicate drive-past's (study.runs.replicate_record): its stem-load table and impact
+    peaks (seeded numbers of the same shapes)."""
+    from berryshaker.harvest.virtual import MASS_FACTORS, Z_GRID
+
+    rng = np.random.default_rng(5)
+    return {"envelope": rng.random((Z_GRID.size, MASS_FACTORS.size, 15)),
+            "impact_peaks_N": {p: rng.random(700) * 1e3 for p in "ABCF"}, "peak_force_N": {p: 1e3 for p in "ABCF"}}
+
+
+@pytest.mark.parametrize("form", ["bytes", "decimal"])
+def test_cache_entry_read(benchmark, tmp_path, form):
+    """One replicate drive-past's cache entry read back: as written (``bytes``), and the same value as decimal JSON
+    checked by re-encoding (``decimal``, what an entry read cost before arrays were stored as their bytes)."""
+    import hashlib
+    import json
+
+    from berryshaker.runs.cache import _canonical, _jsonable, read_cache_entry, run_value, write_cache_entry
+
+    benchmark.group = "run-cache entry read"
+    value = run_value(_replicate_value())
+    if form == "bytes":
+        path = write_cache_entry(tmp_path, "k" * 64, "bench", {}, value, 1.0, "f")
+        run = lambda: read_cache_entry(path, "k" * 64, "f")[0]["value"]  # noqa: E731
+    else:
+        text = json.dumps(_jsonable(value))
+        digest = hashlib.sha256(_canonical(json.loads(text)).encode()).hexdigest()
+
+        def run():
+            v = json.loads(text)
+            assert hashlib.sha256(_canonical(v).encode()).hexdigest() == digest
+            return v
+    run()
+    benchmark.pedantic(run, rounds=10, iterations=1)
