@@ -28,7 +28,7 @@ from _results import default_out, write_results  # benchmarks/studies/ (the scri
 from berryshaker.config import reference_machine
 from berryshaker.harvest import coupled
 from berryshaker.harvest.spec import COUPLED_RTOL
-from berryshaker.harvest.virtual import machine_start, replicate_starts, stem_force_envelope_run
+from berryshaker.harvest.virtual import class_starts, class_tables_run, replicate_starts
 from berryshaker.study.replicate_responses import _cell, replicate_jobs
 from berryshaker.study.runs import replicate_record
 
@@ -41,16 +41,16 @@ REFERENCE = (1e-7, 0.1)  # rtol, velocity scale (m/s)
 
 
 def _job(args):
-    """One replicate job (one branch class's drive-past) at (rtol, scale): the replicate's output as
-    ``study.runs.replicate_run`` gives it, the envelope's mean, step attempts and CPU seconds."""
+    """One replicate job (one start's drive-past carrying every branch class) at (rtol, scale): the replicate's
+    output as ``study.runs.replicate_run`` gives it, each class's table mean, step attempts and CPU seconds."""
     rtol, scale, job = args
     coupled.COUPLED_VELOCITY_SCALE = scale  # read when the coupled mechanism is built (a forked worker's copy)
     machine = reference_machine()
-    pert = machine_start(machine, job["seed"])
     c0 = time.process_time()
-    table, res = stem_force_envelope_run(machine, job["clearance"], job["scale"], pert, rtol)
+    tables, res = class_tables_run(machine, job["clearance"], class_starts(machine, job["seed"]), rtol)
     cpu = time.process_time() - c0
-    return replicate_record(machine, table, res), float(np.mean(table)), float(res.info[0] + res.info[1] + res.info[2]), cpu
+    return (replicate_record(machine, tables, res), [float(np.mean(t)) for t in tables],
+            float(res.info[0] + res.info[1] + res.info[2]), cpu)
 
 
 def responses(pool, rtol: float, scale: float, replicates: int):
@@ -59,13 +59,11 @@ def responses(pool, rtol: float, scale: float, replicates: int):
     seeds = replicate_starts(machine, replicates)
     jobs = replicate_jobs(machine, CLEARANCE, seeds, rtol=rtol)
     res = pool.map(_job, [(rtol, scale, j) for j in jobs], chunksize=1)
-    nc = len(machine.harvest.branch_classes)
     cells = []
-    for k, sd in enumerate(seeds):
-        part = res[k * nc:(k + 1) * nc]
-        c = _cell(machine, [r[0] for r in part], sd)
-        for ci, r in enumerate(part):
-            c[f"stem_force_table_mean_class{ci + 1}"] = r[1]
+    for r, sd in zip(res, seeds):
+        c = _cell(machine, r[0], sd)
+        for ci, mean in enumerate(r[1]):
+            c[f"stem_force_table_mean_class{ci + 1}"] = mean
         cells.append(c)
     return ({n: np.array([c[n] for c in cells]) for n in cells[0]}, float(np.mean([r[2] for r in res])),
             float(np.mean([r[3] for r in res])))

@@ -5,7 +5,7 @@ force, stem-force envelopes, the replicates of the virtual L9, the calibration a
 What is compared is what a user reads: the responses of one replicate of a virtual test run
 (:func:`berryshaker.study.l9._cell`: efficiency, ripe removal, unripe rate and shedding, damage from the three
 branch classes' stem-force envelopes over a seeded bush population; the peak collision force of every clearance
-pair and the drive torque's peak and RMS over the three drive-pasts), for :data:`REPLICATES` replicates at the
+pair and the drive torque's peak and RMS over the start's drive-past carrying the three), for :data:`REPLICATES` replicates at the
 recommended clearances (A1B1C1F3) with the L9's seeds and perturbations, at the default tolerance and a 10x
 tighter one.  Replicate k has the same seed at both tolerances, so each response is compared as the mean of the
 paired differences, in units of its replicate standard deviation (pooled over the two tolerances).
@@ -74,10 +74,9 @@ def _cells(rtol: float, replicates: int) -> dict[str, np.ndarray]:
     """Every response of ``replicates`` replicates at ``rtol``: name -> array over the replicates."""
     machine = reference_machine()
     seeds = replicate_starts(machine, replicates)
-    nc = len(machine.harvest.branch_classes)
     with SweepRunner(use_cache=False, progress=False) as runner:
         outs = runner.values(replicate_run, replicate_jobs(machine, CLEARANCE, seeds, rtol=rtol))
-    cells = [_cell(machine, outs[k * nc:(k + 1) * nc], s) for k, s in enumerate(seeds)]
+    cells = [_cell(machine, o, s) for o, s in zip(outs, seeds)]
     return {n: np.array([c[n] for c in cells]) for n in cells[0]}
 
 
@@ -125,11 +124,11 @@ def test_coupled_runs_default_to_the_chosen_tolerance():
 
     from berryshaker.harvest.convergence import fruit_force_convergence
     from berryshaker.harvest.coupled import drive_past, simulate_fruit_force
-    from berryshaker.harvest.virtual import stem_force_envelope_run
+    from berryshaker.harvest.virtual import class_tables_run, stem_force_envelope_run
     from berryshaker.study.l9 import RTOL_RUN
 
-    for fn in (simulate_fruit_force, drive_past, stem_force_envelope_run, replicate_run, fruit_force_convergence,
-               replicate_jobs):
+    for fn in (simulate_fruit_force, drive_past, stem_force_envelope_run, class_tables_run, replicate_run,
+               fruit_force_convergence, replicate_jobs):
         assert inspect.signature(fn).parameters["rtol"].default == COUPLED_RTOL, fn.__name__
     assert RTOL_RUN == COUPLED_RTOL
 

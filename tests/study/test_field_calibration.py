@@ -134,7 +134,7 @@ def test_simulator_is_the_virtual_harvests_implementation(small, runner):
         assert np.sqrt(var[0, k]) == pytest.approx([ref["count_sd"][n] for n in names], rel=1e-6)
     # homogeneity: the coupled run recomputed with the scaled strengths gives the cached table / a exactly
     table, _ = stem_force_envelope_run(scaled, clearance, 1.0, machine_start(scaled, (seeds[0], MACHINE, 0)))
-    cached = np.array(outs[0]["envelope"])
+    cached = np.array(outs[0]["envelopes"][0])
     from berryshaker.harvest.virtual import miner_channels
 
     for ripe, a in ((True, h.ripe_pull / 0.6), (False, h.unripe_pull / 1.5)):

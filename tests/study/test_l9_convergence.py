@@ -282,13 +282,13 @@ def test_nothing_is_fitted_to_the_study_and_its_values_are_held_out(machine, con
     in ``berryshaker validate``), and the recommendation labels nothing "fitted"."""
     from berryshaker.config import value_tag
     from berryshaker.harvest.virtual import calibrate_harvest
-    from berryshaker.study.l9 import fitted_here, sequential_starts
+    from berryshaker.study.l9 import fitted_here, replicate_envelopes, sequential_starts
 
     assert not [k for k in ("harvest.yield_per_bush", "harvest.damage_acceleration", "harvest.unripe_fraction")
                 if value_tag(machine, k) == "calibrated"]
     assert fitted_here(machine, machine.clearance_sizes()) == []
     seq = sequential_starts(machine, spread_runner, machine.clearance_sizes())
-    reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
+    reps = replicate_envelopes(machine, seq["outputs"], seq["seeds"])
     r = calibrate_harvest(machine, replicates=reps)
     assert r["fitted"] == {} and set(r["held_out"]) == {"efficiency_kg_min", "unripe_rate_pct", "damage_rate_pct"}
     assert all(np.isfinite(v["model"]) for v in r["held_out"].values())

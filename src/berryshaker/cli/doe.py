@@ -329,14 +329,14 @@ def doe_virtual(
     """The study's L9 clearance test run through the virtual harvest, replicated, and analysed against its noise.
 
     Each of the 9 runs is repeated from harvest.replicates independent starts (or --replicates); each start is one
-    virtual field test: the machine's initial state (eccentricity in every clearance, drive phase at the bush) in
-    every branch class's drive-past, and the bushes a test of operation.test_duration passes with every fruit
+    virtual field test: one drive-past from a perturbed machine start (eccentricity in every clearance) carrying every
+    branch class's branch, each meeting the comb at its own drawn drive phase, and the bushes a test of operation.test_duration passes with every fruit
     counted (each kind of draw from its own stream of the seed family harvest.seed).  The same starts serve every
     run, and the analysis treats start k as block k: each factor is tested against its own interaction with the
     starts (one verdict per factor and response, also in the paired differences), and beside every effect of the
     model's expectation stands how many field tests per level it would take to see it.  The recommended set's starts
     are then extended until every harvest response's expected mean is known to harvest.se_target of itself (at
-    most harvest.max_replicates).  One coupled run per branch class and start goes through the cached sweep runner
+    most harvest.max_replicates).  One coupled run per start goes through the cached sweep runner
     (a repeat is instant).
 
     --convergence prints how the mean and the SD of each harvest response settle with the number of starts (the
@@ -402,7 +402,7 @@ def doe_virtual(
         if machine.plant is None:
             raise BerryshakerError("the virtual test needs a [plant] block in the machine description")
         if replicates is not None:
-            _check_replicates(replicates, "coupled runs: 9 runs x 3 branch classes each")
+            _check_replicates(replicates, "coupled runs: one per run of the 9 and start")
         runner = SweepRunner(workers=workers, scheduler=scheduler, cache_dir=cache, progress=True, console=err)
         if convergence:
             from berryshaker.experiment.noise import describe_convergence

@@ -51,10 +51,11 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
                             tolerance: float = 0.03, confidence: float = 0.95, say=None) -> dict:
     """Replicate means of the peak stem force (and eq. 16) at each fruit position against the modes kept.
 
-    For replicate k (seed s_k = ``harvest.seed`` + 1000 k, the calibration's and the L9's) the machine starts
-    from the perturbation :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` ((s_k, c),
-    ``harvest.initial_eccentricity``, ``harvest.start_phase_spread``), c the index of the reference branch class
-    (scale 1) in ``harvest.branch_classes`` -- the very start of that replicate's reference-branch run.  Per
+    For replicate start k (the calibration's and the L9's start numbers, berryshaker.harvest.virtual.replicate_starts)
+    the machine starts from :func:`berryshaker.harvest.virtual.machine_start` ``(k, MACHINE, c)``
+    (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with ``harvest.initial_eccentricity`` and
+    ``harvest.start_phase_spread``), c the index of the reference branch class (scale 1) in
+    ``harvest.branch_classes``: the eccentricities and the drive phase the virtual harvest draws for that class.  Per
     mode count n and fruit position the row gives the replicate mean F_n = (1/R) sum_k F_n,k and its standard
     error SE_n = s_n / sqrt(R) (s_n the sample SD over the replicates: the harvest statistic's own noise), the
     relative difference from the most modes N, d_n = F_n / F_N - 1, and the standard error of that difference

@@ -51,7 +51,7 @@ def _finger_points(machine, drive, ct):
 
 
 def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15,
-                      probes: tuple = ()):
+                      probes: tuple = (), probe_offsets: tuple = ()):
     """Harvester mechanism description with the machine's branch coupled to both combs.
 
     The run covers the instrumented branch's passage through the comb (its span plus ``margin`` either
@@ -71,7 +71,14 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     bush members, struck by both combs at the same stations, acting back on nothing.  Since no probe acts
     back, the combs' motion is the same for all of them, so the probes differ only by their own modal
     model: a comparison of modal models (convergence in modes, two-way against one-way fruit) free of the
-    clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").
+    clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").  A probe is
+    struck through the contact law of its own branch's diameter at the stations, so a probe may also be another
+    branch class (berryshaker.harvest.virtual.stem_force_tables.class_tables_run).
+
+    ``probe_offsets``: each probe's place along the row relative to the instrumented branch (m; default 0 each).  A
+    probe at d passes the comb d / walking speed later than a probe at 0; the run then covers every branch's
+    passage (from margin before the first to margin after the last), and the bush members stand centred on the
+    branches (their row offsets moved by the middle of the smallest and the largest offset, 0 included).
 
     Parameters
     ----------
@@ -83,6 +90,8 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         Distance before and after the instrumented branch's span covered by the run (m).
     probes : tuple of Machine
         Further descriptions whose instrumented branch is carried as a probe (see above).
+    probe_offsets : tuple of float
+        Row offset of each probe relative to the instrumented branch (m); empty: all 0.
 
     Returns
     -------
@@ -94,10 +103,14 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     Raises
     ------
     ConfigError
-        The description has no [plant] block.
+        The description has no [plant] block, or ``probe_offsets`` is not one offset per probe.
     """
     if machine.plant is None:
         raise ConfigError("the machine description has no [plant] block (see `berryshaker config init`)")
+    offsets = tuple(float(d) for d in probe_offsets) if probe_offsets else (0.0,) * len(probes)
+    if len(offsets) != len(probes):
+        raise ConfigError(f"coupled_mechanism: {len(offsets)} probe offsets for {len(probes)} probes")
+    lo, hi = min((0.0, *offsets)), max((0.0, *offsets))
     machine = machine.with_clearances(clearance)
     drive = drive_of(machine)
     pl = machine.plant
@@ -106,17 +119,14 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     members = bush_members(machine)
     half = ct.span / 2
     v = machine.operation.walking_speed
-    duration = (2 * (half + margin)) / v
+    duration = (2 * (half + margin) + hi - lo) / v
     period = 2 * math.pi / machine.drive_speed
     revolutions = max(2, int(math.ceil(duration / period)))
     spec = drive.mechanism(machine, revolutions=revolutions).model_dump()
     if branches:
         spec["forces"] = [f for f in spec["forces"] if f["name"] not in AGGREGATE_LOAD_FORCES]
     fingers = _finger_points(machine, drive, ct)
-    station = 0.5 * (ct.station_left + ct.station_right) * pl.branch.length
-    k_contact, n_contact = ct.impact_stiffness(
-        pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter) * station
-                                   / pl.branch.length))
+    k_contact, n_contact = _station_stiffness(machine)
     modes, fb = plant_modes(machine)
     nm = len(modes.omega)
     probe_modes = [plant_modes(p) for p in probes]
@@ -152,21 +162,26 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
             name=member.name, body=f["body"], finger_point=f["point"], station=member.station, side=f["side"],
             # pen = side (n.p - n.p_mid) + lateral_offset: the offset folded into mid_lateral
             mid_lateral=n[0] * f["mid"][0] + n[1] * f["mid"][1] - f["side"] * member.lateral_offset,
-            axis=list(n), row_offset=member.row_offset, contact=dict(law, stiffness=k_m, exponent=n_m),
+            axis=list(n), row_offset=member.row_offset + (lo + hi) / 2,
+            contact=dict(law, stiffness=k_m, exponent=n_m),
             reaction_weight=weight))
     for i, (pm, pfb) in enumerate(probe_modes):
+        k_p, n_p = _station_stiffness(probes[i])
         for c in contacts[:2]:  # the instrumented branch's two contacts, repeated on the probe's own block
             row = [0.0] * n_total
-            row[col:col + len(pm.omega)] = np.atleast_1d(pm.shape_at(c["station"] * pl.branch.length)).tolist()
+            z = c["station"] * probes[i].plant.branch.length
+            row[col:col + len(pm.omega)] = np.atleast_1d(pm.shape_at(z)).tolist()
             shapes.append(row)
-            contacts.append(dict(c, name=f"{c['name']}_probe{i + 1}"))
+            contacts.append(dict(c, name=f"{c['name']}_probe{i + 1}", row_offset=offsets[i],
+                                 contact=dict(law, stiffness=k_p, exponent=n_p)))
         col += len(pm.omega)
         omega += pm.omega.tolist()
-        zeta += (pfb.damping_ratios.tolist() if pfb is not None else [pl.branch.damping_ratio] * len(pm.omega))
+        zeta += (pfb.damping_ratios.tolist() if pfb is not None
+                 else [probes[i].plant.branch.damping_ratio] * len(pm.omega))
     spec["plant"] = dict(
         omega=omega, damping_ratio=zeta if (fb is not None or members or probes) else pl.branch.damping_ratio,
         shapes=shapes, lateral_axis=[1.0, 0.0], walking_speed=v,
-        start_distance=-(half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
+        start_distance=lo - (half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
         contact=law, contacts=contacts)
     spec["simulation"]["duration"] = duration
     # the coupled runs' velocity scale is their own, studied with their tolerance (COUPLED_VELOCITY_SCALE)
@@ -184,6 +199,16 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         return out, machine
     out = mechanism_from_dict(spec, "(harvester + branch)")
     return out, machine
+
+
+def _station_stiffness(machine: Machine) -> tuple[float, float]:
+    """Contact stiffness (N/m^n) and exponent of the comb on the machine's branch at the middle of its two stations
+    (``plant.contact.impact_stiffness`` at the branch's diameter there)."""
+    pl = machine.plant
+    ct = pl.contact
+    station = 0.5 * (ct.station_left + ct.station_right) * pl.branch.length
+    return ct.impact_stiffness(pl.branch.root_diameter * (1 - (1 - pl.branch.tip_diameter / pl.branch.root_diameter)
+                                                          * station / pl.branch.length))
 
 
 def comb_load_moment(res: MultibodyResult, machine: Machine) -> dict[str, np.ndarray]:

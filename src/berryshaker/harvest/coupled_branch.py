@@ -131,6 +131,23 @@ class BranchMotion:
         return BranchMotion(self.t[::n], self.modes, self.eta[::n], self.etad[::n], self.etadd[::n],
                             {k: v[::n] for k, v in self.contact_force.items()})
 
+    def window(self, start: int, stop: int) -> "BranchMotion":
+        """Samples ``start`` to ``stop`` - 1 (one branch's passage in a run carrying several).
+
+        Parameters
+        ----------
+        start, stop : int
+            Sample indexes (as a slice).
+
+        Returns
+        -------
+        BranchMotion
+            The same motion over those samples.
+        """
+        s = slice(start, stop)
+        return BranchMotion(self.t[s], self.modes, self.eta[s], self.etad[s], self.etadd[s],
+                            {k: v[s] for k, v in self.contact_force.items()})
+
     @functools.cached_property
     def _rows(self) -> tuple[np.ndarray, np.ndarray]:
         """eta and eta' as contiguous rows per mode, (n_modes, n_t) each (the series are strided columns of the

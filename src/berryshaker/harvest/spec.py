@@ -29,7 +29,7 @@ COUPLED_VELOCITY_SCALE = 1.0
 
 
 #: largest count of bushes, branches and replicates a description may ask for: the virtual harvest runs every
-#: one of them (a replicate is a coupled run per branch class), so more is a slip of the number, not a plan
+#: one of them (a replicate is a coupled run carrying every branch class), so more is a slip of the number, not a plan
 MAX_COUNT = 1000
 #: seed families are numpy SeedSequence entropies: 0 .. 2**32 - 1
 MAX_SEED = 2**32 - 1
@@ -113,7 +113,7 @@ class HarvestSpec(_Strict):
     # SeedSequence(seed, spawn_key=(k, stream, ...)) (berryshaker.harvest.virtual.seeds)
     seed: int = Field(2024, ge=0, le=MAX_SEED)
     # starts of each virtual test run (docs/harvest.md, "Replicates"): each start is one field test (its machine's
-    # initial state in every branch class's drive-past, its bushes and counted fruit); the count is chosen by
+    # start and every branch class's drive phase in its drive-past, its bushes and counted fruit); the count is chosen by
     # berryshaker doe virtual --convergence (tests/study/test_l9_convergence.py holds it)
     replicates: int = Field(8, ge=2, le=MAX_COUNT)
     # sequential replication of a reported set (the recommendation, the calibration): starts are added in batches of

@@ -1,8 +1,8 @@
 """The study's L9 field test run through the virtual harvest, replicated, and analysed against its own noise.
 
-Replicates (docs/harvest.md, "Replicates"): start k of every run is one virtual field test, the machine's initial
-state in each branch class's coupled drive-past (random eccentricity inside every clearance, random drive phase
-when the comb reaches the bush: :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`) and the bushes
+Replicates (docs/harvest.md, "Replicates"): start k of every run is one virtual field test, one coupled drive-past
+carrying every branch class (random eccentricity inside every clearance, and for each class a random drive phase when
+the comb reaches its branch: :class:`berryshaker.multibody.perturbation.RandomInitialPerturbation`) and the bushes
 and fruit the test counts, each from its own stream of the seed family ``harvest.seed``
 (berryshaker.harvest.virtual.seeds).  ``harvest.replicates`` starts (chosen by :func:`start_convergence`) are drawn
 once and used for every run (common random numbers), and the analysis treats start k as block k
@@ -171,7 +171,6 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     jobs, label = l9_jobs(machine, replicates, data)
     r = int(h.replicates if replicates is None else replicates)
     seeds = replicate_starts(machine, r)
-    classes = h.branch_classes
 
     def jobs_for(cl, seeds_, rtol=RTOL_RUN):
         return replicate_jobs(machine, cl, seeds_, rtol, data)
@@ -180,7 +179,7 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
         return cells_from_outputs(machine, outs, seeds_)
 
     outs = runner.values(replicate_run, jobs, label)
-    per = len(seeds) * len(classes)
+    per = len(seeds)
     run_cells = [cells(outs[i * per:(i + 1) * per], seeds) for i in range(len(runs))]
     finite = lambda n: all(n in c and np.isfinite(c[n]) for rc in run_cells for c in rc)  # noqa: E731
     harvest = [n for n in HARVEST_RESPONSES if finite(n)]
@@ -202,10 +201,11 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
                              fallback_weights={n: 1.0 for n in loads} or None, blocks=True)
     perturbation = Perturbation(
         initial_eccentricity=h.initial_eccentricity, start_phase_spread_rad=h.start_phase_spread,
-        what=("start k (block k of every run) is one virtual field test: every branch class's coupled drive-past "
-              f"from its own stream of seed family {h.seed} (clearance eccentricities uniform over the disc of "
-              f"{h.initial_eccentricity:g} x each free radius, drive phase at the start uniform in "
-              f"+-{math.degrees(h.start_phase_spread):.0f} deg) and the bushes and fruit the test counts from another"))
+        what=("start k (block k of every run) is one virtual field test: one coupled drive-past carrying every "
+              f"branch class, from streams of seed family {h.seed} (clearance eccentricities uniform over the disc "
+              f"of {h.initial_eccentricity:g} x each free radius; each class's drive phase when the comb meets its "
+              f"branch uniform in +-{math.degrees(h.start_phase_spread):.0f} deg, from the class's own stream) and "
+              "the bushes and fruit the test counts from another"))
     rep = ReplicatedL9(**fields_of(rep), seeds=seeds, units=units, perturbation=perturbation,
                        text=describe_replicated(rep))
     run_recs = [L9Run(run=i + 1, levels={p: int(a[i, j]) for j, p in enumerate(pairs)},

@@ -5,10 +5,10 @@ The responses: the harvest responses of the one table (:data:`HARVEST_RESPONSES`
 berryshaker.harvest.virtual.responses) and the machine loads (:func:`load_responses`); their units
 (:func:`response_units`).  Each start is one virtual field test: its cell holds every harvest response's counted
 field result (the plain name), the model's expectation (``<name>_expected``) and the counting SD of the test
-(``<name>_count_sd``), and the machine loads.  A clearance set's replicate jobs (:func:`replicate_jobs`: for every start seed, one
-:func:`berryshaker.study.runs.replicate_run` per branch class), each start's responses from their outputs
-(:func:`start_cells`, :func:`cells_from_outputs`; one start's: ``_cell``), the replicates' stem-force envelopes
-(:func:`replicate_envelopes`) and a run's mean with its 95 % interval (:func:`interval`).
+(``<name>_count_sd``), and the machine loads.  A clearance set's replicate jobs (:func:`replicate_jobs`: for every start
+seed, one :func:`berryshaker.study.runs.replicate_run`, the drive-past carrying every branch class), each start's
+responses from its output (:func:`start_cells`, :func:`cells_from_outputs`; one start's: ``_cell``), the replicates'
+stem-force envelopes (:func:`replicate_envelopes`) and a run's mean with its 95 % interval (:func:`interval`).
 """
 
 from __future__ import annotations
@@ -66,35 +66,35 @@ def response_units(pairs) -> dict[str, str]:
             "drive_torque_design": "N m", "drive_torque_rms": "N m"}
 
 
-def _cell(machine, outs: list[dict], start: int) -> dict[str, float]:
-    """One start's responses: each harvest response's counted field result, its expectation and counting SD (module
-    docstring), and the loads over its branch classes' drive-pasts.
+def _cell(machine, out: dict, start: int) -> dict[str, float]:
+    """One start's responses from its :func:`~berryshaker.study.runs.replicate_run` output ``out``: each harvest
+    response's counted field result, its expectation and counting SD (module docstring) from its branch classes'
+    tables, and the loads of its drive-past.
 
-    Static-equivalent force (``design_force_<pair>``): the p95 of the impact peaks of all the start's drive-pasts
-    together (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); design
-    torque (``drive_torque_design``): the p95 of the per-revolution peaks of the drive moment over all the start's
-    drive-pasts (berryshaker.multibody.drive_loads; the single largest moment is an extreme, not a response); RMS
-    torque: the RMS over all of them (equal durations).
+    Static-equivalent force (``design_force_<pair>``): the p95 of the run's impact peaks
+    (berryshaker.multibody.impacts; a run's single largest force is an extreme, not a response); design torque
+    (``drive_torque_design``): the p95 of the per-revolution peaks of the drive moment
+    (berryshaker.multibody.drive_loads; the single largest moment is an extreme, not a response); RMS torque: the
+    run's RMS.
     """
     from berryshaker.harvest.virtual import start_responses
     from berryshaker.multibody.impacts import static_equivalent_load
 
-    r = start_responses(machine, [np.array(o["envelope"]) for o in outs], start)
-    out = dict(r["field"])
-    out.update({n + EXPECTED: v for n, v in r["expected"].items()})
-    out.update({n + COUNT_SD: v for n, v in r["count_sd"].items()})
+    r = start_responses(machine, [np.array(e) for e in out["envelopes"]], start)
+    cell = dict(r["field"])
+    cell.update({n + EXPECTED: v for n, v in r["expected"].items()})
+    cell.update({n + COUNT_SD: v for n, v in r["count_sd"].items()})
     for p in machine.pair_names:
-        if all(p in o.get("impact_peaks_N", {}) for o in outs):
-            out[f"design_force_{p}"] = static_equivalent_load(np.concatenate(
-                [np.asarray(o["impact_peaks_N"][p], float) for o in outs]))
-    if all("drive_torque_Nm" in o for o in outs):
+        if p in out.get("impact_peaks_N", {}):
+            cell[f"design_force_{p}"] = static_equivalent_load(np.asarray(out["impact_peaks_N"][p], float))
+    tq = out.get("drive_torque_Nm")
+    if tq is not None:
         from berryshaker.multibody.drive_loads import design_torque
 
-        if all("revolution_peaks" in o["drive_torque_Nm"] for o in outs):
-            out["drive_torque_design"] = design_torque(np.concatenate(
-                [np.asarray(o["drive_torque_Nm"]["revolution_peaks"], float) for o in outs]))
-        out["drive_torque_rms"] = math.sqrt(float(np.mean([o["drive_torque_Nm"]["rms"] ** 2 for o in outs])))
-    return out
+        if "revolution_peaks" in tq:
+            cell["drive_torque_design"] = design_torque(np.asarray(tq["revolution_peaks"], float))
+        cell["drive_torque_rms"] = float(tq["rms"])
+    return cell
 
 
 def interval(y, pooled: tuple[float, int] | None = None) -> dict:
@@ -130,10 +130,10 @@ def interval(y, pooled: tuple[float, int] | None = None) -> dict:
 
 def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTOL_RUN, data: dict | None = None
                    ) -> list[dict]:
-    """Keyword arguments of :func:`berryshaker.study.runs.replicate_run` for one clearance set: for every seed,
-    one coupled drive-past per branch class (seed ``[seed, class index]``), replicate-major.  ``data``: the
-    machine as JSON (``machine.model_dump(mode="json")``) when the caller already has it (identical jobs are
-    shared through the runner's cache).
+    """Keyword arguments of :func:`berryshaker.study.runs.replicate_run` for one clearance set: for every seed, one
+    coupled drive-past carrying every branch class (seed ``[seed, MACHINE]``; class c starts from ``[seed, MACHINE,
+    c]``).  ``data``: the machine as JSON (``machine.model_dump(mode="json")``) when the caller already has it
+    (identical jobs are shared through the runner's cache).
 
     Parameters
     ----------
@@ -142,7 +142,7 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
     clearance : dict
         Clearance size (m) per pair.
     seeds : list of int
-        Start numbers (each class's drive-past of start k starts from the spawn key (k, MACHINE, class)).
+        Start numbers (class c of start k meets the comb at the drive phase of spawn key (k, MACHINE, c)).
     rtol : float
         Relative integrator tolerance (dimensionless).
     data : dict, optional
@@ -151,13 +151,12 @@ def replicate_jobs(machine, clearance: dict, seeds: list[int], rtol: float = RTO
     Returns
     -------
     list of dict
-        One keyword-argument dict per (start, branch class), start-major.
+        One keyword-argument dict per start, in ``seeds`` order.
     """
     data = machine.model_dump(mode="json") if data is None else data
     from berryshaker.harvest.virtual import MACHINE
 
-    return [dict(machine_data=data, clearance=clearance, scale=s, seed=[sd, MACHINE, c], rtol=rtol)
-            for sd in seeds for c, s in enumerate(machine.harvest.branch_classes)]
+    return [dict(machine_data=data, clearance=clearance, seed=[sd, MACHINE], rtol=rtol) for sd in seeds]
 
 
 def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[list[np.ndarray], int]]:
@@ -168,31 +167,25 @@ def replicate_envelopes(machine, outs: list, seeds: list[int]) -> list[tuple[lis
     Parameters
     ----------
     machine : Machine
-        Machine description (its number of branch classes).
+        Machine description.
     outs : list
-        Outputs of :func:`replicate_run` in :func:`replicate_jobs`' order (None for a failed run).
+        Outputs of :func:`replicate_run` in :func:`replicate_jobs`' order, one per start (None for a failed run).
     seeds : list of int
         The start seeds of those jobs.
 
     Returns
     -------
     list of (list of numpy.ndarray, int)
-        Per complete replicate: its envelopes (N, dimensionless load ratios) and seed.
+        Per finished replicate: its envelopes, one per branch class (N, dimensionless load ratios), and seed.
     """
-    nc = len(machine.harvest.branch_classes)
-    out = []
-    for k, sd in enumerate(seeds):
-        o = outs[k * nc:(k + 1) * nc]
-        if all(v is not None for v in o):
-            out.append(([np.array(v["envelope"]) for v in o], sd))
-    return out
+    return [([np.array(e) for e in o["envelopes"]], sd) for o, sd in zip(outs, seeds) if o is not None]
 
 
 def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict | None = None, label: str = "starts",
                 rtol: float = RTOL_RUN, outputs: list | None = None) -> list[dict[str, float]]:
     """Every response (:func:`_cell`: harvest indexes, machine loads) of one clearance set at each start seed: one
-    coupled drive-past per branch class and start through the runner (cached), the start's own field test.
-    ``outputs``: a list that receives each start's run outputs (one per branch class, :func:`replicate_run`).
+    coupled drive-past per start carrying every branch class, through the runner (cached), the start's own field
+    test.  ``outputs``: a list that receives each start's run output (:func:`replicate_run`).
 
     Parameters
     ----------
@@ -211,29 +204,28 @@ def start_cells(machine, runner, clearance: dict, seeds: list[int], data: dict |
     rtol : float
         Relative integrator tolerance (dimensionless).
     outputs : list, optional
-        Receives each start's run outputs.
+        Receives each start's run output.
 
     Returns
     -------
     list of dict
         Per start: every response (harvest indexes in their units, peak forces N, torques N m).
     """
-    nc = len(machine.harvest.branch_classes)
     o = runner.values(replicate_run, replicate_jobs(machine, clearance, seeds, rtol, data), label)
     if outputs is not None:
-        outputs.extend(o[k * nc:(k + 1) * nc] for k in range(len(seeds)))
+        outputs.extend(o)
     return cells_from_outputs(machine, o, seeds)
 
 
 def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, float]]:
-    """:func:`_cell` of each start from the outputs of :func:`replicate_jobs` (start-major, one per branch class).
+    """:func:`_cell` of each start from the outputs of :func:`replicate_jobs` (one per start).
 
     Parameters
     ----------
     machine : Machine
         Machine description with [plant] and [harvest].
     outs : list
-        Outputs of :func:`replicate_run`, start-major.
+        Outputs of :func:`replicate_run`, one per start.
     seeds : list of int
         The starts' numbers (each start's field test draws from its own stream).
 
@@ -243,5 +235,4 @@ def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, 
         Per start: every response (harvest responses in their units with their expectations and counting SDs, peak
         forces N, torques N m).
     """
-    nc = len(machine.harvest.branch_classes)
-    return [_cell(machine, outs[k * nc:(k + 1) * nc], sd) for k, sd in enumerate(seeds)]
+    return [_cell(machine, o, sd) for o, sd in zip(outs, seeds)]

@@ -204,17 +204,16 @@ def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
     return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
 
 
-def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list, rtol: float = COUPLED_RTOL) -> dict:
-    """One replicate of a virtual test run for one branch class: the coupled drive-past from a perturbed start.
+def replicate_run(machine_data: dict, clearance: dict, seed: list, rtol: float = COUPLED_RTOL) -> dict:
+    """One replicate start of a virtual test run: the coupled drive-past carrying every branch class as a probe.
 
-    The machine starts off centre in every clearance and at a random drive phase
-    (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with ``seed`` and the description's
-    ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  Returns the stem-load table (peaks and
-    Miner-Basquin equivalent load ratios)
-    (``envelope``, :func:`berryshaker.harvest.virtual.stem_force_envelope_run`), the peak force of every
-    clearance pair over the statistics window (``peak_force_N``, N: contact force of a clearance joint,
-    reaction of an ideal one) and the drive torque (``drive_torque_Nm``: peak and RMS, N m; absent for a
-    torque-driven machine).
+    Branch class c's machine start is the spawn key ``[*seed, c]`` (``seed`` = ``[k, MACHINE]`` for start k,
+    berryshaker.harvest.virtual.seeds): clearance eccentricities and a drive phase
+    (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with the description's
+    ``harvest.initial_eccentricity`` / ``harvest.start_phase_spread``).  The run starts from one class's start and
+    carries every class's branch as a one-way probe meeting the comb at its own class's drive phase
+    (:func:`berryshaker.harvest.virtual.class_tables_run`).  Returns every class's stem-load table (peaks and
+    Miner-Basquin equivalent load ratios) and the run's machine loads (:func:`replicate_record`).
 
     Parameters
     ----------
@@ -222,10 +221,8 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
         Machine description (SI, ``model_dump(mode="json")``) with [plant] and [harvest].
     clearance : dict
         Clearance size (m) per pair.
-    scale : float
-        Diameter scale of the branch class (dimensionless).
     seed : list of int
-        Seed sequence of the perturbation.
+        Spawn key of the start; class c's machine start is ``[*seed, c]``.
     rtol : float
         Relative integrator tolerance (dimensionless).
 
@@ -234,37 +231,39 @@ def replicate_run(machine_data: dict, clearance: dict, scale: float, seed: list,
     dict
         :func:`replicate_record` of the run.
     """
-    from berryshaker.harvest.virtual import machine_start, stem_force_envelope_run
+    from berryshaker.harvest.virtual import class_tables_run, machine_start
 
     machine = machine_from_dict(machine_data)
-    table, res = stem_force_envelope_run(machine, clearance, scale, machine_start(machine, seed), rtol)
-    return replicate_record(machine, table, res)
+    starts = [machine_start(machine, [*seed, c]) for c in range(len(machine.harvest.branch_classes))]
+    tables, res = class_tables_run(machine, clearance, starts, rtol)
+    return replicate_record(machine, tables, res)
 
 
-def replicate_record(machine, table, res) -> dict:
-    """What :func:`replicate_run` keeps of one drive-past: the stem-load table ``table`` (peaks and Miner-Basquin equivalent load ratios) and, from the
-    run ``res``, the peak force of every clearance pair, each impact's peak and the drive torque's peak and RMS.
+def replicate_record(machine, tables, res) -> dict:
+    """What :func:`replicate_run` keeps of one start's drive-past: the stem-load tables ``tables`` (one per branch
+    class: peaks and Miner-Basquin equivalent load ratios) and, from the run ``res``, the peak force of every
+    clearance pair, each impact's peak and the drive torque's peak and RMS.
 
     Parameters
     ----------
     machine : MachineBase
         The machine description (its pair names).
-    table : numpy.ndarray
-        Peak stem-force table of the run (N, dimensionless load ratios).
+    tables : list of numpy.ndarray
+        Peak stem-force table of each branch class (N, dimensionless load ratios).
     res : MultibodyResult
         The coupled run.
 
     Returns
     -------
     dict
-        ``envelope`` (the table, numpy.ndarray), ``peak_force_N`` (N per pair: the run's single largest force,
-        an extreme), ``impact_peaks_N`` (per clearance pair, the peak of each of its impacts over the statistics
-        window, N: berryshaker.multibody.impacts) and, for a speed-driven machine, ``drive_torque_Nm`` (``peak``: the
-        run's single largest moment, an extreme; ``rms``; ``revolution_peaks``: the peak |M| of each whole
-        revolution; ``fatigue_equivalent``: berryshaker.multibody.drive_loads; all N m).
+        ``envelopes`` (the tables, numpy.ndarray each, in ``harvest.branch_classes`` order), ``peak_force_N`` (N per
+        pair: the run's single largest force, an extreme), ``impact_peaks_N`` (per clearance pair, the peak of each
+        of its impacts over the statistics window, N: berryshaker.multibody.impacts) and, for a speed-driven machine,
+        ``drive_torque_Nm`` (``peak``: the run's single largest moment, an extreme; ``rms``; ``revolution_peaks``: the
+        peak |M| of each whole revolution; ``fatigue_equivalent``: berryshaker.multibody.drive_loads; all N m).
     """
     s = res.summary()
-    out = {"envelope": table,
+    out = {"envelopes": [np.asarray(t, float) for t in tables],
            "peak_force_N": {p: s["joints"][p]["force_N"]["peak"] for p in machine.pair_names if p in s["joints"]},
            "impact_peaks_N": {}}
     for p in machine.pair_names:

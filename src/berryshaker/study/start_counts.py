@@ -106,7 +106,8 @@ def sequential_starts(machine, runner, clearance: dict, have: list[dict] | None 
     have : list of dict, optional
         Responses (:func:`start_cells`) of the first starts already run (the seeds' order), reused.
     have_outputs : list, optional
-        Their run outputs (per start, one per branch class); with them the result's ``outputs`` is complete.
+        Their run outputs (one per start, :func:`berryshaker.study.runs.replicate_run`); with them the result's
+        ``outputs`` is complete.
     data : dict, optional
         ``machine.model_dump(mode="json")`` if the caller has it.
     label : str

@@ -2,10 +2,12 @@
 
 Chain (docs/harvest.md):
 
-1. For each branch class (the reference branch with its diameters scaled), one coupled drive-past
-   simulation (berryshaker.harvest.coupled) gives a table of peak stem loads over position and fruit mass
-   (:mod:`~berryshaker.harvest.virtual.stem_force_tables`).
-2. A start (one drive-past per class from a seeded initial state, :mod:`~berryshaker.harvest.virtual.seeds`) is
+1. For each branch class (the reference branch with its diameters scaled), a coupled drive-past
+   (berryshaker.harvest.coupled) gives a table of peak stem loads over position and fruit mass
+   (:mod:`~berryshaker.harvest.virtual.stem_force_tables`); a replicate start's classes are one-way probes of
+   one run.
+2. A start (one drive-past carrying every class's branch as a probe at its own seeded drive phase,
+   :mod:`~berryshaker.harvest.virtual.seeds`) is
    one field test (:mod:`~berryshaker.harvest.virtual.field_test`): the model's expectation by quadrature over the
    fruit a test meets, and one field result counted fruit by fruit over the bushes ``operation.test_duration``
    passes, with its counting noise.
@@ -49,6 +51,7 @@ from berryshaker.harvest.virtual.field_test import (
 )
 from berryshaker.harvest.virtual.indexes import start_responses, virtual_harvest
 from berryshaker.harvest.virtual.replicates import (
+    class_starts,
     harvest_columns,
     harvest_response,
     machine_start,
@@ -69,6 +72,8 @@ from berryshaker.harvest.virtual.stem_force_tables import (
     acceleration_envelope,
     bond_strengths,
     branch_class_machine,
+    class_phase_offsets,
+    class_tables_run,
     envelopes_for,
     fruit_load_channels,
     fruit_peak_force,
@@ -83,7 +88,8 @@ __all__ = [
     "CH_FORCE", "CH_RIPE", "CH_UNRIPE", "ENVELOPE_OUTPUT_STEP", "FIELD", "FRESH_STARTS",
     "HarvestParameters", "HarvestResponse", "LoadGrid", "MACHINE", "MASS_FACTORS", "MODEL_CHECK", "RESPONSES",
     "STIFFNESS_RANGE", "STUDY_TARGETS", "Tally", "Z_GRID", "acceleration_envelope", "bond_strengths", "branch_class_machine",
-    "bushes_per_test", "calibrate_harvest", "count_variance", "envelopes_for", "expectation", "expected_tally", "field_tally",
+    "bushes_per_test", "class_phase_offsets", "class_starts", "class_tables_run", "calibrate_harvest", "count_variance",
+    "envelopes_for", "expectation", "expected_tally", "field_tally",
     "fruit_load_channels", "fruit_peak_force", "fruit_peak_load", "harvest_columns", "harvest_response", "load_grid",
     "machine_start", "miner_channels",
     "register_response", "removal_at_speed", "removal_vs_frequency", "replicate_envelopes_run",

@@ -7,8 +7,8 @@ and split apart each would re-derive them.
 
 A field test runs the machine for ``operation.test_duration`` T at the walking speed v: it passes B = v T / s bushes
 (s the plant spacing; 3.33 on the reference machine: 10 s at 30 m/min, 1.5 m spacing), fractions included.  What it
-weighs is a :class:`~berryshaker.harvest.virtual.responses.Tally` of those bushes' fruit.  For one start (one coupled
-drive-past per branch class, their stem-load tables) this module gives
+weighs is a :class:`~berryshaker.harvest.virtual.responses.Tally` of those bushes' fruit.  For one start (the
+stem-load tables of its branch classes, from its coupled drive-past) this module gives
 
 * the **model's expectation** (:func:`expected_tally`): the large-sample mean, by quadrature over what a fruit can
   be -- branch class (equally likely), position z along the fruit zone (uniform), mass (lognormal, mean m0, CV

@@ -19,7 +19,7 @@ from berryshaker.harvest.shaking import shaking_amplitude
 from berryshaker.harvest.virtual.indexes import start_responses
 from berryshaker.harvest.virtual.responses import RESPONSES
 from berryshaker.harvest.virtual.seeds import MACHINE, seed_sequence, start_numbers
-from berryshaker.harvest.virtual.stem_force_tables import stem_force_envelope_run
+from berryshaker.harvest.virtual.stem_force_tables import class_tables_run
 
 
 def replicate_starts(machine: Machine, replicates: int | None = None) -> list[int]:
@@ -65,11 +65,32 @@ def machine_start(machine: Machine, key):
     return RandomInitialPerturbation(seed_sequence(h.seed, key), h.initial_eccentricity, h.start_phase_spread)
 
 
+def class_starts(machine: Machine, key) -> list:
+    """The machine starts of every branch class of one replicate start: :func:`machine_start` of ``(*key, c)`` for
+    each class c (``key`` = ``(k, MACHINE)`` for start k).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with a [harvest] block.
+    key : sequence of int
+        Spawn key of the start (berryshaker.harvest.virtual.seeds).
+
+    Returns
+    -------
+    list of RandomInitialPerturbation
+        One per ``harvest.branch_classes`` entry, in its order.
+    """
+    return [machine_start(machine, (*key, c)) for c in range(len(machine.harvest.branch_classes))]
+
+
 def replicate_envelopes_run(machine: Machine, clearance: dict | None = None, replicates: int | None = None
                             ) -> list[tuple[list[np.ndarray], int]]:
     """Stem-force tables of every branch class for each start, with the start number (in this process; the study
-    runs the same drive-pasts through its cached runner, berryshaker.study.runs.replicate_run).  Start k's run of
-    class c starts from :func:`machine_start` ``(k, MACHINE, c)``.
+    runs the same drive-pasts through its cached runner, berryshaker.study.runs.replicate_run).  Start k is one
+    coupled drive-past carrying every class as a probe at its own drive phase
+    (:func:`~berryshaker.harvest.virtual.stem_force_tables.class_tables_run` of :func:`class_starts`
+    ``(k, MACHINE)``).
 
     Parameters
     ----------
@@ -86,12 +107,8 @@ def replicate_envelopes_run(machine: Machine, clearance: dict | None = None, rep
         Per start: one :func:`~berryshaker.harvest.virtual.stem_force_tables.stem_force_table` per branch class
         (N, dimensionless load ratios) and the start number.
     """
-    out = []
-    for k in replicate_starts(machine, replicates):
-        env = [stem_force_envelope_run(machine, clearance, s, machine_start(machine, (k, MACHINE, c)))[0]
-               for c, s in enumerate(machine.harvest.branch_classes)]
-        out.append((env, k))
-    return out
+    return [(class_tables_run(machine, clearance, class_starts(machine, (k, MACHINE)))[0], k)
+            for k in replicate_starts(machine, replicates)]
 
 
 def _finite(values) -> np.ndarray:

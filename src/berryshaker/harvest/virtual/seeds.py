@@ -6,8 +6,9 @@ start makes comes from its own stream, ``numpy.random.SeedSequence(entropy=harve
 *extra))`` (numpy's spawning: every (family, key) gives a statistically independent generator, O'Neill 2015, PCG;
 numpy's SeedSequence documentation).  The streams:
 
-* :data:`MACHINE` ``(k, MACHINE, c)``: the machine's initial state in the drive-past of branch class c (clearance
-  eccentricities, drive phase at the bush);
+* :data:`MACHINE` ``(k, MACHINE, c)``: the machine start of branch class c (clearance eccentricities, drive phase
+  at which the class's branch meets the comb); start k's one drive-past starts from one class's and carries every
+  class's branch where it meets the comb at its own phase (berryshaker.harvest.virtual.class_tables_run);
 * :data:`FIELD` ``(k, FIELD)``: the bushes and fruit one field test passes, and every fruit's outcome (picked,
   bruised) that is counted;
 * :data:`ROWS` ``(k, ROWS)``: the machine-only starts of the clearance rows;

@@ -1,8 +1,10 @@
-"""Stem-force tables of the branch classes: one coupled drive-past per branch class (the reference branch with its
-diameters scaled, berryshaker.harvest.coupled.drive_past) gives a table of peak stem loads over position along
-the branch (:data:`Z_GRID`) and fruit mass (:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit
-of a population (peak force, peak and Miner-Basquin equivalent pull-shear load ratios).  Part of the virtual
-harvest (berryshaker.harvest.virtual).
+"""Stem-force tables of the branch classes: a coupled drive-past of a branch class (the reference branch with its
+diameters scaled) gives a table of peak stem loads over position along the branch (:data:`Z_GRID`) and fruit mass
+(:data:`MASS_FACTORS` x m0), and the reading of a table at each fruit of a population (peak force, peak and
+Miner-Basquin equivalent pull-shear load ratios).  A replicate start's classes are one-way probes of one drive-past,
+each meeting the comb at its own class's drive phase (:func:`class_tables_run`); one class alone is
+:func:`stem_force_envelope_run` (berryshaker.harvest.coupled.drive_past).  Part of the virtual harvest
+(berryshaker.harvest.virtual).
 
 **A table read at another pedicel stiffness** (``stiffness_scale`` a of :func:`fruit_load_channels`,
 :func:`fruit_peak_force`, :func:`fruit_peak_load`; ``calibrate`` learns the stiffness this way).  The fruit are
@@ -20,6 +22,7 @@ motion (a few per cent at the named fruit's own forces, docs/plant.md) is not re
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -136,6 +139,115 @@ def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None
     res, motion = drive_past(m, clearance, rtol=rtol, initial_perturbation=initial_perturbation,
                              output_step=ENVELOPE_OUTPUT_STEP)
     return stem_force_table(m, motion), res
+
+
+def class_phase_offsets(machine: Machine, clearance: dict[str, float] | None, perturbations,
+                        step: float = ENVELOPE_OUTPUT_STEP) -> tuple[int, list, list]:
+    """Where each branch class's probe stands in the one drive-past of a start (:func:`class_tables_run`).
+
+    Each class c has its own machine start (``perturbations[c]``, e.g. :func:`berryshaker.harvest.virtual.machine_start`
+    ``(k, MACHINE, c)``) and so its own drive phase phi_c at the bush.  The run starts from the start of one class
+    c0; a probe at row offset d meets the comb d / v later (v the walking speed), when the drive has turned omega d /
+    v further, so class c's probe stands at d_c = v ((phi_c - phi_c0) / omega mod 2 pi / |omega|) and meets the comb
+    at its own phase.  c0 is the class that makes the largest offset the smallest (the run the shortest).  Each
+    offset is rounded to a whole number of output steps (``step``: the probe's passage starts on a sample of the
+    run; the phase then is its class's within omega step / 2, 6e-4 rad at 2 Hz and 0.1 ms).
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant], [harvest] and [operation].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    perturbations : sequence of RandomInitialPerturbation or InitialPerturbation
+        One machine start per branch class.
+    step : float
+        Output step of the run (s).
+
+    Returns
+    -------
+    first : int
+        c0, the class whose machine start the run starts from.
+    offsets : list of float
+        d_c per class (m, >= 0; 0 for c0).
+    drawn : list of InitialPerturbation
+        Each class's drawn start (eccentricities m, drive phase rad).
+    """
+    from berryshaker.drives import drive_of
+
+    m = machine.with_clearances(clearance)
+    base = drive_of(m).mechanism(m, revolutions=2)
+    drawn = [p.for_spec(base) for p in perturbations]
+    driver = base.drivers[0]
+    omega = driver.speed if driver.speed else machine.drive_speed
+    period = 2 * math.pi / abs(omega)
+    v = m.operation.walking_speed
+    phase = [d.driver_phases.get(driver.name, 0.0) for d in drawn]
+    rows = [[v * step * round((((p - p0) / omega) % period) / step) for p in phase] for p0 in phase]
+    first = int(np.argmin([max(r) for r in rows]))
+    return first, rows[first], drawn
+
+
+def class_tables_run(machine: Machine, clearance: dict[str, float] | None, perturbations,
+                     rtol: float = COUPLED_RTOL) -> tuple[list[np.ndarray], object]:
+    """Stem-force tables of every branch class from one coupled drive-past: ``(tables, result)``.
+
+    The branch classes (:func:`branch_class_machine` of each ``harvest.branch_classes`` scale) are one-way probes of
+    one run (:func:`berryshaker.harvest.coupled.coupled_mechanism`: driven by the combs, acting back on nothing; the
+    bush members act back and are the same for every class, the bush not depending on the class), each at its own
+    row offset so that it meets the comb at its own class's drive phase (:func:`class_phase_offsets`).  The run starts
+    from the machine start of the class at offset 0 (its eccentricities and drive phase); each table is
+    :func:`stem_force_table` of its class over its own passage (the duration of one branch's drive-past, from its
+    offset on).  No probe acts back, so the combs' motion depends on the probes only through the integrator's step
+    sequence (their modal states are in its error norm, their contact onsets are events).  With one class the run
+    and its table are :func:`stem_force_envelope_run`'s from the same start, bit for bit.
+
+    Parameters
+    ----------
+    machine : Machine
+        Machine description with [plant] and [harvest].
+    clearance : dict of str to float or None
+        Clearance sizes (m) per pair; None keeps the description's.
+    perturbations : sequence of RandomInitialPerturbation or InitialPerturbation
+        One machine start per branch class, in ``harvest.branch_classes`` order.
+    rtol : float
+        Relative integrator tolerance (dimensionless).
+
+    Returns
+    -------
+    tables : list of numpy.ndarray
+        One :func:`stem_force_table` per branch class (N for the force channel, dimensionless load ratios).
+    result : MultibodyResult
+        The run, written every :data:`ENVELOPE_OUTPUT_STEP` (the machine loads of the start).
+    """
+    from berryshaker.harvest.coupled import bush_members, coupled_mechanism
+    from berryshaker.harvest.coupled_branch import branch_motion, plant_modes
+    from berryshaker.multibody.engine import simulate_mechanism
+
+    classes = [branch_class_machine(machine, s) for s in machine.harvest.branch_classes]
+    if len(perturbations) != len(classes):
+        raise ValueError(f"class_tables_run: {len(perturbations)} machine starts for {len(classes)} branch classes")
+    first, offsets, drawn = class_phase_offsets(machine, clearance, perturbations)
+    others = [c for c in range(len(classes)) if c != first]
+    spec, m = coupled_mechanism(classes[first], clearance, probes=tuple(classes[c] for c in others),
+                                probe_offsets=tuple(offsets[c] for c in others))
+    res = simulate_mechanism(spec, rtol=rtol, output_step=ENVELOPE_OUTPUT_STEP, initial_perturbation=drawn[first])
+    v = m.operation.walking_speed
+    # one branch's drive-past (the run of one branch: from margin before its span to margin after), in samples
+    n_pass = int(round(-2 * spec.plant.start_distance / v / ENVELOPE_OUTPUT_STEP)) + 1
+    tables: list = [None] * len(classes)
+    col = 0
+    for c in (first, *others):
+        modes, _ = plant_modes(classes[c])
+        motion = branch_motion(res, modes, col)
+        if len(classes) > 1:
+            i0 = int(round(offsets[c] / v / ENVELOPE_OUTPUT_STEP))
+            # timed from the passage's first sample on the nominal grid (offsets and run are whole output steps):
+            # the same sampling step at every start, so the fruit oscillators are discretised once
+            motion = dataclasses.replace(motion.window(i0, i0 + n_pass), t=np.arange(n_pass) * ENVELOPE_OUTPUT_STEP)
+        tables[c] = stem_force_table(classes[c], motion)
+        col += len(modes.omega) + (sum(len(mm.omega) for _, mm in bush_members(m)) if c == first else 0)
+    return tables, res
 
 
 def branch_class_machine(machine: Machine, scale: float) -> Machine:

@@ -157,9 +157,8 @@ class Simulator:
         outs = runner.values(replicate_run, jobs, label) if jobs else []
         self.runs += len(jobs)
         for s, m, mine, a, _b in spans:
-            nc = len(m.harvest.branch_classes)
             for i, k in enumerate(mine):
-                reps = replicate_envelopes(m, outs[a + i * nc:a + (i + 1) * nc], [k])
+                reps = replicate_envelopes(m, outs[a + i:a + i + 1], [k])
                 if not reps:
                     raise ConfigError(f"calibrate: the coupled start {k} failed at setting {self.setting_text(s)}; "
                                       "see the runner's messages (a machine that does not run at a setting cannot be "

@@ -48,22 +48,22 @@ def _fruit_class(machine) -> int:
 
 
 def _fruit_start_jobs(ctx: StudyContext) -> list[dict]:
-    """Perturbed starts (``harvest.replicates``, the virtual harvest's seeds) of the fruit-force branch's drive-past
-    at the configured clearances and at the three level sets: the fruit force's claims judged on replicate means
-    (set-major; the same jobs as the virtual harvest's for that branch class, shared through the cache)."""
+    """Perturbed starts (``harvest.replicates``, the virtual harvest's seeds) at the configured clearances and at the
+    three level sets: the fruit force's claims judged on replicate means of the fruit-force branch class's tables
+    (set-major; the virtual harvest's jobs, shared through the cache)."""
     from berryshaker.harvest.virtual import replicate_starts
     from berryshaker.study.l9 import replicate_jobs
 
     last = n_rows(ctx.machine)
-    c = _fruit_class(ctx.machine)
     seeds = replicate_starts(ctx.machine)
     sets = [ctx.machine.clearance_sizes()] + [clearance_row(ctx.machine, r) for r in (last - 2, last - 1, last)]
-    return [j for cl in sets for j in replicate_jobs(ctx.machine, cl, seeds, data=ctx.data) if j["seed"][2] == c]
+    return [j for cl in sets for j in replicate_jobs(ctx.machine, cl, seeds, data=ctx.data)]
 
 
 def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
     """Peak stem force of the named fruit (``plant.fruit``: root, middle, end; mass m0) per perturbed start, read
-    from each start's stem-force table (:func:`berryshaker.harvest.virtual.fruit_peak_force`), and its mean, SD and
+    from each start's stem-force table of the fruit-force branch class (the class nearest diameter scale 1,
+    :func:`berryshaker.harvest.virtual.fruit_peak_force`), and its mean, SD and
     SE per set.  ``outs``: :func:`replicate_run` outputs, set-major (equal counts per set; a failed run None);
     ``keys``: the sets' names.
 
@@ -87,9 +87,10 @@ def fruit_start_statistics(machine, outs: list, keys: list[str]) -> dict:
     f = machine.plant.fruit
     m0 = f.mass
     n = len(outs) // len(keys)
+    c = _fruit_class(machine)
     out = {}
     for i, k in enumerate(keys):
-        envs = [None if o is None else np.array(o["envelope"]) for o in outs[i * n:(i + 1) * n]]
+        envs = [None if o is None else np.array(o["envelopes"][c]) for o in outs[i * n:(i + 1) * n]]
         if sum(e is not None for e in envs) < 2:
             continue
         per = {}

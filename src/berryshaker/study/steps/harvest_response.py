@@ -6,8 +6,6 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from berryshaker.config import value_tag
 from berryshaker.report.sections import SectionInput, details, maybe_img, table
 from berryshaker.study.harvest_records import Calibration, HarvestResponse, HarvestSpeedRow
@@ -93,7 +91,7 @@ def run(ctx: StudyContext) -> StepResult:
     seeds = replicate_starts(ctx.machine)
     outs = ctx.collect(replicate_run, [j for jobs in per_speed for j in jobs], RESPONSE_LABEL,
                        lambda j: f"drive {machine_from_dict(j['machine_data']).drive_speed * 60 / (2 * math.pi):.0f} "
-                                 f"r/min, branch class x{j['scale']:g}, seed {j['seed']}")
+                                 f"r/min, seed {j['seed']}")
     rows, cal_out, at = [], None, 0
     for rpm, m, jobs in zip(speeds, machines, per_speed):
         o = outs[at:at + len(jobs)]
@@ -118,13 +116,11 @@ def run(ctx: StudyContext) -> StepResult:
 
     fit, seq = None, None
     if cal_out is not None and all(v is not None for v in cal_out):
-        nc = len(ctx.machine.harvest.branch_classes)
-        have_out = [cal_out[k * nc:(k + 1) * nc] for k in range(len(seeds))]
         have = cells_from_outputs(ctx.machine, cal_out, seeds)
         try:
             seq = sequential_starts(ctx.machine, ctx.runner, ctx.machine.clearance_sizes(), have=have, data=ctx.data,
-                                    label="calibration starts", have_outputs=have_out)
-            reps = [([np.array(v["envelope"]) for v in o], sd) for o, sd in zip(seq["outputs"], seq["seeds"])]
+                                    label="calibration starts", have_outputs=cal_out)
+            reps = replicate_envelopes(ctx.machine, seq["outputs"], seq["seeds"])
         except SimulationError as exc:  # a further start failed: the calibration rests on the first ones, and says so
             ctx.failures.append(FailedRun(step="calibration starts", run="", inputs="configured clearances",
                                           error=str(exc)))

@@ -1,0 +1,69 @@
+"""The study's replicate job is one per (setting, start): :func:`berryshaker.study.runs.replicate_run` runs the start's
+one drive-past carrying every branch class (berryshaker.harvest.virtual.class_tables_run) and returns every class's
+stem-load table with the run's machine loads; every consumer reads one output per start."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from berryshaker.config import reference_machine
+from berryshaker.harvest.virtual import MACHINE, class_starts, class_tables_run, start_responses
+from berryshaker.study.replicate_responses import (
+    _cell,
+    cells_from_outputs,
+    replicate_envelopes,
+    replicate_jobs,
+)
+from berryshaker.study.runs import replicate_run
+
+
+@pytest.fixture(scope="module")
+def three_classes():
+    m = reference_machine()
+    assert len(m.harvest.branch_classes) == 3
+    cl = m.clearance_sizes()
+    jobs = replicate_jobs(m, cl, [0, 5])
+    return m, cl, jobs, replicate_run(**jobs[1])
+
+
+def test_one_job_per_start_carrying_every_class(three_classes):
+    m, cl, jobs, _ = three_classes
+    assert [j["seed"] for j in jobs] == [[0, MACHINE], [5, MACHINE]]
+    assert all("scale" not in j for j in jobs)
+
+
+def test_the_job_returns_every_class_table_and_the_machine_loads(three_classes):
+    m, cl, jobs, out = three_classes
+    tables, res = class_tables_run(m, cl, class_starts(m, (5, MACHINE)))
+    assert len(out["envelopes"]) == 3
+    for got, want in zip(out["envelopes"], tables):
+        assert np.array_equal(np.array(got), want)
+    assert set(out["peak_force_N"]) == set(m.pair_names) and set(out["impact_peaks_N"]) == set(m.pair_names)
+    assert out["drive_torque_Nm"]["rms"] > 0 and len(out["drive_torque_Nm"]["revolution_peaks"]) >= 3
+
+
+def test_consumers_read_one_output_per_start(three_classes):
+    m, _, _, out = three_classes
+    reps = replicate_envelopes(m, [None, out], [0, 5])  # a failed start is left out
+    assert len(reps) == 1 and reps[0][1] == 5 and len(reps[0][0]) == 3
+    cell = _cell(m, out, 5)
+    assert cells_from_outputs(m, [out], [5]) == [cell]
+    want = start_responses(m, reps[0][0], 5)
+    assert cell["efficiency_expected"] == want["expected"]["efficiency"]
+    assert {f"design_force_{p}" for p in m.pair_names} | {"drive_torque_design", "drive_torque_rms"} <= set(cell)
+    assert cell["drive_torque_rms"] == out["drive_torque_Nm"]["rms"]
+
+
+def test_the_fruit_force_starts_read_the_reference_class_table(three_classes):
+    """The fruit-force step's perturbed starts are the virtual harvest's jobs; it reads the class nearest scale 1."""
+    from berryshaker.harvest.virtual import fruit_peak_force
+    from berryshaker.study.steps.fruit_force import fruit_start_statistics
+
+    m, _, _, out = three_classes
+    stats = fruit_start_statistics(m, [out, out], ["chosen"])["chosen"]
+    f = m.plant.fruit
+    z, m0 = f.positions[0], f.mass
+    want = float(fruit_peak_force(np.array(out["envelopes"][1]), np.array([z]), np.array([m0]), m0)[0])
+    assert m.harvest.branch_classes[1] == 1.0
+    assert stats["positions"][f.names[0]]["values"] == [want, want] and stats["starts"] == 2
