@@ -70,10 +70,10 @@ def test_settings_reach_the_machine_with_their_tags_and_errors_name_the_field():
     with pytest.raises(ConfigError, match="drive speed"):
         em.build_machine(base, em.Settings(ref.clearance_mm, -5.0, 40.0, 30.0))
     jobs, speeds = harvest_jobs(m, (80, 160), 3)
-    assert speeds == [80.0, 120.0, 160.0]
-    assert [j["overrides"]["cam.speed"] for j in jobs] == pytest.approx([v * em.RPM for v in speeds])
-    assert all(j["model"] == "harvest" and j["machine_data"]["clearance"]["A"]["size"] == pytest.approx(0.3e-3)
-               for j in jobs)
+    assert speeds == [80.0, 120.0, 160.0] and [len(per) for per in jobs] == [m.harvest.replicates] * 3
+    assert [per[0]["machine_data"]["cam"]["speed"] for per in jobs] == pytest.approx([v * em.RPM for v in speeds])
+    assert all(j["clearance"]["A"] == pytest.approx(0.3e-3) and j["machine_data"]["cam"]["stroke"] == pytest.approx(0.035)
+               for per in jobs for j in per)
 
 
 def test_a_drive_without_a_reduced_model_is_drawn_from_its_multibody_run():

@@ -195,13 +195,15 @@ def clearance_table(base, run: em.MechanismRun, changed: set) -> str:
     return out
 
 
-def harvest_jobs(machine, speed_range_rpm, points: int) -> tuple[list[dict], list[float]]:
-    """The runs of removal against frequency: one ``sweep --model harvest`` point per drive-shaft speed.
+def harvest_jobs(machine, speed_range_rpm, points: int) -> tuple[list[list[dict]], list[float]]:
+    """The runs of removal against frequency: at each drive-shaft speed, the virtual harvest's replicate starts (one
+    coupled drive-past per start carrying every branch class, :func:`berryshaker.study.runs.replicate_run`, the
+    study's own runs: shared through the cache).
 
     Parameters
     ----------
     machine : MachineBase
-        The page's machine (its clearances, stroke and travel speed).
+        The page's machine (its clearances, stroke, travel speed and ``harvest.replicates``).
     speed_range_rpm : (float, float)
         Lowest and highest drive-shaft speed (r/min).
     points : int
@@ -210,25 +212,58 @@ def harvest_jobs(machine, speed_range_rpm, points: int) -> tuple[list[dict], lis
     Returns
     -------
     (jobs, speeds)
-        ``jobs``: keyword arguments of :func:`berryshaker.runs.sweep.model_run`; ``speeds`` in r/min.
+        ``jobs``: per speed, the keyword arguments of :func:`~berryshaker.study.runs.replicate_run` of its starts;
+        ``speeds`` in r/min.
 
     Raises
     ------
     ConfigError
         A speed range that is empty or not positive.
     """
+    from berryshaker.config import machine_from_dict
     from berryshaker.errors import ConfigError
+    from berryshaker.harvest.virtual import replicate_starts, with_drive_speed
+    from berryshaker.study.replicate_responses import replicate_jobs
 
     lo, hi = (float(v) for v in speed_range_rpm)
     if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
         raise ConfigError(f"drive-shaft speeds {lo:g}..{hi:g} r/min: give 0 < lowest < highest")
     if int(points) < 2:
         raise ConfigError(f"speeds: give at least 2, got {points}")
-    key = em.speed_key(machine)
     data = machine.model_dump(mode="json")
     speeds = [float(v) for v in np.linspace(lo, hi, int(points))]
-    return [dict(machine_data=data, overrides={key: v * em.RPM}, model="harvest", revolutions=em.REVOLUTIONS)
-            for v in speeds], speeds
+    seeds = replicate_starts(machine)
+    jobs = []
+    for v in speeds:
+        d = with_drive_speed(data, v * em.RPM)
+        jobs.append(replicate_jobs(machine_from_dict(d), machine.clearance_sizes(), seeds, data=d))
+    return jobs, speeds
+
+
+def harvest_row(jobs: list[dict], outs: list) -> tuple[dict | None, list[str]]:
+    """The harvest responses at one speed from its starts' runs (:func:`harvest_jobs`): every response's mean and
+    spreads over the starts that ran (:func:`berryshaker.harvest.virtual.replicate_response`).
+
+    Parameters
+    ----------
+    jobs : list of dict
+        The speed's jobs.
+    outs : list of RunResult
+        Their results, in order.
+
+    Returns
+    -------
+    (dict or None, list of str)
+        The responses (None with fewer than 2 starts that ran) and the failed starts' errors.
+    """
+    from berryshaker.config import machine_from_dict
+    from berryshaker.harvest.virtual import replicate_response
+    from berryshaker.study.replicate_responses import replicate_envelopes
+
+    errors = [f"start {j['seed'][0]}: {o.error}" for j, o in zip(jobs, outs) if o.error]
+    m = machine_from_dict(jobs[0]["machine_data"])
+    reps = replicate_envelopes(m, [None if o.error else o.value for o in outs], [j["seed"][0] for j in jobs])
+    return (replicate_response(m, reps) if len(reps) >= 2 else None), errors
 
 
 def harvest_table(rows: list, settings: em.Settings) -> str:
@@ -237,7 +272,7 @@ def harvest_table(rows: list, settings: em.Settings) -> str:
     Parameters
     ----------
     rows : list of (speed_rpm, result dict, cached)
-        :func:`berryshaker.harvest.virtual.harvest_response` per speed.
+        :func:`harvest_row` per speed.
     settings : Settings
         The page's settings the runs used.
 
