@@ -119,17 +119,23 @@ def check_output_samples(duration: float, output_step: float,
     return max(2, int(round(duration / output_step)) + 1)
 
 
-def _auxiliary_tolerances(cm: CompiledMechanism, rtol: float, atol: np.ndarray) -> tuple[float, np.ndarray]:
+def _auxiliary_tolerances(cm: CompiledMechanism, rtol: float, atol: np.ndarray,
+                          probe_modes: int = 0) -> tuple[float, np.ndarray]:
     """Error weights with auxiliary coordinates: a windup state (velocity slot) is weighted like a position,
-    the integral slots and the energy accumulators are left out of the step-size control (atol 1e300), and
-    rtol and atol are scaled by sqrt(n_controlled / 2n) so that the integrator's RMS error norm, which divides
-    by all 2n components, asks the same accuracy of the physical state as a run without them."""
+    the integral slots, the energy accumulators and the modes of one-way probes (the last ``probe_modes`` modes,
+    ``plant.probe_modes``: the mechanism's motion does not depend on them) are left out of the step-size control
+    (atol 1e300), and rtol and atol are scaled by sqrt(n_controlled / 2n) so that the integrator's RMS error norm,
+    which divides by all 2n components, asks the same accuracy of the controlled state as a run without the
+    others."""
     n, n0 = cm.n, cm.n_base
     atol = atol.copy()
     atol[n0:n] = 1e300
     n_states = len(cm.state_windup0)
     atol[n + n0:n + n0 + n_states] = atol[0]
     atol[n + n0 + n_states:] = 1e300
+    if probe_modes:
+        atol[n0 - probe_modes:n0] = 1e300
+        atol[n + n0 - probe_modes:n + n0] = 1e300
     f = math.sqrt(np.count_nonzero(atol < 1e299) / (2 * n))
     return rtol * f, atol * f
 
@@ -525,8 +531,9 @@ def prepare_run(spec: MechanismSpec, duration: float | None = None, rtol: float 
     nf = len(cm.frc_names)
     # absolute tolerances: positions rtol x 1 mm, velocities rtol x the spec's velocity scale (SimulationSpec)
     atol = np.concatenate([np.full(cm.n, POSITION_SCALE * rtol), np.full(cm.n, sim.velocity_scale * rtol)])
-    if cm.n > cm.n_base:
-        rtol, atol = _auxiliary_tolerances(cm, rtol, atol)
+    probe_modes = spec.plant.probe_modes if spec.plant is not None else 0
+    if cm.n > cm.n_base or probe_modes:
+        rtol, atol = _auxiliary_tolerances(cm, rtol, atol, probe_modes)
     stats_from = 0.0
     if cm.period is not None and duration >= 2 * cm.period:
         stats_from = cm.period

@@ -293,6 +293,22 @@ class ModalBodySpec(_Strict):
     ramp_depth: Annotated[float, quantity_validator("length"), Field(gt=0)] = 0.2
     contact: ContactSpec = ContactSpec(law="impact", stiffness=8e7, exponent=1.5, damping=20.0)
     contacts: list[BranchContactSpec]
+    # the last this many modes belong to one-way probes: every contact that moves them has reaction_weight 0, so the
+    # mechanism's motion does not depend on them, and they are left out of the integrator's step-size control
+    # (their error does not dilute the error norm of what the steps are chosen for; berryshaker.multibody.engine)
+    probe_modes: int = Field(0, ge=0)
+
+    @model_validator(mode="after")
+    def _check_probes(self) -> "ModalBodySpec":
+        n = len(self.omega)
+        if self.probe_modes > n:
+            raise ValueError(f"plant: probe_modes = {self.probe_modes} but the body has {n} modes")
+        if self.probe_modes:
+            for c, row in zip(self.contacts, self.shapes):
+                if c.reaction_weight != 0 and any(v != 0 for v in row[n - self.probe_modes:]):
+                    raise ValueError(f"plant contact {c.name!r} moves a probe mode and acts back "
+                                     f"(reaction_weight {c.reaction_weight:g}): a probe's contacts need weight 0")
+        return self
 
 
 class MechanismInfo(_Strict):
