@@ -199,8 +199,8 @@ def class_tables_run(machine: Machine, clearance: dict[str, float] | None, pertu
     from the machine start of the class at offset 0 (its eccentricities and drive phase); each table is
     :func:`stem_force_table` of its class over its own passage (the duration of one branch's drive-past, from its
     offset on).  No probe acts back, so the combs' motion depends on the probes only through the integrator's step
-    sequence (their modal states are in its error norm, their contact onsets are events).  With one class the run
-    and its table are :func:`stem_force_envelope_run`'s from the same start, bit for bit.
+    sequence (their contact onsets are events; their modal states are out of its error norm, ``plant.probe_modes``).
+    With one class the run and its table are :func:`stem_force_envelope_run`'s from the same start, bit for bit.
 
     Parameters
     ----------
