@@ -58,9 +58,9 @@ from berryshaker.harvest.virtual.stem_force_tables import (
     Z_GRID,
     along_branch,
     bond_strengths,
+    fruit_channels,
     fruit_load_channels,
     fruit_peak_force,
-    fruit_peak_load,
 )
 
 #: Gauss-Legendre nodes per stem-load table cell along the fruit zone and in log fruit mass of the expectation's
@@ -386,8 +386,10 @@ def load_grid(machine: Machine, envelopes: list, z_per_cell: int = Z_NODES, mass
         parts = [(fruit_load_channels(e, zz, mm, m0, True, st), fruit_load_channels(e, zz, mm, m0, False, st),
                   fruit_peak_force(e, zz, mm, m0)) for e in envs]
         cr, cu, force = (np.concatenate([p[i] for p in parts], axis=-1) for i in range(3))
-    return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), miner_load(cr, beta), miner_load(cu, beta),
-                    force, cr, cu, tables, float(beta))
+    both = miner_load(np.concatenate([cr, cu], axis=1), beta) if cr.shape[0] == cu.shape[0] else None  # per node
+    lr, lu = (both[:cr.shape[1]], both[cr.shape[1]:]) if both is not None else (miner_load(cr, beta),
+                                                                                miner_load(cu, beta))
+    return LoadGrid(np.tile(ww, nc) / nc, np.tile(zz, nc), np.tile(mm, nc), lr, lu, force, cr, cu, tables, float(beta))
 
 
 def _table_channels(n_channels: int) -> tuple[list, list, list]:
@@ -680,13 +682,23 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
     u_bruise = rng.random(n)
     st = bond_strengths(machine)
     a = float(stiffness_scale(machine, p))
-    load, force = np.zeros(n), np.zeros(n)
+    from berryshaker.plant.pedicel import miner_load
+
+    beta = h.miner_exponent if p.miner_exponent is None else float(p.miner_exponent)
+    load, force, chans = np.zeros(n), np.zeros(n), []
     for c, env in enumerate(envelopes):
         sel = cls == c
         e = np.asarray(env, float)
-        load[sel] = fruit_peak_load(e, z[sel], mass[sel], m0, ripe[sel], st,
-                                    h.miner_exponent if p.miner_exponent is None else float(p.miner_exponent), a)
+        chans.append((sel, fruit_channels(e, z[sel], mass[sel], m0, ripe[sel], st, a)))
         force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0, a)
+    if len({ch.shape[0] for _, ch in chans}) == 1:  # every class's fruit in one Miner reading (it is per fruit)
+        every = np.zeros((chans[0][1].shape[0], n))
+        for sel, ch in chans:
+            every[:, sel] = ch
+        load = miner_load(every, beta)
+    else:
+        for sel, ch in chans:
+            load[sel] = miner_load(ch, beta)
     u_stage = rng.random(n)  # drawn last: the earlier draws are those of a model without stages
     if h.bond_model == "pull_shear":
         stages = unripe_stage_strengths(h, float(p.ripe_pull), float(p.unripe_pull), float(p.bond_cv))
