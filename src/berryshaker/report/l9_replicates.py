@@ -136,7 +136,7 @@ def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
             table.append(_table(loads, [[r["name"]] + [cell(r, c) for c in forces + tq] for r in recs]))
         table.append("<p class='small'>Each cell: mean of the replicates [95 % interval of the mean]; the machine loads "
                      "of the same candidates in the second table (a collision force there is the static-equivalent load, the p95 "
-                     "of the impact peaks over each start's drive-pasts, not a run's single largest force); "
+                     "of the impact peaks over each start's drive-past, not a run's single largest force); "
                      "'dominated by' names the dominating candidates by "
                      "run number ('rec.': the recommended set).  A candidate is "
                      "dominated if another is no worse beyond noise in every judged column and better beyond noise in "

@@ -32,8 +32,8 @@ CONFIDENCE = 0.95
 
 def load_responses(pairs) -> list[str]:
     """Names of the machine-load responses: the static-equivalent collision force per pair (the p95 of the impact
-    peaks of a start's drive-pasts, :func:`berryshaker.multibody.impacts.static_equivalent_load`), the design drive
-    torque (the p95 of the per-revolution peaks of the start's drive-pasts,
+    peaks of a start's drive-past, :func:`berryshaker.multibody.impacts.static_equivalent_load`), the design drive
+    torque (the p95 of the per-revolution peaks of the start's drive-past,
     :func:`berryshaker.multibody.drive_loads.design_torque`) and the RMS drive torque.
 
     Parameters

@@ -116,7 +116,7 @@ class Simulator:
         settings : list of int
             Setting indexes.
         starts : list of int
-            Start numbers (each start's drive-pasts start from the spawn key (k, MACHINE, class)).
+            Start numbers (start k's drive-past carries class c from the spawn key (k, MACHINE, c)).
         label : str
             Progress label.
         """
