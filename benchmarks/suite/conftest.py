@@ -36,7 +36,7 @@ RATIOS = (
     ("harvester run, multibody / MLSD", "test_harvester_run[multibody]", "test_harvester_run[mlsd]", False),
     ("stem-force table of a drive-past, with the Miner-Basquin channels / peaks only",
      "test_stem_force_table[miner]", "test_stem_force_table[peaks]", False),
-    ("run-cache entry read of a replicate drive-past, decimal JSON re-encoded to check / as the cache stores it",
+    ("run-cache entry read of a replicate start, decimal JSON re-encoded to check / as the cache stores it",
      "test_cache_entry_read[decimal]", "test_cache_entry_read[bytes]", False),
 )
 

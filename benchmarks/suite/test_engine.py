@@ -20,7 +20,7 @@ the accepted steps, so time per step = median / steps.  Cases:
   replicate drive-past assembles its start;
 * sweep throughput: 8 harvester runs over clearance sets drawn 0.5-1.5x around the reference (seed 1), one by one
   as ``berryshaker sweep --model multibody`` runs them;
-* reading one replicate drive-past's run-cache entry (``runs.cache.read_cache_entry``: arrays as their bytes, the
+* reading one replicate start's run-cache entry (``runs.cache.read_cache_entry``: arrays as their bytes, the
   checksum over the text) beside the same value as decimal JSON whose checksum is checked by re-encoding it.
 """
 
@@ -183,18 +183,18 @@ def test_sweep_throughput(benchmark, machine):
 
 
 def _replicate_value():
-    """A value the size of one replicate drive-past's (study.runs.replicate_record): its stem-load table and impact
-    peaks (seeded numbers of the same shapes)."""
+    """A value the size of one replicate start's (study.runs.replicate_record): its three branch classes' stem-load
+    tables and its impact peaks (seeded numbers of the same shapes)."""
     from berryshaker.harvest.virtual import MASS_FACTORS, Z_GRID
 
     rng = np.random.default_rng(5)
-    return {"envelope": rng.random((Z_GRID.size, MASS_FACTORS.size, 15)),
-            "impact_peaks_N": {p: rng.random(700) * 1e3 for p in "ABCF"}, "peak_force_N": {p: 1e3 for p in "ABCF"}}
+    return {"envelopes": [rng.random((Z_GRID.size, MASS_FACTORS.size, 15)) for _ in range(3)],
+            "impact_peaks_N": {p: rng.random(400) * 1e3 for p in "ABCF"}, "peak_force_N": {p: 1e3 for p in "ABCF"}}
 
 
 @pytest.mark.parametrize("form", ["bytes", "decimal"])
 def test_cache_entry_read(benchmark, tmp_path, form):
-    """One replicate drive-past's cache entry read back: as written (``bytes``), and the same value as decimal JSON
+    """One replicate start's cache entry read back: as written (``bytes``), and the same value as decimal JSON
     checked by re-encoding (``decimal``, what an entry read cost before arrays were stored as their bytes)."""
     import hashlib
     import json

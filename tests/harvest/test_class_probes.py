@@ -7,8 +7,8 @@ Exact where the machine is not chaotic: with every clearance closed the harveste
 prescribes the combs), so the probe run and a separate run of a class differ by the integrator's tolerance and the
 probe's phase rounding to an output step (omega x 0.1 ms / 2 = 6e-4 rad) only.  Measured on the reference machine,
 starts 0 and 1: comb angles within 3.3e-10 rad, tables within 4.5e-4 of each channel's largest value.  With
-clearances the run is chaotic (the probes change the integrator's step sequence, their states being in its error
-norm and their contact onsets events), so a class's table differs from its separate run's as another draw of the
+clearances the run is chaotic (the probes change the integrator's step sequence: their contact onsets are events,
+though their states are out of its error norm), so a class's table differs from its separate run's as another draw of the
 same start would; the design was measured against one run per class on 16 starts x 3 classes (every harvest index's
 mean paired difference within 0.04 replicate SD and 1.7 SE; CHANGELOG.md, 0.2.0).
 """

@@ -16,7 +16,7 @@ from berryshaker.harvest.virtual import (
     HarvestParameters,
     Tally,
     bushes_per_test,
-    count_variance,
+    expectation,
     expected_tally,
     field_tally,
     load_grid,
@@ -94,13 +94,13 @@ def test_quadrature_nodes_are_converged(machine):
 
 
 def test_counting_noise_matches_the_counted_field_tests(machine):
-    """The delta-method variance of one field test about the expectation (count_variance) against 1000 field tests
+    """The delta-method variance of one field test about the expectation (expectation) against 1000 field tests
     counted fruit by fruit at the same tables: mean within 4 standard errors of the expectation, SD within 10 %
     (the SD of 1000 draws is known to about 2 %, a ratio estimator's first-order variance to a few % more)."""
     env = [shaped_table(s) for s in (0.85, 1.0, 1.15)]
     grid = load_grid(machine, env)
     e = response_values(expected_tally(machine, grid))
-    v = count_variance(machine, grid)
+    v = expectation(machine, grid)[1]
     draws = [response_values(field_tally(machine, env, k)) for k in range(1000)]
     for n in RESPONSES:
         x = np.array([d[n] for d in draws])
@@ -118,7 +118,7 @@ def test_a_rate_is_a_count_and_scatters_less_with_more_fruit(machine):
     from dataclasses import replace
 
     p2 = replace(p1, yield_per_bush=2 * p1.yield_per_bush)
-    v1, v2 = count_variance(machine, grid, p1), count_variance(machine, grid, p2)
+    v1, v2 = expectation(machine, grid, p1)[1], expectation(machine, grid, p2)[1]
     assert math.sqrt(v1["damage"] / v2["damage"]) == pytest.approx(math.sqrt(2), rel=1e-6)
     assert v2["efficiency"] > v1["efficiency"]
 
@@ -135,7 +135,7 @@ def test_parameter_rows_broadcast_over_the_nodes(machine):
 
     one = expected_tally(machine, grid, replace(p, ripe_pull=0.6, unripe_fraction=0.2, yield_per_bush=1.0))
     assert float(both.ripe_picked[1]) == pytest.approx(one.ripe_picked, rel=1e-12)
-    assert count_variance(machine, grid, rows)["damage"].shape == (2,)
+    assert expectation(machine, grid, rows)[1]["damage"].shape == (2,)
 
 
 def test_responses_of_a_tally():

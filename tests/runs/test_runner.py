@@ -77,7 +77,8 @@ def _entry(tmp_path, fn, kw):
     return cache_entry_path(tmp_path / "cache", run_key(fn, kw))
 
 
-@pytest.mark.parametrize("damage", ["edit_value", "empty_object", "truncate", "wrong_key", "not_object"])
+@pytest.mark.parametrize("damage", ["edit_value", "empty_object", "truncate", "wrong_key", "not_object", "huge_wall",
+                                    "deep_header"])
 def test_invalid_entry_is_recomputed_with_a_warning(tmp_path, damage, capsys):
     log = tmp_path / "log"
     kw = dict(x=3.0, log=str(log))
@@ -95,6 +96,10 @@ def test_invalid_entry_is_recomputed_with_a_warning(tmp_path, damage, capsys):
     elif damage == "wrong_key":
         entry["key"] = "0" * 64
         path.write_text(json.dumps(entry) + "\n" + body)
+    elif damage == "huge_wall":  # an integer no float holds
+        path.write_text(head.replace(f'"wall_s":{json.dumps(entry["wall_s"])}', '"wall_s":' + "9" * 400) + "\n" + body)
+    elif damage == "deep_header":
+        path.write_text("[" * 100_000 + "\n" + body)
     else:
         path.write_text("[1, 2]")
     r = _runner(tmp_path)

@@ -55,7 +55,8 @@ def fruit_force_convergence(machine: Machine, modes=(4, 8, 16, 32), clearance: d
     the machine starts from :func:`berryshaker.harvest.virtual.machine_start` ``(k, MACHINE, c)``
     (:class:`berryshaker.multibody.perturbation.RandomInitialPerturbation` with ``harvest.initial_eccentricity`` and
     ``harvest.start_phase_spread``), c the index of the reference branch class (scale 1) in
-    ``harvest.branch_classes``: the eccentricities and the drive phase the virtual harvest draws for that class.  Per
+    ``harvest.branch_classes``: the drive phase at which the virtual harvest's drive-past meets that class (its
+    eccentricities are the virtual harvest's only when its run starts from that class).  Per
     mode count n and fruit position the row gives the replicate mean F_n = (1/R) sum_k F_n,k and its standard
     error SE_n = s_n / sqrt(R) (s_n the sample SD over the replicates: the harvest statistic's own noise), the
     relative difference from the most modes N, d_n = F_n / F_N - 1, and the standard error of that difference

@@ -51,7 +51,7 @@ def _finger_points(machine, drive, ct):
 
 
 def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = None, margin: float = 0.15,
-                      probes: tuple = (), probe_offsets: tuple = ()):
+                      probes: tuple = (), probe_offsets: tuple = (), probes_in_error_norm: bool = True):
     """Harvester mechanism description with the machine's branch coupled to both combs.
 
     The run covers the instrumented branch's passage through the comb (its span plus ``margin`` either
@@ -71,10 +71,12 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
     bush members, struck by both combs at the same stations, acting back on nothing.  Since no probe acts
     back, the combs' motion is the same for all of them, so the probes differ only by their own modal
     model: a comparison of modal models (convergence in modes, two-way against one-way fruit) free of the
-    clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").  The probes'
-    modes are left out of the integrator's step-size control (``plant.probe_modes``): the error norm is that of the
-    machine, the bush and the instrumented branch, as in a run without probes (with them in it, 22 more of 60
-    coordinates diluted the norm and loosened the machine's effective tolerance).  A probe is
+    clearance chain's sensitivity to the step sequence (docs/plant.md, "Convergence with modes").  With
+    ``probes_in_error_norm=False`` the probes' modes are left out of the integrator's step-size control
+    (``plant.probe_modes``): the error norm is that of the machine, the bush and the instrumented branch, as in a
+    run without probes (the branch classes of a replicate start, whose 22 more of 60 coordinates otherwise dilute
+    the norm and loosen the machine's effective tolerance); a comparison of modal models keeps them in it, so that
+    each probe's own integration error is controlled.  A probe is
     struck through the contact law of its own branch's diameter at the stations, so a probe may also be another
     branch class (berryshaker.harvest.virtual.stem_force_tables.class_tables_run).
 
@@ -95,6 +97,8 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         Further descriptions whose instrumented branch is carried as a probe (see above).
     probe_offsets : tuple of float
         Row offset of each probe relative to the instrumented branch (m); empty: all 0.
+    probes_in_error_norm : bool
+        Keep the probes' modes in the integrator's step-size control (see above).
 
     Returns
     -------
@@ -186,8 +190,7 @@ def coupled_mechanism(machine: Machine, clearance: dict[str, float] | None = Non
         shapes=shapes, lateral_axis=[1.0, 0.0], walking_speed=v,
         start_distance=lo - (half + margin), half_span=half, ramp=min(0.1, half / 2), ramp_depth=0.2,
         contact=law, contacts=contacts,
-        # the probes' blocks act on nothing: out of the step-size control, which is then that of a run without them
-        probe_modes=sum(len(pm.omega) for pm, _ in probe_modes))
+        probe_modes=0 if probes_in_error_norm else sum(len(pm.omega) for pm, _ in probe_modes))
     spec["simulation"]["duration"] = duration
     # the coupled runs' velocity scale is their own, studied with their tolerance (COUPLED_VELOCITY_SCALE)
     spec["simulation"]["velocity_scale"] = COUPLED_VELOCITY_SCALE

@@ -443,7 +443,7 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
     head, sep, body = data.partition(b"\n")
     try:
         entry = json.loads(head.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError):
+    except (UnicodeDecodeError, ValueError, RecursionError):
         return None, "not a valid entry (truncated or edited)"
     if not isinstance(entry, dict) or not sep:
         return None, "not a valid entry (truncated or edited)"
@@ -456,13 +456,17 @@ def read_cache_entry(path: str | Path, key: str, fingerprint: str | None = None)
         return None, "key does not match its file name"
     if fingerprint is not None and entry["fingerprint"] != fingerprint:
         return None, "written by other code"
-    if not math.isfinite(entry["wall_s"]) or entry["wall_s"] < 0:
+    try:
+        bad_wall = not math.isfinite(entry["wall_s"]) or entry["wall_s"] < 0
+    except OverflowError:  # an integer too large for a float
+        bad_wall = True
+    if bad_wall:
         return None, "impossible wall time"
     if hashlib.sha256(body).hexdigest() != entry["value_sha256"]:
         return None, "value checksum mismatch (edited or damaged)"
     try:
         entry["value"] = read_value(body.decode("utf-8"))
-    except (UnicodeDecodeError, ValueError, TypeError):
+    except (UnicodeDecodeError, ValueError, TypeError, RecursionError):
         return None, "value unreadable (edited or damaged)"
     return entry, None
 

@@ -7,7 +7,7 @@ interrupted study resumes where it stopped, a repeated one is instant, and a cha
 stale result (:mod:`berryshaker.runs.cache`).  Failed runs are recorded with their error (and not cached, so they
 are retried); a lost Dask scheduler is no run's failure but the map's: one error naming the runs that did not
 finish, the finished ones cached, so the same command resumes.  Run functions must be module-level (so they pickle) and return JSON-compatible values (dicts, lists,
-numbers, strings).
+numbers, strings, and numpy arrays of floats, integers or booleans, stored as their bytes: runs.cache.run_value).
 
 :class:`SweepRunner` composes the cache with one of three backends sharing one small interface (``run(ctx, finish)``,
 :mod:`berryshaker.runs.jobs`): in this process (one worker), a local process pool kept across maps

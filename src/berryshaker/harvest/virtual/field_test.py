@@ -15,7 +15,7 @@ stem-load tables of its branch classes, from its coupled drive-past) this module
   ``fruit_mass_cv``; Gauss-Legendre nodes in every cell of the stem-load tables, :func:`load_grid`), ripe or unripe (mass fraction
   ``unripe_fraction``; an unripe fruit green, pink or red by ``unripe_stage_mix``, berryshaker.harvest.ripeness) -- of the probability that it comes off and that it bruises (:func:`node_probabilities`);
   no sampling noise;
-* the **counting noise of one field test** about that expectation (:func:`count_variance`): each bush its own yield,
+* the **counting noise of one field test** about that expectation (:func:`expectation`): each bush its own yield,
   lognormal with mean ``yield_per_bush`` and CV ``bush_yield_cv``; its fruit a Poisson count of yield / mean mass on
   the covered part; every fruit picked or not, bruised or not (Bernoulli).  The tally's sums are then a Poisson
   mixture, Var(S) = E[N] E[g g'] + Var(lambda) E[g] E[g]' (g a fruit's contribution, lambda the covered fruit
@@ -25,7 +25,7 @@ stem-load tables of its branch classes, from its coupled drive-past) this module
   the test's start within the row uniform over one plant spacing, the bushes it covers with their fractions, each
   bush's yield, each fruit's class, position, mass, ripeness, strength factor, whether it comes off and whether it
   bruises.  Its spread over starts is a field test's test-to-test spread (the model's start-to-start spread plus
-  the counting noise); :func:`count_variance` is checked against it in the tests.
+  the counting noise); :func:`expectation`'s variance is checked against it in the tests.
 
 Detachment and bruising are those of :mod:`berryshaker.harvest.virtual.indexes`' models: ``bond_model`` "pull_shear"
 (a fruit comes off when the Miner-Basquin equivalent g_eq = (sum_i g_i^beta)^(1/beta) of the pull-shear load ratios
@@ -553,15 +553,15 @@ def expected_tally(machine: Machine, grid: LoadGrid, params: HarvestParameters |
 
 
 def _expected(machine: Machine, moments, p: HarvestParameters) -> Tally:
-    eg, _, m_mean = moments
-    n_fruit = bushes_per_test(machine) * _row(p.yield_per_bush) / m_mean
-    s = eg * np.asarray(n_fruit)[..., None]
+    s = moments[0] * np.asarray(bushes_per_test(machine) * _row(p.yield_per_bush) / moments[2])[..., None]
     return Tally(*(s[..., i] for i in range(5)), np.broadcast_to(machine.operation.test_duration, s.shape[:-1]) * 1.0)
 
 
 def expectation(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None,
                 names=None) -> tuple[Tally, dict]:
-    """:func:`expected_tally` and :func:`count_variance` together, from one evaluation of the nodes' probabilities.
+    """The model's expectation of one field test's tally (:func:`expected_tally`) and the variance of each response
+    of one field test about it: the counting noise (module docstring: Poisson mixture of the covered bushes' fruit,
+    delta method), from one evaluation of the nodes' probabilities.
 
     Parameters
     ----------
@@ -582,31 +582,6 @@ def expectation(machine: Machine, grid: LoadGrid, params: HarvestParameters | No
     p = params or HarvestParameters.described(machine)
     moments = _moments(machine, grid, p)
     return _expected(machine, moments, p), _count_variance(machine, moments, p, names)
-
-
-def count_variance(machine: Machine, grid: LoadGrid, params: HarvestParameters | None = None,
-                   names=None) -> dict:
-    """Variance of each response of one field test about the start's expectation: the counting noise (module
-    docstring: Poisson mixture of the covered bushes' fruit, delta method).
-
-    Parameters
-    ----------
-    machine : Machine
-        Machine description with [plant], [harvest] (``bush_yield_cv``) and [operation].
-    grid : LoadGrid
-        The start's nodes.
-    params : HarvestParameters, optional
-        Parameter values (default the description's).
-    names : iterable of str, optional
-        Responses (default every one of :data:`~berryshaker.harvest.virtual.responses.RESPONSES`).
-
-    Returns
-    -------
-    dict
-        Name -> variance (the response's unit squared; float or (n,) array).
-    """
-    p = params or HarvestParameters.described(machine)
-    return _count_variance(machine, _moments(machine, grid, p), p, names)
 
 
 def _count_variance(machine: Machine, moments, p: HarvestParameters, names) -> dict:

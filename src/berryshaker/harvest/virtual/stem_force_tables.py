@@ -4,7 +4,8 @@ diameters scaled) gives a table of peak stem loads over position along the branc
 Miner-Basquin equivalent pull-shear load ratios).  A replicate start's classes are one-way probes of one drive-past,
 each meeting the comb at its own class's drive phase (:func:`class_tables_run`); one class alone is
 :func:`stem_force_envelope_run` (berryshaker.harvest.coupled.drive_past).  Part of the virtual harvest
-(berryshaker.harvest.virtual).
+(berryshaker.harvest.virtual).  long module: the tables, their one-run computation for a start's classes and their
+reading at a fruit are one idea, the stem-load table; its axes and channels are defined once here.
 
 **A table read at another pedicel stiffness** (``stiffness_scale`` a of :func:`fruit_load_channels`,
 :func:`fruit_peak_force`, :func:`fruit_peak_load`; ``calibrate`` learns the stiffness this way).  The fruit are
@@ -230,7 +231,7 @@ def class_tables_run(machine: Machine, clearance: dict[str, float] | None, pertu
     first, offsets, drawn = class_phase_offsets(machine, clearance, perturbations)
     others = [c for c in range(len(classes)) if c != first]
     spec, m = coupled_mechanism(classes[first], clearance, probes=tuple(classes[c] for c in others),
-                                probe_offsets=tuple(offsets[c] for c in others))
+                                probe_offsets=tuple(offsets[c] for c in others), probes_in_error_norm=False)
     res = simulate_mechanism(spec, rtol=rtol, output_step=ENVELOPE_OUTPUT_STEP, initial_perturbation=drawn[first])
     v = m.operation.walking_speed
     # one branch's drive-past (the run of one branch: from margin before its span to margin after), in samples
@@ -244,7 +245,8 @@ def class_tables_run(machine: Machine, clearance: dict[str, float] | None, pertu
             i0 = int(round(offsets[c] / v / ENVELOPE_OUTPUT_STEP))
             # timed from the passage's first sample on the nominal grid (offsets and run are whole output steps):
             # the same sampling step at every start, so the fruit oscillators are discretised once
-            motion = dataclasses.replace(motion.window(i0, i0 + n_pass), t=np.arange(n_pass) * ENVELOPE_OUTPUT_STEP)
+            n = min(n_pass, len(res.t) - i0)  # the run ends with the last passage (a sample less at a rounding tie)
+            motion = dataclasses.replace(motion.window(i0, i0 + n), t=np.arange(n) * ENVELOPE_OUTPUT_STEP)
         tables[c] = stem_force_table(classes[c], motion)
         col += len(modes.omega) + (sum(len(mm.omega) for _, mm in bush_members(m)) if c == first else 0)
     return tables, res
@@ -384,8 +386,8 @@ def _z_cells(z: np.ndarray):
 
 
 def along_branch(values: np.ndarray, z) -> np.ndarray:
-    """Values on Z_GRID (axis 0, any trailing axes) at fractions z: numpy.interp of every trailing column, bit for
-    bit (the same arithmetic: slope x offset + left value; ends held; a node's own value on it).
+    """Finite values on Z_GRID (axis 0, any trailing axes) at fractions z: numpy.interp of every trailing column, bit
+    for bit (the same arithmetic: slope x offset + left value; ends held; a node's own value on it).
 
     Parameters
     ----------
@@ -408,9 +410,10 @@ def along_branch(values: np.ndarray, z) -> np.ndarray:
 
 
 def _interp_table(table: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float) -> np.ndarray:
-    """A (Z_GRID x MASS_FACTORS [x channels]) table at fractions z and masses ``mass``: linear in z
+    """A (Z_GRID x MASS_FACTORS [x channels]) table of finite values at fractions z and masses ``mass``: linear in z
     (:func:`along_branch`'s arithmetic) and in log mass; (n,) or (n, channels)."""
     z = np.asarray(z, float)
+    mass = np.broadcast_to(np.asarray(mass, float), z.shape)
     i, dz, dx, low, high = _z_cells(z)
     j, w = mass_weights(mass / m0)
     extra = (slice(None),) * (table.ndim - 2)

@@ -9,7 +9,7 @@ Every setting of the sheet (its factors mapped to the machine,
 their peak loads (:func:`~berryshaker.harvest.virtual.field_test.load_grid`); at any parameter point theta the
 start's model expectation and the counting variance of one field test are then exact post-processing
 (:func:`~berryshaker.harvest.virtual.field_test.expected_tally`,
-:func:`~berryshaker.harvest.virtual.field_test.count_variance` with
+:func:`~berryshaker.harvest.virtual.field_test.expectation` with
 :class:`~berryshaker.harvest.virtual.field_test.HarvestParameters`): a strength scaled by a divides its load ratio by
 a (the pull-shear ratio is homogeneous of degree -1 in the strengths), the strength spread, the unripe share, the
 yield and the bruise threshold enter the quadrature directly, with no sampling noise.  The efficiency's expectation is
