@@ -13,7 +13,8 @@ reference machine runs with ``restitution_velocity = v_floor`` on all four pairs
   0.1 ms) over the reference clearances and ``--sets`` sets drawn uniformly 0.8-1.25x around them (seed 2):
   mean / RMS / p95 / peak collision force of each pair over revolution 2, mean drive moment, steps, CPU;
 * ``coupled``: the drive-pasts of the virtual L9's replicates (``harvest.virtual.replicate_starts``, replicate k
-  of branch class c from ``RandomInitialPerturbation((seed_k, c), ...)``, exactly as ``study.l9.replicate_jobs``;
+  of branch class c from ``RandomInitialPerturbation((seed_k, c), ...)``, one run per class (the L9 carries them as
+  probes of one run);
   ``harvest.coupled.simulate_fruit_force`` and ``harvest.virtual.stem_force_table``, rtol 1e-6,
   output step ``harvest.virtual.ENVELOPE_OUTPUT_STEP``, at the configured clearances): fruit-force peaks root / middle / end, comb-branch contact
   peaks, steps, CPU, and per replicate the harvest indexes (efficiency kg/min, damage %, unripe %) of

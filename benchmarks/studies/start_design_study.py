@@ -1,12 +1,13 @@
 """How a virtual start samples the drive phase: independent phases per branch class, or phases spread evenly?
 
 The study behind docs/harvest.md "Replicates" (why each branch class of a start keeps a drive phase of its own).
-A start of the virtual harvest (``study.runs.replicate_run``) is one coupled drive-past per branch class; the phase
+The study runs one coupled drive-past per branch class and start (the virtual harvest's ``study.runs.replicate_run``
+carries the classes as probes of one run, each at its own class's phase); the phase
 at which the comb meets the branch dominates the spread of the harvest indexes.  Two designs of the same cost
 (one run per class and start, the same clearance eccentricities, the same population per start):
 
 * ``independent`` (the package's): class c of start k draws its phase uniformly in +-``harvest.start_phase_spread``
-  (``RandomInitialPerturbation((seed_k, c), ...)``, exactly as ``study.l9.replicate_jobs``);
+  (``RandomInitialPerturbation((seed_k, c), ...)``, the phases ``study.l9.replicate_jobs`` gives its classes);
 * ``systematic``: start k draws one phase u_k uniformly and class c runs at u_k + 2 pi c / C (wrapped): a
   stratified design within the start; starts stay independent, so the usual standard errors hold.
 
