@@ -157,3 +157,26 @@ def test_the_miner_exponent_is_validated_with_a_clear_error():
     assert machine_from_dict(d).harvest.miner_exponent == 1e9
     ch = np.array([[1.0], [1.6], [1.3], [1.1], [1.05], [1.02], [1.01]])
     assert miner_load(ch, 1e9) == pytest.approx([1.0], rel=1e-6)
+
+
+def test_the_reading_at_one_exponent_is_scipys_pchip_bit_for_bit():
+    """miner_load at one exponent evaluates only the cell the exponent falls in (its two nodes' derivatives), with
+    scipy.interpolate.PchipInterpolator's arithmetic: every value equal to the full interpolator's, at the nodes
+    (the exponents carried, the peak), between them and at the ends, for rising, flat and zero channels."""
+    from scipy import interpolate
+
+    from berryshaker.plant.pedicel import MINER_EXPONENTS, miner_load
+
+    ex = np.asarray(MINER_EXPONENTS, float)
+    nodes = np.concatenate([[0.0], 1.0 / ex[::-1]])
+    rng = np.random.default_rng(7)
+    for trial in range(60):
+        n = int(rng.integers(1, 2000))
+        ch = np.sort(rng.random((1 + ex.size, n)) * rng.uniform(0.1, 5), axis=0)[::-1].copy()
+        ch[:, : n // (2 + trial % 4)] *= trial % 3 != 0  # columns of zeros
+        ch[2:, : n // 7] = ch[1, : n // 7]  # flat stretches
+        logs = np.log(np.maximum(np.concatenate([ch[:1], ch[1:][::-1]]), 1e-300))
+        full = interpolate.PchipInterpolator(nodes, logs, axis=0, extrapolate=False)
+        for beta in (math.inf, *ex, 4.2, 7.5, 29.0, 1e9):
+            want = np.exp(full(np.clip([1.0 / beta], 0.0, nodes[-1])))[0]
+            assert miner_load(ch, beta).tobytes() == want.tobytes()

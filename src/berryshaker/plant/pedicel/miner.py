@@ -198,6 +198,60 @@ def miner_load(channels, exponent, exponents=MINER_EXPONENTS) -> np.ndarray:
                           f"got {exponent}")
     x = 1.0 / beta.reshape(-1)
     nodes = np.concatenate([[0.0], 1.0 / ex[::-1]])  # increasing 1 / beta: the peak, then the largest exponent ...
-    logs = np.log(np.maximum(np.concatenate([ch[:1], ch[1:][::-1]]), 1e-300))
-    out = np.exp(interpolate.PchipInterpolator(nodes, logs, axis=0, extrapolate=False)(np.clip(x, 0.0, nodes[-1])))
+    order = [0, *range(ch.shape[0] - 1, 0, -1)]  # node k holds channel row order[k]
+    if beta.ndim == 0 and nodes.size >= 3:  # one exponent: the two nodes' derivatives of the cell it falls in
+        logs: dict = {}
+
+        def row(k):
+            if k not in logs:
+                logs[k] = np.log(np.maximum(ch[order[k]], 1e-300))
+            return logs[k]
+
+        return np.exp(_pchip_at(nodes, row, min(max(float(x[0]), 0.0), float(nodes[-1]))))
+    logs_all = np.log(np.maximum(ch[order], 1e-300))
+    out = np.exp(interpolate.PchipInterpolator(nodes, logs_all, axis=0, extrapolate=False)(np.clip(x, 0.0, nodes[-1])))
     return out[0] if beta.ndim == 0 else out
+
+
+def _edge_slope(h0, h1, m0, m1):
+    """PCHIP's end derivative: the one-sided three-point estimate, kept to the data's shape (Moler 2004, pchiptx;
+    scipy.interpolate.PchipInterpolator's, the same arithmetic)."""
+    d = ((2 * h0 + h1) * m0 - h0 * m1) / (h0 + h1)
+    mask = np.sign(d) != np.sign(m0)
+    mmm = ~mask & (np.sign(m0) != np.sign(m1)) & (np.abs(d) > 3.0 * np.abs(m0))
+    d[mask] = 0.0
+    d[mmm] = 3.0 * m0[mmm]
+    return d
+
+
+def _node_slope(x, row, j):
+    """PCHIP's derivative at node j of every column (Fritsch & Carlson 1980: 0 where the slopes either side differ
+    in sign or vanish, else their weighted harmonic mean; the ends by :func:`_edge_slope`), from the rows of y it
+    needs (``row(k)``): scipy.interpolate.PchipInterpolator's arithmetic, bit for bit."""
+    h = lambda a: x[a + 1] - x[a]  # noqa: E731
+    m = lambda a: (row(a + 1) - row(a)) / h(a)  # noqa: E731
+    if j == 0:
+        return _edge_slope(h(0), h(1), m(0), m(1))
+    if j == len(x) - 1:
+        return _edge_slope(h(j - 1), h(j - 2), m(j - 1), m(j - 2))
+    m0, m1 = m(j - 1), m(j)
+    w1, w2 = 2 * h(j) + h(j - 1), h(j) + 2 * h(j - 1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = 1.0 / ((w1 / m0 + w2 / m1) / (w1 + w2))
+    d[(np.sign(m1) != np.sign(m0)) | (m1 == 0) | (m0 == 0)] = 0.0
+    return d
+
+
+def _pchip_at(x, row, at: float) -> np.ndarray:
+    """The monotone cubic (PCHIP) through (x, y) of every column at one point ``at`` in [x[0], x[-1]]: the Hermite
+    cubic of the cell holding it, from the derivatives at its two nodes (:func:`_node_slope`), evaluated as
+    scipy.interpolate.PPoly does (tests/plant/test_miner.py: bit for bit against PchipInterpolator)."""
+    i = max(min(int(np.searchsorted(x, at, side="right")) - 1, len(x) - 2), 0)
+    d0, d1 = _node_slope(x, row, i), _node_slope(x, row, i + 1)
+    dx = x[i + 1] - x[i]
+    y0 = row(i)
+    slope = (row(i + 1) - y0) / dx
+    t = (d0 + d1 - 2 * slope) / dx
+    s = at - x[i]
+    res = 0.0 + y0 + d0 * s  # c3 + c2 s + c1 s^2 + c0 s^3, summed in PPoly's order
+    return res + ((slope - d0) / dx - t) * (s * s) + (t / dx) * (s * s * s)
