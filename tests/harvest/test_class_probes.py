@@ -142,3 +142,36 @@ def test_probe_offsets_lengthen_the_run_and_centre_the_bush():
     assert by["comb_left_probe1"].reaction_weight == 0.0
     with pytest.raises(Exception, match="probe offsets"):
         coupled_mechanism(m, probes=(other,), probe_offsets=(0.1, 0.2))
+
+
+def test_branch_class_probes_leave_the_error_norm_and_must_not_act_back():
+    """The branch classes' probe modes are out of the integrator's step-size control (plant.probe_modes: atol 1e300
+    on their positions and velocities, rtol and atol rescaled by sqrt(controlled / all)); a comparison of modal
+    models keeps them in; a probe contact that acts back, or more probe modes than the body has, is refused."""
+    from berryshaker.errors import ConfigError
+    from berryshaker.harvest.coupled import coupled_mechanism, plant_modes
+    from berryshaker.multibody.compiled import compile_mechanism
+    from berryshaker.multibody.engine import prepare_run
+    from berryshaker.multibody.spec import mechanism_from_dict
+
+    m = reference_machine()
+    probe = m  # one more branch of the same class
+    kept, _ = coupled_mechanism(m, probes=(probe,))
+    out, _ = coupled_mechanism(m, probes=(probe,), probes_in_error_norm=False)
+    k = len(plant_modes(probe)[0].omega)
+    assert kept.plant.probe_modes == 0 and out.plant.probe_modes == k
+    cm = compile_mechanism(out)
+    run = prepare_run(out, rtol=1e-5)
+    n, n0 = cm.n, cm.n_base
+    assert np.all(run.atol[n0 - k:n0] > 1e299) and np.all(run.atol[n + n0 - k:n + n0] > 1e299)
+    controlled = np.count_nonzero(run.atol < 1e299)
+    assert controlled == 2 * n - 2 * k - 2 * (n - n0) + len(cm.state_windup0)
+    assert run.rtol == pytest.approx(1e-5 * math.sqrt(controlled / (2 * n)))
+    d = out.model_dump(mode="json")
+    d["plant"]["contacts"][-1]["reaction_weight"] = 1.0
+    with pytest.raises(ConfigError, match="reaction_weight"):
+        mechanism_from_dict(d)
+    d = out.model_dump(mode="json")
+    d["plant"]["probe_modes"] = len(d["plant"]["omega"]) + 1
+    with pytest.raises(ConfigError, match="probe_modes"):
+        mechanism_from_dict(d)

@@ -56,9 +56,9 @@ from berryshaker.harvest.virtual.seeds import FIELD, stream
 from berryshaker.harvest.virtual.stem_force_tables import (
     MASS_FACTORS,
     Z_GRID,
+    _fruit_channels,
     along_branch,
     bond_strengths,
-    fruit_channels,
     fruit_load_channels,
     fruit_peak_force,
 )
@@ -664,7 +664,7 @@ def field_tally(machine: Machine, envelopes: list, start: int, params: HarvestPa
     for c, env in enumerate(envelopes):
         sel = cls == c
         e = np.asarray(env, float)
-        chans.append((sel, fruit_channels(e, z[sel], mass[sel], m0, ripe[sel], st, a)))
+        chans.append((sel, _fruit_channels(e, z[sel], mass[sel], m0, ripe[sel], st, a)))
         force[sel] = fruit_peak_force(e, z[sel], mass[sel], m0, a)
     if len({ch.shape[0] for _, ch in chans}) == 1:  # every class's fruit in one Miner reading (it is per fruit)
         every = np.zeros((chans[0][1].shape[0], n))

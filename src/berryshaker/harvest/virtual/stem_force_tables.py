@@ -537,37 +537,14 @@ def fruit_peak_load(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: f
     """
     from berryshaker.plant.pedicel import miner_load
 
-    return miner_load(fruit_channels(envelope, z, mass, m0, ripe, strengths, stiffness_scale), exponent)
+    return miner_load(_fruit_channels(envelope, z, mass, m0, ripe, strengths, stiffness_scale), exponent)
 
 
-def fruit_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
-                   strengths: list[tuple[float, float]], stiffness_scale: float = 1.0) -> np.ndarray:
-    """Each fruit's load channels (:func:`fruit_load_channels`) of its own ripeness class: what
-    :func:`fruit_peak_load` reads at an exponent (the reading is per fruit, so fruit of several tables are read
-    together).
-
-    Parameters
-    ----------
-    envelope : numpy.ndarray
-        Acceleration envelope (m/s^2, 1-D), force table (N, 2-D) or :func:`stem_force_table` (3-D).
-    z : numpy.ndarray
-        Fruit positions, fractions of the branch length (dimensionless).
-    mass : numpy.ndarray
-        Fruit masses (kg).
-    m0 : float
-        Mean fruit mass of the table's mass factors (kg).
-    ripe : numpy.ndarray of bool
-        Whether each fruit is ripe.
-    strengths : list of (float, float)
-        Mean (pull, shear) strengths (N) of the ripe and the unripe fruit (:func:`bond_strengths`).
-    stiffness_scale : float
-        Pedicel stiffness (and damping) over the table's (dimensionless; module docstring).
-
-    Returns
-    -------
-    numpy.ndarray (1 + len(MINER_EXPONENTS), n) or (1, n)
-        The ripe fruit's columns from the ripe channels, the unripe fruit's from the unripe ones (dimensionless).
-    """
+def _fruit_channels(envelope: np.ndarray, z: np.ndarray, mass: np.ndarray, m0: float, ripe: np.ndarray,
+                    strengths: list[tuple[float, float]], stiffness_scale: float = 1.0) -> np.ndarray:
+    """Each fruit's load channels (:func:`fruit_load_channels`) of its own ripeness class, (1 + n_k, n) or (1, n),
+    dimensionless: what :func:`fruit_peak_load` (the same arguments) reads at an exponent.  The reading is per fruit,
+    so the fruit of several tables are read together."""
     ripe = np.asarray(ripe, bool)
     a = stiffness_scale
     return np.where(ripe, fruit_load_channels(envelope, z, mass, m0, True, strengths, a),
