@@ -105,3 +105,30 @@ def test_the_former_median_heights_are_refused_naming_their_replacement():
     d["harvest"]["bruise_height_padded"] = 1.2
     with pytest.raises(ConfigError, match="safe_drop_height_padded"):
         machine_from_dict(d)
+
+
+@pytest.mark.parametrize("surface", ["padded", "hard"])
+def test_impact_damage_of_fruit_sharing_places_is_the_full_evaluation_bit_for_bit(surface):
+    """A start's fruit sit at a few dozen places: impact_damage evaluates each place once and gathers, giving the
+    numbers of cumulative_damage evaluated at every fruit (bit for bit), for one parameter row and for rows of
+    (n, 1) parameters; an array along z is evaluated fruit by fruit."""
+    d = load_machine(None).model_dump()
+    d["harvest"]["catcher_surface"] = surface
+    m = machine_from_dict(d)
+    h = m.harvest
+    rng = np.random.default_rng(3)
+    z = rng.choice(np.linspace(0.05, 0.95, 17), size=500)
+    hard, _ = bruise_medians(h)
+    v = finger_speed(m)
+    c50 = np.array([[0.05], [0.12], [0.3]])
+    sp = np.array([[0.0], [0.4], [1.0]])
+    hard_h50 = c50 if surface == "hard" else hard
+    fall = h.catcher_drop + z * m.plant.branch.length
+    f, c, hh = np.broadcast_arrays(fall, c50, hard_h50)
+    full = cumulative_damage(f, v * v / (2 * GRAVITY), c, hh, h.bruise_cv, sp)
+    got = impact_damage(m, z, c50, sp)
+    assert got.shape == (3, 500) and np.array_equal(got, full)
+    one = impact_damage(m, z)
+    assert one.shape == (500,) and np.array_equal(one, impact_damage(m, z[:, None])[:, 0])
+    along = rng.uniform(0.05, 0.3, size=z.shape)  # a threshold per fruit: no places shared
+    assert np.array_equal(impact_damage(m, z, along)[:10], [impact_damage(m, z[i], along[i]) for i in range(10)])

@@ -268,7 +268,13 @@ def impact_damage(machine: Machine, z, catcher_h50=None, strike_probability=None
     c50 = catcher_median(h) if catcher_h50 is None else np.asarray(catcher_h50, float)
     hard_h50 = c50 if h.catcher_surface == "hard" else hard
     v_f = finger_speed(machine)
-    fall = h.catcher_drop + np.asarray(z, float) * machine.plant.branch.length
-    fall, c50, hard_h50 = np.broadcast_arrays(fall, c50, hard_h50)
+    # a start's thousands of fruit sit at a few dozen places (its nodes): the probability, elementwise in the fall
+    # height, is evaluated once per place and gathered (the same numbers, bit for bit)
+    z = np.asarray(z, float)
     sp = h.strike_probability if strike_probability is None else strike_probability
-    return cumulative_damage(fall, v_f * v_f / (2 * GRAVITY), c50, hard_h50, h.bruise_cv, sp)
+    rows = all(np.shape(x)[-1:] in ((), (1,)) for x in (c50, hard_h50, sp))  # parameters constant along z
+    places, where = np.unique(z, return_inverse=True) if z.ndim == 1 and rows else (z, None)
+    fall = h.catcher_drop + places * machine.plant.branch.length
+    fall, c50, hard_h50 = np.broadcast_arrays(fall, c50, hard_h50)
+    q = cumulative_damage(fall, v_f * v_f / (2 * GRAVITY), c50, hard_h50, h.bruise_cv, sp)
+    return q if where is None else q[..., where]
