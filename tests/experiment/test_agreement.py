@@ -46,9 +46,9 @@ def test_compare_cli_reports_agreement_per_pair(tmp_path):
     assert check["starts"] == {"multibody": 3, "reduced": 3}
     # Verdicts at level 2 with 3 starts each.  The two formulations describe the same machine, so no pair may
     # "differ"; each statistic's difference plus its noise is judged against its tolerance (10 / 15 / 20 % for mean /
-    # RMS / p95).  With the starts of the seed family (spawn keys (k, MODEL_CHECK, 2)) B and F agree; A's p95 misses
-    # by its noise (0.062 + 0.142 of 0.20) and C's impact-force RMS scatters so much over the starts that the noise
-    # band alone (about 0.19) is wider than the 15 % tolerance: three starts cannot tell agreement from a difference.
+    # RMS / p95).  Which pairs agree depends on the draw of the chaotic starts (another CPU's round-off is another
+    # draw: C's impact-force RMS noise band was 0.19 on one machine, 0.135 on another, against its 0.15 tolerance),
+    # so the test checks the verdicts' logic and that three starts never make a difference out of the noise.
     for p in "ABCF":
         c = check["pairs"][p]
         numbers = {k: (c["relative_difference"][k], c["noise"][k], c["tolerance"][k]) for k in ("mean", "rms", "p95")}
@@ -59,7 +59,6 @@ def test_compare_cli_reports_agreement_per_pair(tmp_path):
         overall = "differ" if "differ" in each else "agree" if set(each) == {"agree"} else "within noise"
         assert c["verdict"] == overall and c["agree"] == (overall == "agree"), (p, numbers)
         assert c["a"]["p95"]["n"] == 3 and c["noise"]["p95"] > 0
-    assert check["pairs"]["C"]["noise"]["rms"] > check["pairs"]["C"]["tolerance"]["rms"]  # why C cannot tell
     assert len(list((tmp_path / "cache").rglob("*.json"))) == 6 and s["failed_starts"] == []
     one = CliRunner().invoke(app, ["compare", "--starts", "1"])
     assert one.exit_code != 0 and "no spread" in one.output
