@@ -96,7 +96,6 @@ class FittedGP:
         self.amplitude = float(latent.k1.constant_value)
         self.length = np.asarray(latent.k2.length_scale, float)
         self.x_scaled = self.gp.X_train_ / self.length
-        self.x_norm = np.sum(self.x_scaled**2, axis=1)[None, :]  # |x_j / l|^2 of the training points, once
         from scipy.linalg import solve_triangular
 
         # L^-1 once: a triangular solve per call costs milliseconds of threading overhead on small systems
@@ -147,7 +146,7 @@ class FittedGP:
             Mean (their units: the targets') and variance (their units squared).
         """
         xs = np.asarray(x, float) / self.length
-        d2 = (np.sum(xs**2, axis=1)[:, None] + self.x_norm - 2.0 * xs @ self.x_scaled.T)
+        d2 = (np.sum(xs**2, axis=1)[:, None] + np.sum(self.x_scaled**2, axis=1)[None, :] - 2.0 * xs @ self.x_scaled.T)
         r = math.sqrt(5.0) * np.sqrt(np.maximum(d2, 0.0))
         ks = self.amplitude * (1.0 + r + r * r / 3.0) * np.exp(-r)  # Matern 5/2 (sklearn's Matern, nu = 2.5)
         mean = ks @ self.gp.alpha_ * self.scale + self.offset
@@ -266,7 +265,6 @@ class Emulator:
         em.seed, em.r_sim, em.joint_points = int(state["seed"]), int(state["r_sim"]), int(state["joint_points"])
         em.settings = [tuple(float(v) for v in row) for row in np.asarray(state["settings"], float)]
         em._lookup = {}
-        em._group_rows = {}
         em.local = [{r: rgp(d) for r, d in gps.items()} for gps in state["local"]]
         em.joint = None if state["joint"] is None else {r: rgp(d) for r, d in state["joint"].items()}
         em._data = None
@@ -330,7 +328,6 @@ class Emulator:
         t0 = time.perf_counter()
         self.settings = [tuple(float(v) for v in s) for s in settings_si]
         self._lookup: dict = {}
-        self._group_rows: dict = {}
         self.local = []
         for i in range(len(self.settings)):
             gps = {}
@@ -406,23 +403,6 @@ class Emulator:
         own = self.joint[response].mse_log_mean if self.joint else 0.0
         return max([own] + [g[response].mse_log_mean for g in self.local])
 
-    def _groups(self, settings_si: np.ndarray, joint: bool) -> dict:
-        """The rows of ``settings_si`` by the GP that predicts them (a simulated setting's index, None: the joint GP),
-        kept per array of settings (the sampler asks for the sheet's settings at every step)."""
-        key = (settings_si.shape, settings_si.dtype.str, settings_si.tobytes(), bool(joint))
-        hit = self._group_rows.get(key)
-        if hit is None:
-            uniq, inverse = np.unique(settings_si, axis=0, return_inverse=True)
-            lists: dict = {}
-            for j, x in enumerate(uniq):
-                lists.setdefault(None if joint else self._index(x), []).extend(
-                    np.flatnonzero(inverse.ravel() == j).tolist())
-            hit = {k: np.array(v) for k, v in lists.items()}
-            if len(self._group_rows) > 64:
-                self._group_rows.clear()
-            self._group_rows[key] = hit
-        return hit
-
     def _index(self, setting) -> int | None:
         key = tuple(float(v) for v in setting)
         if key in self._lookup:
@@ -462,8 +442,14 @@ class Emulator:
         u = np.atleast_2d(u)
         n = len(u)
         lm, var_log, lsd, lcsd = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        uniq, inverse = np.unique(settings_si, axis=0, return_inverse=True)
+        groups: dict = {}
+        for j, x in enumerate(uniq):
+            key = None if joint else self._index(x)
+            groups.setdefault(key, []).extend(np.flatnonzero(inverse.ravel() == j).tolist())
         floor = calibrated_responses()[response].floor
-        for key, rows in self._groups(settings_si, joint).items():
+        for key, rows in groups.items():
+            rows = np.array(rows)
             if key is None:
                 if self.joint is None:
                     self.fit_joint()
