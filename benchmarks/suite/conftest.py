@@ -38,6 +38,8 @@ RATIOS = (
      "test_stem_force_table[miner]", "test_stem_force_table[peaks]", False),
     ("run-cache entry read of a replicate start, decimal JSON re-encoded to check / as the cache stores it",
      "test_cache_entry_read[decimal]", "test_cache_entry_read[bytes]", False),
+    ("calibrate's emulator at 20 walkers x an L9's 9 settings, a GP call per setting / the settings' GPs stacked",
+     "test_emulator_at_walkers[per-setting]", "test_emulator_at_walkers[stacked]", False),
 )
 
 

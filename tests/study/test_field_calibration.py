@@ -328,6 +328,22 @@ def test_fast_gp_prediction_is_sklearns(trained):
     assert var == pytest.approx(np.maximum(s_ref**2 - noise, 0.0), rel=1e-6, abs=1e-9)
 
 
+def test_grid_prediction_is_the_per_row_prediction(trained):
+    """:meth:`Emulator.predict_grid` (the simulated settings' GPs stacked, one batched evaluation; an untested setting
+    through the joint GP) gives what :meth:`Emulator.predict` gives row by row, to round-off."""
+    em, sim = trained["emulator"], trained["sim"]
+    settings = np.array([sim.settings[i] for i in trained["settings"]]
+                        + [0.5 * (np.asarray(sim.settings[trained["settings"][0]])
+                                  + np.asarray(sim.settings[trained["settings"][-1]]))])  # the last: untested
+    u = fc.latin_hypercube(7, 5)
+    for r in trained["responses"]:
+        grid = em.predict_grid(settings, u, r)
+        rows = em.predict(np.tile(settings, (len(u), 1)), np.repeat(u, len(settings), axis=0), r)
+        for g, a in zip(grid, rows):
+            assert g.shape == (len(u), len(settings))
+            np.testing.assert_allclose(g, a.reshape(len(u), len(settings)), rtol=1e-9, atol=1e-12)
+
+
 def test_a_saved_emulator_predicts_as_the_fitted_one(trained, tmp_path):
     """The emulator's state written to an .npz and read back (no pickle) rebuilds every GP with its fitted
     hyperparameters: the same predictions, bit for bit."""

@@ -6,6 +6,9 @@ Per response a scikit-learn ``GaussianProcessRegressor`` (ARD Matern 5/2 + white
 (coded setting, theta on the prior's unit cube) for log(mean + c), log(model SD) and log(counting SD), trained on
 a Latin hypercube of theta (scipy.stats.qmc) at the simulated settings; its error is checked on held-out theta
 points and on held-out (untested) settings (:func:`berryshaker.study.field_calibration.workflow.calibrate`).
+
+long module: one idea, the emulator: its GPs' fit, their prediction one setting at a time and stacked over the
+settings (the sampler's), and their saved state.
 """
 
 from __future__ import annotations
@@ -157,6 +160,56 @@ class FittedGP:
         return mean.ravel(), var
 
 
+class GPStack:
+    """The :class:`FittedGP` of one target at every simulated setting, predicted at the same inputs in one batched
+    evaluation: the sampler asks every setting's GPs at the same walkers, and one (settings x rows x training points)
+    evaluation replaces a call per setting (the same formulas as :meth:`FittedGP.predict`, equal to round-off;
+    the test checks it).
+
+    Parameters
+    ----------
+    gps : list of FittedGP
+        One per setting, with the same number of training points and inputs (their hyperparameters differ).
+    """
+
+    def __init__(self, gps: list[FittedGP]):
+        self.length = np.stack([g.length for g in gps])  # (S, d)
+        self.amplitude = np.array([g.amplitude for g in gps])
+        self.x_scaled = np.stack([g.x_scaled for g in gps])  # (S, n, d)
+        self.x_norm2 = np.sum(self.x_scaled**2, axis=2)  # (S, n)
+        self.alpha = np.stack([np.ravel(g.gp.alpha_) for g in gps])  # (S, n)
+        self.l_inv = np.stack([g.l_inv for g in gps])  # (S, n, n)
+        self.scale = np.array([g.scale for g in gps])
+        self.offset = np.array([g.offset for g in gps])
+
+    def predict(self, x: np.ndarray, with_var: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Every setting's mean and latent variance at ``x``.
+
+        Parameters
+        ----------
+        x : numpy.ndarray
+            (m, d) inputs, the same at every setting (dimensionless).
+        with_var : bool
+            Compute the variance (else zeros).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray)
+            (settings, m) means (the targets' units) and variances (their units squared).
+        """
+        xs = np.asarray(x, float)[None, :, :] / self.length[:, None, :]  # (S, m, d)
+        d2 = (np.sum(xs**2, axis=2)[:, :, None] + self.x_norm2[:, None, :]
+              - 2.0 * xs @ self.x_scaled.transpose(0, 2, 1))
+        r = math.sqrt(5.0) * np.sqrt(np.maximum(d2, 0.0))
+        ks = self.amplitude[:, None, None] * (1.0 + r + r * r / 3.0) * np.exp(-r)  # (S, m, n) Matern 5/2
+        mean = (ks @ self.alpha[:, :, None])[:, :, 0] * self.scale[:, None] + self.offset[:, None]
+        if not with_var:
+            return mean, np.zeros_like(mean)
+        v = self.l_inv @ ks.transpose(0, 2, 1)  # (S, n, m)
+        var = np.maximum(self.amplitude[:, None] - np.einsum("snm,snm->sm", v, v), 0.0) * self.scale[:, None] ** 2
+        return mean, var
+
+
 @dataclass
 class _ResponseGP:
     """The three Gaussian processes of one response (log(mean + c), log model SD, log counting SD) on one input
@@ -264,7 +317,7 @@ class Emulator:
         em.responses = list(state["responses"])
         em.seed, em.r_sim, em.joint_points = int(state["seed"]), int(state["r_sim"]), int(state["joint_points"])
         em.settings = [tuple(float(v) for v in row) for row in np.asarray(state["settings"], float)]
-        em._lookup = {}
+        em._lookup, em._stacks = {}, {}
         em.local = [{r: rgp(d) for r, d in gps.items()} for gps in state["local"]]
         em.joint = None if state["joint"] is None else {r: rgp(d) for r, d in state["joint"].items()}
         em._data = None
@@ -328,6 +381,7 @@ class Emulator:
         t0 = time.perf_counter()
         self.settings = [tuple(float(v) for v in s) for s in settings_si]
         self._lookup: dict = {}
+        self._stacks: dict = {}
         self.local = []
         for i in range(len(self.settings)):
             gps = {}
@@ -471,3 +525,56 @@ class Emulator:
             lcsd[rows] = b_csd + g.logcsd_gp.predict(xc, False)[0]
         mean = np.maximum(np.exp(lm) - floor, 0.0)
         return mean, (mean + floor) ** 2 * var_log, np.exp(lsd), np.exp(lcsd)
+
+    def _stack(self, response: str) -> tuple[GPStack, GPStack, GPStack]:
+        """The per-setting GPs of ``response`` (log mean, log model SD, log counting SD) stacked, built once."""
+        if response not in self._stacks:
+            gps = [g[response] for g in self.local]
+            self._stacks[response] = (GPStack([g.mean_gp for g in gps]), GPStack([g.logsd_gp for g in gps]),
+                                      GPStack([g.logcsd_gp for g in gps]))
+        return self._stacks[response]
+
+    def predict_grid(self, settings_si: np.ndarray, u: np.ndarray, response: str, with_var: bool = True):
+        """:meth:`predict` at every (row of ``u``, setting) pair: the simulated settings' GPs in one batched
+        evaluation (:class:`GPStack`), the others through the joint GP.
+
+        Parameters
+        ----------
+        settings_si : numpy.ndarray
+            (k, factors) SI.
+        u : numpy.ndarray
+            (n, 6) theta on the prior's unit cube.
+        response : str
+            Response name.
+        with_var : bool
+            Compute the emulator's variance (else only its held-out MSE).
+
+        Returns
+        -------
+        (numpy.ndarray, numpy.ndarray, numpy.ndarray, numpy.ndarray)
+            As :meth:`predict` (mean, the response's unit; its variance, unit squared; model SD and counting SD,
+            the response's unit; the efficiency's mean, variance and model SD per kg of yield), each shaped (n, k).
+        """
+        settings_si, u = np.atleast_2d(np.asarray(settings_si, float)), np.atleast_2d(np.asarray(u, float))
+        n, k = len(u), len(settings_si)
+        out = [np.empty((n, k)) for _ in range(4)]
+        index = [self._index(s) for s in settings_si]
+        sim = [j for j, i in enumerate(index) if i is not None]
+        if sim:
+            at = np.array([index[j] for j in sim])
+            st_mean, st_sd, st_csd = self._stack(response)
+            g = self.local[0][response]
+            m, v = st_mean.predict(u[:, g.columns], with_var)
+            mse = np.array([gps[response].mse_log_mean for gps in self.local])
+            floor = calibrated_responses()[response].floor
+            mean = np.maximum(np.exp(m[at]) - floor, 0.0)
+            out[0][:, sim] = mean.T
+            out[1][:, sim] = ((mean + floor) ** 2 * np.maximum(v[at], mse[at, None])).T
+            out[2][:, sim] = np.exp(st_sd.predict(u[:, g.columns], False)[0][at]).T
+            out[3][:, sim] = np.exp(st_csd.predict(u[:, g.count_columns], False)[0][at]).T
+        rest = [j for j, i in enumerate(index) if i is None]
+        if rest:
+            xx = np.tile(settings_si[rest], (n, 1))
+            for a, b in zip(out, self.predict(xx, np.repeat(u, len(rest), axis=0), response, with_var)):
+                a[:, rest] = b.reshape(n, len(rest))
+        return tuple(out)

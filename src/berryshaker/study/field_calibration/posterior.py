@@ -139,15 +139,12 @@ def _log_halfnormal(s: np.ndarray, scale: float) -> np.ndarray:
 
 def _emulated(emulator: Emulator, settings: np.ndarray, u: np.ndarray, params, response: str):
     """Mean, emulator variance, model SD and counting SD at (settings x rows of u), shaped (rows, settings)."""
-    nw, ns = u.shape[0], settings.shape[0]
-    uu = np.repeat(u, ns, axis=0)
-    xx = np.tile(settings, (nw, 1))
-    mean, var_emu, sd, csd = emulator.predict(xx, uu, response)
+    mean, var_emu, sd, csd = emulator.predict_grid(settings, u, response)
     if response == "efficiency":
         yi = PARAMETER_NAMES.index("yield_per_bush")
-        yb = params[yi].ppf(uu[:, yi])
+        yb = params[yi].ppf(u[:, yi])[:, None]
         mean, var_emu, sd = mean * yb, var_emu * yb**2, sd * yb
-    return tuple(a.reshape(nw, ns) for a in (mean, var_emu, sd, csd))
+    return mean, var_emu, sd, csd
 
 
 def _response_terms(stats: SheetStatistics, r: str, mean, var_emu, sd, csd, kappa, alpha, r_sim: int, runs=None):
