@@ -336,12 +336,15 @@ def test_grid_prediction_is_the_per_row_prediction(trained):
                         + [0.5 * (np.asarray(sim.settings[trained["settings"][0]])
                                   + np.asarray(sim.settings[trained["settings"][-1]]))])  # the last: untested
     u = fc.latin_hypercube(7, 5)
-    for r in trained["responses"]:
-        grid = em.predict_grid(settings, u, r)
-        rows = em.predict(np.tile(settings, (len(u), 1)), np.repeat(u, len(settings), axis=0), r)
-        for g, a in zip(grid, rows):
-            assert g.shape == (len(u), len(settings))
-            np.testing.assert_allclose(g, a.reshape(len(u), len(settings)), rtol=1e-9, atol=1e-12)
+    for order in (np.arange(len(settings)), np.array([len(settings) - 1, 1, 0])):  # all; untested first, reordered
+        s = settings[order]
+        for r in trained["responses"]:
+            for with_var in (True, False):
+                grid = em.predict_grid(s, u, r, with_var)
+                rows = em.predict(np.tile(s, (len(u), 1)), np.repeat(u, len(s), axis=0), r, with_var)
+                for g, a in zip(grid, rows):
+                    assert g.shape == (len(u), len(s))
+                    np.testing.assert_allclose(g, a.reshape(len(u), len(s)), rtol=1e-9, atol=1e-12)
 
 
 def test_a_saved_emulator_predicts_as_the_fitted_one(trained, tmp_path):

@@ -553,7 +553,8 @@ class Emulator:
         -------
         (numpy.ndarray, numpy.ndarray, numpy.ndarray, numpy.ndarray)
             As :meth:`predict` (mean, the response's unit; its variance, unit squared; model SD and counting SD,
-            the response's unit; the efficiency's mean, variance and model SD per kg of yield), each shaped (n, k).
+            the response's unit; the efficiency's mean and model SD per kg of yield, its variance per kg of yield
+            squared), each shaped (n, k).
         """
         settings_si, u = np.atleast_2d(np.asarray(settings_si, float)), np.atleast_2d(np.asarray(u, float))
         n, k = len(u), len(settings_si)
