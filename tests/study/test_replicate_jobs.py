@@ -67,3 +67,33 @@ def test_the_fruit_force_starts_read_the_reference_class_table(three_classes):
     want = float(fruit_peak_force(np.array(out["envelopes"][1]), np.array([z]), np.array([m0]), m0)[0])
     assert m.harvest.branch_classes[1] == 1.0
     assert stats["positions"][f.names[0]]["values"] == [want, want] and stats["starts"] == 2
+
+
+def _same(a: dict, b: dict) -> bool:
+    return a.keys() == b.keys() and all(x == y or (np.isnan(x) and np.isnan(y)) for x, y in
+                                        ((float(a[k]), float(b[k])) for k in a))
+
+
+def test_the_run_keeps_its_start_harvest_and_a_reader_takes_it_only_for_its_description_and_start(three_classes):
+    """A cached run's harvest responses are read, not recomputed, by a study of the same description (a warm study
+    reads every run); another description, start or response table computes them from the tables."""
+    import copy
+
+    from berryshaker.runs.cache import read_value, run_value, value_text
+    from berryshaker.study.runs import description_digest, stored_harvest
+
+    m, _, jobs, out = three_classes
+    want = start_responses(m, [np.array(e) for e in out["envelopes"]], 5)
+    digest = description_digest(m.model_dump(mode="json"))
+    assert digest == description_digest(jobs[1]["machine_data"])  # the reader's description is the job's
+    back = read_value(value_text(run_value(out)))  # as the cache keeps it
+    kept = stored_harvest(back, digest, 5)
+    assert kept is not None and all(_same(kept[k], want[k]) for k in ("expected", "field", "count_sd"))
+    assert stored_harvest(back, digest, 0) is None and stored_harvest(back, "0" * 64, 5) is None
+    marked = copy.deepcopy(back)
+    marked["harvest"]["field"]["efficiency"] = -1.0  # a sentinel: which path the cell took
+    assert cells_from_outputs(m, [marked], [5])[0]["efficiency"] == -1.0
+    other = m.model_copy(update={"harvest": m.harvest.model_copy(update={"seed": m.harvest.seed + 1})})
+    assert cells_from_outputs(other, [marked], [5])[0]["efficiency"] != -1.0
+    marked["harvest"]["responses"] = marked["harvest"]["responses"][:-1]  # a table that has changed since
+    assert cells_from_outputs(m, [marked], [5])[0]["efficiency"] == want["field"]["efficiency"]

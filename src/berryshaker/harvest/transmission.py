@@ -25,7 +25,6 @@ Processing 44(4), 988-992 (scipy.signal.filtfilt's edge handling).
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from berryshaker.harvest.fruit_force import FruitForceResult
 
@@ -65,6 +64,7 @@ def band_split(x: np.ndarray, dt: float, cutoff_hz: float = IMPACT_BAND_HZ) -> t
     nyquist = 0.5 / dt
     if not 0.0 < cutoff_hz < nyquist:
         raise ValueError(f"cutoff_hz = {cutoff_hz:g} Hz must lie between 0 and the Nyquist frequency {nyquist:g} Hz")
+    from scipy import signal  # here, not at the top: importing scipy.signal takes ~1 s a warm study never needs
     sos = signal.butter(FILTER_ORDER, cutoff_hz, btype="highpass", fs=1.0 / dt, output="sos")
     centred = x - x.mean()
     high = signal.sosfiltfilt(sos, centred)

@@ -6,7 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from berryshaker.errors import ConfigError
 from berryshaker.plant.modes import Modes
@@ -53,6 +52,7 @@ def modal_response(modes: Modes, t, force, z_force, damping_ratio: float | None 
     dt = t[1] - t[0]
     if not np.allclose(np.diff(t), dt, rtol=1e-6, atol=1e-12):
         raise ConfigError("modal_response needs uniformly spaced times")
+    from scipy import signal  # here, not at the top: importing scipy.signal takes ~1 s a warm study never needs
     xi = modes.branch.damping_ratio if damping_ratio is None else damping_ratio
     phi = modes.shape_at(z_force)
     n = len(modes.omega)

@@ -66,7 +66,7 @@ def response_units(pairs) -> dict[str, str]:
             "drive_torque_design": "N m", "drive_torque_rms": "N m"}
 
 
-def _cell(machine, out: dict, start: int) -> dict[str, float]:
+def _cell(machine, out: dict, start: int, digest: str | None = None) -> dict[str, float]:
     """One start's responses from its :func:`~berryshaker.study.runs.replicate_run` output ``out``: each harvest
     response's counted field result, its expectation and counting SD (module docstring) from its branch classes'
     tables, and the loads of its drive-past.
@@ -76,11 +76,18 @@ def _cell(machine, out: dict, start: int) -> dict[str, float]:
     (``drive_torque_design``): the p95 of the per-revolution peaks of the drive moment
     (berryshaker.multibody.drive_loads; the single largest moment is an extreme, not a response); RMS torque: the
     run's RMS.
+
+    The harvest responses are those the run keeps when they are of this description (``digest``,
+    :func:`berryshaker.study.runs.description_digest` of ``machine``), start and response table
+    (:func:`berryshaker.study.runs.stored_harvest`), else computed from the tables here.
     """
     from berryshaker.harvest.virtual import start_responses
     from berryshaker.multibody.impacts import static_equivalent_load
+    from berryshaker.study.runs import stored_harvest
 
-    r = start_responses(machine, [np.array(e) for e in out["envelopes"]], start)
+    r = None if digest is None else stored_harvest(out, digest, start)
+    if r is None:
+        r = start_responses(machine, [np.array(e) for e in out["envelopes"]], start)
     cell = dict(r["field"])
     cell.update({n + EXPECTED: v for n, v in r["expected"].items()})
     cell.update({n + COUNT_SD: v for n, v in r["count_sd"].items()})
@@ -235,4 +242,7 @@ def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, 
         Per start: every response (harvest responses in their units with their expectations and counting SDs, peak
         forces N, torques N m).
     """
-    return [_cell(machine, o, sd) for o, sd in zip(outs, seeds)]
+    from berryshaker.study.runs import description_digest
+
+    digest = description_digest(machine.model_dump(mode="json"))
+    return [_cell(machine, o, sd, digest) for o, sd in zip(outs, seeds)]

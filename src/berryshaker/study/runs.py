@@ -229,14 +229,93 @@ def replicate_run(machine_data: dict, clearance: dict, seed: list, rtol: float =
     Returns
     -------
     dict
-        :func:`replicate_record` of the run.
+        :func:`replicate_record` of the run and ``harvest``, the start's harvest responses (:func:`start_harvest`).
     """
     from berryshaker.harvest.virtual import class_tables_run, machine_start
 
     machine = machine_from_dict(machine_data)
     starts = [machine_start(machine, [*seed, c]) for c in range(len(machine.harvest.branch_classes))]
     tables, res = class_tables_run(machine, clearance, starts, rtol)
-    return replicate_record(machine, tables, res)
+    out = replicate_record(machine, tables, res)
+    out["harvest"] = start_harvest(machine_data, machine, tables, int(seed[0]))
+    return out
+
+
+def description_digest(machine_data: dict) -> str:
+    """sha256 of a machine description's canonical JSON (sorted keys): which description a stored value is of.
+
+    Parameters
+    ----------
+    machine_data : dict
+        Machine description (SI, ``model_dump(mode="json")``).
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    import hashlib
+    import json
+
+    return hashlib.sha256(json.dumps(machine_data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+
+
+def start_harvest(machine_data: dict, machine, tables: list, start: int) -> dict:
+    """The harvest responses of a start (:func:`berryshaker.harvest.virtual.start_responses`: expectation, field
+    test, counting SD), computed where its drive-past ran and kept with it, so that a study reading the run from the
+    cache reads them too.  They are read back (:func:`stored_harvest`) only for the same description, start and
+    response table.
+
+    Parameters
+    ----------
+    machine_data : dict
+        The description the run was computed with (SI, ``model_dump(mode="json")``).
+    machine : Machine
+        The same description, validated.
+    tables : list of numpy.ndarray
+        The start's stem-load table per branch class (N, dimensionless load ratios).
+    start : int
+        The start's number (its field test's stream).
+
+    Returns
+    -------
+    dict
+        ``start``, ``description`` (:func:`description_digest`), ``responses`` (the table's names, in order) and
+        :func:`~berryshaker.harvest.virtual.start_responses`' ``expected``, ``field`` and ``count_sd``.
+    """
+    from berryshaker.harvest.virtual import RESPONSES, start_responses
+
+    return {"start": start, "description": description_digest(machine_data), "responses": list(RESPONSES),
+            **start_responses(machine, tables, start)}
+
+
+def stored_harvest(out: dict, digest: str, start: int) -> dict | None:
+    """The harvest responses a run output keeps (:func:`start_harvest`) if they are of description ``digest``, start
+    ``start`` and today's response table (every row defined in the package, whose code the run's cache key covers),
+    else None: the caller computes them.
+
+    Parameters
+    ----------
+    out : dict
+        A :func:`replicate_run` output.
+    digest : str
+        :func:`description_digest` of the description the caller reads the responses for.
+    start : int
+        The start's number.
+
+    Returns
+    -------
+    dict or None
+        ``expected``, ``field`` and ``count_sd`` (response name -> value), or None.
+    """
+    from berryshaker.harvest.virtual import RESPONSES
+
+    h = out.get("harvest")
+    if (not isinstance(h, dict) or h.get("description") != digest or h.get("start") != start
+            or h.get("responses") != list(RESPONSES)
+            or any(not getattr(r.value, "__module__", "").startswith("berryshaker.") for r in RESPONSES.values())):
+        return None
+    return {k: h[k] for k in ("expected", "field", "count_sd")}
 
 
 def replicate_record(machine, tables, res) -> dict:

@@ -46,7 +46,6 @@ import functools
 import math
 
 import numpy as np
-from scipy import signal
 
 from berryshaker.errors import ConfigError
 
@@ -164,6 +163,7 @@ def _thawed(frozen) -> np.ndarray:
 @functools.lru_cache(maxsize=512)
 def _foh_frozen(a, b, c, d, h: float) -> tuple:
     """:func:`discretise_foh` on frozen matrices (the remembered form)."""
+    from scipy import signal  # here, not at the top: importing scipy.signal takes ~1 s a warm study never needs
     out = signal.cont2discrete(tuple(_thawed(x) for x in (a, b, c, d)), h, method="foh")[:4]
     return tuple(_frozen(x) for x in out)
 
@@ -200,6 +200,7 @@ def discretise_foh(a, b, c, d, h: float) -> tuple[np.ndarray, ...]:
 def _sos_frozen(a, b, c, d, h: float) -> tuple:
     """Second-order sections of the discretised system, frozen (:func:`_filter`'s remembered form)."""
     ad, bd, cd, dd = discretise_foh(*(_thawed(x) for x in (a, b, c, d)), h)
+    from scipy import signal  # here, not at the top: importing scipy.signal takes ~1 s a warm study never needs
     z, p, g = signal.ss2zpk(ad, bd, cd, dd)
     return _frozen(signal.zpk2sos(z, p, g))
 
@@ -209,6 +210,7 @@ def _filter(a, b, c, d, h, u):
     of ``u`` from rest (second-order sections, scipy.signal.sosfilt; the sections are remembered per system and
     step, :func:`discretise_foh`)."""
     sos = _thawed(_sos_frozen(*(_frozen(x) for x in (a, b, c, d)), float(h)))
+    from scipy import signal  # here, not at the top: importing scipy.signal takes ~1 s a warm study never needs
     return signal.sosfilt(sos, u, axis=-1)
 
 
