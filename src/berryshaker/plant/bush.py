@@ -150,23 +150,3 @@ def member_modes(member: BushBranch, n_modes: int) -> Modes:
     b = member.branch
     key = (b.root_diameter, b.tip_diameter, b.length, b.elastic_modulus, b.density, b.damping_ratio)
     return cached_analytic_modes(key, n_modes)
-
-
-def bush_table(members: list[BushBranch]) -> list[dict]:
-    """The population as rows (mm, deg, fractions) for reports and the ``plant`` command.
-
-    Parameters
-    ----------
-    members : list of BushBranch
-        The population (:func:`sample_bush`).
-
-    Returns
-    -------
-    list of dict
-        One row per member: name, comb, root diameter (mm), length (m), base height (mm), lean (deg), row and
-        lateral offsets (mm), station (fraction of its length).
-    """
-    return [{"name": m.name, "comb": m.comb, "root_diameter_mm": 1e3 * m.branch.root_diameter,
-             "length_m": m.branch.length, "base_height_mm": 1e3 * m.base_height, "lean_deg": math.degrees(m.lean),
-             "row_offset_mm": 1e3 * m.row_offset, "lateral_offset_mm": 1e3 * m.lateral_offset,
-             "station": m.station} for m in members]

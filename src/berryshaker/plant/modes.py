@@ -80,22 +80,6 @@ class Modes:
         z = self.branch.check_position(z)
         return np.array([np.interp(z, self.z, s) for s in self.shapes])
 
-    def slope_at(self, z) -> np.ndarray:
-        """Mode-shape slopes phi_k'(z) at arbitrary positions (interpolated gradient of the samples).
-
-        Parameters
-        ----------
-        z : float or array_like
-            Positions along the branch (m from the root).
-
-        Returns
-        -------
-        ndarray, shape (n_modes, ...)
-            phi_k'(z) (1/(sqrt(kg) m)).
-        """
-        z = self.branch.check_position(z)
-        return np.array([np.interp(z, self.z, np.gradient(s, self.z)) for s in self.shapes])
-
     @functools.cached_property
     def slope_product_integral(self) -> np.ndarray:
         """G_ij(z) = int_0^z phi_i'(s) phi_j'(s) ds at the sample points z, (n_modes, n_modes, n_z), 1/(kg m).

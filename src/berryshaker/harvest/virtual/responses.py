@@ -20,7 +20,7 @@ every consumer lists :data:`RESPONSES`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -58,37 +58,6 @@ class Tally:
     def picked(self):
         """Detached mass, ripe and unripe (kg)."""
         return self.ripe_picked + self.unripe_picked
-
-    def as_array(self) -> np.ndarray:
-        """The tally's masses and duration stacked on a last axis of :data:`TALLY_FIELDS` order.
-
-        Returns
-        -------
-        numpy.ndarray
-            Shape (..., 6): the masses (kg) and the duration (s).
-        """
-        return np.stack([np.asarray(getattr(self, f), float) for f in TALLY_FIELDS], axis=-1)
-
-    @classmethod
-    def from_array(cls, a) -> "Tally":
-        """The tally of an array laid out as :meth:`as_array`.
-
-        Parameters
-        ----------
-        a : array_like
-            Shape (..., 6): the masses (kg) and the duration (s).
-
-        Returns
-        -------
-        Tally
-            Its fields the slices of the last axis.
-        """
-        a = np.asarray(a, float)
-        return cls(*(a[..., i] for i in range(len(TALLY_FIELDS))))
-
-
-#: the tally's fields, in order
-TALLY_FIELDS = tuple(f.name for f in fields(Tally))
 
 
 def _ratio(num, den, scale=100.0):
@@ -245,14 +214,3 @@ def sheet_responses() -> dict[str, str]:
         Name -> column, in the table's order.
     """
     return {n: r.column for n, r in RESPONSES.items() if r.study_index or r.calibrated}
-
-
-def study_indexes() -> list[str]:
-    """The study's three indexes, in the table's order.
-
-    Returns
-    -------
-    list of str
-        Names of the responses with ``study_index``.
-    """
-    return [n for n, r in RESPONSES.items() if r.study_index]
