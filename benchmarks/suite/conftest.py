@@ -42,6 +42,8 @@ RATIOS = (
      "test_emulator_at_walkers[per-setting]", "test_emulator_at_walkers[stacked]", False),
     ("bruise probability of a start's 6,120 fruit at 12 parameter rows, every fruit / each of its 68 places once",
      "test_impact_damage[per-fruit]", "test_impact_damage[places]", False),
+    ("a start's responses from its cached run, computed from its tables / read as the run keeps them",
+     "test_start_cell[computed]", "test_start_cell[stored]", False),
 )
 
 
