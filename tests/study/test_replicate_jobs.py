@@ -79,13 +79,13 @@ def test_the_run_keeps_its_start_harvest_and_a_reader_takes_it_only_for_its_desc
     reads every run); another description, start or response table computes them from the tables."""
     import copy
 
-    from berryshaker.runs.cache import read_value, run_value, value_text
-    from berryshaker.study.runs import description_digest, stored_harvest
+    from berryshaker.runs.cache import read_value, run_value, value_digest, value_text
+    from berryshaker.study.runs import stored_harvest
 
     m, _, jobs, out = three_classes
     want = start_responses(m, [np.array(e) for e in out["envelopes"]], 5)
-    digest = description_digest(m.model_dump(mode="json"))
-    assert digest == description_digest(jobs[1]["machine_data"])  # the reader's description is the job's
+    digest = value_digest(m.model_dump(mode="json"))
+    assert digest == value_digest(jobs[1]["machine_data"])  # the reader's description is the job's
     back = read_value(value_text(run_value(out)))  # as the cache keeps it
     kept = stored_harvest(back, digest, 5)
     assert kept is not None and all(_same(kept[k], want[k]) for k in ("expected", "field", "count_sd"))

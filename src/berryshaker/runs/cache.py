@@ -246,6 +246,22 @@ def _sha256(text: str) -> str:
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
+def value_digest(obj) -> str:
+    """sha256 of a JSON-compatible value's canonical text (sorted keys, no spaces), as run keys are taken.
+
+    Parameters
+    ----------
+    obj : object
+        The value (dicts, lists, numbers, strings, numpy values).
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
+    return _sha256(_canonical(obj))
+
+
 @functools.lru_cache(maxsize=None)
 def _file_sha256(path: str) -> str:
     try:
@@ -313,7 +329,7 @@ def run_key(fn: Callable, kwargs: dict) -> str:
         kwargs = {k: v for k, v in kwargs.items() if k not in ignored}
     payload = {"fn": function_name(fn), "kwargs": kwargs, "code": code_fingerprint(),
                "module": _outside_source(fn), "schema": CACHE_SCHEMA}
-    return _sha256(_canonical(payload))
+    return value_digest(payload)
 
 
 def cache_entry_path(cache_dir: str | Path, key: str) -> Path:

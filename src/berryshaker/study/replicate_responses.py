@@ -78,7 +78,7 @@ def _cell(machine, out: dict, start: int, digest: str | None = None) -> dict[str
     run's RMS.
 
     The harvest responses are those the run keeps when they are of this description (``digest``,
-    :func:`berryshaker.study.runs.description_digest` of ``machine``), start and response table
+    :func:`berryshaker.runs.cache.value_digest` of ``machine``'s JSON), start and response table
     (:func:`berryshaker.study.runs.stored_harvest`), else computed from the tables here.
     """
     from berryshaker.harvest.virtual import start_responses
@@ -242,7 +242,7 @@ def cells_from_outputs(machine, outs: list, seeds: list[int]) -> list[dict[str, 
         Per start: every response (harvest responses in their units with their expectations and counting SDs, peak
         forces N, torques N m).
     """
-    from berryshaker.study.runs import description_digest
+    from berryshaker.runs.cache import value_digest
 
-    digest = description_digest(machine.model_dump(mode="json"))
+    digest = value_digest(machine.model_dump(mode="json"))
     return [_cell(machine, o, sd, digest) for o, sd in zip(outs, seeds)]

@@ -241,25 +241,6 @@ def replicate_run(machine_data: dict, clearance: dict, seed: list, rtol: float =
     return out
 
 
-def description_digest(machine_data: dict) -> str:
-    """sha256 of a machine description's canonical JSON (sorted keys): which description a stored value is of.
-
-    Parameters
-    ----------
-    machine_data : dict
-        Machine description (SI, ``model_dump(mode="json")``).
-
-    Returns
-    -------
-    str
-        64 hex digits.
-    """
-    import hashlib
-    import json
-
-    return hashlib.sha256(json.dumps(machine_data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
-
-
 def start_harvest(machine_data: dict, machine, tables: list, start: int) -> dict:
     """The harvest responses of a start (:func:`berryshaker.harvest.virtual.start_responses`: expectation, field
     test, counting SD), computed where its drive-past ran and kept with it, so that a study reading the run from the
@@ -280,12 +261,13 @@ def start_harvest(machine_data: dict, machine, tables: list, start: int) -> dict
     Returns
     -------
     dict
-        ``start``, ``description`` (:func:`description_digest`), ``responses`` (the table's names, in order) and
+        ``start``, ``description`` (:func:`berryshaker.runs.cache.value_digest` of ``machine_data``), ``responses`` (the table's names, in order) and
         :func:`~berryshaker.harvest.virtual.start_responses`' ``expected``, ``field`` and ``count_sd``.
     """
     from berryshaker.harvest.virtual import RESPONSES, start_responses
+    from berryshaker.runs.cache import value_digest
 
-    return {"start": start, "description": description_digest(machine_data), "responses": list(RESPONSES),
+    return {"start": start, "description": value_digest(machine_data), "responses": list(RESPONSES),
             **start_responses(machine, tables, start)}
 
 
@@ -299,7 +281,7 @@ def stored_harvest(out: dict, digest: str, start: int) -> dict | None:
     out : dict
         A :func:`replicate_run` output.
     digest : str
-        :func:`description_digest` of the description the caller reads the responses for.
+        :func:`berryshaker.runs.cache.value_digest` of the description the caller reads the responses for.
     start : int
         The start's number.
 
