@@ -97,3 +97,24 @@ def test_the_run_keeps_its_start_harvest_and_a_reader_takes_it_only_for_its_desc
     assert cells_from_outputs(other, [marked], [5])[0]["efficiency"] != -1.0
     marked["harvest"]["responses"] = marked["harvest"]["responses"][:-1]  # a table that has changed since
     assert cells_from_outputs(m, [marked], [5])[0]["efficiency"] == want["field"]["efficiency"]
+
+
+def test_a_setting_summary_takes_the_responses_its_runs_kept(three_classes):
+    """``replicate_response`` (the harvest-response step's rows) uses a start's kept responses where given and
+    computes the others: with every start's own responses given, the same numbers as computing them all."""
+    import copy
+
+    from berryshaker.harvest.virtual import replicate_response
+    from berryshaker.runs.cache import value_digest
+    from berryshaker.study.runs import stored_harvest
+
+    m, _, jobs, out = three_classes
+    reps = replicate_envelopes(m, [out, out], [5, 5])
+    kept = stored_harvest(out, value_digest(jobs[1]["machine_data"]), 5)
+    assert kept is not None
+    computed = replicate_response(m, reps)
+    assert replicate_response(m, reps, [kept, None]) == computed == replicate_response(m, reps, [kept, kept])
+    marked = copy.deepcopy(kept)
+    marked["expected"]["efficiency"] = -1.0  # a sentinel: the given responses are the ones used
+    got = replicate_response(m, reps, [marked, marked])
+    assert got["efficiency_kg_min"] == -1.0 and computed["efficiency_kg_min"] != -1.0

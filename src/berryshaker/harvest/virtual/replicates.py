@@ -116,7 +116,8 @@ def _finite(values) -> np.ndarray:
     return v[np.isfinite(v)]  # a rate of a start that picked nothing is undefined
 
 
-def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray], int]]) -> dict:
+def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray], int]],
+                       known: list[dict | None] | None = None) -> dict:
     """Every response's mean and spreads over starts ``(envelopes, start number)`` (module docstring).
 
     Keys per response, by its column name (``efficiency_kg_min`` ...): the mean of the model's expectation;
@@ -131,6 +132,9 @@ def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray]
         Machine description with [plant], [harvest] and [operation].
     replicates : list of (list of numpy.ndarray, int)
         Per start its envelopes (N, dimensionless load ratios) and start number.
+    known : list of (dict or None), optional
+        Per start (in ``replicates``' order) its :func:`~berryshaker.harvest.virtual.start_responses` when the
+        caller has them (a run that kept them), None where they are to be computed from the envelopes.
 
     Returns
     -------
@@ -147,7 +151,8 @@ def replicate_response(machine: Machine, replicates: list[tuple[list[np.ndarray]
 
     if not replicates:
         raise ConfigError("replicate_response: no start (every run failed?)")
-    each = [start_responses(machine, env, k) for env, k in replicates]
+    known = known or [None] * len(replicates)
+    each = [s if s is not None else start_responses(machine, env, k) for (env, k), s in zip(replicates, known)]
     out: dict = {}
     for n, r in RESPONSES.items():
         e = _finite([s["expected"][n] for s in each])

@@ -82,8 +82,9 @@ def run(ctx: StudyContext) -> StepResult:
     from berryshaker.harvest.calibration import calibration_table
     from berryshaker.harvest.virtual import calibrate_harvest, replicate_response
     from berryshaker.report import plots as P
+    from berryshaker.runs.cache import value_digest
     from berryshaker.study.l9 import replicate_envelopes, replicate_starts
-    from berryshaker.study.runs import replicate_run
+    from berryshaker.study.runs import replicate_run, stored_harvest
 
     ctx.say("harvest against shaking frequency, calibration")
     own = ctx.machine.drive_speed * 60 / (2 * math.pi)
@@ -99,8 +100,10 @@ def run(ctx: StudyContext) -> StepResult:
         if math.isclose(rpm, own):
             cal_out = o
         reps = replicate_envelopes(m, o, seeds)
-        if reps:
-            rows.append({"speed_rpm": rpm, **replicate_response(m, reps)})
+        if reps:  # each start's responses as its run kept them (the same description and start), else computed
+            digest = value_digest(jobs[0]["machine_data"])
+            known = [stored_harvest(out, digest, k) for out, k in zip(o, seeds) if out is not None]
+            rows.append({"speed_rpm": rpm, **replicate_response(m, reps, known)})
     figs = []
     if len(rows) > 1:
         ctx.draw(P.plot_harvest_response, [r["speed_rpm"] for r in rows], rows, "drive-shaft speed [rpm]",
