@@ -347,6 +347,25 @@ def test_grid_prediction_is_the_per_row_prediction(trained):
                     np.testing.assert_allclose(g, a.reshape(len(u), len(s)), rtol=1e-9, atol=1e-12)
 
 
+def test_the_joint_baseline_is_the_per_setting_gps_average(trained):
+    """The joint GP's baseline (the per-setting GPs' average, evaluated once per distinct draw and batched over the
+    settings) is every per-setting GP evaluated at every row and averaged, to round-off, with rows repeated."""
+    from berryshaker.study.field_calibration.priors import PARAMETER_NAMES, count_parameters, mean_parameters
+
+    em = trained["emulator"]
+    u = fc.latin_hypercube(6, 7)
+    u = np.vstack([u, u[::-1], u[:2]])  # repeated rows, as a prediction over settings gives them
+    for r in trained["responses"]:
+        cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
+        ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
+        want = (np.mean([g[r].mean_gp.predict(u[:, cols], False)[0] for g in em.local], axis=0),
+                np.mean([g[r].logsd_gp.predict(u[:, cols], False)[0] for g in em.local], axis=0),
+                np.mean([g[r].logcsd_gp.predict(u[:, ccols], False)[0] for g in em.local], axis=0))
+        for got, w in zip(em._local_average(u, r), want):
+            assert got.shape == (len(u),)
+            np.testing.assert_allclose(got, w, rtol=1e-10, atol=1e-12)
+
+
 def test_a_saved_emulator_predicts_as_the_fitted_one(trained, tmp_path):
     """The emulator's state written to an .npz and read back (no pickle) rebuilds every GP with its fitted
     hyperparameters: the same predictions, bit for bit."""

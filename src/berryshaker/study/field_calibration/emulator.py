@@ -356,13 +356,18 @@ class Emulator:
 
     def _local_average(self, u: np.ndarray, r: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Average over the simulated settings of the per-setting GPs' log(mean + c), log model SD and log counting
-        SD at ``u``: the baseline of the joint GP, which models only the setting's effect on top of it."""
+        SD at ``u``: the baseline of the joint GP, which models only the setting's effect on top of it.  Evaluated
+        once per distinct row of ``u`` (a prediction over settings repeats every draw once per setting), every
+        setting's GPs in one batch (:class:`GPStack`)."""
         cols = [PARAMETER_NAMES.index(p) for p in mean_parameters(r)]
         ccols = [PARAMETER_NAMES.index(p) for p in count_parameters(r)]
-        lm = np.mean([g[r].mean_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
-        ls = np.mean([g[r].logsd_gp.predict(u[:, cols], False)[0] for g in self.local], axis=0)
-        lc = np.mean([g[r].logcsd_gp.predict(u[:, ccols], False)[0] for g in self.local], axis=0)
-        return lm, ls, lc
+        rows, back = np.unique(u, axis=0, return_inverse=True)
+        back = back.ravel()
+        st_mean, st_sd, st_csd = self._stack(r)
+        lm = np.mean(st_mean.predict(rows[:, cols], False)[0], axis=0)
+        ls = np.mean(st_sd.predict(rows[:, cols], False)[0], axis=0)
+        lc = np.mean(st_csd.predict(rows[:, ccols], False)[0], axis=0)
+        return lm[back], ls[back], lc[back]
 
     def fit(self, settings_si: list, u: np.ndarray, mean: np.ndarray, sd: np.ndarray, csd: np.ndarray) -> None:
         """Train the per-setting GPs of every response.
