@@ -1,9 +1,9 @@
-"""Hand-built virtual L9 records for tests (berryshaker.study.l9_records.VirtualL9): what a test sets, with every
+"""Hand-built virtual L9 records for tests (berryshaker.study.l9.records.VirtualL9): what a test sets, with every
 other field filled by a neutral value, read through VirtualL9.from_json (so a misspelt key still fails)."""
 
 from __future__ import annotations
 
-from berryshaker.study.l9_records import VirtualL9
+from berryshaker.study.l9.records import VirtualL9
 
 _PERTURBATION = {"initial_eccentricity": 1.0, "start_phase_spread_rad": 0.0, "what": "test starts"}
 _TIERED = {"code": "", "name": "", "levels": {}, "l9_run": None}

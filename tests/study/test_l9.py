@@ -20,7 +20,7 @@ from berryshaker.experiment.designs import orthogonal_array
 from berryshaker.experiment.replicated_records import Choice, ReplicatedResponse
 from berryshaker.experiment.replicates import analyze_replicated, replicated_anova
 from berryshaker.harvest.spec import COUPLED_RTOL
-from berryshaker.study.l9_records import (
+from berryshaker.study.l9.records import (
     Estimate,
     L9Optimum,
     L9Recommendation,
@@ -447,7 +447,7 @@ def test_tolerance_verdict_is_noise_aware():
     (a 2-SD band on each flagged one of them 43 % of the time), and flags a bias of 5 replicate SD (k = 2) or
     2.5 SD (k = 8) in one response almost always; equal constants (SD 0) are within."""
     from berryshaker.study.l9 import tolerance_verdict
-    from berryshaker.study.solver_tolerance_check import band_z
+    from berryshaker.study.l9.tolerance_check import band_z
 
     assert band_z(1) == pytest.approx(1.959964, abs=1e-6) and band_z(11) == pytest.approx(2.8376, abs=1e-3)
     rng = np.random.default_rng(7)

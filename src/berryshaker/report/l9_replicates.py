@@ -1,4 +1,4 @@
-"""The virtual L9's replicated analysis in the study report (study/l9.py's ``replicated``, ``paired``,
+"""The virtual L9's replicated analysis in the study report (study/l9/__init__.py's ``replicated``, ``paired``,
 ``recommended``, ``tolerance_check`` and ``tradeoff``): replicate spread and significance, the recommendation and
 its basis, the solver-tolerance check, the trade-off of the candidate clearance sets and Minitab's effect figures,
 as HTML parts of the virtual L9 section (:func:`berryshaker.report.sections.virtual_l9_section`).
@@ -25,12 +25,12 @@ def _short_candidate(name: str) -> str:
 
 def l9_replicates_section(l9, figs: Path, pair_names) -> list[str]:
     """Replicate spread, significance, the recommendation's basis, the solver-tolerance check and the trade-off
-    table of the virtual L9 (study/l9.py), as HTML parts.
+    table of the virtual L9 (study/l9/__init__.py), as HTML parts.
 
     Parameters
     ----------
     l9 : VirtualL9
-        The virtual L9 (``berryshaker.study.l9_records.VirtualL9``, read by attribute; response units in
+        The virtual L9 (``berryshaker.study.l9.records.VirtualL9``, read by attribute; response units in
         ``response_units``).
     figs : Path
         Folder of the figures.

@@ -334,7 +334,7 @@ def _claim6(res):
 
 def _significant(l9, name, p) -> bool:
     """Whether factor p's effect on a response is beyond the replicate noise (``l9``: the
-    :class:`~berryshaker.study.l9_records.VirtualL9`; True for a response the replicated analysis lacks)."""
+    :class:`~berryshaker.study.l9.records.VirtualL9`; True for a response the replicated analysis lacks)."""
     rep = l9.replicated.responses.get(name)
     return True if rep is None else bool(rep.factors[p].significant)
 

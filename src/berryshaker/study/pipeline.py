@@ -34,7 +34,7 @@ from berryshaker.reference_study import CHOSEN_CODE, FIELD_RESULT
 from berryshaker.runs.runner import usable_cores
 from berryshaker.study import steps as study_steps
 from berryshaker.study.claims import check_claims
-from berryshaker.study.l9_records import VirtualL9
+from berryshaker.study.l9.records import VirtualL9
 from berryshaker.study.runs import warm_worker
 from berryshaker.study.step_context import PlannedRuns, StudyContext
 from berryshaker.study.step_result import StepResult, StudyOptimum, StudyResults, StudySummary

@@ -13,7 +13,7 @@ from berryshaker.records import JsonRecord, optional
 from berryshaker.study.claims import ClaimVerdict
 from berryshaker.study.fruit_force_records import FruitForceStep
 from berryshaker.study.harvest_records import HarvestResponse, Validation
-from berryshaker.study.l9_records import Estimate, VirtualL9
+from berryshaker.study.l9.records import Estimate, VirtualL9
 from berryshaker.study.life_drive_records import ClearanceLife, PoweredDrive
 from berryshaker.study.mechanics_records import ClearanceRows, ModelAgreement
 
@@ -93,7 +93,7 @@ class StudyResults(JsonRecord):
         Step ``fruit_force``: the fruit harvesting force (N) along the comb (eq. 16-17).
     l9 : VirtualL9 or None
         Step ``virtual_l9``: the replicated virtual L9 and its recommendation (clearances mm, efficiency kg/min,
-        rates %; :class:`berryshaker.study.l9_records.VirtualL9`).
+        rates %; :class:`berryshaker.study.l9.records.VirtualL9`).
     clearance_life : ClearanceLife or None
         Step ``clearance_life``: clearance growth by wear (mm against h) and the recommended fits.
     powered_drive : PoweredDrive or None

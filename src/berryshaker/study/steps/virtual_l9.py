@@ -1,7 +1,7 @@
 """Study step ``virtual_l9``: the study's L9 field test through the virtual harvest, analysed like field data
 (:func:`plan`, :func:`run`; the workflow is :mod:`berryshaker.study.l9`), its figures (:func:`l9_replicate_figures`)
 and its report section (:func:`virtual_l9_section`).  Its data is a
-:class:`~berryshaker.study.l9_records.VirtualL9`.
+:class:`~berryshaker.study.l9.records.VirtualL9`.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ def run(ctx: StudyContext) -> StepResult:
     Returns
     -------
     StepResult
-        ``l9``: the virtual L9 (:class:`~berryshaker.study.l9_records.VirtualL9`,
+        ``l9``: the virtual L9 (:class:`~berryshaker.study.l9.records.VirtualL9`,
         :func:`berryshaker.study.l9.virtual_l9`) and its figures (drawn in workers, from its JSON form); no data
         (a note, and a failure logged) when it fails.
     """

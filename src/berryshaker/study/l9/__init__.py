@@ -21,13 +21,14 @@ ANOVA's error (blocked) with Tukey-Kramer simultaneous margins, so the table can
 dominance that the ANOVA calls no effect; a tested run that still dominates the choice becomes the
 recommendation.
 
-This module runs the L9 (:func:`l9_jobs`, :func:`virtual_l9`: a
-:class:`~berryshaker.study.l9_records.VirtualL9` record) and holds what only it reads
-(:func:`fitted_here`, :func:`paired_summary`); its parts, each importable from here, are the responses of one start
-and a clearance set's replicate jobs (:mod:`berryshaker.study.replicate_responses`), the start counts
-(:mod:`berryshaker.study.start_counts`: convergence and sequential starts), the confirmation against the trade-off
-table (:mod:`berryshaker.study.tradeoff_confirmation`) and the solver-tolerance check
-(:mod:`berryshaker.study.solver_tolerance_check`).
+The L9 is one package: this module runs it (:func:`l9_jobs`, :func:`virtual_l9`: a
+:class:`~berryshaker.study.l9.records.VirtualL9` record, :mod:`berryshaker.study.l9.records`) and holds what only it
+reads (:func:`fitted_here`, :func:`paired_summary`); the names of its parts are importable from here: the responses
+of one start and a clearance set's replicate jobs (:mod:`berryshaker.study.replicate_responses`, which the other
+steps, validation, the explorer and the calibration read too), the start counts
+(:mod:`berryshaker.study.l9.start_counts`: convergence and sequential starts), the confirmation against the trade-off
+table (:mod:`berryshaker.study.l9.confirmation`) and the solver-tolerance check
+(:mod:`berryshaker.study.l9.tolerance_check`).
 """
 
 from __future__ import annotations
@@ -42,7 +43,13 @@ from berryshaker.harvest.virtual import replicate_starts  # one home; re-exporte
 from berryshaker.records import fields_of
 from berryshaker.reference_study import CHOSEN_CODE, CHOSEN_LEVELS, PRIORITY_WEIGHTS, SENSES
 from berryshaker.report.design import level_set_name
-from berryshaker.study.l9_records import (
+from berryshaker.study.l9.confirmation import (
+    CONFIRMATION_RULE,
+    TRADEOFF_SENSES,
+    confirm_recommendation,
+    tradeoff_records,
+)
+from berryshaker.study.l9.records import (
     Confirmation,
     Estimate,
     FieldDetectability,
@@ -56,6 +63,8 @@ from berryshaker.study.l9_records import (
     TieredChoice,
     VirtualL9,
 )
+from berryshaker.study.l9.start_counts import sequential_starts, start_convergence
+from berryshaker.study.l9.tolerance_check import RTOL_CHECK, check_solver_tolerance, tolerance_verdict
 from berryshaker.study.replicate_responses import (
     CONFIDENCE,
     EXPECTED,
@@ -70,14 +79,6 @@ from berryshaker.study.replicate_responses import (
     start_cells,
 )
 from berryshaker.study.runs import replicate_run
-from berryshaker.study.solver_tolerance_check import RTOL_CHECK, check_solver_tolerance, tolerance_verdict
-from berryshaker.study.start_counts import sequential_starts, start_convergence
-from berryshaker.study.tradeoff_confirmation import (
-    CONFIRMATION_RULE,
-    TRADEOFF_SENSES,
-    confirm_recommendation,
-    tradeoff_records,
-)
 
 #: the names callers import from here: the L9's own and its parts'
 __all__ = [
@@ -149,8 +150,8 @@ def virtual_l9(machine, runner, replicates: int | None = None) -> VirtualL9:
     Returns
     -------
     VirtualL9
-        The record (:mod:`berryshaker.study.l9_records`): ``responses`` (range analysis of the replicate means, as
-        the study's Table 8), ``runs`` (:class:`~berryshaker.study.l9_records.L9Run`: levels, clearances mm,
+        The record (:mod:`berryshaker.study.l9.records`): ``responses`` (range analysis of the replicate means, as
+        the study's Table 8), ``runs`` (:class:`~berryshaker.study.l9.records.L9Run`: levels, clearances mm,
         replicate means of efficiency kg/min, unripe and damage %, and ``replicates``: every response's mean, sd,
         ci), ``replicated`` (:func:`berryshaker.experiment.replicates.analyze_replicated`: ANOVA against the
         blocked error, intervals, tiered optimum), ``optimum`` (the tiered optimum with the levels actually

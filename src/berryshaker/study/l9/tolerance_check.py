@@ -11,7 +11,7 @@ import numpy as np
 from scipy import special
 
 from berryshaker.harvest.spec import COUPLED_VELOCITY_SCALE
-from berryshaker.study.l9_records import ToleranceCheck, ToleranceVerdict
+from berryshaker.study.l9.records import ToleranceCheck, ToleranceVerdict
 from berryshaker.study.replicate_responses import RTOL_RUN
 from berryshaker.study.runs import replicate_run
 from berryshaker.units import format_tolerance

@@ -202,7 +202,7 @@ class TieredChoice(JsonRecord):
 @dataclass(frozen=True)
 class Confirmation(JsonRecord):
     """The tiered choice confirmed against the trade-off table of the runs
-    (:func:`berryshaker.study.tradeoff_confirmation.confirm_recommendation`, without its table).
+    (:func:`berryshaker.study.l9.confirmation.confirm_recommendation`, without its table).
 
     Attributes
     ----------
@@ -221,7 +221,7 @@ class Confirmation(JsonRecord):
     statement : str
         The confirmation in words.
     rule : str
-        The confirmation rule (:data:`berryshaker.study.tradeoff_confirmation.CONFIRMATION_RULE`).
+        The confirmation rule (:data:`berryshaker.study.l9.confirmation.CONFIRMATION_RULE`).
     """
 
     levels: dict[str, int]
@@ -237,7 +237,7 @@ class Confirmation(JsonRecord):
 @dataclass(frozen=True)
 class SequentialStarts(JsonRecord):
     """The recommended set's starts extended until every harvest response's mean is known to its target
-    (:func:`berryshaker.study.start_counts.sequential_starts`).
+    (:func:`berryshaker.study.l9.start_counts.sequential_starts`).
 
     Attributes
     ----------
@@ -324,7 +324,7 @@ class L9Recommendation(JsonRecord):
 @dataclass(frozen=True)
 class ToleranceVerdict(JsonRecord):
     """One response's change from the run tolerance to the check tolerance against its noise
-    (:func:`berryshaker.study.solver_tolerance_check.tolerance_verdict`).
+    (:func:`berryshaker.study.l9.tolerance_check.tolerance_verdict`).
 
     Attributes
     ----------
@@ -340,7 +340,7 @@ class ToleranceVerdict(JsonRecord):
         Noise of the mean change, sqrt(2/k) x ``replicate_sd`` (the response's unit).
     within_replicate_spread : bool
         Whether |mean change| <= z ``noise_sd`` (z: the check's family-wise band,
-        :func:`berryshaker.study.solver_tolerance_check.band_z`).
+        :func:`berryshaker.study.l9.tolerance_check.band_z`).
     """
 
     changes: list[float]
@@ -354,7 +354,7 @@ class ToleranceVerdict(JsonRecord):
 @dataclass(frozen=True)
 class ToleranceCheck(JsonRecord):
     """The recommended set's first replicates re-run at a tighter solver tolerance
-    (:func:`berryshaker.study.solver_tolerance_check.check_solver_tolerance`); only ``done`` and ``reason`` when
+    (:func:`berryshaker.study.l9.tolerance_check.check_solver_tolerance`); only ``done`` and ``reason`` when
     it was not run.
 
     Attributes
