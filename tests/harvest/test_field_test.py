@@ -172,7 +172,7 @@ class _HarmonicBranch:
         self.length = length
 
     def lateral(self, z, acceleration=True):
-        tau = np.maximum(np.arange(self.t.size) - 1000, 0) * 1e-4
+        tau = np.maximum(self.t - 0.1, 0.0)
         amp = (4e-3 + 8e-3 * np.asarray(z)[:, None] / self.length)
         w1, w2 = 2 * math.pi * 9.0, 2 * math.pi * 23.0
         y = amp * (np.sin(w1 * tau) + 0.5 * np.sin(w2 * tau))
@@ -182,6 +182,11 @@ class _HarmonicBranch:
     def axial(self, z):
         y, v, _ = self.lateral(z)
         return 0.2 * y, 0.2 * v
+
+    def every(self, n):
+        coarse = _HarmonicBranch(self.length)
+        coarse.t = self.t[::n]
+        return coarse
 
 
 def test_a_table_read_at_another_pedicel_stiffness_is_the_table_of_that_pedicel(machine):

@@ -44,3 +44,37 @@ def test_envelope_output_step_is_converged_and_a_coarser_grid_is_not():
     e, p, r = rel[ENVELOPE_OUTPUT_STEP]
     assert e < 1e-3 and p < TORQUE_PEAK_TOL and r < 0.01, rel
     assert rel[5 * ENVELOPE_OUTPUT_STEP][0] > 1e-3, rel
+
+
+def _table_every(motion, z, machine, every):
+    """The stem-force table's channels with the fruit oscillators on every ``every``-th sample of ``motion``."""
+    from berryshaker.harvest.virtual import bond_strengths
+    from berryshaker.plant.pedicel import MINER_EXPONENTS, peak_stem_loads
+
+    mo = motion.every(every) if every > 1 else motion
+    y, v, _ = mo.lateral(z, acceleration=False)
+    ped = machine.plant.fruit.pedicel
+    return peak_stem_loads(mo.t, (y, v), mo.axial(z), MASS_FACTORS * machine.plant.fruit.mass, ped.stiffness,
+                           ped.damping, ped.include_weight, bond_strengths(machine), MINER_EXPONENTS)
+
+
+def test_table_step_is_converged_and_a_coarser_one_is_not():
+    """The fruit oscillators of a stem-force table run on the branch motion sampled every
+    ``harvest.virtual.TABLE_STEP`` (first-order hold): on the reference drive-past every table entry of at least a
+    tenth of its channel's maximum (the loads that can detach a fruit) within 1e-3 of the table on the run's own
+    grid (:data:`ENVELOPE_OUTPUT_STEP`), and :func:`stem_force_table` is that table; 4x coarser misses, so the
+    criterion can fail."""
+    from berryshaker.harvest.coupled import drive_past
+    from berryshaker.harvest.virtual import TABLE_STEP, stem_force_table
+
+    m = reference_machine()
+    _, motion = drive_past(m, None, output_step=ENVELOPE_OUTPUT_STEP)
+    z = Z_GRID * m.plant.branch.length
+    fine = _table_every(motion, z, m, 1)
+    big = np.abs(fine) >= 0.1 * np.abs(fine).max(axis=(0, 1))
+    every = round(TABLE_STEP / ENVELOPE_OUTPUT_STEP)
+    err = {}
+    for k in (every, 4 * every):
+        err[k] = float(np.max(np.where(big, np.abs(_table_every(motion, z, m, k) / fine - 1), 0.0)))
+    assert err[every] < 1e-3 < err[4 * every], err
+    np.testing.assert_array_equal(stem_force_table(m, motion), _table_every(motion, z, m, every))

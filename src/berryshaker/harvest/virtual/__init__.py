@@ -67,6 +67,7 @@ from berryshaker.harvest.virtual.stem_force_tables import (
     ENVELOPE_OUTPUT_STEP,
     MASS_FACTORS,
     STIFFNESS_RANGE,
+    TABLE_STEP,
     Z_GRID,
     acceleration_envelope,
     bond_strengths,
@@ -84,7 +85,7 @@ from berryshaker.harvest.virtual.stem_force_tables import (
 )
 
 __all__ = [
-    "CH_FORCE", "CH_RIPE", "CH_UNRIPE", "ENVELOPE_OUTPUT_STEP", "FIELD", "FRESH_STARTS",
+    "CH_FORCE", "CH_RIPE", "CH_UNRIPE", "ENVELOPE_OUTPUT_STEP", "TABLE_STEP", "FIELD", "FRESH_STARTS",
     "HarvestParameters", "HarvestResponse", "LoadGrid", "MACHINE", "MASS_FACTORS", "MODEL_CHECK", "RESPONSES",
     "STIFFNESS_RANGE", "STUDY_TARGETS", "Tally", "Z_GRID", "acceleration_envelope", "bond_strengths", "branch_class_machine",
     "bushes_per_test", "class_phase_offsets", "class_starts", "class_tables_run", "calibrate_harvest",

@@ -103,6 +103,17 @@ def stem_force_envelope(machine: Machine, clearance: dict[str, float] | None, sc
 ENVELOPE_OUTPUT_STEP = 1e-4
 
 
+#: sampling step (s) of the fruit oscillators behind a stem-force table (compliant pedicels): every
+#: ``TABLE_STEP / ENVELOPE_OUTPUT_STEP``-th sample of the branch motion, first-order hold between samples.  The fruit
+#: is a 12 Hz oscillator (k = 10 N/m, m0 = 1.8 g), 170 samples per period at this step; the discretisation is second
+#: order (the table's error grows 4x per doubling of the step).  Chosen by tests/harvest/test_virtual_sampling.py:
+#: every table entry of at least a tenth of its channel's maximum (the loads that can detach a fruit) within 1e-3 of
+#: the table at :data:`ENVELOPE_OUTPUT_STEP` (measured 1.4e-4 on the reference drive-past; 6.5e-4 at 1e-3 s, 2.0e-3 at
+#: 2e-3 s, which misses); the pass over the motion costs a fifth of the run's grid.  The rigid-fruit force (m x the
+#: branch acceleration, whose impact spikes last a few samples) is read at every sample.
+TABLE_STEP = 5e-4
+
+
 def stem_force_envelope_run(machine: Machine, clearance: dict[str, float] | None, scale: float,
                             initial_perturbation=None, rtol: float = COUPLED_RTOL):
     """Peak stem-force table of one branch class and the coupled run it came from: ``(table, result)``.
@@ -321,7 +332,8 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
 
     ``motion``: the branch's :class:`~berryshaker.harvest.coupled_branch.BranchMotion` of a drive-past.  The fruit
     is one-way coupled, so every (position, mass) is a post-processing of the same branch motion (computed for the
-    whole table at once by berryshaker.plant.pedicel.peak_stem_loads).  Channels (:data:`CH_FORCE` ...):
+    whole table at once by berryshaker.plant.pedicel.peak_stem_loads, on the motion sampled every
+    :data:`TABLE_STEP`).  Channels (:data:`CH_FORCE` ...):
     max |F| (N, the magnitude of berryshaker.harvest.coupled.stem_forces), the peak pull-shear load ratio of
     the ripe and of the unripe fruit's mean strengths (:func:`bond_strengths`), then their Miner-Basquin equivalent
     load ratios g_eq = (sum_i g_i^beta)^(1/beta) over the load cycles at berryshaker.plant.pedicel.MINER_EXPONENTS
@@ -353,6 +365,10 @@ def stem_force_table(machine: Machine, motion) -> np.ndarray:
         per = [np.einsum("zk,m->zmk", acc, masses / sh) for _, sh in st]  # m |a| / S: homogeneous of degree 1
         return np.concatenate([(acc[:, 0:1] * masses)[..., None], per[0][..., :1], per[1][..., :1],
                                per[0][..., 1:], per[1][..., 1:]], axis=-1)
+    dt = motion.t[1] - motion.t[0] if len(motion.t) > 1 else TABLE_STEP
+    every = max(int(round(TABLE_STEP / dt)), 1)
+    if every > 1:
+        motion = motion.every(every)
     y, v, _ = motion.lateral(z, acceleration=False)
     ped = pl.fruit.pedicel
     return peak_stem_loads(motion.t, (y, v), motion.axial(z), masses, ped.stiffness, ped.damping,
