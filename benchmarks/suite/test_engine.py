@@ -144,7 +144,7 @@ def drive_past_motion(machine):
 
 @pytest.mark.parametrize("channels", ["peaks", "miner"])
 def test_stem_force_table(benchmark, drive_past_motion, channels):
-    """The stem-force table's compiled pass (41 positions x 17 masses x 2 fruit classes over a 2.2-s drive-past):
+    """The stem-force table's compiled pass (41 positions x 33 masses x 2 fruit classes over a 2.2-s drive-past):
     peaks only, and with the Miner-Basquin sums at berryshaker.plant.pedicel.MINER_EXPONENTS (the harvest's)."""
     from berryshaker.plant.pedicel import MINER_EXPONENTS, peak_stem_loads
 
