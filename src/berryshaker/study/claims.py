@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from berryshaker.experiment.clearance_sets import level_code as _level_code
 from berryshaker.records import JsonRecord
 from berryshaker.reference_study import BEST_PER_INDEX, CLAIMS, EQ18_F, PAIRS
 
@@ -75,10 +74,6 @@ class ClaimVerdict(JsonRecord):
     verdict: str
     detail: str
     criterion: str
-
-
-def _code(levels: dict) -> str:
-    return _level_code({p: levels[p] for p in PAIRS})
 
 
 def check_claims(res, pair_names: tuple[str, ...] = PAIRS) -> list[ClaimVerdict]:

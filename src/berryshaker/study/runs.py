@@ -182,28 +182,6 @@ def fruit_force_run(machine_data: dict, clearance: dict) -> dict:
             "transmission": impact_transmission(r)}
 
 
-def envelope_run(machine_data: dict, clearance: dict, scale: float) -> list:
-    """Peak stem-force table along one branch class (virtual harvest input; fruit on compliant pedicels).
-
-    Parameters
-    ----------
-    machine_data : dict
-        Machine description (SI, ``model_dump(mode="json")``) with [plant] and [harvest].
-    clearance : dict
-        Clearance size (m) per pair.
-    scale : float
-        Diameter scale of the branch class (dimensionless).
-
-    Returns
-    -------
-    list
-        :func:`berryshaker.harvest.virtual.stem_force_envelope` as nested lists (N, dimensionless load ratios).
-    """
-    from berryshaker.harvest.virtual import stem_force_envelope
-
-    return stem_force_envelope(machine_from_dict(machine_data), clearance, scale).tolist()
-
-
 def replicate_run(machine_data: dict, clearance: dict, seed: list, rtol: float = COUPLED_RTOL) -> dict:
     """One replicate start of a virtual test run: the coupled drive-past carrying every branch class as a probe.
 
