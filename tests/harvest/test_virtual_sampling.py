@@ -85,8 +85,8 @@ def test_mass_axis_is_converged_and_a_coarser_one_is_not(monkeypatch):
     """The stem-force tables' mass axis (``harvest.virtual.MASS_FACTORS``, interpolated in log mass) is fine enough
     for the harvest responses: on the reference drive-past (its table for every branch class) a start's expected
     responses within 1 % of those of a 129-factor axis over the same range (measured 0.55 % here, at most 0.7 %
-    on six starts' drive-pasts of three classes); the axis at twice the step (17 factors) misses (2.3 % here, up to 2.9 %), so the
-    criterion can fail."""
+    on six starts' drive-pasts of three classes); the axis at twice the step (17 factors) misses (2.3 % here, up to
+    2.9 %), so the criterion can fail."""
     import math
 
     import berryshaker.harvest.virtual.field_test as field_test
